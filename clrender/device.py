@@ -1,0 +1,171 @@
+"""OpenCL device selection and the per-process cache of built programs.
+
+The default is the PoCL CPU device, chosen by name rather than "the first
+platform found", because a machine may have several OpenCL platforms.
+`CLRENDER_DEVICE` or `--device` picks another by a substring of
+"<platform name>: <device name>" (case-insensitive), e.g. "nvidia" or "gpu".
+
+Programs are built once per process for each (file, defines) pair and their
+kernels fetched once; variants are chosen with -D options, never by pasting
+source strings together.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import UsageError
+
+try:
+    import pyopencl as cl
+except ImportError as exc:  # pragma: no cover - depends on the installation
+    cl = None
+    _IMPORT_ERROR = exc
+
+INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
+
+
+@dataclass
+class Device:
+    """A context and in-order queue on one OpenCL device, plus its program cache."""
+
+    context: "cl.Context"
+    queue: "cl.CommandQueue"
+    device: "cl.Device"
+    _programs: dict = field(default_factory=dict, repr=False)
+    _kernels: dict = field(default_factory=dict, repr=False)
+    compile_seconds: float = 0.0  # total time spent building programs so far
+
+    @property
+    def name(self) -> str:
+        return f"{self.device.platform.name.strip()}: {self.device.name.strip()}"
+
+    @property
+    def is_cpu(self) -> bool:
+        return bool(self.device.type & cl.device_type.CPU)
+
+    def program(self, filename: str, defines: dict | None = None) -> "cl.Program":
+        """The built program for kernels/<filename> with -D<k>=<v> options (cached)."""
+        key = (filename, tuple(sorted((defines or {}).items())))
+        prg = self._programs.get(key)
+        if prg is None:
+            source = (kernel_dir() / filename).read_text()
+            options = [f"-I{kernel_dir()}", "-cl-std=CL1.2"]
+            options += [f"-D{k}={_define_value(v)}" for k, v in sorted((defines or {}).items())]
+            start = time.perf_counter()
+            try:
+                prg = cl.Program(self.context, source).build(options=options)
+            except cl.RuntimeError as exc:
+                from .errors import RenderFailure
+
+                raise RenderFailure(f"building kernels/{filename} failed on {self.name}:\n{exc}") from exc
+            self.compile_seconds += time.perf_counter() - start
+            self._programs[key] = prg
+        return prg
+
+    def kernel(self, filename: str, name: str, defines: dict | None = None) -> "cl.Kernel":
+        """Kernel `name` of kernels/<filename>, fetched once and kept."""
+        key = (filename, name, tuple(sorted((defines or {}).items())))
+        knl = self._kernels.get(key)
+        if knl is None:
+            knl = getattr(self.program(filename, defines), name)
+            self._kernels[key] = knl
+        return knl
+
+    def to_device(self, array: np.ndarray) -> "cl.Buffer":
+        """A read-only buffer holding a copy of `array` (at least one byte)."""
+        array = np.ascontiguousarray(array)
+        mf = cl.mem_flags
+        if array.nbytes == 0:
+            array = np.zeros(1, dtype=array.dtype if array.dtype.itemsize else np.uint8)
+        return cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
+
+    def empty(self, nbytes: int) -> "cl.Buffer":
+        """An uninitialised read-write buffer of `nbytes` (at least one byte)."""
+        return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
+
+    def check_fits(self, nbytes: int, what: str) -> None:
+        """Refuse an allocation the device cannot hold, before making it."""
+        limit = min(self.device.max_mem_alloc_size, self.device.global_mem_size)
+        if nbytes > limit:
+            raise UsageError(
+                f"{what} needs {nbytes / 2**20:.0f} MiB but the device {self.name!r} "
+                f"allows at most {limit / 2**20:.0f} MiB in one buffer"
+            )
+
+
+def _define_value(value) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        return repr(value) + "f"
+    return str(value)
+
+
+def kernel_dir() -> Path:
+    """Folder of the installed .cl sources (the top-level kernels/ in a checkout)."""
+    return Path(str(resources.files("clrender.kernels")))
+
+
+def _describe(dev) -> str:
+    return f"{dev.platform.name.strip()}: {dev.name.strip()}"
+
+
+def list_devices() -> list[str]:
+    """'<platform>: <device>' for every OpenCL device visible to this process."""
+    if cl is None:
+        return []
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:
+        return []
+    return [_describe(d) for p in platforms for d in p.get_devices()]
+
+
+def _pick(spec: str | None):
+    if cl is None:
+        raise UsageError(f"pyopencl is not importable ({_IMPORT_ERROR}); {INSTALL_HINT}")
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:
+        platforms = []
+    devices = [d for p in platforms for d in p.get_devices()]
+    if not devices:
+        raise UsageError(f"no OpenCL platform or device found; {INSTALL_HINT}")
+    if spec:
+        matches = [d for d in devices if spec.lower() in _describe(d).lower()]
+        if not matches:
+            found = "; ".join(_describe(d) for d in devices)
+            raise UsageError(f"no OpenCL device matches {spec!r}; available: {found}")
+        return matches[0]
+    pocl_cpus = [
+        d for d in devices
+        if "portable computing language" in d.platform.name.lower() and d.type & cl.device_type.CPU
+    ]
+    if not pocl_cpus:
+        found = "; ".join(_describe(d) for d in devices)
+        raise UsageError(
+            f"the PoCL CPU device was not found (available: {found}); {INSTALL_HINT}, "
+            "or choose a device with --device / CLRENDER_DEVICE"
+        )
+    return pocl_cpus[0]
+
+
+_DEVICES: dict[str, Device] = {}
+
+
+def get_device(spec: str | None = None) -> Device:
+    """The Device for `spec` (default: $CLRENDER_DEVICE, else PoCL's CPU), made once per process."""
+    if spec is None:
+        spec = os.environ.get("CLRENDER_DEVICE") or None
+    key = spec or ""
+    if key not in _DEVICES:
+        dev = _pick(spec)
+        ctx = cl.Context([dev])
+        _DEVICES[key] = Device(ctx, cl.CommandQueue(ctx), dev)
+    return _DEVICES[key]
