@@ -1,0 +1,80 @@
+"""Flatten a Scene into the primitive arrays the kernels read.
+
+Primitive ids count triangles first (every mesh in object order), then
+spheres; `object_of[id]` gives the scene object each primitive belongs to.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scene import Mesh, Scene, Sphere
+
+
+@dataclass
+class Primitives:
+    triangles: np.ndarray  # (T, 3, 3) float64 vertices
+    triangle_normals: np.ndarray  # (T, 3, 3) float32 vertex normals (zeros when flat)
+    spheres: np.ndarray  # (S, 4) float64 centre and radius
+    object_of: np.ndarray  # (T + S,) int32 object id per primitive id
+    objects: np.ndarray  # (O, 2) int32 material index and smooth flag per object
+    materials: np.ndarray  # (M, 3, 4) float32 packed materials
+    material_names: list
+
+    @property
+    def count(self) -> int:
+        return len(self.triangles) + len(self.spheres)
+
+    def bounds(self):
+        """Per-primitive axis-aligned bounds (lo, hi), each (N, 3) float32, conservatively rounded."""
+        tri_lo, tri_hi = self.triangles.min(axis=1), self.triangles.max(axis=1)
+        c, r = self.spheres[:, :3], self.spheres[:, 3:4]
+        lo = np.concatenate([tri_lo, c - r]).astype(np.float32)
+        hi = np.concatenate([tri_hi, c + r]).astype(np.float32)
+        # float32 rounding must never shrink a box
+        return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+
+
+def flatten(scene: Scene) -> Primitives:
+    names = list(scene.materials)
+    index = {n: i for i, n in enumerate(names)}
+    materials = np.stack([scene.materials[n].pack() for n in names]).astype(np.float32)
+    objects = np.zeros((max(len(scene.objects), 1), 2), np.int32)
+    tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
+    for oid, obj in enumerate(scene.objects):
+        objects[oid, 0] = index[obj.material]
+        if isinstance(obj, Sphere):
+            spheres.append([*obj.center, obj.radius])
+            sphere_obj.append(oid)
+            continue
+        assert isinstance(obj, Mesh)
+        objects[oid, 1] = int(obj.smooth and obj.vertex_normals is not None)
+        tris.append(obj.vertices[obj.faces])
+        if objects[oid, 1]:
+            tri_normals.append(obj.vertex_normals[obj.faces].astype(np.float32))
+        else:
+            tri_normals.append(np.zeros((len(obj.faces), 3, 3), np.float32))
+        tri_obj.append(np.full(len(obj.faces), oid, np.int32))
+    triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    normals = np.concatenate(tri_normals) if tri_normals else np.zeros((0, 3, 3), np.float32)
+    object_of = np.concatenate([*tri_obj, np.asarray(sphere_obj, np.int32)]).astype(np.int32)
+    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects,
+                      materials, names)
+
+
+def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
+    """(N, 3, 4) float32 primitive records in slot order (see kernels/common.h)."""
+    n_tri = len(prims.triangles)
+    out = np.zeros((len(order), 3, 4), np.float32)
+    is_tri = order < n_tri
+    t = prims.triangles[order[is_tri]]
+    out[is_tri, 0, :3] = t[:, 0]
+    out[is_tri, 1, :3] = t[:, 1] - t[:, 0]
+    out[is_tri, 2, :3] = t[:, 2] - t[:, 0]
+    s = prims.spheres[order[~is_tri] - n_tri]
+    out[~is_tri, 0, :3] = s[:, :3]
+    out[~is_tri, 1, 0] = s[:, 3]
+    out[~is_tri, 1, 3] = 1.0  # sphere flag
+    out.view(np.int32)[:, 0, 3] = order  # primitive id, as int bits
+    return out

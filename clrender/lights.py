@@ -1,0 +1,47 @@
+"""Light sources and their units.
+
+Every light has a colour c and an intensity I.  With `falloff = "none"` (the
+seed's model, the default) a surface point receives c*I*max(0, n.l) from a
+point or directional light, and an area light adds c*I/n^2 times the same
+term for each of its n x n unblocked samples, so I is the brightness a
+surface facing the light head-on would get.  With `falloff =
+"inverse_square"` the light is physical: a point light's I is radiant
+intensity (the value is irradiance c*I*cos/r^2), and an area light's I is
+radiance, so the sum estimates the irradiance E = I * integral of
+cos(theta) cos(theta_light) / r^2 over the light (two-sided emitter).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}
+FALLOFFS = {"none": 0, "inverse_square": 1}
+
+
+@dataclass(frozen=True)
+class Light:
+    type: str = "point"  # "point", "directional" or "area"
+    position: tuple = (0.0, 0.0, 0.0)  # point light position, or an area light's corner
+    direction: tuple = (0.0, -1.0, 0.0)  # directional light: the direction light travels
+    edge_a: tuple = (1.0, 0.0, 0.0)  # area light: first edge vector from the corner
+    edge_b: tuple = (0.0, 0.0, 1.0)  # area light: second edge vector
+    color: tuple = (1.0, 1.0, 1.0)  # linear RGB
+    intensity: float = 1.0  # see the module docstring for units
+    samples: int = 5  # area light: samples per side (n x n stratified), the seed's 5
+    falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
+
+    def pack(self) -> np.ndarray:
+        """Five float4s: (type, samples, intensity, falloff) (position|direction|corner) (colour) (a) (b)."""
+        where = self.direction if self.type == "directional" else self.position
+        return np.array(
+            [
+                [LIGHT_TYPES[self.type], self.samples, self.intensity, FALLOFFS[self.falloff]],
+                [*where, 0],
+                [*self.color, 0],
+                [*self.edge_a, 0],
+                [*self.edge_b, 0],
+            ],
+            dtype=np.float32,
+        )

@@ -1,0 +1,194 @@
+"""Rendering an image: settings, tiles, and the edge-only anti-aliasing pipeline.
+
+`render(scene, **settings)` returns a linear float32 (H, W, 3) image.
+`Renderer(scene, settings).run()` returns a RenderResult with the object-id
+and shadow buffers, the edge mask, timings and traversal statistics.
+
+Work is launched per tile (a list of pixel indices), so tiles can later be
+spread over processes or machines; the edge pass launches a compacted list
+of only the masked pixels.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pyopencl as cl
+
+from .errors import UsageError
+from .progress import progress
+from .scene import Scene
+from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer
+
+AA_MODES = ("none", "full", "edge_detect")
+SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
+PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
+MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
+LOCAL_SIZE = 64  # work-group size; fixed so PoCL compiles one work-group function, warmed up once
+
+
+@dataclass
+class RenderSettings:
+    width: int | None = None  # image width in pixels; None takes the scene's
+    height: int | None = None  # image height in pixels; None takes the scene's
+    camera: int = 1  # camera number, counting from 1 (1 is the canonical camera)
+    aa: str = "none"  # anti-aliasing: "none", "full" or "edge_detect"
+    sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
+    samples: int = 1  # N: N x N samples per pixel when anti-aliasing
+    thickness: float = 1.0  # edge_detect: radius of the disc marked around each edge pixel
+    shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
+    light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
+    max_depth: int = 8  # mirror/refraction bounces after the primary hit
+    fresnel: bool = False  # split transparency by Schlick's Fresnel term instead of the seed's fixed split
+    seed: int = 0  # seeds every random choice; the same seed gives the same image
+    bvh: bool = True  # False tests every primitive for every ray (the benchmark's baseline)
+    bvh_builder: str = "sah"  # "sah" (binned surface-area heuristic) or "median" (the seed's)
+    tile_size: int = 128  # tiles are tile_size x tile_size pixels per kernel launch
+    device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else PoCL's CPU
+
+    def validate(self, scene: Scene) -> "RenderSettings":
+        """A copy with the image size filled in; UsageError for any value out of range."""
+        s = replace(self, width=self.width or scene.width, height=self.height or scene.height)
+        checks = [
+            (s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1"),
+            (s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels"),
+            (s.aa in AA_MODES, f"unknown anti-aliasing mode {s.aa!r}; allowed: {', '.join(AA_MODES)}"),
+            (s.sampler in SAMPLERS, f"unknown sampler {s.sampler!r}; allowed: {', '.join(SAMPLERS)}"),
+            (1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)"),
+            (math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0"),
+            (0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64"),
+            (0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}"),
+            (s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}"),
+            (0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1"),
+            (s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise UsageError(message)
+        scene.camera(s.camera)
+        return s
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray  # (H, W, 3) float32 linear RGB
+    path_ids: np.ndarray  # (H, W, PATH_LEN) int32 object ids along each pixel's path, -1 past its end
+    shadow: np.ndarray  # (H, W, L) float32 visible fraction of each light at the primary hit
+    edge_mask: np.ndarray | None  # (H, W) bool pixels resampled by edge-only AA
+    timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
+    node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
+    rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
+
+    @property
+    def ids(self) -> np.ndarray:
+        """Object id of the primary hit per pixel (-1: background)."""
+        return self.path_ids[..., 0]
+
+    @property
+    def resampled_fraction(self) -> float:
+        return float(self.edge_mask.mean()) if self.edge_mask is not None else 0.0
+
+
+class Renderer:
+    def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):
+        self.scene = Scene.load(scene) if not isinstance(scene, Scene) else scene
+        self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
+        s = self.settings
+        self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device)
+        dev = self.tracer.device
+        cam = self.scene.camera(s.camera)
+        self.frame = dev.to_device(np.concatenate([
+            cam.frame(s.width, s.height),
+            np.array([[*self.scene.background, 0], [*self.scene.ambient, 0]], np.float32)]))
+        self.n_lights = len(self.scene.lights)
+        lights = np.concatenate([l.pack() for l in self.scene.lights]) if self.scene.lights else np.zeros((5, 4), np.float32)
+        self.lights = dev.to_device(lights)
+        start = time.perf_counter()
+        self.kernel = self.tracer.kernel("render")
+        self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
+        self.compile_seconds = time.perf_counter() - start
+
+    def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
+        """Trace the given pixel indices: colours (k, 3), path ids (k, PATH_LEN), shadow (k, L), stats (k, 2)."""
+        t = self.tracer
+        dev = t.device
+        s = self.settings
+        k = len(pixels)
+        L = max(self.n_lights, 1)
+        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, 4 * PATH_LEN, 4 * L, 8))
+        if record:  # background pixels never write their shadow entries: all lights visible
+            cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
+        self.kernel(
+            dev.queue, (-(-k // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
+            self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
+            np.int32(k), np.int32(t.n_prims), np.int32(self.n_lights), np.int32(s.width), np.int32(s.height),
+            np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(s.seed), np.int32(s.max_depth),
+            np.int32(s.fresnel), np.int32(s.light_samples), np.int32(record), colour, ids, shadow, stats)
+        out = (np.empty((k, 4), np.float32), np.empty((k, PATH_LEN), np.int32),
+               np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
+        for host, buf in zip(out, (colour, ids, shadow, stats)):
+            cl.enqueue_copy(dev.queue, host, buf)
+        return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3]
+
+    def _pass(self, pixel_lists, sampler, n, record, desc):
+        """Trace each pixel list in turn; returns the concatenated outputs."""
+        parts = [self.launch(p, sampler, n, record) for p in progress(pixel_lists, desc=desc, unit="tile")]
+        return [np.concatenate(x) for x in zip(*parts)]
+
+    def tiles(self):
+        """Pixel-index lists of the image's tiles, row-major within and between tiles."""
+        s = self.settings
+        ts = s.tile_size
+        for y0 in range(0, s.height, ts):
+            for x0 in range(0, s.width, ts):
+                ys, xs = np.mgrid[y0:min(y0 + ts, s.height), x0:min(x0 + ts, s.width)]
+                yield (ys * s.width + xs).ravel()
+
+    def run(self) -> RenderResult:
+        s = self.settings
+        H, W = s.height, s.width
+        timings = {"bvh": self.tracer.bvh_seconds, "compile": self.compile_seconds}
+        tiles = list(self.tiles())
+        order = np.concatenate(tiles)
+        first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
+        start = time.perf_counter()
+        colour, ids, shadow, stats = self._pass(tiles, first_sampler, first_n, True, "trace")
+        timings["trace"] = time.perf_counter() - start
+        image = np.empty((H * W, 3), np.float32)
+        path_ids = np.empty((H * W, PATH_LEN), np.int32)
+        shadows = np.empty((H * W, self.n_lights), np.float32)
+        image[order], path_ids[order], shadows[order] = colour, ids, shadow
+        visits, rays = stats.sum(axis=0, dtype=np.int64)
+        result = RenderResult(image.reshape(H, W, 3), path_ids.reshape(H, W, PATH_LEN),
+                              shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays))
+        if s.aa == "edge_detect":
+            self._resample_edges(result)
+        return result
+
+    def _resample_edges(self, result: RenderResult):
+        """Pass 2 of edge-only AA: re-render just the masked pixels with the chosen sampler."""
+        from .edges import edge_mask
+
+        s = self.settings
+        start = time.perf_counter()
+        mask = edge_mask(result.path_ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges)
+        result.timings["edges"] = time.perf_counter() - start
+        result.edge_mask = mask
+        pixels = np.flatnonzero(mask.ravel())
+        chunk = s.tile_size * s.tile_size
+        start = time.perf_counter()
+        if len(pixels):
+            chunks = [pixels[i:i + chunk] for i in range(0, len(pixels), chunk)]
+            colour, _, _, stats = self._pass(chunks, s.sampler, s.samples, False, "edges")
+            result.image.reshape(-1, 3)[pixels] = colour
+            visits, rays = stats.sum(axis=0, dtype=np.int64)
+            result.node_visits += int(visits)
+            result.rays += int(rays)
+        result.timings["resample"] = time.perf_counter() - start
+
+
+def render(scene, settings: RenderSettings | None = None, **overrides) -> np.ndarray:
+    """Render `scene` (a Scene, bundled name, path or dict) to a linear float32 (H, W, 3) image."""
+    return Renderer(scene, settings, **overrides).run().image

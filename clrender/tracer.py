@@ -1,0 +1,121 @@
+"""The scene on the device: BVH, primitive records and the ray kernels.
+
+`Tracer(scene)` flattens the scene, builds the BVH on the host (unless
+use_bvh=False, where every ray tests every primitive), uploads everything
+once and answers ray queries with the same traversal code the renderer
+uses, as one would use Embree:
+
+    tracer = Tracer(scene)
+    t, prim, obj = tracer.intersect(origins, directions)
+    blocked = tracer.occluded(origins, directions, t_max)
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pyopencl as cl
+
+from .device import Device, get_device
+from .errors import UsageError
+from .geometry import Primitives, flatten, pack_slots
+from .scene import Mesh, Scene
+
+MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
+BUILDERS = ("sah", "median")
+
+
+def as_scene(scene_or_mesh) -> Scene:
+    """A Scene from a Scene, a scene name/path/dict, a trimesh.Trimesh or a (vertices, faces) pair."""
+    if isinstance(scene_or_mesh, Scene):
+        return scene_or_mesh
+    if isinstance(scene_or_mesh, tuple) and len(scene_or_mesh) == 2:
+        vertices, faces = scene_or_mesh
+        return Scene(objects=[Mesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))])
+    if hasattr(scene_or_mesh, "vertices") and hasattr(scene_or_mesh, "faces"):
+        return as_scene((scene_or_mesh.vertices, scene_or_mesh.faces))
+    return Scene.load(scene_or_mesh)
+
+
+class Tracer:
+    def __init__(self, scene_or_mesh, *, use_bvh: bool = True, builder: str = "sah", device: Device | str | None = None):
+        if builder not in BUILDERS:
+            raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
+        self.scene = as_scene(scene_or_mesh)
+        self.device = device if isinstance(device, Device) else get_device(device)
+        self.use_bvh = use_bvh
+        self.builder = builder
+        self.primitives: Primitives = flatten(self.scene)
+        n = self.primitives.count
+        self.bvh = None
+        self.bvh_seconds = 0.0
+        if use_bvh and n > 0:
+            from .bvh import build_bvh
+
+            lo, hi = self.primitives.bounds()
+            start = time.perf_counter()
+            self.bvh = build_bvh(lo, hi, builder=builder)
+            self.bvh_seconds = time.perf_counter() - start
+            order = np.asarray(self.bvh.prim_order, np.int64)
+            nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
+        else:
+            order = np.arange(n, dtype=np.int64)
+            nodes = np.zeros((2, 4), np.float32)
+        self.device.check_fits(n * 48, f"{n} primitives")
+        dev = self.device
+        self.n_prims = n
+        self.nodes = dev.to_device(nodes)
+        self.prims = dev.to_device(pack_slots(self.primitives, order))
+        self.prim_object = dev.to_device(self.primitives.object_of)
+        normals = np.zeros((max(n, 1), 3, 4), np.float32)
+        normals[: len(self.primitives.triangles), :, :3] = self.primitives.triangle_normals
+        self.normals = dev.to_device(normals)
+        self.objects = dev.to_device(self.primitives.objects)
+        self.materials = dev.to_device(self.primitives.materials)
+
+    @property
+    def defines(self) -> dict:
+        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT}
+
+    def kernel(self, name: str) -> cl.Kernel:
+        return self.device.kernel("trace.cl", name, self.defines)
+
+    # ------------------------------------------------------------ ray queries
+    def _rays(self, origins, directions):
+        o = np.asarray(origins, np.float32).reshape(-1, 3)
+        d = np.asarray(directions, np.float32).reshape(-1, 3)
+        if o.shape != d.shape:
+            raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+        n = len(o)
+        self.device.check_fits(n * 16, f"{n} rays")
+        pad = lambda a: np.concatenate([a, np.zeros((n, 1), np.float32)], axis=1)  # noqa: E731
+        return n, self.device.to_device(pad(o)), self.device.to_device(pad(d))
+
+    def intersect(self, origins, directions):
+        """Closest hits: (t along the unit direction, primitive id, object id); inf, -1, -1 on a miss."""
+        n, o, d = self._rays(origins, directions)
+        dev = self.device
+        t_buf, p_buf, o_buf, v_buf = (dev.empty(4 * n) for _ in range(4))
+        self.kernel("intersect_rays")(
+            dev.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object,
+            np.int32(self.n_prims), np.int32(n), o, d, t_buf, p_buf, o_buf, v_buf)
+        t, prim, obj = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
+        self.last_visits = np.empty(n, np.uint32)
+        for host, buf in ((t, t_buf), (prim, p_buf), (obj, o_buf), (self.last_visits, v_buf)):
+            cl.enqueue_copy(dev.queue, host, buf)
+        return t, prim, obj
+
+    def occluded(self, origins, directions, t_max):
+        """True where any surface lies strictly between the origin and t_max along the unit direction."""
+        n, o, d = self._rays(origins, directions)
+        dev = self.device
+        t_max = np.broadcast_to(np.asarray(t_max, np.float32), (n,)).copy()
+        out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
+        self.kernel("occluded_rays")(
+            dev.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object, self.objects,
+            self.materials, np.int32(self.n_prims), np.int32(n), o, d, dev.to_device(t_max), out, v_buf)
+        result = np.empty(n, np.int32)
+        self.last_visits = np.empty(n, np.uint32)
+        cl.enqueue_copy(dev.queue, result, out)
+        cl.enqueue_copy(dev.queue, self.last_visits, v_buf)
+        return result.astype(bool)

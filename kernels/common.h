@@ -1,0 +1,63 @@
+/* Shared definitions for the tracing kernels (OpenCL C 1.2, float32).
+ *
+ * Buffer layouts (written once here, packed by clrender/gpu_scene.py):
+ *   nodes     float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
+ *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
+ *             interior: count == 0, near child i+1, far child `offset`.
+ *   prims     float4 x3 per primitive slot, in BVH leaf order:
+ *             triangle: (v0, id) (e1, 0) (e2, 0)
+ *             sphere:   (centre, id) (radius, 0, 0, 1) (0)
+ *             id = the primitive's index in scene order, stored as int bits.
+ *   prim_object  int per primitive id: its object id.
+ *   normals   float4 x3 per primitive id: vertex normals of a smooth triangle.
+ *   objects   int2 per object: (material index, smooth shading flag).
+ *   materials float4 x3: (kd.rgb, shininess) (ks.rgb, mirror) (transparency, ior, 0, 0)
+ *   lights    float4 x5: (type, samples per side, intensity, falloff) (position |
+ *             direction of travel | corner) (colour) (edge a) (edge b)
+ */
+#ifndef CLRENDER_COMMON_H
+#define CLRENDER_COMMON_H
+
+#ifndef USE_BVH
+#define USE_BVH 1
+#endif
+#ifndef MAX_DEPTH
+#define MAX_DEPTH 8           /* longest mirror/refraction chain a kernel supports */
+#endif
+#define PATH_LEN 8            /* object ids recorded along each pixel's path */
+#define STACK_SIZE 64         /* BVH traversal stack; depth of the host-built tree stays far below */
+#define RAY_STACK (MAX_DEPTH + 2)
+
+#define LIGHT_POINT 0
+#define LIGHT_DIRECTIONAL 1
+#define LIGHT_AREA 2
+
+#define SAMPLER_UNIFORM 0
+#define SAMPLER_RANDOM 1
+#define SAMPLER_STRATIFIED 2
+#define SAMPLER_SOBOL 3
+
+#define INF_T INFINITY
+
+typedef struct {
+    float3 o, d, inv_d;
+} Ray;
+
+inline Ray make_ray(float3 o, float3 d) {
+    Ray r;
+    r.o = o;
+    r.d = d;
+    r.inv_d = (float3)(1.0f) / d;
+    return r;
+}
+
+/* Move a surface point off the surface along its geometric normal by an
+ * amount that scales with the point's magnitude, so the next ray does not
+ * re-hit the surface it leaves (acne) at any scene scale. */
+inline float3 offset_origin(float3 p, float3 n_geo) {
+    float3 a = fabs(p);
+    float scale = 1e-4f * (1.0f + fmax(a.x, fmax(a.y, a.z)));
+    return p + n_geo * scale;
+}
+
+#endif

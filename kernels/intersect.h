@@ -1,0 +1,202 @@
+/* Ray-primitive tests and BVH traversal (closest hit and shadow transmittance). */
+#ifndef CLRENDER_INTERSECT_H
+#define CLRENDER_INTERSECT_H
+
+#include "common.h"
+
+typedef struct {
+    float t;       /* distance along the (unit) direction; INF_T on a miss */
+    int slot;      /* index into prims; -1 on a miss */
+    int id;        /* primitive id in scene order; -1 on a miss */
+    float u, v;    /* barycentrics of v1 and v2 on a triangle */
+} Hit;
+
+inline Hit no_hit(void) {
+    Hit h;
+    h.t = INF_T; h.slot = -1; h.id = -1; h.u = 0.0f; h.v = 0.0f;
+    return h;
+}
+
+inline bool is_sphere(__global const float4 *prims, int slot) { return prims[3 * slot + 1].w != 0.0f; }
+
+inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[3 * slot].w); }
+
+/* Moller-Trumbore. Returns t in (t_min, t_max) or INF_T; degenerate triangles never hit. */
+inline float hit_triangle(Ray r, float4 v0, float4 e1, float4 e2, float t_min, float t_max, float *u, float *v) {
+    float3 pvec = cross(r.d, e2.xyz);
+    float det = dot(e1.xyz, pvec);
+    if (det == 0.0f) return INF_T; /* parallel to the plane, or a degenerate triangle */
+    float inv_det = 1.0f / det;
+    float3 tvec = r.o - v0.xyz;
+    float uu = dot(tvec, pvec) * inv_det;
+    if (uu < 0.0f || uu > 1.0f) return INF_T;
+    float3 qvec = cross(tvec, e1.xyz);
+    float vv = dot(r.d, qvec) * inv_det;
+    if (vv < 0.0f || uu + vv > 1.0f) return INF_T;
+    float t = dot(e2.xyz, qvec) * inv_det;
+    if (!(t > t_min && t < t_max)) return INF_T;
+    *u = uu; *v = vv;
+    return t;
+}
+
+/* Both roots of |o + t d - c|^2 = r^2 for unit d, in the cancellation-free
+ * form (Ray Tracing Gems ch. 7): the discriminant from the ray's closest
+ * approach, the small root from c/q. */
+inline int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
+    float3 oc = r.o - cr.xyz;
+    float b = dot(oc, r.d);
+    float3 closest = oc - b * r.d;
+    float radius = cr.w;
+    float disc = (radius - length(closest)) * (radius + length(closest));
+    if (disc < 0.0f) return 0;
+    float c = dot(oc, oc) - radius * radius;
+    float q = -b - copysign(sqrt(disc), b);
+    float a0 = (q != 0.0f) ? c / q : 0.0f, a1 = q;
+    *t0 = fmin(a0, a1);
+    *t1 = fmax(a0, a1);
+    return 1;
+}
+
+inline float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
+    float t0, t1;
+    if (!sphere_roots(r, cr, &t0, &t1)) return INF_T;
+    if (t0 > t_min && t0 < t_max) return t0;
+    if (t1 > t_min && t1 < t_max) return t1;
+    return INF_T;
+}
+
+/* Test primitive slot s; keep the nearer hit (ties go to the lower id, so
+ * any traversal order finds the same primitive). */
+inline void test_slot(__global const float4 *prims, int s, Ray r, float t_min, Hit *best) {
+    float4 a = prims[3 * s], b = prims[3 * s + 1], c = prims[3 * s + 2];
+    float u = 0.0f, v = 0.0f, t;
+    if (b.w != 0.0f)
+        t = hit_sphere(r, (float4)(a.xyz, b.x), t_min, best->t * 1.0000002f);
+    else
+        t = hit_triangle(r, a, b, c, t_min, best->t * 1.0000002f, &u, &v);
+    if (t == INF_T) return;
+    int id = as_int(a.w);
+    if (t < best->t || (t == best->t && id < best->id)) {
+        best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
+    }
+}
+
+/* Slab test; returns the entry distance or INF_T.  The far distance is
+ * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in. */
+inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
+    float3 t0 = (bmin.xyz - r.o) * r.inv_d;
+    float3 t1 = (bmax.xyz - r.o) * r.inv_d;
+    float3 tn = fmin(t0, t1), tf = fmax(t0, t1);
+    float t_enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
+    float t_exit = fmin(fmin(tf.x, tf.y), fmin(tf.z, t_max)) * 1.0000004f;
+    return t_enter <= t_exit ? t_enter : INF_T;
+}
+
+inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+                       Ray r, float t_min, float t_max, uint *visits) {
+    Hit best = no_hit();
+    best.t = t_max;
+#if USE_BVH
+    int stack[STACK_SIZE];
+    float stack_t[STACK_SIZE];
+    int sp = 0;
+    int node = 0;
+    if (n_prims == 0 || hit_box(r, nodes[0], nodes[1], best.t) == INF_T) node = -1;
+    while (node >= 0) {
+        *visits += 1;
+        float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
+        int count = as_int(hi.w), offset = as_int(lo.w);
+        int next = -1;
+        if (count > 0) {
+            for (int s = offset; s < offset + count; ++s) test_slot(prims, s, r, t_min, &best);
+        } else {
+            int near_child = node + 1, far_child = offset;
+            float t_near = hit_box(r, nodes[2 * near_child], nodes[2 * near_child + 1], best.t);
+            float t_far = hit_box(r, nodes[2 * far_child], nodes[2 * far_child + 1], best.t);
+            if (t_far < t_near) { /* visit the nearer box first */
+                int tmp = near_child; near_child = far_child; far_child = tmp;
+                float tt = t_near; t_near = t_far; t_far = tt;
+            }
+            if (t_near != INF_T) {
+                next = near_child;
+                if (t_far != INF_T && sp < STACK_SIZE) { /* put far node on the stack */
+                    stack[sp] = far_child; stack_t[sp] = t_far; ++sp;
+                }
+            }
+        }
+        /* advance to the near node, else pop a far node the ray can still reach */
+        while (next < 0 && sp > 0) {
+            --sp;
+            if (stack_t[sp] <= best.t * 1.0000004f) next = stack[sp];
+        }
+        node = next;
+    }
+#else
+    for (int s = 0; s < n_prims; ++s) test_slot(prims, s, r, t_min, &best);
+    *visits += (uint)n_prims;
+#endif
+    if (best.slot < 0) best = no_hit();
+    return best;
+}
+
+/* Fraction of light reaching t_max along the ray: 0 past an opaque surface,
+ * times `transparency` for every crossing of a transparent one (the shadow
+ * ray is not bent).  Stops as soon as an opaque surface is found.  With
+ * opaque_only every surface blocks (a plain any-hit occlusion query). */
+inline float crossing_transmittance(__global const float4 *prims, __global const int *prim_object,
+                                    __global const int2 *objects, __global const float4 *materials,
+                                    int s, Ray r, float t_min, float t_max, bool opaque_only) {
+    float4 a = prims[3 * s], b = prims[3 * s + 1], c = prims[3 * s + 2];
+    int crossings = 0;
+    if (b.w != 0.0f) {
+        float t0, t1;
+        if (sphere_roots(r, (float4)(a.xyz, b.x), &t0, &t1)) {
+            crossings = (t0 > t_min && t0 < t_max) + (t1 > t_min && t1 < t_max);
+        }
+    } else {
+        float u, v;
+        crossings = hit_triangle(r, a, b, c, t_min, t_max, &u, &v) != INF_T;
+    }
+    if (crossings == 0) return 1.0f;
+    if (opaque_only) return 0.0f;
+    int material = objects[prim_object[as_int(a.w)]].x;
+    float transparency = materials[3 * material + 2].x;
+    return crossings == 2 ? transparency * transparency : transparency;
+}
+
+inline float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+                           __global const int *prim_object, __global const int2 *objects,
+                           __global const float4 *materials, Ray r, float t_max, bool opaque_only,
+                           uint *visits) {
+    const float t_min = 0.0f;
+    float T = 1.0f;
+#if USE_BVH
+    int stack[STACK_SIZE];
+    int sp = 0;
+    if (n_prims > 0 && hit_box(r, nodes[0], nodes[1], t_max) != INF_T) stack[sp++] = 0;
+    while (sp > 0 && T > 0.0f) {
+        int node = stack[--sp];
+        *visits += 1;
+        float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
+        int count = as_int(hi.w), offset = as_int(lo.w);
+        if (count > 0) {
+            for (int s = offset; s < offset + count && T > 0.0f; ++s)
+                T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+        } else {
+            int children[2] = {node + 1, offset};
+            for (int k = 0; k < 2; ++k) {
+                int child = children[k];
+                if (sp < STACK_SIZE && hit_box(r, nodes[2 * child], nodes[2 * child + 1], t_max) != INF_T)
+                    stack[sp++] = child;
+            }
+        }
+    }
+#else
+    for (int s = 0; s < n_prims && T > 0.0f; ++s)
+        T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+    *visits += (uint)n_prims;
+#endif
+    return T;
+}
+
+#endif

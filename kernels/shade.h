@@ -1,0 +1,210 @@
+/* Whitted shading: ambient + Lambert + Blinn-Phong from point, directional
+ * and parallelogram area lights with shadow rays, then mirror reflection and
+ * refraction (Snell's law, total internal reflection, optional Schlick
+ * Fresnel) on an explicit ray stack instead of recursion. */
+#ifndef CLRENDER_SHADE_H
+#define CLRENDER_SHADE_H
+
+#include "common.h"
+#include "intersect.h"
+#include "sampling.h"
+
+typedef struct {
+    __global const float4 *nodes;
+    __global const float4 *prims;
+    __global const int *prim_object;
+    __global const float4 *normals;
+    __global const int2 *objects;
+    __global const float4 *materials;
+    __global const float4 *lights;
+    int n_prims;
+    int n_lights;
+    int light_samples;   /* > 0 overrides every area light's samples per side */
+    int max_depth;       /* bounces after the primary hit */
+    int fresnel;         /* 0: transparency splits as the seed; 1: Schlick */
+    float3 background;
+    float3 ambient;
+} Scene;
+
+inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
+
+/* Snell's law for unit d and unit n facing against d, eta = n1 / n2.
+ * Returns 0 when the ray cannot refract (total internal reflection). */
+inline int refract_dir(float3 d, float3 n, float eta, float3 *out) {
+    float cos_i = -dot(d, n);
+    float sin2_t = eta * eta * fmax(0.0f, 1.0f - cos_i * cos_i);
+    bool cannot_refract = sin2_t > 1.0f;
+    if (cannot_refract) return 0;
+    float cos_t = sqrt(1.0f - sin2_t);
+    *out = normalize(eta * d + (eta * cos_i - cos_t) * n);
+    return 1;
+}
+
+/* Schlick's approximation, using the angle on the denser side. */
+inline float schlick(float cos_i, float n1, float n2, float cos_t) {
+    float r0 = (n1 - n2) / (n1 + n2);
+    r0 *= r0;
+    float c = (n1 <= n2) ? cos_i : cos_t;
+    float m = 1.0f - c;
+    return r0 + (1.0f - r0) * m * m * m * m * m;
+}
+
+inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror) {
+    float n_dot_l = fmax(dot(n, l), 0.0f);
+    float3 h = normalize(l + v);
+    float spec = (kd_shine.w > 0.0f) ? pow(fmax(dot(n, h), 0.0f), kd_shine.w) : 1.0f;
+    return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
+}
+
+/* Light from every light source at p, and (when `shadow` is not null) the
+ * fraction of each light that shadow rays found unblocked. */
+inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, float3 v,
+                           float4 kd, float4 ks, Rng *rng, __global float *shadow, uint *visits, uint *rays) {
+    float3 total = (float3)(0.0f);
+    float3 origin = offset_origin(p, n_geo);
+    for (int li = 0; li < sc->n_lights; ++li) {
+        float4 head = sc->lights[5 * li];
+        int type = (int)head.x;
+        float intensity = head.z;
+        bool inverse_square = head.w != 0.0f;
+        float3 pos = sc->lights[5 * li + 1].xyz;
+        float3 colour = sc->lights[5 * li + 2].xyz;
+        uint n_side = 1;
+        float3 edge_a = (float3)(0.0f), edge_b = (float3)(0.0f);
+        if (type == LIGHT_AREA) {
+            n_side = sc->light_samples > 0 ? (uint)sc->light_samples : (uint)head.y;
+            edge_a = sc->lights[5 * li + 3].xyz;
+            edge_b = sc->lights[5 * li + 4].xyz;
+        }
+        float3 light_normal = cross(edge_a, edge_b);
+        float area = length(light_normal);
+        light_normal = area > 0.0f ? light_normal / area : light_normal;
+        float weight = intensity / (float)(n_side * n_side);
+        float visible = 0.0f;
+        for (uint sp = 0; sp < n_side; ++sp) {
+            for (uint sq = 0; sq < n_side; ++sq) {
+                float3 l;
+                float dist, falloff = 1.0f;
+                if (type == LIGHT_DIRECTIONAL) {
+                    l = -normalize(pos);
+                    dist = INF_T;
+                } else {
+                    float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, rng) : pos;
+                    l = target - p;
+                    dist = length(l);
+                    l /= dist;
+                    if (inverse_square) {
+                        falloff = 1.0f / (dist * dist);
+                        /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
+                        if (type == LIGHT_AREA) falloff *= area * fabs(dot(light_normal, l));
+                    }
+                }
+                float T = 1.0f;
+                if (dot(n, l) > 0.0f) {
+                    Ray sr = make_ray(origin, l);
+                    float t_max = (dist == INF_T) ? INF_T : length(p + l * dist - origin);
+                    T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
+                                      sc->materials, sr, t_max, false, visits);
+                    *rays += 1;
+                    total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks);
+                }
+                visible += T;
+            }
+        }
+        if (shadow) shadow[li] = visible / (float)(n_side * n_side);
+    }
+    return total;
+}
+
+/* Colour seen along one camera ray, with the object ids met on the way
+ * (depth-first order) written to `ids` when it is not null. */
+inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
+                         uint *visits, uint *rays) {
+    float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
+    int sp = 0;
+    stack_o[0] = (float4)(primary.o, 1.0f);
+    stack_d[0] = (float4)(primary.d, 0.0f);
+    stack_w[0] = (float4)(1.0f);
+    sp = 1;
+    float3 colour = (float3)(0.0f);
+    int n_ids = 0;
+    bool first_hit = true;
+    while (sp > 0) {
+        --sp;
+        float3 o = stack_o[sp].xyz, d = stack_d[sp].xyz, w = stack_w[sp].xyz;
+        float medium = stack_o[sp].w;
+        int depth = (int)stack_d[sp].w;
+        Ray r = make_ray(o, d);
+        Hit h = closest_hit(sc->nodes, sc->prims, sc->n_prims, r, 0.0f, INF_T, visits);
+        *rays += 1;
+        int object = h.id >= 0 ? sc->prim_object[h.id] : -1;
+        if (ids && n_ids < PATH_LEN) ids[n_ids++] = object;
+        if (h.id < 0) {
+            colour += w * sc->background;
+            first_hit = false;
+            continue;
+        }
+        int2 obj = sc->objects[object];
+        float4 kd = sc->materials[3 * obj.x], ks = sc->materials[3 * obj.x + 1], tr = sc->materials[3 * obj.x + 2];
+        float transparency = tr.x, ior = tr.y, mirror = ks.w;
+
+        float3 p = o + h.t * d;
+        float4 a = sc->prims[3 * h.slot], b = sc->prims[3 * h.slot + 1], c = sc->prims[3 * h.slot + 2];
+        float3 n_geo, n_shade;
+        if (b.w != 0.0f) {
+            n_geo = normalize(p - a.xyz);
+            n_shade = n_geo;
+        } else {
+            n_geo = normalize(cross(b.xyz, c.xyz));
+            n_shade = n_geo;
+            if (obj.y) {
+                __global const float4 *vn = sc->normals + 3 * h.id;
+                n_shade = normalize((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
+            }
+        }
+        bool front_face = dot(d, n_geo) < 0.0f;
+        if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
+        if (dot(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
+
+        float3 surface = sc->ambient * kd.xyz +
+                       direct_light(sc, p, n_shade, n_geo, -d, kd, ks, rng, first_hit ? shadow : 0, visits, rays);
+        first_hit = false;
+        colour += w * (1.0f - transparency) * (1.0f - mirror) * surface;
+        if (depth >= sc->max_depth) continue;
+
+        /* what the surface passes on: mirror reflection, then the transparent part */
+        float3 w_reflect = w * (1.0f - transparency) * mirror;
+        float3 w_refract = (float3)(0.0f);
+        float3 refracted = (float3)(0.0f);
+        float n1 = front_face ? medium : ior;
+        float n2 = front_face ? ior : 1.0f; /* leaving an object enters air: objects do not nest */
+        if (transparency > 0.0f) {
+            float cos_i = -dot(d, n_shade);
+            if (refract_dir(d, n_shade, n1 / n2, &refracted)) {
+                float F = 0.0f;
+                if (sc->fresnel) F = schlick(cos_i, n1, n2, -dot(refracted, n_shade));
+                w_reflect += w * transparency * F;
+                w_refract = w * transparency * (1.0f - F);
+            } else { /* total internal reflection: all of it is reflected */
+                w_reflect += w * transparency;
+            }
+        }
+        if (fmax(w_refract.x, fmax(w_refract.y, w_refract.z)) > 0.0f && sp < RAY_STACK) {
+            stack_o[sp] = (float4)(offset_origin(p, -n_geo), n2);
+            stack_d[sp] = (float4)(refracted, (float)(depth + 1));
+            stack_w[sp] = (float4)(w_refract, 0.0f);
+            ++sp;
+        }
+        if (fmax(w_reflect.x, fmax(w_reflect.y, w_reflect.z)) > 0.0f && sp < RAY_STACK) {
+            stack_o[sp] = (float4)(offset_origin(p, n_geo), medium);
+            stack_d[sp] = (float4)(reflect_dir(d, n_shade), (float)(depth + 1));
+            stack_w[sp] = (float4)(w_reflect, 0.0f);
+            ++sp;
+        }
+    }
+    if (ids)
+        for (int k = n_ids; k < PATH_LEN; ++k) ids[k] = -1;
+    return colour;
+}
+
+#endif

@@ -1,0 +1,94 @@
+/* Tracing kernels: whole-pixel rendering, and plain ray queries for the
+ * Tracer API and the benchmarks.  Variants: -DUSE_BVH=0|1, -DMAX_DEPTH=n. */
+#include "common.h"
+#include "rng.h"
+#include "sampling.h"
+#include "intersect.h"
+#include "shade.h"
+
+/* frame: camera origin, forward, right * half-width, up * half-height
+ *        (all at unit distance), background colour, ambient light. */
+__kernel void render(__global const float4 *nodes, __global const float4 *prims,
+                     __global const int *prim_object, __global const float4 *normals,
+                     __global const int2 *objects, __global const float4 *materials,
+                     __global const float4 *lights, __global const float4 *frame,
+                     __global const int *pixels,
+                     int n_work, int n_prims, int n_lights, int width, int height,
+                     int sampler, int samples_per_side, uint seed, int max_depth, int fresnel,
+                     int light_samples, int record,
+                     __global float4 *colour_out, __global int *ids_out, __global float *shadow_out,
+                     __global uint2 *stats_out) {
+    int gid = get_global_id(0);
+    if (gid >= n_work) return;
+    Scene sc;
+    sc.nodes = nodes; sc.prims = prims; sc.prim_object = prim_object; sc.normals = normals;
+    sc.objects = objects; sc.materials = materials; sc.lights = lights;
+    sc.n_prims = n_prims; sc.n_lights = n_lights; sc.light_samples = light_samples;
+    sc.max_depth = max_depth; sc.fresnel = fresnel;
+    sc.background = frame[4].xyz; sc.ambient = frame[5].xyz;
+
+    int pixel = pixels[gid];
+    float px = (float)(pixel % width), py = (float)(pixel / width);
+    float3 origin = frame[0].xyz, forward = frame[1].xyz, right = frame[2].xyz, up = frame[3].xyz;
+    uint n = (uint)samples_per_side;
+    float3 sum = (float3)(0.0f);
+    uint visits = 0, rays = 0;
+    for (uint s = 0; s < n * n; ++s) {
+        Rng rng = make_rng(seed, (uint)pixel, s);
+        float2 off = pixel_sample_offset(sampler, s, n, &rng);
+        float sx = 2.0f * (px + off.x) / (float)width - 1.0f;
+        float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
+        Ray r = make_ray(origin, normalize(forward + sx * right + sy * up));
+        bool keep = record && s == 0; /* ids and shadows of the first sample */
+        sum += trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * PATH_LEN : 0,
+                          keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
+    }
+    colour_out[gid] = (float4)(sum / (float)(n * n), 1.0f);
+    stats_out[gid] = (uint2)(visits, rays);
+}
+
+/* Sample offsets in [0,1)^2 of pixel `pixels[i]`, for tests and plots. */
+__kernel void sample_offsets(__global const int *pixels, int n_work, int sampler, int samples_per_side,
+                             uint seed, __global float2 *out) {
+    int gid = get_global_id(0);
+    if (gid >= n_work) return;
+    uint n = (uint)samples_per_side;
+    for (uint s = 0; s < n * n; ++s) {
+        Rng rng = make_rng(seed, (uint)pixels[gid], s);
+        out[(size_t)gid * n * n + s] = pixel_sample_offset(sampler, s, n, &rng);
+    }
+}
+
+/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, need not be unit).
+ * Writes t along the unit direction (INF on a miss), primitive id, object id. */
+__kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
+                             __global const int *prim_object, int n_prims, int n_rays,
+                             __global const float4 *origins, __global const float4 *directions,
+                             __global float *t_out, __global int *prim_out, __global int *object_out,
+                             __global uint *visits_out) {
+    int gid = get_global_id(0);
+    if (gid >= n_rays) return;
+    uint visits = 0;
+    Ray r = make_ray(origins[gid].xyz, normalize(directions[gid].xyz));
+    Hit h = closest_hit(nodes, prims, n_prims, r, 0.0f, INF_T, &visits);
+    t_out[gid] = h.t;
+    prim_out[gid] = h.id;
+    object_out[gid] = h.id >= 0 ? prim_object[h.id] : -1;
+    visits_out[gid] = visits;
+}
+
+/* Any-hit occlusion: 1 when some surface lies in (0, t_max) along the unit direction. */
+__kernel void occluded_rays(__global const float4 *nodes, __global const float4 *prims,
+                            __global const int *prim_object, __global const int2 *objects,
+                            __global const float4 *materials, int n_prims, int n_rays,
+                            __global const float4 *origins, __global const float4 *directions,
+                            __global const float *t_max, __global int *occluded_out,
+                            __global uint *visits_out) {
+    int gid = get_global_id(0);
+    if (gid >= n_rays) return;
+    uint visits = 0;
+    Ray r = make_ray(origins[gid].xyz, normalize(directions[gid].xyz));
+    float T = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_max[gid], true, &visits);
+    occluded_out[gid] = T == 0.0f;
+    visits_out[gid] = visits;
+}
