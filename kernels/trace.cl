@@ -92,3 +92,13 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
     occluded_out[gid] = T == 0.0f;
     visits_out[gid] = visits;
 }
+
+/* Snell's law as the renderer applies it, for tests: (direction, 1) or (0, 0) on total internal reflection. */
+__kernel void refract_rays(int n, __global const float4 *d, __global const float4 *normals, __global const float *eta,
+                           __global float4 *out) {
+    int gid = get_global_id(0);
+    if (gid >= n) return;
+    float3 t;
+    int ok = refract_dir(normalize(d[gid].xyz), normalize(normals[gid].xyz), eta[gid], &t);
+    out[gid] = ok ? (float4)(t, 1.0f) : (float4)(0.0f);
+}

@@ -1,5 +1,125 @@
-"""Placeholder: filled in by its issue."""
+"""`clrender render`: ray trace a bundled scene or a scene file to an image."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from ..errors import UsageError
+from ..render import AA_MODES, SAMPLERS, RenderSettings
+
+EXAMPLES = """examples:
+  clrender render refract1 -o refract1.png
+  clrender render bunny --aa edge_detect --sampler stratified --samples 4 --edges-out edges.png -o bunny.png
+  clrender render my_scene.toml --camera 2 --width 800 --height 600 --no-bvh -o out.exr
+  clrender render wizard_cat 3 edge_detect stratified 6 1.0 true -o cat.png   # the seed's argument order
+"""
+
+
+def _bool(text: str) -> bool:
+    low = text.lower()
+    if low in ("true", "1", "yes", "on"):
+        return True
+    if low in ("false", "0", "no", "off"):
+        return False
+    raise UsageError(f"DETECT_SHADOWS {text!r} must be true or false")
 
 
 def add_parser(sub):
-    pass
+    d = RenderSettings()
+    p = sub.add_parser("render", help="ray trace a scene to an image", epilog=EXAMPLES,
+                       description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.")
+    p.add_argument("scene", metavar="SCENE", help="bundled scene name (see --list) or path to a .toml scene file")
+    p.add_argument("seed_args", nargs="*", metavar="ARG",
+                   help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
+    p.add_argument("-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float); default SCENE.png")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    p.add_argument("--camera", type=int, default=d.camera, help="camera number, 1 = canonical")
+    p.add_argument("--width", type=int, default=None, help="image width (default: the scene's)")
+    p.add_argument("--height", type=int, default=None, help="image height (default: the scene's)")
+    p.add_argument("--aa", choices=AA_MODES, default=d.aa, help="anti-aliasing mode")
+    p.add_argument("--sampler", choices=tuple(SAMPLERS), default=d.sampler, help="where AA samples fall in a pixel")
+    p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default 1; 4 when --aa is not none)")
+    p.add_argument("--thickness", type=float, default=d.thickness, help="edge_detect: disc radius around edge pixels")
+    p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=d.shadow_edges,
+                   help="count changes in light visibility as edges")
+    p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green")
+    p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
+    p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
+    p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
+    p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
+    p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
+    p.add_argument("--seed", type=int, default=d.seed, help="random seed (same seed, same image)")
+    p.add_argument("--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result (repeatable)")
+    p.add_argument("--device", default=None, help="OpenCL device substring (default: $CLRENDER_DEVICE, else PoCL CPU)")
+    p.add_argument("--list", action="store_true", help="list the bundled scenes and exit")
+    p.set_defaults(run=run)
+
+
+def settings_from_args(args) -> RenderSettings:
+    """Named options, overridden by the seed-style positional arguments when given."""
+    values = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples,
+                  thickness=args.thickness, shadow_edges=args.shadow_edges)
+    extra = list(args.seed_args)
+    if len(extra) > 6:
+        raise UsageError(f"too many arguments {extra!r}; the seed's order is CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
+    if extra and len(extra) < 3:
+        raise UsageError("the seed's order needs at least CAMERA AA_TYPE SAMPLE_TYPE, e.g. 'wizard_cat 3 edge_detect stratified 6'")
+    converters = [("camera", int, "an integer from 1 to 5"), ("aa", str, "|".join(AA_MODES)),
+                  ("sampler", str, "|".join(SAMPLERS)), ("samples", int, "an integer > 0"),
+                  ("thickness", float, "a real number >= 0"), ("shadow_edges", _bool, "true|false")]
+    for text, (key, convert, allowed) in zip(extra, converters):
+        try:
+            values[key] = convert(text)
+        except ValueError:
+            raise UsageError(f"{key.upper()} {text!r} is not valid; allowed: {allowed}") from None
+    if values["samples"] is None:
+        values["samples"] = 1 if values["aa"] == "none" else 4
+    return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
+                          max_depth=args.max_depth, fresnel=args.fresnel, bvh=args.bvh,
+                          bvh_builder=args.bvh_builder, seed=args.seed, device=args.device, **values)
+
+
+def run(args):
+    from ..imageio import check_output_path, write_display_image
+    from ..render import Renderer
+    from ..scene import Scene, bundled_scenes
+
+    if args.list:
+        for name in bundled_scenes():
+            print(name)
+        return 0
+    settings = settings_from_args(args)
+    output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
+    edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
+    if edges_out and settings.aa != "edge_detect":
+        raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
+    if args.filter:
+        from .. import filters
+
+        for name in args.filter:
+            filters.parse(name)
+    start = time.perf_counter()
+    scene = Scene.load(args.scene)
+    load_seconds = time.perf_counter() - start
+    renderer = Renderer(scene, settings)
+    result = renderer.run()
+    image = result.image
+    if args.filter:
+        image = filters.apply(image, *args.filter)
+    write_display_image(output, image)
+    if edges_out is not None:
+        from ..edges import overlay_edges
+
+        write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
+    print(output)
+    if not args.quiet:
+        s = renderer.settings
+        t = result.timings
+        parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        if "resample" in t:
+            parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
+        sys.stderr.write(f"{scene.name}: {s.width}x{s.height}, {renderer.tracer.n_prims} primitives, "
+                         f"{result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n")
+    return 0
