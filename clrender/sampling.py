@@ -1,0 +1,32 @@
+"""Pixel sample positions, computed by the same kernel code the renderer uses.
+
+Offsets are in [0, 1)^2 from the pixel's top-left corner.  Sample s of N*N
+lies in sub-square row p = s // N and column q = s % N:
+  uniform     the seed's fixed grid ((q + 0.5) / N, (p + 0.5) / N)
+  random      N*N independent uniform positions in the pixel
+  stratified  one jittered sample in each sub-square ((q + xi) / N, (p + xi') / N)
+  sobol       the first N*N points of a 2-D Sobol sequence, Owen-scrambled per pixel
+Random numbers come from a hash of (seed, pixel, sample, dimension).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+
+from .device import Device, get_device
+from .render import SAMPLERS
+from .tracer import MAX_DEPTH_LIMIT
+
+
+def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device | None = None) -> np.ndarray:
+    """(len(pixels), n*n, 2) float32 offsets of each pixel's samples."""
+    dev = device or get_device()
+    pixels = np.asarray(pixels, np.int32).ravel()
+    k = len(pixels)
+    out = dev.empty(8 * k * n * n)
+    knl = dev.kernel("trace.cl", "sample_offsets", {"USE_BVH": 1, "MAX_DEPTH": MAX_DEPTH_LIMIT})
+    knl(dev.queue, (max(k, 1),), None, dev.to_device(pixels), np.int32(k), np.int32(SAMPLERS[sampler]),
+        np.int32(n), np.uint32(seed), out)
+    result = np.empty((k, n * n, 2), np.float32)
+    cl.enqueue_copy(dev.queue, result, out)
+    return result
