@@ -23,6 +23,7 @@ from .scene import Scene
 from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer
 
 AA_MODES = ("none", "full", "edge_detect")
+LIGHT_SAMPLERS = ("stratified", "random")
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
@@ -40,6 +41,7 @@ class RenderSettings:
     thickness: float = 1.0  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
+    light_sampler: str = "stratified"  # area-light samples: "stratified" (the seed's jittered grid) or "random"
     max_depth: int = 8  # mirror/refraction bounces after the primary hit
     fresnel: bool = False  # split transparency by Schlick's Fresnel term instead of the seed's fixed split
     seed: int = 0  # seeds every random choice; the same seed gives the same image
@@ -59,6 +61,7 @@ class RenderSettings:
             (1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)"),
             (math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0"),
             (0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64"),
+            (s.light_sampler in LIGHT_SAMPLERS, f"unknown light sampler {s.light_sampler!r}; allowed: {', '.join(LIGHT_SAMPLERS)}"),
             (0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}"),
             (s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}"),
             (0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1"),
@@ -125,7 +128,8 @@ class Renderer:
             self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
             np.int32(k), np.int32(t.n_prims), np.int32(self.n_lights), np.int32(s.width), np.int32(s.height),
             np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(s.seed), np.int32(s.max_depth),
-            np.int32(s.fresnel), np.int32(s.light_samples), np.int32(record), colour, ids, shadow, stats)
+            np.int32(s.fresnel), np.int32(s.light_samples),
+            np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats)
         out = (np.empty((k, 4), np.float32), np.empty((k, PATH_LEN), np.int32),
                np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):

@@ -59,10 +59,13 @@ inline float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     return (float2)(u01(x), u01(y));
 }
 
-/* Stratified jittered point on a parallelogram light: corner + (p+xi)/n a + (q+xi')/n b. */
-inline float3 area_light_point(float3 corner, float3 a, float3 b, uint p, uint q, uint n, Rng *rng) {
+/* Point on a parallelogram light.  Stratified (the seed): corner + (p+xi)/n a
+ * + (q+xi')/n b, one jittered point per cell.  Random: corner + xi a + xi' b,
+ * ignoring the cells (kept to show what stratification buys). */
+inline float3 area_light_point(float3 corner, float3 a, float3 b, uint p, uint q, uint n, bool stratified, Rng *rng) {
     float xi_a = rng_next(rng);
     float xi_b = rng_next(rng);
+    if (!stratified) return corner + xi_a * a + xi_b * b;
     float fn = (float)n;
     return corner + ((float)p + xi_a) / fn * a + ((float)q + xi_b) / fn * b;
 }

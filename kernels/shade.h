@@ -22,6 +22,7 @@ typedef struct {
     int light_samples;   /* > 0 overrides every area light's samples per side */
     int max_depth;       /* bounces after the primary hit */
     int fresnel;         /* 0: transparency splits as the seed; 1: Schlick */
+    int light_stratified; /* 1: one jittered sample per cell of an area light (the seed); 0: uniform random */
     float3 background;
     float3 ambient;
 } Scene;
@@ -89,7 +90,7 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, fl
                     l = -normalize(pos);
                     dist = INF_T;
                 } else {
-                    float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, rng) : pos;
+                    float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, sc->light_stratified, rng) : pos;
                     l = target - p;
                     dist = length(l);
                     l /= dist;

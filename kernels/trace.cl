@@ -15,7 +15,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      __global const int *pixels,
                      int n_work, int n_prims, int n_lights, int width, int height,
                      int sampler, int samples_per_side, uint seed, int max_depth, int fresnel,
-                     int light_samples, int record,
+                     int light_samples, int light_stratified, int record,
                      __global float4 *colour_out, __global int *ids_out, __global float *shadow_out,
                      __global uint2 *stats_out) {
     int gid = get_global_id(0);
@@ -24,7 +24,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
     sc.nodes = nodes; sc.prims = prims; sc.prim_object = prim_object; sc.normals = normals;
     sc.objects = objects; sc.materials = materials; sc.lights = lights;
     sc.n_prims = n_prims; sc.n_lights = n_lights; sc.light_samples = light_samples;
-    sc.max_depth = max_depth; sc.fresnel = fresnel;
+    sc.max_depth = max_depth; sc.fresnel = fresnel; sc.light_stratified = light_stratified;
     sc.background = frame[4].xyz; sc.ambient = frame[5].xyz;
 
     int pixel = pixels[gid];

@@ -1,0 +1,138 @@
+"""Whole renders: shading against analytic values, BVH on/off agreement, determinism, the edge-AA identities."""
+import numpy as np
+import pytest
+
+from clrender.render import Renderer, render
+from clrender.scene import Mesh, Scene
+
+W, H = 48, 36
+
+
+def lit_floor_scene(**light):
+    return Scene.from_dict({
+        "width": W, "height": H, "ambient": [0.1, 0.1, 0.1],
+        "cameras": [{"position": [0, 4, 4], "look_at": [0, 0, 0]}],
+        "materials": {"floor": {"diffuse": [0.5, 0.6, 0.7], "specular": [0, 0, 0]}},
+        "lights": [{"type": "point", "position": [1, 5, 1], "intensity": 0.8, **light}],
+        "objects": [
+            {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 40, "material": "floor"},
+            {"type": "sphere", "center": [0.5, 2.5, 0.5], "radius": 0.5},
+        ],
+    })
+
+
+def floor_hits(scene):
+    o, d = scene.cameras[0].rays(W, H)
+    t = -o[..., 1] / d[..., 1]
+    return o + t[..., None] * d
+
+
+def test_lambert_shading_and_hard_shadow_match_the_analytic_values(device):
+    scene = lit_floor_scene()
+    result = Renderer(scene, bvh=False).run()
+    kd = np.array([0.5, 0.6, 0.7])
+    p = floor_hits(scene)
+    light = np.array([1.0, 5, 1])
+    to_light = light - p
+    cos = to_light[..., 1] / np.linalg.norm(to_light, axis=-1)
+    # the sphere blocks the light where the segment p -> light passes within its radius
+    centre = np.array([0.5, 2.5, 0.5])
+    dist = to_light / np.linalg.norm(to_light, axis=-1, keepdims=True)
+    along = ((centre - p) * dist).sum(-1)
+    miss = np.linalg.norm(p + along[..., None] * dist - centre, axis=-1)
+    shadowed = miss < 0.5
+    expected = 0.1 * kd + (~shadowed)[..., None] * 0.8 * cos[..., None] * kd
+    floor = (result.ids == 0) & (np.abs(miss - 0.5) > 0.02)  # away from the shadow's edge
+    assert shadowed[floor].sum() > 10 and (~shadowed[floor]).sum() > 100
+    np.testing.assert_allclose(result.image[floor], expected[floor], rtol=2e-4, atol=2e-5)
+    assert ((result.shadow[..., 0] == 0) == shadowed)[floor].all()
+
+
+def test_inverse_square_point_light(device):
+    scene = lit_floor_scene(falloff="inverse_square")
+    image = render(scene, bvh=False)
+    p = floor_hits(scene)
+    to_light = np.array([1.0, 5, 1]) - p
+    r2 = (to_light**2).sum(-1)
+    cos = to_light[..., 1] / np.sqrt(r2)
+    expected = 0.1 * 0.5 + 0.8 * cos / r2 * 0.5
+    y, x = 30, 5  # a floor pixel far from the sphere's shadow
+    assert image[y, x, 0] == pytest.approx(expected[y, x], rel=1e-4)
+
+
+def mixed_scene():
+    """Spheres, a mirror, glass and a triangle soup: every kind of ray."""
+    rng = np.random.default_rng(8)
+    scene = Scene.from_dict({
+        "width": W, "height": H, "ambient": [0.05, 0.05, 0.05], "background": [0.2, 0.3, 0.5],
+        "cameras": [{"position": [0, 1, 6], "look_at": [0, 0, 0]}],
+        "materials": {
+            "mirror": {"mirror": 0.8, "diffuse": [0.2, 0.2, 0.2]},
+            "glass": {"transparency": 0.9, "ior": 1.5, "specular": [0.5, 0.5, 0.5], "shininess": 80},
+            "red": {"diffuse": [0.9, 0.1, 0.1], "specular": [0.3, 0.3, 0.3], "shininess": 20},
+        },
+        "lights": [{"type": "point", "position": [3, 5, 4]},
+                   {"type": "area", "corner": [-2, 4, -1], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "samples": 3}],
+        "objects": [
+            {"type": "sphere", "center": [-1.2, 0, 0], "radius": 0.8, "material": "glass"},
+            {"type": "sphere", "center": [1.2, 0, -0.5], "radius": 0.8, "material": "mirror"},
+            {"type": "sphere", "center": [0, 0.3, -2.5], "radius": 0.7, "material": "red"},
+            {"type": "plane", "point": [0, -0.8, 0], "normal": [0, 1, 0], "size": 30},
+        ],
+    })
+    tris = rng.uniform(-2.5, 2.5, (150, 1, 3)) * [1, 0.4, 1] + [0, 0.8, -3] + rng.normal(scale=0.3, size=(150, 3, 3))
+    scene.objects.append(Mesh(tris.reshape(-1, 3), np.arange(450).reshape(-1, 3), material="red"))
+    return scene
+
+
+def test_bvh_on_off_and_both_builders_render_the_same_image(device):
+    scene = mixed_scene()
+    results = [Renderer(scene, bvh=b, bvh_builder=k).run() for b, k in ((False, "sah"), (True, "sah"), (True, "median"))]
+    base = results[0]
+    assert len(np.unique(base.ids)) >= 5
+    for other in results[1:]:
+        np.testing.assert_array_equal(other.path_ids, base.path_ids)
+        np.testing.assert_allclose(other.image, base.image, atol=1e-5)
+        np.testing.assert_allclose(other.shadow, base.shadow, atol=1e-6)
+        assert other.node_visits < base.node_visits
+
+
+def test_reflections_and_refractions_are_on_the_recorded_path(device):
+    result = Renderer(mixed_scene()).run()
+    ids = result.path_ids
+    mirror_pixels = ids[..., 0] == 1
+    assert mirror_pixels.any()
+    # a mirror pixel's path continues to whatever the mirror shows
+    assert (ids[mirror_pixels][:, 1] != -2).all() and (ids[mirror_pixels][:, 1] != 1).mean() > 0.5
+    glass_pixels = ids[..., 0] == 0
+    # glass: the refracted ray leaves through the glass sphere itself (id 0) on its way out
+    assert (ids[glass_pixels][:, 1:] == 0).any(axis=1).mean() > 0.9
+
+
+def test_same_seed_same_image_different_seed_different(device):
+    scene = mixed_scene()
+    a = render(scene, aa="full", sampler="random", samples=2, seed=4)
+    b = render(scene, aa="full", sampler="random", samples=2, seed=4)
+    c = render(scene, aa="full", sampler="random", samples=2, seed=5)
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - c).max() > 1e-3
+
+
+def test_tile_size_does_not_change_the_image(device):
+    scene = mixed_scene()
+    a = render(scene, aa="full", sampler="stratified", samples=2, tile_size=7)
+    b = render(scene, aa="full", sampler="stratified", samples=2, tile_size=200)
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("sampler", ["uniform", "stratified", "random"])
+def test_edge_aa_equals_none_off_the_mask_and_full_on_it(device, sampler):
+    scene = mixed_scene()
+    common = dict(sampler=sampler, samples=3, seed=9, thickness=1.0)
+    edge = Renderer(scene, aa="edge_detect", **common).run()
+    none = render(scene, aa="none", **common)
+    full = render(scene, aa="full", **common)
+    mask = edge.edge_mask
+    assert 0.02 < mask.mean() < 0.9
+    np.testing.assert_array_equal(edge.image[~mask], none[~mask])
+    np.testing.assert_array_equal(edge.image[mask], full[mask])
