@@ -91,14 +91,24 @@ class Tracer:
         pad = lambda a: np.concatenate([a, np.zeros((n, 1), np.float32)], axis=1)  # noqa: E731
         return n, self.device.to_device(pad(o)), self.device.to_device(pad(d))
 
+    def launch_intersect(self, n, origins, directions, outputs) -> cl.Event:
+        """Closest-hit kernel on device buffers (for benchmarks); outputs = (t, prim, object, visits) buffers."""
+        return self.kernel("intersect_rays")(
+            self.device.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object,
+            np.int32(self.n_prims), np.int32(n), origins, directions, *outputs)
+
+    def launch_occluded(self, n, origins, directions, t_max, outputs) -> cl.Event:
+        """Any-hit kernel on device buffers; outputs = (occluded, visits) buffers."""
+        return self.kernel("occluded_rays")(
+            self.device.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object, self.objects,
+            self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_max, *outputs)
+
     def intersect(self, origins, directions):
         """Closest hits: (t along the unit direction, primitive id, object id); inf, -1, -1 on a miss."""
         n, o, d = self._rays(origins, directions)
         dev = self.device
         t_buf, p_buf, o_buf, v_buf = (dev.empty(4 * n) for _ in range(4))
-        self.kernel("intersect_rays")(
-            dev.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object,
-            np.int32(self.n_prims), np.int32(n), o, d, t_buf, p_buf, o_buf, v_buf)
+        self.launch_intersect(n, o, d, (t_buf, p_buf, o_buf, v_buf))
         t, prim, obj = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         for host, buf in ((t, t_buf), (prim, p_buf), (obj, o_buf), (self.last_visits, v_buf)):
@@ -111,9 +121,7 @@ class Tracer:
         dev = self.device
         t_max = np.broadcast_to(np.asarray(t_max, np.float32), (n,)).copy()
         out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
-        self.kernel("occluded_rays")(
-            dev.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object, self.objects,
-            self.materials, np.int32(self.n_prims), np.int32(n), o, d, dev.to_device(t_max), out, v_buf)
+        self.launch_occluded(n, o, d, dev.to_device(t_max), (out, v_buf))
         result = np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         cl.enqueue_copy(dev.queue, result, out)
