@@ -1,0 +1,424 @@
+"""Bounding volume hierarchy, built on the host with numpy and read as-is by the kernels.
+
+Layout (pbrt's "linear BVH"): a flat depth-first array of 32-byte nodes, two
+float4 each in the kernel::
+
+    bmin.xyz, offset | bmax.xyz, count
+
+* leaf: ``count > 0``; its primitives are ``prim_order[offset:offset + count]``
+* interior: ``count == 0``; the near (first) child is node ``i + 1``, the far
+  (second) child is node ``offset`` (always ``> i``)
+* node 0 is the root; a node's bounds contain its children and its primitives.
+* no primitives: a single node with zero bounds, count 0 and offset 0 (the
+  kernels never traverse it: they test ``n_prims == 0`` first).
+
+Builders (both vectorised: the tree grows one level at a time, every node of a
+level handled at once with segment operations, then the breadth-first tree is
+renumbered depth-first):
+
+* ``sah`` -- binned surface area heuristic on the centroid bounds of each node,
+  all three axes.  Nodes larger than ``sah_samples`` primitives evaluate their
+  bins on an evenly strided sample of that many primitives (the split itself
+  partitions all of them).  A node becomes a leaf when it holds at most
+  ``max_leaf_size`` primitives, or when no split is cheaper than the leaf and it
+  holds at most ``4 * max_leaf_size``.  Coinciding centroids fall back to an
+  object-median split.
+* ``median`` -- the seed's rule: primitives sorted by centroid x, every node
+  split into halves (the left half gets ``count // 2``), leaves of at most
+  ``max_leaf_size``.
+
+Every tree is at most ``MAX_DEPTH`` levels deep (the kernels' traversal stack
+is 64 entries): a SAH node too deep to finish with halving splits switches to
+median splits along its longest centroid axis.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import UsageError
+
+NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
+BUILDERS = ("sah", "median")
+MAX_DEPTH = 48  # levels, root included; the kernels' stack (64) never overflows
+SAH_SAMPLES = 1024  # nodes larger than this bin a strided sample of this many primitives
+HALVING_BELOW = 32  # SAH nodes of at most this many primitives finish by Morton-order halving
+TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
+INTERSECT_COST = 1.0
+
+
+@dataclass
+class BVH:
+    nodes: np.ndarray  # NODE_DTYPE, depth-first, node 0 the root
+    prim_order: np.ndarray  # int32 (n_prims,): leaf slots -> primitive ids, a permutation
+    build_seconds: float  # wall time of build_bvh
+    builder: str  # "sah" or "median"
+
+    @property
+    def node_count(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def is_leaf(self) -> np.ndarray:
+        return self.nodes["count"] > 0
+
+    @property
+    def leaf_count(self) -> int:
+        return int(self.is_leaf.sum())
+
+    @property
+    def max_leaf_size(self) -> int:
+        return int(self.nodes["count"].max(initial=0))
+
+    @property
+    def depth(self) -> int:
+        """Levels on the longest root-to-leaf path (a lone root leaf: 1)."""
+        return int(node_depths(self.nodes).max()) + 1
+
+    def sah_cost(self, traversal_cost: float = TRAVERSAL_COST, intersect_cost: float = INTERSECT_COST) -> float:
+        """Expected cost of a random ray hitting the root: sum over nodes of area(node) / area(root)
+        times traversal_cost (interior) or intersect_cost * count (leaf).  A root of zero area
+        weighs every node 1."""
+        lo, hi = self.nodes["bmin"].astype(np.float64), self.nodes["bmax"].astype(np.float64)
+        area = half_area(lo, hi)
+        rel = area / area[0] if area[0] > 0 else np.ones_like(area)
+        count = self.nodes["count"]
+        per_node = np.where(count > 0, intersect_cost * count, traversal_cost)
+        return float((rel * per_node).sum())
+
+    def stats(self) -> dict:
+        return dict(builder=self.builder, nodes=self.node_count, leaves=self.leaf_count, depth=self.depth,
+                    max_leaf_size=self.max_leaf_size, sah_cost=self.sah_cost(), build_s=self.build_seconds)
+
+
+def half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Half the surface area of boxes (..., 3); empty boxes (hi < lo) count 0."""
+    e = np.maximum(hi - lo, 0)
+    return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+
+
+def node_depths(nodes: np.ndarray) -> np.ndarray:
+    """Depth of every node (root 0) of a depth-first node array, level by level."""
+    depth = np.zeros(len(nodes), np.int64)
+    interior = np.flatnonzero(nodes["count"] == 0) if len(nodes) > 1 else np.zeros(0, np.int64)
+    children = np.full((len(nodes), 2), -1, np.int64)
+    children[interior, 0], children[interior, 1] = interior + 1, nodes["offset"][interior]
+    frontier, level = np.array([0]), 0
+    while len(frontier):
+        depth[frontier] = level
+        c = children[frontier].ravel()
+        frontier, level = c[c >= 0], level + 1
+    return depth
+
+
+def build_bvh(lo: np.ndarray, hi: np.ndarray, builder: str = "sah", max_leaf_size: int = 4, bins: int = 16,
+              *, sah_samples: int = SAH_SAMPLES, halving_below: int = HALVING_BELOW) -> BVH:
+    """Build a BVH over N primitives given their bounds lo, hi (each (N, 3))."""
+    start = time.perf_counter()
+    if builder not in BUILDERS:
+        raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
+    if int(max_leaf_size) < 1:
+        raise UsageError(f"max_leaf_size {max_leaf_size} must be >= 1")
+    if int(bins) < 2:
+        raise UsageError(f"bins {bins} must be >= 2")
+    if int(sah_samples) < 2:
+        raise UsageError(f"sah_samples {sah_samples} must be >= 2")
+    lo = np.asarray(lo, np.float32)
+    hi = np.asarray(hi, np.float32)
+    if lo.ndim != 2 or lo.shape[1:] != (3,) or lo.shape != hi.shape:
+        raise UsageError(f"primitive bounds must be two (N, 3) arrays, got {lo.shape} and {hi.shape}")
+    n = len(lo)
+    if n == 0:
+        nodes = np.zeros(1, NODE_DTYPE)
+        return BVH(nodes, np.zeros(0, np.int32), time.perf_counter() - start, builder)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise UsageError("primitive bounds contain NaN or infinite values; allowed: finite numbers")
+    if (hi < lo).any():
+        raise UsageError("primitive bounds have hi < lo; allowed: boxes with lo <= hi")
+    if builder == "median":
+        levels, order = _median_levels(lo, hi, int(max_leaf_size))
+    else:
+        levels, order = _sah_levels(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
+    nodes = _depth_first(levels)
+    return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
+
+
+# ---------------------------------------------------------------- level records
+@dataclass
+class _Level:
+    bmin: np.ndarray  # (k, 3) float32
+    bmax: np.ndarray  # (k, 3) float32
+    start: np.ndarray  # (k,) first slot in prim_order
+    count: np.ndarray  # (k,) primitives below the node
+    split: np.ndarray  # (k,) bool: interior node
+    child: np.ndarray  # (number of split nodes,) index of the first child in the next level; the second is next to it
+
+
+def _depth_first(levels: list[_Level]) -> np.ndarray:
+    """Renumber a breadth-first tree in preorder: subtree sizes bottom-up, then indices top-down."""
+    sizes = [None] * len(levels)
+    for d in range(len(levels) - 1, -1, -1):
+        lv = levels[d]
+        size = np.ones(len(lv.count), np.int64)
+        if lv.split.any():
+            below = sizes[d + 1]
+            size[lv.split] += below[lv.child] + below[lv.child + 1]
+        sizes[d] = size
+    nodes = np.zeros(int(sizes[0][0]), NODE_DTYPE)
+    pre = np.zeros(1, np.int64)
+    for d, lv in enumerate(levels):
+        leaf = ~lv.split
+        nodes["bmin"][pre] = lv.bmin
+        nodes["bmax"][pre] = lv.bmax
+        nodes["count"][pre[leaf]] = lv.count[leaf]
+        nodes["offset"][pre[leaf]] = lv.start[leaf]
+        if not lv.split.any():
+            break
+        near = pre[lv.split] + 1  # the first child follows its parent
+        far = near + sizes[d + 1][lv.child]  # the second follows the first's subtree
+        nodes["offset"][pre[lv.split]] = far
+        nxt = np.empty(len(sizes[d + 1]), np.int64)
+        nxt[lv.child], nxt[lv.child + 1] = near, far
+        pre = nxt
+    return nodes
+
+
+def _segments(count: np.ndarray):
+    """First index of each segment and the segment of each element, for segments of these sizes."""
+    seg_start = np.zeros(len(count), np.int64)
+    np.cumsum(count[:-1], out=seg_start[1:])
+    return seg_start, np.repeat(np.arange(len(count)), count)
+
+
+def _halves(start, count):
+    """Children of splitting ranges in halves (the first gets count // 2), as interleaved pairs."""
+    left = count // 2
+    return np.stack([start, start + left], axis=1).ravel(), np.stack([left, count - left], axis=1).ravel()
+
+
+def _range_bounds(box, start, count):
+    """Bounds of the ranges [start, start + count) of box (6, n + 1), ranges sorted and disjoint."""
+    ranges = np.stack([start, start + count], axis=1).ravel()  # keep every other reduction
+    bmin = np.minimum.reduceat(box[0:3], ranges, axis=1)[:, 0::2].T
+    bmax = np.maximum.reduceat(box[3:6], ranges, axis=1)[:, 0::2].T
+    return bmin, bmax
+
+
+# ---------------------------------------------------------------- median (seed)
+def _median_levels(lo, hi, max_leaf):
+    """The seed's builder: one sort by centroid x, then every node splits its range in halves."""
+    order = np.argsort(lo[:, 0] + hi[:, 0], kind="stable")
+    box = np.zeros((6, len(lo) + 1), np.float32)
+    box[0:3, :-1], box[3:6, :-1] = lo[order].T, hi[order].T
+    levels = []
+    start, count = np.zeros(1, np.int64), np.array([len(lo)], np.int64)
+    while len(start):
+        bmin, bmax = _range_bounds(box, start, count)
+        split = count > max_leaf
+        levels.append(_Level(bmin, bmax, start, count, split, 2 * np.arange(split.sum())))
+        start, count = _halves(start[split], count[split])
+    return levels, order
+
+
+# ---------------------------------------------------------------- binned SAH
+def _sah_levels(lo, hi, max_leaf, bins, samples, small):
+    """Binned SAH, one level at a time.
+
+    Active nodes: `box` holds their primitives' bounds as (6, n) rows lo.xyz, hi.xyz, ordered so
+    that each node owns one contiguous segment, and every level splits them by their best SAH bin.
+    A node that is small, too deep, or has no bin split leaves the active set: its primitives are
+    sorted once by Morton code (of the centroid, within the node's centroid bounds) and written at
+    their final slots (`order`, and their bounds to `fixed`); its subtree then splits slot ranges
+    in halves, which only needs the bounds of those ranges.  Leaves leave the active set the same way.
+    """
+    n_total = len(lo)
+    box = np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T)
+    ids = np.arange(n_total, dtype=np.int32)
+    order = np.empty(n_total, np.int32)
+    fixed = np.zeros((6, n_total + 1), np.float32)  # bounds by final slot, for the halving nodes
+    leaf_cap = 4 * max_leaf
+    levels = []
+    gstart, count = np.zeros(1, np.int64), np.array([n_total], np.int64)  # active nodes
+    hstart, hcount = np.zeros(0, np.int64), np.zeros(0, np.int64)  # halving nodes, sorted by slot
+    depth = 1
+    while len(count) or len(hcount):
+        k = len(count)
+        split = count > max_leaf
+        binned = np.zeros(k, bool)
+        enter = np.zeros(k, bool)
+        if k:
+            seg_start, seg_of = _segments(count)
+            cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
+            bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
+            bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
+            # halving from here keeps depth <= MAX_DEPTH: a halved subtree adds ceil(log2(count)) levels
+            too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_DEPTH
+            enter = split & ((count <= small) | too_deep)
+            cand = np.flatnonzero(split & ~enter)
+            axis = np.zeros(k, np.int64)
+            cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
+            if split.any():
+                cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
+                cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
+                extent = cmax - cmin
+            if len(cand):
+                scale = np.where(extent > 0, bins / np.where(extent > 0, extent, 1), 0).astype(np.float32)
+                ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, count, cand, cmin, scale,
+                                                               bmin, bmax, bins, samples)
+                make_leaf = ok & (cost >= INTERSECT_COST * count[cand]) & (count[cand] <= leaf_cap)
+                split[cand[make_leaf]] = False
+                enter[cand[~ok]] = True
+            binned = split & ~enter
+            if enter.any():
+                box, ids = _morton_sort(box, ids, cen, np.flatnonzero(enter[seg_of]), seg_of, cmin, extent)
+        else:
+            bmin = bmax = np.zeros((0, 3), np.float32)
+        hsplit = hcount > max_leaf
+        hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (bmin[:0], bmin[:0])
+
+        # next level: children of binned nodes (active), then halves of entering and halving nodes
+        n_binned = int(binned.sum())
+        e_start, e_count = _halves(gstart[enter], count[enter])
+        h_start, h_count = _halves(hstart[hsplit], hcount[hsplit])
+        both = np.concatenate([e_start, h_start])
+        srt = np.argsort(both, kind="stable")  # two sorted runs: keep the halving nodes sorted by slot
+        where = np.empty(len(both), np.int64)
+        where[srt] = np.arange(len(both))
+        child_active = np.zeros(k, np.int64)
+        child_active[binned] = 2 * np.arange(n_binned)
+        child_active[enter] = 2 * n_binned + where[0:len(e_start):2]
+        child_h = 2 * n_binned + where[len(e_start)::2]
+        levels.append(_Level(np.concatenate([bmin, hmin]), np.concatenate([bmax, hmax]),
+                             np.concatenate([gstart, hstart]), np.concatenate([count, hcount]),
+                             np.concatenate([split, hsplit]), np.concatenate([child_active[split], child_h])))
+        hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
+        depth += 1
+        if not k:
+            continue
+
+        # side of every active primitive: True = left (primitives of leaves and entering nodes
+        # count as left too, and go to the tail)
+        n = len(ids)
+        i = np.arange(n, dtype=np.int64)
+        done = ~binned[seg_of]
+        if n_binned:
+            rows = np.take(cen.ravel(), axis[seg_of] * n + i)  # centroid along the node's split axis
+            kk = np.arange(k)
+            c0, sc = cmin[kk, axis][seg_of], scale[kk, axis][seg_of]
+            go_left = np.minimum(((rows - c0) * sc).astype(np.int64), bins - 1) <= cut[seg_of]
+            go_left |= done
+        else:
+            go_left = np.ones(n, bool)
+
+        # stable partition within each node: left primitives, then right ones; the primitives of
+        # nodes leaving the active set, in node order, at the tail
+        left_incl = np.cumsum(go_left)
+        before = np.concatenate([[0], left_incl])[seg_start]
+        n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
+        s = np.flatnonzero(binned)
+        new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
+        new_start, _ = _segments(new_count)
+        n_keep = int(new_count.sum())
+        leaving = ~binned
+        tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
+        base_left = tail_start - before
+        base_left[s] = new_start[0::2] - before[s]
+        base_right = np.zeros(k, np.int64)
+        base_right[s] = new_start[1::2] - seg_start[s] + before[s]
+        dest = np.where(go_left, left_incl - 1 + base_left[seg_of], i - left_incl + base_right[seg_of])
+        perm = np.empty(n, np.int64)
+        perm[dest] = i
+        ids = np.take(ids, perm)
+        if n_keep < n:  # final slots of the primitives leaving the active set
+            slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
+            order[slot] = ids[n_keep:]
+            if enter.any():
+                tail = perm[n_keep:]
+                for d in range(6):
+                    fixed[d, slot] = box[d, tail]
+        box = np.take(box, perm[:n_keep], axis=1)
+        ids = ids[:n_keep]
+        gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
+        count = new_count
+    return levels, order
+
+
+def _morton_sort(box, ids, cen, prims, seg_of, cmin, extent):
+    """Sort the primitives at positions `prims` (whole segments) by node, then Morton code."""
+    node = seg_of[prims]
+    scale = np.where(extent > 0, 1023.0 / np.where(extent > 0, extent, 1), 0)
+    code = np.zeros(len(prims), np.int64)
+    cp = np.take(cen, prims, axis=1)
+    for a in range(3):
+        q = ((cp[a] - cmin[node, a]) * scale[node, a]).astype(np.int64)
+        code |= _spread_bits(np.clip(q, 0, 1023)) << (2 - a)
+    srt = np.argsort(node.astype(np.int64) << 30 | code, kind="stable")
+    src = prims[srt]
+    box[:, prims] = np.take(box, src, axis=1)
+    ids[prims] = ids[src]
+    return box, ids
+
+
+def _spread_bits(v):
+    """Insert two zero bits between each of the low 10 bits of v (Morton interleave)."""
+    v = (v | (v << 16)) & 0x030000FF
+    v = (v | (v << 8)) & 0x0300F00F
+    v = (v | (v << 4)) & 0x030C30C3
+    return (v | (v << 2)) & 0x09249249
+
+
+def _best_splits(box, cen, seg_start, count, cand, cmin, scale, bmin, bmax, bins, samples):
+    """Best binned-SAH split of each candidate node, over all three axes.
+
+    Returns (ok, axis, cut, cost) per candidate; ok is False where no bin split separates the
+    centroids (they all fall into one bin on every axis).  Bin tables are laid out bin-major,
+    (bins, 3 * nc) with column 3 * node + axis, so the sweeps run over long contiguous rows.
+    """
+    nc = len(cand)
+    m = 3 * nc
+    c_count = count[cand]
+    take = np.minimum(c_count, samples)
+    # primitives to bin: all of a small node, an evenly strided sample of a big one
+    if (take == c_count).all():
+        which = np.repeat(np.arange(nc), take)
+        p = (seg_start[cand][which] + (np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)))
+    else:
+        _, which = _segments(take)
+        j = np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)
+        p = seg_start[cand][which] + (j * c_count[which]) // take[which]
+    node = cand[which]
+    keys = np.empty((3, len(p)), np.int64)
+    cp = np.take(cen, p, axis=1)
+    for a in range(3):
+        b = ((cp[a] - cmin[node, a]) * scale[node, a]).astype(np.int64)
+        keys[a] = np.minimum(b, bins - 1) * m + which * 3 + a
+    flat = keys.ravel()
+    n_bin = np.bincount(flat, minlength=bins * m).reshape(bins, m).astype(np.float32)
+    # per-bin bounds: rows lo.xyz, -hi.xyz so that one ufunc (minimum) does all six
+    bb = np.full((6, bins * m), np.inf, np.float32)
+    bp = np.take(box, p, axis=1)
+    bp[3:] *= -1
+    for d in range(6):
+        np.minimum.at(bb[d], flat, np.tile(bp[d], 3))
+    bb = bb.reshape(6, bins, m)
+    left = np.minimum.accumulate(bb, axis=1)[:, :-1]
+    right = np.minimum.accumulate(bb[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    n_l = np.cumsum(n_bin, axis=0)[:-1]
+    n_r = n_bin.sum(axis=0) - n_l
+
+    def area(t):  # half surface area from rows lo.xyz, -hi.xyz; empty (inf) boxes give 0 * 0
+        e = np.maximum(-(t[3:6] + t[0:3]), 0)
+        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+    with np.errstate(invalid="ignore"):
+        sah = area(left) * n_l + area(right) * n_r  # (bins - 1, m)
+    sah = np.where((n_l > 0) & (n_r > 0), sah, np.inf).reshape(bins - 1, nc, 3).transpose(1, 2, 0).reshape(nc, -1)
+    best = np.argmin(sah, axis=1)
+    best_sah = sah[np.arange(nc), best].astype(np.float64)
+    weight = c_count / take  # sampled counts stand for the whole node
+    node_area = half_area(bmin[cand].astype(np.float64), bmax[cand].astype(np.float64))
+    node_area = np.where(node_area > 0, node_area, 1.0)
+    cost = TRAVERSAL_COST + INTERSECT_COST * weight * best_sah / node_area
+    return np.isfinite(best_sah), best // (bins - 1), best % (bins - 1), cost

@@ -1,0 +1,228 @@
+"""Host BVH builders: layout and bounds invariants, edge cases, SAH quality, and a closest-hit
+traversal in numpy against brute force."""
+import numpy as np
+import pytest
+
+from clrender.bvh import BUILDERS, MAX_DEPTH, NODE_DTYPE, build_bvh
+from clrender.errors import UsageError
+
+
+def soup(rng, n, size=0.05):
+    """n random small triangles in the unit cube: (n, 3, 3) float32."""
+    c = rng.random((n, 1, 3))
+    return (c + (rng.random((n, 3, 3)) - 0.5) * size).astype(np.float32)
+
+
+def check_tree(bvh, lo, hi, max_leaf=None):
+    """Every invariant the kernels rely on."""
+    nodes, order = bvh.nodes, bvh.prim_order
+    n = len(lo)
+    assert nodes.dtype == NODE_DTYPE and NODE_DTYPE.itemsize == 32
+    assert order.dtype == np.int32 and np.array_equal(np.sort(order), np.arange(n))
+    count, offset = nodes["count"], nodes["offset"]
+    leaf = count > 0
+    interior = np.flatnonzero(~leaf)
+    # layout: near child at i + 1, far child after it
+    assert (interior + 1 < len(nodes)).all()
+    assert ((offset[interior] > interior + 1) & (offset[interior] < len(nodes))).all()
+    # preorder: an explicit-stack walk from the root visits 0, 1, 2, ... and every node once
+    visited, stack = [], [0]
+    while stack:
+        i = stack.pop()
+        visited.append(i)
+        if count[i] == 0:
+            stack += [int(offset[i]), i + 1]
+    assert visited == list(range(len(nodes)))
+    # leaves cover the slots exactly once
+    slots = np.concatenate([np.arange(o, o + c) for o, c in zip(offset[leaf], count[leaf])])
+    assert np.array_equal(np.sort(slots), np.arange(n))
+    # bounds contain children and primitives
+    bmin, bmax = nodes["bmin"], nodes["bmax"]
+    for child in (interior + 1, offset[interior]):
+        assert (bmin[interior] <= bmin[child]).all() and (bmax[interior] >= bmax[child]).all()
+    leaf_of_slot = np.repeat(np.flatnonzero(leaf), count[leaf])
+    prims = order[np.concatenate([np.arange(o, o + c) for o, c in zip(offset[leaf], count[leaf])])]
+    assert (bmin[leaf_of_slot] <= lo[prims]).all() and (bmax[leaf_of_slot] >= hi[prims]).all()
+    assert bvh.depth <= MAX_DEPTH
+    if max_leaf is not None:
+        assert bvh.max_leaf_size <= max_leaf
+    assert bvh.node_count == len(nodes) and bvh.leaf_count == int(leaf.sum())
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 17, 64, 1000])
+def test_invariants_random_soup(builder, n):
+    tri = soup(np.random.default_rng(n), n)
+    lo, hi = tri.min(1), tri.max(1)
+    bvh = build_bvh(lo, hi, builder=builder)
+    check_tree(bvh, lo, hi, max_leaf=4 if builder == "median" else 16)
+    assert bvh.builder == builder and bvh.build_seconds >= 0
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_no_primitives(builder):
+    bvh = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), builder=builder)
+    assert len(bvh.nodes) == 1 and bvh.nodes["count"][0] == 0 and bvh.nodes["offset"][0] == 0
+    assert len(bvh.prim_order) == 0 and bvh.depth == 1
+
+
+def test_single_primitive_is_one_leaf():
+    lo, hi = np.array([[0, 1, 2]], np.float32), np.array([[1, 2, 3]], np.float32)
+    bvh = build_bvh(lo, hi)
+    assert len(bvh.nodes) == 1 and bvh.nodes["count"][0] == 1 and bvh.nodes["offset"][0] == 0
+    assert np.array_equal(bvh.nodes["bmin"][0], lo[0]) and np.array_equal(bvh.nodes["bmax"][0], hi[0])
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+@pytest.mark.parametrize("max_leaf", [1, 2, 4])
+def test_identical_boxes(builder, max_leaf):
+    """All centroids coincide: no SAH bin split exists, the builder halves instead."""
+    lo = np.tile(np.float32([[0.5, 0.5, 0.5]]), (100, 1))
+    bvh = build_bvh(lo, lo + 0.1, builder=builder, max_leaf_size=max_leaf)
+    check_tree(bvh, lo, lo + 0.1, max_leaf=4 * max_leaf)
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_flat_and_point_boxes(builder, rng):
+    """Boxes of zero thickness (a planar mesh) and zero size (points) in every axis."""
+    for flat_axes in ([2], [0, 1, 2]):
+        lo = rng.random((500, 3)).astype(np.float32)
+        hi = lo + rng.random((500, 3)).astype(np.float32) * 0.01
+        lo[:, flat_axes] = 0.25
+        hi[:, flat_axes] = 0.25
+        check_tree(build_bvh(lo, hi, builder=builder), lo, hi)
+
+
+def test_sampled_and_halving_paths_keep_invariants(rng):
+    """Big nodes bin a sample, small ones are halved in Morton order: force both at small sizes."""
+    tri = soup(rng, 5000, size=0.2)
+    lo, hi = tri.min(1), tri.max(1)
+    for samples, halving in ((16, 8), (64, 100), (4096, 4)):
+        bvh = build_bvh(lo, hi, sah_samples=samples, halving_below=halving)
+        check_tree(bvh, lo, hi, max_leaf=16)
+
+
+def test_depth_is_capped_on_a_pathological_input():
+    """Exponentially spaced boxes make binned SAH peel one primitive per level; the depth cap
+    switches to halving splits in time."""
+    x = np.float32(2.0) ** np.arange(120, dtype=np.float32)
+    lo = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    bvh = build_bvh(lo, lo + 1, max_leaf_size=1)
+    check_tree(bvh, lo, lo + 1)
+    assert bvh.depth <= MAX_DEPTH
+
+
+def test_median_is_the_seeds_rule(rng):
+    """Sorted by centroid x, each node split into halves (left count // 2), leaves of <= 4."""
+    tri = soup(rng, 203)
+    lo, hi = tri.min(1), tri.max(1)
+    bvh = build_bvh(lo, hi, builder="median")
+    assert np.array_equal(bvh.prim_order, np.argsort(lo[:, 0] + hi[:, 0], kind="stable"))
+
+    def leaf_sizes(n):  # preorder leaf sizes of the halving recursion
+        return [n] if n <= 4 else leaf_sizes(n // 2) + leaf_sizes(n - n // 2)
+
+    nodes = bvh.nodes
+    assert list(nodes["count"][nodes["count"] > 0]) == leaf_sizes(203)
+
+
+def test_sah_cost_of_a_hand_built_tree():
+    lo = np.float32([[0, 0, 0], [2, 0, 0]])
+    bvh = build_bvh(lo, lo + 1, max_leaf_size=1)
+    # root: 3 x 1 x 1 box (half area 7); two unit-cube leaves (half area 3) of one primitive
+    assert bvh.sah_cost() == pytest.approx(1 + (3 + 3) / 7)
+    assert bvh.sah_cost(traversal_cost=2, intersect_cost=0.5) == pytest.approx(2 + 0.5 * 6 / 7)
+
+
+def test_sah_beats_median_on_a_soup(rng):
+    tri = soup(rng, 20000, size=0.02)
+    lo, hi = tri.min(1), tri.max(1)
+    sah, median = build_bvh(lo, hi, "sah"), build_bvh(lo, hi, "median")
+    assert sah.sah_cost() <= median.sah_cost()
+
+
+def test_deterministic(rng):
+    tri = soup(rng, 3000)
+    lo, hi = tri.min(1), tri.max(1)
+    for builder in BUILDERS:
+        a, b = build_bvh(lo, hi, builder), build_bvh(lo, hi, builder)
+        assert a.nodes.tobytes() == b.nodes.tobytes() and np.array_equal(a.prim_order, b.prim_order)
+
+
+@pytest.mark.parametrize("bad", [
+    dict(lo=np.zeros((3, 2)), hi=np.zeros((3, 2))),
+    dict(lo=np.zeros((3, 3)), hi=np.zeros((4, 3))),
+    dict(lo=np.full((3, 3), np.nan), hi=np.zeros((3, 3))),
+    dict(lo=np.ones((3, 3)), hi=np.zeros((3, 3))),
+    dict(builder="octree"),
+    dict(max_leaf_size=0),
+    dict(bins=1),
+])
+def test_bad_input(bad):
+    args = dict(lo=np.zeros((3, 3)), hi=np.ones((3, 3)), builder="sah")
+    args.update(bad)
+    with pytest.raises(UsageError):
+        build_bvh(**args)
+
+
+# ------------------------------------------------------------ traversal reference
+def ray_triangles(o, d, tri):
+    """Möller-Trumbore for one ray against triangles (m, 3, 3): t per triangle, inf on a miss."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    ok = np.abs(det) > 1e-12
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    s = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", s, p) * inv
+    q = np.cross(s, e1)
+    v = (q @ d) * inv
+    t = np.einsum("ij,ij->i", e2, q) * inv
+    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+    return np.where(hit, t, np.inf)
+
+
+def slab(o, inv_d, bmin, bmax, t_max):
+    t0, t1 = (bmin - o) * inv_d, (bmax - o) * inv_d
+    near = np.minimum(t0, t1).max()
+    far = np.maximum(t0, t1).min()
+    return near <= far and far >= 0 and near <= t_max
+
+
+def closest_hit(bvh, tri, o, d):
+    """Near-first traversal with a stack, as the kernel does: (t, primitive id)."""
+    nodes = bvh.nodes
+    inv_d = 1 / np.where(d == 0, 1e-30, d)
+    best_t, best_id, stack = np.inf, -1, [0]
+    while stack:
+        i = stack.pop()
+        if not slab(o, inv_d, nodes["bmin"][i], nodes["bmax"][i], best_t):
+            continue
+        if nodes["count"][i] > 0:
+            ids = bvh.prim_order[nodes["offset"][i]:nodes["offset"][i] + nodes["count"][i]]
+            t = ray_triangles(o, d, tri[ids])
+            j = int(np.argmin(t))
+            if t[j] < best_t:
+                best_t, best_id = t[j], int(ids[j])
+        else:
+            stack += [int(nodes["offset"][i]), i + 1]
+    return best_t, best_id
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_closest_hit_matches_brute_force(builder, rng):
+    tri = soup(rng, 400, size=0.3).astype(np.float64)
+    bvh = build_bvh(tri.min(1), tri.max(1), builder=builder, max_leaf_size=2)
+    hits = 0
+    for _ in range(200):
+        o = rng.random(3) * 3 - 1
+        d = rng.random(3) - o  # aim into the cube
+        d /= np.linalg.norm(d)
+        t_all = ray_triangles(o, d, tri)
+        t, pid = closest_hit(bvh, tri, o, d)
+        if np.isfinite(t_all.min()):
+            hits += 1
+            assert t == t_all.min() and pid == int(np.argmin(t_all))
+        else:
+            assert pid == -1
+    assert hits > 50
