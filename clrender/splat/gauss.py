@@ -1,0 +1,327 @@
+"""2D Gaussian splats: the model, host-side tile binning, and the forward/backward kernels.
+
+A splat has a centre (x, y) in pixels, log-scales (log sx, log sy), a rotation
+theta, a base colour (r, g, b), a luminance factor and an opacity in [0, 1].
+Its weight at pixel centre p is
+
+    w(p) = opacity * exp(-q / 2),  q = d^T Sigma^-1 d,  d = p - centre,
+    Sigma = R(theta) diag(sx^2, sy^2) R(theta)^T,
+
+cut to zero outside the 3-sigma ellipse (q >= 9); its effective colour is
+luminance * colour.  Blend modes (see kernels/splat_gauss.cl):
+
+    sum:        I = background + sum_i w_i c_i          (the seed's)
+    normalized: I = (sum_i w_i c_i + eps * background) / (sum_i w_i + eps)
+
+The forward kernel renders 16x16 tiles, each pixel visiting only the splats
+binned to its tile by their 3-sigma boxes (binned here with numpy).  The
+backward kernel writes one row of partial gradients per (tile, splat) entry;
+`np.bincount` sums the rows per splat, so the result has no races and is
+deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
+(log sx, log sy, theta) is done here, vectorised.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from ..errors import UsageError
+
+TILE = 16
+NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
+EPS = 1e-3  # normalized blend: weight of the background colour
+CUTOFF_SIGMA = 3.0
+BLENDS = ("sum", "normalized")
+GROUPS = ("xy", "log_scale", "theta", "color", "lum", "opacity")
+MIN_LOG_SCALE = float(np.log(0.25))  # sigma below a quarter pixel only aliases
+
+
+@dataclass
+class GaussParams:
+    """N splats fitted to a width x height image (arrays are float32, one row per splat)."""
+
+    xy: np.ndarray  # (N, 2) centre in pixels, pixel (i, j) has its centre at (i + 0.5, j + 0.5)
+    log_scale: np.ndarray  # (N, 2) log sigma along the rotated axes
+    theta: np.ndarray  # (N,) rotation, radians
+    color: np.ndarray  # (N, 3) base colour
+    lum: np.ndarray  # (N,) luminance factor (the seed's learned quantity); colour = lum * color
+    opacity: np.ndarray  # (N,) in [0, 1]
+    width: int = 0
+    height: int = 0
+    blend: str = "normalized"
+    background: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
+
+    def __post_init__(self):
+        for name in GROUPS:
+            setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float32))
+        self.background = np.asarray(self.background, dtype=np.float32).reshape(3)
+        if self.blend not in BLENDS:
+            raise UsageError(f"blend {self.blend!r} is unknown; allowed: {', '.join(BLENDS)}")
+
+    @property
+    def n(self) -> int:
+        return len(self.xy)
+
+    def groups(self) -> dict[str, np.ndarray]:
+        """The learnable arrays by group name (views: the optimiser updates them in place)."""
+        return {name: getattr(self, name) for name in GROUPS}
+
+    def select(self, index: np.ndarray) -> "GaussParams":
+        """A new model made of the splats at `index` (repeats allowed)."""
+        return GaussParams(**{name: getattr(self, name)[index] for name in GROUPS},
+                           width=self.width, height=self.height, blend=self.blend,
+                           background=self.background)
+
+    def copy(self) -> "GaussParams":
+        return self.select(np.arange(self.n))
+
+    def scaled(self, factor: float, width: int, height: int) -> "GaussParams":
+        """The same picture for a (factor x) larger image: centres and scales grow, colours stay."""
+        out = self.copy()
+        out.xy *= factor
+        out.log_scale += np.float32(np.log(factor))
+        out.width, out.height = int(width), int(height)
+        return out
+
+    def save(self, path) -> None:
+        np.savez(path, **self.groups(), width=self.width, height=self.height,
+                 blend=self.blend, background=self.background)
+
+    @classmethod
+    def load(cls, path) -> "GaussParams":
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                data = {k: f[k] for k in f.files}
+        except (OSError, ValueError) as exc:
+            raise UsageError(f"cannot read splat parameters from {str(path)!r} ({exc})") from exc
+        missing = [k for k in (*GROUPS, "width", "height", "blend") if k not in data]
+        if missing:
+            raise UsageError(f"{str(path)!r} is not a splat parameter file (missing {', '.join(missing)})")
+        return cls(**{k: data[k] for k in GROUPS}, width=int(data["width"]), height=int(data["height"]),
+                   blend=str(data["blend"]), background=data.get("background", np.zeros(3)))
+
+
+# ----------------------------------------------------------------------------- geometry
+
+
+def quadratic_form(log_scale: np.ndarray, theta: np.ndarray):
+    """(A, B2, C) with q = A dx^2 + B2 dx dy + C dy^2 = d^T Sigma^-1 d."""
+    a = np.exp(-2.0 * log_scale[:, 0])  # 1 / sx^2
+    b = np.exp(-2.0 * log_scale[:, 1])
+    c, s = np.cos(theta), np.sin(theta)
+    return c * c * a + s * s * b, 2.0 * c * s * (a - b), s * s * a + c * c * b
+
+
+def pixel_boxes(xy: np.ndarray, log_scale: np.ndarray, theta: np.ndarray, width: int, height: int):
+    """int32 (N, 4) pixel ranges [x0, x1) x [y0, y1) whose centres may lie in the 3-sigma ellipse."""
+    sx2, sy2 = np.exp(2.0 * log_scale[:, 0]), np.exp(2.0 * log_scale[:, 1])
+    c2, s2 = np.cos(theta) ** 2, np.sin(theta) ** 2
+    # half extents of the ellipse q = 9 (plus a hair for float32 rounding in the kernel)
+    rx = CUTOFF_SIGMA * np.sqrt(c2 * sx2 + s2 * sy2) + 1e-3
+    ry = CUTOFF_SIGMA * np.sqrt(s2 * sx2 + c2 * sy2) + 1e-3
+    x0 = np.ceil(xy[:, 0] - rx - 0.5)
+    x1 = np.floor(xy[:, 0] + rx - 0.5) + 1
+    y0 = np.ceil(xy[:, 1] - ry - 0.5)
+    y1 = np.floor(xy[:, 1] + ry - 0.5) + 1
+    box = np.stack([np.clip(x0, 0, width), np.clip(y0, 0, height),
+                    np.clip(x1, 0, width), np.clip(y1, 0, height)], axis=1)
+    return box.astype(np.int32)
+
+
+@dataclass
+class Binning:
+    """Splats sorted into 16x16 tiles (all arrays int32)."""
+
+    tiles_x: int
+    tiles_y: int
+    tile_start: np.ndarray  # (tiles + 1,) entries of tile t: [tile_start[t], tile_start[t+1])
+    entry_splat: np.ndarray  # (entries,) splat of each entry, sorted by tile then splat
+    entry_tile: np.ndarray  # (entries,) tile of each entry
+
+    @property
+    def n_entries(self) -> int:
+        return len(self.entry_splat)
+
+
+def bin_splats(box: np.ndarray, width: int, height: int) -> Binning:
+    """Assign every splat to the tiles its pixel box touches (vectorised: repeat, then sort by tile)."""
+    tiles_x, tiles_y = -(-width // TILE), -(-height // TILE)
+    nonempty = (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1])
+    tx0, ty0 = box[:, 0] // TILE, box[:, 1] // TILE
+    nx = np.where(nonempty, (box[:, 2] - 1) // TILE - tx0 + 1, 0)
+    ny = np.where(nonempty, (box[:, 3] - 1) // TILE - ty0 + 1, 0)
+    count = (nx * ny).astype(np.int64)
+    splat = np.repeat(np.arange(len(box), dtype=np.int32), count)
+    # k-th tile of its splat, row-major inside the splat's tile rectangle
+    k = np.arange(len(splat), dtype=np.int64) - np.repeat(np.cumsum(count) - count, count)
+    tile = (ty0[splat] + k // nx[splat]) * tiles_x + tx0[splat] + k % nx[splat]
+    order = np.argsort(tile, kind="stable")  # stable: splat index order inside each tile
+    entry_tile = tile[order].astype(np.int32)
+    tile_start = np.zeros(tiles_x * tiles_y + 1, np.int32)
+    np.cumsum(np.bincount(entry_tile, minlength=tiles_x * tiles_y), out=tile_start[1:])
+    return Binning(tiles_x, tiles_y, tile_start, splat[order], entry_tile)
+
+
+def pack(params: GaussParams):
+    """Kernel buffers: float8 splats (mx, my, A, B2, C, opacity, 0, 0), float4 colours, int4 boxes."""
+    n = params.n
+    A, B2, C = quadratic_form(params.log_scale.astype(np.float64), params.theta.astype(np.float64))
+    splats = np.zeros((n, 8), np.float32)
+    splats[:, 0:2] = params.xy
+    splats[:, 2], splats[:, 3], splats[:, 4] = A, B2, C
+    splats[:, 5] = params.opacity
+    colors = np.zeros((n, 4), np.float32)
+    colors[:, :3] = params.color * params.lum[:, None]
+    box = pixel_boxes(params.xy.astype(np.float64), params.log_scale.astype(np.float64),
+                      params.theta.astype(np.float64), params.width, params.height)
+    return splats, colors, box
+
+
+# ----------------------------------------------------------------------------- kernels
+
+
+@dataclass
+class Frame:
+    """What one forward pass leaves for the backward pass."""
+
+    image: np.ndarray  # (H, W, 3) rendered colour (pixels of unrendered tiles are 0)
+    weight: np.ndarray  # (H, W) sum of splat weights
+    tiles: np.ndarray  # int32 tiles rendered
+    binning: Binning
+    packed: tuple
+    params: GaussParams
+
+
+class GaussRenderer:
+    """Renders GaussParams with the OpenCL kernels and back-propagates image gradients."""
+
+    def __init__(self, device, width: int, height: int, blend: str = "normalized", background=(0, 0, 0)):
+        import pyopencl as cl
+
+        if blend not in BLENDS:
+            raise UsageError(f"blend {blend!r} is unknown; allowed: {', '.join(BLENDS)}")
+        if width < 1 or height < 1:
+            raise UsageError(f"image size {width}x{height} is empty; both sides must be >= 1")
+        self.cl = cl
+        self.dev = device
+        self.width, self.height, self.blend = int(width), int(height), blend
+        self.background = np.zeros(4, np.float32)
+        self.background[:3] = np.asarray(background, np.float32).reshape(3)
+        self.tiles_x, self.tiles_y = -(-width // TILE), -(-height // TILE)
+        defines = {"BLEND_NORMALIZED": int(blend == "normalized")}
+        self._forward = device.kernel("splat_gauss.cl", "splat_forward", defines)
+        self._backward = device.kernel("splat_gauss.cl", "splat_backward", defines)
+        nbytes = self.width * self.height * 16
+        device.check_fits(nbytes, f"a {width}x{height} splat image")
+        self._out = device.empty(nbytes)
+        self._out_host = np.empty((self.height, self.width, 4), np.float32)
+        self._partial = None
+        self._partial_bytes = 0
+        self.all_tiles = np.arange(self.tiles_x * self.tiles_y, dtype=np.int32)
+
+    def forward(self, params: GaussParams, tiles: np.ndarray | None = None) -> Frame:
+        """Render all tiles (or only `tiles`); returns a Frame for `backward`."""
+        cl, dev = self.cl, self.dev
+        if (params.width, params.height) != (self.width, self.height):
+            raise UsageError(f"parameters are for {params.width}x{params.height}, renderer is {self.width}x{self.height}")
+        tiles = self.all_tiles if tiles is None else np.ascontiguousarray(tiles, np.int32)
+        splats, colors, box = pack(params)
+        binning = bin_splats(box, self.width, self.height)
+        if tiles is not self.all_tiles:
+            self._out_host[...] = 0.0
+            cl.enqueue_copy(dev.queue, self._out, self._out_host)
+        b_splats, b_colors = dev.to_device(splats), dev.to_device(colors)
+        b_start, b_list = dev.to_device(binning.tile_start), dev.to_device(binning.entry_splat)
+        b_tiles = dev.to_device(tiles)
+        if len(tiles):
+            self._forward(dev.queue, (TILE * TILE, len(tiles)), (TILE * TILE, 1),
+                          b_splats, b_colors, b_start, b_list, b_tiles,
+                          np.int32(self.width), np.int32(self.height), np.int32(self.tiles_x),
+                          self.background, self._out)
+        cl.enqueue_copy(dev.queue, self._out_host, self._out)
+        out = self._out_host
+        frame = Frame(out[..., :3].copy(), out[..., 3].copy(), tiles, binning,
+                      (b_splats, b_colors, dev.to_device(box)), params)
+        return frame
+
+    def backward(self, frame: Frame, d_image: np.ndarray) -> dict[str, np.ndarray]:
+        """Gradients of the loss for every parameter group, from dL/dI (H, W, 3).
+
+        Also returns "weight": each splat's summed weight over the rendered
+        pixels (how much it contributes; used for pruning).
+        """
+        cl, dev = self.cl, self.dev
+        binning, params = frame.binning, frame.params
+        dimg = pixel_adjoint(d_image, frame.image, frame.weight, self.blend)
+        if len(frame.tiles) == len(self.all_tiles):
+            entries = slice(None)
+        else:
+            selected = np.zeros(len(self.all_tiles), bool)
+            selected[frame.tiles] = True
+            entries = np.nonzero(selected[binning.entry_tile])[0]
+        entry_splat = np.ascontiguousarray(binning.entry_splat[entries])
+        entry_tile = np.ascontiguousarray(binning.entry_tile[entries])
+        n_entries = len(entry_splat)
+        nbytes = n_entries * NGRAD * 4
+        dev.check_fits(nbytes, f"{n_entries} splat-tile gradient rows")
+        if nbytes > self._partial_bytes:
+            self._partial_bytes = max(nbytes, int(self._partial_bytes * 1.5))
+            self._partial = dev.empty(self._partial_bytes)
+        partial = np.empty((n_entries, NGRAD), np.float32)
+        if n_entries:
+            b_splats, b_colors, b_box = frame.packed
+            self._backward(dev.queue, (n_entries,), None, b_splats, b_colors, b_box,
+                           dev.to_device(entry_splat), dev.to_device(entry_tile), np.int32(n_entries),
+                           np.int32(self.width), np.int32(self.tiles_x), dev.to_device(dimg), self._partial)
+            cl.enqueue_copy(dev.queue, partial, self._partial)
+        raw = np.stack([np.bincount(entry_splat, weights=partial[:, j], minlength=params.n)
+                        for j in range(NGRAD)], axis=1)
+        return chain_rule(params, raw)
+
+
+def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str) -> np.ndarray:
+    """float4 per pixel (g.rgb, k) with dL/dc_i = g w_i and dL/dw_i = g . c_i - k.
+
+    sum:        I = bg + S          -> g = dL/dI, k = 0
+    normalized: I = (S + eps bg) / (W + eps)
+                dI/dw_i = (c_i - I) / (W + eps) -> g = dL/dI / (W + eps), k = g . I
+    """
+    h, w = weight.shape
+    out = np.empty((h, w, 4), np.float32)
+    if blend == "normalized":
+        g = d_image / (weight + EPS)[..., None]
+        out[..., :3] = g
+        out[..., 3] = np.einsum("ijc,ijc->ij", g, image)
+    else:
+        out[..., :3] = d_image
+        out[..., 3] = 0.0
+    return out
+
+
+def chain_rule(params: GaussParams, raw: np.ndarray) -> dict[str, np.ndarray]:
+    """From the kernel's (mx, my, A, B2, C, colour, opacity) gradients to every parameter group."""
+    ls = params.log_scale.astype(np.float64)
+    a, b = np.exp(-2.0 * ls[:, 0]), np.exp(-2.0 * ls[:, 1])
+    c, s = np.cos(params.theta.astype(np.float64)), np.sin(params.theta.astype(np.float64))
+    gA, gB, gC = raw[:, 2], raw[:, 3], raw[:, 4]
+    # A = c^2 a + s^2 b, B2 = 2cs (a - b), C = s^2 a + c^2 b;  da/dlog sx = -2a
+    g_a = gA * c * c + gB * 2 * c * s + gC * s * s
+    g_b = gA * s * s - gB * 2 * c * s + gC * c * c
+    g_theta = gA * 2 * c * s * (b - a) + gB * 2 * (c * c - s * s) * (a - b) + gC * 2 * c * s * (a - b)
+    g_color_eff = raw[:, 5:8]
+    return {
+        "xy": raw[:, 0:2].astype(np.float32),
+        "log_scale": np.stack([-2 * a * g_a, -2 * b * g_b], axis=1).astype(np.float32),
+        "theta": g_theta.astype(np.float32),
+        "color": (g_color_eff * params.lum[:, None]).astype(np.float32),
+        "lum": np.einsum("ij,ij->i", g_color_eff, params.color).astype(np.float32),
+        "opacity": raw[:, 8].astype(np.float32),
+        "weight": raw[:, 9].astype(np.float32),
+    }
+
+
+def render(device, params: GaussParams) -> np.ndarray:
+    """(H, W, 3) float32 image of `params` at its own size."""
+    renderer = GaussRenderer(device, params.width, params.height, params.blend, params.background)
+    return renderer.forward(params).image
