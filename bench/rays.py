@@ -22,10 +22,13 @@ from .common import median_seconds, write_table
 
 
 def framing_camera(vertices) -> Camera:
-    lo, hi = vertices.min(0), vertices.max(0)
-    centre, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
-    eye = centre + np.array([0.3, 0.4, 1.0]) / np.linalg.norm([0.3, 0.4, 1.0]) * radius * 2.2
-    return Camera(tuple(eye), tuple(centre), (0, 1, 0), 50.0)
+    """A camera whose view the mesh's bounding sphere just fills (most rays hit)."""
+    centre = (vertices.min(0) + vertices.max(0)) / 2
+    radius = np.linalg.norm(vertices - centre, axis=1).max()
+    fov = 50.0
+    direction = np.array([0.3, 0.4, 1.0]) / np.linalg.norm([0.3, 0.4, 1.0])
+    eye = centre + direction * radius / np.sin(np.radians(fov / 2))
+    return Camera(tuple(eye), tuple(centre), (0, 1, 0), fov)
 
 
 def ray_throughput(mesh, size: int, runs: int, builder: str):

@@ -41,6 +41,7 @@
 
 typedef struct {
     float3 o, d, inv_d;
+    float3 o_inv_d; /* o * inv_d, so a slab test is one fma per axis */
 } Ray;
 
 inline Ray make_ray(float3 o, float3 d) {
@@ -48,6 +49,7 @@ inline Ray make_ray(float3 o, float3 d) {
     r.o = o;
     r.d = d;
     r.inv_d = (float3)(1.0f) / d;
+    r.o_inv_d = r.o * r.inv_d;
     return r;
 }
 

@@ -65,31 +65,36 @@ inline float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
     return INF_T;
 }
 
-/* Test primitive slot s; keep the nearer hit (ties go to the lower id, so
- * any traversal order finds the same primitive). */
-inline void test_slot(__global const float4 *prims, int s, Ray r, float t_min, Hit *best) {
+/* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
+inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
     float4 a = prims[3 * s], b = prims[3 * s + 1], c = prims[3 * s + 2];
-    float u = 0.0f, v = 0.0f, t;
-    if (b.w != 0.0f)
-        t = hit_sphere(r, (float4)(a.xyz, b.x), t_min, best->t * 1.0000002f);
-    else
-        t = hit_triangle(r, a, b, c, t_min, best->t * 1.0000002f, &u, &v);
-    if (t == INF_T) return;
-    int id = as_int(a.w);
-    if (t < best->t || (t == best->t && id < best->id)) {
-        best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
-    }
+    if (b.w != 0.0f) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
+    return hit_triangle(r, a, b, c, t_min, t_max, u, v);
 }
 
 /* Slab test; returns the entry distance or INF_T.  The far distance is
  * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in. */
 inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
-    float3 t0 = (bmin.xyz - r.o) * r.inv_d;
-    float3 t1 = (bmax.xyz - r.o) * r.inv_d;
+    float3 t0 = fma(bmin.xyz, r.inv_d, -r.o_inv_d);
+    float3 t1 = fma(bmax.xyz, r.inv_d, -r.o_inv_d);
     float3 tn = fmin(t0, t1), tf = fmax(t0, t1);
     float t_enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
     float t_exit = fmin(fmin(tf.x, tf.y), fmin(tf.z, t_max)) * 1.0000004f;
     return t_enter <= t_exit ? t_enter : INF_T;
+}
+
+/* Test slots [begin, end), keeping the nearest hit.  Ties go to the lower
+ * primitive id, so every traversal order (BVH on or off, either builder)
+ * finds the same primitive. */
+inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, float t_min, Hit *best) {
+    for (int s = begin; s < end; ++s) {
+        float u = 0.0f, v = 0.0f;
+        float t = hit_slot(prims, s, r, t_min, best->t * 1.0000002f, &u, &v);
+        int id = as_int(prims[3 * s].w);
+        if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
+            best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
+        }
+    }
 }
 
 inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
@@ -100,15 +105,14 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     int stack[STACK_SIZE];
     float stack_t[STACK_SIZE];
     int sp = 0;
-    int node = 0;
-    if (n_prims == 0 || hit_box(r, nodes[0], nodes[1], best.t) == INF_T) node = -1;
+    int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
     while (node >= 0) {
         *visits += 1;
         float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
         int count = as_int(hi.w), offset = as_int(lo.w);
         int next = -1;
         if (count > 0) {
-            for (int s = offset; s < offset + count; ++s) test_slot(prims, s, r, t_min, &best);
+            test_slots(prims, offset, offset + count, r, t_min, &best);
         } else {
             int near_child = node + 1, far_child = offset;
             float t_near = hit_box(r, nodes[2 * near_child], nodes[2 * near_child + 1], best.t);
@@ -132,7 +136,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
         node = next;
     }
 #else
-    for (int s = 0; s < n_prims; ++s) test_slot(prims, s, r, t_min, &best);
+    test_slots(prims, 0, n_prims, r, t_min, &best);
     *visits += (uint)n_prims;
 #endif
     if (best.slot < 0) best = no_hit();
