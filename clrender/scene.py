@@ -304,7 +304,7 @@ class _SceneReader:
         return self.mesh(o, path, materials)
 
     def mesh(self, o, path, materials) -> Mesh:
-        self.check_keys(o, path, ("type", "file", "generator", "translate", "rotate", "scale", "smooth", "material"))
+        self.check_keys(o, path, ("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material"))
         if ("file" in o) == ("generator" in o):
             self.fail(path, "a mesh needs exactly one of 'file' or 'generator'")
         if "file" in o:
@@ -314,11 +314,8 @@ class _SceneReader:
             tm = load_mesh_file(self.base_dir / file, f"{self.where}: {path}.file")
             source = file
         else:
-            gen = self.choice(o, "generator", path, None, MESH_GENERATORS)
-            from . import meshes
-
-            tm = getattr(meshes, gen)()
-            source = gen
+            tm = self.generated_mesh(o, path)
+            source = o["generator"]
         scale = o.get("scale", 1.0)
         if isinstance(scale, (int, float)) and not isinstance(scale, bool):
             scale = (float(scale),) * 3
@@ -337,6 +334,24 @@ class _SceneReader:
             n = np.asarray(tm.vertex_normals, np.float64) @ np.linalg.inv(matrix[:3, :3])
             normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
         return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, self.material_ref(o, path, materials), smooth, source)
+
+
+    def generated_mesh(self, o, path):
+        """A built-in mesh: `generator` names a function of clrender.meshes, `params` its keyword arguments."""
+        import inspect
+
+        from . import meshes
+
+        gen = self.choice(o, "generator", path, None, MESH_GENERATORS)
+        params = self.table(o.get("params", {}), f"{path}.params")
+        function = getattr(meshes, gen)
+        accepted = [p for p in inspect.signature(function).parameters]
+        for key, value in params.items():
+            if key not in accepted:
+                self.fail(f"{path}.params.{key}", f"unknown parameter of generator {gen!r}; allowed: {', '.join(accepted) or 'none'}")
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                self.fail(f"{path}.params.{key}", f"expected a number, got {value!r}")
+        return function(**params)
 
 
 def transform_matrix(translate=(0, 0, 0), rotate_degrees=(0, 0, 0), scale=(1, 1, 1)) -> np.ndarray:
