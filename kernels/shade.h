@@ -167,10 +167,16 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
         if (dot(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
 
-        float3 surface = sc->ambient * kd.xyz +
-                       direct_light(sc, p, n_shade, n_geo, -d, kd, ks, rng, first_hit ? shadow : 0, visits, rays);
+        /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
+           unless this is the primary hit whose light visibility the edge detector needs */
+        float3 surface_weight = w * (1.0f - transparency) * (1.0f - mirror);
+        __global float *shadow_here = first_hit ? shadow : 0;
+        if (fmax(surface_weight.x, fmax(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
+            float3 surface = sc->ambient * kd.xyz +
+                             direct_light(sc, p, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
+            colour += surface_weight * surface;
+        }
         first_hit = false;
-        colour += w * (1.0f - transparency) * (1.0f - mirror) * surface;
         if (depth >= sc->max_depth) continue;
 
         /* what the surface passes on: mirror reflection, then the transparent part */
