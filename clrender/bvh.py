@@ -43,7 +43,7 @@ from .errors import UsageError
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
 BUILDERS = ("sah", "median")
 MAX_DEPTH = 48  # levels, root included; the kernels' stack (64) never overflows
-SAH_SAMPLES = 1024  # nodes larger than this bin a strided sample of this many primitives
+SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 32  # SAH nodes of at most this many primitives finish by Morton-order halving
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0

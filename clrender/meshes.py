@@ -4,6 +4,9 @@
 """
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import trimesh
 
@@ -64,3 +67,253 @@ def dense_mesh(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
 def dense(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     """Scene generator name for `dense_mesh` (about 100k triangles)."""
     return dense_mesh(n_triangles, seed)
+
+
+# ------------------------------------------------------------ implicit surfaces
+def sd_ellipsoid(p: np.ndarray, center, radii) -> np.ndarray:
+    """Approximate signed distance to an axis-aligned ellipsoid (Quilez's bound), p (..., 3)."""
+    q = (p - np.asarray(center, p.dtype)) / np.asarray(radii, p.dtype)
+    k0 = np.linalg.norm(q, axis=-1)
+    k1 = np.linalg.norm(q / np.asarray(radii, p.dtype), axis=-1)
+    centre = k1 < 1e-6  # the bound is 0 / 0 there: use the depth of the centre
+    return np.where(centre, -min(radii), k0 * (k0 - 1) / np.where(centre, 1, k1))
+
+
+def sd_capsule(p: np.ndarray, a, b, r_a: float, r_b: float | None = None) -> np.ndarray:
+    """Signed distance (approximate when tapered) to a capsule from a to b, radius r_a .. r_b."""
+    a, b = np.asarray(a, p.dtype), np.asarray(b, p.dtype)
+    r_b = r_a if r_b is None else r_b
+    ab = b - a
+    h = np.clip(((p - a) @ ab) / (ab @ ab), 0, 1)
+    return np.linalg.norm(p - a - h[..., None] * ab, axis=-1) - (r_a + (r_b - r_a) * h)
+
+
+def smooth_union(ds, k: float) -> np.ndarray:
+    """Polynomial smooth minimum of signed distances (blend width k)."""
+    d = ds[0]
+    for e in ds[1:]:
+        h = np.maximum(k - np.abs(d - e), 0) / k
+        d = np.minimum(d, e) - h * h * k * 0.25
+    return d
+
+
+def surface_nets(field, lo, hi, resolution: int, project: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Mesh the surface field(p) = 0 (negative inside) in the box [lo, hi], about `resolution` cells
+    along its longest side, by naive surface nets: one vertex per cell the surface crosses (the mean
+    of its edge crossings, then `project` Newton steps onto the surface), one quad per crossed grid
+    edge, split along its shorter diagonal.  Faces wind counter-clockwise seen from outside.
+    The field must be positive on the box's boundary.  Returns (vertices, faces)."""
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    h = (hi - lo).max() / resolution
+    shape = np.ceil((hi - lo) / h).astype(int) + 1
+    axes = [lo[a] + h * np.arange(shape[a]) for a in range(3)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    f = field(grid.reshape(-1, 3).astype(np.float32)).astype(np.float64).reshape(shape)
+    inside = f < 0
+    nx, ny, nz = shape
+    cells = (nx - 1, ny - 1, nz - 1)
+    corner_offsets = [(i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+
+    def corner(arr, o):
+        return arr[o[0]:o[0] + nx - 1, o[1]:o[1] + ny - 1, o[2]:o[2] + nz - 1]
+
+    n_in = sum(corner(inside, o).astype(np.int8) for o in corner_offsets)
+    active = (n_in > 0) & (n_in < 8)
+    cell_ids = np.flatnonzero(active)
+    vid = np.full(cells, -1, np.int64)
+    vid.ravel()[cell_ids] = np.arange(len(cell_ids))
+    ci = np.stack(np.unravel_index(cell_ids, cells), axis=1)
+    # vertex: mean of the crossings on the cell's 12 edges
+    acc = np.zeros((len(ci), 3))
+    num = np.zeros(len(ci))
+    for a in range(3):
+        for o in corner_offsets:
+            if o[a]:
+                continue
+            o2 = list(o)
+            o2[a] = 1
+            fa = f[ci[:, 0] + o[0], ci[:, 1] + o[1], ci[:, 2] + o[2]]
+            fb = f[ci[:, 0] + o2[0], ci[:, 1] + o2[1], ci[:, 2] + o2[2]]
+            cross = (fa < 0) != (fb < 0)
+            t = np.where(cross, fa / np.where(cross, fa - fb, 1), 0)
+            p = ci + np.asarray(o, float)
+            p[:, a] += t
+            acc += p * cross[:, None]
+            num += cross
+    verts = lo + h * acc / num[:, None]
+    for _ in range(project):  # Newton steps onto the surface, at most half a cell each
+        e = h * 0.05
+        fv = field(verts)
+        g = np.stack([(field(verts + e * np.eye(3)[a]) - field(verts - e * np.eye(3)[a])) / (2 * e)
+                      for a in range(3)], axis=1)
+        step = -(fv / np.maximum((g * g).sum(1), 1e-12))[:, None] * g
+        norm = np.linalg.norm(step, axis=1, keepdims=True)
+        verts = verts + step * np.minimum(1, 0.5 * h / np.maximum(norm, 1e-30))
+    # quads around every crossed grid edge, ordered counter-clockwise around the outward axis
+    quads = []
+    rings = {0: [(0, -1, -1), (0, 0, -1), (0, 0, 0), (0, -1, 0)],
+             1: [(-1, 0, -1), (-1, 0, 0), (0, 0, 0), (0, 0, -1)],
+             2: [(-1, -1, 0), (0, -1, 0), (0, 0, 0), (-1, 0, 0)]}
+    for a in range(3):
+        o = [0, 0, 0]
+        o[a] = 1
+        lo_in = inside[:nx - o[0], :ny - o[1], :nz - o[2]]
+        hi_in = inside[o[0]:, o[1]:, o[2]:]
+        e = np.argwhere(lo_in != hi_in)
+        b = [x for x in range(3) if x != a]
+        e = e[(e[:, b[0]] > 0) & (e[:, b[1]] > 0)]  # edges on the grid's boundary faces have no ring
+        q = np.stack([vid[e[:, 0] + d[0], e[:, 1] + d[1], e[:, 2] + d[2]] for d in rings[a]], axis=1)
+        outward_up = lo_in[e[:, 0], e[:, 1], e[:, 2]]  # inside below: the surface faces +axis
+        q[~outward_up] = q[~outward_up][:, ::-1]
+        quads.append(q)
+    q = np.concatenate(quads)
+    d02 = np.linalg.norm(verts[q[:, 0]] - verts[q[:, 2]], axis=1)
+    d13 = np.linalg.norm(verts[q[:, 1]] - verts[q[:, 3]], axis=1)
+    use02 = (d02 <= d13)[:, None]
+    t1 = np.where(use02, q[:, [0, 1, 2]], q[:, [0, 1, 3]])
+    t2 = np.where(use02, q[:, [0, 2, 3]], q[:, [1, 2, 3]])
+    return verts, np.concatenate([t1, t2])
+
+
+# ------------------------------------------------------------ bunny
+BUNNY_VERSION = 1  # bump when the shape changes: names the cache file
+
+
+def bunny_field(p: np.ndarray) -> np.ndarray:
+    """Signed distance (approximate) of a sitting rabbit, y up, facing +z, about 2.6 units tall."""
+    parts = [
+        sd_ellipsoid(p, (0, 0.72, -0.15), (0.62, 0.62, 0.82)),  # body
+        sd_ellipsoid(p, (0.38, 0.48, -0.35), (0.32, 0.42, 0.55)),  # haunches
+        sd_ellipsoid(p, (-0.38, 0.48, -0.35), (0.32, 0.42, 0.55)),
+        sd_ellipsoid(p, (0, 0.85, 0.42), (0.42, 0.5, 0.42)),  # chest
+        sd_ellipsoid(p, (0, 1.42, 0.62), (0.36, 0.34, 0.42)),  # head
+        sd_ellipsoid(p, (0, 1.33, 0.98), (0.19, 0.17, 0.17)),  # snout
+        sd_ellipsoid(p, (0.14, 1.28, 0.88), (0.16, 0.14, 0.16)),  # cheeks
+        sd_ellipsoid(p, (-0.14, 1.28, 0.88), (0.16, 0.14, 0.16)),
+        sd_capsule(p, (0.12, 1.62, 0.5), (0.3, 2.45, 0.12), 0.1, 0.075),  # ears
+        sd_capsule(p, (-0.12, 1.62, 0.5), (-0.24, 2.5, 0.2), 0.1, 0.075),
+        sd_ellipsoid(p, (0, 0.62, -1.0), (0.2, 0.2, 0.17)),  # tail
+        sd_capsule(p, (0.2, 0.62, 0.5), (0.2, 0.13, 0.66), 0.1, 0.085),  # front legs
+        sd_capsule(p, (-0.2, 0.62, 0.5), (-0.2, 0.13, 0.66), 0.1, 0.085),
+        sd_ellipsoid(p, (0.2, 0.09, 0.74), (0.11, 0.09, 0.19)),  # front paws
+        sd_ellipsoid(p, (-0.2, 0.09, 0.74), (0.11, 0.09, 0.19)),
+        sd_ellipsoid(p, (0.42, 0.09, -0.1), (0.16, 0.09, 0.45)),  # hind feet
+        sd_ellipsoid(p, (-0.42, 0.09, -0.1), (0.16, 0.09, 0.45)),
+    ]
+    return smooth_union(parts, 0.12)
+
+
+def cache_dir() -> Path:
+    """~/.cache/clrender, or $XDG_CACHE_HOME/clrender."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "clrender"
+
+
+def build_bunny(resolution: int = 112) -> trimesh.Trimesh:
+    """Mesh `bunny_field` (no cache): scaled to fit a unit box, sitting on y = 0, centred in x and z."""
+    verts, faces = surface_nets(bunny_field, (-1.0, -0.2, -1.4), (1.0, 2.8, 1.4), resolution)
+    lo, hi = verts.min(0), verts.max(0)
+    verts = (verts - [(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2]) / (hi - lo).max()
+    return trimesh.Trimesh(verts, faces, process=False)
+
+
+def bunny(resolution: int = 112, cache: bool = True) -> trimesh.Trimesh:
+    """A closed bunny-like mesh (body, head, two long ears, tail, legs; about 3.5 * resolution^2
+    triangles, 43,840 at the default), scaled to fit a unit box, sitting on y = 0, facing +z.
+    Watertight at the default resolution (surface nets can leave a few non-manifold edges at others).
+
+    The first build (about two seconds) is cached as cache_dir()/bunny-v<version>-r<resolution>.ply;
+    later calls load that file.  cache=False always rebuilds and writes nothing."""
+    resolution = int(resolution)
+    if not 16 <= resolution <= 512:
+        raise UsageError(f"bunny resolution {resolution}; allowed: 16 to 512")
+    if not cache:
+        return build_bunny(resolution)
+    path = cache_dir() / f"bunny-v{BUNNY_VERSION}-r{resolution}.ply"
+    if path.is_file():
+        try:
+            mesh = trimesh.load(path, process=False)
+            if isinstance(mesh, trimesh.Trimesh) and len(mesh.faces):
+                return mesh
+        except Exception:  # a damaged cache file: rebuild it
+            pass
+    mesh = build_bunny(resolution)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
+        os.replace(tmp, path)
+    except OSError:  # read-only home: carry on without a cache
+        pass
+    return mesh
+
+
+# ------------------------------------------------------------ low-poly props
+def lathe(profile, segments: int) -> trimesh.Trimesh:
+    """Revolve a profile [(radius, y), ...] around the y axis.  The profile starts and ends on the
+    axis (radius 0) and runs bottom to top; the result is closed and wound outward."""
+    prof = np.asarray(profile, np.float64)
+    if prof[0, 0] != 0 or prof[-1, 0] != 0:
+        raise ValueError("a lathe profile must start and end on the axis")
+    inner = prof[1:-1]  # rings; the two ends become single pole vertices
+    rings = len(inner)
+    phi = 2 * np.pi * np.arange(segments) / segments
+    ring_v = np.stack([inner[:, :1] * np.sin(phi), np.broadcast_to(inner[:, 1:], (rings, segments)),
+                       inner[:, :1] * np.cos(phi)], axis=-1).reshape(-1, 3)
+    verts = np.concatenate([[[0, prof[0, 1], 0], [0, prof[-1, 1], 0]], ring_v])
+    s = np.arange(segments)
+    s1 = (s + 1) % segments
+    bottom = np.stack([np.zeros(segments, np.int64), 2 + s1, 2 + s], axis=1)
+    last = 2 + (rings - 1) * segments
+    top = np.stack([np.ones(segments, np.int64), last + s, last + s1], axis=1)
+    r = np.arange(rings - 1)[:, None] * segments + 2
+    a, b = r + s, r + s1
+    c, d = a + segments, b + segments
+    quads = np.stack([np.stack([a, b, d], -1), np.stack([a, d, c], -1)], axis=2).reshape(-1, 3)
+    faces = np.concatenate([bottom, quads, top])
+    mesh = trimesh.Trimesh(verts, faces, process=False)
+    if mesh.volume < 0:
+        mesh.invert()
+    return mesh
+
+
+def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
+    """A pointed hat with a brim and a tip bent back (-z): brim radius 0.5, height about 0.9, on y = 0."""
+    cone = [(0.24 * (1 - t) ** 1.3, 0.04 + 0.86 * t) for t in np.linspace(0, 1, 14)[1:]]
+    profile = [(0, 0), (0.5, 0), (0.5, 0.02), (0.26, 0.04), *cone]
+    profile[-1] = (0, profile[-1][1])
+    mesh = lathe(profile, segments)
+    v = mesh.vertices.copy()
+    bend = np.clip((v[:, 1] - 0.45) / 0.45, 0, None)
+    v[:, 2] -= 0.22 * bend ** 2  # the droop of the tip
+    v[:, 1] -= 0.06 * bend ** 3
+    mesh.vertices = v
+    return mesh
+
+
+def tower(segments: int = 24) -> trimesh.Trimesh:
+    """A round tower: a cylinder (radius 0.3, 1.5 high) with a battlement lip and a cone roof."""
+    profile = [(0, 0), (0.3, 0), (0.3, 1.5), (0.36, 1.52), (0.36, 1.62), (0.0, 2.2)]
+    return lathe(profile, segments)
+
+
+def cat(resolution: int = 40) -> trimesh.Trimesh:
+    """A low-poly sitting cat facing +z, about 1 tall, on y = 0: body, head, pointed ears, tail."""
+
+    def field(p):
+        return smooth_union([
+            sd_ellipsoid(p, (0, 0.32, -0.05), (0.26, 0.32, 0.3)),  # body
+            sd_ellipsoid(p, (0, 0.16, 0.02), (0.3, 0.16, 0.34)),  # haunches
+            sd_ellipsoid(p, (0, 0.72, 0.1), (0.19, 0.17, 0.17)),  # head
+            sd_ellipsoid(p, (0, 0.68, 0.24), (0.08, 0.06, 0.06)),  # muzzle
+            sd_capsule(p, (0.1, 0.8, 0.08), (0.14, 0.96, 0.06), 0.06, 0.012),  # ears
+            sd_capsule(p, (-0.1, 0.8, 0.08), (-0.14, 0.96, 0.06), 0.06, 0.012),
+            sd_capsule(p, (0.09, 0.3, 0.2), (0.09, 0.04, 0.24), 0.055),  # front legs
+            sd_capsule(p, (-0.09, 0.3, 0.2), (-0.09, 0.04, 0.24), 0.055),
+            sd_capsule(p, (0.05, 0.06, -0.32), (0.3, 0.05, -0.1), 0.045),  # tail curled around
+            sd_capsule(p, (0.3, 0.05, -0.1), (0.3, 0.05, 0.15), 0.045, 0.035),
+        ], 0.05)
+
+    verts, faces = surface_nets(field, (-0.5, -0.1, -0.5), (0.5, 1.1, 0.5), resolution)
+    verts[:, 1] -= verts[:, 1].min()
+    return trimesh.Trimesh(verts, faces, process=False)
