@@ -26,7 +26,8 @@ NEIGHBOURS = ((-1, 0), (0, -1), (-1, -1))
 
 # Radii up to this use cv2.dilate with a disc kernel (fast for small discs, cost grows
 # with the disc's area); larger ones use exact row distances (cost grows with the radius).
-_CV2_MAX_RADIUS = 8
+# Measured crossover at 1920x1080: between radius 30 (cv2 42 ms, rows 68 ms) and 60 (320 vs 198 ms).
+_CV2_MAX_RADIUS = 40
 
 
 def _as_path_ids(path_ids) -> np.ndarray:
@@ -56,14 +57,15 @@ def _check_nonnegative(name: str, value) -> float:
     return float(value)
 
 
-def _differs_from_neighbours(a: np.ndarray, differs) -> np.ndarray:
-    """(H, W) bool: `differs(here, there)` over the last axis, against the up, left and up-left pixels."""
-    H, W = a.shape[:2]
+def _differs_from_neighbours(planes: np.ndarray, differs) -> np.ndarray:
+    """(H, W) bool: `differs(here, there)` in any of the (K, H, W) planes, against the up, left and up-left pixels."""
+    _, H, W = planes.shape
     edge = np.zeros((H, W), bool)
-    for dy, dx in NEIGHBOURS:  # three slices, each a whole-image comparison
-        here = a[-dy:, -dx:]  # pixels that have this neighbour
-        there = a[:H + dy, :W + dx]  # the neighbour of each of them
-        edge[-dy:, -dx:] |= differs(here, there)
+    for plane in planes:  # whole-image comparisons: K planes x 3 neighbours
+        for dy, dx in NEIGHBOURS:
+            here = plane[-dy:, -dx:]  # pixels that have this neighbour
+            there = plane[:H + dy, :W + dx]  # the neighbour of each of them
+            edge[-dy:, -dx:] |= differs(here, there)
     return edge
 
 
@@ -75,11 +77,13 @@ def edge_pixels(path_ids, shadow=None, shadow_edges: bool = True, shadow_toleran
     """
     ids = _as_path_ids(path_ids)
     tolerance = _check_nonnegative("shadow_tolerance", shadow_tolerance)
-    edge = _differs_from_neighbours(ids, lambda p, q: np.any(p != q, axis=-1))
+    # one contiguous (H, W) plane per path entry: much faster than reducing over a short last axis
+    edge = _differs_from_neighbours(np.ascontiguousarray(np.moveaxis(ids, -1, 0)), np.not_equal)
     if shadow_edges and shadow is not None:
         vis = _as_shadow(shadow, ids.shape[:2])
         if vis.shape[2]:
-            edge |= _differs_from_neighbours(vis, lambda p, q: np.any(np.abs(p - q) > tolerance, axis=-1))
+            planes = np.ascontiguousarray(np.moveaxis(vis, -1, 0))
+            edge |= _differs_from_neighbours(planes, lambda p, q: np.abs(p - q) > tolerance)
     return edge
 
 

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from clrender import edges
 from clrender.edges import dilate, disc, edge_mask, edge_pixels, overlay_edges
 from clrender.errors import UsageError
 
@@ -201,10 +202,12 @@ def test_single_pixel_grows_as_discs():
     assert expected.sum() == 21
 
 
-@pytest.mark.parametrize("L", [0, 0.5, 1, math.sqrt(2), 2, 2.5, 3, 5.05, 7.9, 8, 8.5, 9, 12.5, 17])
-def test_dilate_matches_brute_force_distances(rng, L):
-    # radii above 8 take the row-distance path, the rest cv2.dilate: both must be exact
-    mask = rng.random((23, 31)) < 0.02
+@pytest.mark.parametrize("method", ["cv2", "rows"])
+@pytest.mark.parametrize("L", [0, 0.5, 1, math.sqrt(2), 2, 2.5, 3, 5.05, 7.9, 8, 8.5, 12.5, 17, 30.2])
+def test_dilate_matches_brute_force_distances(rng, monkeypatch, method, L):
+    # small radii take cv2.dilate, large ones exact row distances: force each path, both must be exact
+    monkeypatch.setattr(edges, "_CV2_MAX_RADIUS", 1e9 if method == "cv2" else 0)
+    mask = rng.random((33, 41)) < 0.01
     mask[0, 0] = mask[-1, -1] = mask[0, -1] = True  # corners exercise the image border
     np.testing.assert_array_equal(dilate(mask, L), brute_force_dilate(mask, L))
 
