@@ -9,13 +9,19 @@
  *              ellipse (q < 9), clipped to the image.
  *   tile_start int per tile + 1: splats of tile t are tile_splats[tile_start[t] ..
  *              tile_start[t+1]), in increasing splat index.
- *   tiles      int per work-group row: which tile that row renders.
+ *   tiles      int per work-group: which tile it renders.
+ *   planes     images as 4 float planes (r, g, b, 4th) of `pitch` x `rows` floats,
+ *              pitch = 16 * tiles_x and rows = 16 * tiles_y (padded to whole tiles).
  * Pixel (px, py) has its centre at (px + 0.5, py + 0.5).
  *
  * Weight of splat i at a pixel: w_i = o_i exp(-q_i / 2) where q_i < 9, else 0.
  * BLEND_NORMALIZED 0 ("sum"):       I = bg + sum_i w_i c_i
  * BLEND_NORMALIZED 1 ("normalized"): I = (sum_i w_i c_i + EPS bg) / (sum_i w_i + EPS)
  * so where no splat reaches, a normalized pixel fades to the background colour.
+ *
+ * Each work-item handles 8 neighbouring pixels of a tile row as a float8
+ * vector (one AVX register on a CPU), so PoCL runs 8 SIMD lanes per splat, and
+ * a splat whose box misses the row costs one integer test.
  */
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0
@@ -24,90 +30,127 @@
 #define EPS 1e-3f
 #endif
 #define TILE 16
+#define VW 8            /* pixels per work-item */
 #define CUTOFF_Q 9.0f   /* 3 sigma */
 #define NGRAD 10        /* per entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of w */
 
-/* One work-item per pixel, one 16x16 work-group row per tile in `tiles`.
- * out: float4 per pixel (I.rgb, sum of w). */
+#define LANES ((float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
+
+inline float hsum8(const float8 v)
+{
+    const float4 a = v.lo + v.hi;
+    const float2 b = a.lo + a.hi;
+    return b.x + b.y;
+}
+
+/* Work-item (2 * row + half, n): pixels [8 half, 8 half + 8) of row `row` of tile tiles[n].
+ * out: 4 planes (I.rgb, sum of w). */
 __kernel void splat_forward(__global const float8 *splats, __global const float4 *colors,
-                            __global const int *tile_start, __global const int *tile_splats,
-                            __global const int *tiles, const int width, const int height,
-                            const int tiles_x, const float4 background, __global float4 *out)
+                            __global const int4 *bbox, __global const int *tile_start,
+                            __global const int *tile_splats, __global const int *tiles,
+                            const int tiles_x, const int plane, const float4 background,
+                            __global float *out)
 {
     const int lid = get_global_id(0);
     const int t = tiles[get_global_id(1)];
-    const int px = (t % tiles_x) * TILE + lid % TILE;
-    const int py = (t / tiles_x) * TILE + lid / TILE;
-    const float fx = px + 0.5f, fy = py + 0.5f;
-    float4 acc = (float4)(0.0f);  /* (sum w c, sum w) */
+    const int pitch = tiles_x * TILE;
+    const int x0 = (t % tiles_x) * TILE + (lid % 2) * VW, py = (t / tiles_x) * TILE + lid / 2;
+    const float8 fx = (float)x0 + 0.5f + LANES;
+    const float fy = py + 0.5f;
+    float8 sr = (float8)(0.0f), sg = sr, sb = sr, sw = sr;
     const int end = tile_start[t + 1];
     for (int k = tile_start[t]; k < end; ++k) {
         const int i = tile_splats[k];
+        const int4 box = bbox[i];
+        const bool outside_box = py < box.y || py >= box.w || x0 + VW <= box.x || x0 >= box.z;
+        if (outside_box) continue;
         const float8 s = splats[i];
-        const float dx = fx - s.s0, dy = fy - s.s1;
-        const float q = s.s2 * dx * dx + s.s3 * dx * dy + s.s4 * dy * dy;
-        if (q < CUTOFF_Q) {
-            const float w = s.s5 * exp(-0.5f * q);
-            const float4 c = colors[i];
-            acc += w * (float4)(c.x, c.y, c.z, 1.0f);
-        }
+        const float dy = fy - s.s1;
+        const float8 dx = fx - s.s0;
+        const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
+        const int8 inside = q < CUTOFF_Q;
+        if (!any(inside)) continue;
+        const float8 w = select((float8)(0.0f), s.s5 * exp(-0.5f * q), inside);
+        const float4 c = colors[i];
+        sr += w * c.x;
+        sg += w * c.y;
+        sb += w * c.z;
+        sw += w;
     }
-    if (px >= width || py >= height) return;
 #if BLEND_NORMALIZED
-    const float3 rgb = (acc.xyz + EPS * background.xyz) / (acc.w + EPS);
+    const float8 norm = 1.0f / (sw + EPS);
+    sr = (sr + EPS * background.x) * norm;
+    sg = (sg + EPS * background.y) * norm;
+    sb = (sb + EPS * background.z) * norm;
 #else
-    const float3 rgb = acc.xyz + background.xyz;
+    sr += background.x;
+    sg += background.y;
+    sb += background.z;
 #endif
-    out[py * width + px] = (float4)(rgb, acc.w);
+    __global float *p = out + py * pitch + x0;
+    vstore8(sr, 0, p);
+    vstore8(sg, 0, p + plane);
+    vstore8(sb, 0, p + 2 * plane);
+    vstore8(sw, 0, p + 3 * plane);
 }
 
 /* One work-item per (tile, splat) entry: the splat's gradient summed over the
  * pixels of that tile inside its 3-sigma box.  Entries never share an output
  * row, so there are no races; the host sums rows per splat.
- * dimg: float4 per pixel (g.rgb, k) such that dL/dc_i = g w_i and
- * dL/dw_i = dot(g, c_i) - k at that pixel (see gauss.py: pixel_adjoint).
+ * dimg: 4 planes (g.rgb, k) such that dL/dc_i = g w_i and dL/dw_i = g . c_i - k
+ * at each pixel (see gauss.py: pixel_adjoint); zero in the padding.
  * partial: NGRAD floats per entry. */
 __kernel void splat_backward(__global const float8 *splats, __global const float4 *colors,
                              __global const int4 *bbox, __global const int *entry_splat,
                              __global const int *entry_tile, const int n_entries,
-                             const int width, const int tiles_x,
-                             __global const float4 *dimg, __global float *partial)
+                             const int tiles_x, const int plane,
+                             __global const float *dimg, __global float *partial)
 {
     const int e = get_global_id(0);
     if (e >= n_entries) return;
     const int i = entry_splat[e], t = entry_tile[e];
+    const int pitch = tiles_x * TILE;
     const float8 s = splats[i];
     const float3 c = colors[i].xyz;
-    const int4 b = bbox[i];
-    /* the part of the splat's box inside this tile */
-    const int x0 = max(b.x, (t % tiles_x) * TILE), x1 = min(b.z, (t % tiles_x) * TILE + TILE);
-    const int y0 = max(b.y, (t / tiles_x) * TILE), y1 = min(b.w, (t / tiles_x) * TILE + TILE);
-    float gmx = 0.0f, gmy = 0.0f, gA = 0.0f, gB = 0.0f, gC = 0.0f, go = 0.0f, wsum = 0.0f;
-    float3 gc = (float3)(0.0f);
-    for (int py = y0; py < y1; ++py) {
-        const float dy = py + 0.5f - s.s1;
-        for (int px = x0; px < x1; ++px) {
-            const float dx = px + 0.5f - s.s0;
-            const float q = s.s2 * dx * dx + s.s3 * dx * dy + s.s4 * dy * dy;
-            if (q < CUTOFF_Q) {
-                const float g = exp(-0.5f * q);
-                const float w = s.s5 * g;
-                const float4 d = dimg[py * width + px];
-                const float dLdw = dot(d.xyz, c) - d.w;
-                const float dLdq = -0.5f * dLdw * w;
-                gc += d.xyz * w;
-                go += dLdw * g;
-                gA += dLdq * dx * dx;
-                gB += dLdq * dx * dy;
-                gC += dLdq * dy * dy;
-                /* dq/dm = -(dq/d(dx), dq/d(dy)) */
-                gmx -= dLdq * (2.0f * s.s2 * dx + s.s3 * dy);
-                gmy -= dLdq * (s.s3 * dx + 2.0f * s.s4 * dy);
-                wsum += w;
-            }
+    const int4 box = bbox[i];
+    const int tx = (t % tiles_x) * TILE, ty = (t / tiles_x) * TILE;
+    const int y0 = max(box.y, ty), y1 = min(box.w, ty + TILE);
+    float8 gmx = (float8)(0.0f), gmy = gmx, gA = gmx, gB = gmx, gC = gmx;
+    float8 gr = gmx, gg = gmx, gb = gmx, go = gmx, wsum = gmx;
+    for (int x0 = tx; x0 < tx + TILE; x0 += VW) {
+        const bool outside_box = x0 + VW <= box.x || x0 >= box.z;
+        if (outside_box) continue;
+        /* columns inside the splat's box, as a lane mask */
+        const int8 lane = (int8)(0, 1, 2, 3, 4, 5, 6, 7) + x0;
+        const int8 in_box = (lane >= box.x) & (lane < box.z);
+        const float8 dx = (float)x0 + 0.5f + LANES - s.s0;
+        for (int py = y0; py < y1; ++py) {
+            const float dy = py + 0.5f - s.s1;
+            const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
+            const int8 inside = (q < CUTOFF_Q) & in_box;
+            if (!any(inside)) continue;
+            const float8 g = select((float8)(0.0f), exp(-0.5f * q), inside);
+            const float8 w = s.s5 * g;
+            __global const float *d = dimg + py * pitch + x0;
+            const float8 d_r = vload8(0, d), d_g = vload8(0, d + plane), d_b = vload8(0, d + 2 * plane);
+            const float8 dLdw = d_r * c.x + d_g * c.y + d_b * c.z - vload8(0, d + 3 * plane);
+            const float8 dLdq = -0.5f * dLdw * w;
+            gr += d_r * w;
+            gg += d_g * w;
+            gb += d_b * w;
+            go += dLdw * g;
+            gA += dLdq * dx * dx;
+            gB += dLdq * dx * dy;
+            gC += dLdq * dy * dy;
+            /* dq/dm = -(dq/d(dx), dq/d(dy)) */
+            gmx -= dLdq * (2.0f * s.s2 * dx + s.s3 * dy);
+            gmy -= dLdq * (s.s3 * dx + 2.0f * s.s4 * dy);
+            wsum += w;
         }
     }
-    __global float *row = partial + (size_t)e * NGRAD;
-    row[0] = gmx; row[1] = gmy; row[2] = gA; row[3] = gB; row[4] = gC;
-    row[5] = gc.x; row[6] = gc.y; row[7] = gc.z; row[8] = go; row[9] = wsum;
+    __global float *out = partial + (size_t)e * NGRAD;
+    out[0] = hsum8(gmx); out[1] = hsum8(gmy);
+    out[2] = hsum8(gA); out[3] = hsum8(gB); out[4] = hsum8(gC);
+    out[5] = hsum8(gr); out[6] = hsum8(gg); out[7] = hsum8(gb);
+    out[8] = hsum8(go); out[9] = hsum8(wsum);
 }

@@ -1,5 +1,202 @@
-"""Placeholder: filled in by its issue."""
+"""`clrender splat gauss|render|sweep`: fit Gaussian splats to an image, re-render saved splats, sweep settings."""
+from __future__ import annotations
+
+import csv
+import itertools
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+
+GAUSS_EXAMPLE = """example:
+  clrender splat gauss photo.jpg -o splats.png --splats 5000 --time-budget 120 \\
+      --save-params splats.npz --log fit.csv
+  (writes splats.png, splats.npz, fit.csv and the loss/PSNR curve splats.curve.png)
+  clrender splat gauss photo.jpg -o seed.png --learn seed --blend sum --optimizer sgd --init uniform"""
+
+RENDER_EXAMPLE = """example:
+  clrender splat render splats.npz -o big.png --width 2048"""
+
+SWEEP_EXAMPLE = """example:
+  clrender splat sweep photo.jpg --splats 2000 --lrs 0.5 1 2 --batches 0 65536 --time-budget 10"""
 
 
 def add_parsers(group):
-    pass
+    from ..splat.fit import INITS, LEARN, FitConfig
+    from ..splat.gauss import BLENDS
+    from ..splat.losses import LOSSES
+    from ..splat.optim import OPTIMIZERS
+
+    d = FitConfig()
+
+    def fit_options(p):
+        p.add_argument("--splats", type=int, default=d.splats, metavar="N", help="number of splats to start with")
+        p.add_argument("--epochs", type=int, default=None, metavar="E",
+                       help="passes over the image; None: 1000, or unlimited with --time-budget")
+        p.add_argument("--init", choices=INITS, default=d.init, help="initial centres")
+        p.add_argument("--learn", choices=LEARN, default=d.learn,
+                       help="seed: log-scales and luminance (the seed's); all: every parameter")
+        p.add_argument("--blend", choices=BLENDS, default=d.blend,
+                       help="sum: background + sum of w c; normalized: sum of w c / sum of w")
+        p.add_argument("--optimizer", choices=OPTIMIZERS, default=d.optimizer)
+        p.add_argument("--loss", choices=LOSSES, default=d.loss)
+        p.add_argument("--seed", type=int, default=d.seed, help="seed of every random choice")
+        p.add_argument("--max-splats", type=int, default=None, metavar="M",
+                       help="densification keeps N <= M; None: the same as --splats")
+        p.add_argument("--batch", type=int, default=d.batch, metavar="B",
+                       help="pixels per step, rounded to whole 16x16 tiles; 0 = the full image")
+
+    p = group.add_parser("gauss", help="fit Gaussian splats to an image", epilog=GAUSS_EXAMPLE,
+                         description="Fit 2D Gaussian splats to IN with OpenCL forward/backward kernels "
+                                     "and a host-side optimiser; write the rendered fit to OUT.")
+    p.add_argument("input", metavar="IN", help="image to fit (anything OpenImageIO reads)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="rendered fit (.png, .exr, ...)")
+    fit_options(p)
+    p.add_argument("--lr", type=float, default=d.lr, help="multiplier of every group's default learning rate")
+    p.add_argument("--time-budget", type=float, default=None, metavar="SECONDS", help="stop fitting after this long; None: no limit")
+    p.add_argument("--save-params", metavar="P.npz", help="save the fitted splats (re-render with 'splat render')")
+    p.add_argument("--log", metavar="CSV", help="write step, epoch, seconds, splats, loss, psnr rows")
+    p.add_argument("--curve", metavar="PNG", help="loss/PSNR curve picture; None: OUT's name + .curve.png")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    p.set_defaults(run=run_gauss)
+
+    p = group.add_parser("render", help="render saved Gaussian splats at another resolution", epilog=RENDER_EXAMPLE)
+    p.add_argument("params", metavar="P.npz", help="parameters saved by 'splat gauss --save-params'")
+    p.add_argument("-o", "--output", required=True, metavar="OUT")
+    p.add_argument("--width", type=int, default=None, help="output width (default: the fitted image's)")
+    p.add_argument("--overwrite", action="store_true")
+    p.set_defaults(run=run_render)
+
+    p = group.add_parser("sweep", help="try a grid of learning rates and batch sizes, report the best",
+                         epilog=SWEEP_EXAMPLE)
+    p.add_argument("input", metavar="IN")
+    fit_options(p)
+    p.set_defaults(splats=2000)
+    p.add_argument("--lrs", type=float, nargs="+", default=[0.3, 1.0, 3.0], help="--lr values to try")
+    p.add_argument("--batches", type=int, nargs="+", default=[0, 65536], help="--batch values to try")
+    p.add_argument("--time-budget", type=float, default=10.0, metavar="SECONDS", help="per run")
+    p.add_argument("--csv", metavar="CSV", help="also write the results table here")
+    p.add_argument("--overwrite", action="store_true")
+    p.set_defaults(run=run_sweep)
+
+
+def _check_side_output(path: str | None, overwrite: bool, suffixes: tuple[str, ...]) -> None:
+    if path is None:
+        return
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise UsageError(f"{path!r} should end in {' or '.join(suffixes)}")
+    if p.exists() and not overwrite:
+        raise UsageError(f"output {path!r} already exists; pass --overwrite to replace it")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
+        raise UsageError(f"output folder {str(parent)!r} does not exist or is not writable")
+
+
+def _config(args, **extra):
+    from ..splat.fit import FitConfig
+
+    return FitConfig(splats=args.splats, epochs=args.epochs, init=args.init, learn=args.learn, blend=args.blend,
+                     optimizer=args.optimizer, loss=args.loss, seed=args.seed, max_splats=args.max_splats,
+                     batch=args.batch, **extra)
+
+
+def _read_target(path):
+    from ..imageio import read_image
+    from ..splat.fit import as_rgb
+
+    return as_rgb(read_image(path).pixels)
+
+
+def write_log(path, log: list[dict]) -> None:
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, list(log[0]))
+        writer.writeheader()
+        writer.writerows(log)
+
+
+def write_curve(path, log: list[dict], title: str) -> bool:
+    """PSNR and the loss (as -10 log10 loss, so both share a dB axis) against step."""
+    try:
+        from ..plot import line_chart
+    except ImportError:
+        sys.stderr.write("clrender: clrender.plot is not available; no curve written\n")
+        return False
+    steps = [r["step"] for r in log]
+    series = {"PSNR (dB)": [r["psnr"] for r in log],
+              "-10 log10(loss)": [-10.0 * np.log10(max(r["loss"], 1e-12)) for r in log]}
+    line_chart(path, steps, series, title=title, xlabel="step", ylabel="dB")
+    return True
+
+
+def run_gauss(args):
+    from ..device import get_device
+    from ..imageio import check_output_path, write_image
+    from ..splat.fit import Fitter
+
+    out = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
+    curve = args.curve or str(out.with_suffix("")) + ".curve.png"
+    check_output_path(curve, overwrite=args.overwrite)
+    _check_side_output(args.save_params, args.overwrite, (".npz",))
+    _check_side_output(args.log, args.overwrite, (".csv",))
+    target = _read_target(args.input)
+    config = _config(args, lr=args.lr, time_budget=args.time_budget)
+    fitter = Fitter(get_device(), target, config)  # validates the settings and the image size
+    result = fitter.run()
+    write_image(out, result.image, format=None)
+    if args.save_params:
+        result.params.save(args.save_params)
+    if args.log:
+        write_log(args.log, result.log)
+    write_curve(curve, result.log, f"splat gauss: {result.params.n} splats, {config.blend}, {config.loss}")
+    if not args.quiet:
+        sys.stderr.write(f"{result.params.n} splats, {result.steps} steps in {result.seconds:.1f} s, "
+                         f"PSNR {result.psnr:.2f} dB -> {out}\n")
+    return 0
+
+
+def run_render(args):
+    from ..device import get_device
+    from ..imageio import check_output_path, write_image
+    from ..splat.gauss import GaussParams, render
+
+    out = check_output_path(args.output, overwrite=args.overwrite)
+    params = GaussParams.load(args.params)
+    width = args.width or params.width
+    if width < 1 or width > 32768:
+        raise UsageError(f"--width {width} is out of range; allowed: 1 to 32768")
+    factor = width / params.width
+    height = max(1, int(round(params.height * factor)))
+    image = render(get_device(), params.scaled(factor, width, height))
+    write_image(out, image)
+    return 0
+
+
+def run_sweep(args):
+    from ..device import get_device
+    from ..splat.fit import Fitter
+
+    _check_side_output(args.csv, args.overwrite, (".csv",))
+    for lr in args.lrs:
+        if lr <= 0:
+            raise UsageError(f"--lrs value {lr} must be > 0")
+    target = _read_target(args.input)
+    device = get_device()
+    rows = []
+    combos = list(itertools.product(args.lrs, args.batches))
+    for lr, batch in combos:
+        config = _config(args, lr=lr, time_budget=args.time_budget)
+        config.batch = batch
+        result = Fitter(device, target, config).run(show_progress=False)
+        rows.append({"lr": lr, "batch": batch, "steps": result.steps, "seconds": round(result.seconds, 2),
+                     "psnr": round(result.psnr, 3)})
+        sys.stdout.write(f"lr {lr:g}  batch {batch:>7d}  steps {result.steps:>6d}  PSNR {result.psnr:6.2f} dB\n")
+        sys.stdout.flush()
+    best = max(rows, key=lambda r: r["psnr"])
+    sys.stdout.write(f"best: --lr {best['lr']:g} --batch {best['batch']} (PSNR {best['psnr']:.2f} dB)\n")
+    if args.csv:
+        write_log(args.csv, rows)
+    return 0

@@ -212,38 +212,38 @@ class GaussRenderer:
         defines = {"BLEND_NORMALIZED": int(blend == "normalized")}
         self._forward = device.kernel("splat_gauss.cl", "splat_forward", defines)
         self._backward = device.kernel("splat_gauss.cl", "splat_backward", defines)
-        nbytes = self.width * self.height * 16
+        # images travel as 4 float planes padded to whole tiles (layout in kernels/splat_gauss.cl)
+        self.pitch, self.rows = self.tiles_x * TILE, self.tiles_y * TILE
+        self.plane = self.pitch * self.rows
+        nbytes = self.plane * 16
         device.check_fits(nbytes, f"a {width}x{height} splat image")
         self._out = device.empty(nbytes)
-        self._out_host = np.empty((self.height, self.width, 4), np.float32)
+        self._out_host = np.empty((4, self.rows, self.pitch), np.float32)
+        self._dimg = device.empty(nbytes)
         self._partial = None
         self._partial_bytes = 0
         self.all_tiles = np.arange(self.tiles_x * self.tiles_y, dtype=np.int32)
 
     def forward(self, params: GaussParams, tiles: np.ndarray | None = None) -> Frame:
-        """Render all tiles (or only `tiles`); returns a Frame for `backward`."""
+        """Render all tiles (or only `tiles`, the rest left 0); returns a Frame for `backward`."""
         cl, dev = self.cl, self.dev
         if (params.width, params.height) != (self.width, self.height):
             raise UsageError(f"parameters are for {params.width}x{params.height}, renderer is {self.width}x{self.height}")
         tiles = self.all_tiles if tiles is None else np.ascontiguousarray(tiles, np.int32)
         splats, colors, box = pack(params)
         binning = bin_splats(box, self.width, self.height)
-        if tiles is not self.all_tiles:
-            self._out_host[...] = 0.0
-            cl.enqueue_copy(dev.queue, self._out, self._out_host)
-        b_splats, b_colors = dev.to_device(splats), dev.to_device(colors)
-        b_start, b_list = dev.to_device(binning.tile_start), dev.to_device(binning.entry_splat)
-        b_tiles = dev.to_device(tiles)
+        if len(tiles) < len(self.all_tiles):
+            cl.enqueue_fill_buffer(dev.queue, self._out, np.float32(0), 0, self.plane * 16)
+        buffers = (dev.to_device(splats), dev.to_device(colors), dev.to_device(box))
         if len(tiles):
-            self._forward(dev.queue, (TILE * TILE, len(tiles)), (TILE * TILE, 1),
-                          b_splats, b_colors, b_start, b_list, b_tiles,
-                          np.int32(self.width), np.int32(self.height), np.int32(self.tiles_x),
+            self._forward(dev.queue, (2 * TILE, len(tiles)), (2 * TILE, 1), *buffers,
+                          dev.to_device(binning.tile_start), dev.to_device(binning.entry_splat),
+                          dev.to_device(tiles), np.int32(self.tiles_x), np.int32(self.plane),
                           self.background, self._out)
         cl.enqueue_copy(dev.queue, self._out_host, self._out)
-        out = self._out_host
-        frame = Frame(out[..., :3].copy(), out[..., 3].copy(), tiles, binning,
-                      (b_splats, b_colors, dev.to_device(box)), params)
-        return frame
+        out = self._out_host[:, : self.height, : self.width]
+        return Frame(np.ascontiguousarray(out[:3].transpose(1, 2, 0)), out[3].copy(), tiles, binning,
+                     buffers, params)
 
     def backward(self, frame: Frame, d_image: np.ndarray) -> dict[str, np.ndarray]:
         """Gradients of the loss for every parameter group, from dL/dI (H, W, 3).
@@ -253,7 +253,8 @@ class GaussRenderer:
         """
         cl, dev = self.cl, self.dev
         binning, params = frame.binning, frame.params
-        dimg = pixel_adjoint(d_image, frame.image, frame.weight, self.blend)
+        dimg = np.zeros((4, self.rows, self.pitch), np.float32)
+        pixel_adjoint(d_image, frame.image, frame.weight, self.blend, dimg[:, : self.height, : self.width])
         if len(frame.tiles) == len(self.all_tiles):
             entries = slice(None)
         else:
@@ -273,29 +274,29 @@ class GaussRenderer:
             b_splats, b_colors, b_box = frame.packed
             self._backward(dev.queue, (n_entries,), None, b_splats, b_colors, b_box,
                            dev.to_device(entry_splat), dev.to_device(entry_tile), np.int32(n_entries),
-                           np.int32(self.width), np.int32(self.tiles_x), dev.to_device(dimg), self._partial)
+                           np.int32(self.tiles_x), np.int32(self.plane), dev.to_device(dimg), self._partial)
             cl.enqueue_copy(dev.queue, partial, self._partial)
         raw = np.stack([np.bincount(entry_splat, weights=partial[:, j], minlength=params.n)
                         for j in range(NGRAD)], axis=1)
         return chain_rule(params, raw)
 
 
-def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str) -> np.ndarray:
-    """float4 per pixel (g.rgb, k) with dL/dc_i = g w_i and dL/dw_i = g . c_i - k.
+def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str,
+                  out: np.ndarray) -> np.ndarray:
+    """Fill `out` (4, H, W) with planes (g.rgb, k): dL/dc_i = g w_i and dL/dw_i = g . c_i - k.
 
     sum:        I = bg + S          -> g = dL/dI, k = 0
     normalized: I = (S + eps bg) / (W + eps)
                 dI/dw_i = (c_i - I) / (W + eps) -> g = dL/dI / (W + eps), k = g . I
     """
-    h, w = weight.shape
-    out = np.empty((h, w, 4), np.float32)
+    g = d_image.transpose(2, 0, 1)
     if blend == "normalized":
-        g = d_image / (weight + EPS)[..., None]
-        out[..., :3] = g
-        out[..., 3] = np.einsum("ijc,ijc->ij", g, image)
+        g = g * (1.0 / (weight + EPS))[None]
+        out[:3] = g
+        out[3] = g[0] * image[..., 0] + g[1] * image[..., 1] + g[2] * image[..., 2]
     else:
-        out[..., :3] = d_image
-        out[..., 3] = 0.0
+        out[:3] = g
+        out[3] = 0.0
     return out
 
 
