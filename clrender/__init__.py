@@ -1,2 +1,8 @@
 """clrender: a Whitted ray tracer, convolution filters and image splatting on OpenCL."""
+import os
+
+# numpy's OpenBLAS threads spin-wait after a matrix product and steal the
+# cores PoCL runs the kernels on; clrender's host work never needs them.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 __version__ = "0.1.0"

@@ -23,17 +23,20 @@ inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 
 /* Moller-Trumbore. Returns t in (t_min, t_max) or INF_T; degenerate triangles never hit. */
 inline float hit_triangle(Ray r, float4 v0, float4 e1, float4 e2, float t_min, float t_max, float *u, float *v) {
-    float3 pvec = cross(r.d, e2.xyz);
-    float det = dot(e1.xyz, pvec);
+    float3 pvec = cross3(r.d, e2.xyz);
+    float det = dot3(e1.xyz, pvec);
     if (det == 0.0f) return INF_T; /* parallel to the plane, or a degenerate triangle */
     float inv_det = 1.0f / det;
     float3 tvec = r.o - v0.xyz;
-    float uu = dot(tvec, pvec) * inv_det;
-    if (uu < 0.0f || uu > 1.0f) return INF_T;
-    float3 qvec = cross(tvec, e1.xyz);
-    float vv = dot(r.d, qvec) * inv_det;
-    if (vv < 0.0f || uu + vv > 1.0f) return INF_T;
-    float t = dot(e2.xyz, qvec) * inv_det;
+    /* Barycentric bounds are widened by EDGE_EPS so that rounding never opens
+     * a crack along an edge two triangles share (ties go to the lower id). */
+    const float EDGE_EPS = 1e-6f;
+    float uu = dot3(tvec, pvec) * inv_det;
+    if (uu < -EDGE_EPS || uu > 1.0f + EDGE_EPS) return INF_T;
+    float3 qvec = cross3(tvec, e1.xyz);
+    float vv = dot3(r.d, qvec) * inv_det;
+    if (vv < -EDGE_EPS || uu + vv > 1.0f + EDGE_EPS) return INF_T;
+    float t = dot3(e2.xyz, qvec) * inv_det;
     if (!(t > t_min && t < t_max)) return INF_T;
     *u = uu; *v = vv;
     return t;
@@ -44,16 +47,17 @@ inline float hit_triangle(Ray r, float4 v0, float4 e1, float4 e2, float t_min, f
  * approach, the small root from c/q. */
 inline int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
     float3 oc = r.o - cr.xyz;
-    float b = dot(oc, r.d);
+    float b = dot3(oc, r.d);
     float3 closest = oc - b * r.d;
     float radius = cr.w;
-    float disc = (radius - length(closest)) * (radius + length(closest));
+    float closest_dist = sqrt(dot3(closest, closest));
+    float disc = (radius - closest_dist) * (radius + closest_dist);
     if (disc < 0.0f) return 0;
-    float c = dot(oc, oc) - radius * radius;
+    float c = dot3(oc, oc) - radius * radius;
     float q = -b - copysign(sqrt(disc), b);
     float a0 = (q != 0.0f) ? c / q : 0.0f, a1 = q;
-    *t0 = fmin(a0, a1);
-    *t1 = fmax(a0, a1);
+    *t0 = min_f(a0, a1);
+    *t1 = max_f(a0, a1);
     return 1;
 }
 
@@ -75,11 +79,11 @@ inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, f
 /* Slab test; returns the entry distance or INF_T.  The far distance is
  * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in. */
 inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
-    float3 t0 = fma(bmin.xyz, r.inv_d, -r.o_inv_d);
-    float3 t1 = fma(bmax.xyz, r.inv_d, -r.o_inv_d);
-    float3 tn = fmin(t0, t1), tf = fmax(t0, t1);
-    float t_enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
-    float t_exit = fmin(fmin(tf.x, tf.y), fmin(tf.z, t_max)) * 1.0000004f;
+    float3 t0 = bmin.xyz * r.inv_d - r.o_inv_d;
+    float3 t1 = bmax.xyz * r.inv_d - r.o_inv_d;
+    float t_enter = max_f(min_f(t0.z, t1.z), max_f(min_f(t0.y, t1.y), max_f(min_f(t0.x, t1.x), 0.0f)));
+    float t_exit = min_f(max_f(t0.z, t1.z), min_f(max_f(t0.y, t1.y), min_f(max_f(t0.x, t1.x), t_max)));
+    t_exit *= 1.0000004f;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
 

@@ -121,3 +121,14 @@ def test_bvh_and_brute_force_find_the_same_hits(device, builder):
     t_max = rng.uniform(1, 12, 5000)
     np.testing.assert_array_equal(
         Tracer(scene, use_bvh=False, device=device).occluded(o, d, t_max), fast_tracer.occluded(o, d, t_max))
+
+
+def test_no_cracks_along_an_edge_two_triangles_share(device):
+    # a quad split along its diagonal; rays aimed exactly at the diagonal all hit
+    v = np.array([[-1.0, -1, -3], [1, -1, -3.5], [1, 1, -3], [-1, 1, -2.5]])
+    tracer = Tracer((v, np.array([[0, 1, 2], [0, 2, 3]])), use_bvh=False, device=device)
+    s = np.linspace(0.001, 0.999, 20001)[:, None]
+    targets = v[0] + s * (v[2] - v[0])
+    origins = np.tile([0.05, 0.02, 0.0], (len(s), 1))
+    t, prim, _ = tracer.intersect(origins, targets - origins)
+    assert (prim >= 0).all()
