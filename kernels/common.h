@@ -55,6 +55,9 @@ inline float3 cross3(float3 a, float3 b) {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 
+inline float norm(float3 a) { return sqrt(dot3(a, a)); }
+inline float3 unit(float3 a) { return a / sqrt(dot3(a, a)); }
+
 inline Ray make_ray(float3 o, float3 d) {
     Ray r;
     r.o = o;
@@ -69,7 +72,7 @@ inline Ray make_ray(float3 o, float3 d) {
  * re-hit the surface it leaves (acne) at any scene scale. */
 inline float3 offset_origin(float3 p, float3 n_geo) {
     float3 a = fabs(p);
-    float scale = 1e-4f * (1.0f + fmax(a.x, fmax(a.y, a.z)));
+    float scale = 1e-4f * (1.0f + max_f(a.x, max_f(a.y, a.z)));
     return p + n_geo * scale;
 }
 

@@ -27,17 +27,17 @@ typedef struct {
     float3 ambient;
 } Scene;
 
-inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot(d, n) * n; }
+inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
 
 /* Snell's law for unit d and unit n facing against d, eta = n1 / n2.
  * Returns 0 when the ray cannot refract (total internal reflection). */
 inline int refract_dir(float3 d, float3 n, float eta, float3 *out) {
-    float cos_i = -dot(d, n);
-    float sin2_t = eta * eta * fmax(0.0f, 1.0f - cos_i * cos_i);
+    float cos_i = -dot3(d, n);
+    float sin2_t = eta * eta * max_f(0.0f, 1.0f - cos_i * cos_i);
     bool cannot_refract = sin2_t > 1.0f;
     if (cannot_refract) return 0;
     float cos_t = sqrt(1.0f - sin2_t);
-    *out = normalize(eta * d + (eta * cos_i - cos_t) * n);
+    *out = unit(eta * d + (eta * cos_i - cos_t) * n);
     return 1;
 }
 
@@ -51,9 +51,9 @@ inline float schlick(float cos_i, float n1, float n2, float cos_t) {
 }
 
 inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror) {
-    float n_dot_l = fmax(dot(n, l), 0.0f);
-    float3 h = normalize(l + v);
-    float spec = (kd_shine.w > 0.0f) ? pow(fmax(dot(n, h), 0.0f), kd_shine.w) : 1.0f;
+    float n_dot_l = max_f(dot3(n, l), 0.0f);
+    float3 h = unit(l + v);
+    float spec = (kd_shine.w > 0.0f) ? native_exp2(kd_shine.w * native_log2(max_f(dot3(n, h), 1e-30f))) : 1.0f;
     return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
 }
 
@@ -77,8 +77,8 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, fl
             edge_a = sc->lights[5 * li + 3].xyz;
             edge_b = sc->lights[5 * li + 4].xyz;
         }
-        float3 light_normal = cross(edge_a, edge_b);
-        float area = length(light_normal);
+        float3 light_normal = cross3(edge_a, edge_b);
+        float area = norm(light_normal);
         light_normal = area > 0.0f ? light_normal / area : light_normal;
         float weight = intensity / (float)(n_side * n_side);
         float visible = 0.0f;
@@ -87,23 +87,23 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, fl
                 float3 l;
                 float dist, falloff = 1.0f;
                 if (type == LIGHT_DIRECTIONAL) {
-                    l = -normalize(pos);
+                    l = -unit(pos);
                     dist = INF_T;
                 } else {
                     float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, sc->light_stratified, rng) : pos;
                     l = target - p;
-                    dist = length(l);
+                    dist = norm(l);
                     l /= dist;
                     if (inverse_square) {
                         falloff = 1.0f / (dist * dist);
                         /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
-                        if (type == LIGHT_AREA) falloff *= area * fabs(dot(light_normal, l));
+                        if (type == LIGHT_AREA) falloff *= area * fabs(dot3(light_normal, l));
                     }
                 }
                 float T = 1.0f;
-                if (dot(n, l) > 0.0f) {
+                if (dot3(n, l) > 0.0f) {
                     Ray sr = make_ray(origin, l);
-                    float t_max = (dist == INF_T) ? INF_T : length(p + l * dist - origin);
+                    float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
                     T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
                                       sc->materials, sr, t_max, false, visits);
                     *rays += 1;
@@ -153,25 +153,25 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         float4 a = sc->prims[3 * h.slot], b = sc->prims[3 * h.slot + 1], c = sc->prims[3 * h.slot + 2];
         float3 n_geo, n_shade;
         if (b.w != 0.0f) {
-            n_geo = normalize(p - a.xyz);
+            n_geo = unit(p - a.xyz);
             n_shade = n_geo;
         } else {
-            n_geo = normalize(cross(b.xyz, c.xyz));
+            n_geo = unit(cross3(b.xyz, c.xyz));
             n_shade = n_geo;
             if (obj.y) {
                 __global const float4 *vn = sc->normals + 3 * h.id;
-                n_shade = normalize((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
+                n_shade = unit((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
             }
         }
-        bool front_face = dot(d, n_geo) < 0.0f;
+        bool front_face = dot3(d, n_geo) < 0.0f;
         if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
-        if (dot(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
+        if (dot3(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
 
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
            unless this is the primary hit whose light visibility the edge detector needs */
         float3 surface_weight = w * (1.0f - transparency) * (1.0f - mirror);
         __global float *shadow_here = first_hit ? shadow : 0;
-        if (fmax(surface_weight.x, fmax(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
+        if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
             float3 surface = sc->ambient * kd.xyz +
                              direct_light(sc, p, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
@@ -186,23 +186,23 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         float n1 = front_face ? medium : ior;
         float n2 = front_face ? ior : 1.0f; /* leaving an object enters air: objects do not nest */
         if (transparency > 0.0f) {
-            float cos_i = -dot(d, n_shade);
+            float cos_i = -dot3(d, n_shade);
             if (refract_dir(d, n_shade, n1 / n2, &refracted)) {
                 float F = 0.0f;
-                if (sc->fresnel) F = schlick(cos_i, n1, n2, -dot(refracted, n_shade));
+                if (sc->fresnel) F = schlick(cos_i, n1, n2, -dot3(refracted, n_shade));
                 w_reflect += w * transparency * F;
                 w_refract = w * transparency * (1.0f - F);
             } else { /* total internal reflection: all of it is reflected */
                 w_reflect += w * transparency;
             }
         }
-        if (fmax(w_refract.x, fmax(w_refract.y, w_refract.z)) > 0.0f && sp < RAY_STACK) {
+        if (max_f(w_refract.x, max_f(w_refract.y, w_refract.z)) > 0.0f && sp < RAY_STACK) {
             stack_o[sp] = (float4)(offset_origin(p, -n_geo), n2);
             stack_d[sp] = (float4)(refracted, (float)(depth + 1));
             stack_w[sp] = (float4)(w_refract, 0.0f);
             ++sp;
         }
-        if (fmax(w_reflect.x, fmax(w_reflect.y, w_reflect.z)) > 0.0f && sp < RAY_STACK) {
+        if (max_f(w_reflect.x, max_f(w_reflect.y, w_reflect.z)) > 0.0f && sp < RAY_STACK) {
             stack_o[sp] = (float4)(offset_origin(p, n_geo), medium);
             stack_d[sp] = (float4)(reflect_dir(d, n_shade), (float)(depth + 1));
             stack_w[sp] = (float4)(w_reflect, 0.0f);
