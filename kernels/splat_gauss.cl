@@ -19,9 +19,9 @@
  * BLEND_NORMALIZED 1 ("normalized"): I = (sum_i w_i c_i + EPS bg) / (sum_i w_i + EPS)
  * so where no splat reaches, a normalized pixel fades to the background colour.
  *
- * Each work-item handles 8 neighbouring pixels of a tile row as a float8
- * vector (one AVX register on a CPU), so PoCL runs 8 SIMD lanes per splat, and
- * a splat whose box misses the row costs one integer test.
+ * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
+ * CPU), so PoCL runs 8 SIMD lanes per splat; a forward work-item renders one
+ * 16-pixel tile row, and a splat whose box misses the row costs one test.
  */
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0
@@ -36,6 +36,23 @@
 
 #define LANES ((float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
 
+/* exp(-q / 2) as 2^n * p(f) with y = -q log2(e) / 2 = n + f, f in [0, 1), p a degree-5
+ * fit of 2^f (relative error < 2e-7): the same on every driver, and it vectorises on
+ * a CPU where the library exp costs several times more. */
+inline float8 falloff(const float8 q)
+{
+    const float8 y = fmax(-0.72134752f * q, -126.0f);
+    const float8 n = floor(y);
+    const float8 f = y - n;
+    float8 p = 0.00189510729f;
+    p = p * f + 0.00894621467f;
+    p = p * f + 0.0558632827f;
+    p = p * f + 0.24014077f;
+    p = p * f + 0.69315462f;
+    p = p * f + 0.999999896f;
+    return p * as_float8((convert_int8(n) + 127) << 23);
+}
+
 inline float hsum8(const float8 v)
 {
     const float4 a = v.lo + v.hi;
@@ -43,7 +60,22 @@ inline float hsum8(const float8 v)
     return b.x + b.y;
 }
 
-/* Work-item (2 * row + half, n): pixels [8 half, 8 half + 8) of row `row` of tile tiles[n].
+/* Blend one splat into 8 pixels of a row: (fx, fy) their centres, sums in (sr, sg, sb, sw). */
+#define BLEND_INTO(fx, sr, sg, sb, sw)                                          \
+    {                                                                           \
+        const float8 dx = (fx) - s.s0;                                          \
+        const float8 q = (s.s2 * dx + s.s3 * dy) * dx + cdy2;                   \
+        const int8 inside = q < CUTOFF_Q;                                       \
+        if (any(inside)) {                                                      \
+            const float8 w = select((float8)(0.0f), s.s5 * falloff(q), inside); \
+            sr += w * c.x;                                                      \
+            sg += w * c.y;                                                      \
+            sb += w * c.z;                                                      \
+            sw += w;                                                            \
+        }                                                                       \
+    }
+
+/* Work-item (row, n): the 16 pixels of row `row` of tile tiles[n], as two float8 halves.
  * out: 4 planes (I.rgb, sum of w). */
 __kernel void splat_forward(__global const float8 *splats, __global const float4 *colors,
                             __global const int4 *bbox, __global const int *tile_start,
@@ -51,47 +83,44 @@ __kernel void splat_forward(__global const float8 *splats, __global const float4
                             const int tiles_x, const int plane, const float4 background,
                             __global float *out)
 {
-    const int lid = get_global_id(0);
+    const int row = get_global_id(0);
     const int t = tiles[get_global_id(1)];
     const int pitch = tiles_x * TILE;
-    const int x0 = (t % tiles_x) * TILE + (lid % 2) * VW, py = (t / tiles_x) * TILE + lid / 2;
-    const float8 fx = (float)x0 + 0.5f + LANES;
+    const int x0 = (t % tiles_x) * TILE, py = (t / tiles_x) * TILE + row;
+    const float8 fx_lo = (float)x0 + 0.5f + LANES, fx_hi = fx_lo + 8.0f;
     const float fy = py + 0.5f;
-    float8 sr = (float8)(0.0f), sg = sr, sb = sr, sw = sr;
+    float8 r_lo = (float8)(0.0f), g_lo = r_lo, b_lo = r_lo, w_lo = r_lo;
+    float8 r_hi = r_lo, g_hi = r_lo, b_hi = r_lo, w_hi = r_lo;
     const int end = tile_start[t + 1];
     for (int k = tile_start[t]; k < end; ++k) {
         const int i = tile_splats[k];
         const int4 box = bbox[i];
-        const bool outside_box = py < box.y || py >= box.w || x0 + VW <= box.x || x0 >= box.z;
-        if (outside_box) continue;
+        const bool row_outside_box = py < box.y || py >= box.w;
+        if (row_outside_box) continue;
         const float8 s = splats[i];
-        const float dy = fy - s.s1;
-        const float8 dx = fx - s.s0;
-        const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
-        const int8 inside = q < CUTOFF_Q;
-        if (!any(inside)) continue;
-        const float8 w = select((float8)(0.0f), s.s5 * exp(-0.5f * q), inside);
         const float4 c = colors[i];
-        sr += w * c.x;
-        sg += w * c.y;
-        sb += w * c.z;
-        sw += w;
+        const float dy = fy - s.s1;
+        const float cdy2 = s.s4 * dy * dy;
+        if (box.x < x0 + VW) BLEND_INTO(fx_lo, r_lo, g_lo, b_lo, w_lo)
+        if (box.z > x0 + VW) BLEND_INTO(fx_hi, r_hi, g_hi, b_hi, w_hi)
     }
 #if BLEND_NORMALIZED
-    const float8 norm = 1.0f / (sw + EPS);
-    sr = (sr + EPS * background.x) * norm;
-    sg = (sg + EPS * background.y) * norm;
-    sb = (sb + EPS * background.z) * norm;
+    const float8 n_lo = 1.0f / (w_lo + EPS), n_hi = 1.0f / (w_hi + EPS);
+    r_lo = (r_lo + EPS * background.x) * n_lo;
+    g_lo = (g_lo + EPS * background.y) * n_lo;
+    b_lo = (b_lo + EPS * background.z) * n_lo;
+    r_hi = (r_hi + EPS * background.x) * n_hi;
+    g_hi = (g_hi + EPS * background.y) * n_hi;
+    b_hi = (b_hi + EPS * background.z) * n_hi;
 #else
-    sr += background.x;
-    sg += background.y;
-    sb += background.z;
+    r_lo += background.x; g_lo += background.y; b_lo += background.z;
+    r_hi += background.x; g_hi += background.y; b_hi += background.z;
 #endif
     __global float *p = out + py * pitch + x0;
-    vstore8(sr, 0, p);
-    vstore8(sg, 0, p + plane);
-    vstore8(sb, 0, p + 2 * plane);
-    vstore8(sw, 0, p + 3 * plane);
+    vstore8(r_lo, 0, p);             vstore8(r_hi, 1, p);
+    vstore8(g_lo, 0, p + plane);     vstore8(g_hi, 1, p + plane);
+    vstore8(b_lo, 0, p + 2 * plane); vstore8(b_hi, 1, p + 2 * plane);
+    vstore8(w_lo, 0, p + 3 * plane); vstore8(w_hi, 1, p + 3 * plane);
 }
 
 /* One work-item per (tile, splat) entry: the splat's gradient summed over the
@@ -129,7 +158,7 @@ __kernel void splat_backward(__global const float8 *splats, __global const float
             const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
             const int8 inside = (q < CUTOFF_Q) & in_box;
             if (!any(inside)) continue;
-            const float8 g = select((float8)(0.0f), exp(-0.5f * q), inside);
+            const float8 g = select((float8)(0.0f), falloff(q), inside);
             const float8 w = s.s5 * g;
             __global const float *d = dimg + py * pitch + x0;
             const float8 d_r = vload8(0, d), d_g = vload8(0, d + plane), d_b = vload8(0, d + 2 * plane);

@@ -236,7 +236,7 @@ class GaussRenderer:
             cl.enqueue_fill_buffer(dev.queue, self._out, np.float32(0), 0, self.plane * 16)
         buffers = (dev.to_device(splats), dev.to_device(colors), dev.to_device(box))
         if len(tiles):
-            self._forward(dev.queue, (2 * TILE, len(tiles)), (2 * TILE, 1), *buffers,
+            self._forward(dev.queue, (TILE, len(tiles)), (TILE, 1), *buffers,
                           dev.to_device(binning.tile_start), dev.to_device(binning.entry_splat),
                           dev.to_device(tiles), np.int32(self.tiles_x), np.int32(self.plane),
                           self.background, self._out)
