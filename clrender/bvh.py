@@ -16,20 +16,22 @@ Builders (both vectorised: the tree grows one level at a time, every node of a
 level handled at once with segment operations, then the breadth-first tree is
 renumbered depth-first):
 
-* ``sah`` -- binned surface area heuristic on the centroid bounds of each node,
-  all three axes.  Nodes larger than ``sah_samples`` primitives evaluate their
-  bins on an evenly strided sample of that many primitives (the split itself
-  partitions all of them).  A node becomes a leaf when it holds at most
-  ``max_leaf_size`` primitives, or when no split is cheaper than the leaf and it
-  holds at most ``4 * max_leaf_size``.  Coinciding centroids fall back to an
-  object-median split.
+* ``sah`` -- binned surface area heuristic: ``bins`` bins over the centroid
+  bounds of each node, along all three axes, best cut by SAH cost.  Nodes larger
+  than ``sah_samples`` primitives evaluate their bins on an evenly strided sample
+  of that many primitives (the cut then partitions all of them).  A node becomes
+  a leaf when it holds at most ``max_leaf_size`` primitives, or when no cut is
+  cheaper than the leaf and it holds at most ``4 * max_leaf_size``.  A node of
+  at most ``halving_below`` primitives, one whose centroids all fall in one bin
+  (e.g. they coincide), or one too deep for MAX_DEPTH is finished by halving:
+  its primitives are sorted once by Morton code and every split below cuts the
+  range in halves (count // 2 to the first child).
 * ``median`` -- the seed's rule: primitives sorted by centroid x, every node
-  split into halves (the left half gets ``count // 2``), leaves of at most
+  split into halves (the first child gets ``count // 2``), leaves of at most
   ``max_leaf_size``.
 
 Every tree is at most ``MAX_DEPTH`` levels deep (the kernels' traversal stack
-is 64 entries): a SAH node too deep to finish with halving splits switches to
-median splits along its longest centroid axis.
+is 64 entries): SAH nodes switch to halving early enough.
 """
 from __future__ import annotations
 
@@ -44,7 +46,7 @@ NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3)
 BUILDERS = ("sah", "median")
 MAX_DEPTH = 48  # levels, root included; the kernels' stack (64) never overflows
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
-HALVING_BELOW = 32  # SAH nodes of at most this many primitives finish by Morton-order halving
+HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -265,7 +267,7 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
                 extent = cmax - cmin
             if len(cand):
                 scale = np.where(extent > 0, bins / np.where(extent > 0, extent, 1), 0).astype(np.float32)
-                ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, count, cand, cmin, scale,
+                ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale,
                                                                bmin, bmax, bins, samples)
                 make_leaf = ok & (cost >= INTERSECT_COST * count[cand]) & (count[cand] <= leaf_cap)
                 split[cand[make_leaf]] = False
@@ -369,7 +371,7 @@ def _spread_bits(v):
     return (v | (v << 2)) & 0x09249249
 
 
-def _best_splits(box, cen, seg_start, count, cand, cmin, scale, bmin, bmax, bins, samples):
+def _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale, bmin, bmax, bins, samples):
     """Best binned-SAH split of each candidate node, over all three axes.
 
     Returns (ok, axis, cut, cost) per candidate; ok is False where no bin split separates the
@@ -382,29 +384,42 @@ def _best_splits(box, cen, seg_start, count, cand, cmin, scale, bmin, bmax, bins
     take = np.minimum(c_count, samples)
     # primitives to bin: all of a small node, an evenly strided sample of a big one
     if (take == c_count).all():
-        which = np.repeat(np.arange(nc), take)
-        p = (seg_start[cand][which] + (np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)))
+        rank = np.full(len(count), -1, np.int64)
+        rank[cand] = np.arange(nc)
+        p = np.flatnonzero(rank[seg_of] >= 0)
+        which = rank[seg_of[p]]
     else:
         _, which = _segments(take)
         j = np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)
         p = seg_start[cand][which] + (j * c_count[which]) // take[which]
-    node = cand[which]
     keys = np.empty((3, len(p)), np.int64)
     cp = np.take(cen, p, axis=1)
+    cp -= np.take(cmin[cand].T, which, axis=1)
+    cp *= np.take(scale[cand].T, which, axis=1)
+    col = which * 3
     for a in range(3):
-        b = ((cp[a] - cmin[node, a]) * scale[node, a]).astype(np.int64)
-        keys[a] = np.minimum(b, bins - 1) * m + which * 3 + a
-    flat = keys.ravel()
-    n_bin = np.bincount(flat, minlength=bins * m).reshape(bins, m).astype(np.float32)
+        b = cp[a].astype(np.int64)
+        np.minimum(b, bins - 1, out=b)
+        b *= m
+        b += col + a
+        keys[a] = b
+    n_bin = np.bincount(keys.ravel(), minlength=bins * m).reshape(bins, m).astype(np.float32)
     # per-bin bounds: rows lo.xyz, -hi.xyz so that one ufunc (minimum) does all six
     bb = np.full((6, bins * m), np.inf, np.float32)
     bp = np.take(box, p, axis=1)
     bp[3:] *= -1
-    for d in range(6):
-        np.minimum.at(bb[d], flat, np.tile(bp[d], 3))
+    for a in range(3):
+        for d in range(6):
+            np.minimum.at(bb[d], keys[a], bp[d])
     bb = bb.reshape(6, bins, m)
-    left = np.minimum.accumulate(bb, axis=1)[:, :-1]
-    right = np.minimum.accumulate(bb[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    # sweep: bounds of bins [0..i] (left of cut i) and [i+1..] (right); a loop over the bins is
+    # much faster than ufunc.accumulate along a middle axis
+    left = np.empty((6, bins - 1, m), np.float32)
+    right = np.empty((6, bins - 1, m), np.float32)
+    left[:, 0], right[:, -1] = bb[:, 0], bb[:, -1]
+    for i in range(1, bins - 1):
+        np.minimum(left[:, i - 1], bb[:, i], out=left[:, i])
+        np.minimum(right[:, -i], bb[:, -1 - i], out=right[:, -1 - i])
     n_l = np.cumsum(n_bin, axis=0)[:-1]
     n_r = n_bin.sum(axis=0) - n_l
 
@@ -414,11 +429,14 @@ def _best_splits(box, cen, seg_start, count, cand, cmin, scale, bmin, bmax, bins
 
     with np.errstate(invalid="ignore"):
         sah = area(left) * n_l + area(right) * n_r  # (bins - 1, m)
-    sah = np.where((n_l > 0) & (n_r > 0), sah, np.inf).reshape(bins - 1, nc, 3).transpose(1, 2, 0).reshape(nc, -1)
-    best = np.argmin(sah, axis=1)
-    best_sah = sah[np.arange(nc), best].astype(np.float64)
+    sah[(n_l == 0) | (n_r == 0)] = np.inf
+    cut = np.argmin(sah, axis=0)  # best cut per (node, axis) column
+    per_axis = np.take_along_axis(sah, cut[None], axis=0).reshape(nc, 3)
+    axis = np.argmin(per_axis, axis=1)
+    best_sah = per_axis[np.arange(nc), axis].astype(np.float64)
+    cut = cut.reshape(nc, 3)[np.arange(nc), axis]
     weight = c_count / take  # sampled counts stand for the whole node
     node_area = half_area(bmin[cand].astype(np.float64), bmax[cand].astype(np.float64))
     node_area = np.where(node_area > 0, node_area, 1.0)
     cost = TRAVERSAL_COST + INTERSECT_COST * weight * best_sah / node_area
-    return np.isfinite(best_sah), best // (bins - 1), best % (bins - 1), cost
+    return np.isfinite(best_sah), axis, cut, cost
