@@ -38,7 +38,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
         float2 off = pixel_sample_offset(sampler, s, n, &rng);
         float sx = 2.0f * (px + off.x) / (float)width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
-        Ray r = make_ray(origin, normalize(forward + sx * right + sy * up));
+        Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
         bool keep = record && s == 0; /* ids and shadows of the first sample */
         sum += trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * PATH_LEN : 0,
                           keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
@@ -69,7 +69,7 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
     int gid = get_global_id(0);
     if (gid >= n_rays) return;
     uint visits = 0;
-    Ray r = make_ray(origins[gid].xyz, normalize(directions[gid].xyz));
+    Ray r = make_ray(origins[gid].xyz, unit(directions[gid].xyz));
     Hit h = closest_hit(nodes, prims, n_prims, r, 0.0f, INF_T, &visits);
     t_out[gid] = h.t;
     prim_out[gid] = h.id;
@@ -87,7 +87,7 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
     int gid = get_global_id(0);
     if (gid >= n_rays) return;
     uint visits = 0;
-    Ray r = make_ray(origins[gid].xyz, normalize(directions[gid].xyz));
+    Ray r = make_ray(origins[gid].xyz, unit(directions[gid].xyz));
     float T = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_max[gid], true, &visits);
     occluded_out[gid] = T == 0.0f;
     visits_out[gid] = visits;
@@ -99,6 +99,6 @@ __kernel void refract_rays(int n, __global const float4 *d, __global const float
     int gid = get_global_id(0);
     if (gid >= n) return;
     float3 t;
-    int ok = refract_dir(normalize(d[gid].xyz), normalize(normals[gid].xyz), eta[gid], &t);
+    int ok = refract_dir(unit(d[gid].xyz), unit(normals[gid].xyz), eta[gid], &t);
     out[gid] = ok ? (float4)(t, 1.0f) : (float4)(0.0f);
 }
