@@ -29,9 +29,9 @@ LEARN = ("seed", "all")
 LEARN_GROUPS = {"seed": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
 # Adam step sizes per group (in the group's own units: pixels, log-sigma, radians, colour values)
 ADAM_LR = {"xy": 0.2, "log_scale": 0.02, "theta": 0.03, "color": 0.01, "lum": 0.01, "opacity": 0.02}
-# SGD/momentum rates per group, multiplied by the number of values in the image (H * W * 3),
-# because the mean losses' gradients shrink with the image size
-SGD_LR = {"xy": 20.0, "log_scale": 0.5, "theta": 0.5, "color": 0.5, "lum": 0.5, "opacity": 0.5}
+# SGD/momentum rates per group, multiplied by 3 N (N splats): a mean loss's gradient for one
+# splat shrinks like its footprint over the image's H * W * 3 values, about 1 / (3 N)
+SGD_LR = {"xy": 3.0, "log_scale": 0.15, "theta": 0.15, "color": 0.3, "lum": 0.3, "opacity": 0.3}
 
 
 @dataclass
@@ -189,7 +189,7 @@ class Fitter:
         self.renderer = GaussRenderer(device, w, h, config.blend)
         self.groups = LEARN_GROUPS[config.learn]
         base = ADAM_LR if config.optimizer == "adam" else {
-            k: v * h * w * 3 * (0.1 if config.optimizer == "momentum" else 1.0) for k, v in SGD_LR.items()}
+            k: v * 3 * config.splats * (0.1 if config.optimizer == "momentum" else 1.0) for k, v in SGD_LR.items()}
         self.base_lr = {k: base[k] * config.lr for k in self.groups}
         self.max_splats = config.max_splats or config.splats
         self.tiles_per_step = (len(self.renderer.all_tiles) if config.batch == 0
