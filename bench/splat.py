@@ -78,11 +78,11 @@ def test_image(size: int = 512, seed: int = 0) -> np.ndarray:
 def time_steps(device, target, blend, splats, runs):
     """Median forward and forward+backward+step times (after one warm-up call that compiles)."""
     cfg = FitConfig(splats=splats, blend=blend, init="gradient")
+    compile_before = device.compile_seconds
     fitter = Fitter(device, target, cfg)
     renderer: GaussRenderer = fitter.renderer
     params = initial_params(target, splats, cfg.init, blend, np.random.default_rng(0), renderer)
     opt = Optimizer("adam", fitter.base_lr)
-    compile_before = device.compile_seconds
 
     def forward():
         renderer.forward(params)
@@ -112,7 +112,8 @@ def time_steps(device, target, blend, splats, runs):
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench splat", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--image", help="fit this image (resized to --size x --size) instead of the built-in test image")
+    ap.add_argument("--image", help="fit this image (its centre square resized to --size x --size) "
+                                    "instead of the built-in test image")
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--splats", type=int, default=5000)
     ap.add_argument("--runs", type=int, default=20, help="timed runs; the median is reported")
@@ -125,7 +126,12 @@ def main(argv=None):
     runs = 5 if args.quick else args.runs
     if args.image:
         target = as_rgb(read_image(args.image).pixels)
-        target = cv2.resize(target, (args.size, args.size), interpolation=cv2.INTER_AREA)
+        h, w = target.shape[:2]
+        side = min(h, w)  # the centre square, resized
+        target = target[(h - side) // 2: (h - side) // 2 + side, (w - side) // 2: (w - side) // 2 + side]
+        target = cv2.resize(target, (args.size, args.size), interpolation=cv2.INTER_AREA if side > args.size
+                            else cv2.INTER_CUBIC)
+        target = np.clip(target, 0, 1)
         source = args.image
     else:
         target = test_image(args.size)

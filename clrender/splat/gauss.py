@@ -156,7 +156,9 @@ def bin_splats(box: np.ndarray, width: int, height: int) -> Binning:
     # k-th tile of its splat, row-major inside the splat's tile rectangle
     k = np.arange(len(splat), dtype=np.int64) - np.repeat(np.cumsum(count) - count, count)
     tile = (ty0[splat] + k // nx[splat]) * tiles_x + tx0[splat] + k % nx[splat]
-    order = np.argsort(tile, kind="stable")  # stable: splat index order inside each tile
+    # stable: splat index order inside each tile; 16-bit keys make numpy use a radix sort
+    key = tile.astype(np.int16 if tiles_x * tiles_y <= np.iinfo(np.int16).max else np.int32)
+    order = np.argsort(key, kind="stable")
     entry_tile = tile[order].astype(np.int32)
     tile_start = np.zeros(tiles_x * tiles_y + 1, np.int32)
     np.cumsum(np.bincount(entry_tile, minlength=tiles_x * tiles_y), out=tile_start[1:])
@@ -219,7 +221,7 @@ class GaussRenderer:
         device.check_fits(nbytes, f"a {width}x{height} splat image")
         self._out = device.empty(nbytes)
         self._out_host = np.empty((4, self.rows, self.pitch), np.float32)
-        self._dimg = device.empty(nbytes)
+        self._dimg_host = np.zeros((4, self.rows, self.pitch), np.float32)  # the padding stays 0
         self._partial = None
         self._partial_bytes = 0
         self.all_tiles = np.arange(self.tiles_x * self.tiles_y, dtype=np.int32)
@@ -253,7 +255,7 @@ class GaussRenderer:
         """
         cl, dev = self.cl, self.dev
         binning, params = frame.binning, frame.params
-        dimg = np.zeros((4, self.rows, self.pitch), np.float32)
+        dimg = self._dimg_host
         pixel_adjoint(d_image, frame.image, frame.weight, self.blend, dimg[:, : self.height, : self.width])
         if len(frame.tiles) == len(self.all_tiles):
             entries = slice(None)
@@ -276,8 +278,9 @@ class GaussRenderer:
                            dev.to_device(entry_splat), dev.to_device(entry_tile), np.int32(n_entries),
                            np.int32(self.tiles_x), np.int32(self.plane), dev.to_device(dimg), self._partial)
             cl.enqueue_copy(dev.queue, partial, self._partial)
-        raw = np.stack([np.bincount(entry_splat, weights=partial[:, j], minlength=params.n)
-                        for j in range(NGRAD)], axis=1)
+        # sum the rows of each splat: one bincount over (splat, column) pairs, in entry order
+        keys = (entry_splat[:, None] * NGRAD + np.arange(NGRAD)).ravel()
+        raw = np.bincount(keys, weights=partial.ravel(), minlength=params.n * NGRAD).reshape(params.n, NGRAD)
         return chain_rule(params, raw)
 
 
