@@ -46,13 +46,14 @@ class SiteGrid:
     order: np.ndarray       # int32 (N,): site indices in cell order (stable: ascending within a cell)
 
 
-def cell_side(n: int, width: int, height: int, sites_per_cell: float = SITES_PER_CELL) -> float:
+def cell_side(n: int, width: int, height: int, sites_per_cell: float | None = None) -> float:
     """Power-of-two cell side giving about `sites_per_cell` sites per cell."""
+    sites_per_cell = sites_per_cell or SITES_PER_CELL
     ideal = math.sqrt(width * height * sites_per_cell / max(n, 1))
     return float(2.0 ** round(math.log2(ideal)))
 
 
-def build_grid(sites: np.ndarray, width: int, height: int, sites_per_cell: float = SITES_PER_CELL) -> SiteGrid:
+def build_grid(sites: np.ndarray, width: int, height: int, sites_per_cell: float | None = None) -> SiteGrid:
     """Bin the sites into a uniform grid covering the image (counting sort, numpy only)."""
     cell = cell_side(len(sites), width, height, sites_per_cell)
     gw, gh = max(1, math.ceil(width / cell)), max(1, math.ceil(height / cell))
@@ -323,3 +324,36 @@ def splat(device, image: np.ndarray, settings: VoronoiSettings) -> VoronoiResult
     if settings.colors == "mean":
         colors = mean_colors(image, index, len(sites), fallback=colors)
     return VoronoiResult(sites, colors, index, render(index, colors))
+
+
+def synthetic_photo(width: int = 512, height: int = 512, seed: int = 0) -> np.ndarray:
+    """A deterministic photo-like linear RGB image (H, W, 3) in [0, 1]: sky gradient,
+    rolling hills, soft discs, hard-edged shapes and multi-octave value-noise texture."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    ys, xs = np.mgrid[0:height, 0:width].astype(np.float32)
+    u, v = (xs + 0.5) / width, (ys + 0.5) / height
+    img = np.empty((height, width, 3), np.float32)
+    img[...] = np.stack([0.35 + 0.3 * v, 0.5 + 0.25 * v, 0.85 - 0.2 * v], axis=2)  # sky
+    texture = np.zeros((height, width), np.float32)
+    for octave in range(1, 9):  # value noise: coarse-to-fine random grids, smoothly upsampled
+        cells = 2 ** octave
+        grid = rng.random((cells + 1, cells + 1)).astype(np.float32)
+        texture += cv2.resize(grid, (width, height), interpolation=cv2.INTER_CUBIC) / 1.35 ** octave
+    texture = (texture - texture.min()) / max(float(np.ptp(texture)), 1e-6)
+    for k in range(3):  # hills, farther ones paler
+        phase, amp, base = rng.random() * 6.3, 0.04 + 0.05 * rng.random(), 0.45 + 0.15 * k
+        ridge = base + amp * np.sin(u * (3 + 4 * rng.random()) * np.pi + phase)
+        ground = v > ridge
+        colour = np.array([0.15 + 0.2 * rng.random(), 0.3 + 0.3 * rng.random(), 0.1 + 0.1 * k], np.float32)
+        img[ground] = colour * (0.6 + 0.8 * texture[ground, None])
+    for _ in range(6):  # soft discs (foliage, sun)
+        cx, cy, r = rng.random() * width, rng.random() * height * 0.7, (0.04 + 0.08 * rng.random()) * width
+        a = np.clip(1.0 - np.hypot(xs - cx, ys - cy) / r, 0.0, 1.0) ** 0.5
+        img += a[..., None] * (rng.random(3).astype(np.float32) - img) * 0.8
+    for _ in range(4):  # hard-edged rectangles (buildings), textured
+        x0, y0 = int(rng.random() * width * 0.8), int(height * (0.4 + 0.4 * rng.random()))
+        x1, y1 = x0 + int(width * (0.05 + 0.15 * rng.random())), height
+        img[y0:y1, x0:x1] = rng.random(3).astype(np.float32) * (0.7 + 0.6 * texture[y0:y1, x0:x1, None])
+    return np.clip(img, 0.0, 1.0).astype(np.float32)
