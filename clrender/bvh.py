@@ -127,8 +127,7 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, builder: str = "sah", max_leaf_siz
         raise UsageError(f"bins {bins} must be >= 2")
     if int(sah_samples) < 2:
         raise UsageError(f"sah_samples {sah_samples} must be >= 2")
-    lo = np.asarray(lo, np.float32)
-    hi = np.asarray(hi, np.float32)
+    lo, hi = _as_float32(lo, -np.inf), _as_float32(hi, np.inf)
     if lo.ndim != 2 or lo.shape[1:] != (3,) or lo.shape != hi.shape:
         raise UsageError(f"primitive bounds must be two (N, 3) arrays, got {lo.shape} and {hi.shape}")
     n = len(lo)
@@ -145,6 +144,18 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, builder: str = "sah", max_leaf_siz
         levels, order = _sah_levels(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
     nodes = _depth_first(levels)
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
+
+
+def _as_float32(a, toward):
+    """float32 copy of bounds, rounded outward (toward -inf for lo, +inf for hi) so no box shrinks."""
+    a = np.asarray(a)
+    if a.dtype == np.float32 or a.dtype.kind not in "fiu":
+        return np.asarray(a, np.float32)
+    b = a.astype(np.float32)
+    shrunk = (b > a) if toward < 0 else (b < a)
+    if shrunk.any():
+        b[shrunk] = np.nextafter(b[shrunk], np.float32(toward))
+    return b
 
 
 # ---------------------------------------------------------------- level records

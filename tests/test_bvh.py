@@ -226,3 +226,16 @@ def test_closest_hit_matches_brute_force(builder, rng):
         else:
             assert pid == -1
     assert hits > 50
+
+
+def test_float64_bounds_round_outward(rng):
+    """Bounds given in float64 must not shrink when stored as float32."""
+    lo = rng.random((300, 3)) * 10 + 1e-9
+    hi = lo + rng.random((300, 3)) * 1e-3
+    bvh = build_bvh(lo, hi)
+    leaf = bvh.nodes["count"] > 0
+    slot_leaf = np.repeat(np.flatnonzero(leaf), bvh.nodes["count"][leaf])
+    prims = bvh.prim_order[np.concatenate([np.arange(o, o + c) for o, c in
+                                           zip(bvh.nodes["offset"][leaf], bvh.nodes["count"][leaf])])]
+    assert (bvh.nodes["bmin"][slot_leaf].astype(np.float64) <= lo[prims]).all()
+    assert (bvh.nodes["bmax"][slot_leaf].astype(np.float64) >= hi[prims]).all()
