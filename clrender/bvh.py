@@ -122,22 +122,24 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, builder: str = "sah", max_leaf_siz
     if builder not in BUILDERS:
         raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
     if int(max_leaf_size) < 1:
-        raise UsageError(f"max_leaf_size {max_leaf_size} must be >= 1")
+        raise UsageError(f"max_leaf_size {max_leaf_size}; allowed: 1 or more")
     if int(bins) < 2:
-        raise UsageError(f"bins {bins} must be >= 2")
+        raise UsageError(f"bins {bins}; allowed: 2 or more")
     if int(sah_samples) < 2:
-        raise UsageError(f"sah_samples {sah_samples} must be >= 2")
+        raise UsageError(f"sah_samples {sah_samples}; allowed: 2 or more")
     lo, hi = _as_float32(lo, -np.inf), _as_float32(hi, np.inf)
     if lo.ndim != 2 or lo.shape[1:] != (3,) or lo.shape != hi.shape:
-        raise UsageError(f"primitive bounds must be two (N, 3) arrays, got {lo.shape} and {hi.shape}")
+        raise UsageError(f"primitive bounds of shapes {lo.shape} and {hi.shape}; allowed: two (N, 3) arrays")
     n = len(lo)
+    if n >= 2**31:
+        raise UsageError(f"{n} primitives; allowed: fewer than 2**31")
     if n == 0:
         nodes = np.zeros(1, NODE_DTYPE)
         return BVH(nodes, np.zeros(0, np.int32), time.perf_counter() - start, builder)
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
-        raise UsageError("primitive bounds contain NaN or infinite values; allowed: finite numbers")
+        raise UsageError("primitive bounds with NaN or infinite values; allowed: finite numbers")
     if (hi < lo).any():
-        raise UsageError("primitive bounds have hi < lo; allowed: boxes with lo <= hi")
+        raise UsageError("primitive bounds with hi < lo; allowed: boxes with lo <= hi")
     if builder == "median":
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
     else:

@@ -1,6 +1,12 @@
 """Procedural meshes for scenes and benchmarks (numpy + trimesh, deterministic).
 
-* `dense_mesh(n, seed)` -- a lumpy sphere of about n triangles (ray and BVH benchmarks)
+* `bunny(resolution)` -- a sitting rabbit, surface nets of a smooth union of ellipsoids and
+  capsules; cached under cache_dir() after the first build
+* `dense_mesh(n, seed)` (scene name `dense`) -- a lumpy sphere of about n triangles, for the
+  ray and BVH benchmarks
+* `wizard_hat()`, `tower()` (lathe profiles) and `cat()` (surface nets) -- low-poly props
+
+Scene files use them with `generator = "bunny"` and keyword arguments in `params = {...}`.
 """
 from __future__ import annotations
 
@@ -13,6 +19,12 @@ import trimesh
 from .errors import UsageError
 
 MAX_DENSE_TRIANGLES = 50_000_000
+
+
+def _check_range(what: str, value, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+        raise UsageError(f"{what} {value!r}; allowed: whole numbers {low} to {high}")
+    return int(value)
 
 
 def uv_sphere_faces(rings: int, segments: int) -> np.ndarray:
@@ -46,9 +58,7 @@ def dense_mesh(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     The surface is a UV sphere displaced along its normals by a sum of random waves; `seed` picks
     the waves.  The count is exact for n = 4 r (r - 1) with r rings, the nearest such otherwise.
     """
-    n_triangles = int(n_triangles)
-    if not 8 <= n_triangles <= MAX_DENSE_TRIANGLES:
-        raise UsageError(f"dense mesh triangle count {n_triangles}; allowed: 8 to {MAX_DENSE_TRIANGLES}")
+    n_triangles = _check_range("dense mesh triangle count", n_triangles, 8, MAX_DENSE_TRIANGLES)
     rings = max(2, int(round(0.5 + np.sqrt(0.25 + n_triangles / 4.0))))
     segments = 2 * rings
     faces = uv_sphere_faces(rings, segments)
@@ -224,9 +234,7 @@ def bunny(resolution: int = 112, cache: bool = True) -> trimesh.Trimesh:
 
     The first build (about two seconds) is cached as cache_dir()/bunny-v<version>-r<resolution>.ply;
     later calls load that file.  cache=False always rebuilds and writes nothing."""
-    resolution = int(resolution)
-    if not 16 <= resolution <= 512:
-        raise UsageError(f"bunny resolution {resolution}; allowed: 16 to 512")
+    resolution = _check_range("bunny resolution", resolution, 16, 256)
     if not cache:
         return build_bunny(resolution)
     path = cache_dir() / f"bunny-v{BUNNY_VERSION}-r{resolution}.ply"
@@ -279,6 +287,7 @@ def lathe(profile, segments: int) -> trimesh.Trimesh:
 
 def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
     """A pointed hat with a brim and a tip bent back (-z): brim radius 0.5, height about 0.9, on y = 0."""
+    segments = _check_range("wizard_hat segments", segments, 3, 4096)
     cone = [(0.24 * (1 - t) ** 1.3, 0.04 + 0.86 * t) for t in np.linspace(0, 1, 14)[1:]]
     profile = [(0, 0), (0.5, 0), (0.5, 0.02), (0.26, 0.04), *cone]
     profile[-1] = (0, profile[-1][1])
@@ -293,12 +302,14 @@ def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
 
 def tower(segments: int = 24) -> trimesh.Trimesh:
     """A round tower: a cylinder (radius 0.3, 1.5 high) with a battlement lip and a cone roof."""
+    segments = _check_range("tower segments", segments, 3, 4096)
     profile = [(0, 0), (0.3, 0), (0.3, 1.5), (0.36, 1.52), (0.36, 1.62), (0.0, 2.2)]
     return lathe(profile, segments)
 
 
 def cat(resolution: int = 40) -> trimesh.Trimesh:
     """A low-poly sitting cat facing +z, about 1 tall, on y = 0: body, head, pointed ears, tail."""
+    resolution = _check_range("cat resolution", resolution, 16, 256)
 
     def field(p):
         return smooth_union([

@@ -77,9 +77,11 @@ def test_bunny_deterministic_without_cache(tmp_path, monkeypatch):
     assert not (tmp_path / "clrender").exists()
 
 
-def test_bunny_bad_resolution():
+@pytest.mark.parametrize("call", [lambda: meshes.bunny(4), lambda: meshes.bunny(10_000), lambda: meshes.bunny(64.5),
+                                  lambda: meshes.wizard_hat(2), lambda: meshes.tower(True), lambda: meshes.cat(0)])
+def test_bad_parameters(call):
     with pytest.raises(UsageError):
-        meshes.bunny(4)
+        call()
 
 
 @pytest.mark.parametrize("name, watertight, faces", [
