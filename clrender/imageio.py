@@ -60,6 +60,83 @@ def read_image(path: str | os.PathLike) -> Image:
     return Image(pixels, str(spec.format), tuple(spec.channelnames))
 
 
+# Channel types each writer stores, keyed by extension (OpenImageIO's plugins).
+WRITER_FORMATS = {
+    ".png": ("uint8", "uint16"),
+    ".jpg": ("uint8",),
+    ".jpeg": ("uint8",),
+    ".tif": ("uint8", "uint16", "half", "float"),
+    ".tiff": ("uint8", "uint16", "half", "float"),
+    ".exr": ("half", "float"),
+    ".hdr": ("float",),
+    ".pfm": ("float",),
+    ".bmp": ("uint8",),
+    ".tga": ("uint8",),
+    ".webp": ("uint8",),
+}
+FLOAT_FORMATS = ("half", "float", "double")
+
+
+@dataclass
+class ImageInfo:
+    """What a file's header says, read without its pixels."""
+
+    height: int
+    width: int
+    nchannels: int
+    format: str
+    channel_names: tuple
+
+    @property
+    def nbytes(self) -> int:
+        """Size of the pixels as float32."""
+        return self.height * self.width * self.nchannels * 4
+
+
+def probe_image(path: str | os.PathLike) -> ImageInfo:
+    """Read only the header; UsageError if the file is missing or not an image."""
+    path = Path(path)
+    if not path.is_file():
+        raise UsageError(f"input image {str(path)!r} does not exist")
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise UsageError(f"cannot read {str(path)!r} as an image ({oiio.geterror().strip() or 'unknown format'})")
+    try:
+        spec = inp.spec()
+        return ImageInfo(spec.height, spec.width, spec.nchannels, str(spec.format), tuple(spec.channelnames))
+    finally:
+        inp.close()
+
+
+def output_format(path: str | os.PathLike, stored: str) -> str:
+    """The channel type to write `path` with, for pixels that were stored as `stored`.
+
+    The same type where the writer has it (8-bit PNG stays 8-bit, 16-bit
+    TIFF stays 16-bit, half EXR stays half); otherwise floats go to the
+    widest float or integer the writer has, integers to the deepest integer
+    no deeper than needed, or to float for float-only formats.
+    """
+    allowed = WRITER_FORMATS.get(Path(path).suffix.lower())
+    if allowed is None or stored in allowed:
+        return stored
+    if stored in FLOAT_FORMATS:
+        order = ("float", "half", "uint16", "uint8")
+    elif stored in ("uint8", "int8"):
+        order = ("uint8", "uint16", "float")
+    else:
+        order = ("uint16", "uint8", "float")
+    return next(f for f in order if f in allowed)
+
+
+def writer_supports_alpha(path: str | os.PathLike) -> bool:
+    """Whether the writer for this extension can store an alpha channel (JPEG, HDR cannot)."""
+    out = oiio.ImageOutput.create(str(path))
+    if out is None:
+        oiio.geterror()
+        return False
+    return bool(out.supports("alpha"))
+
+
 def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, inputs=()) -> Path:
     """Refuse an output we could not write, before any work is done."""
     path = Path(path)
@@ -67,6 +144,7 @@ def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, input
         raise UsageError(f"output {str(path)!r} has no extension; use .png, .jpg, .tif, .exr or .hdr")
     probe = oiio.ImageOutput.create(str(path))
     if probe is None:
+        oiio.geterror()  # clear it, or OpenImageIO prints it again at exit
         raise UsageError(
             f"no image writer for extension {path.suffix!r} of {str(path)!r}; use .png, .jpg, .tif, .exr or .hdr"
         )
@@ -119,7 +197,10 @@ def write_image(
     spec = oiio.ImageSpec(width, height, nchannels, format)
     if channel_names:
         spec.channelnames = tuple(channel_names)
-    if nchannels == 4:
+    names = [n.upper() for n in (channel_names or ())]
+    if "A" in names:
+        spec.alpha_channel = names.index("A")
+    elif nchannels == 4:
         spec.alpha_channel = 3
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
     os.close(fd)
