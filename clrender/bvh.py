@@ -287,7 +287,7 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
                 enter[cand[~ok]] = True
             binned = split & ~enter
             if enter.any():
-                box, ids = _morton_sort(box, ids, cen, np.flatnonzero(enter[seg_of]), seg_of, cmin, extent)
+                box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
         else:
             bmin = bmax = np.zeros((0, 3), np.float32)
         hsplit = hcount > max_leaf
@@ -317,12 +317,15 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
         # count as left too, and go to the tail)
         n = len(ids)
         i = np.arange(n, dtype=np.int64)
-        done = ~binned[seg_of]
+        per_prim = lambda a: np.repeat(a, count)  # noqa: E731  (faster than a[seg_of])
+        done = ~per_prim(binned)
         if n_binned:
-            rows = np.take(cen.ravel(), axis[seg_of] * n + i)  # centroid along the node's split axis
+            rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
             kk = np.arange(k)
-            c0, sc = cmin[kk, axis][seg_of], scale[kk, axis][seg_of]
-            go_left = np.minimum(((rows - c0) * sc).astype(np.int64), bins - 1) <= cut[seg_of]
+            rows -= per_prim(cmin[kk, axis])
+            rows *= per_prim(scale[kk, axis])
+            # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
+            go_left = rows < per_prim((cut + 1).astype(np.float32))
             go_left |= done
         else:
             go_left = np.ones(n, bool)
@@ -342,7 +345,7 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
         base_left[s] = new_start[0::2] - before[s]
         base_right = np.zeros(k, np.int64)
         base_right[s] = new_start[1::2] - seg_start[s] + before[s]
-        dest = np.where(go_left, left_incl - 1 + base_left[seg_of], i - left_incl + base_right[seg_of])
+        dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
         perm = np.empty(n, np.int64)
         perm[dest] = i
         ids = np.take(ids, perm)
@@ -399,8 +402,9 @@ def _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale, bmin, bm
     if (take == c_count).all():
         rank = np.full(len(count), -1, np.int64)
         rank[cand] = np.arange(nc)
-        p = np.flatnonzero(rank[seg_of] >= 0)
-        which = rank[seg_of[p]]
+        per_prim = np.repeat(rank, count)
+        p = np.flatnonzero(per_prim >= 0)
+        which = per_prim[p]
     else:
         _, which = _segments(take)
         j = np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)
