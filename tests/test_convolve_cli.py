@@ -1,0 +1,162 @@
+"""`clrender convolve`: bit depth, colour space and alpha through files; bad input exits 2 and writes nothing."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from clrender import filters
+from clrender.cli import main
+from clrender.imageio import probe_image, read_image, srgb_to_linear, linear_to_srgb, write_image
+
+RGBA = ("R", "G", "B", "A")
+
+
+def make(path, rng, shape=(24, 31, 3), format="uint8", scale=1.0, names=None):
+    pixels = (rng.random(shape) * scale).astype(np.float32)
+    write_image(path, pixels, format=format, channel_names=names)
+    return read_image(path).pixels  # as stored (quantised)
+
+
+def convolve(*argv):
+    return main(["convolve", *map(str, argv)])
+
+
+@pytest.mark.parametrize("ext,format", [(".png", "uint8"), (".png", "uint16"), (".tif", "uint8"),
+                                        (".tif", "uint16"), (".jpg", "uint8"), (".exr", "half"),
+                                        (".exr", "float"), (".tif", "float"), (".hdr", "float")])
+def test_identity_filter_keeps_format_and_values(tmp_path, rng, ext, format):
+    src, dst = tmp_path / f"in{ext}", tmp_path / f"out{ext}"
+    stored = make(src, rng, format=format)
+    assert convolve(src, dst, "box_blur_1") == 0
+    out = read_image(dst)
+    assert out.format == format
+    if ext != ".jpg":  # JPEG re-encodes lossily; the rest must come back bit for bit
+        # (for integer files: sRGB decode + encode in float32 moves no code)
+        assert np.array_equal(out.pixels, stored)
+
+
+@pytest.mark.parametrize("format,step", [("uint8", 255), ("uint16", 65535)])
+def test_integer_files_are_blurred_in_linear_light(tmp_path, rng, format, step):
+    src, dst = tmp_path / "in.png", tmp_path / "out.png"
+    stored = make(src, rng, format=format)
+    assert convolve(src, dst, "gauss_blur_5", "brighten_0.8") == 0
+    expected = linear_to_srgb(filters.apply(srgb_to_linear(stored), "gauss_blur_5", "brighten_0.8"))
+    got = read_image(dst)
+    assert got.format == format
+    assert np.abs(got.pixels - expected).max() <= 0.5001 / step  # rounding to the nearest code only
+
+
+def test_space_stored_filters_the_stored_values(tmp_path, rng):
+    src, dst = tmp_path / "in.tif", tmp_path / "out.tif"
+    stored = make(src, rng, format="uint16")
+    assert convolve(src, dst, "edge_detect_2", "--space", "stored") == 0
+    expected = np.clip(filters.apply(stored, "edge_detect_2"), 0, 1)  # clamped only because the file is integer
+    assert np.abs(read_image(dst).pixels - expected).max() <= 0.5001 / 65535
+
+
+def test_exr_stays_float_unclamped(tmp_path, rng):
+    src, dst = tmp_path / "in.exr", tmp_path / "out.exr"
+    stored = make(src, rng, format="float", scale=5.0)
+    assert convolve(src, dst, "edge_detect_1", "brighten_3") == 0
+    out = read_image(dst)
+    assert out.format == "float"
+    expected = filters.apply(stored, "edge_detect_1", "brighten_3")
+    assert expected.min() < 0 and expected.max() > 1  # nothing was clamped
+    np.testing.assert_array_equal(out.pixels, expected)
+
+
+def test_alpha_survives_and_is_copied_by_brighten(tmp_path, rng):
+    src, dst = tmp_path / "in.png", tmp_path / "out.png"
+    stored = make(src, rng, shape=(20, 18, 4), format="uint16", names=RGBA)
+    assert convolve(src, dst, "brighten_1.25") == 0
+    out = read_image(dst)
+    assert out.format == "uint16" and out.pixels.shape[2] == 4 and out.alpha_channel == 3
+    assert np.array_equal(out.pixels[:, :, 3], stored[:, :, 3])
+
+
+def test_alpha_is_blurred_with_the_colour(tmp_path, rng):
+    src, dst = tmp_path / "in.exr", tmp_path / "out.exr"
+    stored = make(src, rng, shape=(20, 18, 4), format="float", names=RGBA)
+    assert convolve(src, dst, "box_blur_3") == 0
+    out = read_image(dst)
+    np.testing.assert_allclose(out.pixels, filters.apply(stored, "box_blur_3", alpha_channel=3), atol=1e-6)
+    np.testing.assert_allclose(out.pixels[:, :, 3], filters.apply(stored[:, :, 3], "box_blur_3"), atol=1e-6)
+
+
+def test_alpha_is_dropped_for_jpeg_with_a_note(tmp_path, rng, capsys):
+    src, dst = tmp_path / "in.png", tmp_path / "out.jpg"
+    make(src, rng, shape=(16, 16, 4), names=RGBA)
+    assert convolve(src, dst, "box_blur_3") == 0
+    assert probe_image(dst).nchannels == 3
+    assert "alpha dropped" in capsys.readouterr().err
+
+
+def test_float_input_to_png_is_srgb_encoded_16_bit(tmp_path, rng):
+    src, dst = tmp_path / "in.exr", tmp_path / "out.png"
+    stored = make(src, rng, format="half")
+    assert convolve(src, dst, "box_blur_1") == 0
+    out = read_image(dst)
+    assert out.format == "uint16"
+    assert np.abs(out.pixels - linear_to_srgb(stored)).max() <= 0.5001 / 65535
+
+
+def test_overwrite_allows_output_equal_to_input(tmp_path, rng):
+    src = tmp_path / "in.png"
+    stored = make(src, rng)
+    assert convolve(src, src, "brighten_0", "--overwrite") == 0
+    assert read_image(src).pixels.max() == 0 and stored.max() > 0
+
+
+def test_list_prints_the_names(capsys):
+    assert convolve("--list") == 0
+    out = capsys.readouterr().out
+    assert len(out.splitlines()) == 5 and "edge_detect_2" in out
+
+
+BAD = [
+    (["in.png", "out.png", "box_blur_4"], "box_blur_4"),
+    (["in.png", "out.png", "gauss_blur_0"], "gauss_blur_0"),
+    (["in.png", "out.png", "brighten_x"], "brighten_x"),
+    (["in.png", "out.png", "brighten_nan"], "brighten_nan"),
+    (["in.png", "out.png", "brighten_-2"], "brighten_-2"),
+    (["in.png", "out.png", "gauss_blur_3", "blur"], "'blur'"),
+    (["missing.png", "out.png", "box_blur_3"], "missing.png"),
+    (["text.png", "out.png", "box_blur_3"], "text.png"),
+    (["in.png", "out.xyz", "box_blur_3"], ".xyz"),
+    (["in.png", "out", "box_blur_3"], "no extension"),
+    (["in.png", "in.png", "box_blur_3"], "--overwrite"),
+    (["in.png", "existing.png", "box_blur_3"], "--overwrite"),
+    (["in.png", "nodir/out.png", "box_blur_3"], "nodir"),
+    (["in.png", "out.png"], "FILTER"),
+    (["in.png"], "FILTER"),
+    (["in.png", "out.png", "box_blur_3", "--space", "log"], "log"),
+]
+
+
+@pytest.mark.parametrize("argv,says", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, rng, monkeypatch, capsys, argv, says):
+    monkeypatch.chdir(tmp_path)
+    make(tmp_path / "in.png", rng)
+    make(tmp_path / "existing.png", rng)
+    (tmp_path / "text.png").write_text("not an image\n")
+    before = {p: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
+    try:
+        code = convolve(*argv)
+    except SystemExit as exc:  # argparse's own errors (bad --space choice)
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("clrender: ") and err.count("\n") == 1 and says in err
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.iterdir()} == before
+
+
+def test_console_script_runs_the_seed_example(tmp_path, rng):
+    """The seed's Convolve.blur(src, out, "box_blur_33"), as one command line."""
+    src, dst = tmp_path / "treebranch_source.jpg", tmp_path / "treebranch_convolution.jpg"
+    make(src, rng, shape=(48, 64, 3))
+    done = subprocess.run([sys.executable, "-m", "clrender", "convolve", str(src), str(dst), "box_blur_33"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == ""
+    assert probe_image(dst).width == 64
