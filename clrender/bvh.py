@@ -444,7 +444,7 @@ def _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale, bmin, bm
         e = np.maximum(-(t[3:6] + t[0:3]), 0)
         return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
 
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # empty bins: inf - inf; huge scenes: inf areas
         sah = area(left) * n_l + area(right) * n_r  # (bins - 1, m)
     sah[(n_l == 0) | (n_r == 0)] = np.inf
     cut = np.argmin(sah, axis=0)  # best cut per (node, axis) column

@@ -3,6 +3,7 @@ traversal in numpy against brute force."""
 import numpy as np
 import pytest
 
+import clrender.bvh as bvh_module
 from clrender.bvh import BUILDERS, MAX_DEPTH, NODE_DTYPE, build_bvh
 from clrender.errors import UsageError
 
@@ -102,14 +103,18 @@ def test_sampled_and_halving_paths_keep_invariants(rng):
         check_tree(bvh, lo, hi, max_leaf=16)
 
 
-def test_depth_is_capped_on_a_pathological_input():
-    """Exponentially spaced boxes make binned SAH peel one primitive per level; the depth cap
-    switches to halving splits in time."""
-    x = np.float32(2.0) ** np.arange(120, dtype=np.float32)
-    lo = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
-    bvh = build_bvh(lo, lo + 1, max_leaf_size=1)
-    check_tree(bvh, lo, lo + 1)
-    assert bvh.depth <= MAX_DEPTH
+def test_depth_is_capped(monkeypatch):
+    """Boxes at 16^i make binned SAH peel one primitive per level; with the cap lowered to 12 the
+    builder switches to halving in time."""
+    x = np.float32(16.0) ** np.arange(31, dtype=np.float32)
+    lo = np.concatenate([np.stack([x, 0 * x, 0 * x], axis=1), np.random.default_rng(0).random((200, 3))])
+    lo = lo.astype(np.float32)
+    assert build_bvh(lo, lo + 1, max_leaf_size=1).depth > 16
+    monkeypatch.setattr(bvh_module, "MAX_DEPTH", 12)
+    for builder in BUILDERS:
+        bvh = build_bvh(lo, lo + 1, builder=builder, max_leaf_size=1)
+        assert bvh.depth <= 12
+        check_tree(bvh, lo, lo + 1)
 
 
 def test_median_is_the_seeds_rule(rng):
