@@ -29,7 +29,7 @@ from ..errors import UsageError
 METHODS = ("grid", "naive")
 INITS = ("uniform", "random", "gradient")
 COLOR_MODES = ("sample", "mean")
-SITES_PER_CELL = 2.0
+SITES_PER_CELL = 1.0
 STRIP = 8  # pixels per work-item in the grid kernel (one float8)  # target grid density; the cell side is rounded to a power of two
 
 
