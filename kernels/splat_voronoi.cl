@@ -136,15 +136,6 @@ __kernel void nearest_grid(__global const float2 *sorted_pos, __global const int
     }
 }
 
-/* Colour gather: out[p] = colors[nearest[p]] (float4 per site, channels padded). */
-__kernel void gather_colors(__global const int *nearest, __global const float4 *colors, int npix,
-                            __global float4 *out)
-{
-    int p = get_global_id(0);
-    if (p < npix)
-        out[p] = colors[nearest[p]];
-}
-
 /* Soft model, forward: the K nearest sites of each pixel (grid search as
  * above, keeping a sorted list), weights w_j = softmax_j(-d2_j / T) and the
  * blend out = sum_j w_j c_j.  Writes idx/w (K per pixel) for the backward pass. */
