@@ -36,6 +36,7 @@ is 64 entries): SAH nodes switch to halving early enough.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +48,7 @@ BUILDERS = ("sah", "median")
 MAX_DEPTH = 48  # levels, root included; the kernels' stack (64) never overflows
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
+PARALLEL_ABOVE = 100_000  # SAH builds of more primitives grow the root's two subtrees in two threads
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -214,8 +216,9 @@ def _halves(start, count):
 
 
 def _range_bounds(box, start, count):
-    """Bounds of the ranges [start, start + count) of box (6, n + 1), ranges sorted and disjoint."""
+    """Bounds of the ranges [start, start + count) of box (6, n + 1): sorted, disjoint, non-empty."""
     ranges = np.stack([start, start + count], axis=1).ravel()  # keep every other reduction
+    box = box[:, :ranges[-1] + 1]  # the last (discarded) reduction covers one column only
     bmin = np.minimum.reduceat(box[0:3], ranges, axis=1)[:, 0::2].T
     bmax = np.maximum.reduceat(box[3:6], ranges, axis=1)[:, 0::2].T
     return bmin, bmax
@@ -254,113 +257,143 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
     order = np.empty(n_total, np.int32)
     fixed = np.zeros((6, n_total + 1), np.float32)  # bounds by final slot, for the halving nodes
     leaf_cap = 4 * max_leaf
-    levels = []
-    gstart, count = np.zeros(1, np.int64), np.array([n_total], np.int64)  # active nodes
-    hstart, hcount = np.zeros(0, np.int64), np.zeros(0, np.int64)  # halving nodes, sorted by slot
-    depth = 1
-    while len(count) or len(hcount):
-        k = len(count)
-        split = count > max_leaf
-        binned = np.zeros(k, bool)
-        enter = np.zeros(k, bool)
-        if k:
-            seg_start, seg_of = _segments(count)
-            cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
-            bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
-            bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
-            # halving from here keeps depth <= MAX_DEPTH: a halved subtree adds ceil(log2(count)) levels
-            too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_DEPTH
-            enter = split & ((count <= small) | too_deep)
-            cand = np.flatnonzero(split & ~enter)
-            axis = np.zeros(k, np.int64)
-            cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
-            if split.any():
-                cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
-                cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
-                extent = cmax - cmin
-            if len(cand):
-                scale = np.where(extent > 0, bins / np.where(extent > 0, extent, 1), 0).astype(np.float32)
-                ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale,
-                                                               bmin, bmax, bins, samples)
-                make_leaf = ok & (cost >= INTERSECT_COST * count[cand]) & (count[cand] <= leaf_cap)
-                split[cand[make_leaf]] = False
-                enter[cand[~ok]] = True
-            binned = split & ~enter
-            if enter.any():
-                box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
-        else:
-            bmin = bmax = np.zeros((0, 3), np.float32)
-        hsplit = hcount > max_leaf
-        hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (bmin[:0], bmin[:0])
 
-        # next level: children of binned nodes (active), then halves of entering and halving nodes
-        n_binned = int(binned.sum())
-        e_start, e_count = _halves(gstart[enter], count[enter])
-        h_start, h_count = _halves(hstart[hsplit], hcount[hsplit])
-        both = np.concatenate([e_start, h_start])
-        srt = np.argsort(both, kind="stable")  # two sorted runs: keep the halving nodes sorted by slot
-        where = np.empty(len(both), np.int64)
-        where[srt] = np.arange(len(both))
-        child_active = np.zeros(k, np.int64)
-        child_active[binned] = 2 * np.arange(n_binned)
-        child_active[enter] = 2 * n_binned + where[0:len(e_start):2]
-        child_h = 2 * n_binned + where[len(e_start)::2]
-        levels.append(_Level(np.concatenate([bmin, hmin]), np.concatenate([bmax, hmax]),
-                             np.concatenate([gstart, hstart]), np.concatenate([count, hcount]),
-                             np.concatenate([split, hsplit]), np.concatenate([child_active[split], child_h])))
-        hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
-        depth += 1
-        if not k:
+    def grow(box, ids, gstart, count, hstart, hcount, depth, max_levels):
+        """Run the level loop on a set of nodes; returns their levels and the state left."""
+        levels = []
+        while (len(count) or len(hcount)) and len(levels) < max_levels:
+            k = len(count)
+            split = count > max_leaf
+            binned = np.zeros(k, bool)
+            enter = np.zeros(k, bool)
+            if k:
+                seg_start, seg_of = _segments(count)
+                cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
+                bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
+                bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
+                # halving from here keeps depth <= MAX_DEPTH: a halved subtree adds ceil(log2(count)) levels
+                too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_DEPTH
+                enter = split & ((count <= small) | too_deep)
+                cand = np.flatnonzero(split & ~enter)
+                axis = np.zeros(k, np.int64)
+                cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
+                if split.any():
+                    cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
+                    cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
+                    extent = cmax - cmin
+                if len(cand):
+                    scale = np.where(extent > 0, bins / np.where(extent > 0, extent, 1), 0).astype(np.float32)
+                    ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale,
+                                                                   bmin, bmax, bins, samples)
+                    make_leaf = ok & (cost >= INTERSECT_COST * count[cand]) & (count[cand] <= leaf_cap)
+                    split[cand[make_leaf]] = False
+                    enter[cand[~ok]] = True
+                binned = split & ~enter
+                if enter.any():
+                    box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
+            else:
+                bmin = bmax = np.zeros((0, 3), np.float32)
+            hsplit = hcount > max_leaf
+            hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (bmin[:0], bmin[:0])
+
+            # next level: children of binned nodes (active), then halves of entering and halving nodes
+            n_binned = int(binned.sum())
+            e_start, e_count = _halves(gstart[enter], count[enter])
+            h_start, h_count = _halves(hstart[hsplit], hcount[hsplit])
+            both = np.concatenate([e_start, h_start])
+            srt = np.argsort(both, kind="stable")  # two sorted runs: keep the halving nodes sorted by slot
+            where = np.empty(len(both), np.int64)
+            where[srt] = np.arange(len(both))
+            child_active = np.zeros(k, np.int64)
+            child_active[binned] = 2 * np.arange(n_binned)
+            child_active[enter] = 2 * n_binned + where[0:len(e_start):2]
+            child_h = 2 * n_binned + where[len(e_start)::2]
+            levels.append(_Level(np.concatenate([bmin, hmin]), np.concatenate([bmax, hmax]),
+                                 np.concatenate([gstart, hstart]), np.concatenate([count, hcount]),
+                                 np.concatenate([split, hsplit]), np.concatenate([child_active[split], child_h])))
+            hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
+            depth += 1
+            if not k:
+                continue
+
+            # side of every active primitive: True = left (primitives of leaves and entering nodes
+            # count as left too, and go to the tail)
+            n = len(ids)
+            i = np.arange(n, dtype=np.int64)
+            per_prim = lambda a: np.repeat(a, count)  # noqa: E731  (faster than a[seg_of])
+            done = ~per_prim(binned)
+            if n_binned:
+                rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
+                kk = np.arange(k)
+                rows -= per_prim(cmin[kk, axis])
+                rows *= per_prim(scale[kk, axis])
+                # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
+                go_left = rows < per_prim((cut + 1).astype(np.float32))
+                go_left |= done
+            else:
+                go_left = np.ones(n, bool)
+
+            # stable partition within each node: left primitives, then right ones; the primitives of
+            # nodes leaving the active set, in node order, at the tail
+            left_incl = np.cumsum(go_left)
+            before = np.concatenate([[0], left_incl])[seg_start]
+            n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
+            s = np.flatnonzero(binned)
+            new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
+            new_start, _ = _segments(new_count)
+            n_keep = int(new_count.sum())
+            leaving = ~binned
+            tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
+            base_left = tail_start - before
+            base_left[s] = new_start[0::2] - before[s]
+            base_right = np.zeros(k, np.int64)
+            base_right[s] = new_start[1::2] - seg_start[s] + before[s]
+            dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
+            perm = np.empty(n, np.int64)
+            perm[dest] = i
+            ids = np.take(ids, perm)
+            if n_keep < n:  # final slots of the primitives leaving the active set
+                slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
+                order[slot] = ids[n_keep:]
+                if enter.any():
+                    tail = perm[n_keep:]
+                    for d in range(6):
+                        fixed[d, slot] = box[d, tail]
+            box = np.take(box, perm[:n_keep], axis=1)
+            ids = ids[:n_keep]
+            gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
+            count = new_count
+        return levels, (box, ids, gstart, count, hstart, hcount, depth)
+
+    state = (box, ids, np.zeros(1, np.int64), np.array([n_total], np.int64),
+             np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
+    levels, state = grow(*state, max_levels=1)
+    box, ids, gstart, count, hstart, hcount, depth = state
+    if len(count) != 2 or len(hcount) or n_total < PARALLEL_ABOVE:
+        return levels + grow(*state, max_levels=MAX_DEPTH + 1)[0], order
+    # the root's two subtrees are independent: grow them in two threads (numpy releases the GIL)
+    half = int(count[0])
+    parts = [(np.ascontiguousarray(box[:, :half]), ids[:half], gstart[:1], count[:1]),
+             (np.ascontiguousarray(box[:, half:]), ids[half:], gstart[1:], count[1:])]
+    with ThreadPoolExecutor(2) as pool:
+        first, second = pool.map(lambda p: grow(*p, hstart, hcount, depth, MAX_DEPTH + 1)[0], parts)
+    return levels + _merge_levels(first, second), order
+
+
+def _merge_levels(first: list[_Level], second: list[_Level]) -> list[_Level]:
+    """Levels of two sibling subtrees side by side: the first's nodes, then the second's."""
+    merged = []
+    for d in range(max(len(first), len(second))):
+        a = first[d] if d < len(first) else None
+        b = second[d] if d < len(second) else None
+        if a is None or b is None:  # one subtree has ended: the other's child indices stay valid
+            merged.append(a or b)
             continue
-
-        # side of every active primitive: True = left (primitives of leaves and entering nodes
-        # count as left too, and go to the tail)
-        n = len(ids)
-        i = np.arange(n, dtype=np.int64)
-        per_prim = lambda a: np.repeat(a, count)  # noqa: E731  (faster than a[seg_of])
-        done = ~per_prim(binned)
-        if n_binned:
-            rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
-            kk = np.arange(k)
-            rows -= per_prim(cmin[kk, axis])
-            rows *= per_prim(scale[kk, axis])
-            # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
-            go_left = rows < per_prim((cut + 1).astype(np.float32))
-            go_left |= done
-        else:
-            go_left = np.ones(n, bool)
-
-        # stable partition within each node: left primitives, then right ones; the primitives of
-        # nodes leaving the active set, in node order, at the tail
-        left_incl = np.cumsum(go_left)
-        before = np.concatenate([[0], left_incl])[seg_start]
-        n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
-        s = np.flatnonzero(binned)
-        new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
-        new_start, _ = _segments(new_count)
-        n_keep = int(new_count.sum())
-        leaving = ~binned
-        tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
-        base_left = tail_start - before
-        base_left[s] = new_start[0::2] - before[s]
-        base_right = np.zeros(k, np.int64)
-        base_right[s] = new_start[1::2] - seg_start[s] + before[s]
-        dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
-        perm = np.empty(n, np.int64)
-        perm[dest] = i
-        ids = np.take(ids, perm)
-        if n_keep < n:  # final slots of the primitives leaving the active set
-            slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
-            order[slot] = ids[n_keep:]
-            if enter.any():
-                tail = perm[n_keep:]
-                for d in range(6):
-                    fixed[d, slot] = box[d, tail]
-        box = np.take(box, perm[:n_keep], axis=1)
-        ids = ids[:n_keep]
-        gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
-        count = new_count
-    return levels, order
+        below = len(first[d + 1].count) if d + 1 < len(first) else 0
+        merged.append(_Level(np.concatenate([a.bmin, b.bmin]), np.concatenate([a.bmax, b.bmax]),
+                             np.concatenate([a.start, b.start]), np.concatenate([a.count, b.count]),
+                             np.concatenate([a.split, b.split]), np.concatenate([a.child, b.child + below])))
+    return merged
 
 
 def _morton_sort(box, ids, cen, prims, seg_of, cmin, extent):
