@@ -31,7 +31,9 @@ renumbered depth-first):
   ``max_leaf_size``.
 
 Every tree is at most ``MAX_DEPTH`` levels deep (the kernels' traversal stack
-is 64 entries): SAH nodes switch to halving early enough.
+is 64 entries): SAH nodes switch to halving early enough.  SAH builds of more
+than ``PARALLEL_ABOVE`` primitives grow the root's two subtrees in two threads
+(numpy releases the GIL in its array loops); the tree is the same either way.
 """
 from __future__ import annotations
 
