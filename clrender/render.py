@@ -26,6 +26,7 @@ AA_MODES = ("none", "full", "edge_detect")
 LIGHT_SAMPLERS = ("stratified", "random")
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
+ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
 LOCAL_SIZE = 64  # work-group size; fixed so PoCL compiles one work-group function, warmed up once
 
@@ -78,6 +79,7 @@ class RenderSettings:
 class RenderResult:
     image: np.ndarray  # (H, W, 3) float32 linear RGB
     path_ids: np.ndarray  # (H, W, PATH_LEN) int32 object ids along each pixel's path, -1 past its end
+    facets: np.ndarray  # (H, W) int32 primitive id of the primary hit on a flat-shaded mesh, else -1
     shadow: np.ndarray  # (H, W, L) float32 visible fraction of each light at the primary hit
     edge_mask: np.ndarray | None  # (H, W) bool pixels resampled by edge-only AA
     timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
@@ -114,13 +116,13 @@ class Renderer:
         self.compile_seconds = time.perf_counter() - start
 
     def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
-        """Trace the given pixel indices: colours (k, 3), path ids (k, PATH_LEN), shadow (k, L), stats (k, 2)."""
+        """Trace the given pixel indices: colours (k, 3), id records (k, ID_RECORD), shadow (k, L), stats (k, 2)."""
         t = self.tracer
         dev = t.device
         s = self.settings
         k = len(pixels)
         L = max(self.n_lights, 1)
-        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, 4 * PATH_LEN, 4 * L, 8))
+        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, 4 * ID_RECORD, 4 * L, 8))
         if record:  # background pixels never write their shadow entries: all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
         self.kernel(
@@ -130,7 +132,7 @@ class Renderer:
             np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(s.seed), np.int32(s.max_depth),
             np.int32(s.fresnel), np.int32(s.light_samples),
             np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats)
-        out = (np.empty((k, 4), np.float32), np.empty((k, PATH_LEN), np.int32),
+        out = (np.empty((k, 4), np.float32), np.empty((k, ID_RECORD), np.int32),
                np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):
             cl.enqueue_copy(dev.queue, host, buf)
@@ -161,11 +163,12 @@ class Renderer:
         colour, ids, shadow, stats = self._pass(tiles, first_sampler, first_n, True, "trace")
         timings["trace"] = time.perf_counter() - start
         image = np.empty((H * W, 3), np.float32)
-        path_ids = np.empty((H * W, PATH_LEN), np.int32)
+        records = np.empty((H * W, ID_RECORD), np.int32)
         shadows = np.empty((H * W, self.n_lights), np.float32)
-        image[order], path_ids[order], shadows[order] = colour, ids, shadow
+        image[order], records[order], shadows[order] = colour, ids, shadow
         visits, rays = stats.sum(axis=0, dtype=np.int64)
-        result = RenderResult(image.reshape(H, W, 3), path_ids.reshape(H, W, PATH_LEN),
+        records = records.reshape(H, W, ID_RECORD)
+        result = RenderResult(image.reshape(H, W, 3), records[..., :PATH_LEN], records[..., PATH_LEN],
                               shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays))
         if s.aa == "edge_detect":
             self._resample_edges(result)
@@ -177,7 +180,9 @@ class Renderer:
 
         s = self.settings
         start = time.perf_counter()
-        mask = edge_mask(result.path_ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges)
+        # a change of facet on a flat-shaded mesh is a shading edge too
+        ids = np.concatenate([result.path_ids, result.facets[..., None]], axis=-1)
+        mask = edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges)
         result.timings["edges"] = time.perf_counter() - start
         result.edge_mask = mask
         pixels = np.flatnonzero(mask.ravel())

@@ -25,6 +25,7 @@
 #define MAX_DEPTH 8           /* longest mirror/refraction chain a kernel supports */
 #endif
 #define PATH_LEN 8            /* object ids recorded along each pixel's path */
+#define ID_RECORD (PATH_LEN + 1) /* per pixel: the path's object ids, then the primary hit's facet */
 #define STACK_SIZE 64         /* BVH traversal stack; depth of the host-built tree stays far below */
 #define RAY_STACK (MAX_DEPTH + 2)
 

@@ -117,8 +117,10 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, fl
     return total;
 }
 
-/* Colour seen along one camera ray, with the object ids met on the way
- * (depth-first order) written to `ids` when it is not null. */
+/* Colour seen along one camera ray.  When `ids` is not null it receives the
+ * object ids met on the way (depth-first order, -1 past the end) and then the
+ * facet of the primary hit: its primitive id on a flat-shaded mesh, where the
+ * shading jumps from face to face, else -1. */
 inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
                          uint *visits, uint *rays) {
     float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
@@ -130,6 +132,7 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
     float3 colour = (float3)(0.0f);
     int n_ids = 0;
     bool first_hit = true;
+    if (ids) ids[PATH_LEN] = -1;
     while (sp > 0) {
         --sp;
         float3 o = stack_o[sp].xyz, d = stack_d[sp].xyz, w = stack_w[sp].xyz;
@@ -146,6 +149,7 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             continue;
         }
         int2 obj = sc->objects[object];
+        if (ids && first_hit && !obj.y && sc->prims[3 * h.slot + 1].w == 0.0f) ids[PATH_LEN] = h.id;
         float4 kd = sc->materials[3 * obj.x], ks = sc->materials[3 * obj.x + 1], tr = sc->materials[3 * obj.x + 2];
         float transparency = tr.x, ior = tr.y, mirror = ks.w;
 

@@ -40,7 +40,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
         float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
         Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
         bool keep = record && s == 0; /* ids and shadows of the first sample */
-        sum += trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * PATH_LEN : 0,
+        sum += trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * ID_RECORD : 0,
                           keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
     }
     colour_out[gid] = (float4)(sum / (float)(n * n), 1.0f);

@@ -136,3 +136,23 @@ def test_edge_aa_equals_none_off_the_mask_and_full_on_it(device, sampler):
     assert 0.02 < mask.mean() < 0.9
     np.testing.assert_array_equal(edge.image[~mask], none[~mask])
     np.testing.assert_array_equal(edge.image[mask], full[mask])
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_flat_meshes_report_facets_and_smooth_ones_do_not(device, smooth):
+    scene = Scene.from_dict({
+        "width": 40, "height": 40, "cameras": [{"position": [0, 0, 3]}],
+        "objects": [{"type": "mesh", "generator": "dense", "params": {"n_triangles": 200}, "smooth": smooth}],
+    })
+    scene.cameras[0] = scene.cameras[0].__class__(position=(0, 0, 3), look_at=(0, 0, 0))
+    result = Renderer(scene).run()
+    on_mesh = result.ids == 0
+    assert on_mesh.mean() > 0.3
+    if smooth:
+        assert (result.facets == -1).all()
+    else:
+        facets = result.facets[on_mesh]
+        assert (facets >= 0).all() and len(np.unique(facets)) > 20
+        # and the edge-AA mask follows the face boundaries
+        edge = Renderer(scene, aa="edge_detect", thickness=0, shadow_edges=False).run()
+        assert edge.edge_mask[on_mesh].mean() > 0.2
