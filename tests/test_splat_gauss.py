@@ -50,6 +50,10 @@ def test_forward_matches_reference(device, rng, blend):
     ref = reference_render({k: v.astype(np.float32).astype(float) for k, v in p.items()}, W, H, blend)
     np.testing.assert_allclose(frame.image, ref, atol=2e-5, rtol=1e-4)
     assert np.ptp(ref) > 0.5  # the scene is not trivially flat
+    # where no splat reaches, both blends show exactly the background colour
+    empty = frame.weight == 0
+    assert 0 < empty.sum() < empty.size
+    np.testing.assert_allclose(frame.image[empty], np.broadcast_to([0.1, 0.2, 0.3], (empty.sum(), 3)), atol=1e-6)
 
 
 def test_forward_on_selected_tiles_only(device, rng):

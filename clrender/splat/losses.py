@@ -76,4 +76,4 @@ def loss_and_grad(name: str, x: np.ndarray, y: np.ndarray, mask: np.ndarray | No
 def psnr(x: np.ndarray, y: np.ndarray) -> float:
     """Peak signal-to-noise ratio in dB for values in [0, 1] (x is clipped, as when saved)."""
     mse = float(np.mean((np.clip(x, 0.0, 1.0) - y) ** 2, dtype=np.float64))
-    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)
+    return float("inf") if mse == 0 else float(10.0 * np.log10(1.0 / mse))
