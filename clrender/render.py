@@ -24,6 +24,7 @@ from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer
 
 AA_MODES = ("none", "full", "edge_detect")
 LIGHT_SAMPLERS = ("stratified", "random")
+PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
 ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
@@ -39,6 +40,7 @@ class RenderSettings:
     aa: str = "none"  # anti-aliasing: "none", "full" or "edge_detect"
     sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
     samples: int = 1  # N: N x N samples per pixel when anti-aliasing
+    pixel_filter: str = "box"  # how a pixel's samples are averaged: "box" (plain mean), "tent" or "gaussian"
     thickness: float = 1.0  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
@@ -59,6 +61,7 @@ class RenderSettings:
             (s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels"),
             (s.aa in AA_MODES, f"unknown anti-aliasing mode {s.aa!r}; allowed: {', '.join(AA_MODES)}"),
             (s.sampler in SAMPLERS, f"unknown sampler {s.sampler!r}; allowed: {', '.join(SAMPLERS)}"),
+            (s.pixel_filter in PIXEL_FILTERS, f"unknown pixel filter {s.pixel_filter!r}; allowed: {', '.join(PIXEL_FILTERS)}"),
             (1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)"),
             (math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0"),
             (0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64"),
@@ -129,7 +132,8 @@ class Renderer:
             dev.queue, (-(-k // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
             self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
             np.int32(k), np.int32(t.n_prims), np.int32(self.n_lights), np.int32(s.width), np.int32(s.height),
-            np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(s.seed), np.int32(s.max_depth),
+            np.int32(SAMPLERS[sampler]), np.int32(n), np.int32(PIXEL_FILTERS[s.pixel_filter]), np.uint32(s.seed),
+            np.int32(s.max_depth),
             np.int32(s.fresnel), np.int32(s.light_samples),
             np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats)
         out = (np.empty((k, 4), np.float32), np.empty((k, ID_RECORD), np.int32),

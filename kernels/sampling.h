@@ -77,6 +77,20 @@ inline float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     return (float2)(u01(x), u01(y));
 }
 
+#define PIXEL_FILTER_BOX 0
+#define PIXEL_FILTER_TENT 1
+#define PIXEL_FILTER_GAUSSIAN 2
+
+/* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
+ * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the
+ * pixel centre.  Samples stay inside their own pixel. */
+inline float pixel_filter_weight(int filter, float2 off) {
+    float dx = off.x - 0.5f, dy = off.y - 0.5f;
+    if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + 1e-6f;
+    if (filter == PIXEL_FILTER_GAUSSIAN) return exp(-(dx * dx + dy * dy) / (2.0f * 0.25f * 0.25f));
+    return 1.0f;
+}
+
 /* Point on a parallelogram light.  Stratified (the seed): corner + (p+xi)/n a
  * + (q+xi')/n b, one jittered point per cell.  Random: corner + xi a + xi' b,
  * ignoring the cells (kept to show what stratification buys). */

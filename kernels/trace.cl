@@ -14,7 +14,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      __global const float4 *lights, __global const float4 *frame,
                      __global const int *pixels,
                      int n_work, int n_prims, int n_lights, int width, int height,
-                     int sampler, int samples_per_side, uint seed, int max_depth, int fresnel,
+                     int sampler, int samples_per_side, int pixel_filter, uint seed, int max_depth, int fresnel,
                      int light_samples, int light_stratified, int record,
                      __global float4 *colour_out, __global int *ids_out, __global float *shadow_out,
                      __global uint2 *stats_out) {
@@ -32,6 +32,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
     float3 origin = frame[0].xyz, forward = frame[1].xyz, right = frame[2].xyz, up = frame[3].xyz;
     uint n = (uint)samples_per_side;
     float3 sum = (float3)(0.0f);
+    float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     for (uint s = 0; s < n * n; ++s) {
         Rng rng = make_rng(seed, (uint)pixel, s);
@@ -40,10 +41,12 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
         float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
         Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
         bool keep = record && s == 0; /* ids and shadows of the first sample */
-        sum += trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * ID_RECORD : 0,
-                          keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
+        float weight = pixel_filter_weight(pixel_filter, off);
+        sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * ID_RECORD : 0,
+                                   keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
+        weight_sum += weight;
     }
-    colour_out[gid] = (float4)(sum / (float)(n * n), 1.0f);
+    colour_out[gid] = (float4)(sum / weight_sum, 1.0f);
     stats_out[gid] = (uint2)(visits, rays);
 }
 

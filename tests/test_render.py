@@ -156,3 +156,14 @@ def test_flat_meshes_report_facets_and_smooth_ones_do_not(device, smooth):
         # and the edge-AA mask follows the face boundaries
         edge = Renderer(scene, aa="edge_detect", thickness=0, shadow_edges=False).run()
         assert edge.edge_mask[on_mesh].mean() > 0.2
+
+
+def test_pixel_filters_weight_samples_but_keep_flat_regions(device):
+    scene = mixed_scene()
+    box = render(scene, aa="full", samples=3, sampler="stratified", seed=2)
+    for name in ("tent", "gaussian"):
+        other = render(scene, aa="full", samples=3, sampler="stratified", seed=2, pixel_filter=name)
+        assert np.abs(other - box).max() > 1e-3  # a different weighting near edges
+        flat = render(scene, aa="full", samples=3, sampler="uniform", pixel_filter=name, width=8, height=6)
+        # a weighted mean of equal values is that value: the background stays exact
+        np.testing.assert_allclose(flat[0, 0], scene.background, rtol=1e-6)

@@ -41,6 +41,8 @@ def add_parser(sub):
     p.add_argument("--aa", choices=AA_MODES, default=d.aa, help="anti-aliasing mode")
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=d.sampler, help="where AA samples fall in a pixel")
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default 1; 4 when --aa is not none)")
+    p.add_argument("--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter,
+                   help="weighting of a pixel's samples (box: plain average)")
     p.add_argument("--thickness", type=float, default=d.thickness, help="edge_detect: disc radius around edge pixels")
     p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=d.shadow_edges,
                    help="count changes in light visibility as edges")
@@ -77,6 +79,7 @@ def settings_from_args(args) -> RenderSettings:
     if values["samples"] is None:
         values["samples"] = 1 if values["aa"] == "none" else 4
     return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
+                          pixel_filter=args.pixel_filter,
                           max_depth=args.max_depth, fresnel=args.fresnel, bvh=args.bvh,
                           bvh_builder=args.bvh_builder, seed=args.seed, device=args.device, **values)
 
