@@ -23,7 +23,7 @@ def target(device):
 
 
 def test_fit_recovers_known_gaussians(device, target):
-    result = Fitter(device, target, FitConfig(splats=16, epochs=300, blend="sum", lr=2.0)).run(show_progress=False)
+    result = Fitter(device, target, FitConfig(splats=16, epochs=300, blend="sum")).run(show_progress=False)
     assert result.psnr >= 40.0
     losses = [row["loss"] for row in result.log]
     assert losses[-1] < losses[0] / 100

@@ -28,7 +28,7 @@ INITS = ("uniform", "random", "gradient")
 LEARN = ("seed", "all")
 LEARN_GROUPS = {"seed": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
 # Adam step sizes per group (in the group's own units: pixels, log-sigma, radians, colour values)
-ADAM_LR = {"xy": 0.2, "log_scale": 0.02, "theta": 0.03, "color": 0.01, "lum": 0.01, "opacity": 0.02}
+ADAM_LR = {"xy": 0.4, "log_scale": 0.04, "theta": 0.06, "color": 0.02, "lum": 0.02, "opacity": 0.04}
 # SGD/momentum rates per group, multiplied by 3 N (N splats): a mean loss's gradient for one
 # splat shrinks like its footprint over the image's H * W * 3 values, about 1 / (3 N)
 SGD_LR = {"xy": 3.0, "log_scale": 0.15, "theta": 0.15, "color": 0.3, "lum": 0.3, "opacity": 0.3}
@@ -43,7 +43,7 @@ class FitConfig:
     blend: str = "normalized"  # sum | normalized
     optimizer: str = "adam"  # sgd | momentum | adam
     lr: float = 1.0  # multiplier of every group's default learning rate
-    lr_final: float = 0.1  # learning rates decay to this fraction by the end of the run
+    lr_final: float = 0.2  # learning rates decay to this fraction by the end of the run
     loss: str = "l2"  # l2 | l1 | l1-ssim
     seed: int = 0
     time_budget: float | None = None  # seconds of fitting; stops early when reached
