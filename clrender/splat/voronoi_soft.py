@@ -16,7 +16,7 @@ K nearest sites through the same uniform grid as the hard search and write
 one gradient term per (pixel, neighbour) pair; the host sums them per site
 with np.bincount (race-free, deterministic).  The K-nearest set is held
 fixed when differentiating: it changes only where a (K+1)-th site ties the
-K-th, where its weight is already tiny.  Training anneals T geometrically
+K-th, where its weight is already tiny.  Training anneals T geometrically (position steps shrink with sqrt(T))
 and steps sites and colours with Adam.
 """
 from __future__ import annotations
@@ -121,7 +121,8 @@ class TrainSettings:
     k: int = 8                  # sites blended per pixel
     t_start: float = 0.25       # starting temperature, in units of the mean site spacing squared
     t_end: float = 0.01         # final temperature, same units (geometric schedule)
-    lr_sites: float = 0.1       # Adam rate for positions, in units of the mean site spacing
+    lr_sites: float = 0.1       # Adam rate for positions at t_start, in units of the mean site spacing;
+                                # it shrinks with sqrt(T) as the temperature falls
     lr_colors: float = 0.01     # Adam rate for colours
 
 
@@ -154,6 +155,9 @@ def train(device, image, sites, *, steps: int | None = None, settings: TrainSett
     for step in range(st.steps):
         frac = step / max(st.steps - 1, 1)
         temperature = spacing * spacing * st.t_start * (st.t_end / st.t_start) ** frac
+        # position steps shrink with the blending width sqrt(T): a step wider than
+        # the soft border overshoots once T is small
+        opt.lrs["sites"] = st.lr_sites * math.sqrt(temperature / st.t_start)
         loss, g_sites, g_colors, _ = model.loss_and_grads(sites, colors, image, temperature)
         opt.step(params, {"sites": g_sites, "colors": g_colors})
         np.clip(sites[:, 0], 0.0, w, out=sites[:, 0])
