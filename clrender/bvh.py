@@ -284,12 +284,17 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
                     cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
                     extent = cmax - cmin
                 if len(cand):
-                    scale = np.where(extent > 0, bins / np.where(extent > 0, extent, 1), 0).astype(np.float32)
-                    ok, axis[cand], cut[cand], cost = _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale,
-                                                                   bmin, bmax, bins, samples)
-                    make_leaf = ok & (cost >= INTERSECT_COST * count[cand]) & (count[cand] <= leaf_cap)
-                    split[cand[make_leaf]] = False
-                    enter[cand[~ok]] = True
+                    # small nodes use half the bins: their bin tables would outweigh their primitives
+                    node_bins = np.where(count > 2 * bins, bins, max(bins // 2, 2))
+                    scale = np.where(extent > 0, node_bins[:, None] / np.where(extent > 0, extent, 1), 0)
+                    scale = scale.astype(np.float32)
+                    for nb in np.unique(node_bins[cand]):
+                        c = cand[node_bins[cand] == nb]
+                        ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale,
+                                                                 bmin, bmax, int(nb), samples)
+                        make_leaf = ok & (cost >= INTERSECT_COST * count[c]) & (count[c] <= leaf_cap)
+                        split[c[make_leaf]] = False
+                        enter[c[~ok]] = True
                 binned = split & ~enter
                 if enter.any():
                     box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
