@@ -21,7 +21,8 @@ renumbered depth-first):
   than ``sah_samples`` primitives evaluate their bins on an evenly strided sample
   of that many primitives (the cut then partitions all of them).  A node becomes
   a leaf when it holds at most ``max_leaf_size`` primitives, or when no cut is
-  cheaper than the leaf and it holds at most ``4 * max_leaf_size``.  A node of
+  cheaper than the leaf and it holds at most ``4 * max_leaf_size``.  Nodes of
+  at most ``2 * bins`` primitives use ``bins // 2`` bins.  A node of
   at most ``halving_below`` primitives, one whose centroids all fall in one bin
   (e.g. they coincide), or one too deep for MAX_DEPTH is finished by halving:
   its primitives are sorted once by Morton code and every split below cuts the
