@@ -33,8 +33,9 @@ renumbered depth-first):
 
 Every tree is at most ``MAX_DEPTH`` levels deep (the kernels' traversal stack
 is 64 entries): SAH nodes switch to halving early enough.  SAH builds of more
-than ``PARALLEL_ABOVE`` primitives grow the root's two subtrees in two threads
-(numpy releases the GIL in its array loops); the tree is the same either way.
+than ``PARALLEL_ABOVE`` primitives grow their subtrees in two threads
+(two groups of whole subtrees below the third level; numpy releases the GIL in
+its array loops); the tree is the same either way.
 """
 from __future__ import annotations
 
@@ -375,21 +376,26 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
 
     state = (box, ids, np.zeros(1, np.int64), np.array([n_total], np.int64),
              np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
-    levels, state = grow(*state, max_levels=1)
+    if n_total < PARALLEL_ABOVE:
+        return grow(*state, max_levels=MAX_DEPTH + 1)[0], order
+    # the top levels here; then two groups of whole subtrees, with about half the primitives
+    # each, grow in two threads (numpy releases the GIL in its array loops)
+    levels, state = grow(*state, max_levels=3)
     box, ids, gstart, count, hstart, hcount, depth = state
-    if len(count) != 2 or len(hcount) or n_total < PARALLEL_ABOVE:
+    if len(count) < 2 or len(hcount):
         return levels + grow(*state, max_levels=MAX_DEPTH + 1)[0], order
-    # the root's two subtrees are independent: grow them in two threads (numpy releases the GIL)
-    half = int(count[0])
-    parts = [(np.ascontiguousarray(box[:, :half]), ids[:half], gstart[:1], count[:1]),
-             (np.ascontiguousarray(box[:, half:]), ids[half:], gstart[1:], count[1:])]
+    cum = np.cumsum(count)
+    g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(count) - 1))  # nodes in the first group
+    half = int(cum[g - 1])
+    parts = [(np.ascontiguousarray(box[:, :half]), ids[:half], gstart[:g], count[:g]),
+             (np.ascontiguousarray(box[:, half:]), ids[half:], gstart[g:], count[g:])]
     with ThreadPoolExecutor(2) as pool:
         first, second = pool.map(lambda p: grow(*p, hstart, hcount, depth, MAX_DEPTH + 1)[0], parts)
     return levels + _merge_levels(first, second), order
 
 
 def _merge_levels(first: list[_Level], second: list[_Level]) -> list[_Level]:
-    """Levels of two sibling subtrees side by side: the first's nodes, then the second's."""
+    """Levels of two groups of subtrees side by side: the first group's nodes, then the second's."""
     merged = []
     for d in range(max(len(first), len(second))):
         a = first[d] if d < len(first) else None

@@ -246,14 +246,16 @@ def test_float64_bounds_round_outward(rng):
     assert (bvh.nodes["bmax"][slot_leaf].astype(np.float64) >= hi[prims]).all()
 
 
-def test_two_thread_build_matches_one_thread(rng, monkeypatch):
-    """Big builds grow the root's two subtrees in two threads; the tree must not change."""
-    tri = soup(rng, 4000, size=0.1)
+@pytest.mark.parametrize("halving_below", [8, 1000])
+def test_two_thread_build_matches_one_thread(rng, monkeypatch, halving_below):
+    """Big builds grow two groups of subtrees in two threads; the tree must not change
+    (clustered input: the groups end at different depths)."""
+    tri = np.concatenate([soup(rng, 3000, size=0.1), soup(rng, 1000, size=0.001) * 0.01])
     lo, hi = tri.min(1), tri.max(1)
     monkeypatch.setattr(bvh_module, "PARALLEL_ABOVE", 10**12)
-    single = build_bvh(lo, hi, halving_below=8)
+    single = build_bvh(lo, hi, halving_below=halving_below)
     monkeypatch.setattr(bvh_module, "PARALLEL_ABOVE", 0)
-    threaded = build_bvh(lo, hi, halving_below=8)
+    threaded = build_bvh(lo, hi, halving_below=halving_below)
     check_tree(threaded, lo, hi)
     assert threaded.nodes.tobytes() == single.nodes.tobytes()
     assert np.array_equal(threaded.prim_order, single.prim_order)
