@@ -57,7 +57,7 @@ def bar_chart(path, labels, series: dict, title: str = "", ylabel: str = "", *, 
             bx = int(round(left + s * bar))
             cv2.rectangle(canvas, (bx, int(round(to_y(v)))), (int(round(left + (s + 1) * bar)) - 2, int(round(base))),
                           PALETTE[s % len(PALETTE)], thickness=-1)
-        _text(canvas, label, (x0 + g * group + group / 2, y1 + 22), scale=0.45, centre=True, max_width=group - 4)
+        _text(canvas, label, (x0 + g * group + group / 2, y1 + 22), scale=0.45, centre=True, max_width=group * 0.9)
     _legend(canvas, plot, list(series))
     return _save(path, canvas)
 
@@ -175,7 +175,9 @@ def _ticks(lo: float, hi: float, count: int = 6) -> list[float]:
 
 
 def _fmt(v: float) -> str:
-    return f"{v:.3g}" if v != 0 else "0"
+    if v == int(v) and abs(v) < 1e6:
+        return str(int(v))
+    return f"{v:.3g}"
 
 
 def _text(canvas, text, at, *, scale=0.5, centre=False, right=False, max_width=None):
