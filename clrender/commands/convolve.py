@@ -1,6 +1,7 @@
 """`clrender convolve IN OUT FILTER [FILTER ...]`: named convolution filters on an image file."""
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -46,9 +47,10 @@ def add_parser(sub):
         description="Apply named convolution filters, in order, to an image file (OpenCV on float32).",
         epilog=EPILOG,
     )
-    p.add_argument("input", nargs="?", metavar="IN", help="image to read (PNG, JPEG, TIFF, EXR, HDR, ...)")
-    p.add_argument("output", nargs="?", metavar="OUT", help="image to write; its extension picks the format")
-    p.add_argument("filters", nargs="*", metavar="FILTER", help="filter names, applied left to right")
+    # SUPPRESS: no "(default: None)" in --help for the positionals (run() reads them with getattr)
+    p.add_argument("input", nargs="?", default=argparse.SUPPRESS, metavar="IN", help="image to read (PNG, JPEG, TIFF, EXR, HDR, ...)")
+    p.add_argument("output", nargs="?", default=argparse.SUPPRESS, metavar="OUT", help="image to write; its extension picks the format")
+    p.add_argument("filters", nargs="*", default=argparse.SUPPRESS, metavar="FILTER", help="filter names, applied left to right")
     p.add_argument("--space", choices=("linear", "stored"), default="linear",
                    help="filter linear light (integer files are sRGB-decoded first) or the stored values")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists (or is IN)")
@@ -61,6 +63,9 @@ def run(args) -> int:
     if args.list:
         print(filters.describe())
         return 0
+    for name in ("input", "output", "filters"):
+        if not hasattr(args, name):
+            setattr(args, name, None)
     if not args.input or not args.output or not args.filters:
         raise UsageError("convolve needs IN OUT FILTER [FILTER ...], e.g. "
                          "'clrender convolve in.jpg out.jpg box_blur_33'; see --list for the filters")
