@@ -13,7 +13,9 @@ FFT_FROM_SIZE and are then convolved by FFT.  There are no OpenCL kernels
 here, so there is no compile time to report.
 
 Writes DIR/filters.csv, DIR/filters.md, DIR/filters.png (bars, log scale)
-and DIR/filters_growth.png (time against size).
+and DIR/filters_growth.png (time against size); with --crossover also
+DIR/filters_crossover.{csv,md}, the Gaussian timed both ways, which is how
+FFT_FROM_SIZE was chosen.
 """
 from __future__ import annotations
 
@@ -108,6 +110,8 @@ def main(argv=None):
     ap.add_argument("--numpy-runs", type=int, default=1, help="timed numpy runs per filter (slow at size 101)")
     ap.add_argument("--sizes", default="3,33,101", help="kernel sizes timed with both implementations")
     ap.add_argument("--wide", default="301,1001", help="wider sizes timed with OpenCV only ('' for none)")
+    ap.add_argument("--crossover", default="", metavar="SIZES",
+                    help="also time the Gaussian both ways (separable and FFT) at these sizes, e.g. 75,101,151,201")
     ap.add_argument("--quick", action="store_true", help="512 x 512, one run each: a smoke test")
     ap.add_argument("--out", default="bench/out", help="folder for filters.csv/.md/.png")
     args = ap.parse_args(argv)
@@ -141,6 +145,18 @@ def main(argv=None):
         print(f"  {name:<16} opencv {opencv_s:8.3f} s   numpy {row['numpy_s'] or float('nan'):8.3f} s", flush=True)
 
     out = Path(args.out)
+    crossover = [int(k) for k in args.crossover.split(",") if k]
+    if crossover:
+        both_ways = []
+        for k in crossover:
+            g = filters.gaussian_weights(k).astype(np.float32)
+            sep_s, _ = timed(lambda: cv2.sepFilter2D(img, cv2.CV_32F, g, g, borderType=filters.BORDER), args.runs)
+            fft_s, _ = timed(lambda: filters.separable_fft(img, g), args.runs)
+            both_ways.append({"size": k, "separable_s": sep_s, "fft_s": fft_s, "separable_over_fft": sep_s / fft_s})
+            print(f"  gauss {k:<5} separable {sep_s:7.3f} s   FFT {fft_s:7.3f} s", flush=True)
+        print(write_table(out, "filters_crossover", both_ways,
+                          f"Gaussian, separable vs FFT, {args.size}x{args.size} RGB, median of {args.runs} "
+                          f"(clrender switches at {filters.FFT_FROM_SIZE})"))
     title = (f"Filters on {args.size}x{args.size} RGB float32, median of {args.runs} "
              f"(numpy {args.numpy_runs}), {cv2.getNumThreads()} OpenCV threads")
     print(write_table(out, "filters", rows, title))
