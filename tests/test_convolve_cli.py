@@ -160,3 +160,16 @@ def test_console_script_runs_the_seed_example(tmp_path, rng):
     assert done.returncode == 0, done.stderr
     assert done.stdout == ""
     assert probe_image(dst).width == 64
+
+
+def test_image_too_large_for_memory_is_refused_before_reading(tmp_path, rng, monkeypatch, capsys):
+    from clrender.commands import convolve as command
+
+    src = tmp_path / "in.png"
+    make(src, rng)
+    monkeypatch.setattr(command, "_available_bytes", lambda: 1000)
+    monkeypatch.setattr(command.imageio, "read_image", lambda path: pytest.fail("read before the memory check"))
+    assert convolve(src, tmp_path / "out.png", "box_blur_3") == 2
+    err = capsys.readouterr().err
+    assert "MiB" in err and "31x24x3" in err
+    assert not (tmp_path / "out.png").exists()

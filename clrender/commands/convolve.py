@@ -106,8 +106,12 @@ def check_memory(info: imageio.ImageInfo) -> None:
     need = info.nbytes * WORKING_COPIES
     available = _available_bytes()
     if available is not None and need > available:
-        raise UsageError(f"image of {info.width}x{info.height}x{info.nchannels} needs about {need / 2**30:.1f} GiB "
-                         f"to filter but {available / 2**30:.1f} GiB is available; use a smaller image")
+        raise UsageError(f"image of {info.width}x{info.height}x{info.nchannels} needs about {_bytes(need)} "
+                         f"to filter but {_bytes(available)} is available; use a smaller image")
+
+
+def _bytes(n: int) -> str:
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
 
 
 def _available_bytes() -> int | None:
