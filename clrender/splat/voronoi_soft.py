@@ -16,8 +16,9 @@ K nearest sites through the same uniform grid as the hard search and write
 one gradient term per (pixel, neighbour) pair; the host sums them per site
 with np.bincount (race-free, deterministic).  The K-nearest set is held
 fixed when differentiating: it changes only where a (K+1)-th site ties the
-K-th, where its weight is already tiny.  Training anneals T geometrically (position steps shrink with sqrt(T))
-and steps sites and colours with Adam.
+K-th, where its weight is already tiny.  Training anneals T geometrically
+and steps sites and colours with Adam; position steps shrink with sqrt(T),
+the width of the soft borders, or training diverges as T falls.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UsageError
+from ..progress import progress
 from .optim import Optimizer
 from .voronoi import build_grid, check_sites, mean_colors, nearest_site, sample_colors
 
@@ -152,7 +154,7 @@ def train(device, image, sites, *, steps: int | None = None, settings: TrainSett
     opt = Optimizer("adam", {"sites": st.lr_sites * spacing, "colors": st.lr_colors})
     params = {"sites": sites, "colors": colors}
     losses = []
-    for step in range(st.steps):
+    for step in progress(range(st.steps), total=st.steps, desc="soft voronoi"):
         frac = step / max(st.steps - 1, 1)
         temperature = spacing * spacing * st.t_start * (st.t_end / st.t_start) ** frac
         # position steps shrink with the blending width sqrt(T): a step wider than
