@@ -113,7 +113,7 @@ def quality(dev, image, n, lloyd_steps, train_steps, seed):
                                                                 w * h / n * st.t_end)
     rows.append(dict(config=f"soft Voronoi x{train_steps} from uniform (soft image)",
                      psnr_db=V.psnr(soft, image), seconds=seconds))
-    hard(f"soft-trained sites, hard, mean colours", result.sites, seconds=seconds, show=True)
+    hard("soft-trained sites, hard, mean colours", result.sites, seconds=seconds, show=True)
     return rows, pictures, energies, result.losses
 
 
