@@ -1,7 +1,8 @@
 """Convolution filters, OpenCV vs plain numpy: `python -m bench filters [--size N] [--runs K] [--out DIR]`.
 
 Each filter family at sizes 3, 33, 101 on an N x N RGB float32 image
-(default 4096): the median of K runs of `clrender.filters.apply` (OpenCV),
+(default 4096): the median of K runs of `clrender.filters.apply` (OpenCV)
+after one untimed warm-up call,
 and the same operation in plain numpy with the same reflect-101 border --
 brighten by one multiply, box blur by running sums along rows then columns,
 Gaussian by separable shift-and-add (one pass per tap), the 3 x 3 edge
@@ -92,9 +93,10 @@ def numpy_version(name: str):
     return lambda img: numpy_direct(img, f.kernel())
 
 
-def timed(fn, runs: int):
-    """(median seconds, last result)."""
-    times, result = [], None
+def timed(fn, runs: int, warm_up: bool = False):
+    """(median seconds, last result); warm_up: one untimed call first."""
+    result = fn() if warm_up else None
+    times = []
     for _ in range(runs):
         start = time.perf_counter()
         result = fn()
@@ -132,7 +134,7 @@ def main(argv=None):
         size = 1 if f.kind == "brighten" else (3 if f.kind == "edge_detect" else int(f.value))
         path = {"brighten": "multiply", "box_blur": "running sums", "edge_detect": "3x3 direct",
                 "gauss_blur": "FFT" if size >= filters.FFT_FROM_SIZE else "separable"}[f.kind]
-        opencv_s, ours = timed(lambda: filters.apply(img, name), args.runs)
+        opencv_s, ours = timed(lambda: filters.apply(img, name), args.runs, warm_up=True)
         row = {"filter": name, "size": size, "path": path, "opencv_s": opencv_s,
                "numpy_s": "", "numpy_over_opencv": "", "max_abs_diff": ""}
         if f.kind in ("brighten", "edge_detect") or size in sizes:
