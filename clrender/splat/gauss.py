@@ -32,6 +32,7 @@ TILE = 16
 NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
 EPS = 1e-3  # normalized blend: weight of the background colour
 CUTOFF_SIGMA = 3.0
+BACKWARD_GROUP = 64  # work-items per work-group of the backward kernel
 BLENDS = ("sum", "normalized")
 GROUPS = ("xy", "log_scale", "theta", "color", "lum", "opacity")
 MIN_LOG_SCALE = float(np.log(0.25))  # sigma below a quarter pixel only aliases
@@ -274,7 +275,10 @@ class GaussRenderer:
         partial = np.empty((n_entries, NGRAD), np.float32)
         if n_entries:
             b_splats, b_colors, b_box = frame.packed
-            self._backward(dev.queue, (n_entries,), None, b_splats, b_colors, b_box,
+            # a fixed work-group size: PoCL builds a kernel binary per local size, so letting the
+            # driver choose one from the (changing) entry count would rebuild it every few steps
+            groups = -(-n_entries // BACKWARD_GROUP)
+            self._backward(dev.queue, (groups * BACKWARD_GROUP,), (BACKWARD_GROUP,), b_splats, b_colors, b_box,
                            dev.to_device(entry_splat), dev.to_device(entry_tile), np.int32(n_entries),
                            np.int32(self.tiles_x), np.int32(self.plane), dev.to_device(dimg), self._partial)
             cl.enqueue_copy(dev.queue, partial, self._partial)
