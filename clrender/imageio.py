@@ -41,14 +41,20 @@ class Image:
         return None
 
 
-def read_image(path: str | os.PathLike) -> Image:
-    """Read any image OpenImageIO understands; UsageError if it cannot."""
-    path = Path(path)
+def _open_input(path: Path):
+    """An open OpenImageIO ImageInput; UsageError if the file is missing or not an image."""
     if not path.is_file():
         raise UsageError(f"input image {str(path)!r} does not exist")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise UsageError(f"cannot read {str(path)!r} as an image ({oiio.geterror().strip() or 'unknown format'})")
+    return inp
+
+
+def read_image(path: str | os.PathLike) -> Image:
+    """Read any image OpenImageIO understands; UsageError if it cannot."""
+    path = Path(path)
+    inp = _open_input(path)
     try:
         spec = inp.spec()
         pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
@@ -95,12 +101,7 @@ class ImageInfo:
 
 def probe_image(path: str | os.PathLike) -> ImageInfo:
     """Read only the header; UsageError if the file is missing or not an image."""
-    path = Path(path)
-    if not path.is_file():
-        raise UsageError(f"input image {str(path)!r} does not exist")
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        raise UsageError(f"cannot read {str(path)!r} as an image ({oiio.geterror().strip() or 'unknown format'})")
+    inp = _open_input(Path(path))
     try:
         spec = inp.spec()
         return ImageInfo(spec.height, spec.width, spec.nchannels, str(spec.format), tuple(spec.channelnames))

@@ -269,17 +269,8 @@ def lathe(profile, segments: int) -> trimesh.Trimesh:
     ring_v = np.stack([inner[:, :1] * np.sin(phi), np.broadcast_to(inner[:, 1:], (rings, segments)),
                        inner[:, :1] * np.cos(phi)], axis=-1).reshape(-1, 3)
     verts = np.concatenate([[[0, prof[0, 1], 0], [0, prof[-1, 1], 0]], ring_v])
-    s = np.arange(segments)
-    s1 = (s + 1) % segments
-    bottom = np.stack([np.zeros(segments, np.int64), 2 + s1, 2 + s], axis=1)
-    last = 2 + (rings - 1) * segments
-    top = np.stack([np.ones(segments, np.int64), last + s, last + s1], axis=1)
-    r = np.arange(rings - 1)[:, None] * segments + 2
-    a, b = r + s, r + s1
-    c, d = a + segments, b + segments
-    quads = np.stack([np.stack([a, b, d], -1), np.stack([a, d, c], -1)], axis=2).reshape(-1, 3)
-    faces = np.concatenate([bottom, quads, top])
-    mesh = trimesh.Trimesh(verts, faces, process=False)
+    # the same connectivity as a UV sphere: a pole, `rings` rings, a pole
+    mesh = trimesh.Trimesh(verts, uv_sphere_faces(rings + 1, segments), process=False)
     if mesh.volume < 0:
         mesh.invert()
     return mesh
