@@ -22,7 +22,7 @@ deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
