@@ -162,6 +162,12 @@ def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, input
     return path
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
     """The sRGB transfer function (IEC 61966-2-1), for linear values in [0, 1]."""
     x = np.clip(x, 0.0, 1.0)
@@ -205,6 +211,7 @@ def write_image(
         spec.alpha_channel = 3
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
     os.close(fd)
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a finished image gets the usual mode
     try:
         out = oiio.ImageOutput.create(tmp)
         if out is None or not out.open(tmp, spec):

@@ -20,7 +20,7 @@ import pyopencl as cl
 from .errors import UsageError
 from .progress import progress
 from .scene import Scene
-from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer
+from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
 LIGHT_SAMPLERS = ("stratified", "random")
@@ -29,7 +29,6 @@ SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
 ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
-LOCAL_SIZE = 64  # work-group size; fixed so PoCL compiles one work-group function, warmed up once
 
 
 @dataclass
@@ -129,7 +128,7 @@ class Renderer:
         if record:  # background pixels never write their shadow entries: all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
         self.kernel(
-            dev.queue, (-(-k // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
+            dev.queue, global_size(k), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
             self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
             np.int32(k), np.int32(t.n_prims), np.int32(self.n_lights), np.int32(s.width), np.int32(s.height),
             np.int32(SAMPLERS[sampler]), np.int32(n), np.int32(PIXEL_FILTERS[s.pixel_filter]), np.uint32(s.seed),

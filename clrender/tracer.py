@@ -22,6 +22,9 @@ from .geometry import Primitives, flatten, pack_slots
 from .scene import Mesh, Scene
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
+# A fixed work-group size: PoCL builds a work-group function per local size, so
+# letting it choose (with a global size that changes per call) recompiles.
+LOCAL_SIZE = 64
 BUILDERS = ("sah", "median")
 
 
@@ -35,6 +38,11 @@ def as_scene(scene_or_mesh) -> Scene:
     if hasattr(scene_or_mesh, "vertices") and hasattr(scene_or_mesh, "faces"):
         return as_scene((scene_or_mesh.vertices, scene_or_mesh.faces))
     return Scene.load(scene_or_mesh)
+
+
+def global_size(n: int) -> tuple:
+    """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
+    return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
 
 
 class Tracer:
@@ -94,13 +102,13 @@ class Tracer:
     def launch_intersect(self, n, origins, directions, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); outputs = (t, prim, object, visits) buffers."""
         return self.kernel("intersect_rays")(
-            self.device.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object,
+            self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object,
             np.int32(self.n_prims), np.int32(n), origins, directions, *outputs)
 
     def launch_occluded(self, n, origins, directions, t_max, outputs) -> cl.Event:
         """Any-hit kernel on device buffers; outputs = (occluded, visits) buffers."""
         return self.kernel("occluded_rays")(
-            self.device.queue, (max(n, 1),), None, self.nodes, self.prims, self.prim_object, self.objects,
+            self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object, self.objects,
             self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_max, *outputs)
 
     def intersect(self, origins, directions):
