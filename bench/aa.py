@@ -40,8 +40,11 @@ def main(argv=None):
     tracer = Tracer(scene)
     common = dict(tracer=tracer, width=args.size, height=args.size, camera=args.camera, sampler="stratified")
     runs = {}
-    for mode in ("none", "full", "edge_detect"):
-        renderer = Renderer(scene, aa=mode, samples=args.samples, thickness=args.thickness, seed=1, **common)
+    modes = {"none": dict(aa="none"), "full": dict(aa="full"),
+             "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0),
+             "edge_detect": dict(aa="edge_detect")}
+    for mode, settings in modes.items():
+        renderer = Renderer(scene, samples=args.samples, thickness=args.thickness, seed=1, **settings, **common)
         runs[mode] = renderer.run()
     reference = Renderer(scene, aa="full", samples=args.reference_samples, seed=2, **common).run().image
     ref = linear_to_srgb(reference)
@@ -50,7 +53,7 @@ def main(argv=None):
         t = result.timings
         total = t["trace"] + t.get("edges", 0.0) + t.get("resample", 0.0)
         rows.append(dict(mode=mode, seconds=total, pass1_s=t["trace"], pass2_s=t.get("resample", 0.0),
-                         resampled=result.resampled_fraction if mode == "edge_detect" else float(mode == "full"),
+                         resampled=result.resampled_fraction if mode.startswith("edge") else float(mode == "full"),
                          rmse=float(np.sqrt(np.mean((linear_to_srgb(result.image) - ref) ** 2))),
                          compile_s=t["compile"]))
     out = Path(args.out)
@@ -61,7 +64,7 @@ def main(argv=None):
     from clrender.edges import overlay_edges
 
     write_display_image(out / "aa_mask.png", overlay_edges(runs["none"].image, runs["edge_detect"].edge_mask))
-    full, edge = rows[1], rows[2]
+    full, edge = rows[1], rows[3]
     print(f"edge-AA: {edge['seconds']:.2f}s vs full {full['seconds']:.2f}s ({full['seconds'] / edge['seconds']:.1f}x), "
           f"{100 * edge['resampled']:.1f}% of pixels resampled, RMSE {edge['rmse']:.4f} vs {full['rmse']:.4f} "
           f"({100 * (edge['rmse'] / full['rmse'] - 1):+.1f}%)")

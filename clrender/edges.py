@@ -148,10 +148,28 @@ def dilate(mask, thickness: float) -> np.ndarray:
     return _dilate_rows(mask, L)
 
 
-def edge_mask(path_ids, thickness: float = 1.0, shadow=None, shadow_edges: bool = True) -> np.ndarray:
-    """(H, W) bool: the edge pixels of `edge_pixels`, grown by a disc of radius `thickness`."""
+def contrast_pixels(image, threshold: float) -> np.ndarray:
+    """(H, W) bool: pixels whose up, left or up-left neighbour differs by more than `threshold` in any channel.
+
+    Whitted's own adaptive-supersampling test, for the shading steps object IDs cannot see (a curved
+    highlight, noise of a sampled area light).  Pass display-encoded values (sRGB) so the threshold
+    means the same in dark and bright regions.
+    """
+    threshold = _check_nonnegative("contrast threshold", threshold)
+    image = np.asarray(image, np.float32)
+    planes = np.ascontiguousarray(np.moveaxis(image.reshape(*image.shape[:2], -1), -1, 0))
+    return _differs_from_neighbours(planes, lambda p, q: np.abs(p - q) > threshold)
+
+
+def edge_mask(path_ids, thickness: float = 1.0, shadow=None, shadow_edges: bool = True,
+              image=None, contrast: float = 0.0) -> np.ndarray:
+    """(H, W) bool: the edge pixels of `edge_pixels` (and, when contrast > 0, of `contrast_pixels` of
+    `image`), grown by a disc of radius `thickness`."""
     _check_nonnegative("thickness", thickness)  # refuse bad input before any work
-    return dilate(edge_pixels(path_ids, shadow, shadow_edges), thickness)
+    edges = edge_pixels(path_ids, shadow, shadow_edges)
+    if contrast > 0 and image is not None:
+        edges |= contrast_pixels(image, contrast)
+    return dilate(edges, thickness)
 
 
 def overlay_edges(linear_rgb, mask, color=(0.0, 1.0, 0.0)) -> np.ndarray:

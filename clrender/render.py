@@ -42,6 +42,7 @@ class RenderSettings:
     pixel_filter: str = "box"  # how a pixel's samples are averaged: "box" (plain mean), "tent" or "gaussian"
     thickness: float = 1.0  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
+    contrast: float = 0.03  # edge_detect: a step above this between neighbours (sRGB, any channel) is an edge too; 0: IDs only (the seed)
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
     light_sampler: str = "stratified"  # area-light samples: "stratified" (the seed's jittered grid) or "random"
     max_depth: int = 8  # mirror/refraction bounces after the primary hit
@@ -63,6 +64,7 @@ class RenderSettings:
             (s.pixel_filter in PIXEL_FILTERS, f"unknown pixel filter {s.pixel_filter!r}; allowed: {', '.join(PIXEL_FILTERS)}"),
             (1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)"),
             (math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0"),
+            (math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {s.contrast} must be a real number >= 0 (0: off)"),
             (0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64"),
             (s.light_sampler in LIGHT_SAMPLERS, f"unknown light sampler {s.light_sampler!r}; allowed: {', '.join(LIGHT_SAMPLERS)}"),
             (0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}"),
@@ -180,12 +182,14 @@ class Renderer:
     def _resample_edges(self, result: RenderResult):
         """Pass 2 of edge-only AA: re-render just the masked pixels with the chosen sampler."""
         from .edges import edge_mask
+        from .imageio import linear_to_srgb
 
         s = self.settings
         start = time.perf_counter()
         # a change of facet on a flat-shaded mesh is a shading edge too
         ids = np.concatenate([result.path_ids, result.facets[..., None]], axis=-1)
-        mask = edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges)
+        mask = edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges,
+                         linear_to_srgb(result.image), s.contrast)
         result.timings["edges"] = time.perf_counter() - start
         result.edge_mask = mask
         pixels = np.flatnonzero(mask.ravel())

@@ -283,3 +283,23 @@ def test_overlay_paints_only_masked_pixels(rng):
     np.testing.assert_array_equal(overlay_edges(image, mask, color=(1, 0, 0))[mask][:, 0], 1.0)
     with pytest.raises(UsageError):
         overlay_edges(image, mask[:, :4])
+
+
+def test_contrast_pixels_follow_the_neighbour_rule_with_a_threshold():
+    image = np.zeros((5, 6, 3), np.float32)
+    image[:, 3:, 1] = 0.1  # a vertical step of 0.1 in green between columns 2 and 3
+    image[4, 0, 0] = 0.04  # a small bump below the threshold
+    mask = edges.contrast_pixels(image, 0.05)
+    expected = np.zeros((5, 6), bool)
+    expected[:, 3] = True  # column 3 differs from its left (and up-left) neighbour
+    np.testing.assert_array_equal(mask, expected)
+    assert edges.contrast_pixels(image, 0.2).sum() == 0
+    assert edges.contrast_pixels(image, 0.01)[4, 0]  # the bump shows once the threshold is below it
+
+
+def test_edge_mask_adds_contrast_edges_only_when_asked():
+    ids = np.zeros((6, 6), np.int32)
+    image = np.zeros((6, 6, 3), np.float32)
+    image[3:, :, 0] = 1.0
+    assert not edges.edge_mask(ids, 0, image=image, contrast=0.0).any()
+    np.testing.assert_array_equal(edges.edge_mask(ids, 0, image=image, contrast=0.5)[3], np.ones(6, bool))

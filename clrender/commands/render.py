@@ -46,6 +46,8 @@ def add_parser(sub):
     p.add_argument("--thickness", type=float, default=d.thickness, help="edge_detect: disc radius around edge pixels")
     p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=d.shadow_edges,
                    help="count changes in light visibility as edges")
+    p.add_argument("--contrast", type=float, default=d.contrast,
+                   help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed")
     p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green")
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
@@ -79,7 +81,7 @@ def settings_from_args(args) -> RenderSettings:
     if values["samples"] is None:
         values["samples"] = 1 if values["aa"] == "none" else 4
     return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
-                          pixel_filter=args.pixel_filter,
+                          pixel_filter=args.pixel_filter, contrast=args.contrast,
                           max_depth=args.max_depth, fresnel=args.fresnel, bvh=args.bvh,
                           bvh_builder=args.bvh_builder, seed=args.seed, device=args.device, **values)
 
