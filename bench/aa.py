@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from clrender.imageio import linear_to_srgb, write_display_image
-from clrender.render import Renderer
+from clrender.renderer import Renderer
 from clrender.scene import Scene
 from clrender.tracer import Tracer
 

@@ -6,3 +6,9 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
+
+from .renderer import Renderer, RenderResult, RenderSettings, render  # noqa: E402
+from .scene import Scene  # noqa: E402
+from .tracer import Tracer  # noqa: E402
+
+__all__ = ["Renderer", "RenderResult", "RenderSettings", "Scene", "Tracer", "render"]

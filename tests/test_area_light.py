@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from clrender.render import Renderer
+from clrender.renderer import Renderer
 from clrender.scene import Scene
 
 SIZE = 24

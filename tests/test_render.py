@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from clrender.render import Renderer, render
+from clrender.renderer import Renderer, render
 from clrender.scene import Mesh, Scene
 
 W, H = 48, 36

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from ..errors import UsageError
-from ..render import AA_MODES, SAMPLERS, RenderSettings
+from ..renderer import AA_MODES, SAMPLERS, RenderSettings
 
 EXAMPLES = """examples:
   clrender render refract1 -o refract1.png
@@ -30,7 +30,7 @@ def add_parser(sub):
     d = RenderSettings()
     p = sub.add_parser("render", help="ray trace a scene to an image", epilog=EXAMPLES,
                        description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.")
-    p.add_argument("scene", metavar="SCENE", help="bundled scene name (see --list) or path to a .toml scene file")
+    p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list) or path to a .toml scene file")
     p.add_argument("seed_args", nargs="*", metavar="ARG",
                    help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
     p.add_argument("-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float); default SCENE.png")
@@ -88,13 +88,15 @@ def settings_from_args(args) -> RenderSettings:
 
 def run(args):
     from ..imageio import check_output_path, write_display_image
-    from ..render import Renderer
+    from ..renderer import Renderer
     from ..scene import Scene, bundled_scenes
 
     if args.list:
         for name in bundled_scenes():
             print(name)
         return 0
+    if args.scene is None:
+        raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list) or a .toml file")
     settings = settings_from_args(args)
     output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
     edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
