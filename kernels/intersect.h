@@ -21,22 +21,23 @@ inline bool is_sphere(__global const float4 *prims, int slot) { return prims[3 *
 
 inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[3 * slot].w); }
 
-/* Moller-Trumbore. Returns t in (t_min, t_max) or INF_T; degenerate triangles never hit. */
+/* Moller-Trumbore, in scalars (float3 arithmetic costs shuffles on CPUs).
+ * Returns t in (t_min, t_max) or INF_T; degenerate triangles never hit. */
 inline float hit_triangle(Ray r, float4 v0, float4 e1, float4 e2, float t_min, float t_max, float *u, float *v) {
-    float3 pvec = cross3(r.d, e2.xyz);
-    float det = dot3(e1.xyz, pvec);
+    float px = r.d.y * e2.z - r.d.z * e2.y, py = r.d.z * e2.x - r.d.x * e2.z, pz = r.d.x * e2.y - r.d.y * e2.x;
+    float det = e1.x * px + e1.y * py + e1.z * pz;
     if (det == 0.0f) return INF_T; /* parallel to the plane, or a degenerate triangle */
     float inv_det = 1.0f / det;
-    float3 tvec = r.o - v0.xyz;
+    float tx = r.o.x - v0.x, ty = r.o.y - v0.y, tz = r.o.z - v0.z;
     /* Barycentric bounds are widened by EDGE_EPS so that rounding never opens
      * a crack along an edge two triangles share (ties go to the lower id). */
     const float EDGE_EPS = 1e-6f;
-    float uu = dot3(tvec, pvec) * inv_det;
+    float uu = (tx * px + ty * py + tz * pz) * inv_det;
     if (uu < -EDGE_EPS || uu > 1.0f + EDGE_EPS) return INF_T;
-    float3 qvec = cross3(tvec, e1.xyz);
-    float vv = dot3(r.d, qvec) * inv_det;
+    float qx = ty * e1.z - tz * e1.y, qy = tz * e1.x - tx * e1.z, qz = tx * e1.y - ty * e1.x;
+    float vv = (r.d.x * qx + r.d.y * qy + r.d.z * qz) * inv_det;
     if (vv < -EDGE_EPS || uu + vv > 1.0f + EDGE_EPS) return INF_T;
-    float t = dot3(e2.xyz, qvec) * inv_det;
+    float t = (e2.x * qx + e2.y * qy + e2.z * qz) * inv_det;
     if (!(t > t_min && t < t_max)) return INF_T;
     *u = uu; *v = vv;
     return t;
@@ -77,12 +78,14 @@ inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, f
 }
 
 /* Slab test; returns the entry distance or INF_T.  The far distance is
- * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in. */
+ * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in.
+ * Written per axis in scalars: float3 arithmetic costs shuffles on CPUs. */
 inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
-    float3 t0 = bmin.xyz * r.inv_d - r.o_inv_d;
-    float3 t1 = bmax.xyz * r.inv_d - r.o_inv_d;
-    float t_enter = max_f(min_f(t0.z, t1.z), max_f(min_f(t0.y, t1.y), max_f(min_f(t0.x, t1.x), 0.0f)));
-    float t_exit = min_f(max_f(t0.z, t1.z), min_f(max_f(t0.y, t1.y), min_f(max_f(t0.x, t1.x), t_max)));
+    float x0 = bmin.x * r.inv_d.x - r.o_inv_d.x, x1 = bmax.x * r.inv_d.x - r.o_inv_d.x;
+    float y0 = bmin.y * r.inv_d.y - r.o_inv_d.y, y1 = bmax.y * r.inv_d.y - r.o_inv_d.y;
+    float z0 = bmin.z * r.inv_d.z - r.o_inv_d.z, z1 = bmax.z * r.inv_d.z - r.o_inv_d.z;
+    float t_enter = max_f(min_f(z0, z1), max_f(min_f(y0, y1), max_f(min_f(x0, x1), 0.0f)));
+    float t_exit = min_f(max_f(z0, z1), min_f(max_f(y0, y1), min_f(max_f(x0, x1), t_max)));
     t_exit *= 1.0000004f;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
