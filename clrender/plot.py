@@ -11,8 +11,6 @@ line).  The file is written atomically; the chart's parent folder is created.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import cv2
@@ -209,13 +207,9 @@ def _legend(canvas, plot, names):
 
 
 def _save(path, canvas) -> Path:
+    """Write the BGR uint8 canvas as an 8-bit PNG (atomically, through write_image)."""
+    from .imageio import write_image
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    ok, data = cv2.imencode(".png", canvas)
-    if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR image
-        raise RuntimeError(f"could not encode chart {str(path)!r}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp.png", dir=path.parent)
-    with os.fdopen(fd, "wb") as f:
-        f.write(data.tobytes())
-    os.replace(tmp, path)
-    return path
+    return write_image(path, canvas[..., ::-1].astype(np.float32) / 255.0, format="uint8")
