@@ -89,6 +89,17 @@ class Device:
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
 
+    def host_buffer(self, array: np.ndarray) -> "cl.Buffer":
+        """A write-only buffer backed by `array`'s own memory (USE_HOST_PTR): on a CPU device
+        kernels write straight into it; `sync_to_host` before reading `array`."""
+        return cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=array)
+
+    def sync_to_host(self, buffer: "cl.Buffer", array: np.ndarray) -> None:
+        """Make `array` hold what kernels wrote to its `host_buffer` (a no-op copy on a CPU)."""
+        mapped, _ = cl.enqueue_map_buffer(self.queue, buffer, cl.map_flags.READ, 0, array.shape,
+                                          array.dtype, is_blocking=True)
+        mapped.base.release(self.queue)
+
     def check_fits(self, nbytes: int, what: str) -> None:
         """Refuse an allocation the device cannot hold, before making it."""
         limit = min(self.device.max_mem_alloc_size, self.device.global_mem_size)

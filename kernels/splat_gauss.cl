@@ -1,17 +1,20 @@
 /* 2D Gaussian splats: tile-binned forward pass and per-(tile, splat) backward pass.
  *
  * Buffer layouts (packed by clrender/splat/gauss.py, written down once here):
- *   splats     float8 per splat: (mx, my, A, B2, C, opacity, 0, 0)
+ *   splats     float8 per splat: (mx, my, A, B2, C, opacity, Sxy / Syy, 1 / Syy)
  *              q(p) = A dx^2 + B2 dx dy + C dy^2 with (dx, dy) = p - m, the
- *              quadratic form of the inverse covariance (B2 = 2 * off-diagonal).
+ *              quadratic form of the inverse covariance S^-1 (B2 = 2 * off-diagonal);
+ *              the last two give each row's parabola in x (splat_forward).
  *   colors     float4 per splat: (r, g, b, 0), the effective colour.
  *   bbox       int4 per splat: pixel range [x0, x1) x [y0, y1) holding the 3-sigma
  *              ellipse (q < 9), clipped to the image.
  *   tile_start int per tile + 1: splats of tile t are tile_splats[tile_start[t] ..
  *              tile_start[t+1]), in increasing splat index.
- *   tiles      int per work-group: which tile it renders.
- *   planes     images as 4 float planes (r, g, b, 4th) of `pitch` x `rows` floats,
- *              pitch = 16 * tiles_x and rows = 16 * tiles_y (padded to whole tiles).
+ *   tiles      int per forward work-item: which tile it renders.
+ *   images     `pitch` x `rows` pixels, pitch = 16 * tiles_x and rows = 16 * tiles_y
+ *              (padded to whole tiles); the forward pass writes colour as interleaved
+ *              rgb floats and the sum of weights as one float per pixel, the backward
+ *              pass reads 4 float planes (r, g, b, 4th) of `pitch` x `rows` floats.
  * Pixel (px, py) has its centre at (px + 0.5, py + 0.5).
  *
  * Weight of splat i at a pixel: w_i = o_i exp(-q_i / 2) where q_i < 9, else 0.
@@ -20,8 +23,7 @@
  * so where no splat reaches, a normalized pixel fades to the background colour.
  *
  * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
- * CPU), so PoCL runs 8 SIMD lanes per splat; a forward work-item renders one
- * 16-pixel tile row, and a splat whose box misses the row costs one test.
+ * CPU), so PoCL runs 8 SIMD lanes per splat.
  */
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0
@@ -36,21 +38,33 @@
 
 #define LANES ((float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
 
-/* exp(-q / 2) as 2^n * p(f) with y = -q log2(e) / 2 = n + f, f in [0, 1), p a degree-5
- * fit of 2^f (relative error < 2e-7): the same on every driver, and it vectorises on
- * a CPU where the library exp costs several times more. */
-inline float8 falloff(const float8 q)
+/* PoCL leaves builtins such as floor, fmax, select and any() as calls, which cost
+ * more than the arithmetic around them; these inline forms use only operators. */
+
+/* 2^y for y in [-126, 0] (other lanes give garbage, to be masked off): y = n + f with
+ * n rounded to nearest by the 1.5 * 2^23 shifter, f in [-0.5, 0.5], p a degree-5 fit
+ * of 2^f (relative error < 2e-7).  Eleven vector operations and the same result on
+ * every driver; PoCL's exp is a call that costs several times more. */
+inline float8 exp2_fast(const float8 y)
 {
-    const float8 y = fmax(-0.72134752f * q, -126.0f);
-    const float8 n = floor(y);
-    const float8 f = y - n;
-    float8 p = 0.00189510729f;
-    p = p * f + 0.00894621467f;
-    p = p * f + 0.0558632827f;
-    p = p * f + 0.24014077f;
-    p = p * f + 0.69315462f;
-    p = p * f + 0.999999896f;
-    return p * as_float8((convert_int8(n) + 127) << 23);
+    const float8 shifter = 12582912.0f;
+    const float8 t = y + shifter;          /* n sits in the low mantissa bits of t */
+    const float8 f = y - (t - shifter);
+    float8 p = 0.00132764725f;
+    p = p * f + 0.00967554189f;
+    p = p * f + 0.0555071309f;
+    p = p * f + 0.240221202f;
+    p = p * f + 0.693146944f;
+    p = p * f + 1.00000012f;
+    return p * as_float8((as_int8(t) - (0x4B400000 - 127)) << 23);
+}
+
+/* any(m) without the builtin call */
+inline bool any8(const int8 m)
+{
+    const int4 a = m.lo | m.hi;
+    const int2 b = a.lo | a.hi;
+    return (b.x | b.y) < 0;
 }
 
 inline float hsum8(const float8 v)
@@ -60,67 +74,78 @@ inline float hsum8(const float8 v)
     return b.x + b.y;
 }
 
-/* Blend one splat into 8 pixels of a row: (fx, fy) their centres, sums in (sr, sg, sb, sw). */
-#define BLEND_INTO(fx, sr, sg, sb, sw)                                          \
-    {                                                                           \
-        const float8 dx = (fx) - s.s0;                                          \
-        const float8 q = (s.s2 * dx + s.s3 * dy) * dx + cdy2;                   \
-        const int8 inside = q < CUTOFF_Q;                                       \
-        if (any(inside)) {                                                      \
-            const float8 w = select((float8)(0.0f), s.s5 * falloff(q), inside); \
-            sr += w * c.x;                                                      \
-            sg += w * c.y;                                                      \
-            sb += w * c.z;                                                      \
-            sw += w;                                                            \
-        }                                                                       \
+/* Blend one splat into 8 pixels of row r, half h of the tile: fx their centres.
+ * Along the row log2(w) = a (x - xc)^2 + ymin (see splat_forward). */
+#define BLEND_INTO(fx, h)                                              \
+    {                                                                  \
+        const float8 u = (fx) - xc;                                    \
+        const float8 y = a * u * u + ymin;                             \
+        const float8 w = y > ycut ? exp2_fast(y) : 0.0f;               \
+        sum_r[2 * r + h] += w * c.x;                                   \
+        sum_g[2 * r + h] += w * c.y;                                   \
+        sum_b[2 * r + h] += w * c.z;                                   \
+        sum_w[2 * r + h] += w;                                         \
     }
 
-/* Work-item (row, n): the 16 pixels of row `row` of tile tiles[n], as two float8 halves.
- * out: 4 planes (I.rgb, sum of w). */
+/* Work-item n renders tile tiles[n]: each splat of the tile's list is blended into
+ * the rows of its 3-sigma box, as two float8 halves per row (only the halves the
+ * box reaches).  On row y (dy = y + 0.5 - my) a splat's q is a parabola in x,
+ * A (x - xc)^2 + K dy^2 with xc = mx + s6 dy (K = s7 = 1 / Syy, s6 = Sxy / Syy), so
+ * log2(w) = log2(o) - log2(e) q / 2 costs three scalar operations per row and two
+ * vector ones per pixel, and q < 9 becomes log2(w) > ycut.
+ * Looping over splats outside rows reads each splat once per tile and keeps the
+ * branches predictable: a per-row test of every splat cost twice as much on a CPU.
+ * image: I.rgb interleaved, weight: sum of w, both `pitch` x `rows` pixels. */
 __kernel void splat_forward(__global const float8 *splats, __global const float4 *colors,
                             __global const int4 *bbox, __global const int *tile_start,
                             __global const int *tile_splats, __global const int *tiles,
-                            const int tiles_x, const int plane, const float4 background,
-                            __global float *out)
+                            const int tiles_x, const float4 background,
+                            __global float *image, __global float *weight)
 {
-    const int row = get_global_id(0);
-    const int t = tiles[get_global_id(1)];
+    const int t = tiles[get_global_id(0)];
     const int pitch = tiles_x * TILE;
-    const int x0 = (t % tiles_x) * TILE, py = (t / tiles_x) * TILE + row;
+    const int x0 = (t % tiles_x) * TILE, y0 = (t / tiles_x) * TILE;
     const float8 fx_lo = (float)x0 + 0.5f + LANES, fx_hi = fx_lo + 8.0f;
-    const float fy = py + 0.5f;
-    float8 r_lo = (float8)(0.0f), g_lo = r_lo, b_lo = r_lo, w_lo = r_lo;
-    float8 r_hi = r_lo, g_hi = r_lo, b_hi = r_lo, w_hi = r_lo;
+    /* per tile row r, halves 2r and 2r + 1 */
+    float8 sum_r[2 * TILE], sum_g[2 * TILE], sum_b[2 * TILE], sum_w[2 * TILE];
+    for (int j = 0; j < 2 * TILE; ++j) sum_r[j] = sum_g[j] = sum_b[j] = sum_w[j] = 0.0f;
     const int end = tile_start[t + 1];
     for (int k = tile_start[t]; k < end; ++k) {
         const int i = tile_splats[k];
-        const int4 box = bbox[i];
-        const bool row_outside_box = py < box.y || py >= box.w;
-        if (row_outside_box) continue;
         const float8 s = splats[i];
         const float4 c = colors[i];
-        const float dy = fy - s.s1;
-        const float cdy2 = s.s4 * dy * dy;
-        if (box.x < x0 + VW) BLEND_INTO(fx_lo, r_lo, g_lo, b_lo, w_lo)
-        if (box.z > x0 + VW) BLEND_INTO(fx_hi, r_hi, g_hi, b_hi, w_hi)
+        const int4 box = bbox[i];
+        const int r0 = max(box.y, y0) - y0, r1 = min(box.w, y0 + TILE) - y0;
+        const bool lo = box.x < x0 + VW, hi = box.z > x0 + VW;
+        const float a = -0.72134752f * s.s2, k_dy2 = -0.72134752f * s.s7;
+        const float log2_o = s.s5 > 0x1p-100f ? log2(s.s5) : -100.0f;  /* keeps 2^y normal */
+        const float ycut = log2_o - 0.72134752f * CUTOFF_Q;
+        for (int r = r0; r < r1; ++r) {
+            const float dy = y0 + r + 0.5f - s.s1;
+            const float ymin = k_dy2 * dy * dy + log2_o;
+            const float xc = s.s0 + s.s6 * dy;
+            if (lo) BLEND_INTO(fx_lo, 0)
+            if (hi) BLEND_INTO(fx_hi, 1)
+        }
     }
+    for (int j = 0; j < 2 * TILE; ++j) {
+        const int pixel = (y0 + j / 2) * pitch + x0 + (j % 2) * VW;
+        float8 R = sum_r[j], G = sum_g[j], B = sum_b[j];
 #if BLEND_NORMALIZED
-    const float8 n_lo = 1.0f / (w_lo + EPS), n_hi = 1.0f / (w_hi + EPS);
-    r_lo = (r_lo + EPS * background.x) * n_lo;
-    g_lo = (g_lo + EPS * background.y) * n_lo;
-    b_lo = (b_lo + EPS * background.z) * n_lo;
-    r_hi = (r_hi + EPS * background.x) * n_hi;
-    g_hi = (g_hi + EPS * background.y) * n_hi;
-    b_hi = (b_hi + EPS * background.z) * n_hi;
+        const float8 n = 1.0f / (sum_w[j] + EPS);
+        R = (R + EPS * background.x) * n;
+        G = (G + EPS * background.y) * n;
+        B = (B + EPS * background.z) * n;
 #else
-    r_lo += background.x; g_lo += background.y; b_lo += background.z;
-    r_hi += background.x; g_hi += background.y; b_hi += background.z;
+        R += background.x; G += background.y; B += background.z;
 #endif
-    __global float *p = out + py * pitch + x0;
-    vstore8(r_lo, 0, p);             vstore8(r_hi, 1, p);
-    vstore8(g_lo, 0, p + plane);     vstore8(g_hi, 1, p + plane);
-    vstore8(b_lo, 0, p + 2 * plane); vstore8(b_hi, 1, p + 2 * plane);
-    vstore8(w_lo, 0, p + 3 * plane); vstore8(w_hi, 1, p + 3 * plane);
+        /* rows are whole tiles wide, so these are aligned float8 stores */
+        __global float8 *rgb = (__global float8 *)(image + 3 * pixel);
+        rgb[0] = (float8)(R.s0, G.s0, B.s0, R.s1, G.s1, B.s1, R.s2, G.s2);
+        rgb[1] = (float8)(B.s2, R.s3, G.s3, B.s3, R.s4, G.s4, B.s4, R.s5);
+        rgb[2] = (float8)(G.s5, B.s5, R.s6, G.s6, B.s6, R.s7, G.s7, B.s7);
+        *(__global float8 *)(weight + pixel) = sum_w[j];
+    }
 }
 
 /* One work-item per (tile, splat) entry: the splat's gradient summed over the
@@ -157,8 +182,8 @@ __kernel void splat_backward(__global const float8 *splats, __global const float
             const float dy = py + 0.5f - s.s1;
             const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
             const int8 inside = (q < CUTOFF_Q) & in_box;
-            if (!any(inside)) continue;
-            const float8 g = select((float8)(0.0f), falloff(q), inside);
+            if (!any8(inside)) continue;
+            const float8 g = inside ? exp2_fast(-0.72134752f * q) : 0.0f;  /* exp(-q / 2) */
             const float8 w = s.s5 * g;
             __global const float *d = dimg + py * pitch + x0;
             const float8 d_r = vload8(0, d), d_g = vload8(0, d + plane), d_b = vload8(0, d + 2 * plane);
