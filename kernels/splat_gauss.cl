@@ -1,6 +1,7 @@
 /* 2D Gaussian splats: tile-binned forward pass and per-(tile, splat) backward pass.
  *
- * Buffer layouts (packed by clrender/splat/gauss.py, written down once here):
+ * Buffer layouts (written down once here; splat_prepare and the binning kernels fill
+ * the splat and tile buffers from the parameters clrender/splat/gauss.py uploads):
  *   splats     float8 per splat: (mx, my, A, B2, C, opacity, Sxy / Syy, 1 / Syy)
  *              q(p) = A dx^2 + B2 dx dy + C dy^2 with (dx, dy) = p - m, the
  *              quadratic form of the inverse covariance S^-1 (B2 = 2 * off-diagonal);
@@ -72,6 +73,66 @@ inline float hsum8(const float8 v)
     const float4 a = v.lo + v.hi;
     const float2 b = a.lo + a.hi;
     return b.x + b.y;
+}
+
+/* Work-item i packs splat i from its parameters, params[10 i ..] = (x, y, log sx,
+ * log sy, theta, r, g, b, luminance, opacity), into splats, colors and bbox. */
+__kernel void splat_prepare(__global const float *params, const int n, const int width,
+                            const int height, __global float8 *splats, __global float4 *colors,
+                            __global int4 *bbox)
+{
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    __global const float *p = params + 10 * i;
+    const float mx = p[0], my = p[1];
+    const float sx2 = exp(2.0f * p[2]), sy2 = exp(2.0f * p[3]);
+    const float det = exp(2.0f * (p[2] + p[3]));  /* sx^2 sy^2, without cancellation */
+    const float c = cos(p[4]), s = sin(p[4]);
+    /* covariance S = R diag(sx^2, sy^2) R^T */
+    const float sxx = c * c * sx2 + s * s * sy2, sxy = c * s * (sx2 - sy2), syy = s * s * sx2 + c * c * sy2;
+    splats[i] = (float8)(mx, my, syy / det, -2.0f * sxy / det, sxx / det, p[9], sxy / syy, 1.0f / syy);
+    colors[i] = (float4)(p[5] * p[8], p[6] * p[8], p[7] * p[8], 0.0f);
+    /* pixels whose centres may lie in the ellipse q = 9: half extents 3 sqrt(Sxx) and
+     * 3 sqrt(Syy), plus a hair for rounding; fmin/fmax also turn a NaN into an edge */
+    const float rx = 3.0f * sqrt(sxx) + 1e-3f, ry = 3.0f * sqrt(syy) + 1e-3f;
+    const float w = width, h = height;
+    bbox[i] = (int4)((int)fmin(fmax(ceil(mx - rx - 0.5f), 0.0f), w), (int)fmin(fmax(ceil(my - ry - 0.5f), 0.0f), h),
+                     (int)fmin(fmax(floor(mx + rx + 0.5f), 0.0f), w), (int)fmin(fmax(floor(my + ry + 0.5f), 0.0f), h));
+}
+
+/* The tile columns [tx0, tx1] of a splat's box if it reaches tile row ty, else false. */
+inline bool box_in_tile_row(const int4 box, const int ty, int *tx0, int *tx1)
+{
+    const bool empty = box.z <= box.x || box.w <= box.y;
+    if (empty || box.y >= (ty + 1) * TILE || box.w <= ty * TILE) return false;
+    *tx0 = box.x / TILE;
+    *tx1 = (box.z - 1) / TILE;
+    return true;
+}
+
+/* Binning, one work-item per tile row ty (so no two work-items share a tile and no
+ * atomics are needed): count the splats of each tile of the row ... */
+__kernel void splat_bin_count(__global const int4 *bbox, const int n, const int tiles_x,
+                              __global int *count)
+{
+    __global int *row = count + get_global_id(0) * tiles_x;
+    for (int tx = 0; tx < tiles_x; ++tx) row[tx] = 0;
+    int tx0, tx1;
+    for (int i = 0; i < n; ++i)
+        if (box_in_tile_row(bbox[i], get_global_id(0), &tx0, &tx1))
+            for (int tx = tx0; tx <= tx1; ++tx) row[tx]++;
+}
+
+/* ... then, with cursor = tile_start (the host's prefix sum of count), list them in
+ * increasing splat index: tile t's splats end up in tile_splats[tile_start[t] ..). */
+__kernel void splat_bin_fill(__global const int4 *bbox, const int n, const int tiles_x,
+                             __global int *cursor, __global int *tile_splats)
+{
+    __global int *row = cursor + get_global_id(0) * tiles_x;
+    int tx0, tx1;
+    for (int i = 0; i < n; ++i)
+        if (box_in_tile_row(bbox[i], get_global_id(0), &tx0, &tx1))
+            for (int tx = tx0; tx <= tx1; ++tx) tile_splats[row[tx]++] = i;
 }
 
 /* Blend one splat into 8 pixels of row r, half h of the tile: fx their centres.

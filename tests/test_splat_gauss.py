@@ -1,9 +1,10 @@
 """Gaussian splats: forward kernel vs a float64 numpy reference, backward kernel vs central
 finite differences of that reference's loss, binning invariants, losses, optimisers, fitting."""
 import numpy as np
+import pyopencl as cl
 import pytest
 
-from clrender.splat.gauss import GROUPS, GaussParams, GaussRenderer, bin_splats, pixel_boxes
+from clrender.splat.gauss import GROUPS, GaussParams, GaussRenderer
 from clrender.splat.losses import loss_and_grad, psnr, ssim
 
 W, H = 40, 37  # not a multiple of the 16-pixel tile: partial tiles on two sides
@@ -65,31 +66,42 @@ def test_forward_on_selected_tiles_only(device, rng):
     assert not part[:, :16].any() and not part[32:].any()
 
 
-def test_binning_covers_every_touching_tile(rng):
+def test_binning_covers_every_touching_tile(device, rng):
     n = 300
     xy = rng.uniform(-10, 110, (n, 2))
     log_scale = np.log(rng.uniform(0.3, 12, (n, 2)))
     theta = rng.uniform(-3, 3, n)
-    box = pixel_boxes(xy, log_scale, theta, 100, 70)
-    b = bin_splats(box, 100, 70)
+    params = GaussParams(xy, log_scale, theta, np.ones((n, 3)), np.ones(n), np.ones(n), width=100, height=70)
+    renderer = GaussRenderer(device, 100, 70)
+    frame = renderer.forward(params)
+    b, box = frame.binning, np.empty((n, 4), np.int32)
+    cl.enqueue_copy(device.queue, box, frame.packed[2])  # the pixel boxes splat_prepare computed
     assert b.tiles_x == 7 and b.tiles_y == 5
     assert np.all(np.diff(b.entry_tile) >= 0)
-    # brute force: splat i belongs to tile t iff their pixel rectangles intersect
+    # brute force: splat i belongs to tile t iff their pixel rectangles intersect, listed in splat order
     for t in range(b.tiles_x * b.tiles_y):
         tx, ty = t % b.tiles_x, t // b.tiles_x
         hit = ((box[:, 0] < tx * 16 + 16) & (box[:, 2] > tx * 16) & (box[:, 1] < ty * 16 + 16)
                & (box[:, 3] > ty * 16) & (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1]))
         listed = b.entry_splat[b.tile_start[t]: b.tile_start[t + 1]]
         np.testing.assert_array_equal(listed, np.nonzero(hit)[0])
-    # the box holds every pixel centre inside the 3-sigma ellipse
+        np.testing.assert_array_equal(b.entry_tile[b.tile_start[t]: b.tile_start[t + 1]], t)
+    # the box holds every pixel centre inside the 3-sigma ellipse ...
     ys, xs = np.mgrid[0:70, 0:100] + 0.5
-    for i in range(0, n, 37):
+    for i in range(n):
         c, s = np.cos(theta[i]), np.sin(theta[i])
         dx, dy = xs - xy[i, 0], ys - xy[i, 1]
         u, v = (c * dx + s * dy) / np.exp(log_scale[i, 0]), (-s * dx + c * dy) / np.exp(log_scale[i, 1])
-        inside = u * u + v * v < 9
-        yy, xx = np.nonzero(inside)
+        yy, xx = np.nonzero(u * u + v * v < 9)
         assert np.all((xx >= box[i, 0]) & (xx < box[i, 2]) & (yy >= box[i, 1]) & (yy < box[i, 3]))
+    # ... and is the float64 box around the ellipse's extents x +- 3 sqrt(Sxx), y +- 3 sqrt(Syy)
+    sx2, sy2 = np.exp(2 * log_scale[:, 0]), np.exp(2 * log_scale[:, 1])
+    c2, s2 = np.cos(theta) ** 2, np.sin(theta) ** 2
+    rx, ry = 3 * np.sqrt(c2 * sx2 + s2 * sy2), 3 * np.sqrt(s2 * sx2 + c2 * sy2)
+    ref = np.stack([np.ceil(xy[:, 0] - rx - 0.5), np.ceil(xy[:, 1] - ry - 0.5),
+                    np.floor(xy[:, 0] + rx + 0.5), np.floor(xy[:, 1] + ry + 0.5)], 1)
+    ref = np.clip(ref, 0, [100, 70, 100, 70])
+    assert np.abs(box - ref).max() <= 1 and np.mean(box == ref) > 0.99
 
 
 def fd_gradient(p, blend, loss, target, name, index, h):

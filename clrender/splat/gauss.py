@@ -1,4 +1,4 @@
-"""2D Gaussian splats: the model, host-side tile binning, and the forward/backward kernels.
+"""2D Gaussian splats: the model and the packing, binning, forward and backward kernels.
 
 A splat has a centre (x, y) in pixels, log-scales (log sx, log sy), a rotation
 theta, a base colour (r, g, b), a luminance factor and an opacity in [0, 1].
@@ -14,7 +14,8 @@ luminance * colour.  Blend modes (see kernels/splat_gauss.cl):
     normalized: I = (sum_i w_i c_i + eps * background) / (sum_i w_i + eps)
 
 The forward kernel renders 16x16 tiles, each pixel visiting only the splats
-binned to its tile by their 3-sigma boxes (binned here with numpy).  The
+binned to its tile by their 3-sigma boxes (packed and binned by kernels too, in
+splat order, so the sums are deterministic; the host only adds up tile counts).  The
 backward kernel writes one row of partial gradients per (tile, splat) entry;
 `np.bincount` sums the rows per splat, so the result has no races and is
 deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
@@ -33,6 +34,7 @@ NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of we
 EPS = 1e-3  # normalized blend: weight of the background colour
 CUTOFF_SIGMA = 3.0
 BACKWARD_GROUP = 64  # work-items per work-group of the backward kernel
+PREPARE_GROUP = 64  # and of the packing kernel
 BLENDS = ("sum", "normalized")
 GROUPS = ("xy", "log_scale", "theta", "color", "lum", "opacity")
 MIN_LOG_SCALE = float(np.log(0.25))  # sigma below a quarter pixel only aliases
@@ -106,33 +108,6 @@ class GaussParams:
 # ----------------------------------------------------------------------------- geometry
 
 
-def covariance(log_scale: np.ndarray, theta: np.ndarray):
-    """(Sxx, Sxy, Syy), the entries of Sigma = R diag(sx^2, sy^2) R^T."""
-    sx2, sy2 = np.exp(2.0 * log_scale[:, 0]), np.exp(2.0 * log_scale[:, 1])
-    c, s = np.cos(theta), np.sin(theta)
-    return c * c * sx2 + s * s * sy2, c * s * (sx2 - sy2), s * s * sx2 + c * c * sy2
-
-
-def boxes_from_covariance(xy: np.ndarray, sxx: np.ndarray, syy: np.ndarray, width: int, height: int):
-    """int32 (N, 4) pixel ranges [x0, x1) x [y0, y1) whose centres may lie in the 3-sigma ellipse."""
-    # half extents of the ellipse q = 9 (plus a hair for float32 rounding in the kernel)
-    rx = CUTOFF_SIGMA * np.sqrt(sxx) + 1e-3
-    ry = CUTOFF_SIGMA * np.sqrt(syy) + 1e-3
-    box = np.empty((len(xy), 4))
-    np.ceil(xy[:, 0] - rx - 0.5, out=box[:, 0])
-    np.ceil(xy[:, 1] - ry - 0.5, out=box[:, 1])
-    np.floor(xy[:, 0] + rx + 0.5, out=box[:, 2])
-    np.floor(xy[:, 1] + ry + 0.5, out=box[:, 3])
-    np.clip(box, 0, [width, height, width, height], out=box)
-    return box.astype(np.int32)
-
-
-def pixel_boxes(xy: np.ndarray, log_scale: np.ndarray, theta: np.ndarray, width: int, height: int):
-    """int32 (N, 4) pixel ranges [x0, x1) x [y0, y1) whose centres may lie in the 3-sigma ellipse."""
-    sxx, _, syy = covariance(log_scale, theta)
-    return boxes_from_covariance(xy, sxx, syy, width, height)
-
-
 @dataclass
 class Binning:
     """Splats sorted into 16x16 tiles (all arrays int32)."""
@@ -146,47 +121,6 @@ class Binning:
     @property
     def n_entries(self) -> int:
         return len(self.entry_splat)
-
-
-def bin_splats(box: np.ndarray, width: int, height: int) -> Binning:
-    """Assign every splat to the tiles its pixel box touches (vectorised: repeat, then sort by tile)."""
-    tiles_x, tiles_y = -(-width // TILE), -(-height // TILE)
-    nonempty = (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1])
-    tx0, ty0 = box[:, 0] // TILE, box[:, 1] // TILE
-    nx = np.where(nonempty, (box[:, 2] - 1) // TILE - tx0 + 1, 0)
-    ny = np.where(nonempty, (box[:, 3] - 1) // TILE - ty0 + 1, 0)
-    count = nx * ny
-    splat = np.repeat(np.arange(len(box), dtype=np.int32), count)
-    # k-th tile of its splat, row-major inside the splat's tile rectangle; its row k // nx
-    # comes from a float32 product, exact while a splat spans < 2^21 tiles ((k + 0.5) / nx
-    # stays 0.5 / nx from an integer) and ten times faster than numpy's integer division
-    k = np.arange(len(splat), dtype=np.int32) - np.repeat(np.cumsum(count, dtype=np.int32) - count, count)
-    row = ((k + np.float32(0.5)) * (np.float32(1) / np.maximum(nx, 1))[splat]).astype(np.int32)
-    tile = (ty0[splat] + row) * tiles_x + tx0[splat] + k - row * nx[splat]
-    # stable: splat index order inside each tile; 16-bit keys make numpy use a radix sort
-    key = tile.astype(np.int16 if tiles_x * tiles_y <= np.iinfo(np.int16).max else np.int32)
-    order = np.argsort(key, kind="stable")
-    entry_tile = tile[order].astype(np.int32)
-    tile_start = np.zeros(tiles_x * tiles_y + 1, np.int32)
-    np.cumsum(np.bincount(entry_tile, minlength=tiles_x * tiles_y), out=tile_start[1:])
-    return Binning(tiles_x, tiles_y, tile_start, splat[order], entry_tile)
-
-
-def pack(params: GaussParams):
-    """Kernel buffers: float8 splats (layout in kernels/splat_gauss.cl), float4 colours, int4 boxes."""
-    xy, log_scale = params.xy.astype(np.float64), params.log_scale.astype(np.float64)
-    sxx, sxy, syy = covariance(log_scale, params.theta.astype(np.float64))
-    det = np.exp(2.0 * (log_scale[:, 0] + log_scale[:, 1]))  # sx^2 sy^2, without cancellation
-    splats = np.empty((params.n, 8), np.float32)
-    splats[:, 0:2] = xy
-    # inverse covariance as (A, B2, C), then each row's parabola: E[x | y] = mx + (Sxy / Syy) dy,
-    # q >= dy^2 / Syy
-    splats[:, 2], splats[:, 3], splats[:, 4] = syy / det, -2.0 * sxy / det, sxx / det
-    splats[:, 5] = params.opacity
-    splats[:, 6], splats[:, 7] = sxy / syy, 1.0 / syy
-    colors = np.zeros((params.n, 4), np.float32)
-    np.multiply(params.color, params.lum[:, None], out=colors[:, :3])
-    return splats, colors, boxes_from_covariance(xy, sxx, syy, params.width, params.height)
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -222,6 +156,9 @@ class GaussRenderer:
         self.tiles_x, self.tiles_y = -(-width // TILE), -(-height // TILE)
         defines = {"BLEND_NORMALIZED": int(blend == "normalized")}
         self._forward = device.kernel("splat_gauss.cl", "splat_forward", defines)
+        self._prepare = device.kernel("splat_gauss.cl", "splat_prepare", defines)
+        self._bin_count = device.kernel("splat_gauss.cl", "splat_bin_count", defines)
+        self._bin_fill = device.kernel("splat_gauss.cl", "splat_bin_fill", defines)
         self._backward = device.kernel("splat_gauss.cl", "splat_backward", defines)
         # images are padded to whole tiles (layouts in kernels/splat_gauss.cl)
         self.pitch, self.rows = self.tiles_x * TILE, self.tiles_y * TILE
@@ -238,22 +175,55 @@ class GaussRenderer:
         if (params.width, params.height) != (self.width, self.height):
             raise UsageError(f"parameters are for {params.width}x{params.height}, renderer is {self.width}x{self.height}")
         tiles = self.all_tiles if tiles is None else np.ascontiguousarray(tiles, np.int32)
-        splats, colors, box = pack(params)
-        binning = bin_splats(box, self.width, self.height)
+        buffers, binning = self._pack_and_bin(params)
         # fresh arrays, so a Frame stays valid after the next forward pass; the kernel writes
         # into them directly on a CPU device (no copy, no interleaving pass on the host)
         alloc = aligned_zeros if len(tiles) < len(self.all_tiles) else aligned_empty
         image, weight = alloc((self.rows, self.pitch, 3)), alloc((self.rows, self.pitch))
         image_buf, weight_buf = dev.host_buffer(image), dev.host_buffer(weight)
-        buffers = (dev.to_device(splats), dev.to_device(colors), dev.to_device(box))
         if len(tiles):
             self._forward(dev.queue, (len(tiles),), (1,), *buffers, dev.to_device(binning.tile_start),
-                          dev.to_device(binning.entry_splat), dev.to_device(tiles), np.int32(self.tiles_x),
+                          self._tile_splats, dev.to_device(tiles), np.int32(self.tiles_x),
                           self.background, image_buf, weight_buf)
         dev.sync_to_host(image_buf, image)
         dev.sync_to_host(weight_buf, weight)
         return Frame(image[: self.height, : self.width], weight[: self.height, : self.width], tiles, binning,
                      buffers, params)
+
+    def _pack_and_bin(self, params: GaussParams):
+        """Pack the splats and bin them into tiles on the device.
+
+        Returns the (splats, colors, bbox) buffers and the Binning, whose tile
+        lists also stay on the device for the forward kernel (entry_splat is
+        filled by a copy still queued: in order before anything read back later).
+        """
+        cl, dev = self.cl, self.dev
+        n, tiles = params.n, len(self.all_tiles)
+        packed = np.concatenate([params.xy, params.log_scale, params.theta[:, None], params.color,
+                                 params.lum[:, None], params.opacity[:, None]], axis=1)
+        buffers = (dev.empty(n * 32), dev.empty(n * 16), dev.empty(n * 16))
+        count = np.zeros(tiles, np.int32)
+        if n:
+            # fixed local sizes: PoCL builds a kernel binary per local size
+            self._prepare(dev.queue, (-(-n // PREPARE_GROUP) * PREPARE_GROUP,), (PREPARE_GROUP,),
+                          dev.to_device(packed), np.int32(n), np.int32(self.width), np.int32(self.height),
+                          *buffers)
+            count_buf = dev.empty(count.nbytes)
+            self._bin_count(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x),
+                            count_buf)
+            cl.enqueue_copy(dev.queue, count, count_buf)
+        tile_start = np.zeros(tiles + 1, np.int32)
+        np.cumsum(count, out=tile_start[1:])
+        n_entries = int(tile_start[-1])
+        dev.check_fits(n_entries * 4, f"{n_entries} splat-tile entries")
+        entry_splat = np.empty(n_entries, np.int32)
+        self._tile_splats = dev.empty(n_entries * 4)
+        if n_entries:
+            self._bin_fill(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x),
+                           dev.to_device(tile_start[:-1]), self._tile_splats)
+            cl.enqueue_copy(dev.queue, entry_splat, self._tile_splats, is_blocking=False)
+        entry_tile = np.repeat(self.all_tiles, count)
+        return buffers, Binning(self.tiles_x, self.tiles_y, tile_start, entry_splat, entry_tile)
 
     def backward(self, frame: Frame, d_image: np.ndarray) -> dict[str, np.ndarray]:
         """Gradients of the loss for every parameter group, from dL/dI (H, W, 3).
