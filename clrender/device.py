@@ -77,13 +77,14 @@ class Device:
             self._kernels[key] = knl
         return knl
 
-    def to_device(self, array: np.ndarray) -> "cl.Buffer":
-        """A read-only buffer holding a copy of `array` (at least one byte)."""
+    def to_device(self, array: np.ndarray, writable: bool = False) -> "cl.Buffer":
+        """A read-only (or read-write) buffer holding a copy of `array` (at least one byte)."""
         array = np.ascontiguousarray(array)
         mf = cl.mem_flags
         if array.nbytes == 0:
             array = np.zeros(1, dtype=array.dtype if array.dtype.itemsize else np.uint8)
-        return cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
+        return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR,
+                         hostbuf=array)
 
     def empty(self, nbytes: int) -> "cl.Buffer":
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""

@@ -175,15 +175,15 @@ class GaussRenderer:
         if (params.width, params.height) != (self.width, self.height):
             raise UsageError(f"parameters are for {params.width}x{params.height}, renderer is {self.width}x{self.height}")
         tiles = self.all_tiles if tiles is None else np.ascontiguousarray(tiles, np.int32)
-        buffers, binning = self._pack_and_bin(params)
+        buffers, tile_splats, binning = self._pack_and_bin(params)
         # fresh arrays, so a Frame stays valid after the next forward pass; the kernel writes
         # into them directly on a CPU device (no copy, no interleaving pass on the host)
-        alloc = aligned_zeros if len(tiles) < len(self.all_tiles) else aligned_empty
-        image, weight = alloc((self.rows, self.pitch, 3)), alloc((self.rows, self.pitch))
+        zero = len(tiles) < len(self.all_tiles)
+        image, weight = aligned_array((self.rows, self.pitch, 3), zero), aligned_array((self.rows, self.pitch), zero)
         image_buf, weight_buf = dev.host_buffer(image), dev.host_buffer(weight)
         if len(tiles):
             self._forward(dev.queue, (len(tiles),), (1,), *buffers, dev.to_device(binning.tile_start),
-                          self._tile_splats, dev.to_device(tiles), np.int32(self.tiles_x),
+                          tile_splats, dev.to_device(tiles), np.int32(self.tiles_x),
                           self.background, image_buf, weight_buf)
         dev.sync_to_host(image_buf, image)
         dev.sync_to_host(weight_buf, weight)
@@ -193,9 +193,9 @@ class GaussRenderer:
     def _pack_and_bin(self, params: GaussParams):
         """Pack the splats and bin them into tiles on the device.
 
-        Returns the (splats, colors, bbox) buffers and the Binning, whose tile
-        lists also stay on the device for the forward kernel (entry_splat is
-        filled by a copy still queued: in order before anything read back later).
+        Returns the (splats, colors, bbox) buffers, the tile lists' buffer and the
+        Binning, whose entry_splat is filled by a copy still queued (the in-order
+        queue finishes it before anything read back later).
         """
         cl, dev = self.cl, self.dev
         n, tiles = params.n, len(self.all_tiles)
@@ -217,13 +217,13 @@ class GaussRenderer:
         n_entries = int(tile_start[-1])
         dev.check_fits(n_entries * 4, f"{n_entries} splat-tile entries")
         entry_splat = np.empty(n_entries, np.int32)
-        self._tile_splats = dev.empty(n_entries * 4)
+        tile_splats = dev.empty(n_entries * 4)
         if n_entries:
             self._bin_fill(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x),
-                           dev.to_device(tile_start[:-1]), self._tile_splats)
-            cl.enqueue_copy(dev.queue, entry_splat, self._tile_splats, is_blocking=False)
+                           dev.to_device(tile_start[:-1], writable=True), tile_splats)
+            cl.enqueue_copy(dev.queue, entry_splat, tile_splats, is_blocking=False)
         entry_tile = np.repeat(self.all_tiles, count)
-        return buffers, Binning(self.tiles_x, self.tiles_y, tile_start, entry_splat, entry_tile)
+        return buffers, tile_splats, Binning(self.tiles_x, self.tiles_y, tile_start, entry_splat, entry_tile)
 
     def backward(self, frame: Frame, d_image: np.ndarray) -> dict[str, np.ndarray]:
         """Gradients of the loss for every parameter group, from dL/dI (H, W, 3).
@@ -265,17 +265,13 @@ class GaussRenderer:
         return chain_rule(params, raw)
 
 
-def aligned_empty(shape, zero: bool = False) -> np.ndarray:
-    """An uninitialised float32 array whose data starts on a 64-byte boundary (kernels store
-    aligned float8 vectors into it through a host buffer)."""
+def aligned_array(shape, zero: bool) -> np.ndarray:
+    """A float32 array (zeroed or not) whose data starts on a 64-byte boundary: kernels store
+    aligned float8 vectors into it through a host buffer."""
     n = int(np.prod(shape))
     raw = (np.zeros if zero else np.empty)(n + 16, np.float32)
     start = (-raw.ctypes.data % 64) // 4
     return raw[start: start + n].reshape(shape)
-
-
-def aligned_zeros(shape) -> np.ndarray:
-    return aligned_empty(shape, zero=True)
 
 
 def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str,
