@@ -35,6 +35,7 @@
 #define TILE 16
 #define VW 8            /* pixels per work-item */
 #define CUTOFF_Q 9.0f   /* 3 sigma */
+#define NEG_HALF_LOG2E (-0.72134752f)  /* exp(-q / 2) = 2^(NEG_HALF_LOG2E q) */
 #define NGRAD 10        /* per entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of w */
 
 #define LANES ((float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
@@ -178,9 +179,9 @@ __kernel void splat_forward(__global const float8 *splats, __global const float4
         const int4 box = bbox[i];
         const int r0 = max(box.y, y0) - y0, r1 = min(box.w, y0 + TILE) - y0;
         const bool lo = box.x < x0 + VW, hi = box.z > x0 + VW;
-        const float a = -0.72134752f * s.s2, k_dy2 = -0.72134752f * s.s7;
+        const float a = NEG_HALF_LOG2E * s.s2, k_dy2 = NEG_HALF_LOG2E * s.s7;
         const float log2_o = s.s5 > 0x1p-100f ? log2(s.s5) : -100.0f;  /* keeps 2^y normal */
-        const float ycut = log2_o - 0.72134752f * CUTOFF_Q;
+        const float ycut = log2_o + NEG_HALF_LOG2E * CUTOFF_Q;
         for (int r = r0; r < r1; ++r) {
             const float dy = y0 + r + 0.5f - s.s1;
             const float ymin = k_dy2 * dy * dy + log2_o;
@@ -244,7 +245,7 @@ __kernel void splat_backward(__global const float8 *splats, __global const float
             const float8 q = (s.s2 * dx + s.s3 * dy) * dx + s.s4 * dy * dy;
             const int8 inside = (q < CUTOFF_Q) & in_box;
             if (!any8(inside)) continue;
-            const float8 g = inside ? exp2_fast(-0.72134752f * q) : 0.0f;  /* exp(-q / 2) */
+            const float8 g = inside ? exp2_fast(NEG_HALF_LOG2E * q) : 0.0f;  /* exp(-q / 2) */
             const float8 w = s.s5 * g;
             __global const float *d = dimg + py * pitch + x0;
             const float8 d_r = vload8(0, d), d_g = vload8(0, d + plane), d_b = vload8(0, d + 2 * plane);
