@@ -14,12 +14,12 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from .errors import UsageError
+from .package_data import data_dir
 
 try:
     import pyopencl as cl
@@ -121,7 +121,7 @@ def _define_value(value) -> str:
 
 def kernel_dir() -> Path:
     """Folder of the installed .cl sources (the top-level kernels/ in a checkout)."""
-    return Path(str(resources.files("clrender.kernels")))
+    return data_dir("kernels")
 
 
 def _describe(dev) -> str:

@@ -10,13 +10,13 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from .camera import Camera
 from .errors import UsageError
+from .package_data import data_dir
 from .lights import FALLOFFS, LIGHT_TYPES, Light
 from .materials import DEFAULT_MATERIAL, Material
 
@@ -103,7 +103,7 @@ class Scene:
 
 def bundled_scenes() -> dict:
     """Name -> path of every scene shipped in the package."""
-    folder = Path(str(resources.files("clrender.scenes")))
+    folder = data_dir("scenes")
     return {p.stem: p for p in sorted(folder.glob("*.toml"))}
 
 
