@@ -29,6 +29,10 @@ SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
 ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
+AOV_NAMES = ("depth", "normal", "albedo", "id", "edges")  # see clrender/aov.py
+KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWRITE_AOV=1 variant writes
+# The kernel's AOV record per pixel before the trace: (normal, t) = (0, 0, 0, inf), albedo 0 -- what a miss leaves.
+AOV_MISS = np.array([0, 0, 0, np.inf, 0, 0, 0, 0], np.float32)
 
 
 @dataclass
@@ -52,6 +56,7 @@ class RenderSettings:
     bvh_builder: str = "sah"  # "sah" (binned surface-area heuristic) or "median" (the seed's)
     tile_size: int = 128  # tiles are tile_size x tile_size pixels per kernel launch
     device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else PoCL's CPU
+    aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
 
     def validate(self, scene: Scene) -> "RenderSettings":
         """A copy with the image size filled in; UsageError for any value out of range."""
@@ -71,6 +76,8 @@ class RenderSettings:
             (s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}"),
             (0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1"),
             (s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1"),
+            (isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
+             f"unknown AOV in {s.aovs!r}; allowed: {', '.join(AOV_NAMES)}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -89,6 +96,7 @@ class RenderResult:
     timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
     node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
+    aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/aov.py)
 
     @property
     def ids(self) -> np.ndarray:
@@ -115,12 +123,16 @@ class Renderer:
         lights = np.concatenate([l.pack() for l in self.scene.lights]) if self.scene.lights else np.zeros((5, 4), np.float32)
         self.lights = dev.to_device(lights)
         start = time.perf_counter()
-        self.kernel = self.tracer.kernel("render")
+        self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
+        # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
+        self.kernel = dev.kernel("trace.cl", "render", {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)})
+        self._no_aov = dev.empty(32)  # the unused aov_out argument
         self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
     def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
-        """Trace the given pixel indices: colours (k, 3), id records (k, ID_RECORD), shadow (k, L), stats (k, 2)."""
+        """Trace the given pixel indices: colours (k, 3), id records (k, ID_RECORD), shadow (k, L), stats (k, 2),
+        and with AOVs on and `record`, the primary hits' AOV records (k, 8), else None."""
         t = self.tracer
         dev = t.device
         s = self.settings
@@ -129,6 +141,10 @@ class Renderer:
         colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, 4 * ID_RECORD, 4 * L, 8))
         if record:  # background pixels never write their shadow entries: all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
+        aov = self._no_aov
+        if record and self.write_aov:
+            aov = dev.empty(k * AOV_MISS.nbytes)
+            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_MISS.nbytes)
         self.kernel(
             dev.queue, global_size(k), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
             self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
@@ -136,17 +152,21 @@ class Renderer:
             np.int32(SAMPLERS[sampler]), np.int32(n), np.int32(PIXEL_FILTERS[s.pixel_filter]), np.uint32(s.seed),
             np.int32(s.max_depth),
             np.int32(s.fresnel), np.int32(s.light_samples),
-            np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats)
+            np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats, aov)
         out = (np.empty((k, 4), np.float32), np.empty((k, ID_RECORD), np.int32),
                np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):
             cl.enqueue_copy(dev.queue, host, buf)
-        return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3]
+        aov_host = None
+        if aov is not self._no_aov:
+            aov_host = np.empty((k, len(AOV_MISS)), np.float32)
+            cl.enqueue_copy(dev.queue, aov_host, aov)
+        return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3], aov_host
 
     def _pass(self, pixel_lists, sampler, n, record, desc):
         """Trace each pixel list in turn; returns the concatenated outputs."""
         parts = [self.launch(p, sampler, n, record) for p in progress(pixel_lists, desc=desc, unit="tile")]
-        return [np.concatenate(x) for x in zip(*parts)]
+        return [np.concatenate(x) if x[0] is not None else None for x in zip(*parts)]
 
     def tiles(self):
         """Pixel-index lists of the image's tiles, row-major within and between tiles."""
@@ -165,7 +185,7 @@ class Renderer:
         order = np.concatenate(tiles)
         first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
         start = time.perf_counter()
-        colour, ids, shadow, stats = self._pass(tiles, first_sampler, first_n, True, "trace")
+        colour, ids, shadow, stats, aov = self._pass(tiles, first_sampler, first_n, True, "trace")
         timings["trace"] = time.perf_counter() - start
         image = np.empty((H * W, 3), np.float32)
         records = np.empty((H * W, ID_RECORD), np.int32)
@@ -177,19 +197,48 @@ class Renderer:
                               shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays))
         if s.aa == "edge_detect":
             self._resample_edges(result)
+        if s.aovs:
+            records = None
+            if aov is not None:
+                records = np.empty((H * W, len(AOV_MISS)), np.float32)
+                records[order] = aov
+                records = records.reshape(H, W, -1)
+            result.aovs = self._aovs(result, records)
         return result
 
-    def _resample_edges(self, result: RenderResult):
-        """Pass 2 of edge-only AA: re-render just the masked pixels with the chosen sampler."""
+    def _aovs(self, result: RenderResult, records) -> dict:
+        """The requested AOVs, all from the ray the ids come from (see clrender/aov.py)."""
+        s = self.settings
+        out = {}
+        for name in s.aovs:
+            if name == "depth":
+                out[name] = np.ascontiguousarray(records[..., 3])
+            elif name == "normal":
+                out[name] = np.ascontiguousarray(records[..., 0:3])
+            elif name == "albedo":
+                out[name] = np.ascontiguousarray(records[..., 4:7])
+            elif name == "id":
+                out[name] = result.ids.copy()
+            elif name == "edges":
+                out[name] = result.edge_mask if result.edge_mask is not None else self._edge_mask(result)
+        return out
+
+    def _edge_mask(self, result: RenderResult) -> np.ndarray:
+        """The mask edge-only AA would resample, for renders that did not run it."""
         from .edges import edge_mask
         from .imageio import linear_to_srgb
 
         s = self.settings
-        start = time.perf_counter()
         # a change of facet on a flat-shaded mesh is a shading edge too
         ids = np.concatenate([result.path_ids, result.facets[..., None]], axis=-1)
-        mask = edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges,
+        return edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges,
                          linear_to_srgb(result.image), s.contrast)
+
+    def _resample_edges(self, result: RenderResult):
+        """Pass 2 of edge-only AA: re-render just the masked pixels with the chosen sampler."""
+        s = self.settings
+        start = time.perf_counter()
+        mask = self._edge_mask(result)
         result.timings["edges"] = time.perf_counter() - start
         result.edge_mask = mask
         pixels = np.flatnonzero(mask.ravel())
@@ -197,7 +246,7 @@ class Renderer:
         start = time.perf_counter()
         if len(pixels):
             chunks = [pixels[i:i + chunk] for i in range(0, len(pixels), chunk)]
-            colour, _, _, stats = self._pass(chunks, s.sampler, s.samples, False, "edges")
+            colour, _, _, stats, _ = self._pass(chunks, s.sampler, s.samples, False, "edges")
             result.image.reshape(-1, 3)[pixels] = colour
             visits, rays = stats.sum(axis=0, dtype=np.int64)
             result.node_visits += int(visits)

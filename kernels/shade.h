@@ -9,6 +9,10 @@
 #include "intersect.h"
 #include "sampling.h"
 
+#ifndef WRITE_AOV
+#define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
+#endif
+
 typedef struct {
     __global const float4 *nodes;
     __global const float4 *prims;
@@ -25,6 +29,9 @@ typedef struct {
     int light_stratified; /* 1: one jittered sample per cell of an area light (the seed); 0: uniform random */
     float3 background;
     float3 ambient;
+#if WRITE_AOV
+    __global float4 *aov; /* null, or this pixel's primary-hit record: (shading normal, t), (kd, 0) */
+#endif
 } Scene;
 
 inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
@@ -170,6 +177,9 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         bool front_face = dot3(d, n_geo) < 0.0f;
         if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
         if (dot3(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
+#if WRITE_AOV
+        if (first_hit && sc->aov) { sc->aov[0] = (float4)(n_shade, h.t); sc->aov[1] = (float4)(kd.xyz, 0.0f); }
+#endif
 
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
            unless this is the primary hit whose light visibility the edge detector needs */

@@ -7,7 +7,8 @@
 #include "shade.h"
 
 /* frame: camera origin, forward, right * half-width, up * half-height
- *        (all at unit distance), background colour, ambient light. */
+ *        (all at unit distance), background colour, ambient light.
+ * aov_out: with -DWRITE_AOV=1, two float4s per pixel (see Scene.aov); unused otherwise. */
 __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      __global const int *prim_object, __global const float4 *normals,
                      __global const int2 *objects, __global const float4 *materials,
@@ -17,7 +18,7 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      int sampler, int samples_per_side, int pixel_filter, uint seed, int max_depth, int fresnel,
                      int light_samples, int light_stratified, int record,
                      __global float4 *colour_out, __global int *ids_out, __global float *shadow_out,
-                     __global uint2 *stats_out) {
+                     __global uint2 *stats_out, __global float4 *aov_out) {
     int gid = get_global_id(0);
     if (gid >= n_work) return;
     Scene sc;
@@ -41,6 +42,9 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
         float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
         Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
         bool keep = record && s == 0; /* ids and shadows of the first sample */
+#if WRITE_AOV
+        sc.aov = keep ? aov_out + (size_t)gid * 2 : 0; /* AOVs come from the same ray as the ids */
+#endif
         float weight = pixel_filter_weight(pixel_filter, off);
         sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * ID_RECORD : 0,
                                    keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
