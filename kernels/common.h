@@ -41,8 +41,8 @@
 #define INF_T INFINITY
 
 typedef struct {
-    float3 o, d, inv_d;
-    float3 o_inv_d; /* o * inv_d, so a slab test is one multiply-add per axis */
+    float3 o, d;
+    float3 inv_d; /* 1/d per axis: +-inf where a component is +-0 (the slab test relies on it) */
 } Ray;
 
 /* Plain-arithmetic versions of min, max, dot and cross for the hot loops:
@@ -64,7 +64,6 @@ inline Ray make_ray(float3 o, float3 d) {
     r.o = o;
     r.d = d;
     r.inv_d = (float3)(1.0f) / d;
-    r.o_inv_d = r.o * r.inv_d;
     return r;
 }
 

@@ -77,15 +77,29 @@ inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, f
     return hit_triangle(r, a, b, c, t_min, t_max, u, v);
 }
 
-/* Slab test; returns the entry distance or INF_T.  The far distance is
- * widened by 1 + 2*gamma(3) so rounding never culls a box a hit lies in.
- * Written per axis in scalars: float3 arithmetic costs shuffles on CPUs. */
+/* One slab of the box test: the entry and exit distances (lo - o) / d and
+ * (hi - o) / d, picked by the sign of 1/d (so -0 counts as negative).  The
+ * form (b - o) * inv_d is inf, never inf - inf, when d is zero and o lies off
+ * the slab's planes; it is NaN only when 0 * inf, i.e. d is zero and o lies
+ * exactly on a plane: the ray runs inside the closed slab, and the caller's
+ * max_f/min_f chains drop a NaN, so that axis then bounds nothing. */
+inline void slab(float lo, float hi, float o, float inv_d, float *t_enter, float *t_exit) {
+    float t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
+    bool backwards = inv_d < 0.0f;
+    float near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
+    *t_enter = max_f(near, *t_enter); /* a NaN `near` keeps t_enter */
+    *t_exit = min_f(far, *t_exit);    /* a NaN `far` keeps t_exit */
+}
+
+/* Slab test; returns the entry distance or INF_T.  Correct for every
+ * direction, zero and negative-zero components included, and conservative:
+ * the exit distance is widened by 1 + 2*gamma(3) (pbrt-v4) so rounding never
+ * culls a box a hit lies in.  Scalars: float3 arithmetic costs shuffles on CPUs. */
 inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
-    float x0 = bmin.x * r.inv_d.x - r.o_inv_d.x, x1 = bmax.x * r.inv_d.x - r.o_inv_d.x;
-    float y0 = bmin.y * r.inv_d.y - r.o_inv_d.y, y1 = bmax.y * r.inv_d.y - r.o_inv_d.y;
-    float z0 = bmin.z * r.inv_d.z - r.o_inv_d.z, z1 = bmax.z * r.inv_d.z - r.o_inv_d.z;
-    float t_enter = max_f(min_f(z0, z1), max_f(min_f(y0, y1), max_f(min_f(x0, x1), 0.0f)));
-    float t_exit = min_f(max_f(z0, z1), min_f(max_f(y0, y1), min_f(max_f(x0, x1), t_max)));
+    float t_enter = 0.0f, t_exit = t_max;
+    slab(bmin.x, bmax.x, r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab(bmin.y, bmax.y, r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab(bmin.z, bmax.z, r.o.z, r.inv_d.z, &t_enter, &t_exit);
     t_exit *= 1.0000004f;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
