@@ -63,10 +63,11 @@ def test_bunny_built_cached_and_loaded(tmp_path, monkeypatch):
     assert (top[:, 0] > 0.02).any() and (top[:, 0] < -0.02).any() and not (np.abs(top[:, 0]) < 0.02).any()
     # the head (front, high) is in +z
     assert m.vertices[m.vertices[:, 1] > 0.5, 2].mean() > 0
-    cached = list((tmp_path / "clrender").glob("bunny-*.ply"))
+    cached = list((tmp_path / "clrender").glob("bunny-*.npz"))
     assert len(cached) == 1
-    again = meshes.bunny()  # from the cache file
+    again = meshes.bunny()  # from the cache file, normals included
     assert np.array_equal(again.faces, m.faces) and np.allclose(again.vertices, m.vertices, atol=1e-6)
+    assert np.allclose(again.vertex_normals, m.vertex_normals, atol=1e-9)
 
 
 def test_bunny_deterministic_without_cache(tmp_path, monkeypatch):
