@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pyopencl as cl
 
+from .aov import AOV_NAMES
 from .errors import UsageError
 from .progress import progress
 from .scene import Scene
@@ -29,7 +30,6 @@ SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
 PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
 ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
-AOV_NAMES = ("depth", "normal", "albedo", "id", "edges")  # see clrender/aov.py
 KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWRITE_AOV=1 variant writes
 # The kernel's AOV record per pixel before the trace: (normal, t) = (0, 0, 0, inf), albedo 0 -- what a miss leaves.
 AOV_MISS = np.array([0, 0, 0, np.inf, 0, 0, 0, 0], np.float32)

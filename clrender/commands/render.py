@@ -49,6 +49,11 @@ def add_parser(sub):
     p.add_argument("--contrast", type=float, default=d.contrast,
                    help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed")
     p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green")
+    p.add_argument("--aov", default=None, metavar="LIST",
+                   help="also write AOVs, comma-separated from depth,normal,albedo,id,edges, as named EXR channels "
+                        "(in OUT itself when it is .exr, else in --aov-out) (default: none)")
+    p.add_argument("--aov-out", default=None, metavar="PATH",
+                   help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)")
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
@@ -80,6 +85,10 @@ def settings_from_args(args) -> RenderSettings:
             raise UsageError(f"{key.upper()} {text!r} is not valid; allowed: {allowed}") from None
     if values["samples"] is None:
         values["samples"] = 1 if values["aa"] == "none" else 4
+    if args.aov is not None:
+        from ..aov import parse_aov_list
+
+        values["aovs"] = parse_aov_list(args.aov)
     return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
                           pixel_filter=args.pixel_filter, contrast=args.contrast,
                           max_depth=args.max_depth, fresnel=args.fresnel, bvh=args.bvh,
@@ -102,6 +111,9 @@ def run(args):
     edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
     if edges_out and settings.aa != "edge_detect":
         raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
+    from ..aov import aov_output
+
+    aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
     if args.filter:
         from .. import filters
 
@@ -115,12 +127,21 @@ def run(args):
     image = result.image
     if args.filter:
         image = filters.apply(image, *args.filter)
-    write_display_image(output, image)
+    from ..aov import write_exr
+
+    if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
+        write_exr(output, result.aovs, beauty=image)
+    else:
+        write_display_image(output, image)
+    if aov_out is not None:
+        write_exr(aov_out, result.aovs)
     if edges_out is not None:
         from ..edges import overlay_edges
 
         write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
     print(output)
+    if aov_out is not None:
+        print(aov_out)
     if not args.quiet:
         s = renderer.settings
         t = result.timings
