@@ -21,9 +21,14 @@ def floor_scene(light=LIGHT, extra=()):
 
 
 def floor_points(scene):
-    o, d = scene.cameras[0].rays(SIZE, SIZE)
-    t = -o[..., 1] / d[..., 1]
-    return o + t[..., None] * d  # where each pixel's centre ray meets y = 0
+    """Where each pixel's centre ray meets y = 0, for the camera straight above looking down
+    (image up = -z, so x grows to the right and z downwards), worked out here rather than taken
+    from clrender.Camera, whose frame the kernel uses too."""
+    half = np.tan(np.radians(CAMERA["fov"]) / 2) * CAMERA["position"][1]  # half-width of the view on the floor
+    centres = (np.arange(SIZE) + 0.5) / SIZE * 2 - 1
+    x = np.broadcast_to(centres[None, :] * half, (SIZE, SIZE))
+    z = np.broadcast_to(centres[:, None] * half, (SIZE, SIZE))
+    return np.stack([x, np.zeros_like(x), z], axis=-1)
 
 
 def light_grid(light, m=300):

@@ -4,6 +4,7 @@ import pytest
 
 from clrender.renderer import Renderer, render
 from clrender.scene import Mesh, Scene
+from clrender.tracer import Tracer
 
 W, H = 48, 36
 
@@ -21,8 +22,26 @@ def lit_floor_scene(**light):
     })
 
 
+def pinhole_rays(position, look_at, up=(0, 1, 0), fov=60.0, width=W, height=H):
+    """Pixel-centre rays of a look-at pinhole camera, written out here rather than taken from
+    clrender.Camera (whose frame the kernel also uses), so the camera geometry is checked too:
+    row 0 at the top, vertical field of view `fov`, square pixels."""
+    eye = np.asarray(position, float)
+    forward = np.asarray(look_at, float) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+    tan_half = np.tan(np.radians(fov) / 2)
+    ys, xs = np.mgrid[0:height, 0:width] + 0.5
+    u = (2 * xs / width - 1) * tan_half * width / height
+    v = (1 - 2 * ys / height) * tan_half
+    d = forward + u[..., None] * right + v[..., None] * true_up
+    return np.broadcast_to(eye, d.shape), d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
 def floor_hits(scene):
-    o, d = scene.cameras[0].rays(W, H)
+    o, d = pinhole_rays([0, 4, 4], [0, 0, 0])  # lit_floor_scene's camera
     t = -o[..., 1] / d[..., 1]
     return o + t[..., None] * d
 
@@ -98,12 +117,27 @@ def test_bvh_on_off_and_both_builders_render_the_same_image(device):
 
 
 def test_reflections_and_refractions_are_on_the_recorded_path(device):
-    result = Renderer(mixed_scene()).run()
+    scene = mixed_scene()
+    result = Renderer(scene).run()
     ids = result.path_ids
-    mirror_pixels = ids[..., 0] == 1
-    assert mirror_pixels.any()
-    # a mirror pixel's path continues to whatever the mirror shows
-    assert (ids[mirror_pixels][:, 1] != -2).all() and (ids[mirror_pixels][:, 1] != 1).mean() > 0.5
+    # a mirror pixel's path continues to whatever the mirror shows: reflect the pixel's ray off the
+    # mirror sphere here (r = d - 2 (d.n) n) and ask the closest-hit query what that ray meets
+    o, d = pinhole_rays([0, 1, 6], [0, 0, 0])
+    centre, radius = np.array([1.2, 0, -0.5]), 0.8
+    oc = o - centre
+    b = (oc * d).sum(-1)
+    disc = b**2 - ((oc**2).sum(-1) - radius**2)
+    mirror_pixels = (ids[..., 0] == 1) & (disc > 0.02)  # away from the silhouette
+    assert mirror_pixels.sum() > 40
+    t = -b[mirror_pixels] - np.sqrt(disc[mirror_pixels])
+    p = o[mirror_pixels] + t[:, None] * d[mirror_pixels]
+    n = (p - centre) / radius
+    dm = d[mirror_pixels]
+    reflected = dm - 2 * (dm * n).sum(-1, keepdims=True) * n
+    _, _, expected = Tracer(scene).intersect(p + 1e-4 * n, reflected)
+    seen = ids[mirror_pixels][:, 1]
+    assert (seen == expected).mean() > 0.97
+    assert len(set(expected[expected >= 0].tolist())) >= 2  # the mirror shows several objects
     glass_pixels = ids[..., 0] == 0
     # glass: the refracted ray leaves through the glass sphere itself (id 0) on its way out
     assert (ids[glass_pixels][:, 1:] == 0).any(axis=1).mean() > 0.9
@@ -164,6 +198,7 @@ def test_pixel_filters_weight_samples_but_keep_flat_regions(device):
     for name in ("tent", "gaussian"):
         other = render(scene, aa="full", samples=3, sampler="stratified", seed=2, pixel_filter=name)
         assert np.abs(other - box).max() > 1e-3  # a different weighting near edges
+        # (which weighting: test_outputs.py checks each against its formula, in the kernel and in a render)
         flat = render(scene, aa="full", samples=3, sampler="uniform", pixel_filter=name, width=8, height=6)
         # a weighted mean of equal values is that value: the background stays exact
         np.testing.assert_allclose(flat[0, 0], scene.background, rtol=1e-6)
