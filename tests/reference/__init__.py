@@ -1,0 +1,1 @@
+"""Test oracles written independently of clrender (they never import it)."""
