@@ -51,9 +51,9 @@ def add_parser(sub):
     p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green")
     p.add_argument("--aov", default=None, metavar="LIST",
                    help="also write AOVs, comma-separated from depth,normal,albedo,id,edges, as named EXR channels "
-                        "(in OUT itself when it is .exr, else in --aov-out) (default: none)")
+                        "(in OUT itself when it is .exr, else in --aov-out)")
     p.add_argument("--aov-out", default=None, metavar="PATH",
-                   help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)")
+                   help="EXR file for the AOVs; without it they go into OUT when OUT is .exr, else into OUT.aov.exr beside it")
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
