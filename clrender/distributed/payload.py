@@ -1,0 +1,94 @@
+"""Shipping a scene to workers: a plain dict plus its numpy arrays, never a file path.
+
+A worker may not see the client's files (scene TOML, mesh files, the bunny
+cache), so the client sends the scene as it is in memory: `split(scene)`
+turns the Scene dataclasses into a JSON-able description and pulls every
+numpy array out into a flat {name: array} dict, which the client scatters to
+the cluster once.  `join` rebuilds the same Scene on the worker.  The key is
+a hash of both, so workers can cache a built Tracer per scene.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+# Only classes from our own package are rebuilt from a description.
+_TRUSTED_PREFIX = "clrender."
+
+
+@dataclass
+class ScenePayload:
+    description: dict  # the Scene as nested dicts/lists/numbers; arrays replaced by {"__array__": name}
+    arrays: dict  # name -> numpy array (mesh vertices, faces, normals)
+    key: str  # sha256 of description and array bytes: equal keys, equal scenes
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in self.arrays.values())
+
+
+def split(scene) -> ScenePayload:
+    """The scene as (description dict, arrays), with its content hash."""
+    arrays: dict = {}
+    description = _describe(scene, arrays, "scene")
+    digest = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}{a.dtype.str}{a.shape}".encode())
+        digest.update(a.tobytes())
+    return ScenePayload(description, arrays, digest.hexdigest()[:32])
+
+
+def join(payload: ScenePayload):
+    """The Scene that `split` was given (equal field by field, arrays bit-identical)."""
+    return _rebuild(payload.description, payload.arrays)
+
+
+def _describe(value, arrays: dict, path: str):
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        cls = type(value)
+        fields = {f.name: _describe(getattr(value, f.name), arrays, f"{path}.{f.name}") for f in dataclasses.fields(value)}
+        return {"__class__": f"{cls.__module__}:{cls.__qualname__}", "fields": fields}
+    if isinstance(value, np.ndarray):
+        arrays[path] = value
+        return {"__array__": path}
+    if isinstance(value, tuple):
+        return {"__tuple__": [_describe(v, arrays, f"{path}[{i}]") for i, v in enumerate(value)]}
+    if isinstance(value, list):
+        return [_describe(v, arrays, f"{path}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, dict):
+        return {"__dict__": [[k, _describe(v, arrays, f"{path}.{k}")] for k, v in value.items()]}
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    raise TypeError(f"cannot ship {type(value).__name__} at {path} to a worker")
+
+
+def _rebuild(value, arrays: dict):
+    if isinstance(value, list):
+        return [_rebuild(v, arrays) for v in value]
+    if not isinstance(value, dict):
+        return value
+    if "__array__" in value:
+        return arrays[value["__array__"]]
+    if "__tuple__" in value:
+        return tuple(_rebuild(v, arrays) for v in value["__tuple__"])
+    if "__dict__" in value:
+        return {k: _rebuild(v, arrays) for k, v in value["__dict__"]}
+    module, _, qualname = value["__class__"].partition(":")
+    if not module.startswith(_TRUSTED_PREFIX):
+        raise TypeError(f"refusing to rebuild {value['__class__']} from a scene payload")
+    cls = getattr(importlib.import_module(module), qualname)
+    fields = {k: _rebuild(v, arrays) for k, v in value["fields"].items()}
+    init = {f.name for f in dataclasses.fields(cls) if f.init}
+    obj = cls(**{k: v for k, v in fields.items() if k in init})
+    for k, v in fields.items():
+        if k not in init:
+            object.__setattr__(obj, k, v)
+    return obj

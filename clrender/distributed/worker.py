@@ -1,0 +1,94 @@
+"""What runs on a Dask worker: a per-process cache of built scenes, and the tasks.
+
+Building a Tracer (flatten, BVH, upload) and compiling the kernels is the
+expensive part of a small task, so each worker process keeps them in a
+module-level cache keyed by the scene's content hash and the settings that
+shape them; every later task for the same scene reuses them.  The device
+follows `settings.device`, else the worker's own $CLRENDER_DEVICE, and PoCL's
+thread count is whatever the worker's environment set before OpenCL started
+(POCL_MAX_PTHREAD_COUNT / POCL_CPU_MAX_CU_NUM; see cluster.py).
+
+A kernel object holds its arguments between `set_args` and the launch, so
+two threads of one worker must not launch at once: one lock per process.
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import replace
+
+from ..renderer import Renderer, RenderSettings
+from ..tracer import Tracer
+from .payload import ScenePayload, join
+
+TRACERS_KEPT = 4  # scenes (BVH + device buffers) a worker keeps
+RENDERERS_KEPT = 16  # (scene, settings, camera) combinations a worker keeps
+
+_LOCK = threading.RLock()
+_SCENES: OrderedDict = OrderedDict()  # scene key -> Scene
+_TRACERS: OrderedDict = OrderedDict()  # (scene key, bvh, builder, device) -> Tracer
+_RENDERERS: OrderedDict = OrderedDict()  # (scene key, settings repr) -> Renderer
+
+
+def _cached(cache: OrderedDict, key, build, keep: int):
+    """cache[key], built on first use; the least recently used entries beyond `keep` are dropped."""
+    value = cache.get(key)
+    if value is None:
+        value = build()
+        cache[key] = value
+        while len(cache) > keep:
+            cache.popitem(last=False)
+    cache.move_to_end(key)
+    return value
+
+
+def is_built(payload: ScenePayload, settings: RenderSettings) -> bool:
+    return (payload.key, repr(settings), None) in _RENDERERS
+
+
+def scene_of(payload: ScenePayload):
+    return _cached(_SCENES, payload.key, lambda: join(payload), TRACERS_KEPT)
+
+
+def tracer_for(payload: ScenePayload, settings: RenderSettings) -> Tracer:
+    key = (payload.key, settings.bvh, settings.bvh_builder, settings.device)
+    return _cached(_TRACERS, key, lambda: Tracer(scene_of(payload), use_bvh=settings.bvh,
+                                                   builder=settings.bvh_builder, device=settings.device), TRACERS_KEPT)
+
+
+def renderer_for(payload: ScenePayload, settings: RenderSettings, scene=None) -> Renderer:
+    """A Renderer for the scene (or `scene`, the same geometry with other cameras) and settings, built once."""
+    key = (payload.key, repr(settings), None if scene is None else repr(scene.cameras))
+    return _cached(_RENDERERS, key, lambda: Renderer(scene or scene_of(payload), settings,
+                                                       tracer=tracer_for(payload, settings)), RENDERERS_KEPT)
+
+
+def _info(renderer: Renderer, start: float, ready: float, built: bool) -> dict:
+    """Where and how long a task ran: setup (scene, BVH, kernels; 0 when cached) and compute seconds."""
+    return {"pid": os.getpid(), "setup": ready - start if built else 0.0, "compute": time.perf_counter() - ready,
+            "bvh": renderer.tracer.bvh_seconds if built else 0.0,
+            "compile_kernels": renderer.compile_seconds if built else 0.0}
+
+
+def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sampler: str, n: int, record: bool):
+    """One tile (or edge-pixel chunk): what `Renderer.launch` returns, plus timing info."""
+    with _LOCK:
+        start = time.perf_counter()
+        built = not is_built(payload, settings)
+        renderer = renderer_for(payload, settings)
+        ready = time.perf_counter()
+        out = renderer.launch(pixels, sampler, n, record)
+        return out, _info(renderer, start, ready, built)
+
+
+def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
+    """One whole image with `camera` in place of the scene's cameras (a turntable frame)."""
+    with _LOCK:
+        start = time.perf_counter()
+        scene = replace(scene_of(payload), cameras=[camera])
+        renderer = Renderer(scene, replace(settings, camera=1), tracer=tracer_for(payload, settings))
+        ready = time.perf_counter()
+        image = renderer.run().image
+        return image, _info(renderer, start, ready, True)
