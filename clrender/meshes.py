@@ -2,8 +2,8 @@
 
 * `bunny(resolution)` -- a sitting rabbit, surface nets of a smooth union of ellipsoids and
   capsules; cached under cache_dir() after the first build
-* `dense_mesh(n, seed)` (scene name `dense`) -- a lumpy sphere of about n triangles, for the
-  ray and BVH benchmarks
+* `dense_mesh(n, seed)` (scene name `dense`, cached like the bunny) -- a lumpy sphere of about
+  n triangles, for the ray and BVH benchmarks
 * `wizard_hat()`, `tower()` (lathe profiles) and `cat()` (surface nets) -- low-poly props
 
 Scene files use them with `generator = "bunny"` and keyword arguments in `params = {...}`.
@@ -105,9 +105,13 @@ def dense_mesh(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     return with_normals(trimesh.Trimesh(vertices, faces, process=False))
 
 
+DENSE_VERSION = 1  # bump when dense_mesh's shape changes: names the cache file
+
+
 def dense(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
-    """Scene generator name for `dense_mesh` (about 100k triangles)."""
-    return dense_mesh(n_triangles, seed)
+    """Scene generator name for `dense_mesh` (about 100k triangles), cached like the bunny."""
+    n_triangles = _check_range("dense mesh triangle count", n_triangles, 8, MAX_DENSE_TRIANGLES)
+    return cached_mesh(f"dense-v{DENSE_VERSION}-n{n_triangles}-s{seed!r}", lambda: dense_mesh(n_triangles, seed))
 
 
 # ------------------------------------------------------------ implicit surfaces
@@ -269,12 +273,18 @@ def bunny(resolution: int = 112, cache: bool = True) -> trimesh.Trimesh:
     resolution = _check_range("bunny resolution", resolution, 16, 256)
     if not cache:
         return build_bunny(resolution)
-    path = cache_dir() / f"bunny-v{BUNNY_VERSION}-r{resolution}.npz"
-    cached = load_cached_mesh(path)
-    if cached is not None:
-        return cached
-    mesh = build_bunny(resolution)
-    save_cached_mesh(path, mesh)
+    return cached_mesh(f"bunny-v{BUNNY_VERSION}-r{resolution}", lambda: build_bunny(resolution))
+
+
+def cached_mesh(key: str, build) -> trimesh.Trimesh:
+    """cache_dir()/<key>.npz if it is there and readable, else build() saved under that name.
+    Generating the bunny (2 s) or the 120k-triangle rock (0.3 s) on every scene load would
+    dominate a small render; loading the .npz takes milliseconds."""
+    path = cache_dir() / f"{key}.npz"
+    mesh = load_cached_mesh(path)
+    if mesh is None:
+        mesh = build()
+        save_cached_mesh(path, mesh)
     return mesh
 
 
@@ -283,7 +293,7 @@ def load_cached_mesh(path: Path) -> trimesh.Trimesh | None:
     try:
         with np.load(path) as data:
             vertices, faces, normals = data["vertices"], data["faces"], data["normals"]
-        if len(faces) == 0 or normals.shape != vertices.shape:
+        if len(faces) == 0 or normals.shape != vertices.shape or not 0 <= faces.min() <= faces.max() < len(vertices):
             return None
         mesh = trimesh.Trimesh(vertices, faces, process=False)
         mesh.vertex_normals = normals
@@ -299,7 +309,7 @@ def save_cached_mesh(path: Path, mesh: trimesh.Trimesh) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with open(tmp, "wb") as out:
-            np.savez(out, vertices=mesh.vertices, faces=mesh.faces, normals=mesh.vertex_normals)
+            np.savez(out, vertices=mesh.vertices, faces=mesh.faces.astype(np.int32), normals=mesh.vertex_normals)
         os.replace(tmp, path)
     except OSError:
         pass
