@@ -7,8 +7,24 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
-from .renderer import Renderer, RenderResult, RenderSettings, render  # noqa: E402
-from .scene import Scene  # noqa: E402
-from .tracer import Tracer  # noqa: E402
-
+# Imported on first use (PEP 562), so `import clrender.cli` is light and the
+# command line can take over Ctrl-C before numpy and pyopencl load.
+_EXPORTS = {
+    "Renderer": "renderer", "RenderResult": "renderer", "RenderSettings": "renderer", "render": "renderer",
+    "Scene": "scene", "Tracer": "tracer",
+}
 __all__ = ["Renderer", "RenderResult", "RenderSettings", "Scene", "Tracer", "render"]
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        from importlib import import_module
+
+        value = getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + __all__)

@@ -1,3 +1,4 @@
+"""`python -m clrender`: the same entry point as the console script (SIGINT handled from the start)."""
 import sys
 
 from .cli import main

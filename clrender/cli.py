@@ -1,17 +1,43 @@
 """`clrender` command line: subcommands render, convolve, splat {gauss,render,sweep,voronoi}, devices.
 
 Errors are one line on stderr, `clrender: <what was wrong and what is
-allowed>`, exit 2 for bad input and 1 for a failure at run time.  Each
-subcommand lives in clrender/commands/<name>.py and registers itself with
+allowed>`: exit 2 for bad input (UsageError), 1 for a failure at run time
+(RenderFailure, OSError such as a full disk, out of memory), 130 for Ctrl-C,
+143 for SIGTERM.  Anything else is a bug: one line says so and how to see
+the traceback (--debug or CLRENDER_DEBUG=1).  Each subcommand lives in
+clrender/commands/<name>.py and registers itself with
 `add_parser(subparsers)`, setting `run` to the function that does the work.
 """
-from __future__ import annotations
-
-import argparse
+# SIGINT is handled before anything heavy is imported: this module is the
+# console script's entry point, and the package's own __init__ imports lazily.
+import os
+import signal
 import sys
 
-from . import progress
-from .errors import RenderFailure, UsageError
+_RUN_AS_PROGRAM = os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.exe", "__main__.py", "-m")
+
+
+def _interrupted_while_starting(signum, frame):  # pragma: no cover - exercised in a subprocess
+    # nothing has been written yet (outputs are only placed at the end), so leaving at once is safe
+    os.write(2, b"clrender: interrupted\n")
+    os._exit(128 + signum)
+
+
+if _RUN_AS_PROGRAM and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+    signal.signal(signal.SIGINT, _interrupted_while_starting)
+    signal.signal(signal.SIGTERM, _interrupted_while_starting)
+
+import argparse  # noqa: E402
+import threading  # noqa: E402
+
+from . import progress  # noqa: E402
+from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, RenderFailure, UsageError, one_line  # noqa: E402
+
+EXIT_TERMINATED = 128 + signal.SIGTERM
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised like KeyboardInterrupt so cleanup runs on the way out."""
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -22,8 +48,8 @@ class ArgumentParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message):  # argparse calls this for bad arguments
-        sys.stderr.write(f"clrender: {message} (see '{self.prog} --help')\n")
-        sys.exit(2)
+        sys.stderr.write(f"clrender: {one_line(message)} (see '{self.prog} --help')\n")
+        sys.exit(EXIT_USAGE)
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
@@ -40,6 +66,10 @@ def build_parser() -> ArgumentParser:
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or timings")
     parser.add_argument("-v", "--verbose", action="store_true", help="progress bars even off a terminal")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error (also CLRENDER_DEBUG=1)")
+    parser.add_argument("--max-memory", type=_memory_size, default=None, metavar="SIZE",
+                        help="refuse a job whose estimated peak memory exceeds SIZE (e.g. 2G; also CLRENDER_MAX_MEMORY); "
+                             "None: the memory available now")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
     sub.required = True
     for module in (render, convolve, splat, devices):
@@ -47,25 +77,99 @@ def build_parser() -> ArgumentParser:
     return parser
 
 
+def _memory_size(text: str) -> int:
+    from .memory import parse_size
+
+    try:
+        return parse_size(text)
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def main(argv=None) -> int:
+    """Run one command; every failure ends here as one line and an exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv or os.environ.get("CLRENDER_DEBUG", "") not in ("", "0")
+    with _signals_raise():
+        try:
+            return _run(argv)
+        except SystemExit as exc:  # argparse: --help (0) or a bad argument (2, its line already written)
+            return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+        except KeyboardInterrupt:
+            return _fail("interrupted", EXIT_INTERRUPTED)
+        except Terminated:
+            return _fail("terminated", EXIT_TERMINATED)
+        except UsageError as exc:
+            return _fail(str(exc), EXIT_USAGE)
+        except RenderFailure as exc:
+            return _fail(str(exc), EXIT_FAILURE)
+        except MemoryError:
+            if debug:
+                raise
+            return _fail("out of memory; use a smaller image or fewer primitives (see --max-memory)", EXIT_FAILURE)
+        except OSError as exc:
+            if debug:
+                raise
+            return _fail(describe_os_error(exc), EXIT_FAILURE)
+        except Exception as exc:
+            if debug:
+                raise
+            if _is_device_error(exc):
+                return _fail(f"OpenCL failed: {exc}", EXIT_FAILURE)
+            return _fail(f"internal error (a bug in clrender): {type(exc).__name__}: {exc}; "
+                         "run again with --debug or CLRENDER_DEBUG=1 for the traceback", EXIT_FAILURE)
+
+
+def _run(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from . import memory
+
+    memory.MAX_MEMORY = args.max_memory
     if args.quiet:
         progress.SHOW = False
     elif args.verbose:
         progress.SHOW = True
-    try:
-        result = args.run(args)
-    except UsageError as exc:
-        sys.stderr.write(f"clrender: {exc}\n")
-        return 2
-    except RenderFailure as exc:
-        sys.stderr.write(f"clrender: {exc}\n")
-        return 1
-    except KeyboardInterrupt:
-        sys.stderr.write("clrender: interrupted\n")
-        return 130
-    return int(result or 0)
+    return int(args.run(args) or 0)
+
+
+def describe_os_error(exc: OSError) -> str:
+    """'cannot write out.png: No space left on device', never an empty reason."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    name = exc.filename
+    if isinstance(name, str) and name.startswith("/proc/self/fd/"):
+        name = None  # a temp file's handle says nothing to the user
+    return f"{name}: {reason}" if name else reason
+
+
+def _is_device_error(exc: Exception) -> bool:
+    return type(exc).__module__.split(".")[0] in ("pyopencl",)
+
+
+def _fail(message: str, code: int) -> int:
+    sys.stderr.write(f"clrender: {one_line(message)}\n")
+    sys.stderr.flush()
+    return code
+
+
+class _signals_raise:
+    """While main() runs: Ctrl-C raises KeyboardInterrupt and SIGTERM raises Terminated (main thread only)."""
+
+    def __enter__(self):
+        self.saved = {}
+        if threading.current_thread() is threading.main_thread():
+            self.saved[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
+            self.saved[signal.SIGTERM] = signal.signal(signal.SIGTERM, _raise_terminated)
+        return self
+
+    def __exit__(self, *exc):
+        for signum, handler in self.saved.items():
+            signal.signal(signum, handler)
+        return False
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,9 +1,16 @@
-"""The two kinds of failure the command line tells apart.
+"""The kinds of failure the command line tells apart, and how values are shown in messages.
 
 `UsageError` is bad input (a value the user can fix): the CLI prints one line
 and exits 2.  `RenderFailure` is something that went wrong at run time
-(a kernel build failed, the device ran out of memory): exit 1.
+(a kernel build failed, the device ran out of memory): exit 1.  An OSError
+(disk full, folder not writable) is a run-time failure too.  Anything else
+is a bug: the CLI says so in one line and `--debug` shows the traceback.
 """
+
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+MAX_SHOWN = 200  # characters of any echoed value kept in a message
 
 
 class UsageError(ValueError):
@@ -18,3 +25,42 @@ def require(condition: bool, message: str) -> None:
     """Raise UsageError(message) unless condition holds."""
     if not condition:
         raise UsageError(message)
+
+
+def escaped(text: str) -> str:
+    """Control characters as escapes (ESC as \\x1b, newline as \\n), so a message stays one inert line."""
+    out = []
+    for ch in str(text):
+        code = ord(ch)
+        if ch == "\n":
+            out.append("\\n")
+        elif ch == "\r":
+            out.append("\\r")
+        elif ch == "\t":
+            out.append("\\t")
+        elif code < 0x20 or code == 0x7F or 0x80 <= code < 0xA0 or code in (0x2028, 0x2029):
+            out.append(f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}")
+        elif 0xD800 <= code < 0xE000:  # lone surrogates (undecodable bytes in a file name)
+            out.append(f"\\u{code:04x}")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
+def cut(text: str, limit: int = MAX_SHOWN) -> str:
+    """At most `limit` characters, saying how much was left out."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text) - limit} more characters)"
+
+
+def shown(value, limit: int = MAX_SHOWN) -> str:
+    """A value as a message quotes it: repr-style quotes, escaped, cut to `limit` characters."""
+    text = escaped(value if isinstance(value, str) else str(value))
+    return "'" + cut(text, limit) + "'"
+
+
+def one_line(message: str, limit: int = 4 * MAX_SHOWN) -> str:
+    """A whole message made safe for one terminal line."""
+    return cut(escaped(message), limit)

@@ -8,7 +8,9 @@ write never leaves a half-written image.
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +18,13 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import UsageError
+from .errors import RenderFailure, UsageError, shown
+from .outputs import write_file
+
+# An image header may promise any size; more pixels than this are refused
+# before a byte of them is allocated (the renderer's own limit, 8192 x 8192).
+MAX_READ_PIXELS = 1 << 26
+MAX_CHANNELS = 16
 
 # Formats whose writers store floats; everything else is written as integers.
 FLOAT_EXTENSIONS = {".exr", ".hdr", ".pfm"}
@@ -42,12 +50,19 @@ class Image:
 
 
 def _open_input(path: Path):
-    """An open OpenImageIO ImageInput; UsageError if the file is missing or not an image."""
+    """An open OpenImageIO ImageInput; UsageError if the file is missing, not an image or too large."""
     if not path.is_file():
-        raise UsageError(f"input image {str(path)!r} does not exist")
-    inp = oiio.ImageInput.open(str(path))
+        raise UsageError(f"input image {shown(path)} does not exist")
+    with _library_messages() as said:
+        inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise UsageError(f"cannot read {str(path)!r} as an image ({oiio.geterror().strip() or 'unknown format'})")
+        raise UsageError(f"cannot read {shown(path)} as an image ({_reason(oiio.geterror(), said.text, 'unknown format')})")
+    spec = inp.spec()
+    pixels = spec.width * spec.height * max(spec.depth, 1)
+    if pixels > MAX_READ_PIXELS or spec.nchannels > MAX_CHANNELS or pixels < 1 or spec.nchannels < 1:
+        inp.close()
+        raise UsageError(f"image {shown(path)} is {spec.width}x{spec.height} with {spec.nchannels} channels; "
+                         f"allowed: at most {MAX_READ_PIXELS} pixels and {MAX_CHANNELS} channels")
     return inp
 
 
@@ -57,13 +72,52 @@ def read_image(path: str | os.PathLike) -> Image:
     inp = _open_input(path)
     try:
         spec = inp.spec()
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        with _library_messages() as said:
+            pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
     finally:
         inp.close()
     if pixels is None:
-        raise UsageError(f"cannot read the pixels of {str(path)!r} ({oiio.geterror().strip()})")
+        raise UsageError(f"cannot read the pixels of {shown(path)} "
+                         f"({_reason(oiio.geterror(), said.text, 'the file is truncated or damaged')})")
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     return Image(pixels, str(spec.format), tuple(spec.channelnames))
+
+
+def _reason(*texts: str) -> str:
+    """The first non-empty line among the texts (libraries report one fault in several lines)."""
+    for text in texts:
+        for line in (text or "").splitlines():
+            if line.strip():
+                return line.strip()
+    return ""
+
+
+class _Said:
+    text = ""
+
+
+@contextlib.contextmanager
+def _library_messages():
+    """Catch what C libraries (libpng) print straight to stderr, so the CLI's error stays one line.
+
+    The yielded object's `text` holds the captured output once the block ends.
+    """
+    said = _Said()
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield said
+        return
+    with tempfile.TemporaryFile() as sink:
+        try:
+            sys.stderr.flush()
+            os.dup2(sink.fileno(), 2)
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            said.text = sink.read(4096).decode("utf-8", "replace")
 
 
 # Channel types each writer stores, keyed by extension (OpenImageIO's plugins).
@@ -139,33 +193,45 @@ def writer_supports_alpha(path: str | os.PathLike) -> bool:
 
 
 def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, inputs=()) -> Path:
-    """Refuse an output we could not write, before any work is done."""
+    """Refuse an output we could not write, before any work is done.
+
+    This is the early, friendly check; the final no-clobber check happens
+    atomically when the finished file is put in place (clrender/outputs.py).
+    """
     path = Path(path)
+    if path.is_dir():
+        raise UsageError(f"output {shown(path)} is a folder; name an image file (e.g. {shown(path / 'out.png')})")
     if not path.suffix:
-        raise UsageError(f"output {str(path)!r} has no extension; use .png, .jpg, .tif, .exr or .hdr")
+        raise UsageError(f"output {shown(path)} has no extension; use .png, .jpg, .tif, .exr or .hdr")
     probe = oiio.ImageOutput.create(str(path))
     if probe is None:
         oiio.geterror()  # clear it, or OpenImageIO prints it again at exit
         raise UsageError(
-            f"no image writer for extension {path.suffix!r} of {str(path)!r}; use .png, .jpg, .tif, .exr or .hdr"
+            f"no image writer for extension {shown(path.suffix)} of {shown(path)}; use .png, .jpg, .tif, .exr or .hdr"
         )
     for other in inputs:
         if Path(other).resolve() == path.resolve() and not overwrite:
-            raise UsageError(f"output {str(path)!r} is the input; pass --overwrite to replace it")
+            raise UsageError(f"output {shown(path)} is the input; pass --overwrite to replace it")
     if path.exists() and not overwrite:
-        raise UsageError(f"output {str(path)!r} already exists; pass --overwrite to replace it")
+        raise UsageError(f"output {shown(path)} already exists; pass --overwrite to replace it")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
-        raise UsageError(f"output folder {str(parent)!r} does not exist")
+        raise UsageError(f"output folder {shown(parent)} does not exist")
     if not os.access(parent, os.W_OK):
-        raise UsageError(f"output folder {str(parent)!r} is not writable")
+        raise UsageError(f"output folder {shown(parent)} is not writable")
     return path
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+def check_distinct_outputs(**outputs) -> None:
+    """Refuse two outputs of one command that name the same file (one would silently replace the other)."""
+    seen: dict[str, str] = {}
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        key = os.path.normcase(os.path.abspath(os.fspath(path)))
+        if key in seen:
+            raise UsageError(f"{seen[key]} and {option} both name {shown(path)}; give each output its own file")
+        seen[key] = option
 
 
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
@@ -186,13 +252,15 @@ def write_image(
     *,
     format: str | None = None,
     channel_names=None,
+    overwrite: bool = True,
 ) -> Path:
-    """Write pixels (H, W[, C]) atomically.
+    """Write pixels (H, W[, C]) atomically (clrender/outputs.py; inside an output set it joins the set).
 
     `format` is the stored channel type; by default float for EXR/HDR and
     uint8 otherwise.  Values are clamped to [0, 1] only for integer formats
     (OpenImageIO does that when it converts).  No colour transform happens
     here: callers encode sRGB themselves (see `write_display_image`).
+    Without `overwrite` an existing file is never replaced.
     """
     path = Path(path)
     pixels = np.asarray(pixels, dtype=np.float32)
@@ -209,27 +277,25 @@ def write_image(
         spec.alpha_channel = names.index("A")
     elif nchannels == 4:
         spec.alpha_channel = 3
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent or ".")
-    os.close(fd)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a finished image gets the usual mode
-    try:
-        out = oiio.ImageOutput.create(tmp)
-        if out is None or not out.open(tmp, spec):
-            raise UsageError(f"cannot write {str(path)!r}: {oiio.geterror().strip()}")
-        ok = out.write_image(np.ascontiguousarray(pixels))
-        out.close()
+
+    def write_pixels(temp: str) -> None:
+        out = oiio.ImageOutput.create(str(path))  # the writer is chosen by the final name's extension
+        if out is None:
+            raise UsageError(f"no image writer for {shown(path)}: {_reason(oiio.geterror())}")
+        with _library_messages() as said:
+            ok = out.open(temp, spec) and out.write_image(np.ascontiguousarray(pixels))
+            ok = out.close() and ok
         if not ok:
-            raise UsageError(f"cannot write {str(path)!r}: {oiio.geterror().strip()}")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+            # the libraries do not say why (errno is lost); a full disk is the usual cause
+            reason = _reason(oiio.geterror(), said.text, "the image writer failed (is the disk full?)")
+            raise RenderFailure(f"cannot write {shown(path)}: {reason}")
+
+    return write_file(path, write_pixels, overwrite=overwrite)
 
 
-def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray) -> Path:
+def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True) -> Path:
     """Write a linear render: float formats stay linear, others are sRGB-encoded 8-bit."""
     path = Path(path)
     if path.suffix.lower() in FLOAT_EXTENSIONS:
-        return write_image(path, linear_rgb, format="float")
-    return write_image(path, linear_to_srgb(linear_rgb), format="uint8")
+        return write_image(path, linear_rgb, format="float", overwrite=overwrite)
+    return write_image(path, linear_to_srgb(linear_rgb), format="uint8", overwrite=overwrite)
