@@ -63,6 +63,12 @@ def add_parser(sub):
     p.add_argument("--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result (repeatable)")
     p.add_argument("--device", default=None, help="OpenCL device substring (default: $CLRENDER_DEVICE, else PoCL CPU)")
     p.add_argument("--list", action="store_true", help="list the bundled scenes and exit")
+    # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
+    from .cluster import add_cluster_arguments
+    from .turntable import add_turntable_arguments
+
+    add_cluster_arguments(p)
+    add_turntable_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -96,8 +102,9 @@ def settings_from_args(args) -> RenderSettings:
 
 
 def run(args):
-    from ..imageio import check_output_path, write_display_image
-    from ..renderer import Renderer
+    from .. import memory
+    from ..imageio import check_distinct_outputs, check_output_path, write_display_image
+    from ..outputs import output_set
     from ..scene import Scene, bundled_scenes
 
     if args.list:
@@ -107,6 +114,10 @@ def run(args):
     if args.scene is None:
         raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list) or a .toml file")
     settings = settings_from_args(args)
+    if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
+        from .turntable import run_turntable
+
+        return run_turntable(args, settings)
     output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
     edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
     if edges_out and settings.aa != "edge_detect":
@@ -114,6 +125,7 @@ def run(args):
     from ..aov import aov_output
 
     aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
+    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out})
     if args.filter:
         from .. import filters
 
@@ -122,23 +134,30 @@ def run(args):
     start = time.perf_counter()
     scene = Scene.load(args.scene)
     load_seconds = time.perf_counter() - start
-    renderer = Renderer(scene, settings)
-    result = renderer.run()
+    size = settings.validate(scene)  # the scene's own width and height where not given
+    memory.require(memory.render_bytes(size.width, size.height, scene.triangle_count, aa=settings.aa,
+                                       aovs=len(settings.aovs), filters=len(args.filter),
+                                       extra_images=edges_out is not None),
+                   f"a {size.width}x{size.height} render of {scene.triangle_count} triangles")
+    from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
+
+    with renderer_for(args, scene, settings) as renderer:
+        result = renderer.run()
     image = result.image
     if args.filter:
         image = filters.apply(image, *args.filter)
     from ..aov import write_exr
+    from ..edges import overlay_edges
 
-    if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
-        write_exr(output, result.aovs, beauty=image)
-    else:
-        write_display_image(output, image)
-    if aov_out is not None:
-        write_exr(aov_out, result.aovs)
-    if edges_out is not None:
-        from ..edges import overlay_edges
-
-        write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
+    with output_set(overwrite=args.overwrite):  # every output is written, then all are put in place together
+        if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
+            write_exr(output, result.aovs, beauty=image)
+        else:
+            write_display_image(output, image)
+        if aov_out is not None:
+            write_exr(aov_out, result.aovs)
+        if edges_out is not None:
+            write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
     print(output)
     if aov_out is not None:
         print(aov_out)

@@ -1,0 +1,52 @@
+"""Command-line options for running on a Dask cluster (--scheduler, --workers, --pocl-threads).
+
+Commands add these with `add_cluster_arguments(parser)` and get a client (or
+None, for this process) from `cluster_client(args)`.  Needs the extra
+`pip install 'clrender[distributed]'`; see docs/distributed.md.
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+
+def add_cluster_arguments(p):
+    g = p.add_argument_group("cluster (pip install 'clrender[distributed]'; see docs/distributed.md)")
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on the Dask scheduler at ADDRESS, e.g. tcp://10.0.0.5:8786 "
+                        "(default: $DASK_SCHEDULER_ADDRESS; unset: this process)")
+    g.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="start a Dask LocalCluster of N single-thread worker processes on this machine")
+    g.add_argument("--pocl-threads", type=int, default=None, metavar="T",
+                   help="PoCL threads per --workers process (default: CPU cores / N)")
+
+
+def cluster_requested(args) -> bool:
+    from ..distributed.cluster import scheduler_address
+
+    return args.workers is not None or scheduler_address(args.scheduler) is not None
+
+
+@contextmanager
+def cluster_client(args):
+    """A dask Client for --scheduler / --workers, or None when neither was asked for."""
+    if not cluster_requested(args):
+        yield None
+        return
+    from ..distributed.cluster import connect
+
+    with connect(args.scheduler, args.workers, args.pocl_threads, announce=not args.quiet) as client:
+        yield client
+
+
+@contextmanager
+def renderer_for(args, scene, settings):
+    """The local Renderer, or a DistributedRenderer on the cluster the options name."""
+    with cluster_client(args) as client:
+        if client is None:
+            from ..renderer import Renderer
+
+            yield Renderer(scene, settings)
+        else:
+            from ..distributed import DistributedRenderer
+
+            yield DistributedRenderer(scene, settings, client)
