@@ -53,6 +53,8 @@ class Scene:
     lights: list = field(default_factory=list)
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
     name: str = "scene"
+    description: str = ""  # one line shown by `clrender render --list`
+    seed_camera: int = 1  # the camera the seed rendered this scene from (marked in --list)
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -315,7 +317,8 @@ class _SceneReader:
     # sections ----------------------------------------------------------------
     def read(self, data: dict, name: str) -> Scene:
         self.check_shape(data)
-        self.check_keys(data, "", ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name"))
+        self.check_keys(data, "", ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name",
+                                  "description", "seed_camera"))
         scene = Scene(name=self.name(data.get("name", name), "name"))
         scene.width = self.integer(data, "width", "", 640, low=1, high=MAX_SIDE)
         scene.height = self.integer(data, "height", "", 480, low=1, high=MAX_SIDE)
@@ -326,6 +329,8 @@ class _SceneReader:
             self.fail("cameras", "expected a non-empty list of camera tables")
         cameras = self.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
         scene.cameras = [self.camera(c, f"cameras[{i}]") for i, c in enumerate(cameras)]
+        scene.description = self.name(data["description"], "description") if "description" in data else ""
+        scene.seed_camera = self.integer(data, "seed_camera", "", 1, low=1, high=len(scene.cameras))
         materials = self.table(data.get("materials", {}), "materials")
         if len(materials) > MAX_MATERIALS:
             self.fail("materials", f"{len(materials)} materials; allowed: at most {MAX_MATERIALS}")
