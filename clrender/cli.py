@@ -55,6 +55,13 @@ class ArgumentParser(argparse.ArgumentParser):
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
     """Shows each option's default and keeps worked examples laid out as written."""
 
+    def _get_help_string(self, action):
+        # an option whose help states its default in words ("default: the scene's") shows only that,
+        # never a second "(default: None)"
+        if "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
 
 def build_parser() -> ArgumentParser:
     from .commands import convolve, devices, render, splat
