@@ -95,6 +95,10 @@ class Scene:
         if text in bundled:
             return cls.from_file(bundled[text])
         path = Path(text)
+        if path.suffix.lower() in (".gltf", ".glb"):  # a glTF 2.0 file with its cameras, lights and materials
+            from .gltf import load_scene
+
+            return load_scene(path)
         if path.suffix == ".toml" or path.exists():
             return cls.from_file(path)
         raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or a path to a .toml file")
@@ -466,9 +470,11 @@ class _SceneReader:
         return self.mesh(o, path, materials, build)
 
     def mesh(self, o, path, materials, build=True) -> Mesh | None:
-        self.check_keys(o, path, ("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material"))
+        self.check_keys(o, path, ("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material",
+                                  "node", "primitive"))
         if ("file" in o) == ("generator" in o):
             self.fail(path, "a mesh needs exactly one of 'file' or 'generator'")
+        gltf_node = self.gltf_node(o, path)
         if "file" in o:
             file = self.mesh_path(o.get("file"), f"{path}.file")
         else:
@@ -488,7 +494,12 @@ class _SceneReader:
         material = self.material_ref(o, path, materials)
         if not build:
             return None
-        if "file" in o:
+        if gltf_node is not None:  # one node's mesh of a glTF file, in its world space
+            from .gltf import node_mesh
+
+            tm = node_mesh(file, *gltf_node)
+            source = f"{o['file']} node {gltf_node[0]}"
+        elif "file" in o:
             tm = load_mesh_file(file, f"{self.where}: {path}.file")
             source = o["file"]
         else:
@@ -518,6 +529,18 @@ class _SceneReader:
         if extent < RELATIVE_PRECISION * reach:
             self.fail(f"{path}.scale", f"the mesh is {extent:.3g} across at distance {reach:.3g}; allowed: at least "
                                        f"{RELATIVE_PRECISION:g} x its distance from the origin (float32 precision)")
+
+    def gltf_node(self, o, path):
+        """(node, primitive or None) when the mesh is one node of a glTF file (keys `node`, `primitive`), else None."""
+        if "node" not in o:
+            if "primitive" in o:
+                self.fail(f"{path}.primitive", "needs 'node' (a node of a glTF file)")
+            return None
+        if not str(o.get("file", "")).lower().endswith((".gltf", ".glb")):
+            self.fail(f"{path}.node", "only a .gltf or .glb 'file' has nodes")
+        node = self.integer(o, "node", path, low=0, high=2**31 - 1)
+        primitive = self.integer(o, "primitive", path, low=0, high=2**31 - 1) if "primitive" in o else None
+        return node, primitive
 
     def mesh_path(self, file, key) -> Path:
         """The mesh file's path: relative to the scene's folder; absolute or ../ paths only when allow_outside."""

@@ -1,0 +1,486 @@
+"""glTF 2.0 scenes: meshes with their node transforms, cameras, punctual lights and base colours.
+
+`scene_dict(path)` reads a .gltf or .glb file into the dict `Scene.from_dict`
+takes, so `clrender render model.glb` renders the file with its own cameras,
+lights and materials; `node_mesh(path, node, primitive)` gives the triangles
+one mesh object of that dict refers to (`{"type": "mesh", "file": "model.glb",
+"node": 2, "primitive": 0}`), in world space.  The reader is written from the
+glTF 2.0 specification (JSON, GLB chunks, accessors, the node hierarchy), so
+nothing in the file is dropped without being listed here:
+
+- meshes: triangle primitives (modes 4, 5, 6; points and lines are skipped),
+  positions and normals (a primitive with normals is shaded smooth), each
+  node's world transform (its matrix, or translation x rotation x scale,
+  times its parents');
+- cameras: perspective ones (yfov, aspectRatio for the default image size),
+  looking down the node's -z with +y up; orthographic cameras are skipped;
+  a file without a perspective camera gets one framing its bounding sphere;
+- lights (KHR_lights_punctual): point and directional; a spot light is
+  rendered as a point light (its cone is ignored), `range` is ignored.
+  glTF intensities are photometric (candela, lux) for a Lambertian BRDF
+  base_colour / pi; clrender's Lambert term has no 1/pi, so intensities are
+  divided by pi and point lights fall off with the inverse square: a
+  surface shows (base_colour / pi) * E, as the glTF specification defines.
+  A file without lights gets a headlight: a directional light of intensity
+  1 along the first camera's view, as glTF viewers do;
+- materials: pbrMetallicRoughness.baseColorFactor becomes the diffuse
+  colour (linear RGB, as glTF stores it); textures, metallic, roughness,
+  emission and alpha are not modelled.  Primitives without a material get
+  clrender's default grey.
+
+Anything malformed is a UsageError naming the file and what was wrong.
+"""
+from __future__ import annotations
+
+import base64
+import functools
+import json
+import math
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import UsageError
+
+GLB_MAGIC = b"glTF"
+CHUNK_JSON, CHUNK_BIN = 0x4E4F534A, 0x004E4942
+COMPONENT_TYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+NORMALIZED_DIVISOR = {np.int8: 127.0, np.uint8: 255.0, np.int16: 32767.0, np.uint16: 65535.0}
+TYPE_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
+# required extensions whose absence would not change what clrender draws
+UNDERSTOOD_EXTENSIONS = {"KHR_lights_punctual", "KHR_mesh_quantization", "KHR_texture_transform",
+                         "KHR_materials_emissive_strength", "KHR_materials_unlit"}
+IMAGE_WIDTH = 640  # default image width; the height follows the first camera's aspect ratio
+SUFFIXES = (".gltf", ".glb")
+
+
+def is_gltf(path) -> bool:
+    return Path(str(path)).suffix.lower() in SUFFIXES
+
+
+@dataclass
+class Document:
+    path: Path
+    json: dict
+    buffers: list  # bytes of each buffer
+
+    def fail(self, message: str):
+        raise UsageError(f"{self.path}: {message}")
+
+    def item(self, kind: str, index):
+        """json[kind][index], checked."""
+        items = self.json.get(kind)
+        if isinstance(index, bool) or not isinstance(index, int) or not isinstance(items, list) or not 0 <= index < len(items):
+            self.fail(f"{kind}[{index!r}] does not exist")
+        if not isinstance(items[index], dict):
+            self.fail(f"{kind}[{index}] is not an object")
+        return items[index]
+
+
+# ------------------------------------------------------------------ the file
+def _malformed_is_usage_error(function):
+    """A glTF whose JSON has the wrong shape somewhere we did not check by hand is still bad input."""
+
+    @functools.wraps(function)
+    def wrapper(path, *args, **kwargs):
+        try:
+            return function(path, *args, **kwargs)
+        except UsageError:
+            raise
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError, struct.error) as exc:
+            raise UsageError(f"{path}: not a valid glTF 2.0 file ({type(exc).__name__}: {exc})") from None
+
+    return wrapper
+
+
+def read_document(path) -> Document:
+    """The parsed JSON and buffers of a .gltf or .glb file (cached while the file is unchanged)."""
+    path = Path(path)
+    if not path.is_file():
+        raise UsageError(f"glTF file {str(path)!r} does not exist")
+    stat = path.stat()
+    return _read_document(path.resolve(), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=4)
+def _read_document(path: Path, mtime_ns: int, size: int) -> Document:
+    data = path.read_bytes()
+    binary = None
+    if data[:4] == GLB_MAGIC:
+        text, binary = _glb_chunks(path, data)
+    else:
+        text = data
+    try:
+        gltf = json.loads(text)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise UsageError(f"{path}: not a glTF file (neither GLB nor JSON: {exc})") from None
+    if not isinstance(gltf, dict):
+        raise UsageError(f"{path}: not a glTF file (the JSON is not an object)")
+    version = str(gltf.get("asset", {}).get("version", "")) if isinstance(gltf.get("asset"), dict) else ""
+    if not version.startswith("2."):
+        raise UsageError(f"{path}: glTF version {version or 'missing'!s}; clrender reads glTF 2.0")
+    unknown = sorted(set(gltf.get("extensionsRequired", [])) - UNDERSTOOD_EXTENSIONS)
+    if unknown:
+        raise UsageError(f"{path}: requires extension {unknown[0]}, which clrender does not read")
+    doc = Document(path, gltf, [])
+    doc.buffers = [_buffer(doc, i, b, binary) for i, b in enumerate(gltf.get("buffers", []))]
+    return doc
+
+
+def _glb_chunks(path: Path, data: bytes):
+    """(JSON text, BIN chunk or None) of a GLB container."""
+    if len(data) < 20:
+        raise UsageError(f"{path}: truncated GLB header")
+    _, version, length = struct.unpack_from("<4sII", data, 0)
+    if version != 2:
+        raise UsageError(f"{path}: GLB container version {version}; clrender reads version 2")
+    if length > len(data):
+        raise UsageError(f"{path}: GLB says {length} bytes, the file has {len(data)}")
+    chunks, offset = [], 12
+    while offset + 8 <= length:
+        size, kind = struct.unpack_from("<II", data, offset)
+        if offset + 8 + size > length:
+            raise UsageError(f"{path}: GLB chunk at byte {offset} runs past the end of the file")
+        chunks.append((kind, data[offset + 8: offset + 8 + size]))
+        offset += 8 + size
+    if not chunks or chunks[0][0] != CHUNK_JSON:
+        raise UsageError(f"{path}: GLB has no JSON chunk first")
+    binary = next((c for k, c in chunks[1:] if k == CHUNK_BIN), None)
+    return chunks[0][1], binary
+
+
+def _buffer(doc: Document, index: int, buf, binary) -> bytes:
+    if not isinstance(buf, dict):
+        doc.fail(f"buffers[{index}] is not an object")
+    uri = buf.get("uri")
+    if uri is None:
+        if binary is None:
+            doc.fail(f"buffers[{index}] has no uri and the file has no GLB binary chunk")
+        data = binary
+    elif not isinstance(uri, str):
+        doc.fail(f"buffers[{index}].uri must be a string")
+    elif uri.startswith("data:"):
+        try:
+            data = base64.b64decode(uri.split(",", 1)[1], validate=True)
+        except (IndexError, ValueError):
+            doc.fail(f"buffers[{index}].uri is not a base64 data URI")
+    else:
+        from urllib.parse import unquote
+
+        file = doc.path.parent / unquote(uri)
+        if not file.is_file():
+            doc.fail(f"buffers[{index}].uri: file {str(file)!r} does not exist")
+        data = file.read_bytes()
+    length = buf.get("byteLength")
+    if isinstance(length, bool) or not isinstance(length, int) or not 0 <= length <= len(data):
+        doc.fail(f"buffers[{index}].byteLength {length!r} does not fit its {len(data)} bytes")
+    return data[:length]
+
+
+def accessor(doc: Document, index: int) -> np.ndarray:
+    """Accessor `index` as an array (count, width): float64 for floats and normalized integers, else int64."""
+    acc = doc.item("accessors", index)
+    where = f"accessors[{index}]"
+    dtype = COMPONENT_TYPES.get(acc.get("componentType"))
+    width = TYPE_WIDTH.get(acc.get("type"))
+    count = acc.get("count")
+    if dtype is None or width is None or isinstance(count, bool) or not isinstance(count, int) or count < 0:
+        doc.fail(f"{where}: componentType {acc.get('componentType')!r}, type {acc.get('type')!r} "
+                 f"or count {count!r} is not valid glTF")
+    if "sparse" in acc:
+        doc.fail(f"{where}: sparse accessors are not supported")
+    if "bufferView" not in acc:
+        values = np.zeros((count, width), dtype)
+    else:
+        view = doc.item("bufferViews", acc["bufferView"])
+        buffer_index = view.get("buffer")
+        if isinstance(buffer_index, bool) or not isinstance(buffer_index, int) or not 0 <= buffer_index < len(doc.buffers):
+            doc.fail(f"bufferViews[{acc['bufferView']}].buffer {buffer_index!r} does not exist")
+        data = doc.buffers[buffer_index]
+        item = np.dtype(dtype).itemsize
+        element = item * width
+        stride = view.get("byteStride") or element
+        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        view_end = view.get("byteOffset", 0) + view.get("byteLength", 0)
+        needed = start + (stride * (count - 1) + element if count else 0)
+        if not all(isinstance(v, int) for v in (stride, start, view_end)) or stride < element or needed > min(view_end, len(data)):
+            doc.fail(f"{where}: {count} elements of {element} bytes (stride {stride}) from byte {start} "
+                     f"do not fit bufferViews[{acc['bufferView']}]")
+        values = np.ndarray((count, width), dtype, buffer=data, offset=start, strides=(stride, item)).copy()
+    if dtype == np.float32:
+        return values.astype(np.float64)
+    if acc.get("normalized"):
+        return np.maximum(values / NORMALIZED_DIVISOR[dtype], -1.0)
+    return values.astype(np.int64)
+
+
+# ------------------------------------------------------------ the node tree
+def _quaternion_matrix(q) -> np.ndarray:
+    x, y, z, w = q / max(np.linalg.norm(q), 1e-300)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def _numbers(doc, value, n, where):
+    if not isinstance(value, list) or len(value) != n or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        doc.fail(f"{where} must be a list of {n} numbers, got {value!r}")
+    out = np.array(value, np.float64)
+    if not np.isfinite(out).all():
+        doc.fail(f"{where} must be finite, got {value!r}")
+    return out
+
+
+def local_matrix(doc: Document, index: int) -> np.ndarray:
+    """A node's 4x4 transform relative to its parent: its matrix, or T * R * S."""
+    node = doc.item("nodes", index)
+    where = f"nodes[{index}]"
+    if "matrix" in node:
+        return _numbers(doc, node["matrix"], 16, f"{where}.matrix").reshape(4, 4).T  # glTF stores columns
+    m = np.eye(4)
+    scale = _numbers(doc, node.get("scale", [1, 1, 1]), 3, f"{where}.scale")
+    rotation = _numbers(doc, node.get("rotation", [0, 0, 0, 1]), 4, f"{where}.rotation")
+    m[:3, :3] = _quaternion_matrix(rotation) @ np.diag(scale)
+    m[:3, 3] = _numbers(doc, node.get("translation", [0, 0, 0]), 3, f"{where}.translation")
+    return m
+
+
+def world_matrices(doc: Document) -> dict:
+    """Node index -> 4x4 world transform, for every node of the default scene (or of all root nodes)."""
+    nodes = doc.json.get("nodes", [])
+    if not isinstance(nodes, list):
+        doc.fail("nodes must be a list")
+    scenes = doc.json.get("scenes")
+    if scenes:
+        roots = doc.item("scenes", doc.json.get("scene", 0)).get("nodes", [])
+    else:  # no scenes: every node that is nobody's child is a root
+        children = {c for n in nodes if isinstance(n, dict) for c in n.get("children", [])}
+        roots = [i for i in range(len(nodes)) if i not in children]
+    out = {}
+    stack = [(r, np.eye(4)) for r in reversed(roots)]
+    while stack:
+        index, parent = stack.pop()
+        if index in out:
+            doc.fail(f"nodes[{index}] is reached twice (the node hierarchy must be a tree)")
+        out[index] = parent @ local_matrix(doc, index)
+        stack.extend((c, out[index]) for c in reversed(doc.item("nodes", index).get("children", [])))
+    return out
+
+
+def node_world_matrix(doc: Document, index: int) -> np.ndarray:
+    """World transform of any node, through its chain of parents."""
+    doc.item("nodes", index)
+    parent_of = {}
+    for i, n in enumerate(doc.json["nodes"]):
+        for c in (n.get("children", []) if isinstance(n, dict) else []):
+            parent_of[c] = i
+    m, seen, i = np.eye(4), set(), index
+    while i is not None:
+        if i in seen:
+            doc.fail(f"nodes[{index}]: its parents form a cycle")
+        seen.add(i)
+        m = local_matrix(doc, i) @ m
+        i = parent_of.get(i)
+    return m
+
+
+# ---------------------------------------------------------------- geometry
+def _faces(doc: Document, prim: dict, n_vertices: int, where: str):
+    """(F, 3) triangle indices of a primitive, or None when it draws points or lines."""
+    mode = prim.get("mode", TRIANGLES)
+    if mode not in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN):
+        return None
+    idx = accessor(doc, prim["indices"]).ravel() if "indices" in prim else np.arange(n_vertices)
+    if len(idx) and (idx.min() < 0 or idx.max() >= n_vertices):
+        doc.fail(f"{where}.indices refer to vertex {int(idx.max())}, but POSITION has {n_vertices}")
+    if mode == TRIANGLES:
+        if len(idx) % 3:
+            doc.fail(f"{where}: {len(idx)} indices is not a whole number of triangles")
+        return idx.reshape(-1, 3)
+    k = np.arange(max(len(idx) - 2, 0))
+    if mode == TRIANGLE_STRIP:  # every other triangle is wound the other way
+        even = k % 2 == 0
+        return np.stack([idx[k], np.where(even, idx[k + 1], idx[k + 2]), np.where(even, idx[k + 2], idx[k + 1])], 1)
+    return np.stack([np.full_like(k, idx[0]) if len(idx) else k, idx[k + 1], idx[k + 2]], 1)
+
+
+def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix: np.ndarray):
+    """(vertices, faces, normals or None) of one primitive in world space, or None for points and lines."""
+    mesh = doc.item("meshes", mesh_index)
+    prims = mesh.get("primitives")
+    where = f"meshes[{mesh_index}].primitives[{prim_index}]"
+    if not isinstance(prims, list) or not 0 <= prim_index < len(prims) or not isinstance(prims[prim_index], dict):
+        doc.fail(f"{where} does not exist")
+    prim = prims[prim_index]
+    attributes = prim.get("attributes")
+    if not isinstance(attributes, dict) or "POSITION" not in attributes:
+        doc.fail(f"{where} has no POSITION attribute")
+    positions = accessor(doc, attributes["POSITION"])
+    if positions.shape[1] != 3:
+        doc.fail(f"{where}: POSITION must be VEC3")
+    faces = _faces(doc, prim, len(positions), where)
+    if faces is None:
+        return None
+    linear, shift = matrix[:3, :3], matrix[:3, 3]
+    vertices = positions @ linear.T + shift
+    normals = None
+    if "NORMAL" in attributes:
+        n = accessor(doc, attributes["NORMAL"])
+        if n.shape != positions.shape:
+            doc.fail(f"{where}: NORMAL must be VEC3 with one normal per position")
+        n = n @ np.linalg.inv(linear)  # normals transform by the inverse transpose
+        normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    if not np.isfinite(vertices).all():
+        doc.fail(f"{where}: positions are not finite")
+    return vertices, faces, normals
+
+
+@_malformed_is_usage_error
+def node_mesh(path, node: int, primitive: int | None = None):
+    """A trimesh.Trimesh of node `node`'s mesh (one primitive, or all its triangle primitives) in world space."""
+    import trimesh
+
+    doc = read_document(path)
+    mesh_index = doc.item("nodes", node).get("mesh")
+    if mesh_index is None:
+        doc.fail(f"nodes[{node}] has no mesh")
+    matrix = node_world_matrix(doc, node)
+    count = len(doc.item("meshes", mesh_index).get("primitives", []))
+    parts = [primitive_triangles(doc, mesh_index, p, matrix) for p in ([primitive] if primitive is not None else range(count))]
+    parts = [p for p in parts if p is not None]
+    if not parts or not sum(len(f) for _, f, _ in parts):
+        doc.fail(f"nodes[{node}]: its mesh has no triangles")
+    offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
+    vertices = np.concatenate([v for v, _, _ in parts])
+    faces = np.concatenate([f + o for (_, f, _), o in zip(parts, offsets)])
+    normals = None
+    if all(n is not None for _, _, n in parts):
+        normals = np.concatenate([n for _, _, n in parts])
+    return trimesh.Trimesh(vertices, faces, vertex_normals=normals, process=False)
+
+
+# ------------------------------------------------------------ the scene dict
+def _material_names(doc: Document) -> list:
+    names, used = [], {"default"}
+    for i, m in enumerate(doc.json.get("materials", [])):
+        name = m.get("name") if isinstance(m, dict) else None
+        if not isinstance(name, str) or not name or name in used:
+            name = f"material_{i}"
+        used.add(name)
+        names.append(name)
+    return names
+
+
+def _material(doc: Document, index: int) -> dict:
+    pbr = doc.item("materials", index).get("pbrMetallicRoughness", {})
+    factor = _numbers(doc, pbr.get("baseColorFactor", [1, 1, 1, 1]), 4, f"materials[{index}].pbrMetallicRoughness.baseColorFactor")
+    return {"diffuse": [float(c) for c in factor[:3]]}
+
+
+def _camera(doc: Document, index: int, matrix: np.ndarray):
+    """A scene-dict camera looking down the node's -z, and its aspect ratio (or None); None for orthographic."""
+    cam = doc.item("cameras", index)
+    if cam.get("type") != "perspective":
+        return None
+    persp = cam.get("perspective")
+    if not isinstance(persp, dict):
+        doc.fail(f"cameras[{index}].perspective is missing")
+    yfov = persp.get("yfov")
+    if isinstance(yfov, bool) or not isinstance(yfov, (int, float)) or not 0 < yfov < math.pi:
+        doc.fail(f"cameras[{index}].perspective.yfov must be an angle in radians in (0, pi), got {yfov!r}")
+    aspect = persp.get("aspectRatio")
+    if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not aspect > 0):
+        doc.fail(f"cameras[{index}].perspective.aspectRatio must be > 0, got {aspect!r}")
+    eye = matrix[:3, 3]
+    forward = matrix[:3, :3] @ [0.0, 0.0, -1.0]
+    up = matrix[:3, :3] @ [0.0, 1.0, 0.0]
+    camera = {"position": eye.tolist(), "look_at": (eye + forward / np.linalg.norm(forward)).tolist(),
+              "up": up.tolist(), "fov": min(math.degrees(yfov), 179.0)}
+    return camera, aspect
+
+
+def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
+    lights = doc.json.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    if not isinstance(lights, list) or isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(lights):
+        doc.fail(f"KHR_lights_punctual light {index!r} does not exist")
+    light = lights[index]
+    where = f"extensions.KHR_lights_punctual.lights[{index}]"
+    kind = light.get("type")
+    if kind not in ("point", "spot", "directional"):
+        doc.fail(f"{where}.type {kind!r} is not point, spot or directional")
+    color = _numbers(doc, light.get("color", [1, 1, 1]), 3, f"{where}.color")
+    intensity = light.get("intensity", 1.0)
+    if isinstance(intensity, bool) or not isinstance(intensity, (int, float)) or not intensity >= 0:
+        doc.fail(f"{where}.intensity must be >= 0, got {intensity!r}")
+    out = {"color": color.tolist(), "intensity": float(intensity) / math.pi}  # clrender's Lambert has no 1/pi
+    if kind == "directional":
+        out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist())
+    else:  # a spot light is drawn as a point light: its cone is not modelled
+        out.update(type="point", position=matrix[:3, 3].tolist(), falloff="inverse_square")
+    return out
+
+
+def _framing_camera(bounds_lo, bounds_hi, fov=60.0) -> dict:
+    """A camera on +z of the bounding box's centre that sees its whole bounding sphere."""
+    centre = (bounds_lo + bounds_hi) / 2
+    radius = max(float(np.linalg.norm(bounds_hi - bounds_lo)) / 2, 1e-6)
+    distance = radius / math.sin(math.radians(fov) / 2)
+    return {"position": (centre + [0, 0, distance]).tolist(), "look_at": centre.tolist(), "fov": fov}
+
+
+@_malformed_is_usage_error
+def scene_dict(path) -> dict:
+    """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder."""
+    path = Path(path)
+    doc = read_document(path)
+    names = _material_names(doc)
+    materials = {names[i]: _material(doc, i) for i in range(len(names))}
+    objects, cameras, lights = [], [], []
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    aspect = None
+    for index, matrix in world_matrices(doc).items():
+        node = doc.item("nodes", index)
+        if "mesh" in node:
+            mesh = doc.item("meshes", node["mesh"])
+            for p in range(len(mesh.get("primitives", []))):
+                tri = primitive_triangles(doc, node["mesh"], p, matrix)
+                if tri is None or not len(tri[1]):
+                    continue
+                lo, hi = np.minimum(lo, tri[0].min(axis=0)), np.maximum(hi, tri[0].max(axis=0))
+                material = mesh["primitives"][p].get("material")
+                if material is not None:
+                    doc.item("materials", material)  # checked: the index exists
+                objects.append({"type": "mesh", "file": path.name, "node": index, "primitive": p,
+                                "material": "default" if material is None else names[material],
+                                "smooth": tri[2] is not None})
+        if "camera" in node:
+            found = _camera(doc, node["camera"], matrix)
+            if found is not None:
+                cameras.append(found[0])
+                aspect = found[1] if len(cameras) == 1 else aspect
+        light = node.get("extensions", {}).get("KHR_lights_punctual") if isinstance(node.get("extensions"), dict) else None
+        if isinstance(light, dict):
+            lights.append(_light(doc, light.get("light"), matrix))
+    if not objects:
+        doc.fail("the scene has no triangle meshes")
+    if not cameras:
+        cameras.append(_framing_camera(lo, hi))
+    if not lights:  # a headlight, as glTF viewers light a file that brings none
+        cam = cameras[0]
+        lights.append({"type": "directional", "direction": np.subtract(cam["look_at"], cam["position"]).tolist()})
+    height = max(1, round(IMAGE_WIDTH / aspect)) if aspect else IMAGE_WIDTH * 3 // 4
+    return {"name": path.stem, "width": IMAGE_WIDTH, "height": height, "cameras": cameras,
+            "materials": materials, "lights": lights, "objects": objects}
+
+
+def load_scene(path):
+    """A Scene of the glTF file, checked as any scene file is."""
+    from .scene import Scene
+
+    path = Path(path)
+    return Scene.from_dict(scene_dict(path), base_dir=path.parent, where=str(path), name=path.stem)
