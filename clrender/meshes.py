@@ -20,8 +20,10 @@ import numpy as np
 import trimesh
 
 from .errors import UsageError
+from .memory import MAX_TRIANGLES, triangles_bytes
+from .memory import require as require_memory
 
-MAX_DENSE_TRIANGLES = 50_000_000
+MAX_DENSE_TRIANGLES = MAX_TRIANGLES  # memory.py: about 640 bytes each to load, build and trace
 
 
 def _check_range(what: str, value, low: int, high: int) -> int:
@@ -111,6 +113,7 @@ DENSE_VERSION = 1  # bump when dense_mesh's shape changes: names the cache file
 def dense(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     """Scene generator name for `dense_mesh` (about 100k triangles), cached like the bunny."""
     n_triangles = _check_range("dense mesh triangle count", n_triangles, 8, MAX_DENSE_TRIANGLES)
+    require_memory(triangles_bytes(n_triangles), f"a dense mesh of {n_triangles} triangles")
     return cached_mesh(f"dense-v{DENSE_VERSION}-n{n_triangles}-s{seed!r}", lambda: dense_mesh(n_triangles, seed))
 
 
@@ -306,11 +309,10 @@ def save_cached_mesh(path: Path, mesh: trimesh.Trimesh) -> None:
     """Write vertices, faces and vertex normals as .npz (temp file + rename, so a reader never
     sees half a file); a read-only home just means no cache."""
     try:
+        from .outputs import save_npz
+
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(tmp, "wb") as out:
-            np.savez(out, vertices=mesh.vertices, faces=mesh.faces.astype(np.int32), normals=mesh.vertex_normals)
-        os.replace(tmp, path)
+        save_npz(path, join=False, vertices=mesh.vertices, faces=mesh.faces.astype(np.int32), normals=mesh.vertex_normals)
     except OSError:
         pass
 

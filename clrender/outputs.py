@@ -182,19 +182,20 @@ def output_set(overwrite: bool):
         outputs.discard()
 
 
-def write_file(final, writer: Callable[[str], None], *, overwrite: bool = True) -> Path:
+def write_file(final, writer: Callable[[str], None], *, overwrite: bool = True, join: bool = True) -> Path:
     """Write one output through a temp file: joins the current output set, or is placed at once.
 
-    Inside `output_set(...)` the set's overwrite rule applies and `overwrite` is ignored.
+    Inside `output_set(...)` the set's overwrite rule applies and `overwrite` is ignored;
+    `join=False` places the file at once anyway (a cache, which is no output of the command).
     """
-    current = _CURRENT.get()
+    current = _CURRENT.get() if join else None
     if current is not None:
         return current.write(final, writer)
     with output_set(overwrite) as outputs:
         return outputs.write(final, writer)
 
 
-def save_npz(final, *, overwrite: bool = True, **arrays) -> Path:
+def save_npz(final, *, overwrite: bool = True, join: bool = True, **arrays) -> Path:
     """np.savez through a temp file (np.savez would add '.npz' to a name without it, so it gets a file)."""
     import numpy as np
 
@@ -202,7 +203,7 @@ def save_npz(final, *, overwrite: bool = True, **arrays) -> Path:
         with open(path, "wb") as f:
             np.savez(f, **arrays)
 
-    return write_file(final, writer, overwrite=overwrite)
+    return write_file(final, writer, overwrite=overwrite, join=join)
 
 
 def write_csv(final, rows: list[dict], *, overwrite: bool = True) -> Path:

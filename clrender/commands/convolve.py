@@ -95,7 +95,7 @@ def run(args) -> int:
         note(args, f"{out_path.suffix} has no alpha channel: alpha dropped")
         pixels = np.ascontiguousarray(pixels[:, :, colour])
         names = tuple(n for i, n in enumerate(names) if i != alpha)
-    imageio.write_image(out_path, pixels, format=out_format, channel_names=names)
+    imageio.write_image(out_path, pixels, format=out_format, channel_names=names, overwrite=args.overwrite)
     note(args, f"wrote {out_path} ({pixels.shape[1]}x{pixels.shape[0]}, {out_format}) "
                f"in {time.perf_counter() - start:.2f} s")
     return 0

@@ -1,7 +1,6 @@
 """`clrender splat gauss|render|sweep`: fit Gaussian splats to an image, re-render saved splats, sweep settings."""
 from __future__ import annotations
 
-import csv
 import itertools
 import os
 import sys
@@ -84,13 +83,17 @@ def add_parsers(group):
 
 
 def _check_side_output(path: str | None, overwrite: bool, suffixes: tuple[str, ...]) -> None:
+    from ..errors import shown
+
     if path is None:
         return
     p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"output {shown(path)} is a folder; name a file ending in {' or '.join(suffixes)}")
     if p.suffix.lower() not in suffixes:
-        raise UsageError(f"{path!r} should end in {' or '.join(suffixes)}")
+        raise UsageError(f"{shown(path)} should end in {' or '.join(suffixes)}")
     if p.exists() and not overwrite:
-        raise UsageError(f"output {path!r} already exists; pass --overwrite to replace it")
+        raise UsageError(f"output {shown(path)} already exists; pass --overwrite to replace it")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir() or not os.access(parent, os.W_OK):
         raise UsageError(f"output folder {str(parent)!r} does not exist or is not writable")
@@ -111,11 +114,11 @@ def _read_target(path):
     return as_rgb(read_image(path).pixels)
 
 
-def write_log(path, log: list[dict]) -> None:
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, list(log[0]))
-        writer.writeheader()
-        writer.writerows(log)
+def write_log(path, log: list[dict], overwrite: bool = True) -> None:
+    """The rows as CSV, through a temp file (or as part of the current output set)."""
+    from ..outputs import write_csv
+
+    write_csv(path, log, overwrite=overwrite)
 
 
 def write_curve(path, log: list[dict], title: str) -> bool:
@@ -134,24 +137,31 @@ def write_curve(path, log: list[dict], title: str) -> bool:
 
 def run_gauss(args):
     from ..device import get_device
-    from ..imageio import check_output_path, write_image
+    from ..errors import RenderFailure
+    from ..imageio import check_distinct_outputs, check_output_path, write_image
+    from ..outputs import output_set
     from ..splat.fit import Fitter
 
     out = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     curve = args.curve or str(out.with_suffix("")) + ".curve.png"
-    check_output_path(curve, overwrite=args.overwrite)
+    check_output_path(curve, overwrite=args.overwrite, inputs=[args.input])
     _check_side_output(args.save_params, args.overwrite, (".npz",))
     _check_side_output(args.log, args.overwrite, (".csv",))
+    check_distinct_outputs(**{"-o": out, "--curve": curve, "--save-params": args.save_params, "--log": args.log,
+                              "IN": args.input})
     target = _read_target(args.input)
     config = _config(args, lr=args.lr, time_budget=args.time_budget)
     fitter = Fitter(get_device(), target, config)  # validates the settings and the image size
     result = fitter.run()
-    write_image(out, result.image, format=None)
-    if args.save_params:
-        result.params.save(args.save_params)
-    if args.log:
-        write_log(args.log, result.log)
-    write_curve(curve, result.log, f"splat gauss: {result.params.n} splats, {config.blend}, {config.loss}")
+    if not np.isfinite(result.image).all():
+        raise RenderFailure(f"the fit diverged (NaN or infinite pixels) with --lr {args.lr:g}; use a smaller --lr")
+    with output_set(overwrite=args.overwrite):  # image, parameters, log and curve: all of them or none
+        write_image(out, result.image, format=None)
+        if args.save_params:
+            result.params.save(args.save_params)
+        if args.log:
+            write_log(args.log, result.log)
+        write_curve(curve, result.log, f"splat gauss: {result.params.n} splats, {config.blend}, {config.loss}")
     if not args.quiet:
         sys.stderr.write(f"{result.params.n} splats, {result.steps} steps in {result.seconds:.1f} s, "
                          f"PSNR {result.psnr:.2f} dB -> {out}\n")
@@ -170,8 +180,14 @@ def run_render(args):
         raise UsageError(f"--width {width} is out of range; allowed: 1 to 32768")
     factor = width / params.width
     height = max(1, int(round(params.height * factor)))
+    if height > 32768:
+        raise UsageError(f"--width {width} makes the image {height} pixels high; allowed: at most 32768")
+    from .. import memory
+
+    # the image, its tile buffers and the scaled splats (see clrender/memory.py)
+    memory.require(memory.BASE_BYTES + width * height * 48 + params.n * 256, f"a {width}x{height} splat render")
     image = render(get_device(), params.scaled(factor, width, height))
-    write_image(out, image)
+    write_image(out, image, overwrite=args.overwrite)
     return 0
 
 
@@ -180,9 +196,13 @@ def run_sweep(args):
     from ..splat.fit import Fitter
 
     _check_side_output(args.csv, args.overwrite, (".csv",))
+    if args.csv:
+        from ..imageio import check_distinct_outputs
+
+        check_distinct_outputs(**{"IN": args.input, "--csv": args.csv})
     for lr in args.lrs:
-        if lr <= 0:
-            raise UsageError(f"--lrs value {lr} must be > 0")
+        if not 0 < lr < float("inf"):
+            raise UsageError(f"--lrs value {lr} must be a number > 0")
     target = _read_target(args.input)
     device = get_device()
     rows = []
@@ -198,5 +218,5 @@ def run_sweep(args):
     best = max(rows, key=lambda r: r["psnr"])
     sys.stdout.write(f"best: --lr {best['lr']:g} --batch {best['batch']} (PSNR {best['psnr']:.2f} dB)\n")
     if args.csv:
-        write_log(args.csv, rows)
+        write_log(args.csv, rows, overwrite=args.overwrite)
     return 0

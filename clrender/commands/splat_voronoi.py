@@ -39,11 +39,11 @@ def add_parsers(group):
 
 
 def run(args):
-    import numpy as np
-
     from ..device import get_device
     from ..errors import UsageError
-    from ..imageio import check_output_path, read_image, write_image
+    from ..errors import shown
+    from ..imageio import check_distinct_outputs, check_output_path, read_image, write_image
+    from ..outputs import output_set, save_npz
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
 
     output = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
@@ -52,12 +52,15 @@ def run(args):
         from pathlib import Path
 
         sites_path = Path(args.save_sites)
+        if sites_path.is_dir():
+            raise UsageError(f"--save-sites {shown(args.save_sites)} is a folder; name a .npz file")
         if sites_path.suffix != ".npz":
-            raise UsageError(f"--save-sites {args.save_sites!r} must end in .npz")
+            raise UsageError(f"--save-sites {shown(args.save_sites)} must end in .npz")
         if sites_path.exists() and not args.overwrite:
-            raise UsageError(f"--save-sites {args.save_sites!r} already exists; pass --overwrite to replace it")
+            raise UsageError(f"--save-sites {shown(args.save_sites)} already exists; pass --overwrite to replace it")
         if not (sites_path.parent if str(sites_path.parent) else Path(".")).is_dir():
-            raise UsageError(f"folder of --save-sites {args.save_sites!r} does not exist")
+            raise UsageError(f"folder of --save-sites {shown(args.save_sites)} does not exist")
+        check_distinct_outputs(**{"IN": args.input, "-o": output, "--save-sites": sites_path})
     img = read_image(args.input)
     h, w = img.pixels.shape[:2]
     settings = VoronoiSettings(n=args.splats, method=args.method, init=args.init, colors=args.colors,
@@ -76,9 +79,10 @@ def run(args):
         fmt = "float"
     elif fmt in ("half", "float"):
         fmt = None  # integer-only writers pick their own
-    write_image(output, pixels, format=fmt, channel_names=img.channel_names or None)
-    if sites_path is not None:
-        np.savez(sites_path, sites=result.sites, colors=result.colors, width=w, height=h)
+    with output_set(overwrite=args.overwrite):  # the image and the sites: both or neither
+        write_image(output, pixels, format=fmt, channel_names=img.channel_names or None)
+        if sites_path is not None:
+            save_npz(sites_path, sites=result.sites, colors=result.colors, width=w, height=h)
     print(output)
     if not args.quiet:
         from ..splat.voronoi import psnr

@@ -12,6 +12,7 @@ in two along their major axis, small ones cloned half a sigma away.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -26,6 +27,7 @@ from .optim import OPTIMIZERS, Optimizer
 
 INITS = ("uniform", "random", "gradient")
 LEARN = ("seed", "all")
+MAX_LR = 1000.0  # --lr multiplier; far above any useful rate, below where float32 steps overflow
 LEARN_GROUPS = {"seed": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
 # Adam step sizes per group (in the group's own units: pixels, log-sigma, radians, colour values)
 ADAM_LR = {"xy": 0.4, "log_scale": 0.04, "theta": 0.06, "color": 0.02, "lum": 0.02, "opacity": 0.04}
@@ -65,7 +67,8 @@ class FitConfig:
         check(self.optimizer in OPTIMIZERS,
               f"--optimizer {self.optimizer!r} is unknown; allowed: {', '.join(OPTIMIZERS)}")
         check(self.loss in LOSSES, f"--loss {self.loss!r} is unknown; allowed: {', '.join(LOSSES)}")
-        check(self.lr > 0, f"--lr {self.lr} must be > 0")
+        check(math.isfinite(self.lr) and 0 < self.lr <= MAX_LR, f"--lr {self.lr} must be a number > 0 and <= {MAX_LR:g}")
+        check(0 <= self.seed < 2**32, f"--seed {self.seed} must be from 0 to 2**32-1")
         check(self.time_budget is None or self.time_budget > 0, f"--time-budget {self.time_budget} must be > 0")
         check(self.batch >= 0, f"--batch {self.batch} must be >= 0 (0 = the full image)")
         check(self.max_splats is None or self.max_splats >= self.splats,

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import UsageError, shown
 
 TILE = 16
 NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
@@ -87,22 +87,73 @@ class GaussParams:
         out.width, out.height = int(width), int(height)
         return out
 
-    def save(self, path) -> None:
-        np.savez(path, **self.groups(), width=self.width, height=self.height,
+    def save(self, path, *, overwrite: bool = True) -> None:
+        """Write the splats as .npz through a temp file (clrender/outputs.py)."""
+        from ..outputs import save_npz
+
+        save_npz(path, overwrite=overwrite, **self.groups(), width=self.width, height=self.height,
                  blend=self.blend, background=self.background)
 
     @classmethod
     def load(cls, path) -> "GaussParams":
+        """Splats saved by `save`; UsageError (one line) for a file that is damaged or not a splat file."""
+        where = shown(path)
         try:
             with np.load(path, allow_pickle=False) as f:
+                if not isinstance(f, np.lib.npyio.NpzFile):
+                    raise ValueError("a single .npy array, not an .npz archive")
                 data = {k: f[k] for k in f.files}
-        except (OSError, ValueError) as exc:
-            raise UsageError(f"cannot read splat parameters from {str(path)!r} ({exc})") from exc
+        except UsageError:
+            raise
+        except Exception as exc:  # BadZipFile, EOFError, zlib.error, ...: every damaged file is bad input
+            reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise UsageError(f"cannot read splat parameters from {where} ({type(exc).__name__}: {reason})") from None
         missing = [k for k in (*GROUPS, "width", "height", "blend") if k not in data]
         if missing:
-            raise UsageError(f"{str(path)!r} is not a splat parameter file (missing {', '.join(missing)})")
-        return cls(**{k: data[k] for k in GROUPS}, width=int(data["width"]), height=int(data["height"]),
-                   blend=str(data["blend"]), background=data.get("background", np.zeros(3)))
+            raise UsageError(f"{where} is not a splat parameter file (missing {', '.join(missing)})")
+        return cls(**_checked_groups(data, where), width=_checked_size(data, "width", where),
+                   height=_checked_size(data, "height", where), blend=_checked_blend(data, where),
+                   background=_checked_array(data.get("background", np.zeros(3)), "background", (3,), where))
+
+
+GROUP_SHAPES = {"xy": (2,), "log_scale": (2,), "theta": (), "color": (3,), "lum": (), "opacity": ()}  # per splat
+MAX_LOADED_SPLATS = 10_000_000
+MAX_SIDE = 32768
+
+
+def _checked_array(value, name: str, shape: tuple, where: str) -> np.ndarray:
+    """A finite float array of exactly `shape`; UsageError naming the file and the array otherwise."""
+    value = np.asarray(value)
+    if value.dtype.kind not in "fiu":
+        raise UsageError(f"{where}: {name} holds {value.dtype} values; allowed: numbers")
+    if value.shape != shape:
+        raise UsageError(f"{where}: {name} has shape {value.shape}; allowed: {shape}")
+    with np.errstate(over="ignore"):
+        value = value.astype(np.float32)
+    if not np.isfinite(value).all():
+        raise UsageError(f"{where}: {name} holds NaN or infinite values (or beyond float32); allowed: finite numbers")
+    return value
+
+
+def _checked_groups(data: dict, where: str) -> dict:
+    n = np.shape(data["xy"])[0] if np.ndim(data["xy"]) >= 1 else -1
+    if not 0 <= n <= MAX_LOADED_SPLATS:
+        raise UsageError(f"{where}: xy has shape {np.shape(data['xy'])}; allowed: (N, 2) with N up to {MAX_LOADED_SPLATS}")
+    return {name: _checked_array(data[name], name, (n, *GROUP_SHAPES[name]), where) for name in GROUPS}
+
+
+def _checked_size(data: dict, name: str, where: str) -> int:
+    value = np.asarray(data[name])
+    if value.shape != () or value.dtype.kind not in "iu" or not 1 <= int(value) <= MAX_SIDE:
+        raise UsageError(f"{where}: {name} is {shown(value)}; allowed: a whole number from 1 to {MAX_SIDE}")
+    return int(value)
+
+
+def _checked_blend(data: dict, where: str) -> str:
+    value = np.asarray(data["blend"])
+    if value.shape != () or value.dtype.kind != "U" or str(value) not in BLENDS:
+        raise UsageError(f"{where}: blend is {shown(value)}; allowed: {', '.join(BLENDS)}")
+    return str(value)
 
 
 # ----------------------------------------------------------------------------- geometry

@@ -295,6 +295,8 @@ class VoronoiSettings:
             raise UsageError(f"colors {self.colors!r} is unknown; allowed: {', '.join(COLOR_MODES)}")
         if self.lloyd < 0:
             raise UsageError(f"--lloyd {self.lloyd} must be >= 0")
+        if not 0 <= self.seed < 2**32:
+            raise UsageError(f"--seed {self.seed} must be from 0 to 2**32-1")
         if self.train < 0:
             raise UsageError(f"--train {self.train} must be >= 0")
 
