@@ -57,8 +57,8 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
     def _get_help_string(self, action):
         # an option whose help states its default in words ("default: the scene's") shows only that,
-        # never a second "(default: None)"
-        if "default" in (action.help or ""):
+        # never a second "(default: None)"; positionals are given or absent, they have no default
+        if "default" in (action.help or "") or not action.option_strings:
             return action.help
         return super()._get_help_string(action)
 
@@ -75,8 +75,8 @@ def build_parser() -> ArgumentParser:
     parser.add_argument("-v", "--verbose", action="store_true", help="progress bars even off a terminal")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error (also CLRENDER_DEBUG=1)")
     parser.add_argument("--max-memory", type=_memory_size, default=None, metavar="SIZE",
-                        help="refuse a job whose estimated peak memory exceeds SIZE (e.g. 2G; also CLRENDER_MAX_MEMORY); "
-                             "None: the memory available now")
+                        help="refuse a job whose estimated peak memory exceeds SIZE (e.g. 2G; also CLRENDER_MAX_MEMORY) "
+                             "(default: the memory available now)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
     sub.required = True
     for module in (render, convolve, splat, devices):

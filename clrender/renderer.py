@@ -37,8 +37,8 @@ AOV_MISS = np.array([0, 0, 0, np.inf, 0, 0, 0, 0], np.float32)
 
 @dataclass
 class RenderSettings:
-    width: int | None = None  # image width in pixels; None takes the scene's
-    height: int | None = None  # image height in pixels; None takes the scene's
+    width: int | None = None  # image width in pixels; None: the scene's (or kept to its aspect ratio from height)
+    height: int | None = None  # image height in pixels; None: the scene's (or kept to its aspect ratio from width)
     camera: int = 1  # camera number, counting from 1 (1 is the canonical camera)
     aa: str = "none"  # anti-aliasing: "none", "full" or "edge_detect"
     sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
@@ -60,7 +60,13 @@ class RenderSettings:
 
     def validate(self, scene: Scene) -> "RenderSettings":
         """A copy with the image size filled in; UsageError for any value out of range."""
-        s = replace(self, width=self.width or scene.width, height=self.height or scene.height)
+        width, height = self.width, self.height
+        # one side given: the other keeps the scene's aspect ratio (width 100 alone is not a 100x360 sliver)
+        if width is not None and height is None:
+            height = max(1, round(width * scene.height / scene.width))
+        elif height is not None and width is None:
+            width = max(1, round(height * scene.width / scene.height))
+        s = replace(self, width=scene.width if width is None else width, height=scene.height if height is None else height)
         checks = [
             (s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1"),
             (s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels"),
