@@ -76,8 +76,8 @@ class DistributedRenderer(Renderer):
         self._started = None
 
     def _scene_future(self):
-        if self._scattered is None:  # scattered once, fetched once per worker, shared by every task
-            self._scattered = self.client.scatter(self.payload, hash=False)
+        if self._scattered is None:  # sent once to every worker, shared by every task
+            self._scattered = self.client.scatter(self.payload, hash=False, broadcast=True)
         return self._scattered
 
     def _pass(self, pixel_lists, sampler, n, record, desc):
@@ -141,7 +141,7 @@ def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 
     scene = Scene.load(scene)
     settings = replace(settings or RenderSettings(), **overrides).validate(scene)
     cameras = orbit(scene.camera(settings.camera), frames)
-    payload = client.scatter(split(scene), hash=False)
+    payload = client.scatter(split(scene), hash=False, broadcast=True)
     token = uuid.uuid4().hex[:12]
     futures = [client.submit(worker.render_frame, payload, settings, camera, key=f"clrender-frame-{token}-{k}")
                for k, camera in enumerate(cameras)]

@@ -44,7 +44,7 @@ def scheduler_address(scheduler: str | None) -> str | None:
 
 @contextmanager
 def connect(scheduler: str | None = None, workers: int | None = None, pocl_threads: int | None = None,
-            timeout: float = CONNECT_TIMEOUT, announce: bool = True):
+            timeout: float | None = None, announce: bool = True):
     """A dask Client to `scheduler`, or to a new LocalCluster of `workers` single-thread processes.
 
     Each local worker's PoCL device gets `pocl_threads` threads (default: this
@@ -57,6 +57,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, pocl_threa
     if pocl_threads is not None and not 1 <= pocl_threads <= 1024:
         raise UsageError(f"PoCL threads {pocl_threads} must be from 1 to 1024")
     distributed = require_dask()
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
     cluster = None
     if workers is not None:
         threads = pocl_threads or max(1, (os.cpu_count() or 1) // workers)

@@ -67,7 +67,7 @@ def renderer_for(payload: ScenePayload, settings: RenderSettings, scene=None) ->
 
 def _info(renderer: Renderer, start: float, ready: float, built: bool) -> dict:
     """Where and how long a task ran: setup (scene, BVH, kernels; 0 when cached) and compute seconds."""
-    return {"pid": os.getpid(), "setup": ready - start if built else 0.0, "compute": time.perf_counter() - ready,
+    return {"pid": os.getpid(), "device": renderer.tracer.device.name, "setup": ready - start if built else 0.0, "compute": time.perf_counter() - ready,
             "bvh": renderer.tracer.bvh_seconds if built else 0.0,
             "compile_kernels": renderer.compile_seconds if built else 0.0}
 

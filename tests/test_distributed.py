@@ -1,0 +1,305 @@
+"""Rendering on a Dask cluster gives the local bytes: tiles, edge-pixel chunks and turntable frames as tasks.
+
+One LocalCluster of two single-thread worker processes serves the module
+(starting one costs ~1.5 s); the kill-a-worker test starts its own.  The
+reference is always the local renderer in this process, never the code
+under test.
+"""
+import math
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import clrender
+from clrender.camera import Camera
+from clrender.cli import main
+from clrender.distributed.payload import join, split
+from clrender.errors import UsageError
+from clrender.scene import Scene
+from clrender.turntable import frame_scene, orbit, render_turntable
+
+distributed = pytest.importorskip("distributed")
+crd = pytest.importorskip("clrender.distributed")
+from clrender.distributed.cluster import pocl_env  # noqa: E402
+
+TINY = dict(width=48, height=32, tile_size=16)  # 6 tiles: work for both workers
+
+
+def local_cluster(workers=2):
+    import logging
+
+    return distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                    silence_logs=logging.ERROR, env=pocl_env(1))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with local_cluster() as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def client(cluster):
+    with distributed.Client(cluster) as c:
+        yield c
+
+
+def scheduler_tasks(client) -> int:
+    return client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+
+
+def wait_for(condition, seconds=10.0):
+    deadline = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+# ------------------------------------------------------------------ the same bytes
+@pytest.mark.parametrize("aa", ["none", "full", "edge_detect"])
+def test_distributed_render_is_byte_identical_to_local(client, aa):
+    settings = dict(TINY, aa=aa, samples=3, seed=7)
+    renderer = crd.DistributedRenderer("refract1", client=client, **settings)
+    result = renderer.run()
+    local = clrender.Renderer("refract1", **settings).run()
+    assert result.image.tobytes() == local.image.tobytes()
+    assert np.array_equal(result.path_ids, local.path_ids)
+    assert result.rays == local.rays and result.node_visits == local.node_visits
+    tasks = {t["task"] for t in renderer.task_log}
+    n_tiles = math.ceil(48 / 16) * math.ceil(32 / 16)
+    assert sum(t["task"] == "trace" for t in renderer.task_log) == n_tiles
+    if aa == "edge_detect":  # the compacted edge pixels went out as tasks too
+        assert np.array_equal(result.edge_mask, local.edge_mask) and result.edge_mask.any()
+        assert tasks == {"trace", "edges"}
+    else:
+        assert tasks == {"trace"}
+
+
+def test_workers_build_each_scene_once(client):
+    scene = Scene.load("refract1")
+    first = crd.DistributedRenderer(scene, client=client, **TINY, seed=101)
+    first.run()
+    again = crd.DistributedRenderer(scene, client=client, **TINY, seed=101)
+    again.run()
+    # a worker builds the Tracer and kernels on its first task only (at most one build per worker)
+    assert sum(t["setup"] > 0 for t in first.task_log) <= 2
+    assert all(t["setup"] == 0 for t in again.task_log)
+    assert {t["device"] for t in again.task_log} == {clrender.device.get_device().name}
+
+
+def test_workers_run_pocl_with_the_thread_count_they_were_given(client):
+    from clrender.device import get_device
+
+    units = client.run(lambda: get_device().device.max_compute_units)
+    assert set(units.values()) == {1}
+
+
+def test_scene_travels_as_a_dict_and_arrays_and_comes_back_equal():
+    scene = Scene.load("wizard_cat")
+    payload = split(scene)
+    import json
+
+    json.dumps(payload.description)  # plain data: no file paths or objects to resolve on the worker
+    back = join(payload)
+    assert back.cameras == scene.cameras and back.lights == scene.lights and back.materials == scene.materials
+    for a, b in zip(scene.objects, back.objects):
+        assert type(a) is type(b)
+        for name in ("vertices", "faces", "vertex_normals"):
+            if hasattr(a, name) and getattr(a, name) is not None:
+                assert np.array_equal(getattr(a, name), getattr(b, name))
+    assert split(back).key == payload.key
+    moved = replace(scene, objects=list(scene.objects))
+    mesh = next(o for o in moved.objects if hasattr(o, "vertices"))
+    moved.objects[moved.objects.index(mesh)] = replace(mesh, vertices=mesh.vertices + 1e-6)
+    assert split(moved).key != payload.key  # the cache key follows the geometry, not the name
+
+
+# ------------------------------------------------------------------ turntable
+def test_orbit_keeps_distance_and_height_and_turns_by_equal_angles():
+    cam = Camera(position=(3.0, 2.0, 1.0), look_at=(0.5, -0.5, -4.0), up=(0.0, 1.0, 0.0), fov=50)
+    cams = orbit(cam, 8)
+    assert cams[0] == cam
+    centre = np.array(cam.look_at)
+    offsets = [np.array(c.position) - centre for c in cams]
+    for off, c in zip(offsets, cams):
+        assert c.look_at == cam.look_at and c.up == cam.up and c.fov == cam.fov
+        assert np.linalg.norm(off) == pytest.approx(np.linalg.norm(offsets[0]), rel=1e-12)
+        assert off[1] == pytest.approx(offsets[0][1], abs=1e-12)  # height along up
+    flat = [np.array([o[0], o[2]]) for o in offsets]
+    for a, b in zip(flat, flat[1:] + flat[:1]):
+        assert math.acos(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b)) == pytest.approx(2 * math.pi / 8)
+    assert np.allclose(flat[4], -flat[0], atol=1e-12)  # half-way round: the opposite side
+    # counter-clockwise seen from above (+y): x -> -z -> -x
+    assert np.cross(np.append(offsets[0], 0)[:3], offsets[2])[1] > 0
+
+
+def test_turntable_frames_match_local_renders_of_their_cameras(client):
+    scene = Scene.load("refract1")
+    settings = clrender.RenderSettings(**TINY, camera=2, aa="edge_detect", samples=2)
+    frames = crd.turntable(scene, settings, frames=3, client=client)
+    cameras = orbit(scene.camera(2), 3)
+    for k, image in enumerate(frames):
+        local = clrender.render(frame_scene(scene, cameras[k]), replace(settings, camera=1))
+        assert image.tobytes() == local.tobytes()
+    assert frames[0].tobytes() == clrender.render(scene, settings).tobytes()  # frame 0 is the camera itself
+    assert [img.tobytes() for _, img in render_turntable(scene, settings, 3)] == [f.tobytes() for f in frames]
+
+
+def test_cli_turntable_writes_frames_and_video(client, tmp_path):
+    import cv2
+
+    out = tmp_path / "frames"
+    video = tmp_path / "tt.mp4"
+    rc = main(["-q", "render", "refract1", "--camera", "2", "--width", "40", "--height", "30", "--turntable", "3",
+               "-o", str(out), "--video", str(video), "--scheduler", client.scheduler.address])
+    assert rc == 0
+    assert sorted(p.name for p in out.iterdir()) == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
+    local = tmp_path / "local.png"
+    assert main(["-q", "render", "refract1", "--camera", "2", "--width", "40", "--height", "30", "-o", str(local)]) == 0
+    assert (out / "frame_0000.png").read_bytes() == local.read_bytes()
+    capture = cv2.VideoCapture(str(video))
+    shapes = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        shapes.append(frame.shape)
+    assert shapes == [(30, 40, 3)] * 3
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+
+def test_interrupted_turntable_leaves_no_frames(tmp_path, monkeypatch):
+    import clrender.turntable as tt
+
+    real = tt.render_turntable
+
+    def interrupted(*args, **kwargs):
+        for k, image in real(*args, **kwargs):
+            if k == 2:
+                raise KeyboardInterrupt
+            yield k, image
+
+    monkeypatch.setattr(tt, "render_turntable", interrupted)
+    out = tmp_path / "frames"
+    rc = main(["-q", "render", "refract1", "--width", "16", "--height", "12", "--turntable", "4", "-o", str(out),
+               "--video", str(tmp_path / "tt.mp4")])
+    assert rc == 130
+    assert list(out.iterdir()) == [] and [p.name for p in tmp_path.iterdir()] == ["frames"]
+
+
+# ------------------------------------------------------------------ errors and cancelling
+def test_cli_render_on_a_scheduler_writes_the_local_bytes(client, tmp_path):
+    args = ["-q", "render", "refract1", "--width", "40", "--height", "30", "--aa", "edge_detect", "--samples", "2"]
+    assert main(args + ["-o", str(tmp_path / "local.png")]) == 0
+    assert main(args + ["-o", str(tmp_path / "dist.png"), "--scheduler", client.scheduler.address]) == 0
+    assert (tmp_path / "dist.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+
+
+def test_a_worker_side_error_is_the_local_one_line_error(client, tmp_path, capsys):
+    base = ["render", "refract1", "--width", "16", "--height", "12", "--device", "no-such-device"]
+    assert main(base + ["-o", str(tmp_path / "a.png")]) == 2
+    local_err = capsys.readouterr().err.strip().splitlines()
+    assert main(["-q"] + base + ["-o", str(tmp_path / "b.png"), "--scheduler", client.scheduler.address]) == 2
+    remote_err = capsys.readouterr().err.strip().splitlines()
+    assert len(local_err) == 1 and remote_err == local_err
+    assert "no OpenCL device matches 'no-such-device'" in local_err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_scene_errors_read_the_same_with_a_scheduler(client, tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = -1\n')
+    for extra in ([], ["--scheduler", client.scheduler.address]):
+        assert main(["-q", "render", str(bad), "-o", str(tmp_path / "x.png")] + extra) == 2
+    first, second = capsys.readouterr().err.strip().splitlines()
+    assert first == second and "objects[0].radius" in first
+
+
+def test_unreachable_scheduler_is_exit_2_naming_it_quickly(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr("clrender.distributed.cluster.CONNECT_TIMEOUT", 1.0)
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        address = f"tcp://127.0.0.1:{s.getsockname()[1]}"
+    start = time.monotonic()
+    rc = main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--scheduler", address])
+    assert rc == 2 and time.monotonic() - start < 5
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and address in err[0] and "cannot reach the Dask scheduler" in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_scheduler_address_from_the_environment(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr("clrender.distributed.cluster.CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://127.0.0.1:9")
+    assert main(["render", "refract1", "-o", str(tmp_path / "x.png")]) == 2
+    assert "tcp://127.0.0.1:9" in capsys.readouterr().err
+
+
+def test_without_the_extra_a_cluster_request_says_how_to_install(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    assert main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--workers", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["clrender: a Dask cluster needs the distributed extra: pip install 'clrender[distributed]'"]
+    with pytest.raises(UsageError, match=r"clrender\[distributed\]"):
+        crd.render("refract1")
+    # the single-machine path does not need it
+    assert main(["-q", "render", "refract1", "--width", "16", "--height", "12", "-o", str(tmp_path / "y.png")]) == 0
+
+
+def test_an_interrupted_render_cancels_its_tasks(client, monkeypatch):
+    class InterruptingBar:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def update(self, n=1):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(crd, "progress", InterruptingBar)
+    renderer = crd.DistributedRenderer("refract1", client=client, width=64, height=64, tile_size=8, aa="full", samples=4)
+    with pytest.raises(KeyboardInterrupt):
+        renderer.run()
+    assert wait_for(lambda: scheduler_tasks(client) == 0)  # tiles and the scattered scene are gone
+
+
+def test_a_turntable_stopped_early_cancels_its_frames(client):
+    frames = crd.iter_turntable("refract1", frames=6, client=client, width=32, height=24)
+    next(frames)
+    frames.close()  # what Ctrl-C in the consumer does to the generator
+    assert wait_for(lambda: scheduler_tasks(client) == 0)
+
+
+# ------------------------------------------------------------------ faults
+@pytest.mark.slow
+def test_render_survives_a_worker_killed_mid_render():
+    settings = dict(width=96, height=64, tile_size=8, aa="full", samples=6, seed=3)  # 96 tasks of ~10-50 ms
+    local = clrender.Renderer("refract1", **settings).run()
+    with local_cluster() as cluster, distributed.Client(cluster) as client:
+        client.wait_for_workers(2)
+        renderer = crd.DistributedRenderer("refract1", client=client, **settings)
+        outcome = {}
+        thread = threading.Thread(target=lambda: outcome.setdefault("result", renderer.run()))
+        thread.start()
+        assert wait_for(lambda: len(renderer.task_log) >= 4, 60)
+        done_before_kill = len(renderer.task_log)
+        victim = next(pid for pid in client.run(os.getpid).values() if pid in {t["pid"] for t in renderer.task_log})
+        os.kill(victim, signal.SIGKILL)
+        thread.join(120)
+        assert not thread.is_alive()
+    assert done_before_kill < 96  # the kill really came mid-render
+    assert outcome["result"].image.tobytes() == local.image.tobytes()
+    assert len(renderer.task_log) == 96  # every tile once on the client, though some ran twice on the cluster
