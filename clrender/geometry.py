@@ -70,8 +70,10 @@ def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
     is_tri = order < n_tri
     t = prims.triangles[order[is_tri]]
     out[is_tri, 0, :3] = t[:, 0]
-    out[is_tri, 1, :3] = t[:, 1] - t[:, 0]
-    out[is_tri, 2, :3] = t[:, 2] - t[:, 0]
+    # the vertices themselves, not edges: a vertex two triangles share must round to the same
+    # float32 in both for the watertight test (v0 + (v1 - v0) in float32 is not v1)
+    out[is_tri, 1, :3] = t[:, 1]
+    out[is_tri, 2, :3] = t[:, 2]
     s = prims.spheres[order[~is_tri] - n_tri]
     out[~is_tri, 0, :3] = s[:, :3]
     out[~is_tri, 1, 0] = s[:, 3]

@@ -5,7 +5,8 @@
  *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
  *             interior: count == 0, near child i+1, far child `offset`.
  *   prims     float4 x3 per primitive slot, in BVH leaf order:
- *             triangle: (v0, id) (e1, 0) (e2, 0)
+ *             triangle: (v0, id) (v1, 0) (v2, 0) -- the vertices themselves, so two
+ *             triangles that share an edge see bit-identical endpoints (watertight)
  *             sphere:   (centre, id) (radius, 0, 0, 1) (0)
  *             id = the primitive's index in scene order, stored as int bits.
  *   prim_object  int per primitive id: its object id.
@@ -43,7 +44,14 @@
 typedef struct {
     float3 o, d;
     float3 inv_d; /* 1/d per axis: +-inf where a component is +-0 (the slab test relies on it) */
+    /* watertight triangle test (Woop, Benthin, Wald 2013): kz is the axis of d's largest
+     * component, kx and ky the next two in cyclic order; the shear that maps d to +z */
+    int kx, ky, kz;
+    float sx, sy, sz;
 } Ray;
+
+/* component k (0, 1, 2) of v, with selects: OpenCL C has no dynamic vector indexing */
+inline float axis_of(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
 /* Plain-arithmetic versions of min, max, dot and cross for the hot loops:
  * some OpenCL compilers (PoCL among them) leave the builtins as calls, which
@@ -64,16 +72,32 @@ inline Ray make_ray(float3 o, float3 d) {
     r.o = o;
     r.d = d;
     r.inv_d = (float3)(1.0f) / d;
+    float3 a = fabs(d);
+    r.kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    r.kx = r.kz == 2 ? 0 : r.kz + 1;
+    r.ky = r.kx == 2 ? 0 : r.kx + 1;
+    float dz = axis_of(d, r.kz);
+    r.sx = -axis_of(d, r.kx) / dz;
+    r.sy = -axis_of(d, r.ky) / dz;
+    r.sz = 1.0f / dz;
     return r;
 }
 
-/* Move a surface point off the surface along its geometric normal by an
- * amount that scales with the point's magnitude, so the next ray does not
- * re-hit the surface it leaves (acne) at any scene scale. */
-inline float3 offset_origin(float3 p, float3 n_geo) {
-    float3 a = fabs(p);
-    float scale = 1e-4f * (1.0f + max_f(a.x, max_f(a.y, a.z)));
-    return p + n_geo * scale;
+/* Where a ray leaving a surface point starts: p moved along the (unit) normal
+ * n, on the side the new ray goes, just past p's float32 error box p_err
+ * (pbrt-v4's OffsetRayOrigin), then rounded one more ulp away.  p_err comes
+ * from how the hit point was computed (hit_point_triangle / _sphere), so the
+ * offset is a few ulps of the coordinates: it scales with the scene and with
+ * its distance from the origin, and never reaches a surface farther away than
+ * that (a card 0.05 above a floor at 1e-3 scale still shadows it). */
+inline float3 offset_origin(float3 p, float3 p_err, float3 n) {
+    float d = fabs(n.x) * p_err.x + fabs(n.y) * p_err.y + fabs(n.z) * p_err.z;
+    float3 offset = d * n;
+    float3 po = p + offset;
+    po.x = offset.x > 0.0f ? nextafter(po.x, INFINITY) : (offset.x < 0.0f ? nextafter(po.x, -INFINITY) : po.x);
+    po.y = offset.y > 0.0f ? nextafter(po.y, INFINITY) : (offset.y < 0.0f ? nextafter(po.y, -INFINITY) : po.y);
+    po.z = offset.z > 0.0f ? nextafter(po.z, INFINITY) : (offset.z < 0.0f ? nextafter(po.z, -INFINITY) : po.z);
+    return po;
 }
 
 #endif

@@ -21,25 +21,61 @@ inline bool is_sphere(__global const float4 *prims, int slot) { return prims[3 *
 
 inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[3 * slot].w); }
 
-/* Moller-Trumbore, in scalars (float3 arithmetic costs shuffles on CPUs).
- * Returns t in (t_min, t_max) or INF_T; degenerate triangles never hit. */
-inline float hit_triangle(Ray r, float4 v0, float4 e1, float4 e2, float t_min, float t_max, float *u, float *v) {
-    float px = r.d.y * e2.z - r.d.z * e2.y, py = r.d.z * e2.x - r.d.x * e2.z, pz = r.d.x * e2.y - r.d.y * e2.x;
-    float det = e1.x * px + e1.y * py + e1.z * pz;
-    if (det == 0.0f) return INF_T; /* parallel to the plane, or a degenerate triangle */
+/* a*b - c*d with a relative error of at most 2 ulp (Kahan's algorithm), so its
+ * sign is exact: an edge function is then negative, zero or positive exactly
+ * as the true value for the (rounded) sheared vertices, whatever triangle the
+ * edge is computed for -- the heart of watertightness. */
+inline float difference_of_products(float a, float b, float c, float d) {
+    float cd = c * d;
+    float dop = fma(a, b, -cd);
+    float err = fma(-c, d, cd);
+    return dop + err;
+}
+
+#define GAMMA(n) ((float)(n) * 5.96046448e-8f / (1.0f - (float)(n) * 5.96046448e-8f)) /* n*u/(1-n*u), u = 2^-24 */
+
+/* Watertight ray-triangle test (Woop, Benthin and Wald, JCGT 2013, as in
+ * pbrt-v4's IntersectTriangle), two-sided.  The vertices are moved to the ray
+ * origin, permuted so that d's largest axis is z and sheared so that the ray
+ * is +z; the 2D edge functions of the sheared vertices then decide inside or
+ * outside.  A shared edge gets the same (negated) edge function from both of
+ * its triangles, so no ray passes between them; exactly zero counts as inside
+ * for both.  Returns t in (t_min, t_max) or INF_T and the barycentrics u, v of
+ * v1, v2.  Hits closer than the test's own error bound (pbrt's deltaT) are
+ * rejected, so t > 0 holds for every hit reported. */
+inline float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
+    /* translate to the ray origin, permute, shear */
+    float3 q0 = v0.xyz - r.o, q1 = v1.xyz - r.o, q2 = v2.xyz - r.o;
+    float p0z = axis_of(q0, r.kz), p1z = axis_of(q1, r.kz), p2z = axis_of(q2, r.kz);
+    float p0x = axis_of(q0, r.kx) + r.sx * p0z, p0y = axis_of(q0, r.ky) + r.sy * p0z;
+    float p1x = axis_of(q1, r.kx) + r.sx * p1z, p1y = axis_of(q1, r.ky) + r.sy * p1z;
+    float p2x = axis_of(q2, r.kx) + r.sx * p2z, p2y = axis_of(q2, r.ky) + r.sy * p2z;
+    /* edge functions: which side of each edge the ray (the origin of the sheared plane) lies on */
+    float e0 = difference_of_products(p1x, p2y, p1y, p2x);
+    float e1 = difference_of_products(p2x, p0y, p2y, p0x);
+    float e2 = difference_of_products(p0x, p1y, p0y, p1x);
+    bool outside = (e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f);
+    float det = e0 + e1 + e2;
+    if (outside || det == 0.0f) return INF_T; /* misses, or meets the triangle edge-on */
+    /* scaled distance, compared with the range before the one division */
+    p0z *= r.sz; p1z *= r.sz; p2z *= r.sz;
+    float t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    if (det < 0.0f && (t_scaled >= t_min * det || t_scaled < t_max * det)) return INF_T;
+    if (det > 0.0f && (t_scaled <= t_min * det || t_scaled > t_max * det)) return INF_T;
     float inv_det = 1.0f / det;
-    float tx = r.o.x - v0.x, ty = r.o.y - v0.y, tz = r.o.z - v0.z;
-    /* Barycentric bounds are widened by EDGE_EPS so that rounding never opens
-     * a crack along an edge two triangles share (ties go to the lower id). */
-    const float EDGE_EPS = 1e-6f;
-    float uu = (tx * px + ty * py + tz * pz) * inv_det;
-    if (uu < -EDGE_EPS || uu > 1.0f + EDGE_EPS) return INF_T;
-    float qx = ty * e1.z - tz * e1.y, qy = tz * e1.x - tx * e1.z, qz = tx * e1.y - ty * e1.x;
-    float vv = (r.d.x * qx + r.d.y * qy + r.d.z * qz) * inv_det;
-    if (vv < -EDGE_EPS || uu + vv > 1.0f + EDGE_EPS) return INF_T;
-    float t = (e2.x * qx + e2.y * qy + e2.z * qz) * inv_det;
-    if (!(t > t_min && t < t_max)) return INF_T;
-    *u = uu; *v = vv;
+    float t = t_scaled * inv_det;
+    /* reject t within the rounding error of the test itself (pbrt-v4's bound) */
+    float max_zt = max_f(fabs(p0z), max_f(fabs(p1z), fabs(p2z)));
+    float max_xt = max_f(fabs(p0x), max_f(fabs(p1x), fabs(p2x)));
+    float max_yt = max_f(fabs(p0y), max_f(fabs(p1y), fabs(p2y)));
+    float delta_z = GAMMA(3) * max_zt;
+    float delta_x = GAMMA(5) * (max_xt + max_zt), delta_y = GAMMA(5) * (max_yt + max_zt);
+    float delta_e = 2.0f * (GAMMA(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float max_e = max_f(fabs(e0), max_f(fabs(e1), fabs(e2)));
+    float delta_t = 3.0f * (GAMMA(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * fabs(inv_det);
+    if (t <= max_f(delta_t, t_min) || !(t < t_max)) return INF_T;
+    *u = e1 * inv_det;
+    *v = e2 * inv_det;
     return t;
 }
 
@@ -62,12 +98,41 @@ inline int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
     return 1;
 }
 
+/* Roots closer than this are within the rounding error of sphere_roots (a few
+ * ulps of |o - c| and the radius; o and c are exact floats, so o - c errs
+ * relative to itself) and are not hits: a ray leaving the sphere's own
+ * surface, offset by offset_origin, must not find it again. */
+inline float sphere_t_eps(Ray r, float4 cr) {
+    float3 oc = fabs(r.o - cr.xyz);
+    return GAMMA(8) * (oc.x + oc.y + oc.z + cr.w);
+}
+
 inline float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
     float t0, t1;
     if (!sphere_roots(r, cr, &t0, &t1)) return INF_T;
+    t_min = max_f(t_min, sphere_t_eps(r, cr));
     if (t0 > t_min && t0 < t_max) return t0;
     if (t1 > t_min && t1 < t_max) return t1;
     return INF_T;
+}
+
+/* The hit point on a triangle from its barycentrics (not o + t d, whose error
+ * grows with t), and a bound on its float32 error per axis (pbrt-v4). */
+inline float3 hit_point_triangle(float4 v0, float4 v1, float4 v2, float u, float v, float3 *p_err) {
+    float b0 = 1.0f - u - v;
+    float3 a0 = b0 * v0.xyz, a1 = u * v1.xyz, a2 = v * v2.xyz;
+    *p_err = GAMMA(7) * (fabs(a0) + fabs(a1) + fabs(a2));
+    return a0 + a1 + a2;
+}
+
+/* The hit point on a sphere, moved onto the surface along the radius
+ * (pbrt-v4's reprojection), and a bound on its float32 error per axis. */
+inline float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err) {
+    float3 rel = p_ray - centre_radius.xyz;
+    rel *= centre_radius.w / norm(rel);
+    float3 p = centre_radius.xyz + rel;
+    *p_err = GAMMA(5) * fabs(rel) + GAMMA(2) * fabs(p);
+    return p;
 }
 
 /* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
@@ -175,8 +240,10 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
     int crossings = 0;
     if (b.w != 0.0f) {
         float t0, t1;
-        if (sphere_roots(r, (float4)(a.xyz, b.x), &t0, &t1)) {
-            crossings = (t0 > t_min && t0 < t_max) + (t1 > t_min && t1 < t_max);
+        float4 cr = (float4)(a.xyz, b.x);
+        if (sphere_roots(r, cr, &t0, &t1)) {
+            float t_lo = max_f(t_min, sphere_t_eps(r, cr));
+            crossings = (t0 > t_lo && t0 < t_max) + (t1 > t_lo && t1 < t_max);
         }
     } else {
         float u, v;

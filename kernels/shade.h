@@ -66,10 +66,11 @@ inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 
 
 /* Light from every light source at p, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
-inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, float3 v,
+inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
                            float4 kd, float4 ks, Rng *rng, __global float *shadow, uint *visits, uint *rays) {
     float3 total = (float3)(0.0f);
-    float3 origin = offset_origin(p, n_geo);
+    /* shadow rays start off the surface on the side they leave towards */
+    float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
     for (int li = 0; li < sc->n_lights; ++li) {
         float4 head = sc->lights[5 * li];
         int type = (int)head.x;
@@ -109,6 +110,7 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 n, float3 n_geo, fl
                 }
                 float T = 1.0f;
                 if (dot3(n, l) > 0.0f) {
+                    float3 origin = dot3(n_geo, l) >= 0.0f ? origin_front : origin_back;
                     Ray sr = make_ray(origin, l);
                     float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
                     T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
@@ -160,14 +162,16 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         float4 kd = sc->materials[3 * obj.x], ks = sc->materials[3 * obj.x + 1], tr = sc->materials[3 * obj.x + 2];
         float transparency = tr.x, ior = tr.y, mirror = ks.w;
 
-        float3 p = o + h.t * d;
         float4 a = sc->prims[3 * h.slot], b = sc->prims[3 * h.slot + 1], c = sc->prims[3 * h.slot + 2];
+        float3 p, p_err; /* the hit point from the primitive, and its float32 error per axis */
         float3 n_geo, n_shade;
         if (b.w != 0.0f) {
+            p = hit_point_sphere((float4)(a.xyz, b.x), o + h.t * d, &p_err);
             n_geo = unit(p - a.xyz);
             n_shade = n_geo;
         } else {
-            n_geo = unit(cross3(b.xyz, c.xyz));
+            p = hit_point_triangle(a, b, c, h.u, h.v, &p_err);
+            n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
             n_shade = n_geo;
             if (obj.y) {
                 __global const float4 *vn = sc->normals + 3 * h.id;
@@ -187,7 +191,7 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
             float3 surface = sc->ambient * kd.xyz +
-                             direct_light(sc, p, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
+                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;
@@ -211,13 +215,13 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             }
         }
         if (max_f(w_refract.x, max_f(w_refract.y, w_refract.z)) > 0.0f && sp < RAY_STACK) {
-            stack_o[sp] = (float4)(offset_origin(p, -n_geo), n2);
+            stack_o[sp] = (float4)(offset_origin(p, p_err, -n_geo), n2);
             stack_d[sp] = (float4)(refracted, (float)(depth + 1));
             stack_w[sp] = (float4)(w_refract, 0.0f);
             ++sp;
         }
         if (max_f(w_reflect.x, max_f(w_reflect.y, w_reflect.z)) > 0.0f && sp < RAY_STACK) {
-            stack_o[sp] = (float4)(offset_origin(p, n_geo), medium);
+            stack_o[sp] = (float4)(offset_origin(p, p_err, n_geo), medium);
             stack_d[sp] = (float4)(reflect_dir(d, n_shade), (float)(depth + 1));
             stack_w[sp] = (float4)(w_reflect, 0.0f);
             ++sp;

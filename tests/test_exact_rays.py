@@ -105,3 +105,131 @@ def test_light_straight_down_casts_the_whole_shadow_with_the_bvh(device):
         np.testing.assert_array_equal(shadowed[clear], (in_disc < 0.8)[clear], err_msg=f"bvh={bvh}")
     assert (clear & (in_disc < 0.8)).sum() > 20
     np.testing.assert_array_equal(results[True].shadow, results[False].shadow)
+
+
+# ------------------------------------------------------------------ 2. watertight triangles
+def shared_edge_rays(mesh, rng, n, distance):
+    """n rays aimed at random points of edges shared by two triangles of a closed convex mesh, from
+    `distance` mesh diagonals away, on the side both triangles face."""
+    edges = mesh.face_adjacency_edges
+    pick = rng.integers(0, len(edges), n)
+    s = rng.uniform(0.05, 0.95, n)[:, None]
+    target = mesh.vertices[edges[pick, 0]] * (1 - s) + mesh.vertices[edges[pick, 1]] * s
+    normals = mesh.face_normals[mesh.face_adjacency[pick]]  # (n, 2, 3)
+    outward = normals.sum(1)
+    outward /= np.linalg.norm(outward, axis=1, keepdims=True)
+    tilt = rng.normal(size=(n, 3)) * 0.3
+    away = outward + tilt - (tilt * outward).sum(1, keepdims=True) * outward
+    away /= np.linalg.norm(away, axis=1, keepdims=True)
+    facing_both = (np.einsum("nij,nj->ni", normals, away) > 0.05).all(1)
+    origin = target + away * distance * np.linalg.norm(mesh.extents)
+    d = target - origin
+    return origin[facing_both], d[facing_both] / np.linalg.norm(d[facing_both], axis=1, keepdims=True), \
+        np.linalg.norm(target - origin, axis=1)[facing_both]
+
+
+@pytest.mark.parametrize("distance", [0.05, 1.0, 20.0, 1000.0])
+def test_rays_at_shared_edges_never_pass_between_the_triangles(device, distance):
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    mesh.apply_transform(trimesh.transformations.random_rotation_matrix(np.random.default_rng(7).random(3)))
+    o, d, expected = shared_edge_rays(mesh, np.random.default_rng(8), 3000, distance)
+    assert len(o) > 2000
+    for use_bvh in (False, True):
+        t, _, _ = Tracer(mesh, use_bvh=use_bvh, device=device).intersect(o, d)
+        # a ray through a crack meets the far side of the sphere (radius 1) instead, or nothing
+        fell_through = ~(np.abs(t - expected) <= 0.05)
+        assert fell_through.sum() == 0, (use_bvh, int(fell_through.sum()), len(t))
+
+
+def test_watertight_hits_agree_with_embree(device):
+    embree = pytest.importorskip("embreex.rtcore_scene")
+    from embreex.mesh_construction import TriangleMesh
+
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    o, d, _ = shared_edge_rays(mesh, np.random.default_rng(9), 2000, 20.0)
+    scene = embree.EmbreeScene()
+    TriangleMesh(scene, np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)])
+    t_embree = scene.run(o.astype(np.float32), d.astype(np.float32), output=1)["tfar"]
+    t, _, _ = Tracer(mesh, device=device).intersect(o, d)
+    assert np.isfinite(t_embree).all() and np.isfinite(t).all()
+    np.testing.assert_allclose(t, t_embree, rtol=1e-5)
+
+
+# ------------------------------------------------------------------ 3. offsets at every scale and position
+CARD_Y, SPHERE_GAP = 0.05, 0.002  # a card 0.05 above the floor; a sphere 0.002 above it
+SPHERES = [((2.2, 0.5 + SPHERE_GAP, -1.0), 0.5), ((-2.2, 0.6, 1.5), 0.6)]  # the second rests on the floor
+LIGHT_AT = np.array([0.3, 5.0, 0.2])
+# camera 1 sees the whole scene; camera 2 sits in the gap beside the card, looking under it
+CAMS = [dict(position=[0, 5, 7], look_at=[0, 0, 0], fov=40), dict(position=[1.3, 0.045, 0.1], look_at=[0.3, 0, 0], fov=50)]
+
+
+def contact_scene(scale, shift, size):
+    at = lambda x: (np.asarray(x, float) * scale + shift).tolist()  # noqa: E731
+    length = lambda x: (np.asarray(x, float) * scale).tolist()  # noqa: E731
+    quad = lambda corner, a, b: {"type": "quad", "corner": at(corner), "edge_a": length(a),  # noqa: E731
+                                 "edge_b": length(b), "material": "white"}
+    return Scene.from_dict({
+        "width": size, "height": size,
+        "cameras": [dict(position=at(c["position"]), look_at=at(c["look_at"]), up=[0, 1, 0], fov=c["fov"]) for c in CAMS],
+        "materials": {"white": {"diffuse": [0.8, 0.8, 0.8], "specular": [0, 0, 0]}},
+        "lights": [{"type": "point", "position": at(LIGHT_AT)}],
+        "objects": [quad([-4, 0, 4], [8, 0, 0], [0, 0, -8]), quad([-1, CARD_Y, 1], [2, 0, 0], [0, 0, -2]),
+                    *({"type": "sphere", "center": at(c), "radius": r * scale, "material": "white"}
+                      for c, r in SPHERES)],
+    })
+
+
+def first_hits(o, d):
+    """float64 reference at unit scale: object id, hit point and outward normal of each ray."""
+    n = len(o)
+    t_best, ids, normal = np.full(n, np.inf), np.full(n, -1), np.zeros((n, 3))
+    for oid, (y, half) in enumerate([(0.0, 4.0), (CARD_Y, 1.0)]):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (y - o[:, 1]) / d[:, 1]
+            p = o + t[:, None] * d
+        ok = (t > 1e-9) & (np.abs(p[:, 0]) <= half) & (np.abs(p[:, 2]) <= half) & (t < t_best)
+        t_best[ok], ids[ok], normal[ok] = t[ok], oid, np.sign(-d[ok, 1])[:, None] * [0, 1, 0]
+    for k, (c, r) in enumerate(SPHERES):
+        oc = o - c
+        b = (oc * d).sum(1)
+        disc = b * b - ((oc * oc).sum(1) - r * r)
+        t = -b - np.sqrt(np.maximum(disc, 0))
+        ok = (disc > 0) & (t > 1e-9) & (t < t_best)
+        t_best[ok], ids[ok] = t[ok], 2 + k
+        normal[ok] = (o[ok] + t[ok, None] * d[ok] - c) / r
+    return ids, o + np.where(np.isfinite(t_best), t_best, 0)[:, None] * d, normal
+
+
+def reference_buffers(scene, camera, size, offset):
+    """Object id and light visibility at each pixel's first hit (1 where the surface faces away)."""
+    o, d = scene.cameras[camera].rays(size, size, offset)
+    o, d = o.reshape(-1, 3).astype(float), d.reshape(-1, 3).astype(float)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    ids, p, n = first_hits(o, d)
+    to_light = LIGHT_AT - p
+    dist = np.linalg.norm(to_light, axis=1)
+    to_light /= dist[:, None]
+    blocker, _, _ = first_hits(p + 1e-9 * n, to_light)
+    _, q, _ = first_hits(p + 1e-9 * n, to_light)
+    blocked = (blocker >= 0) & (np.linalg.norm(q - p, axis=1) < dist)
+    visible = np.where(((n * to_light).sum(1) <= 0) | ~blocked, 1.0, 0.0)
+    visible[ids < 0] = 1.0
+    return ids.reshape(size, size), visible.reshape(size, size)
+
+
+@pytest.mark.parametrize("camera", [1, 2])
+@pytest.mark.parametrize("scale, shift", [(1e-3, 0.0), (1.0, 0.0), (1e3, 0.0), (1.0, 1e3)])
+def test_near_contact_shadows_are_the_same_at_every_scale_and_position(device, scale, shift, camera):
+    size = 40
+    ref = [reference_buffers(contact_scene(1.0, 0.0, size), camera - 1, size, off)
+           for off in [(0.5, 0.5), (0.2, 0.2), (0.8, 0.2), (0.2, 0.8), (0.8, 0.8)]]
+    ids_ref, vis_ref = ref[0]
+    # pixels whose whole footprint agrees: no id or shadow boundary runs through them
+    clear = np.all([(i == ids_ref) & (v == vis_ref) for i, v in ref], axis=0)
+    assert clear.mean() > 0.8
+    shadowed_floor = (ids_ref == 0) & (vis_ref == 0) & clear
+    assert shadowed_floor.sum() > 10  # under the card (camera 2) or the spheres (camera 1)
+    result = Renderer(contact_scene(scale, shift, size), camera=camera).run()
+    np.testing.assert_array_equal(result.ids[clear], ids_ref[clear])
+    # shadowed where the reference is, and lit exactly (no acne) where it is lit
+    np.testing.assert_array_equal(result.shadow[..., 0][clear], vis_ref[clear])
