@@ -2,7 +2,7 @@
 import importlib
 import sys
 
-NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "mutants")
+NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "mutants", "distributed")
 
 
 def main(argv):

@@ -1,0 +1,126 @@
+"""Scaling a render over Dask workers: `python -m bench distributed [--quick] [--out DIR]`.
+
+Renders one scene split into >= 64 tiles on a LocalCluster of 1 worker and
+of 2 workers, every worker a single-thread process whose PoCL device is
+pinned to one thread (POCL_MAX_PTHREAD_COUNT=1).  Reports, per cluster size:
+
+- wall: median seconds of a warm render (scene cached on the workers),
+  and the speed-up of 2 workers over 1;
+- compute: the summed seconds the tasks spent in the kernel (measured on the
+  workers), and per-task compute;
+- overhead per task: (wall x workers - compute) / tasks, i.e. the time a
+  worker's slot was not tracing: scheduling, (de)serialising, shipping the
+  tile back, assembling on the client;
+- first pixel: from `run()` on a fresh cluster to the first tile back
+  (shipping the scene, building its BVH and compiling the kernels on the worker);
+- the same render in this process on one PoCL thread, for comparison.
+
+Every distributed image is checked byte for byte against the local one.
+Numbers depend on what else the machine runs; the table says how loaded it was.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+# this process's own PoCL device (the local baseline) gets one thread, like each worker
+os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", "1")
+os.environ.setdefault("POCL_CPU_MAX_CU_NUM", "1")
+
+from clrender.renderer import Renderer, RenderSettings  # noqa: E402
+from clrender.scene import Scene  # noqa: E402
+
+from .common import write_table  # noqa: E402
+
+
+def load_average() -> str:
+    try:
+        return "/".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:
+        return "n/a"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m bench distributed", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default="wizard_cat")
+    ap.add_argument("--camera", type=int, default=3)
+    ap.add_argument("--size", type=int, default=512, help="square image side")
+    ap.add_argument("--tile", type=int, default=64, help="tile side: (size / tile)^2 tiles")
+    ap.add_argument("--samples", type=int, default=3, help="N: full AA with N x N stratified samples")
+    ap.add_argument("--runs", type=int, default=3, help="warm renders per cluster size (median)")
+    ap.add_argument("--workers", default="1,2", help="cluster sizes to compare")
+    ap.add_argument("--quick", action="store_true", help="256x256, 32-pixel tiles, N=2, 1 run")
+    ap.add_argument("--out", default="bench/out")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.size, args.tile, args.samples, args.runs = 256, 32, 2, 1
+
+    import logging
+
+    import distributed
+
+    import clrender.distributed as crd
+    from clrender.distributed.cluster import pocl_env
+
+    scene = Scene.load(args.scene)
+    settings = RenderSettings(width=args.size, height=args.size, camera=args.camera, aa="full",
+                              samples=args.samples, tile_size=args.tile, seed=1)
+    n_tiles = (-(-args.size // args.tile)) ** 2
+    load_before = load_average()
+    print(f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, "
+          f"{n_tiles} tiles of {args.tile}x{args.tile}; load average {load_before}", file=sys.stderr)
+
+    local = Renderer(scene, settings)
+    local.run()  # warm: kernels built
+    local_times = []
+    for _ in range(args.runs):
+        start = time.perf_counter()
+        reference = local.run()
+        local_times.append(time.perf_counter() - start)
+    rows = [dict(workers="local (this process)", wall_s=statistics.median(local_times), speedup=1.0, tasks=n_tiles,
+                 compute_s=float("nan"), compute_per_task_ms=float("nan"), overhead_per_task_ms=float("nan"),
+                 first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
+
+    walls = {}
+    for workers in [int(w) for w in args.workers.split(",")]:
+        start = time.perf_counter()
+        with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                      silence_logs=logging.ERROR, env=pocl_env(1)) as cluster, \
+                distributed.Client(cluster) as client:
+            client.wait_for_workers(workers)
+            cluster_start = time.perf_counter() - start
+            cold = crd.DistributedRenderer(scene, settings, client)
+            cold.run()
+            first_pixel = cold.first_result_seconds
+            times, logs, identical = [], [], True
+            for _ in range(args.runs):
+                renderer = crd.DistributedRenderer(scene, settings, client)
+                start = time.perf_counter()
+                result = renderer.run()
+                times.append(time.perf_counter() - start)
+                logs.append(renderer.task_log)
+                identical &= result.image.tobytes() == reference.image.tobytes()
+        wall = statistics.median(times)
+        log = logs[times.index(min(times, key=lambda t: abs(t - wall)))]
+        compute = sum(t["compute"] for t in log)
+        walls[workers] = wall
+        rows.append(dict(workers=workers, wall_s=wall, speedup=walls[min(walls)] / wall if walls else 1.0,
+                         tasks=len(log), compute_s=compute, compute_per_task_ms=1e3 * compute / len(log),
+                         overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
+                         first_pixel_s=first_pixel, cluster_start_s=cluster_start, identical=identical))
+        print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
+
+    title = (f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, {n_tiles} tiles; "
+             f"one PoCL thread per worker; {os.cpu_count()} CPUs, load average (1/5/15 min) before {load_before}, "
+             f"after {load_average()}")
+    table = write_table(Path(args.out), "distributed", rows, title)
+    print(table)
+    if not all(r["identical"] for r in rows):
+        print("distributed images differ from the local one", file=sys.stderr)
+        return 1
+    return 0
