@@ -49,7 +49,12 @@ from .errors import UsageError
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
 BUILDERS = ("sah", "median")
-MAX_DEPTH = 48  # levels, root included; the kernels' stack (64) never overflows
+MAX_DEPTH = 48  # levels, root included
+# The kernels' traversal stack (-DSTACK_SIZE): near-first closest-hit traversal keeps at most
+# depth - 1 far nodes, any-hit traversal at most depth nodes, so a tree of MAX_DEPTH levels always
+# fits (the kernels also fall back to testing every primitive should a stack ever fill up).
+STACK_SIZE = 64
+assert MAX_DEPTH <= STACK_SIZE
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
 PARALLEL_ABOVE = 100_000  # SAH builds of more primitives grow the root's two subtrees in two threads

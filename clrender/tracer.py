@@ -83,7 +83,9 @@ class Tracer:
 
     @property
     def defines(self) -> dict:
-        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT}
+        from .bvh import STACK_SIZE
+
+        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE}
 
     def kernel(self, name: str) -> cl.Kernel:
         return self.device.kernel("trace.cl", name, self.defines)

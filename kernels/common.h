@@ -27,7 +27,9 @@
 #endif
 #define PATH_LEN 8            /* object ids recorded along each pixel's path */
 #define ID_RECORD (PATH_LEN + 1) /* per pixel: the path's object ids, then the primary hit's facet */
-#define STACK_SIZE 64         /* BVH traversal stack; depth of the host-built tree stays far below */
+#ifndef STACK_SIZE
+#define STACK_SIZE 64         /* BVH traversal stack (clrender.bvh.STACK_SIZE); the builder keeps trees shallower */
+#endif
 #define RAY_STACK (MAX_DEPTH + 2)
 
 #define LIGHT_POINT 0

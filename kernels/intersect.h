@@ -188,9 +188,13 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     Hit best = no_hit();
     best.t = t_max;
 #if USE_BVH
+    /* the builder keeps trees at most clrender.bvh.MAX_DEPTH deep, so near-first traversal holds
+       at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
+       primitives are then all tested (the answer is the same, only slower) */
     int stack[STACK_SIZE];
     float stack_t[STACK_SIZE];
     int sp = 0;
+    bool overflow = false;
     int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
     while (node >= 0) {
         *visits += 1;
@@ -209,8 +213,9 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
             }
             if (t_near != INF_T) {
                 next = near_child;
-                if (t_far != INF_T && sp < STACK_SIZE) { /* put far node on the stack */
-                    stack[sp] = far_child; stack_t[sp] = t_far; ++sp;
+                if (t_far != INF_T) { /* put far node on the stack */
+                    if (sp < STACK_SIZE) { stack[sp] = far_child; stack_t[sp] = t_far; ++sp; }
+                    else overflow = true;
                 }
             }
         }
@@ -221,6 +226,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
         }
         node = next;
     }
+    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
 #else
     test_slots(prims, 0, n_prims, r, t_min, &best);
     *visits += (uint)n_prims;
@@ -263,8 +269,9 @@ inline float transmittance(__global const float4 *nodes, __global const float4 *
     const float t_min = 0.0f;
     float T = 1.0f;
 #if USE_BVH
-    int stack[STACK_SIZE];
+    int stack[STACK_SIZE]; /* holds at most the tree's depth; on overflow see below */
     int sp = 0;
+    bool overflow = false;
     if (n_prims > 0 && hit_box(r, nodes[0], nodes[1], t_max) != INF_T) stack[sp++] = 0;
     while (sp > 0 && T > 0.0f) {
         int node = stack[--sp];
@@ -278,10 +285,17 @@ inline float transmittance(__global const float4 *nodes, __global const float4 *
             int children[2] = {node + 1, offset};
             for (int k = 0; k < 2; ++k) {
                 int child = children[k];
-                if (sp < STACK_SIZE && hit_box(r, nodes[2 * child], nodes[2 * child + 1], t_max) != INF_T)
-                    stack[sp++] = child;
+                if (hit_box(r, nodes[2 * child], nodes[2 * child + 1], t_max) != INF_T) {
+                    if (sp < STACK_SIZE) stack[sp++] = child;
+                    else overflow = true;
+                }
             }
         }
+    }
+    if (overflow && T > 0.0f) { /* a node did not fit on the stack: test every primitive instead */
+        T = 1.0f;
+        for (int s = 0; s < n_prims && T > 0.0f; ++s)
+            T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
     }
 #else
     for (int s = 0; s < n_prims && T > 0.0f; ++s)

@@ -233,3 +233,54 @@ def test_near_contact_shadows_are_the_same_at_every_scale_and_position(device, s
     np.testing.assert_array_equal(result.ids[clear], ids_ref[clear])
     # shadowed where the reference is, and lit exactly (no acne) where it is lit
     np.testing.assert_array_equal(result.shadow[..., 0][clear], vis_ref[clear])
+
+
+# ------------------------------------------------------------------ 4. the traversal stack never drops a node
+def degenerate_meshes(rng):
+    """Meshes that give builders nothing to split on."""
+    base = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    coincident = np.tile(base, (300, 1))  # 300 copies of one triangle, plus a few ordinary ones
+    extra = rng.uniform(-2, 2, (30, 3, 3))
+    yield "coincident", np.concatenate([coincident, extra.reshape(-1, 3)])
+    # triangles strung along one line, their centroids collinear
+    x = np.repeat(np.linspace(0, 10, 400), 3)
+    spread = rng.uniform(-0.5, 0.5, (1200, 2)) * np.tile([[1, 1], [1, 1], [1, 1]], (400, 1))
+    yield "collinear", np.c_[x + rng.uniform(-0.3, 0.3, 1200), spread]
+    # randomly rotated and sized triangles that all have their centroid at one point
+    tri = rng.normal(size=(600, 3, 3)) * rng.uniform(0.1, 2, (600, 1, 1))
+    tri -= tri.mean(1, keepdims=True)
+    yield "same centroid", tri.reshape(-1, 3)
+
+
+def rays_at_triangles(rng, vertices, n):
+    """Rays from random directions aimed at random points of random triangles."""
+    tri = vertices.reshape(-1, 3, 3)
+    k = rng.integers(0, len(tri), n)
+    w = rng.dirichlet([1, 1, 1], n)
+    target = np.einsum("ni,nij->nj", w, tri[k])
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return target - 20 * d, d
+
+
+@pytest.mark.parametrize("stack_size", [None, 2])
+def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, stack_size, monkeypatch):
+    """Every builder against no BVH; with stack_size=2 the kernels' stack overflows on purpose and their
+    fallback must still give the brute-force answers."""
+    if stack_size is not None:
+        monkeypatch.setattr("clrender.bvh.STACK_SIZE", stack_size)
+    rng = np.random.default_rng(21)
+    for name, vertices in degenerate_meshes(rng):
+        mesh = (vertices, np.arange(len(vertices)).reshape(-1, 3))
+        o, d = rays_at_triangles(rng, vertices, 500)
+        flat = Tracer(mesh, use_bvh=False, device=device)
+        t_ref, p_ref, _ = flat.intersect(o, d)
+        blocked_ref = flat.occluded(o, d, 40.0)
+        assert np.isfinite(t_ref).mean() > 0.9, name
+        for builder in ("sah", "median"):
+            tracer = Tracer(mesh, builder=builder, device=device)
+            assert tracer.bvh.depth <= 48
+            t, p, _ = tracer.intersect(o, d)
+            np.testing.assert_array_equal(t, t_ref, err_msg=f"{name} {builder}")
+            np.testing.assert_array_equal(p, p_ref, err_msg=f"{name} {builder}")
+            np.testing.assert_array_equal(tracer.occluded(o, d, 40.0), blocked_ref, err_msg=f"{name} {builder}")
