@@ -340,11 +340,36 @@ def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix:
     return vertices, faces, normals
 
 
-@_malformed_is_usage_error
-def node_mesh(path, node: int, primitive: int | None = None):
-    """A trimesh.Trimesh of node `node`'s mesh (one primitive, or all its triangle primitives) in world space."""
-    import trimesh
+@dataclass
+class NodeMesh:
+    """Triangles of one glTF node in world space, with what Scene needs of a trimesh.Trimesh (no trimesh import)."""
 
+    vertices: np.ndarray  # (V, 3) float64
+    faces: np.ndarray  # (F, 3) int64
+    normals: np.ndarray | None = None  # (V, 3) unit normals from the file, if it has them
+
+    @property
+    def vertex_normals(self) -> np.ndarray:
+        """The file's normals, else the area-weighted mean of the faces' normals around each vertex."""
+        if self.normals is not None:
+            return self.normals
+        tri = self.vertices[self.faces]
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = twice the area
+        n = np.zeros_like(self.vertices)
+        for k in range(3):
+            np.add.at(n, self.faces[:, k], face_n)
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+
+    @property
+    def face_normals(self) -> np.ndarray:
+        tri = self.vertices[self.faces]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+
+
+@_malformed_is_usage_error
+def node_mesh(path, node: int, primitive: int | None = None) -> NodeMesh:
+    """Node `node`'s mesh (one primitive, or all its triangle primitives) in world space."""
     doc = read_document(path)
     mesh_index = doc.item("nodes", node).get("mesh")
     if mesh_index is None:
@@ -361,7 +386,7 @@ def node_mesh(path, node: int, primitive: int | None = None):
     normals = None
     if all(n is not None for _, _, n in parts):
         normals = np.concatenate([n for _, _, n in parts])
-    return trimesh.Trimesh(vertices, faces, vertex_normals=normals, process=False)
+    return NodeMesh(vertices, faces, normals)
 
 
 # ------------------------------------------------------------ the scene dict

@@ -135,6 +135,13 @@ def test_vertex_normals_turn_with_the_inverse_transpose(tmp_path):
     np.testing.assert_allclose(mesh.vertex_normals, np.broadcast_to(expected, (4, 3)), atol=1e-6)
 
 
+def test_smooth_without_normals_in_the_file_averages_the_faces(tmp_path):
+    gltf_file(tmp_path, [{"mesh": 0, "rotation": quaternion([0, 1, 0], 90)}], name="quad.gltf")  # turned to face +x
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "quad.gltf"\nnode = 0\nsmooth = true\n')
+    (mesh,) = Scene.load(tmp_path / "s.toml").objects
+    np.testing.assert_allclose(mesh.vertex_normals, np.broadcast_to([1, 0, 0], (4, 3)), atol=1e-12)
+
+
 def test_camera_position_direction_and_field_of_view(tmp_path):
     q = quaternion([0, 1, 0], 30)
     nodes = [{"mesh": 0, "translation": [0, 0, -5]},
