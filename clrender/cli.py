@@ -31,7 +31,7 @@ import argparse  # noqa: E402
 import threading  # noqa: E402
 
 from . import progress  # noqa: E402
-from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, RenderFailure, UsageError, one_line  # noqa: E402
+from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, RenderFailure, UsageError, one_line, shown  # noqa: E402
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
 
@@ -57,8 +57,8 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
     def _get_help_string(self, action):
         # an option whose help states its default in words ("default: the scene's") shows only that,
-        # never a second "(default: None)"; positionals are given or absent, they have no default
-        if "default" in (action.help or "") or not action.option_strings:
+        # never a second "(default: None)"; positionals and required options have no default
+        if "default" in (action.help or "") or not action.option_strings or action.required:
             return action.help
         return super()._get_help_string(action)
 
@@ -146,7 +146,7 @@ def describe_os_error(exc: OSError) -> str:
     name = exc.filename
     if isinstance(name, str) and name.startswith("/proc/self/fd/"):
         name = None  # a temp file's handle says nothing to the user
-    return f"{name}: {reason}" if name else reason
+    return f"{shown(name)}: {reason}" if name else reason
 
 
 def _is_device_error(exc: Exception) -> bool:

@@ -54,9 +54,9 @@ def _open_input(path: Path):
     if not path.is_file():
         raise UsageError(f"input image {shown(path)} does not exist")
     with _library_messages() as said:
-        inp = oiio.ImageInput.open(str(path))
+        inp = oiio.ImageInput.open(_library_name(path))
     if inp is None:
-        raise UsageError(f"cannot read {shown(path)} as an image ({_reason(oiio.geterror(), said.text, 'unknown format')})")
+        raise UsageError(f"cannot read {shown(path)} as an image ({_reason(_library_error(), said.text, 'unknown format')})")
     spec = inp.spec()
     pixels = spec.width * spec.height * max(spec.depth, 1)
     if pixels > MAX_READ_PIXELS or spec.nchannels > MAX_CHANNELS or pixels < 1 or spec.nchannels < 1:
@@ -78,9 +78,34 @@ def read_image(path: str | os.PathLike) -> Image:
         inp.close()
     if pixels is None:
         raise UsageError(f"cannot read the pixels of {shown(path)} "
-                         f"({_reason(oiio.geterror(), said.text, 'the file is truncated or damaged')})")
+                         f"({_reason(_library_error(), said.text, 'the file is truncated or damaged')})")
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
-    return Image(pixels, str(spec.format), tuple(spec.channelnames))
+    return Image(pixels, str(spec.format), _channel_names(spec, path))
+
+
+def _channel_names(spec, path) -> tuple:
+    try:
+        return tuple(spec.channelnames)
+    except UnicodeDecodeError:
+        raise UsageError(f"cannot read {shown(path)}: its channel names are damaged (not UTF-8)") from None
+
+
+def _library_error() -> str:
+    """OpenImageIO's pending error text; a damaged file can put bytes in it that are not UTF-8."""
+    try:
+        return oiio.geterror()
+    except UnicodeDecodeError:
+        return "damaged header (unreadable text in the file)"
+
+
+def _library_name(path) -> str:
+    """The name as OpenImageIO takes it: UTF-8 text (a name with undecodable bytes is refused)."""
+    name = str(path)
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        raise UsageError(f"file name {shown(name)} is not valid UTF-8; OpenImageIO cannot use it, rename the file") from None
+    return name
 
 
 def _reason(*texts: str) -> str:
@@ -158,7 +183,7 @@ def probe_image(path: str | os.PathLike) -> ImageInfo:
     inp = _open_input(Path(path))
     try:
         spec = inp.spec()
-        return ImageInfo(spec.height, spec.width, spec.nchannels, str(spec.format), tuple(spec.channelnames))
+        return ImageInfo(spec.height, spec.width, spec.nchannels, str(spec.format), _channel_names(spec, path))
     finally:
         inp.close()
 
@@ -185,9 +210,9 @@ def output_format(path: str | os.PathLike, stored: str) -> str:
 
 def writer_supports_alpha(path: str | os.PathLike) -> bool:
     """Whether the writer for this extension can store an alpha channel (JPEG, HDR cannot)."""
-    out = oiio.ImageOutput.create(str(path))
+    out = oiio.ImageOutput.create(_library_name(path))
     if out is None:
-        oiio.geterror()
+        _library_error()
         return False
     return bool(out.supports("alpha"))
 
@@ -203,9 +228,9 @@ def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, input
         raise UsageError(f"output {shown(path)} is a folder; name an image file (e.g. {shown(path / 'out.png')})")
     if not path.suffix:
         raise UsageError(f"output {shown(path)} has no extension; use .png, .jpg, .tif, .exr or .hdr")
-    probe = oiio.ImageOutput.create(str(path))
+    probe = oiio.ImageOutput.create(_library_name(path))
     if probe is None:
-        oiio.geterror()  # clear it, or OpenImageIO prints it again at exit
+        _library_error()  # clear it, or OpenImageIO prints it again at exit
         raise UsageError(
             f"no image writer for extension {shown(path.suffix)} of {shown(path)}; use .png, .jpg, .tif, .exr or .hdr"
         )
@@ -279,15 +304,15 @@ def write_image(
         spec.alpha_channel = 3
 
     def write_pixels(temp: str) -> None:
-        out = oiio.ImageOutput.create(str(path))  # the writer is chosen by the final name's extension
+        out = oiio.ImageOutput.create(_library_name(path))  # the writer is chosen by the final name's extension
         if out is None:
-            raise UsageError(f"no image writer for {shown(path)}: {_reason(oiio.geterror())}")
+            raise UsageError(f"no image writer for {shown(path)}: {_reason(_library_error())}")
         with _library_messages() as said:
             ok = out.open(temp, spec) and out.write_image(np.ascontiguousarray(pixels))
             ok = out.close() and ok
         if not ok:
             # the libraries do not say why (errno is lost); a full disk is the usual cause
-            reason = _reason(oiio.geterror(), said.text, "the image writer failed (is the disk full?)")
+            reason = _reason(_library_error(), said.text, "the image writer failed (is the disk full?)")
             raise RenderFailure(f"cannot write {shown(path)}: {reason}")
 
     return write_file(path, write_pixels, overwrite=overwrite)
