@@ -83,7 +83,7 @@ class RenderSettings:
             (0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1"),
             (s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1"),
             (isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
-             f"unknown AOV in {s.aovs!r}; allowed: {', '.join(AOV_NAMES)}"),
+             f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}"),
         ]
         for ok, message in checks:
             if not ok:

@@ -118,6 +118,14 @@ def test_a_mesh_object_can_name_a_gltf_node(box_glb, tmp_path):
     np.testing.assert_allclose(placed.vertices, mesh.vertices + [0, 10, 0], atol=1e-5)
 
 
+def test_a_whole_gltf_file_as_one_mesh_keeps_its_node_transforms(box_glb, tmp_path):
+    path, box, world = box_glb
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "box.glb"\n')
+    (mesh,) = Scene.load(tmp_path / "s.toml").objects
+    expected = trimesh.transform_points(box.vertices, world)
+    np.testing.assert_allclose(np.sort(mesh.vertices, axis=0), np.sort(expected, axis=0), atol=1e-5)
+
+
 def test_base_colour_becomes_the_diffuse_colour(box_glb):
     path, _, _ = box_glb
     scene = Scene.load(path)
