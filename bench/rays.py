@@ -38,8 +38,9 @@ def ray_throughput(mesh, size: int, runs: int, builder: str):
     o, d = cam.rays(size, size)
     n, o_buf, d_buf = tracer._rays(o.reshape(-1, 3), d.reshape(-1, 3))
     outs = tuple(dev.empty(4 * n) for _ in range(4))
-    tracer.launch_intersect(n, o_buf, d_buf, outs).wait()  # warm-up: PoCL finishes compiling here
-    primary = median_seconds(lambda: tracer.launch_intersect(n, o_buf, d_buf, outs).wait(), runs)
+    zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
+    tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()  # warm-up: PoCL finishes compiling here
+    primary = median_seconds(lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait(), runs)
     t, prim, _ = tracer.intersect(o.reshape(-1, 3), d.reshape(-1, 3))
     visits = tracer.last_visits.mean()
     hit = np.isfinite(t)
@@ -51,9 +52,10 @@ def ray_throughput(mesh, size: int, runs: int, builder: str):
     origins = p + to_light * 1e-4 * (1 + np.abs(p).max(1, keepdims=True))
     m, so, sd = tracer._rays(origins, to_light)
     t_max = dev.to_device(dist.astype(np.float32))
+    s_zeros = dev.to_device(np.zeros(m, np.float32))  # t_min
     souts = (dev.empty(4 * m), dev.empty(4 * m))
-    tracer.launch_occluded(m, so, sd, t_max, souts).wait()
-    shadow = median_seconds(lambda: tracer.launch_occluded(m, so, sd, t_max, souts).wait(), runs)
+    tracer.launch_occluded(m, so, sd, s_zeros, t_max, souts).wait()
+    shadow = median_seconds(lambda: tracer.launch_occluded(m, so, sd, s_zeros, t_max, souts).wait(), runs)
     return dict(primary_mrays=n / primary / 1e6, shadow_mrays=m / shadow / 1e6, hit_fraction=float(hit.mean()),
                 nodes_per_primary_ray=float(visits), compile_s=dev.compile_seconds, bvh_build_s=tracer.bvh_seconds)
 

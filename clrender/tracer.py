@@ -8,6 +8,14 @@ uses, as one would use Embree:
     tracer = Tracer(scene)
     t, prim, obj = tracer.intersect(origins, directions)
     blocked = tracer.occluded(origins, directions, t_max)
+
+Distances are in units of the directions as given (a hit is origin + t * direction,
+as in Embree); t_min (default 0) excludes hits at t <= t_min.  A ray that starts
+on a surface may find that surface again at a tiny t: offset its origin off the
+surface (the renderer moves it just past the hit point's float32 error bound) or
+pass a t_min.  Exact answers (see the README, "Exact ray queries"): the slab test
+holds for every direction, the triangle test is watertight, and of hits at the
+same float32 t the lowest primitive id wins, whatever the BVH.
 """
 from __future__ import annotations
 
@@ -96,42 +104,57 @@ class Tracer:
         d = np.asarray(directions, np.float32).reshape(-1, 3)
         if o.shape != d.shape:
             raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+        length = np.linalg.norm(d.astype(np.float64), axis=1)
+        if not (np.isfinite(o).all() and np.isfinite(length).all() and (length > 0).all()):
+            raise UsageError("ray origins and directions must be finite, and directions nonzero")
         n = len(o)
         self.device.check_fits(n * 16, f"{n} rays")
         pad = lambda a: np.concatenate([a, np.zeros((n, 1), np.float32)], axis=1)  # noqa: E731
         return n, self.device.to_device(pad(o)), self.device.to_device(pad(d))
 
-    def launch_intersect(self, n, origins, directions, outputs) -> cl.Event:
-        """Closest-hit kernel on device buffers (for benchmarks); outputs = (t, prim, object, visits) buffers."""
+    def _per_ray(self, n, value, name):
+        """A per-ray float32 buffer from a scalar or an (n,) array."""
+        a = np.asarray(value, np.float32)
+        if a.ndim > 1 or (a.ndim == 1 and len(a) != n) or np.isnan(a).any():
+            raise UsageError(f"{name} must be a number or one per ray ({n}), not NaN")
+        return self.device.to_device(np.broadcast_to(a, (n,)).copy())
+
+    def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
+        """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
+        outputs = (t, prim, object, visits) buffers."""
         return self.kernel("intersect_rays")(
             self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object,
-            np.int32(self.n_prims), np.int32(n), origins, directions, *outputs)
+            np.int32(self.n_prims), np.int32(n), origins, directions, t_min, *outputs)
 
-    def launch_occluded(self, n, origins, directions, t_max, outputs) -> cl.Event:
-        """Any-hit kernel on device buffers; outputs = (occluded, visits) buffers."""
+    def launch_occluded(self, n, origins, directions, t_min, t_max, outputs) -> cl.Event:
+        """Any-hit kernel on device buffers; t_min, t_max per-ray buffers; outputs = (occluded, visits) buffers."""
         return self.kernel("occluded_rays")(
             self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object, self.objects,
-            self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_max, *outputs)
+            self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, t_max, *outputs)
 
-    def intersect(self, origins, directions):
-        """Closest hits: (t along the unit direction, primitive id, object id); inf, -1, -1 on a miss."""
+    def intersect(self, origins, directions, t_min=0.0):
+        """Closest hits at origin + t * direction, t > t_min: (t, primitive id, object id); inf, -1, -1 on a miss.
+
+        t is in units of each direction as given (not normalised).  Of hits at the same float32 t, the
+        lowest primitive id is returned, with the BVH on or off and for every builder."""
         n, o, d = self._rays(origins, directions)
         dev = self.device
         t_buf, p_buf, o_buf, v_buf = (dev.empty(4 * n) for _ in range(4))
-        self.launch_intersect(n, o, d, (t_buf, p_buf, o_buf, v_buf))
+        self.launch_intersect(n, o, d, self._per_ray(n, t_min, "t_min"), (t_buf, p_buf, o_buf, v_buf))
         t, prim, obj = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         for host, buf in ((t, t_buf), (prim, p_buf), (obj, o_buf), (self.last_visits, v_buf)):
             cl.enqueue_copy(dev.queue, host, buf)
         return t, prim, obj
 
-    def occluded(self, origins, directions, t_max):
-        """True where any surface lies strictly between the origin and t_max along the unit direction."""
+    def occluded(self, origins, directions, t_max, t_min=0.0):
+        """True where any surface lies at origin + t * direction with t_min < t < t_max (t in units of
+        the direction as given)."""
         n, o, d = self._rays(origins, directions)
         dev = self.device
-        t_max = np.broadcast_to(np.asarray(t_max, np.float32), (n,)).copy()
         out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
-        self.launch_occluded(n, o, d, dev.to_device(t_max), (out, v_buf))
+        self.launch_occluded(n, o, d, self._per_ray(n, t_min, "t_min"), self._per_ray(n, t_max, "t_max"),
+                             (out, v_buf))
         result = np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         cl.enqueue_copy(dev.queue, result, out)

@@ -264,9 +264,8 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
 
 inline float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                            __global const int *prim_object, __global const int2 *objects,
-                           __global const float4 *materials, Ray r, float t_max, bool opaque_only,
+                           __global const float4 *materials, Ray r, float t_min, float t_max, bool opaque_only,
                            uint *visits) {
-    const float t_min = 0.0f;
     float T = 1.0f;
 #if USE_BVH
     int stack[STACK_SIZE]; /* holds at most the tree's depth; on overflow see below */

@@ -114,7 +114,7 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                     Ray sr = make_ray(origin, l);
                     float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
                     T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
-                                      sc->materials, sr, t_max, false, visits);
+                                      sc->materials, sr, 0.0f, t_max, false, visits);
                     *rays += 1;
                     total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks);
                 }

@@ -66,36 +66,44 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
     }
 }
 
-/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, need not be unit).
- * Writes t along the unit direction (INF on a miss), primitive id, object id. */
+/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  Distances are
+ * in units of the direction as given (Embree's convention): a hit is o + t d, t in (t_min, INF).
+ * The kernels trace the unit direction and scale t back.  Writes t (INF on a miss), primitive id,
+ * object id and the nodes visited. */
 __kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
                              __global const int *prim_object, int n_prims, int n_rays,
                              __global const float4 *origins, __global const float4 *directions,
+                             __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
     int gid = get_global_id(0);
     if (gid >= n_rays) return;
     uint visits = 0;
-    Ray r = make_ray(origins[gid].xyz, unit(directions[gid].xyz));
-    Hit h = closest_hit(nodes, prims, n_prims, r, 0.0f, INF_T, &visits);
-    t_out[gid] = h.t;
+    float3 d = directions[gid].xyz;
+    float length = norm(d);
+    Ray r = make_ray(origins[gid].xyz, d / length);
+    Hit h = closest_hit(nodes, prims, n_prims, r, t_min[gid] * length, INF_T, &visits);
+    t_out[gid] = h.t / length;
     prim_out[gid] = h.id;
     object_out[gid] = h.id >= 0 ? prim_object[h.id] : -1;
     visits_out[gid] = visits;
 }
 
-/* Any-hit occlusion: 1 when some surface lies in (0, t_max) along the unit direction. */
+/* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
 __kernel void occluded_rays(__global const float4 *nodes, __global const float4 *prims,
                             __global const int *prim_object, __global const int2 *objects,
                             __global const float4 *materials, int n_prims, int n_rays,
                             __global const float4 *origins, __global const float4 *directions,
-                            __global const float *t_max, __global int *occluded_out,
-                            __global uint *visits_out) {
+                            __global const float *t_min, __global const float *t_max,
+                            __global int *occluded_out, __global uint *visits_out) {
     int gid = get_global_id(0);
     if (gid >= n_rays) return;
     uint visits = 0;
-    Ray r = make_ray(origins[gid].xyz, unit(directions[gid].xyz));
-    float T = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_max[gid], true, &visits);
+    float3 d = directions[gid].xyz;
+    float length = norm(d);
+    Ray r = make_ray(origins[gid].xyz, d / length);
+    float T = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r,
+                            t_min[gid] * length, t_max[gid] * length, true, &visits);
     occluded_out[gid] = T == 0.0f;
     visits_out[gid] = visits;
 }

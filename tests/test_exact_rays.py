@@ -284,3 +284,77 @@ def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, st
             np.testing.assert_array_equal(t, t_ref, err_msg=f"{name} {builder}")
             np.testing.assert_array_equal(p, p_ref, err_msg=f"{name} {builder}")
             np.testing.assert_array_equal(tracer.occluded(o, d, 40.0), blocked_ref, err_msg=f"{name} {builder}")
+
+
+# ------------------------------------------------------------------ 5. t_min, units of t, ties
+def two_planes():
+    """Squares at z = -1 (ids 0, 1) and z = -3 (ids 2, 3)."""
+    v = np.array([[-1.0, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+    vertices = np.concatenate([v + [0, 0, -1], v + [0, 0, -3]])
+    return vertices, np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+
+
+@pytest.mark.parametrize("use_bvh", [False, True])
+def test_t_min_skips_nearer_hits(device, use_bvh):
+    tracer = Tracer(two_planes(), use_bvh=use_bvh, device=device)
+    o = np.tile([0.3, -0.2, 0.0], (4, 1))
+    d = np.tile([0.0, 0.0, -1.0], (4, 1))
+    t, prim, _ = tracer.intersect(o, d, t_min=[0.0, 0.5, 1.5, 3.5])
+    np.testing.assert_array_equal(t, [1, 1, 3, np.inf])
+    assert prim[0] in (0, 1) and prim[2] in (2, 3) and prim[3] == -1
+    assert tracer.occluded(o, d, t_max=5.0, t_min=[0.0, 0.5, 1.5, 3.5]).tolist() == [True, True, True, False]
+    # a ray leaving the first plane from a point on it: t_min (or an offset origin) is the caller's job
+    on_surface = np.array([[0.3, -0.2, -1.0]])
+    assert tracer.intersect(on_surface, [[0, 0, -1]], t_min=1e-4)[0][0] == 2.0
+
+
+@pytest.mark.parametrize("use_bvh", [False, True])
+def test_t_is_in_units_of_the_direction_as_given(device, use_bvh):
+    scene = Scene.from_dict({"objects": [{"type": "sphere", "center": [4, 0, -5], "radius": 1},
+                                         {"type": "triangle", "vertices": [[-1, -1, -4], [1, -1, -4], [0, 1, -4]]}]})
+    tracer = Tracer(scene, use_bvh=use_bvh, device=device)
+    o = np.array([[0.0, 0, 0], [0, 0, 0], [4, 0, 0]])
+    d = np.array([[0.0, 0, -2], [0, 0, -0.5], [0, 0, -8]])
+    t, prim, _ = tracer.intersect(o, d)
+    np.testing.assert_allclose(t, [2.0, 8.0, 0.5], rtol=1e-6)  # hits at z = -4, -4 and -4 (the sphere's front)
+    assert tracer.occluded(o, d, t_max=[1.9, 8.1, 0.49]).tolist() == [False, True, False]
+
+
+def grid_mesh(n):
+    """An n x n grid of unit squares in the plane z = 0, two triangles each, ids in row order."""
+    x, y = np.meshgrid(np.arange(n + 1, dtype=float), np.arange(n + 1, dtype=float))
+    vertices = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    faces = np.concatenate([np.c_[i, i + 1, i + n + 2], np.c_[i, i + n + 2, i + n + 1]])
+    return vertices, faces
+
+
+def test_ties_at_shared_edges_and_vertices_go_to_the_lowest_id(device):
+    vertices, faces = grid_mesh(8)
+    # straight down at every vertex and every edge midpoint of the interior (exact in float32)
+    pts = np.array([[x / 2, y / 2] for x in range(2, 15) for y in range(2, 15)])
+    o = np.c_[pts, np.full(len(pts), 5.0)]
+    d = np.tile([0.0, 0.0, -1.0], (len(pts), 1))
+    # reference: the lowest id among the triangles whose closed area contains the point
+    tri = vertices[faces][:, :, :2]
+    contains = []
+    for a, b, c in tri:
+        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])  # noqa: E731
+        s = np.stack([cross(a, b, pts), cross(b, c, pts), cross(c, a, pts)])
+        contains.append((s >= 0).all(0) | (s <= 0).all(0))
+    expected = np.argmax(np.array(contains), axis=0)
+    assert np.array(contains).sum(0).max() >= 6  # some points lie on six triangles
+    for use_bvh, builder in ((False, "sah"), (True, "sah"), (True, "median")):
+        t, prim, _ = Tracer((vertices, faces), use_bvh=use_bvh, builder=builder, device=device).intersect(o, d)
+        np.testing.assert_array_equal(t, 5.0)
+        np.testing.assert_array_equal(prim, expected, err_msg=f"bvh={use_bvh} {builder}")
+
+
+def test_bad_rays_are_refused(device):
+    from clrender.errors import UsageError
+
+    tracer = Tracer(two_planes(), device=device)
+    with pytest.raises(UsageError, match="nonzero"):
+        tracer.intersect([[0, 0, 0]], [[0, 0, 0]])
+    with pytest.raises(UsageError, match="t_min"):
+        tracer.intersect([[0, 0, 0]], [[0, 0, 1]], t_min=[0, 1])
