@@ -92,7 +92,7 @@ def make_inputs(folder: Path) -> dict[str, Path]:
              blend="normalized", background=np.zeros(3))
     files["existing"] = folder / "existing.png"
     files["existing"].write_bytes(good_png)
-    files["dir"] = folder / "adir"
+    files["dir"] = folder / "adir.png"  # a folder whose name looks like an image
     files["dir"].mkdir()
     files["file"] = folder / "afile"
     files["file"].write_text("a file, not a folder")
@@ -335,7 +335,7 @@ HOSTILE_TEXT = ["", "-", "--", "\x1b[31mred", "line\nbreak", "\u00e9t\u00e9", "x
 INTS = ["0", "1", "2", "3", "-1", "-7", "64", "65", "4096", str(2**31), str(2**32), str(10**30)]
 FLOATS = ["0", "0.5", "1", "2.5", "-1", "nan", "inf", "-inf", "1e-300", "1e300", "3.4e39"]
 FILE_NAMES = ["in.png", "in.jpg", "in.exr", "trunc.png", "trunc.jpg", "bomb.png", "p.npz", "tiny.toml", "existing.png",
-              "adir", "afile", "afile/x.png", "missing.png", "nofolder/o.png", "o.png", "o.exr", "o.txt", "o", "o.npz",
+              "adir.png", "afile", "afile/x.png", "missing.png", "nofolder/o.png", "o.png", "o.exr", "o.txt", "o", "o.npz",
               "o.csv", "e.png", "c.png"]
 
 
@@ -485,7 +485,7 @@ def fresh_folder(root: Path) -> Path:
 @given(argv=argument_lists())
 # regressions the fuzzer (and issue 14) found: a folder as output, a surrogate in a file name,
 # two outputs naming one file, an out-of-range seed
-@example(argv=["-q", "render", "tiny.toml", "--width", "8", "--height", "6", "-o", "adir", "--overwrite"])
+@example(argv=["-q", "render", "tiny.toml", "--width", "8", "--height", "6", "-o", "adir.png", "--overwrite"])
 @example(argv=["-q", "convolve", "in.png", "\udcff.png", "box_blur_3"])
 @example(argv=["-q", "splat", "gauss", "in.png", "--splats", "3", "--epochs", "1", "-o", "o.png", "--curve", "o.png"])
 @example(argv=["-q", "splat", "voronoi", "in.png", "-o", "o.png", "--seed", "-1"])
