@@ -8,6 +8,7 @@ import clrender.device
 import clrender.renderer
 from clrender.cli import build_parser, main
 from clrender.commands.render import settings_from_args
+from clrender.errors import UsageError
 from clrender.renderer import RenderSettings, render
 
 
@@ -49,11 +50,17 @@ def test_each_seed_positional_reaches_its_setting(argv, expected):
         assert type(getattr(s, key)) is type(value), key
 
 
-def test_positionals_override_the_named_options():
-    s = settings_for("refract1", "2", "full", "uniform", "6", "3.5", "no",
-                     "--camera", "4", "--aa", "none", "--sampler", "sobol", "--samples", "2", "--thickness", "9",
-                     "--shadow-edges")
-    assert (s.camera, s.aa, s.sampler, s.samples, s.thickness, s.shadow_edges) == (2, "full", "uniform", 6, 3.5, False)
+@pytest.mark.parametrize("option, positionals", [
+    (["--camera", "4"], ["2", "full", "uniform"]),
+    (["--aa", "none"], ["2", "full", "uniform"]),
+    (["--samples", "2"], ["2", "full", "uniform", "6"]),
+    (["--thickness", "9"], ["2", "edge_detect", "uniform", "6", "3.5"]),
+])
+def test_a_setting_given_both_ways_is_refused(tmp_path, capsys, option, positionals):
+    code, _, err = run_cli(capsys, "render", "refract1", *positionals, *option, "-o", str(tmp_path / "x.png"))
+    assert code == 2 and err.startswith("clrender: ") and err.count("\n") == 1, err
+    assert option[0] in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_named_options_reach_their_settings():
@@ -70,18 +77,15 @@ def test_the_settings_reach_the_renderer(tmp_path, capsys, monkeypatch):
     """main() hands the parsed settings to Renderer unchanged (Renderer replaced by a recorder)."""
     seen = {}
 
-    class Stop(Exception):
-        pass
+    def recorder(self, scene, settings=None, *args, **overrides):
+        seen["settings"], seen["overrides"] = settings, overrides
+        raise UsageError("stopped by the test")  # a clean exit 2, nothing rendered
 
-    class Recorder:
-        def __init__(self, scene, settings=None, **overrides):
-            seen["settings"], seen["overrides"] = settings, overrides
-            raise Stop
-
-    monkeypatch.setattr(clrender.renderer, "Renderer", Recorder)
-    with pytest.raises(Stop):
-        main(["-q", "render", "refract1", "2", "full", "stratified", "3", "1.5", "off", "--seed", "7",
-              "-o", str(tmp_path / "x.png")])
+    # the class itself, wherever the command imports it from
+    monkeypatch.setattr(clrender.renderer.Renderer, "__init__", recorder)
+    code, _, err = run_cli(capsys, "-q", "render", "refract1", "2", "full", "stratified", "3", "1.5", "off",
+                           "--seed", "7", "-o", str(tmp_path / "x.png"))
+    assert code == 2 and "stopped by the test" in err
     s = seen["settings"]
     assert (s.camera, s.aa, s.sampler, s.samples, s.thickness, s.shadow_edges, s.seed) == \
         (2, "full", "stratified", 3, 1.5, False, 7)
@@ -178,7 +182,9 @@ def test_render_list_prints_the_bundled_scenes(tmp_path, capsys, monkeypatch):
     assert code == 0
     shipped = {p.stem for p in (Path(__file__).resolve().parent.parent / "scenes").glob("*.toml")}
     assert {"refract1", "refract2", "bunny", "wizard_cat"} <= shipped
-    assert sorted(out.split()) == sorted(shipped)
+    # one line per scene, "name: description", then its cameras indented
+    listed = [line.split(":")[0] for line in out.splitlines() if line[:1].isalnum()]
+    assert sorted(listed) == sorted(shipped)
     assert list(tmp_path.iterdir()) == []  # nothing rendered
 
 
@@ -205,7 +211,7 @@ def test_unknown_filter_is_refused_before_rendering(tmp_path, capsys, monkeypatc
     def no_render(*args, **kwargs):
         raise AssertionError("rendered before checking the filter")
 
-    monkeypatch.setattr(clrender.renderer, "Renderer", no_render)
+    monkeypatch.setattr(clrender.renderer.Renderer, "__init__", no_render)
     code, _, err = run_cli(capsys, "render", "refract1", "--filter", "sharpen_3", "-o", str(tmp_path / "x.png"))
     assert code == 2 and err.startswith("clrender: ") and "sharpen_3" in err
     assert list(tmp_path.iterdir()) == []
