@@ -1,0 +1,306 @@
+"""Faults while writing: signals at random moments, a full disk, a read-only folder, two writers.
+
+In every case each output is the old file, the new file, or absent -- never a truncated file --
+no temp file is left beside it, and a command's several outputs are the old set or the new set.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clrender.cli import main
+from clrender.imageio import write_image
+from clrender.outputs import TEMP_MARK, OutputSet, output_set, save_npz
+
+REPO = Path(__file__).resolve().parents[1]
+RENDER = ["render", "refract1", "--width", "96", "--height", "72", "--aa", "edge_detect", "--samples", "2"]
+
+
+def clrender(*argv, cwd, **kwargs):
+    """Start `python -m clrender ARGV` in cwd; the package comes from this checkout."""
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.Popen([sys.executable, "-m", "clrender", "-q", *map(str, argv)], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if TEMP_MARK in p.name or ".tmp" in p.name)
+
+
+def files(folder: Path, names) -> dict[str, bytes | None]:
+    return {n: (folder / n).read_bytes() if (folder / n).exists() else None for n in names}
+
+
+@pytest.fixture(scope="module")
+def new_render(tmp_path_factory):
+    """The outputs of an uninterrupted run, and how long it takes."""
+    folder = tmp_path_factory.mktemp("reference")
+    start = time.perf_counter()
+    proc = clrender(*RENDER, "-o", "out.png", "--edges-out", "edges.png", cwd=folder)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    return files(folder, ["out.png", "edges.png"]), time.perf_counter() - start
+
+
+def old_set(folder: Path) -> dict[str, bytes]:
+    """A previous render's outputs: valid images that differ from the new ones."""
+    rng = np.random.default_rng(1)
+    for name in ("out.png", "edges.png"):
+        write_image(folder / name, rng.uniform(0, 1, (72, 96, 3)).astype(np.float32))
+    return files(folder, ["out.png", "edges.png"])
+
+
+def interrupt_render(folder: Path, signum: int, after: float, new: dict) -> tuple[int, str]:
+    old = old_set(folder)
+    proc = clrender(*RENDER, "-o", "out.png", "--edges-out", "edges.png", "--overwrite", cwd=folder)
+    time.sleep(after)
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=300)
+    now = files(folder, ["out.png", "edges.png"])
+    for name, content in now.items():
+        assert content in (old[name], new[name]), f"{name} is neither the old nor the new file after signal {signum} at {after:.2f}s"
+    if signum != signal.SIGKILL:  # SIGKILL cannot be held off, so only the catchable signals promise whole sets
+        assert now in (old, new), f"a mixed set after signal {signum} at {after:.2f}s"
+    assert not leftovers(folder), leftovers(folder)
+    return proc.returncode, err
+
+
+def check_exit(signum, rc, err):
+    if signum == signal.SIGKILL:
+        assert rc in (-signal.SIGKILL, 0)
+        return
+    assert "Traceback" not in err, err
+    assert rc in (0, 128 + signum), (rc, err)
+    if rc != 0:
+        assert err.count("\n") == 1 and err.startswith("clrender: "), err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_a_signal_mid_render_leaves_old_or_new_outputs(tmp_path, new_render, signum):
+    new, seconds = new_render
+    after = random.Random(int(signum)).uniform(0.3, 1.1) * seconds
+    rc, err = interrupt_render(tmp_path, signum, after, new)
+    check_exit(signum, rc, err)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_signals_at_many_moments(tmp_path, new_render, signum):
+    """Eight seeded moments per signal across the whole run, imports and the final write included."""
+    new, seconds = new_render
+    moments = random.Random(1000 + int(signum))
+    for i in range(8):
+        folder = tmp_path / f"run{i}"
+        folder.mkdir()
+        rc, err = interrupt_render(folder, signum, moments.uniform(0.0, 1.15) * seconds, new)
+        check_exit(signum, rc, err)
+
+
+@pytest.fixture(scope="module")
+def interpreter_start():
+    """Seconds the bare interpreter needs to start (site included): no program can catch a signal before that."""
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], check=True)
+    return time.perf_counter() - start
+
+
+@pytest.mark.parametrize("share", [0.1, 0.4])
+def test_ctrl_c_while_starting_is_one_line(tmp_path, interpreter_start, share):
+    """SIGINT during the imports (the first second) printed a KeyboardInterrupt traceback."""
+    proc = clrender("render", "refract1", "-o", "o.png", cwd=tmp_path)
+    time.sleep(2 * interpreter_start + share)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    if proc.returncode != 0:  # a fast machine may have finished
+        assert proc.returncode == 130 and err == "clrender: interrupted\n", (proc.returncode, err)
+    assert not leftovers(tmp_path)
+
+
+# ----------------------------------------------------------------------------- a full disk
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 256 KiB tmpfs (needs mount rights, as root in a container); skipped where mounting is refused."""
+    mount_point = tmp_path / "small"
+    mount_point.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount_point)],
+                          capture_output=True)
+    if done.returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+    yield mount_point
+    subprocess.run(["umount", "-l", str(mount_point)], check=False)
+
+
+def test_render_onto_a_full_disk_is_exit_1_with_a_reason(small_disk, capfd):
+    """A full disk exited 2 (the bad-input code) with an empty reason."""
+    old = old_set(small_disk)
+    rc = main(["-q", *RENDER[:2], "--width", "640", "--height", "480", "-o", str(small_disk / "out.exr"),
+               "--overwrite"])  # a 3.5 MiB float EXR cannot fit in 256 KiB
+    err = capfd.readouterr().err
+    assert rc == 1, err
+    assert err.startswith("clrender: ") and err.count("\n") == 1 and "out.exr" in err
+    assert "space" in err.lower() or "disk" in err.lower(), err
+    assert files(small_disk, ["out.png", "edges.png"]) == old and not (small_disk / "out.exr").exists()
+    assert not leftovers(small_disk)
+
+
+def test_params_on_a_full_disk_keep_the_good_file(tmp_path, monkeypatch, capfd):
+    """`splat gauss --save-params p.npz --overwrite` on a full disk turned a good p.npz into a 12 KiB invalid zip.
+
+    The disk fills while the archive is written: the writer's file object raises ENOSPC part-way."""
+    import builtins
+
+    import clrender.outputs as outputs
+
+    photo = tmp_path / "in.png"
+    write_image(photo, np.random.default_rng(2).uniform(0, 1, (12, 16, 3)).astype(np.float32))
+    good = {"params.npz": None, "fit.csv": None, "out.png": None}
+    assert main(["-q", "splat", "gauss", str(photo), "-o", str(tmp_path / "out.png"), "--splats", "4", "--epochs", "2",
+                 "--save-params", str(tmp_path / "params.npz"), "--log", str(tmp_path / "fit.csv")]) == 0
+    good = files(tmp_path, list(good) + ["out.curve.png"])
+
+    real_open = builtins.open
+
+    class FillsUp:
+        def __init__(self, f):
+            self.f, self.written = f, 0
+
+        def write(self, data):
+            self.written += len(data)
+            if self.written > 2000:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return self.f.write(data)
+
+        def __getattr__(self, name):
+            return getattr(self.f, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.f.close()
+
+    def full_open(path, mode="r", *args, **kwargs):
+        f = real_open(path, mode, *args, **kwargs)
+        return FillsUp(f) if str(path).startswith("/proc/self/fd/") and "w" in mode else f
+
+    monkeypatch.setattr(outputs, "open", full_open, raising=False)
+    rc = main(["-q", "splat", "gauss", str(photo), "-o", str(tmp_path / "out.png"), "--splats", "6", "--epochs", "3",
+               "--save-params", str(tmp_path / "params.npz"), "--log", str(tmp_path / "fit.csv"), "--overwrite"])
+    err = capfd.readouterr().err
+    assert rc == 1 and err.count("\n") == 1 and "No space left on device" in err, err
+    assert files(tmp_path, list(good)) == good  # the old set, every file of it
+    assert not leftovers(tmp_path)
+
+
+# ----------------------------------------------------------------------------- a folder we may not write
+def test_read_only_folder_is_one_line_and_writes_nothing(small_disk, tmp_path, capfd):
+    """A read-only filesystem (chmod does not stop root, a read-only remount does)."""
+    (small_disk / "keep.png").write_bytes(b"old")
+    subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
+    rc = main(["-q", *RENDER[:2], "--width", "8", "--height", "6", "-o", str(small_disk / "o.png")])
+    err = capfd.readouterr().err
+    assert rc in (1, 2) and err.count("\n") == 1 and err.startswith("clrender: "), err
+    assert sorted(p.name for p in small_disk.iterdir()) == ["keep.png"]
+
+
+def test_side_output_refused_at_the_last_step_undoes_the_image(tmp_path, monkeypatch, capfd):
+    """`voronoi --save-sites` into a read-only folder failed with a traceback after the image was written.
+
+    Here the sites file is refused when it is put in place (after the image was): the image is taken back."""
+    import clrender.outputs as outputs
+
+    photo = tmp_path / "in.png"
+    write_image(photo, np.random.default_rng(3).uniform(0, 1, (10, 12, 3)).astype(np.float32))
+    real_place = outputs._Staged.place
+
+    def place(self, overwrite):
+        if self.final.suffix == ".npz":
+            raise PermissionError(errno.EACCES, "Permission denied", str(self.final))
+        return real_place(self, overwrite)
+
+    monkeypatch.setattr(outputs._Staged, "place", place)
+    rc = main(["-q", "splat", "voronoi", str(photo), "-o", str(tmp_path / "cells.png"), "--splats", "5",
+               "--save-sites", str(tmp_path / "sites.npz")])
+    err = capfd.readouterr().err
+    assert rc == 1 and err.count("\n") == 1 and "Permission denied" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.png"]
+
+
+def test_output_under_a_file_is_exit_2(tmp_path, capfd):
+    (tmp_path / "afile").write_text("not a folder")
+    rc = main(["-q", *RENDER[:2], "--width", "8", "--height", "6", "-o", str(tmp_path / "afile" / "o.png")])
+    err = capfd.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "does not exist" in err, err
+
+
+# ----------------------------------------------------------------------------- two writers
+def test_two_sets_to_one_new_path_exactly_one_wins(tmp_path):
+    """No-clobber is decided when the file is put in place: both sets pass any earlier check, one links first."""
+    from clrender.errors import UsageError
+
+    first, second = OutputSet(overwrite=False), OutputSet(overwrite=False)
+    final = tmp_path / "p.npz"
+    for outputs, value in ((first, 1.0), (second, 2.0)):
+        outputs.write(final, lambda path, value=value: np.savez(open(path, "wb"), x=np.full(3, value)))
+    first.commit()
+    with pytest.raises(UsageError, match="already exists"):
+        second.commit()
+    assert np.load(final)["x"].tolist() == [1.0, 1.0, 1.0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.npz"]
+
+
+def test_two_renders_to_one_new_path_exactly_one_succeeds(tmp_path, new_render):
+    procs = [clrender(*RENDER, "-o", "out.png", "--edges-out", f"edges{i}.png", cwd=tmp_path) for i in range(2)]
+    results = [(p.wait(timeout=300), p.stderr.read()) for p in procs]
+    codes = sorted(rc for rc, _ in results)
+    assert codes == [0, 2], results
+    loser = next(err for rc, err in results if rc == 2)
+    assert "already exists" in loser and loser.count("\n") == 1
+    assert (tmp_path / "out.png").read_bytes() == new_render[0]["out.png"]
+    # the loser's set is not half there: only the winner's edges image exists
+    assert len(list(tmp_path.glob("edges*.png"))) == 1
+    assert not leftovers(tmp_path)
+
+
+def test_two_writers_with_overwrite_leave_one_whole_file(tmp_path):
+    """Threads racing os.replace on one name: the survivor is one writer's complete file."""
+    final = tmp_path / "p.npz"
+    errors = []
+
+    def writer(value):
+        try:
+            for _ in range(20):
+                save_npz(final, overwrite=True, x=np.full(5000, value))
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=writer, args=(v,)) for v in (1.0, 2.0)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    x = np.load(final)["x"]
+    assert len(x) == 5000 and len(set(x.tolist())) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.npz"]
+
+
+def test_a_failing_writer_leaves_nothing(tmp_path):
+    old = tmp_path / "a.csv"
+    old.write_text("old")
+    with pytest.raises(RuntimeError):
+        with output_set(overwrite=True):
+            save_npz(tmp_path / "b.npz", x=np.zeros(2))
+            raise RuntimeError("the fit failed after one output was written")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv"] and old.read_text() == "old"
