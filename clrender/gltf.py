@@ -18,9 +18,11 @@ nothing in the file is dropped without being listed here:
 - lights (KHR_lights_punctual): point and directional; a spot light is
   rendered as a point light (its cone is ignored), `range` is ignored.
   glTF intensities are photometric (candela, lux) for a Lambertian BRDF
-  base_colour / pi; clrender's Lambert term has no 1/pi, so intensities are
-  divided by pi and point lights fall off with the inverse square: a
-  surface shows (base_colour / pi) * E, as the glTF specification defines.
+  base_colour / pi.  Point lights fall off with the inverse square, which
+  selects clrender's physical model (BRDF kd / pi); directional lights use the
+  seed's model, whose Lambert term has no 1/pi, so their intensity is divided
+  by pi: either way a surface shows (base_colour / pi) * E, as the glTF
+  specification defines.
   A file without lights gets a headlight: a directional light of intensity
   1 along the first camera's view, as glTF viewers do;
 - materials: pbrMetallicRoughness.baseColorFactor becomes the diffuse
@@ -442,10 +444,12 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
     intensity = light.get("intensity", 1.0)
     if isinstance(intensity, bool) or not isinstance(intensity, (int, float)) or not intensity >= 0:
         doc.fail(f"{where}.intensity must be >= 0, got {intensity!r}")
-    out = {"color": color.tolist(), "intensity": float(intensity) / math.pi}  # clrender's Lambert has no 1/pi
-    if kind == "directional":
-        out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist())
+    out = {"color": color.tolist(), "intensity": float(intensity)}
+    if kind == "directional":  # the seed's light model: its Lambert term has no 1/pi
+        out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist(),
+                   intensity=float(intensity) / math.pi)
     else:  # a spot light is drawn as a point light: its cone is not modelled
+        # inverse-square falloff selects the physical model, whose Lambert BRDF is kd / pi already
         out.update(type="point", position=matrix[:3, 3].tolist(), falloff="inverse_square")
     return out
 

@@ -57,10 +57,19 @@ inline float schlick(float cos_i, float n1, float n2, float cos_t) {
     return r0 + (1.0f - r0) * m * m * m * m * m;
 }
 
-inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror) {
+/* Lambert + Blinn-Phong, per unit of the light's value at the surface.
+ * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
+ * The physical model (lights with inverse-square falloff): the energy-conserving
+ * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
+inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
     float n_dot_l = max_f(dot3(n, l), 0.0f);
     float3 h = unit(l + v);
-    float spec = (kd_shine.w > 0.0f) ? native_exp2(kd_shine.w * native_log2(max_f(dot3(n, h), 1e-30f))) : 1.0f;
+    float shininess = kd_shine.w;
+    float spec = (shininess > 0.0f) ? native_exp2(shininess * native_log2(max_f(dot3(n, h), 1e-30f))) : 1.0f;
+    if (physical) {
+        const float INV_PI = 0.318309886f;
+        return (kd_shine.xyz * INV_PI + ks_mirror.xyz * ((shininess + 8.0f) * 0.125f * INV_PI * spec)) * n_dot_l;
+    }
     return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
 }
 
@@ -116,7 +125,7 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                     T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
                                       sc->materials, sr, 0.0f, t_max, false, visits);
                     *rays += 1;
-                    total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks);
+                    total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks, inverse_square);
                 }
                 visible += T;
             }

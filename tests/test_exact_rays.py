@@ -358,3 +358,73 @@ def test_bad_rays_are_refused(device):
         tracer.intersect([[0, 0, 0]], [[0, 0, 0]])
     with pytest.raises(UsageError, match="t_min"):
         tracer.intersect([[0, 0, 0]], [[0, 0, 1]], t_min=[0, 1])
+
+
+# ------------------------------------------------------------------ 6. physical light units
+FLOOR_CAM = dict(position=[0, 3, 2.5], look_at=[0, 0, 0], up=[0, 1, 0], fov=50)
+
+
+def lit_floor(light, material, size=20):
+    return Scene.from_dict({
+        "width": size, "height": size, "cameras": [FLOOR_CAM], "materials": {"m": material}, "lights": [light],
+        "objects": [{"type": "quad", "corner": [-6, 0, 6], "edge_a": [12, 0, 0], "edge_b": [0, 0, -12], "material": "m"}],
+    })
+
+
+def floor_hits(scene, size):
+    o, d = scene.cameras[0].rays(size, size)
+    t = -o[..., 1] / d[..., 1]
+    return o + t[..., None] * d, o
+
+
+def polygon_irradiance(points, corners, radiance):
+    """Lambert's formula: irradiance on the plane y = 0 (normal +y) from a uniform polygon of this radiance."""
+    total = np.zeros(points.shape[:-1])
+    for k in range(len(corners)):
+        u = corners[k] - points
+        w = corners[(k + 1) % len(corners)] - points
+        u /= np.linalg.norm(u, axis=-1, keepdims=True)
+        w /= np.linalg.norm(w, axis=-1, keepdims=True)
+        cr = np.cross(u, w)
+        total += np.arccos(np.clip((u * w).sum(-1), -1, 1)) * cr[..., 1] / np.linalg.norm(cr, axis=-1)
+    return radiance * np.abs(total) / 2
+
+
+def test_physical_diffuse_radiance_is_kd_over_pi_times_lamberts_irradiance(device):
+    light = dict(type="area", corner=[-0.5, 1.5, -0.5], edge_a=[1, 0, 0], edge_b=[0, 0, 1], intensity=3.0,
+                 falloff="inverse_square")
+    kd = 0.6
+    scene = lit_floor(light, {"diffuse": [kd] * 3, "specular": [0, 0, 0]})
+    image = Renderer(scene, light_samples=32, seed=4).run().image[..., 0]
+    p, _ = floor_hits(scene, 20)
+    c, a, b = (np.array(light[k], float) for k in ("corner", "edge_a", "edge_b"))
+    expected = kd / np.pi * polygon_irradiance(p, [c, c + a, c + a + b, c + b], light["intensity"])
+    assert expected.min() > 0.002 and expected.max() > 0.05
+    np.testing.assert_allclose(image, expected, rtol=0.01)
+
+
+def test_physical_point_light_uses_normalised_blinn_phong(device):
+    light = dict(type="point", position=[0.4, 1.2, 0.3], intensity=4.0, falloff="inverse_square")
+    kd, ks, s = 0.5, 0.4, 20.0
+    scene = lit_floor(light, {"diffuse": [kd] * 3, "specular": [ks] * 3, "shininess": s})
+    image = Renderer(scene).run().image[..., 0]
+    p, eye = floor_hits(scene, 20)
+    to_light, to_eye = light["position"] - p, eye - p
+    r = np.linalg.norm(to_light, axis=-1)
+    l, v = to_light / r[..., None], to_eye / np.linalg.norm(to_eye, axis=-1, keepdims=True)
+    h = (l + v) / np.linalg.norm(l + v, axis=-1, keepdims=True)
+    brdf = kd / np.pi + ks * (s + 8) / (8 * np.pi) * h[..., 1] ** s  # the floor's normal is +y
+    expected = brdf * light["intensity"] * l[..., 1] / r**2
+    assert (ks * (s + 8) / (8 * np.pi) * h[..., 1] ** s > kd / np.pi).any()  # the highlight is in view
+    np.testing.assert_allclose(image, expected, rtol=2e-3)
+
+
+def test_the_seeds_model_stays_the_default(device):
+    light = dict(type="point", position=[0.4, 1.2, 0.3], intensity=4.0)
+    kd = 0.5
+    scene = lit_floor(light, {"diffuse": [kd] * 3, "specular": [0, 0, 0]})
+    image = Renderer(scene).run().image[..., 0]
+    p, _ = floor_hits(scene, 20)
+    to_light = light["position"] - p
+    np.testing.assert_allclose(image, kd * light["intensity"] * to_light[..., 1] / np.linalg.norm(to_light, axis=-1),
+                               rtol=1e-4)  # kd I cos(theta): no 1/pi, no falloff

@@ -181,7 +181,7 @@ def test_punctual_lights_are_placed_by_their_nodes(tmp_path):
     assert point.type == "point" and point.falloff == "inverse_square"
     np.testing.assert_allclose(point.position, [3, 4, 5])
     np.testing.assert_allclose(point.color, [1, 0.5, 0.25])
-    assert point.intensity == pytest.approx(20 / math.pi)
+    assert point.intensity == pytest.approx(20)  # candela: the physical model's BRDF has the 1/pi
     assert sun.type == "directional" and sun.intensity == pytest.approx(3 / math.pi)
     np.testing.assert_allclose(np.asarray(sun.direction) / np.linalg.norm(sun.direction), [0, -1, 0], atol=1e-12)  # -z turned down
     assert spot.type == "point" and spot.position == (0, 7, 0)  # drawn as a point light at the spot's place

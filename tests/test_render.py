@@ -74,7 +74,7 @@ def test_inverse_square_point_light(device):
     to_light = np.array([1.0, 5, 1]) - p
     r2 = (to_light**2).sum(-1)
     cos = to_light[..., 1] / np.sqrt(r2)
-    expected = 0.1 * 0.5 + 0.8 * cos / r2 * 0.5
+    expected = 0.1 * 0.5 + 0.8 * cos / r2 * 0.5 / np.pi  # ambient kd + I cos / r^2 * kd / pi (the physical model)
     y, x = 30, 5  # a floor pixel far from the sphere's shadow
     assert image[y, x, 0] == pytest.approx(expected[y, x], rel=1e-4)
 

@@ -20,7 +20,8 @@ and shades by the README's rules:
 * max_depth bounces after the primary hit; a miss shows the background;
 * area lights: n x n samples corner + (p+xi)/n a + (q+xi')/n b, each adding
   I/n^2 times the point-light term (falloff "none"); with
-  falloff "inverse_square" a point light gives c*I*cos/r^2 and an area light's
+  falloff "inverse_square" (the physical model: BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s,
+  times n.l) a point light gives c*I*cos/r^2 and an area light's
   I is radiance (each sample weighted by A*|cos_light|/r^2);
 * smooth meshes interpolate angle-weighted vertex normals with the hit's
   barycentrics; a shading normal that faces away from the viewer falls back to
@@ -315,7 +316,11 @@ class _Render:
                 h = _unit(l + v)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     spec = np.maximum(_dot(n, h), 0.0) ** shininess
-                term = kd * np.maximum(n_dot_l, 0)[:, None] + ks * np.where(facing, spec, 0.0)[:, None]
+                if physical:  # energy-conserving BRDF: kd / pi + ks (s + 8) / (8 pi) (n.h)^s, times n.l
+                    brdf = kd / np.pi + ks * ((shininess + 8) / (8 * np.pi) * np.where(facing, spec, 0.0))[:, None]
+                    term = brdf * np.maximum(n_dot_l, 0)[:, None]
+                else:  # the seed's model: kd n.l + ks (n.h)^s, no 1/pi
+                    term = kd * np.maximum(n_dot_l, 0)[:, None] + ks * np.where(facing, spec, 0.0)[:, None]
                 total += (T * falloff * intensity / side**2)[:, None] * colour * term
                 self.note(pix, np.where(facing, 1 + np.round(T * 1000).astype(np.int64), 0))
         return total
