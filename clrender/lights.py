@@ -8,7 +8,9 @@ surface facing the light head-on would get.  With `falloff =
 "inverse_square"` the light is physical: a point light's I is radiant
 intensity (the value is irradiance c*I*cos/r^2), and an area light's I is
 radiance, so the sum estimates the irradiance E = I * integral of
-cos(theta) cos(theta_light) / r^2 over the light (two-sided emitter).
+cos(theta) cos(theta_light) / r^2 over the light (two-sided emitter); the
+surface then reflects E with the energy-conserving BRDF kd/pi + ks (s+8)/(8 pi)
+(n.h)^s (kernels/shade.h, blinn_phong).
 """
 from __future__ import annotations
 
