@@ -195,7 +195,7 @@ def as_float(value) -> float:
     try:
         return float(value)
     except OverflowError:
-        return math.copysign(math.inf, value)
+        return math.inf if value > 0 else -math.inf
 
 
 # ---------------------------------------------------------------------- reading
@@ -206,7 +206,8 @@ class _SceneReader:
         self.allow_outside = allow_outside
 
     def fail(self, key: str, message: str):
-        raise UsageError(shorten(escape(f"{self.where}: {key}: {message}"), MAX_MESSAGE))
+        # the key is cut on its own so that what is allowed still fits on the line
+        raise UsageError(shorten(f"{self.where}: {shorten(escape(key), 100)}: {escape(message)}", MAX_MESSAGE))
 
     # the document's shape, before any value is read ------------------------
     def check_shape(self, data):

@@ -190,3 +190,190 @@ def test_a_symlink_out_of_the_base_dir_is_outside(tmp_path):
     inner.mkdir()
     (inner / "link.obj").symlink_to(tmp_path / "tri.obj")
     usage_error({"objects": [{"type": "mesh", "file": "link.obj"}]}, inner, allow_outside=False)
+
+
+# ------------------------------------------------------------------ the fuzzer
+from hypothesis import HealthCheck, example, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+# Generators stay small so every case renders in milliseconds (their size bounds are tested above).
+SMALL_PARAMS = {"bunny": {"resolution": 16}, "cat": {"resolution": 16}, "dense": {"n_triangles": 200, "seed": 1},
+                "wizard_hat": {"segments": 6}, "tower": {"segments": 5}}
+TRI_OBJ = "v 0 0 -3\nv 1 0 -3\nv 0 1 -3\nf 1 2 3\n"
+
+
+def small_base_scenes() -> dict:
+    """The bundled scenes as dicts, their generated meshes made small."""
+    bases = {}
+    for name, path in bundled_scenes().items():
+        data = tomllib.loads(path.read_text())
+        for obj in data.get("objects", []):
+            if "generator" in obj:
+                obj["params"] = dict(SMALL_PARAMS[obj["generator"]])
+        bases[name] = data
+    return bases
+
+
+BASES = small_base_scenes()
+NASTY_FLOATS = [math.nan, math.inf, -math.inf, 3.5e38, -3.5e38, 1e39, 1e300, -1e300, 1e-300, -1e-300, 1e-45, 1e-40,
+                0.0, -0.0, 1e-7, 1e-6, 1e-5, 1e6, -1e6, 1.0000001e6, 1e7, 179.0, 180.0, 0.5, 1.0, -1.0, 2.0]
+NASTY_INTS = [-(2**63), -1, 0, 1, 2, 3, 5, 7, 8, 15, 16, 17, 64, 65, 192, 193, 4096, 4097, 16384, 16385,
+              2**31 - 1, 2**31, 2**32 - 1, 2**32, 2**63, 10**400]
+NASTY_TEXT = ["", "glass", "default", "mirror", "point", "area", "directional", "sphere", "mesh", "quad", "plane",
+              "triangle", "bunny", "dense", "inverse_square", "none", "tri.obj", "missing.obj", "broken.obj",
+              "../tri.obj", "evil\nkey", "\x1b[2J\x1b[31m", "\u2028", "\u202e", "\x00", "x" * 5000, "ключ", "🦊"]
+
+floats = st.sampled_from(NASTY_FLOATS) | st.floats(allow_nan=True, allow_infinity=True) | st.floats(-10, 10)
+ints = st.sampled_from(NASTY_INTS) | st.integers(-5, 40)
+numbers = floats | ints
+texts = st.sampled_from(NASTY_TEXT) | st.text(max_size=12)
+scalars = numbers | texts | st.booleans() | st.none()
+vectors = st.lists(numbers, min_size=3, max_size=3) | st.lists(numbers, max_size=5)
+values = st.recursive(scalars | vectors, lambda inner: st.lists(inner, max_size=4)
+                      | st.dictionaries(texts, inner, max_size=3), max_leaves=8)
+
+
+def nested(depth: int, leaf=0.5):
+    value = [leaf, leaf, leaf]
+    for _ in range(depth):
+        value = [value]
+    return value
+
+
+# values at the edges of what the scene reader allows
+extremes = st.sampled_from([0, 0.0, 1e-6, -1e-6, 1e-5, 1e-3, 0.01, 1, -1, 2, 5, 64, 100, 179, 1e6, -1e6, 999_999.9])
+deep_values = st.integers(2, 600).map(nested)
+new_objects = st.sampled_from([
+    {"type": "sphere", "center": [0, 0, -3], "radius": 1},
+    {"type": "sphere", "center": [0, 0, 0], "radius": 1e-6},  # around the eye
+    {"type": "triangle", "vertices": [[0, 0, -2], [1, 1, -2], [2, 2, -2]]},  # collinear
+    {"type": "triangle", "vertices": [[0, 0, -2], [0, 0, -2], [0, 0, -2]]},  # a point
+    {"type": "quad", "corner": [-1, -1, -2], "edge_a": [2, 0, 0], "edge_b": [4, 0, 0]},  # no area
+    {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "size": 1e-6},  # through the eye
+    {"type": "mesh", "file": "tri.obj"},
+    {"type": "mesh", "file": "tri.obj", "scale": 1e-6, "translate": [0, 0, -1]},
+    {"type": "mesh", "file": "broken.obj"},
+    {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 3}, "scale": [1, 1e-6, 1], "translate": [0, 0, -2]},
+    {"type": "mesh", "generator": "dense", "params": {"n_triangles": 8}, "scale": -1, "translate": [0, 0, -3], "smooth": True},
+])
+new_lights = st.sampled_from([
+    {"type": "point", "position": [0, 0, 0]},  # at the eye
+    {"type": "point", "position": [0, 0, -2], "falloff": "inverse_square", "intensity": 1e6},  # on a surface
+    {"type": "directional", "direction": [0, 0, -1e-6]},
+    {"type": "area", "corner": [-1, -1, -2], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0], "falloff": "inverse_square",
+     "intensity": 1e6, "color": [1e6, 1e6, 1e6]},  # a light on the geometry
+    {"type": "area", "corner": [0, 0, 0], "edge_a": [1e-6, 0, 0], "edge_b": [0, 1e-6, 0], "samples": 64},
+])
+new_cameras = st.sampled_from([
+    {"position": [0, 0, 0], "look_at": [0, 0, 0]},
+    {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [0, 1, 0]},  # up along the view
+    {"position": [0, 0, 0], "look_at": [0, 0, -1e-6], "fov": 1e-3},
+    {"position": [1e6, 1e6, 1e6], "look_at": [0, 0, -3], "fov": 179},
+    {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 0, 0]},
+])
+
+
+def locations(node, path=()):
+    """Every (container, key) in a scene dict, depth first."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, child in items:
+        yield node, key
+        yield from locations(child, (*path, key))
+
+
+@st.composite
+def mutated_scenes(draw):
+    data = copy.deepcopy(BASES[draw(st.sampled_from(sorted(BASES)))])
+    for _ in range(draw(st.integers(1, 4))):
+        op = draw(st.sampled_from(["replace", "component", "scale", "delete", "add_key", "deep",
+                                   "extreme", "extreme", "extreme", "object", "light", "camera"]))
+        spots = list(locations(data))
+        if op in ("object", "light", "camera"):
+            key, strategy = {"object": ("objects", new_objects), "light": ("lights", new_lights),
+                             "camera": ("cameras", new_cameras)}[op]
+            if isinstance(data.get(key, []), list):
+                item = copy.deepcopy(draw(strategy))
+                data.setdefault(key, []).insert(0 if op == "camera" else len(data.get(key, [])), item)
+            continue
+        if op == "add_key":
+            tables = [data] + [c[k] for c, k in spots if isinstance(c[k], dict)]
+            draw(st.sampled_from(tables))[draw(texts)] = draw(values)
+            continue
+        if not spots:
+            continue
+        container, key = draw(st.sampled_from(spots))
+        old = container[key]
+        if op == "delete":
+            del container[key]
+        elif op == "replace":
+            container[key] = draw(values)
+        elif op == "deep":
+            container[key] = draw(deep_values)
+        elif op == "component" and isinstance(old, list) and old:
+            old[draw(st.integers(0, len(old) - 1))] = draw(numbers)
+        elif op == "extreme" and isinstance(old, list) and old and all(is_num(v) for v in old):
+            old[draw(st.integers(0, len(old) - 1))] = draw(extremes)  # allowed but extreme: must render finite
+        elif op == "extreme" and is_num(old):
+            container[key] = draw(extremes)
+        elif op == "scale" and is_num(old):
+            container[key] = old * draw(st.sampled_from([0, -1, 1e-30, 1e-6, 1e6, 1e30, 1e300]))
+        else:
+            container[key] = draw(numbers)
+    return data
+
+
+def is_num(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+@pytest.fixture(scope="module")
+def fuzz_dir(tmp_path_factory):
+    """A scene folder with one good and one broken mesh; bunny builds cached inside it, not in ~/.cache."""
+    folder = tmp_path_factory.mktemp("fuzz")
+    (folder / "tri.obj").write_text(TRI_OBJ)
+    (folder / "broken.obj").write_text("v 0 0 nan\nf 1 1 1\nthis is not obj\n")
+    (folder.parent / "tri.obj").write_text(TRI_OBJ)
+    old = os.environ.get("XDG_CACHE_HOME")
+    os.environ["XDG_CACHE_HOME"] = str(folder / "cache")
+    yield folder
+    if old is None:
+        del os.environ["XDG_CACHE_HOME"]
+    else:
+        os.environ["XDG_CACHE_HOME"] = old
+
+
+FUZZ_EXAMPLES = os.environ.get("CLRENDER_FUZZ_EXAMPLES")  # the long run sets it; else the hypothesis profile decides
+FUZZ = settings(deadline=None, suppress_health_check=list(HealthCheck),
+                **({"max_examples": int(FUZZ_EXAMPLES)} if FUZZ_EXAMPLES else {}))
+STATS = {"cases": 0, "refused": 0, "rendered": 0, "slowest": 0.0}
+
+
+def check_scene(data, folder):
+    """The property: a short clean UsageError, or a tiny render whose every pixel is finite."""
+    start = time.perf_counter()
+    STATS["cases"] += 1
+    try:
+        scene = Scene.from_dict(data, base_dir=folder, where="fuzz.toml", allow_outside=bool(len(str(data)) % 2))
+    except UsageError as exc:
+        STATS["refused"] += 1
+        message = str(exc)
+        assert "\n" not in message and not CONTROL.search(message), repr(message)
+        assert len(message) <= MAX_MESSAGE and message.startswith("fuzz.toml: "), message
+        return
+    image = render_tiny(scene)
+    STATS["rendered"] += 1
+    assert image.shape == (6, 8, 3) and np.isfinite(image).all(), scene
+    STATS["slowest"] = max(STATS["slowest"], time.perf_counter() - start)
+    assert time.perf_counter() - start < 60, "a tiny render took over a minute"
+
+
+@FUZZ
+@given(data=mutated_scenes())
+def test_mutated_bundled_scenes_are_refused_cleanly_or_render_finite(data, fuzz_dir):
+    check_scene(data, fuzz_dir)
+
+
+def test_fuzz_counts_report():
+    """Prints how many cases the fuzzer ran (run with -s to see it; the long run's report quotes it)."""
+    print(f"\nscene fuzz: {STATS}")
+    assert STATS["cases"] == 0 or STATS["refused"] + STATS["rendered"] == STATS["cases"]
