@@ -40,11 +40,22 @@ def test_identity_filter_keeps_format_and_values(tmp_path, rng, ext, format):
 def test_integer_files_are_blurred_in_linear_light(tmp_path, rng, format, step):
     src, dst = tmp_path / "in.png", tmp_path / "out.png"
     stored = make(src, rng, format=format)
-    assert convolve(src, dst, "gauss_blur_5", "brighten_0.8") == 0
+    assert convolve(src, dst, "gauss_blur_5", "brighten_0.8", "--space", "linear") == 0
     expected = linear_to_srgb(filters.apply(srgb_to_linear(stored), "gauss_blur_5", "brighten_0.8"))
     got = read_image(dst)
     assert got.format == format
     assert np.abs(got.pixels - expected).max() <= 0.5001 / step  # rounding to the nearest code only
+
+
+def test_default_filters_the_stored_values_as_the_seed(tmp_path, rng, capsys):
+    # the seed (and OpenCV, oiiotool, ImageMagick): brighten_1.5 multiplies each stored 8-bit code by 1.5
+    src, dst = tmp_path / "in.png", tmp_path / "out.png"
+    stored = make(src, rng, scale=0.6)
+    assert convolve(src, dst, "brighten_1.5") == 0
+    assert np.abs(read_image(dst).pixels - stored * 1.5).max() <= 0.5001 / 255
+    out = capsys.readouterr()
+    assert out.out == f"{dst}\n"  # stdout: only the written path
+    assert "clrender:" not in out.err  # the prefix is for errors only
 
 
 def test_space_stored_filters_the_stored_values(tmp_path, rng):
@@ -158,7 +169,7 @@ def test_console_script_runs_the_seed_example(tmp_path, rng):
     done = subprocess.run([sys.executable, "-m", "clrender", "convolve", str(src), str(dst), "box_blur_33"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    assert done.stdout == ""
+    assert done.stdout == f"{dst}\n"  # the written path, as every command prints it
     assert probe_image(dst).width == 64
 
 

@@ -15,7 +15,8 @@ def add_cluster_arguments(p):
                    help="run on the Dask scheduler at ADDRESS, e.g. tcp://10.0.0.5:8786 "
                         "(default: $DASK_SCHEDULER_ADDRESS; unset: this process)")
     g.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="start a Dask LocalCluster of N single-thread worker processes on this machine")
+                   help="start a Dask LocalCluster of N single-thread worker processes on this machine "
+                        "(default: no local cluster)")
     g.add_argument("--pocl-threads", type=int, default=None, metavar="T",
                    help="PoCL threads per --workers process (default: CPU cores / N)")
 

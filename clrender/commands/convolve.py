@@ -19,10 +19,14 @@ Borders are reflect-101 (... c b | a b c ... | ... b a), repeated for kernels
 wider than the image.  Gaussians of width >= {filters.FFT_FROM_SIZE} run through the FFT, so
 sizes up to {filters.MAX_SIZE} stay fast; box blurs cost the same at any size.
 
-Colour space (--space linear, the default): integer files (8/16-bit PNG,
-JPEG, TIFF) are taken as sRGB-encoded and decoded to linear light before
-filtering, then encoded again; float files (EXR, HDR, float TIFF) are
-linear already.  --space stored filters the stored numbers as they are.
+Colour space (--space stored, the default): the stored numbers are filtered
+as they are, as the seed, OpenCV, oiiotool and ImageMagick do, so
+brighten_1.5 multiplies every stored value by 1.5.  --space linear first
+decodes integer files (8/16-bit PNG, JPEG, TIFF) from sRGB to linear light
+and encodes the result again; float files (EXR, HDR, float TIFF) are linear
+already.  Pick linear for physically meaningful results on photographs:
+blurs then mix light as a lens does (no dark fringes between bright and
+dark areas) and brighten_2 doubles the light, not the code values.
 Bit depth: the input's channel type is kept where the output format has
 it (8-bit stays 8-bit, 16-bit stays 16-bit, EXR stays float); values are
 clamped to [0, 1] only when an integer format is written.
@@ -33,7 +37,7 @@ Alpha is dropped (with a note) for formats without it (JPEG, HDR).
 examples:
   clrender convolve treebranch.jpg treebranch_blur.jpg box_blur_33
   clrender convolve render.exr soft.exr gauss_blur_5 brighten_1.5
-  clrender convolve photo16.tif edges.tif edge_detect_2 --space stored
+  clrender convolve photo.jpg soft.jpg gauss_blur_15 --space linear   # blur as a lens would
 """
 
 # working copies held at once while filtering: input, colour-space copy, blur input and output, FFT transposes
@@ -51,8 +55,9 @@ def add_parser(sub):
     p.add_argument("input", nargs="?", default=argparse.SUPPRESS, metavar="IN", help="image to read (PNG, JPEG, TIFF, EXR, HDR, ...)")
     p.add_argument("output", nargs="?", default=argparse.SUPPRESS, metavar="OUT", help="image to write; its extension picks the format")
     p.add_argument("filters", nargs="*", default=argparse.SUPPRESS, metavar="FILTER", help="filter names, applied left to right")
-    p.add_argument("--space", choices=("linear", "stored"), default="linear",
-                   help="filter linear light (integer files are sRGB-decoded first) or the stored values")
+    p.add_argument("--space", choices=("stored", "linear"), default="stored",
+                   help="filter the stored values (as the seed and OpenCV) or linear light "
+                        "(integer files are sRGB-decoded first; see below)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists (or is IN)")
     p.add_argument("--list", action="store_true", help="print the filter names with a line each, and exit")
     p.set_defaults(run=run)
@@ -81,23 +86,30 @@ def run(args) -> int:
     alpha = image.alpha_channel
     colour = [c for c in range(pixels.shape[2]) if c != alpha]
     out_format = imageio.output_format(out_path, image.format)
-    linear = args.space == "linear"
-    if linear and image.format not in imageio.FLOAT_FORMATS:
+    # integer files hold sRGB codes, float files linear light; --space picks where the filters run,
+    # and a change of kind between IN and OUT (EXR to PNG, say) is converted either way
+    in_linear = image.format in imageio.FLOAT_FORMATS
+    out_linear = out_format in imageio.FLOAT_FORMATS
+    filter_linear = in_linear if args.space == "stored" else True
+    if filter_linear and not in_linear:
         pixels = pixels.copy()
         pixels[:, :, colour] = imageio.srgb_to_linear(pixels[:, :, colour])
 
     for f in progress.progress(chain, total=len(chain), desc="convolve"):
         pixels = filters.apply(pixels, f, alpha_channel=alpha)
 
-    if linear and out_format not in imageio.FLOAT_FORMATS:
+    if filter_linear and not out_linear:
         pixels[:, :, colour] = imageio.linear_to_srgb(pixels[:, :, colour])
+    elif not filter_linear and out_linear:
+        pixels[:, :, colour] = imageio.srgb_to_linear(pixels[:, :, colour])
     if alpha is not None and not imageio.writer_supports_alpha(out_path):
-        note(args, f"{out_path.suffix} has no alpha channel: alpha dropped")
+        note(args, f"warning: {out_path.suffix} has no alpha channel: alpha dropped")
         pixels = np.ascontiguousarray(pixels[:, :, colour])
         names = tuple(n for i, n in enumerate(names) if i != alpha)
     imageio.write_image(out_path, pixels, format=out_format, channel_names=names, overwrite=args.overwrite)
-    note(args, f"wrote {out_path} ({pixels.shape[1]}x{pixels.shape[0]}, {out_format}) "
-               f"in {time.perf_counter() - start:.2f} s")
+    print(out_path)  # stdout: the written path, for scripts
+    note(args, f"{pixels.shape[1]}x{pixels.shape[0]}, {out_format}, {len(chain)} filters in "
+               f"{time.perf_counter() - start:.2f} s")
     return 0
 
 
@@ -129,5 +141,6 @@ def _available_bytes() -> int | None:
 
 
 def note(args, message: str) -> None:
+    """Timings and warnings on stderr; 'clrender:' is kept for errors."""
     if not getattr(args, "quiet", False):
-        sys.stderr.write(f"clrender: {message}\n")
+        sys.stderr.write(f"{message}\n")

@@ -2,11 +2,18 @@
 from __future__ import annotations
 
 from ..device import get_device, list_devices
+from . import add_device_argument
+
+EXAMPLES = """examples:
+  clrender devices                     # '* ' marks the device every command uses by default
+  clrender devices --device oclgrind   # which device --device oclgrind would pick
+"""
 
 
 def add_parser(sub):
-    p = sub.add_parser("devices", help="list OpenCL devices (the one --device would pick is marked *)")
-    p.add_argument("--device", default=None, help="substring of '<platform>: <device>' (default: $CLRENDER_DEVICE, else PoCL CPU)")
+    p = sub.add_parser("devices", help="list OpenCL devices (the one --device would pick is marked *)", epilog=EXAMPLES,
+                       description="List the OpenCL devices as '<platform>: <device>'; * marks the one in use.")
+    add_device_argument(p)
     p.set_defaults(run=run)
 
 

@@ -26,43 +26,70 @@ def _bool(text: str) -> bool:
     raise UsageError(f"DETECT_SHADOWS {text!r} must be true or false")
 
 
+def print_scene_list(scenes: dict) -> None:
+    """Each bundled scene's description and cameras, the seed's camera marked '*' (read from the
+    TOML alone: no mesh is built)."""
+    import tomllib
+
+    for name, path in scenes.items():
+        data = tomllib.loads(path.read_text())
+        print(f"{name}: {data.get('description', '')}".rstrip(": "))
+        seed_camera = data.get("seed_camera", 1)
+        for number, camera in enumerate(data.get("cameras", [{}]), start=1):
+            mark = "*" if number == seed_camera else " "
+            print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
+    print("(* the camera the seed rendered the scene from)")
+
+
 def add_parser(sub):
     d = RenderSettings()
     p = sub.add_parser("render", help="ray trace a scene to an image", epilog=EXAMPLES,
                        description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.")
     p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list) or path to a .toml scene file")
     p.add_argument("seed_args", nargs="*", metavar="ARG",
-                   help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
-    p.add_argument("-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float); default SCENE.png")
+                   help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], "
+                        "instead of the options of the same meaning")
+    # Options the seed's positionals can also set default to None, so giving both is caught; their
+    # help states the real default in words.
+    p.add_argument("-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float) "
+                                                        "(default: SCENE.png in the current folder)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    p.add_argument("--camera", type=int, default=d.camera, help="camera number, 1 = canonical")
-    p.add_argument("--width", type=int, default=None, help="image width (default: the scene's)")
-    p.add_argument("--height", type=int, default=None, help="image height (default: the scene's)")
-    p.add_argument("--aa", choices=AA_MODES, default=d.aa, help="anti-aliasing mode")
-    p.add_argument("--sampler", choices=tuple(SAMPLERS), default=d.sampler, help="where AA samples fall in a pixel")
-    p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default 1; 4 when --aa is not none)")
+    p.add_argument("--camera", type=int, default=None,
+                   help=f"camera number, 1 = canonical; --list marks the seed's camera of each scene (default: {d.camera})")
+    p.add_argument("--width", type=positive_int, default=None,
+                   help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)")
+    p.add_argument("--height", type=positive_int, default=None,
+                   help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)")
+    p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: {d.aa})")
+    p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None,
+                   help=f"where AA samples fall in a pixel (default: {d.sampler})")
+    p.add_argument("--samples", type=int, default=None,
+                   help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument("--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter,
                    help="weighting of a pixel's samples (box: plain average)")
-    p.add_argument("--thickness", type=float, default=d.thickness, help="edge_detect: disc radius around edge pixels")
-    p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=d.shadow_edges,
-                   help="count changes in light visibility as edges")
+    p.add_argument("--thickness", type=float, default=None,
+                   help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
+    p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=None,
+                   help=f"count changes in light visibility as edges (default: {'on' if d.shadow_edges else 'off'})")
     p.add_argument("--contrast", type=float, default=d.contrast,
                    help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed")
-    p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green")
+    p.add_argument("--edges-out", default=None, metavar="PATH",
+                   help="also write the render with edge pixels in green (default: not written)")
     p.add_argument("--aov", default=None, metavar="LIST",
                    help="also write AOVs, comma-separated from depth,normal,albedo,id,edges, as named EXR channels "
-                        "(in OUT itself when it is .exr, else in --aov-out)")
+                        "(in OUT itself when it is .exr, else in --aov-out) (default: none)")
     p.add_argument("--aov-out", default=None, metavar="PATH",
-                   help="EXR file for the AOVs; without it they go into OUT when OUT is .exr, else into OUT.aov.exr beside it")
+                   help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)")
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
     p.add_argument("--seed", type=int, default=d.seed, help="random seed (same seed, same image)")
-    p.add_argument("--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result (repeatable)")
+    p.add_argument("--filter", action="append", default=[], metavar="NAME",
+                   help="convolution filter applied to the result, repeatable (default: none)")
     p.add_argument("--device", default=None, help="OpenCL device substring (default: $CLRENDER_DEVICE, else PoCL CPU)")
-    p.add_argument("--list", action="store_true", help="list the bundled scenes and exit")
+    p.add_argument("--list", action="store_true", help="list the bundled scenes with their cameras and exit")
     # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
     from .cluster import add_cluster_arguments
     from .turntable import add_turntable_arguments
@@ -72,10 +99,34 @@ def add_parser(sub):
     p.set_defaults(run=run)
 
 
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (0 would silently mean 'the scene's' otherwise)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; allowed: 1 or more") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not allowed; allowed: 1 or more")
+    return value
+
+
+# the seed's positional arguments, in order, and the setting each one gives
+SEED_NAMES = {"camera": "CAMERA", "aa": "AA_TYPE", "sampler": "SAMPLE_TYPE", "samples": "AA_SAMPLES",
+              "thickness": "THICKNESS", "shadow_edges": "DETECT_SHADOWS"}
+
+
+def warn(message: str) -> None:
+    """A pointless or doubtful request that still renders: one line on stderr (never 'clrender:', which means an error)."""
+    sys.stderr.write(f"warning: {message}\n")
+
+
 def settings_from_args(args) -> RenderSettings:
-    """Named options, overridden by the seed-style positional arguments when given."""
-    values = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples,
-                  thickness=args.thickness, shadow_edges=args.shadow_edges)
+    """Named options or the seed-style positional arguments (never both for one setting), then the defaults;
+    warnings for options that have no effect with the chosen --aa."""
+    d = RenderSettings()
+    named = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples,
+                 thickness=args.thickness, shadow_edges=args.shadow_edges)
+    values = {}
     extra = list(args.seed_args)
     if len(extra) > 6:
         raise UsageError(f"too many arguments {extra!r}; the seed's order is CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
@@ -85,12 +136,25 @@ def settings_from_args(args) -> RenderSettings:
                   ("sampler", str, "|".join(SAMPLERS)), ("samples", int, "an integer > 0"),
                   ("thickness", float, "a real number >= 0"), ("shadow_edges", _bool, "true|false")]
     for text, (key, convert, allowed) in zip(extra, converters):
+        if named[key] is not None:
+            raise UsageError(f"--{key.replace('_', '-')} {named[key]} and the seed-style positional {SEED_NAMES[key]} "
+                             f"{text!r} set the same thing; give one of them")
         try:
             values[key] = convert(text)
         except ValueError:
             raise UsageError(f"{key.upper()} {text!r} is not valid; allowed: {allowed}") from None
+    explicit = {k for k, v in named.items() if v is not None} | set(values)
+    for key, value in named.items():
+        values.setdefault(key, getattr(d, key) if value is None else value)
     if values["samples"] is None:
         values["samples"] = 1 if values["aa"] == "none" else 4
+    args.warnings = []  # printed once the settings are known to be valid (run)
+    if values["aa"] == "none" and "samples" in explicit and values["samples"] != 1:
+        args.warnings.append(f"{values['samples']} x {values['samples']} samples have no effect with --aa none "
+             "(one ray through each pixel centre); use --aa full or edge_detect")
+    edges_aov = args.aov is not None and "edges" in args.aov
+    if values["aa"] != "edge_detect" and "thickness" in explicit and not edges_aov:
+        args.warnings.append(f"--thickness has no effect with --aa {values['aa']} (it widens the edge mask of --aa edge_detect)")
     if args.aov is not None:
         from ..aov import parse_aov_list
 
@@ -106,8 +170,7 @@ def run(args):
     from ..scene import Scene, bundled_scenes
 
     if args.list:
-        for name in bundled_scenes():
-            print(name)
+        print_scene_list(bundled_scenes())
         return 0
     if args.scene is None:
         raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list) or a .toml file")
@@ -131,6 +194,11 @@ def run(args):
     start = time.perf_counter()
     scene = Scene.load(args.scene)
     load_seconds = time.perf_counter() - start
+    settings.validate(scene)  # bad values are refused before pointless ones are warned about
+    for message in args.warnings:
+        warn(message)
+    if not scene.lights:
+        warn(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
     from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
 
     with renderer_for(args, scene, settings) as renderer:

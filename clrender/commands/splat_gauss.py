@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from . import add_device_argument
 
 GAUSS_EXAMPLE = """example:
   clrender splat gauss photo.jpg -o splats.png --splats 5000 --time-budget 120 \\
@@ -34,51 +35,58 @@ def add_parsers(group):
     def fit_options(p):
         p.add_argument("--splats", type=int, default=d.splats, metavar="N", help="number of splats to start with")
         p.add_argument("--epochs", type=int, default=None, metavar="E",
-                       help="passes over the image; None: 1000, or unlimited with --time-budget")
+                       help="passes over the image (default: 1000, or unlimited with --time-budget)")
         p.add_argument("--init", choices=INITS, default=d.init, help="initial centres")
         p.add_argument("--learn", choices=LEARN, default=d.learn,
                        help="seed: log-scales and luminance (the seed's); all: every parameter")
         p.add_argument("--blend", choices=BLENDS, default=d.blend,
                        help="sum: background + sum of w c; normalized: sum of w c / sum of w")
-        p.add_argument("--optimizer", choices=OPTIMIZERS, default=d.optimizer)
-        p.add_argument("--loss", choices=LOSSES, default=d.loss)
+        p.add_argument("--optimizer", choices=OPTIMIZERS, default=d.optimizer,
+                       help="host-side update rule; sgd with --learn seed --blend sum is the seed's setting")
+        p.add_argument("--loss", choices=LOSSES, default=d.loss,
+                       help="l2: mean squared error (the seed's); l1: mean absolute error; l1-ssim: l1 + 0.2 (1 - SSIM)")
         p.add_argument("--seed", type=int, default=d.seed, help="seed of every random choice")
         p.add_argument("--max-splats", type=int, default=None, metavar="M",
-                       help="densification keeps N <= M; None: the same as --splats")
+                       help="densification keeps N <= M (default: the same as --splats)")
         p.add_argument("--batch", type=int, default=d.batch, metavar="B",
                        help="pixels per step, rounded to whole 16x16 tiles; 0 = the full image")
+        add_device_argument(p)
 
     p = group.add_parser("gauss", help="fit Gaussian splats to an image", epilog=GAUSS_EXAMPLE,
                          description="Fit 2D Gaussian splats to IN with OpenCL forward/backward kernels "
                                      "and a host-side optimiser; write the rendered fit to OUT.")
     p.add_argument("input", metavar="IN", help="image to fit (anything OpenImageIO reads)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT", help="rendered fit (.png, .exr, ...)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="rendered fit (.png, .exr, ...); required")
     fit_options(p)
     p.add_argument("--lr", type=float, default=d.lr, help="multiplier of every group's default learning rate")
-    p.add_argument("--time-budget", type=float, default=None, metavar="SECONDS", help="stop fitting after this long; None: no limit")
-    p.add_argument("--save-params", metavar="P.npz", help="save the fitted splats (re-render with 'splat render')")
-    p.add_argument("--log", metavar="CSV", help="write step, epoch, seconds, splats, loss, psnr rows")
-    p.add_argument("--curve", metavar="PNG", help="loss/PSNR curve picture; None: OUT's name + .curve.png")
+    p.add_argument("--time-budget", type=float, default=None, metavar="SECONDS",
+                   help="stop fitting after this long (default: no limit)")
+    p.add_argument("--save-params", metavar="P.npz",
+                   help="save the fitted splats, to re-render with 'splat render' (default: not saved)")
+    p.add_argument("--log", metavar="CSV", help="write step, epoch, seconds, splats, loss, psnr rows (default: no log)")
+    p.add_argument("--curve", metavar="PNG", help="loss/PSNR curve picture (default: OUT's name + .curve.png)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     p.set_defaults(run=run_gauss)
 
     p = group.add_parser("render", help="render saved Gaussian splats at another resolution", epilog=RENDER_EXAMPLE)
     p.add_argument("params", metavar="P.npz", help="parameters saved by 'splat gauss --save-params'")
-    p.add_argument("-o", "--output", required=True, metavar="OUT")
-    p.add_argument("--width", type=int, default=None, help="output width (default: the fitted image's)")
-    p.add_argument("--overwrite", action="store_true")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="image to write (.png, .exr, ...); required")
+    p.add_argument("--width", type=int, default=None,
+                   help="output width; the height keeps the aspect ratio (default: the fitted image's)")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    add_device_argument(p)
     p.set_defaults(run=run_render)
 
     p = group.add_parser("sweep", help="try a grid of learning rates and batch sizes, report the best",
                          epilog=SWEEP_EXAMPLE)
-    p.add_argument("input", metavar="IN")
+    p.add_argument("input", metavar="IN", help="image to fit (anything OpenImageIO reads)")
     fit_options(p)
     p.set_defaults(splats=2000)
     p.add_argument("--lrs", type=float, nargs="+", default=[0.3, 1.0, 3.0], help="--lr values to try")
     p.add_argument("--batches", type=int, nargs="+", default=[0, 65536], help="--batch values to try")
-    p.add_argument("--time-budget", type=float, default=10.0, metavar="SECONDS", help="per run")
-    p.add_argument("--csv", metavar="CSV", help="also write the results table here")
-    p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--time-budget", type=float, default=10.0, metavar="SECONDS", help="seconds per run")
+    p.add_argument("--csv", metavar="CSV", help="also write the results table here (default: stdout only)")
+    p.add_argument("--overwrite", action="store_true", help="replace the --csv file if it exists")
     p.set_defaults(run=run_sweep)
 
 
@@ -151,7 +159,7 @@ def run_gauss(args):
                               "IN": args.input})
     target = _read_target(args.input)
     config = _config(args, lr=args.lr, time_budget=args.time_budget)
-    fitter = Fitter(get_device(), target, config)  # validates the settings and the image size
+    fitter = Fitter(get_device(args.device), target, config)  # validates the settings and the image size
     result = fitter.run()
     if not np.isfinite(result.image).all():
         raise RenderFailure(f"the fit diverged (NaN or infinite pixels) with --lr {args.lr:g}; use a smaller --lr")
@@ -162,9 +170,12 @@ def run_gauss(args):
         if args.log:
             write_log(args.log, result.log)
         write_curve(curve, result.log, f"splat gauss: {result.params.n} splats, {config.blend}, {config.loss}")
+    for path in (out, args.save_params, args.log, curve):  # stdout: the written paths, for scripts
+        if path:
+            print(path)
     if not args.quiet:
         sys.stderr.write(f"{result.params.n} splats, {result.steps} steps in {result.seconds:.1f} s, "
-                         f"PSNR {result.psnr:.2f} dB -> {out}\n")
+                         f"PSNR {result.psnr:.2f} dB\n")
     return 0
 
 
@@ -186,8 +197,9 @@ def run_render(args):
 
     # the image, its tile buffers and the scaled splats (see clrender/memory.py)
     memory.require(memory.BASE_BYTES + width * height * 48 + params.n * 256, f"a {width}x{height} splat render")
-    image = render(get_device(), params.scaled(factor, width, height))
+    image = render(get_device(args.device), params.scaled(factor, width, height))
     write_image(out, image, overwrite=args.overwrite)
+    print(out)
     return 0
 
 
@@ -204,7 +216,7 @@ def run_sweep(args):
         if not 0 < lr < float("inf"):
             raise UsageError(f"--lrs value {lr} must be a number > 0")
     target = _read_target(args.input)
-    device = get_device()
+    device = get_device(args.device)
     rows = []
     combos = list(itertools.product(args.lrs, args.batches))
     for lr, batch in combos:

@@ -13,6 +13,7 @@ EXAMPLES = """examples:
 
 
 def add_parsers(group):
+    from . import add_device_argument
     from ..splat.voronoi import COLOR_MODES, INITS, METHODS, VoronoiSettings
 
     d = VoronoiSettings()
@@ -20,11 +21,13 @@ def add_parsers(group):
                          description="Approximate IN by N sites, each pixel taking the colour of its nearest "
                                      "site (exact; ties go to the lower site index).")
     p.add_argument("input", metavar="IN", help="input image (anything OpenImageIO reads)")
-    p.add_argument("-o", "--output", required=True, help="output image; same stored values as the input (no colour transform)")
+    p.add_argument("-o", "--output", required=True, help="output image; same stored values as the input (no colour transform); required")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--splats", "-n", type=int, default=d.n, metavar="N", help="number of sites, 1 to the pixel count")
     p.add_argument("--method", choices=METHODS, default=d.method, help="nearest-site search (identical results)")
-    p.add_argument("--init", choices=INITS, default=d.init, help="starting sites")
+    p.add_argument("--init", choices=INITS, default=d.init,
+                   help="starting sites: gradient puts more where the image has detail, random anywhere, "
+                        "uniform on a square grid (cells look like pixelation)")
     p.add_argument("--colors", choices=COLOR_MODES, default=d.colors,
                    help="sample: image at the site (the seed's); mean: mean of the cell (least squares)")
     p.add_argument("--lloyd", type=int, default=d.lloyd, metavar="K", help="Lloyd (centroidal Voronoi) iterations")
@@ -33,8 +36,8 @@ def add_parsers(group):
     p.add_argument("--seed", type=int, default=d.seed, help="random seed for --init random|gradient")
     p.add_argument("--edges", action="store_true", help="draw cell borders in black")
     p.add_argument("--save-sites", default=None, metavar="P.npz",
-                   help="also save sites (N,2 pixel units), colors (N,C) and the image size")
-    p.add_argument("--device", default=None, help="OpenCL device substring (default: $CLRENDER_DEVICE, else PoCL CPU)")
+                   help="also save sites (N,2 pixel units), colors (N,C) and the image size (default: not saved)")
+    add_device_argument(p)
     p.set_defaults(run=run)
 
 

@@ -26,9 +26,9 @@ def add_turntable_arguments(p):
     g = p.add_argument_group("turntable")
     g.add_argument("--turntable", type=int, default=None, metavar="K",
                    help="render K frames orbiting the camera's look-at point into the folder -o "
-                        "(frame_0000.png, frame_0001.png, ...)")
+                        "(frame_0000.png, frame_0001.png, ...) (default: one image, no turntable)")
     g.add_argument("--video", default=None, metavar="OUT.mp4",
-                   help="with --turntable: also write the frames as a video (OpenCV VideoWriter, mp4v)")
+                   help="with --turntable: also write the frames as a video (OpenCV VideoWriter, mp4v) (default: no video)")
     g.add_argument("--fps", type=float, default=24.0, help="with --video: frames per second")
 
 

@@ -257,7 +257,10 @@ def init_sites(image: np.ndarray, n: int, method: str = "uniform", seed: int = 0
     if method == "random":
         return (rng.random((n, 2)) * [w, h]).astype(np.float32)
     luma = image[..., :3].mean(axis=2) if image.shape[2] >= 3 else image[..., 0]
-    gy, gx = np.gradient(luma.astype(np.float64))
+    luma = luma.astype(np.float64)
+    # np.gradient needs two samples along an axis: a one-pixel row or column has no slope
+    gy = np.gradient(luma, axis=0) if h > 1 else np.zeros_like(luma)
+    gx = np.gradient(luma, axis=1) if w > 1 else np.zeros_like(luma)
     mag = np.hypot(gx, gy).ravel()
     weight = mag + (mag.mean() if mag.mean() > 0 else 1.0)
     pick = rng.choice(h * w, size=n, replace=n > h * w, p=weight / weight.sum())
@@ -277,7 +280,7 @@ def psnr(a: np.ndarray, b: np.ndarray, peak: float = 1.0) -> float:
 class VoronoiSettings:
     n: int = 5000            # number of sites
     method: str = "grid"     # nearest-site search: grid | naive
-    init: str = "uniform"    # starting sites: uniform | random | gradient
+    init: str = "gradient"   # starting sites: gradient (denser where the image has detail) | random | uniform (a square grid: looks like pixelation)
     colors: str = "mean"     # sample (image at the site) | mean (cell mean)
     lloyd: int = 0           # Lloyd (centroidal) iterations before colouring
     train: int = 0           # soft-Voronoi training steps (Adam) after Lloyd
