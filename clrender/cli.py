@@ -19,13 +19,14 @@ _RUN_AS_PROGRAM = os.path.basename(sys.argv[0] if sys.argv else "") in ("clrende
 
 def _interrupted_while_starting(signum, frame):  # pragma: no cover - exercised in a subprocess
     # nothing has been written yet (outputs are only placed at the end), so leaving at once is safe
-    os.write(2, b"clrender: interrupted\n")
+    os.write(2, b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
     os._exit(128 + signum)
 
 
 if _RUN_AS_PROGRAM and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-    signal.signal(signal.SIGINT, _interrupted_while_starting)
-    signal.signal(signal.SIGTERM, _interrupted_while_starting)
+    for _signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_signum, _interrupted_while_starting)
+        signal.siginterrupt(_signum, False)  # restart system calls: a kernel build must not fail on EINTR
 
 import argparse  # noqa: E402
 import threading  # noqa: E402
@@ -160,13 +161,19 @@ def _fail(message: str, code: int) -> int:
 
 
 class _signals_raise:
-    """While main() runs: Ctrl-C raises KeyboardInterrupt and SIGTERM raises Terminated (main thread only)."""
+    """While main() runs, SIGINT and SIGTERM end the command (main thread only).
+
+    As the program: one line and exit 130/143 at once, temp files discarded; an exception
+    raised at a random bytecode can break a C extension's import (nanobind aborts).  Called
+    in-process (tests, scripts): KeyboardInterrupt / Terminated, caught by main().  Either way
+    a signal that arrives while outputs are being put in place waits until they all are.
+    """
 
     def __enter__(self):
         self.saved = {}
         if threading.current_thread() is threading.main_thread():
-            self.saved[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
-            self.saved[signal.SIGTERM] = signal.signal(signal.SIGTERM, _raise_terminated)
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self.saved[signum] = signal.signal(signum, _on_signal)
         return self
 
     def __exit__(self, *exc):
@@ -175,8 +182,16 @@ class _signals_raise:
         return False
 
 
-def _raise_terminated(signum, frame):
-    raise Terminated()
+def _on_signal(signum, frame):
+    from . import outputs
+
+    if outputs.hold_signal(signum):
+        return
+    if _RUN_AS_PROGRAM:
+        outputs.discard_all()
+        os.write(2, b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
+        os._exit(128 + signum)
+    raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -28,12 +28,14 @@ import errno
 import os
 import signal
 import tempfile
+import weakref
 from pathlib import Path
 from typing import Callable
 
 from .errors import UsageError
 
 # the output set that writes join while a `with output_set(...)` block runs
+_LIVE: "weakref.WeakSet[OutputSet]" = weakref.WeakSet()  # sets with staged files, for discard_all
 _CURRENT: contextvars.ContextVar["OutputSet | None"] = contextvars.ContextVar("clrender_output_set", default=None)
 TEMP_MARK = ".clrender-tmp"  # part of every named temp file's name (tests look for it)
 
@@ -114,6 +116,7 @@ class OutputSet:
     def __init__(self, overwrite: bool):
         self.overwrite = overwrite
         self.staged: list[_Staged] = []
+        _LIVE.add(self)
 
     def write(self, final, writer: Callable[[str], None]) -> Path:
         """Stage `final`: writer(path) writes the contents to path (a temp file)."""
@@ -231,19 +234,40 @@ def _unlink_quietly(name) -> None:
         pass
 
 
+_PLACING = [0]  # > 0 while files are being put in place
+_PENDING: list[int] = []  # signals that arrived meanwhile
+
+
+def hold_signal(signum: int) -> bool:
+    """For a signal handler: True (and the signal is remembered) while outputs are being put in place.
+
+    A set must not be split by Ctrl-C; the signal is raised again as soon as the set is placed.
+    (A flag, not a blocked signal mask: OpenCL's worker threads would take a blocked signal instead.)
+    """
+    if _PLACING[0]:
+        _PENDING.append(signum)
+        return True
+    return False
+
+
+def discard_all() -> None:
+    """Remove every staged temp file now (a handler about to end the process calls this)."""
+    for outputs in list(_LIVE):
+        outputs.discard()
+
+
 @contextlib.contextmanager
 def _signals_deferred():
-    """Hold SIGINT/SIGTERM while files are being put in place, so an interrupt cannot split a set."""
-    held = {signal.SIGINT, signal.SIGTERM}
-    try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    except (AttributeError, ValueError, OSError):  # not the main thread's business, or no pthreads
-        yield
-        return
+    """Hold SIGINT/SIGTERM (see hold_signal) while files are being put in place."""
+    _PLACING[0] += 1
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        _PLACING[0] -= 1
+        if not _PLACING[0] and _PENDING:
+            signum = _PENDING[0]
+            _PENDING.clear()
+            signal.raise_signal(signum)
 
 
 def _show(value) -> str:
