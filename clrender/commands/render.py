@@ -166,7 +166,9 @@ def settings_from_args(args) -> RenderSettings:
 
 
 def run(args):
-    from ..imageio import check_output_path, write_display_image
+    from .. import memory
+    from ..imageio import check_distinct_outputs, check_output_path, write_display_image
+    from ..outputs import output_set
     from ..scene import Scene, bundled_scenes
 
     if args.list:
@@ -186,6 +188,7 @@ def run(args):
     from ..aov import aov_output
 
     aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
+    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out})
     if args.filter:
         from .. import filters
 
@@ -199,6 +202,11 @@ def run(args):
         warn(message)
     if not scene.lights:
         warn(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
+    size = settings.validate(scene)  # the scene's own width and height where not given
+    memory.require(memory.render_bytes(size.width, size.height, scene.triangle_count, aa=settings.aa,
+                                       aovs=len(settings.aovs), filters=len(args.filter),
+                                       extra_images=edges_out is not None),
+                   f"a {size.width}x{size.height} render of {scene.triangle_count} triangles")
     from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
 
     with renderer_for(args, scene, settings) as renderer:
@@ -207,17 +215,17 @@ def run(args):
     if args.filter:
         image = filters.apply(image, *args.filter)
     from ..aov import write_exr
+    from ..edges import overlay_edges
 
-    if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
-        write_exr(output, result.aovs, beauty=image)
-    else:
-        write_display_image(output, image)
-    if aov_out is not None:
-        write_exr(aov_out, result.aovs)
-    if edges_out is not None:
-        from ..edges import overlay_edges
-
-        write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
+    with output_set(overwrite=args.overwrite):  # every output is written, then all are put in place together
+        if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
+            write_exr(output, result.aovs, beauty=image)
+        else:
+            write_display_image(output, image)
+        if aov_out is not None:
+            write_exr(aov_out, result.aovs)
+        if edges_out is not None:
+            write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
     print(output)
     if aov_out is not None:
         print(aov_out)
