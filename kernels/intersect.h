@@ -21,10 +21,11 @@ inline bool is_sphere(__global const float4 *prims, int slot) { return prims[3 *
 
 inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[3 * slot].w); }
 
-/* a*b - c*d with a relative error of at most 2 ulp (Kahan's algorithm), so its
- * sign is exact: an edge function is then negative, zero or positive exactly
- * as the true value for the (rounded) sheared vertices, whatever triangle the
- * edge is computed for -- the heart of watertightness. */
+/* a*b - c*d by Kahan's algorithm: relative error at most 2u (Jeannerod, Louvet
+ * and Muller 2013), so its sign is exact (barring underflow).  An edge function
+ * is then negative, zero or positive exactly as the true value for the sheared
+ * vertices, whichever triangle computes it -- the heart of watertightness, and
+ * immune to the compiler contracting a*b - c*d into an fma on its own. */
 inline float difference_of_products(float a, float b, float c, float d) {
     float cd = c * d;
     float dop = fma(a, b, -cd);
@@ -38,9 +39,10 @@ inline float difference_of_products(float a, float b, float c, float d) {
  * pbrt-v4's IntersectTriangle), two-sided.  The vertices are moved to the ray
  * origin, permuted so that d's largest axis is z and sheared so that the ray
  * is +z; the 2D edge functions of the sheared vertices then decide inside or
- * outside.  A shared edge gets the same (negated) edge function from both of
- * its triangles, so no ray passes between them; exactly zero counts as inside
- * for both.  Returns t in (t_min, t_max) or INF_T and the barycentrics u, v of
+ * outside.  Both triangles of a shared edge compute its edge function from
+ * the same sheared vertices with an exact sign, so they put the ray on
+ * opposite sides of it (or both on it, which counts as inside for both): no
+ * ray passes between them.  Returns t in (t_min, t_max) or INF_T and the barycentrics u, v of
  * v1, v2.  Hits closer than the test's own error bound (pbrt's deltaT) are
  * rejected, so t > 0 holds for every hit reported. */
 inline float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
