@@ -174,6 +174,8 @@ class _signals_raise:
         if threading.current_thread() is threading.main_thread():
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self.saved[signum] = signal.signal(signum, _on_signal)
+                if _RUN_AS_PROGRAM:  # signal.signal() drops SA_RESTART; EINTR would fail a kernel build
+                    signal.siginterrupt(signum, False)
         return self
 
     def __exit__(self, *exc):
