@@ -98,6 +98,8 @@ def main(argv=None) -> int:
     """Run one command; every failure ends here as one line and an exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv or os.environ.get("CLRENDER_DEBUG", "") not in ("", "0")
+    if "--debug" in argv:  # accepted anywhere on the line, e.g. after the subcommand
+        argv = ["--debug"] + [a for a in argv if a != "--debug"]
     with _signals_raise():
         try:
             return _run(argv)
