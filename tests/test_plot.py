@@ -1,69 +1,95 @@
-"""Charts: bars and lines land where their values say, bad series are refused."""
-import cv2
+"""Charts (matplotlib): bars and lines land where their values say, both training curves stay
+visible when they carry the same numbers, bad series are refused, files are whole PNGs."""
+import matplotlib.colors
 import numpy as np
 import pytest
 
 from clrender import plot
+from clrender.imageio import probe_image
 
 
-def _mask(img, colour):
-    """Pixels of exactly this colour inside the plot frame (the legend sits below it)."""
-    mask = np.all(img == np.array(colour, np.uint8), axis=2)
-    mask[plot.HEIGHT - plot.MARGIN["bottom"] + 1 :] = False
-    return mask
+def ink(pixels, colour, tolerance=0):
+    """Mask of the pixels drawn in exactly this palette colour (anti-aliased edges excluded)."""
+    rgb = np.array(matplotlib.colors.to_rgb(colour)) * 255
+    return np.all(np.abs(pixels.astype(int) - rgb.round()) <= tolerance, axis=2)
 
 
-def test_bar_heights_are_proportional_to_values(tmp_path):
-    path = plot.bar_chart(tmp_path / "sub" / "bars.png", ["a", "b", "c"],
-                          {"first": [1.0, 2.0, 4.0], "second": [3.0, None, 0.5]}, title="t", ylabel="seconds")
-    img = cv2.imread(str(path))
-    assert img.shape == (plot.HEIGHT, plot.WIDTH, 3)
-    first = _mask(img, plot.PALETTE[0])
-    second = _mask(img, plot.PALETTE[1])
-    # bar height per group: the tallest column of that colour within the group's third of the plot
-    x0, x1 = plot.MARGIN["left"], plot.WIDTH - plot.MARGIN["right"]
-    groups = np.array_split(np.arange(x0, x1), 3)
-    h1 = [first[:, g].sum(axis=0).max() for g in groups]
-    h2 = [second[:, g].sum(axis=0).max() for g in groups]
-    assert h1[0] > 20
-    assert h1[1] / h1[0] == pytest.approx(2.0, abs=0.05)
-    assert h1[2] / h1[0] == pytest.approx(4.0, abs=0.1)
-    assert h2[0] / h1[0] == pytest.approx(3.0, abs=0.1)
-    assert h2[1] == 0  # None draws no bar
-    assert h2[2] / h1[0] == pytest.approx(0.5, abs=0.05)
+def test_bars_stand_as_high_as_their_values(tmp_path):
+    fig = plot.bar_figure(["a", "b", "c"], {"first": [1.0, 2.0, 4.0], "second": [3.0, None, 0.5]})
+    ax = fig.axes[0]
+    first, second = ([bar.get_height() for bar in c] for c in ax.containers)
+    assert first == [1.0, 2.0, 4.0]
+    assert second[0] == 3.0 and np.isnan(second[1]) and second[2] == 0.5  # None: no bar
+    # and in the pixels: each bar's column of ink is proportional to its value above the zero line
+    pixels = plot.figure_pixels(fig)
+    heights = []
+    for bar in ax.containers[0]:
+        (x0, y0), (x1, y1) = ax.transData.transform([(bar.get_x(), 0), (bar.get_x() + bar.get_width(), bar.get_height())])
+        column = int((x0 + x1) / 2)
+        heights.append(ink(pixels, plot.PALETTE[0])[:, column].sum())
+    assert heights[0] > 20
+    assert heights[1] / heights[0] == pytest.approx(2.0, abs=0.06)
+    assert heights[2] / heights[0] == pytest.approx(4.0, abs=0.12)
 
 
-def test_log_bars_are_proportional_to_log_values(tmp_path):
-    img = cv2.imread(str(plot.bar_chart(tmp_path / "log.png", ["a", "b"], {"s": [0.01, 10.0]}, log=True)))
-    col = _mask(img, plot.PALETTE[0]).sum(axis=0)
-    x0, x1 = plot.MARGIN["left"], plot.WIDTH - plot.MARGIN["right"]
-    a, b = (col[g].max() for g in np.array_split(np.arange(x0, x1), 2))
-    # axis runs 0.01 .. 10 (three decades): 0.01 sits on the base, 10 fills the plot
-    assert a <= 2
-    assert b == pytest.approx(plot.HEIGHT - plot.MARGIN["top"] - plot.MARGIN["bottom"], abs=2)
+def test_log_scale_is_asked_for(tmp_path):
+    assert plot.bar_figure(["a", "b"], {"s": [0.01, 10.0]}, log=True).axes[0].get_yscale() == "log"
+    assert plot.line_figure([1, 2], {"s": [0.01, 10.0]}, log=True).axes[0].get_yscale() == "log"
+    assert plot.line_figure([1, 2], {"s": [0.01, 10.0]}).axes[0].get_yscale() == "linear"
 
 
-def test_line_rises_with_its_values_and_gaps_at_none(tmp_path):
+def test_line_follows_its_values_with_a_gap_at_none():
     x = list(range(11))
-    y = [float(v) for v in x]
+    y = [float(v) ** 2 for v in x]
     y[5] = None
-    img = cv2.imread(str(plot.line_chart(tmp_path / "line.png", x, {"y": y}, xlabel="x", ylabel="y")))
-    rows, cols = np.nonzero(_mask(img, plot.PALETTE[0]))
-    inside = cols > plot.MARGIN["left"] + 2
-    rows, cols = rows[inside], cols[inside]
-    assert len(cols) > 100
-    # y increases with x, so the pixel row falls as the column grows
-    assert np.corrcoef(cols, rows)[0, 1] < -0.99
-    # no ink around x = 5 (the gap), ink around x = 2
-    x0, x1 = plot.MARGIN["left"], plot.WIDTH - plot.MARGIN["right"]
-    at = lambda v: x0 + v / 10 * (x1 - x0)  # noqa: E731
-    assert not np.any(np.abs(cols - at(5)) < 3)
-    assert np.any(np.abs(cols - at(2)) < 3)
+    y[7] = float("nan")
+    (line,) = plot.line_figure(x, {"y": y}).axes[0].get_lines()
+    got = np.asarray(line.get_ydata(), float)
+    assert np.isnan(got[[5, 7]]).all()
+    keep = [i for i in x if i not in (5, 7)]
+    np.testing.assert_array_equal(got[keep], np.array(keep, float) ** 2)
 
 
-def test_bad_series_are_refused(tmp_path):
+def test_training_curve_shows_psnr_and_loss_even_when_they_carry_the_same_numbers(tmp_path):
+    # for the L2 loss PSNR = -10 log10(loss): on one axis the two lines coincide and one hides
+    steps = np.arange(50)
+    loss = 0.1 * np.exp(-steps / 15) + 1e-3
+    psnr = -10 * np.log10(loss)
+    path = plot.training_curve(tmp_path / "curve.png", steps, loss, psnr, title="fit")
+    info = probe_image(path)
+    assert (info.width, info.height) == (960, 560)
+    fig = plot.training_figure(steps, loss, psnr)
+    loss_axes, psnr_axes = fig.axes
+    assert loss_axes.get_yscale() == "log" and "PSNR" in psnr_axes.get_ylabel()
+    pixels = plot.figure_pixels(fig)
+    assert ink(pixels, plot.PALETTE[0]).sum() > 300  # the loss line
+    assert ink(pixels, plot.PALETTE[1]).sum() > 300  # the PSNR line, not hidden
+    # PSNR rises as the loss falls: its ink climbs from left to right
+    rows, cols = np.nonzero(ink(pixels, plot.PALETTE[1]))
+    assert np.corrcoef(cols, rows)[0, 1] < -0.5
+
+
+def test_bad_series_are_refused_and_nothing_is_written(tmp_path):
     with pytest.raises(ValueError, match="has 2 values"):
         plot.bar_chart(tmp_path / "x.png", ["a", "b", "c"], {"s": [1, 2]})
     with pytest.raises(ValueError, match="at least one series"):
         plot.line_chart(tmp_path / "x.png", [1, 2], {})
+    with pytest.raises(ValueError, match="finite x"):
+        plot.line_chart(tmp_path / "x.png", [1, float("inf")], {"s": [1, 2]})
     assert not (tmp_path / "x.png").exists()
+
+
+def test_charts_create_their_folder_and_write_a_png(tmp_path):
+    path = plot.bar_chart(tmp_path / "sub" / "bars.png", ["a"], {"s": [1.0]}, title="t", ylabel="seconds")
+    assert path == tmp_path / "sub" / "bars.png"
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_pyplot_state_is_touched():
+    import sys
+
+    plot.line_figure([0, 1], {"s": [0, 1]})
+    if "matplotlib.pyplot" in sys.modules:  # another test may have imported it: then no figure of ours is open
+        import matplotlib.pyplot as plt
+
+        assert plt.get_fignums() == []

@@ -130,16 +130,11 @@ def write_log(path, log: list[dict], overwrite: bool = True) -> None:
 
 
 def write_curve(path, log: list[dict], title: str) -> bool:
-    """PSNR and the loss (as -10 log10 loss, so both share a dB axis) against step."""
-    try:
-        from ..plot import line_chart
-    except ImportError:
-        sys.stderr.write("clrender: clrender.plot is not available; no curve written\n")
-        return False
-    steps = [r["step"] for r in log]
-    series = {"PSNR (dB)": [r["psnr"] for r in log],
-              "-10 log10(loss)": [-10.0 * np.log10(max(r["loss"], 1e-12)) for r in log]}
-    line_chart(path, steps, series, title=title, xlabel="step", ylabel="dB")
+    """The loss (log scale) above the PSNR against step, in two panels: for the L2 loss PSNR is
+    -10 log10(loss) exactly, so on one shared axis one line would hide the other."""
+    from ..plot import training_curve
+
+    training_curve(path, [r["step"] for r in log], [r["loss"] for r in log], [r["psnr"] for r in log], title=title)
     return True
 
 
