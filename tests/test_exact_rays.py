@@ -79,6 +79,16 @@ def test_rays_in_a_boxs_face_plane_still_find_the_face(device):
     np.testing.assert_array_equal(blocked[0], blocked[1])
 
 
+def test_axis_aligned_camera_sees_no_background_through_objects(device):
+    # odd image sizes: the centre row and column have exactly zero direction components
+    mesh = {"type": "mesh", "generator": "dense", "params": {"n_triangles": 2000, "seed": 3}}
+    scene = Scene.from_dict({"width": 33, "height": 33, "objects": [mesh],
+                             "cameras": [dict(position=[-0.3, -0.2, 6], look_at=[-0.3, -0.2, 0], up=[0, 1, 0], fov=40)]})
+    ids = {bvh: Renderer(scene, bvh=bvh).run().ids for bvh in (False, True)}
+    assert (ids[False][16, 12:21] == 0).all() and (ids[False][12:21, 16] == 0).all()  # the mesh fills the centre
+    np.testing.assert_array_equal(ids[True], ids[False])
+
+
 def sphere_over_floor(light, size=40, extra=()):
     return Scene.from_dict({
         "width": size, "height": size,
