@@ -6,13 +6,17 @@ pinned to one thread (POCL_MAX_PTHREAD_COUNT=1).  Reports, per cluster size:
 
 - wall: median seconds of a warm render (scene cached on the workers),
   and the speed-up of 2 workers over 1;
-- compute: the summed seconds the tasks spent in the kernel (measured on the
-  workers), and per-task compute;
+- compute: the summed wall seconds the tasks spent tracing (measured on the
+  workers), the CPU seconds of the same (what they would take on an idle
+  core; under load the wall time grows, the CPU time does not), per task;
 - overhead per task: (wall x workers - compute) / tasks, i.e. the time a
   worker's slot was not tracing: scheduling, (de)serialising, shipping the
   tile back, assembling on the client;
 - first pixel: from `run()` on a fresh cluster to the first tile back
   (shipping the scene, building its BVH and compiling the kernels on the worker);
+- speedup_idle_est: the speed-up the tasks' CPU seconds predict for an idle
+  machine (the 1-worker CPU total over the busiest worker's CPU total);
+  with other jobs on the cores, the wall-time speed-up falls below it;
 - the same render in this process on one PoCL thread, for comparison.
 
 Every distributed image is checked byte for byte against the local one.
@@ -49,16 +53,16 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="wizard_cat")
     ap.add_argument("--camera", type=int, default=3)
-    ap.add_argument("--size", type=int, default=512, help="square image side")
-    ap.add_argument("--tile", type=int, default=64, help="tile side: (size / tile)^2 tiles")
-    ap.add_argument("--samples", type=int, default=3, help="N: full AA with N x N stratified samples")
+    ap.add_argument("--size", type=int, default=384, help="square image side")
+    ap.add_argument("--tile", type=int, default=48, help="tile side: (size / tile)^2 tiles")
+    ap.add_argument("--samples", type=int, default=2, help="N: full AA with N x N stratified samples")
     ap.add_argument("--runs", type=int, default=3, help="warm renders per cluster size (median)")
     ap.add_argument("--workers", default="1,2", help="cluster sizes to compare")
-    ap.add_argument("--quick", action="store_true", help="256x256, 32-pixel tiles, N=2, 1 run")
+    ap.add_argument("--quick", action="store_true", help="128x128, 16-pixel tiles, N=1, 1 run")
     ap.add_argument("--out", default="bench/out")
     args = ap.parse_args(argv)
     if args.quick:
-        args.size, args.tile, args.samples, args.runs = 256, 32, 2, 1
+        args.size, args.tile, args.samples, args.runs = 128, 16, 1, 1
 
     import logging
 
@@ -83,10 +87,10 @@ def main(argv=None):
         reference = local.run()
         local_times.append(time.perf_counter() - start)
     rows = [dict(workers="local (this process)", wall_s=statistics.median(local_times), speedup=1.0, tasks=n_tiles,
-                 compute_s=float("nan"), compute_per_task_ms=float("nan"), overhead_per_task_ms=float("nan"),
-                 first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
+                 compute_s=float("nan"), compute_cpu_s=float("nan"), compute_per_task_ms=float("nan"), overhead_per_task_ms=float("nan"),
+                 speedup_idle_est=float("nan"), first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
 
-    walls = {}
+    walls, cpu_critical = {}, {}
     for workers in [int(w) for w in args.workers.split(",")]:
         start = time.perf_counter()
         with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
@@ -108,10 +112,17 @@ def main(argv=None):
         wall = statistics.median(times)
         log = logs[times.index(min(times, key=lambda t: abs(t - wall)))]
         compute = sum(t["compute"] for t in log)
+        compute_cpu = sum(t["compute_cpu"] for t in log)
+        per_worker_cpu = {}
+        for t in log:
+            per_worker_cpu[t["pid"]] = per_worker_cpu.get(t["pid"], 0.0) + t["compute_cpu"]
+        cpu_critical[workers] = max(per_worker_cpu.values())  # the busiest worker's CPU seconds
         walls[workers] = wall
         rows.append(dict(workers=workers, wall_s=wall, speedup=walls[min(walls)] / wall if walls else 1.0,
-                         tasks=len(log), compute_s=compute, compute_per_task_ms=1e3 * compute / len(log),
+                         tasks=len(log), compute_s=compute, compute_cpu_s=compute_cpu,
+                         compute_per_task_ms=1e3 * compute / len(log),
                          overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
+                         speedup_idle_est=cpu_critical[min(cpu_critical)] / cpu_critical[workers],
                          first_pixel_s=first_pixel, cluster_start_s=cluster_start, identical=identical))
         print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
 

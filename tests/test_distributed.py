@@ -303,3 +303,19 @@ def test_render_survives_a_worker_killed_mid_render():
     assert done_before_kill < 96  # the kill really came mid-render
     assert outcome["result"].image.tobytes() == local.image.tobytes()
     assert len(renderer.task_log) == 96  # every tile once on the client, though some ran twice on the cluster
+
+
+@pytest.mark.slow
+def test_bench_distributed_quick_runs_and_checks_bytes(tmp_path):
+    import csv
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    proc = subprocess.run([sys.executable, "-m", "bench", "distributed", "--quick", "--out", str(tmp_path)],
+                          cwd=root, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(tmp_path / "distributed.csv")))
+    assert [r["workers"] for r in rows] == ["local (this process)", "1", "2"]
+    assert all(r["identical"] == "True" for r in rows) and all(int(r["tasks"]) >= 64 for r in rows)
+    assert all(float(r["overhead_per_task_ms"]) > 0 for r in rows[1:])

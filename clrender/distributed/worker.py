@@ -65,9 +65,10 @@ def renderer_for(payload: ScenePayload, settings: RenderSettings, scene=None) ->
                                                        tracer=tracer_for(payload, settings)), RENDERERS_KEPT)
 
 
-def _info(renderer: Renderer, start: float, ready: float, built: bool) -> dict:
-    """Where and how long a task ran: setup (scene, BVH, kernels; 0 when cached) and compute seconds."""
-    return {"pid": os.getpid(), "device": renderer.tracer.device.name, "setup": ready - start if built else 0.0, "compute": time.perf_counter() - ready,
+def _info(renderer: Renderer, start: float, ready: float, built: bool, cpu_ready: float) -> dict:
+    """Where and how long a task ran: setup (scene, BVH, kernels; 0 when cached), compute wall and CPU seconds."""
+    return {"pid": os.getpid(), "device": renderer.tracer.device.name, "setup": ready - start if built else 0.0,
+            "compute": time.perf_counter() - ready, "compute_cpu": time.process_time() - cpu_ready,
             "bvh": renderer.tracer.bvh_seconds if built else 0.0,
             "compile_kernels": renderer.compile_seconds if built else 0.0}
 
@@ -78,9 +79,9 @@ def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sample
         start = time.perf_counter()
         built = not is_built(payload, settings)
         renderer = renderer_for(payload, settings)
-        ready = time.perf_counter()
+        ready, cpu_ready = time.perf_counter(), time.process_time()
         out = renderer.launch(pixels, sampler, n, record)
-        return out, _info(renderer, start, ready, built)
+        return out, _info(renderer, start, ready, built, cpu_ready)
 
 
 def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
@@ -89,6 +90,6 @@ def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
         start = time.perf_counter()
         scene = replace(scene_of(payload), cameras=[camera])
         renderer = Renderer(scene, replace(settings, camera=1), tracer=tracer_for(payload, settings))
-        ready = time.perf_counter()
+        ready, cpu_ready = time.perf_counter(), time.process_time()
         image = renderer.run().image
-        return image, _info(renderer, start, ready, True)
+        return image, _info(renderer, start, ready, True, cpu_ready)
