@@ -34,6 +34,8 @@ typedef struct {
 #endif
 } Scene;
 
+#define MAX_FALLOFF 1e10f /* cap of 1/r^2 (r = 1e-5) and of an area light's A cos / r^2 */
+
 inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
 
 /* Snell's law for unit d and unit n facing against d, eta = n1 / n2.
@@ -115,6 +117,9 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                         falloff = 1.0f / (dist * dist);
                         /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
                         if (type == LIGHT_AREA) falloff *= area * fabs(dot3(light_normal, l));
+                        /* a light within 1e-5 of the point overflowed float32 to inf (issue 14): the falloff
+                           is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
+                        falloff = min_f(falloff, MAX_FALLOFF);
                     }
                 }
                 float T = 1.0f;

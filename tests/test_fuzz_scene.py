@@ -377,3 +377,19 @@ def test_fuzz_counts_report():
     """Prints how many cases the fuzzer ran (run with -s to see it; the long run's report quotes it)."""
     print(f"\nscene fuzz: {STATS}")
     assert STATS["cases"] == 0 or STATS["refused"] + STATS["rendered"] == STATS["cases"]
+
+
+@pytest.mark.parametrize("height", [1e-12, 1e-20])
+def test_a_light_touching_the_surface_it_lights_stays_finite(height):
+    # the camera looks straight down at a bright plane with a point light just above it: 1/r^2
+    # overflowed float32 and the pixels under the light were inf (capped at r = 1e-5 in shade.h)
+    from clrender.renderer import render
+
+    data = {"cameras": [{"position": [0, 1, 0], "look_at": [0, -1, 0], "up": [0, 0, -1]}],
+            "materials": {"white": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}},
+            "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 10, "material": "white"}],
+            "lights": [{"type": "point", "position": [0, height, 0], "falloff": "inverse_square", "intensity": 1e6,
+                        "color": [1e6] * 3}]}
+    image = render(Scene.from_dict(data), width=5, height=3, aa="none")
+    assert np.isfinite(image).all()
+    assert image.max() > 1e20  # still the brightest thing in the scene, not dropped
