@@ -19,6 +19,9 @@ def add_cluster_arguments(p):
                         "(default: no local cluster)")
     g.add_argument("--pocl-threads", type=int, default=None, metavar="T",
                    help="PoCL threads per --workers process (default: CPU cores / N)")
+    g.add_argument("--tile-size", type=int, default=None, metavar="PIXELS",
+                   help="tiles (one task each on a cluster) are PIXELS x PIXELS; the image does not depend on it "
+                        "(default: 128)")
 
 
 def cluster_requested(args) -> bool:
@@ -42,6 +45,10 @@ def cluster_client(args):
 @contextmanager
 def renderer_for(args, scene, settings):
     """The local Renderer, or a DistributedRenderer on the cluster the options name."""
+    if args.tile_size is not None:
+        from dataclasses import replace
+
+        settings = replace(settings, tile_size=args.tile_size)
     with cluster_client(args) as client:
         if client is None:
             from ..renderer import Renderer
