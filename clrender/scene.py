@@ -300,8 +300,9 @@ class _SceneReader:
         return value
 
     def name(self, value, path):
-        if not isinstance(value, str) or not 1 <= len(value) <= MAX_NAME:
-            self.fail(path, f"expected a name of 1 to {MAX_NAME} characters, got {show(value)}")
+        """A name or one-line description: 1 to MAX_NAME printable characters (it is shown on terminals)."""
+        if not isinstance(value, str) or not 1 <= len(value) <= MAX_NAME or escape(value) != value:
+            self.fail(path, f"expected 1 to {MAX_NAME} printable characters (no control characters), got {show(value)}")
         return value
 
     def length(self, data, key, path, at, default=None):

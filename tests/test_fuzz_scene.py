@@ -393,3 +393,9 @@ def test_a_light_touching_the_surface_it_lights_stays_finite(height):
     image = render(Scene.from_dict(data), width=5, height=3, aa="none")
     assert np.isfinite(image).all()
     assert image.max() > 1e20  # still the brightest thing in the scene, not dropped
+
+
+@pytest.mark.parametrize("data, key", [({"name": "two\nlines"}, "name"), ({"description": "\x1b[2Jclear"}, "description"),
+                                       ({"materials": {"a\rb": {}}}, "materials")])
+def test_names_shown_on_a_terminal_may_not_hold_control_characters(data, key):
+    assert key in usage_error(data)
