@@ -11,9 +11,9 @@ __version__ = "0.1.0"
 # command line can take over Ctrl-C before numpy and pyopencl load.
 _EXPORTS = {
     "Renderer": "renderer", "RenderResult": "renderer", "RenderSettings": "renderer", "render": "renderer",
-    "Scene": "scene", "Tracer": "tracer",
+    "Scene": "scene", "Tracer": "tracer", "show": "display",
 }
-__all__ = ["Renderer", "RenderResult", "RenderSettings", "Scene", "Tracer", "render"]
+__all__ = ["Renderer", "RenderResult", "RenderSettings", "Scene", "Tracer", "render", "show"]
 
 
 def __getattr__(name):

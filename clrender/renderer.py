@@ -113,6 +113,12 @@ class RenderResult:
     def resampled_fraction(self) -> float:
         return float(self.edge_mask.mean()) if self.edge_mask is not None else 0.0
 
+    def _repr_png_(self) -> bytes:
+        """The image inline in Jupyter (sRGB 8-bit); clrender.show(result.edge_mask) shows the mask."""
+        from .display import png_bytes
+
+        return png_bytes(self.image, linear=True)
+
 
 class Renderer:
     def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):

@@ -86,6 +86,12 @@ class FitResult:
     seconds: float
     log: list[dict] = field(default_factory=list)  # step, epoch, seconds, splats, loss, psnr
 
+    def _repr_png_(self) -> bytes:
+        """The fitted image inline in Jupyter (the target's stored values, as written to files)."""
+        from ..display import png_bytes
+
+        return png_bytes(self.image, linear=False)
+
 
 def as_rgb(pixels: np.ndarray) -> np.ndarray:
     """Float32 RGB (H, W, 3) from grey, grey+alpha, RGB or RGBA pixels."""

@@ -311,6 +311,12 @@ class VoronoiResult:
     index: np.ndarray   # int32 (H, W)
     image: np.ndarray   # float32 (H, W, C)
 
+    def _repr_png_(self) -> bytes:
+        """The cells inline in Jupyter (the input's stored values, as written to files)."""
+        from ..display import png_bytes
+
+        return png_bytes(self.image, linear=False)
+
 
 def splat(device, image: np.ndarray, settings: VoronoiSettings) -> VoronoiResult:
     """Initialise sites, optionally relax (Lloyd) and train (soft Voronoi), colour, render."""
