@@ -83,6 +83,14 @@ b = Renderer(scene, bvh=True, device="oclgrind", **kw).run().image
 assert np.isfinite(a).all()
 np.testing.assert_allclose(a, b, atol=1e-4)  # the BVH changes the order of tests, not the answer
 """),
+    "render_aov_variant": (("render",), SCENE + """
+from clrender.renderer import Renderer
+# -DWRITE_AOV=1: the kernel also writes the primary hit's depth, normal and albedo
+r = Renderer(scene, width=5, height=4, aa="none", aovs=("depth", "normal", "albedo"), device="oclgrind").run()
+hit = r.ids >= 0
+assert hit.any() and np.isfinite(r.aovs["depth"][hit]).all() and (r.aovs["depth"][hit] > 0).all()
+np.testing.assert_allclose(np.linalg.norm(r.aovs["normal"][hit], axis=-1), 1, atol=1e-4)  # unit normals
+"""),
     "sample_offsets": (("sample_offsets",), """
 from clrender.sampling import sample_offsets
 for sampler in ("uniform", "random", "stratified", "sobol"):
