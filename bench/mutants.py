@@ -53,7 +53,7 @@ class Mutant:
 
 # Test files per area, the quickest and most telling first (pytest -x stops at the first failure).
 TRACE = ("tests/test_optics.py", "tests/test_reference_renderer.py", "tests/test_fresnel_tir.py",
-         "tests/test_shading_rules.py", "tests/test_render.py",
+         "tests/test_shading_rules.py", "tests/test_ties.py", "tests/test_render.py",
          "tests/test_outputs.py", "tests/test_sampling.py", "tests/test_refraction.py", "tests/test_area_light.py",
          "tests/test_intersect.py", "tests/test_exact_rays.py", "tests/test_bvh.py", "tests/test_mesh_normals.py",
          "tests/test_aov.py", "tests/test_edges.py")
