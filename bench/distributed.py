@@ -14,9 +14,7 @@ pinned to one thread (POCL_MAX_PTHREAD_COUNT=1).  Reports, per cluster size:
   tile back, assembling on the client;
 - first pixel: from `run()` on a fresh cluster to the first tile back
   (shipping the scene, building its BVH and compiling the kernels on the worker);
-- speedup_idle_est: the speed-up the tasks' CPU seconds predict for an idle
-  machine (the 1-worker CPU total over the busiest worker's CPU total);
-  with other jobs on the cores, the wall-time speed-up falls below it;
+- tasks per worker: how Dask shared the tiles out;
 - the same render in this process on one PoCL thread, for comparison.
 
 Every distributed image is checked byte for byte against the local one.
@@ -88,9 +86,9 @@ def main(argv=None):
         local_times.append(time.perf_counter() - start)
     rows = [dict(workers="local (this process)", wall_s=statistics.median(local_times), speedup=1.0, tasks=n_tiles,
                  compute_s=float("nan"), compute_cpu_s=float("nan"), compute_per_task_ms=float("nan"), overhead_per_task_ms=float("nan"),
-                 speedup_idle_est=float("nan"), first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
+                 tasks_per_worker="", first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
 
-    walls, cpu_critical = {}, {}
+    walls = {}
     for workers in [int(w) for w in args.workers.split(",")]:
         start = time.perf_counter()
         with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
@@ -113,16 +111,15 @@ def main(argv=None):
         log = logs[times.index(min(times, key=lambda t: abs(t - wall)))]
         compute = sum(t["compute"] for t in log)
         compute_cpu = sum(t["compute_cpu"] for t in log)
-        per_worker_cpu = {}
+        per_worker = {}
         for t in log:
-            per_worker_cpu[t["pid"]] = per_worker_cpu.get(t["pid"], 0.0) + t["compute_cpu"]
-        cpu_critical[workers] = max(per_worker_cpu.values())  # the busiest worker's CPU seconds
+            per_worker[t["pid"]] = per_worker.get(t["pid"], 0) + 1
         walls[workers] = wall
         rows.append(dict(workers=workers, wall_s=wall, speedup=walls[min(walls)] / wall if walls else 1.0,
                          tasks=len(log), compute_s=compute, compute_cpu_s=compute_cpu,
                          compute_per_task_ms=1e3 * compute / len(log),
                          overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
-                         speedup_idle_est=cpu_critical[min(cpu_critical)] / cpu_critical[workers],
+                         tasks_per_worker="/".join(map(str, sorted(per_worker.values(), reverse=True))),
                          first_pixel_s=first_pixel, cluster_start_s=cluster_start, identical=identical))
         print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
 

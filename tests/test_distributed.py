@@ -283,6 +283,41 @@ def test_a_turntable_stopped_early_cancels_its_frames(client):
     assert wait_for(lambda: scheduler_tasks(client) == 0)
 
 
+# ------------------------------------------------------------------ splat fits
+def small_photos():
+    from clrender.splat.voronoi import synthetic_photo
+
+    return [np.ascontiguousarray(synthetic_photo(40, 24, seed=s)[..., :3], np.float32) for s in (1, 2)]
+
+
+def test_gauss_fits_and_sweep_are_the_local_fits(client, device):
+    from clrender.distributed.fits import fit_gauss, sweep_gauss
+    from clrender.splat.fit import FitConfig, fit
+
+    photos = small_photos()
+    remote = fit_gauss(photos, FitConfig(splats=48, epochs=12, seed=5), client=client)
+    for photo, result in zip(photos, remote):
+        local = fit(device, photo, FitConfig(splats=48, epochs=12, seed=5))
+        assert result.image.tobytes() == local.image.tobytes() and result.steps == local.steps
+        assert np.array_equal(result.params.xy, local.params.xy)
+    configs = [FitConfig(splats=48, epochs=8, lr=lr) for lr in (0.5, 2.0)]
+    swept = sweep_gauss(photos[0], configs, client=client)
+    for config, result in zip([FitConfig(splats=48, epochs=8, lr=lr) for lr in (0.5, 2.0)], swept):
+        assert result.image.tobytes() == fit(device, photos[0], config).image.tobytes()
+    assert swept[0].image.tobytes() != swept[1].image.tobytes()  # the learning rate mattered: order kept
+
+
+def test_voronoi_splats_are_the_local_ones(client, device):
+    from clrender.distributed.fits import splat_voronoi
+    from clrender.splat.voronoi import VoronoiSettings, splat
+
+    photos = small_photos()
+    remote = splat_voronoi(photos, VoronoiSettings(n=30, lloyd=2, seed=4), client=client)
+    for photo, result in zip(photos, remote):
+        local = splat(device, photo, VoronoiSettings(n=30, lloyd=2, seed=4))
+        assert result.image.tobytes() == local.image.tobytes() and np.array_equal(result.sites, local.sites)
+
+
 # ------------------------------------------------------------------ faults
 @pytest.mark.slow
 def test_render_survives_a_worker_killed_mid_render():

@@ -93,3 +93,21 @@ def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
         ready, cpu_ready = time.perf_counter(), time.process_time()
         image = renderer.run().image
         return image, _info(renderer, start, ready, True, cpu_ready)
+
+
+def fit_gauss(target, config, device: str | None):
+    """One Gaussian-splat fit on this worker's device (the local `fit`, nothing else)."""
+    from ..device import get_device
+    from ..splat.fit import fit
+
+    with _LOCK:
+        return fit(get_device(device), target, config)
+
+
+def splat_voronoi(image, settings, device: str | None):
+    """One Voronoi splatting on this worker's device."""
+    from ..device import get_device
+    from ..splat.voronoi import splat
+
+    with _LOCK:
+        return splat(get_device(device), image, settings)
