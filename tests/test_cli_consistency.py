@@ -118,6 +118,12 @@ def test_render_prints_the_path_on_stdout_and_timings_on_stderr(tmp_path, capsys
     assert err.startswith("refract1: 16x12") and "clrender:" not in err
 
 
+def test_render_prints_every_written_path(tmp_path, capsys):
+    edges = tmp_path / "edges.png"
+    code, out, err = run(capsys, "-q", "render", "refract1", "--aa", "edge_detect", "--edges-out", edges, *tiny(tmp_path))
+    assert code == 0 and out.split() == [str(tmp_path / "r.png"), str(edges)]
+
+
 def test_list_shows_descriptions_and_cameras_with_the_seeds_marked(capsys):
     code, out, err = run(capsys, "render", "--list")
     assert code == 0 and err == ""

@@ -226,9 +226,9 @@ def run(args):
             write_exr(aov_out, result.aovs)
         if edges_out is not None:
             write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
-    print(output)
-    if aov_out is not None:
-        print(aov_out)
+    for path in (output, aov_out, edges_out):  # stdout: every written path, for scripts
+        if path is not None:
+            print(path)
     if not args.quiet:
         s = renderer.settings
         t = result.timings
