@@ -17,7 +17,7 @@ from .camera import Camera
 from .errors import UsageError
 
 FRAME_PATTERN = "frame_{:04d}.png"
-MAX_FRAMES = 100_000
+MAX_FRAMES = 10_000  # frames are staged as open temporary files until all are done
 
 
 def orbit(camera: Camera, frames: int) -> list[Camera]:

@@ -1,12 +1,12 @@
 """`clrender render SCENE --turntable K -o frames/`: K frames orbiting the camera's look-at point.
 
-Frames are written as they finish, each atomically, as OUT/frame_0000.png,
-frame_0001.png, ... (clrender.turntable.FRAME_PATTERN), or to a pattern given
-as -o with a {:04d}-style field, e.g. -o 'shots/{:03d}.exr'.  With --video
-the frames also go, in order, into an MP4 through OpenCV's VideoWriter.  On
---scheduler / --workers each frame is one task.  If the run fails or is
-interrupted (Ctrl-C), the frames it wrote and the video are removed: a
-turntable is complete or absent.
+Frames are named OUT/frame_0000.png, frame_0001.png, ...
+(clrender.turntable.FRAME_PATTERN), or by a pattern given as -o with a
+{:04d}-style field, e.g. -o 'shots/{:03d}.exr'.  With --video the frames also
+go, in order, into an MP4 through OpenCV's VideoWriter.  On --scheduler /
+--workers each frame is one task.  Frames are staged as they finish (unnamed
+temporary files, clrender/outputs.py) and all put in place at the end: an
+interrupted (Ctrl-C) or failed turntable leaves no frame and no video.
 """
 from __future__ import annotations
 
@@ -49,16 +49,18 @@ def frame_paths(output: str | None, scene_name: str, frames: int) -> list[Path]:
 
 
 class _Video:
-    """Frames into a video in order (they may arrive out of order), under a temporary name until done."""
+    """Frames into a video in order (they may arrive out of order).
+
+    OpenCV picks the container by the file name's extension, so the video is
+    encoded into a private temporary folder and copied into the output set
+    at the end (an output set's staged files have no name yet).
+    """
 
     def __init__(self, path: Path, fps: float):
         self.path = path
         self.fps = fps
-        fd, self.temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".partial{path.suffix}", dir=str(path.parent) or ".")
-        os.close(fd)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(self.temp, 0o666 & ~mask)  # mkstemp makes 0600; an output gets the usual mode
+        self.folder = tempfile.TemporaryDirectory(prefix="clrender-video-")
+        self.temp = os.path.join(self.folder.name, f"video{path.suffix}")
         self.writer = None
         self.pending: dict = {}
         self.next = 0
@@ -77,22 +79,20 @@ class _Video:
             self.writer.write(np.ascontiguousarray(frame[..., ::-1]))  # OpenCV wants BGR
             self.next += 1
 
-    def finish(self, overwrite: bool):
-        self.writer.release()
-        if overwrite:
-            os.replace(self.temp, self.path)
-        else:
-            try:
-                os.link(self.temp, self.path)
-            except FileExistsError:
-                raise UsageError(f"output {str(self.path)!r} already exists; pass --overwrite to replace it") from None
-            os.unlink(self.temp)
+    def finish(self):
+        """Stage the finished video in the current output set."""
+        import shutil
 
-    def discard(self):
+        from ..outputs import write_file
+
+        self.writer.release()
+        self.writer = None
+        write_file(self.path, lambda staged: shutil.copyfile(self.temp, staged))
+
+    def close(self):
         if self.writer is not None:
             self.writer.release()
-        if os.path.exists(self.temp):
-            os.unlink(self.temp)
+        self.folder.cleanup()
 
 
 def _srgb8(image: np.ndarray) -> np.ndarray:
@@ -105,6 +105,7 @@ def run_turntable(args, settings) -> int:
     from dataclasses import replace
 
     from ..imageio import check_output_path, write_display_image
+    from ..outputs import output_set
     from ..progress import progress
     from ..scene import Scene
     from ..turntable import MAX_FRAMES, render_turntable
@@ -139,10 +140,11 @@ def run_turntable(args, settings) -> int:
             raise UsageError(f"--fps {args.fps} must be a positive number")
     settings = settings.validate(scene)
 
-    written: list[Path] = []
     video = _Video(video_path, args.fps) if video_path else None
     try:
-        with cluster_client(args) as client:
+        # every frame is staged as it finishes and all are put in place together at the end, so an
+        # interrupted or failed turntable (even a killed process) leaves none of its files behind
+        with output_set(overwrite=args.overwrite), cluster_client(args) as client:
             if client is None:
                 frames = render_turntable(scene, settings, k_frames)
             else:
@@ -153,19 +155,15 @@ def run_turntable(args, settings) -> int:
                 for k, image in frames:
                     if args.filter:
                         image = filters.apply(image, *args.filter)
-                    write_display_image(paths[k], image)  # existing frames were refused above unless --overwrite
-                    written.append(paths[k])
+                    write_display_image(paths[k], image)
                     if video is not None:
                         video.add(k, _srgb8(image))
                     bar.update()
+            if video is not None:
+                video.finish()
+    finally:
         if video is not None:
-            video.finish(args.overwrite)
-    except BaseException:  # a failed or interrupted turntable leaves nothing behind
-        for path in written:
-            path.unlink(missing_ok=True)
-        if video is not None:
-            video.discard()
-        raise
+            video.close()
     print(paths[0].parent if args.output is None or "{" not in args.output else args.output)
     if video_path:
         print(video_path)
