@@ -76,7 +76,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, pocl_threa
         where = f"the scheduler at {address}"
     try:
         if announce:
-            sys.stderr.write(f"clrender: rendering on {where}; dashboard {client.dashboard_link}\n")
+            sys.stderr.write(f"rendering on {where}; dashboard {client.dashboard_link}\n")  # 'clrender:' means an error
         yield client
     finally:
         client.close()
