@@ -61,6 +61,10 @@ def connect(scheduler: str | None = None, workers: int | None = None, pocl_threa
     cluster = None
     if workers is not None:
         threads = pocl_threads or max(1, (os.cpu_count() or 1) // workers)
+        # Ctrl-C ends the program at once (cli.py); multiprocessing's resource tracker, started with
+        # this interpreter's -W options, would then print a multi-line warning about semaphores
+        if "ignore:resource_tracker:UserWarning" not in sys.warnoptions:
+            sys.warnoptions.append("ignore:resource_tracker:UserWarning")
         cluster = distributed.LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
             silence_logs=logging.ERROR, env=pocl_env(threads))
