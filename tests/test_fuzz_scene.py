@@ -316,7 +316,11 @@ def mutated_scenes(draw):
         elif op == "extreme" and is_num(old):
             container[key] = draw(extremes)
         elif op == "scale" and is_num(old):
-            container[key] = old * draw(st.sampled_from([0, -1, 1e-30, 1e-6, 1e6, 1e30, 1e300]))
+            factor = draw(st.sampled_from([0, -1, 1e-30, 1e-6, 1e6, 1e30, 1e300]))
+            try:
+                container[key] = old * factor
+            except OverflowError:  # a huge int times a float
+                container[key] = math.copysign(math.inf, factor) if old > 0 else -math.copysign(math.inf, factor)
         else:
             container[key] = draw(numbers)
     return data
