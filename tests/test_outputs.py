@@ -179,3 +179,16 @@ def test_pixel_filter_weights_a_rendered_pixel_as_the_formula_says(device, name)
     assert (np.abs(predicted - box).max(-1) > 1e-3).mean() > 0.05  # enough pixels where the weighting matters
     close = np.abs(filtered - predicted).max(-1) < 1e-4
     assert close.mean() > 0.97, close.mean()  # a ray on an exact silhouette may round to the other side
+
+
+def test_random_samples_of_one_pixel_are_independent_of_each_other(device):
+    """Each sample of a pixel draws its own numbers: positions differ within a pixel and sample k
+    says nothing about sample k + 1 (the hash takes the sample index)."""
+    s = sample_offsets(np.arange(4000), "random", 3, seed=8, device=device)  # 9 samples per pixel
+    assert all(len(np.unique(row, axis=0)) == 9 for row in s[:200])
+    for k in range(8):
+        assert abs(np.corrcoef(s[:, k, 0], s[:, k + 1, 0])[0, 1]) < 0.06
+        assert abs(np.corrcoef(s[:, k, 1], s[:, k + 1, 1])[0, 1]) < 0.06
+    # the jitter inside the stratified sub-squares is independent too
+    j = sample_offsets(np.arange(4000), "stratified", 3, seed=8, device=device) * 3 % 1
+    assert abs(np.corrcoef(j[:, 0, 0], j[:, 4, 0])[0, 1]) < 0.06
