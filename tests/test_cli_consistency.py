@@ -39,6 +39,11 @@ def test_seed_positionals_and_the_same_named_option_are_refused(tmp_path, capsys
     assert os.listdir(tmp_path) == []
 
 
+def test_seed_sample_count_and_samples_option_are_refused(tmp_path, capsys):
+    code, out, err = run(capsys, "render", "refract1", "1", "full", "uniform", "4", "--samples", "2", *tiny(tmp_path))
+    assert code == 2 and "--samples 2" in err and "AA_SAMPLES '4'" in err
+
+
 def test_seed_positionals_with_an_option_they_do_not_set_are_fine(tmp_path, capsys):
     # CAMERA AA_TYPE SAMPLE_TYPE leave the sample count to --samples
     code, out, err = run(capsys, "-q", "render", "refract1", "1", "full", "uniform", "--samples", "2", *tiny(tmp_path))

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..renderer import AA_MODES, SAMPLERS, RenderSettings
+from . import add_device_argument
 
 EXAMPLES = """examples:
   clrender render refract1 -o refract1.png
@@ -88,7 +89,7 @@ def add_parser(sub):
     p.add_argument("--seed", type=int, default=d.seed, help="random seed (same seed, same image)")
     p.add_argument("--filter", action="append", default=[], metavar="NAME",
                    help="convolution filter applied to the result, repeatable (default: none)")
-    p.add_argument("--device", default=None, help="OpenCL device substring (default: $CLRENDER_DEVICE, else PoCL CPU)")
+    add_device_argument(p)
     p.add_argument("--list", action="store_true", help="list the bundled scenes with their cameras and exit")
     # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
     from .cluster import add_cluster_arguments
