@@ -9,7 +9,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 
-def add_cluster_arguments(p):
+def add_cluster_arguments(p, tiles: bool = True):
     g = p.add_argument_group("cluster (pip install 'clrender[distributed]'; see docs/distributed.md)")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on the Dask scheduler at ADDRESS, e.g. tcp://10.0.0.5:8786 "
@@ -19,6 +19,8 @@ def add_cluster_arguments(p):
                         "(default: no local cluster)")
     g.add_argument("--pocl-threads", type=int, default=None, metavar="T",
                    help="PoCL threads per --workers process (default: CPU cores / N)")
+    if not tiles:
+        return
     g.add_argument("--tile-size", type=int, default=None, metavar="PIXELS",
                    help="tiles (one task each on a cluster) are PIXELS x PIXELS; the image does not depend on it "
                         "(default: 128)")
@@ -45,7 +47,7 @@ def cluster_client(args):
 @contextmanager
 def renderer_for(args, scene, settings):
     """The local Renderer, or a DistributedRenderer on the cluster the options name."""
-    if args.tile_size is not None:
+    if getattr(args, "tile_size", None) is not None:
         from dataclasses import replace
 
         settings = replace(settings, tile_size=args.tile_size)

@@ -66,6 +66,9 @@ def add_parsers(group):
     p.add_argument("--log", metavar="CSV", help="write step, epoch, seconds, splats, loss, psnr rows (default: no log)")
     p.add_argument("--curve", metavar="PNG", help="loss/PSNR curve picture (default: OUT's name + .curve.png)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    from .cluster import add_cluster_arguments  # IN a folder or glob: one fit per photo, on Dask if asked
+
+    add_cluster_arguments(p, tiles=False)
     p.set_defaults(run=run_gauss)
 
     p = group.add_parser("render", help="render saved Gaussian splats at another resolution", epilog=RENDER_EXAMPLE)
@@ -87,6 +90,7 @@ def add_parsers(group):
     p.add_argument("--time-budget", type=float, default=10.0, metavar="SECONDS", help="seconds per run")
     p.add_argument("--csv", metavar="CSV", help="also write the results table here (default: stdout only)")
     p.add_argument("--overwrite", action="store_true", help="replace the --csv file if it exists")
+    add_cluster_arguments(p, tiles=False)  # one fit per combination on Dask
     p.set_defaults(run=run_sweep)
 
 
@@ -145,6 +149,10 @@ def run_gauss(args):
     from ..outputs import output_set
     from ..splat.fit import Fitter
 
+    from .splat_batch import is_batch, run_gauss_batch
+
+    if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)
+        return run_gauss_batch(args, lambda a: _config(a, lr=a.lr, time_budget=a.time_budget))
     out = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     curve = args.curve or str(out.with_suffix("")) + ".curve.png"
     check_output_path(curve, overwrite=args.overwrite, inputs=[args.input])
@@ -199,9 +207,6 @@ def run_render(args):
 
 
 def run_sweep(args):
-    from ..device import get_device
-    from ..splat.fit import Fitter
-
     _check_side_output(args.csv, args.overwrite, (".csv",))
     if args.csv:
         from ..imageio import check_distinct_outputs
@@ -211,13 +216,16 @@ def run_sweep(args):
         if not 0 < lr < float("inf"):
             raise UsageError(f"--lrs value {lr} must be a number > 0")
     target = _read_target(args.input)
-    device = get_device(args.device)
     rows = []
     combos = list(itertools.product(args.lrs, args.batches))
+    configs = []
     for lr, batch in combos:
         config = _config(args, lr=lr, time_budget=args.time_budget)
         config.batch = batch
-        result = Fitter(device, target, config).run(show_progress=False)
+        configs.append(config)
+    from .splat_batch import sweep_results  # here one by one, or one task each under --scheduler / --workers
+
+    for (lr, batch), result in zip(combos, sweep_results(args, target, configs)):
         rows.append({"lr": lr, "batch": batch, "steps": result.steps, "seconds": round(result.seconds, 2),
                      "psnr": round(result.psnr, 3)})
         sys.stdout.write(f"lr {lr:g}  batch {batch:>7d}  steps {result.steps:>6d}  PSNR {result.psnr:6.2f} dB\n")

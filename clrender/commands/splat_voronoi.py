@@ -38,6 +38,9 @@ def add_parsers(group):
     p.add_argument("--save-sites", default=None, metavar="P.npz",
                    help="also save sites (N,2 pixel units), colors (N,C) and the image size (default: not saved)")
     add_device_argument(p)
+    from .cluster import add_cluster_arguments  # IN a folder or glob: one splatting per photo, on Dask if asked
+
+    add_cluster_arguments(p, tiles=False)
     p.set_defaults(run=run)
 
 
@@ -49,6 +52,11 @@ def run(args):
     from ..outputs import output_set, save_npz
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
 
+    from .splat_batch import is_batch, run_voronoi_batch
+
+    if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)
+        return run_voronoi_batch(args, lambda a: VoronoiSettings(n=a.splats, method=a.method, init=a.init, colors=a.colors,
+                                                                 lloyd=a.lloyd, train=a.train, seed=a.seed))
     output = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     sites_path = None
     if args.save_sites:
