@@ -318,6 +318,36 @@ def test_voronoi_splats_are_the_local_ones(client, device):
         assert result.image.tobytes() == local.image.tobytes() and np.array_equal(result.sites, local.sites)
 
 
+def test_cli_splat_a_folder_of_photos_on_the_cluster(client, tmp_path):
+    from clrender.imageio import write_image
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for i, photo in enumerate(small_photos()):
+        write_image(photos / f"p{i}.png", photo)
+    fit = ["--splats", "30", "--epochs", "6"]
+    assert main(["-q", "splat", "gauss", str(photos), "-o", str(tmp_path / "here")] + fit) == 0
+    assert main(["-q", "splat", "gauss", str(photos / "*.png"), "-o", str(tmp_path / "there"), "--scheduler",
+                 client.scheduler.address] + fit) == 0
+    assert main(["-q", "splat", "voronoi", str(photos), "-o", str(tmp_path / "cells"), "--splats", "20",
+                 "--scheduler", client.scheduler.address]) == 0
+    assert main(["-q", "splat", "voronoi", str(photos / "p0.png"), "-o", str(tmp_path / "one.png"), "--splats", "20"]) == 0
+    for name in ("p0.png", "p1.png"):
+        assert (tmp_path / "there" / name).read_bytes() == (tmp_path / "here" / name).read_bytes()
+    assert (tmp_path / "cells" / "p0.png").read_bytes() == (tmp_path / "one.png").read_bytes()
+
+
+def test_splat_folder_errors(tmp_path, capsys):
+    assert main(["splat", "gauss", str(tmp_path / "none" / "*.jpg"), "-o", str(tmp_path / "out")]) == 2
+    assert "no images in" in capsys.readouterr().err
+    from clrender.imageio import write_image
+
+    write_image(tmp_path / "p.png", small_photos()[0])
+    assert main(["splat", "gauss", str(tmp_path), "-o", str(tmp_path / "x.png")]) == 2
+    assert "-o names a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png"]
+
+
 # ------------------------------------------------------------------ faults
 @pytest.mark.slow
 def test_render_survives_a_worker_killed_mid_render():
