@@ -1,10 +1,14 @@
 """Ray throughput and BVH build: `python -m bench rays [--mesh PATH] [--runs K] [--out DIR]`.
 
-Primary rays: a 512x512 pinhole camera framing the mesh; shadow rays: from
-each primary hit towards a point light.  Kernel time only (rays already on
-the device, compile and warm-up excluded), median of K runs; for primary rays
-also per CPU-second of this process (steadier than wall time on a shared CPU).  Also the BVH
-build time for a 1,000,000-triangle mesh and the SAH cost of both builders.
+Primary rays: a 512x512 pinhole camera framing the mesh; shadow (any-hit) rays:
+from each primary hit towards a point light; incoherent rays: from each primary
+hit in a random direction of the hit face's hemisphere.  Kernel time only (rays
+already on the device, compile and warm-up excluded), median of K runs, also per
+CPU-second of this process (steadier than wall time on a shared CPU), with nodes
+and primitives tested per ray, for each layout (builder, BVH width).  --peer
+embree traces the same rays with Embree in the same run (embreex, which calls
+rtcIntersect1 / rtcOccluded1 once per ray on one thread) and reports the ratios.
+Also the BVH build time for a 1,000,000-triangle mesh and the SAH cost of both builders.
 """
 from __future__ import annotations
 
@@ -44,39 +48,95 @@ def median_cpu_seconds(fn, runs: int) -> float:
     return float(np.median(times))
 
 
-def ray_throughput(mesh, size: int, runs: int, builder: str):
-    dev = get_device()
-    tracer = Tracer(mesh, builder=builder, device=dev)
+LAYOUTS = (("sah", 4), ("sah", 2))  # (builder, BVH width); the first is the default. The median tree
+# traces 20-50x slower (457 nodes per primary ray on the generated mesh): only its build is timed.
+
+
+def ray_sets(mesh, size: int, seed: int = 0):
+    """The three ray kinds, as float32 (origins, directions, t_max) on the host:
+    primary: a size x size pinhole camera framing the mesh; shadow: from each primary hit toward a
+    point light (t_max = the light's distance); incoherent: from each primary hit, a uniformly random
+    direction in the hemisphere of the hit face (a diffuse bounce).  Secondary origins are moved off
+    the surface by 1e-4 of the mesh's coordinate scale, for clrender and Embree alike."""
     cam = framing_camera(np.asarray(mesh.vertices))
     o, d = cam.rays(size, size)
-    n, o_buf, d_buf = tracer._rays(o.reshape(-1, 3), d.reshape(-1, 3))
-    outs = tuple(dev.empty(4 * n) for _ in range(4))
-    zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
-    tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()  # warm-up: PoCL finishes compiling here
-    primary = median_seconds(lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait(), runs)
-    primary_cpu = median_cpu_seconds(lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait(), runs)
-    t, prim, _ = tracer.intersect(o.reshape(-1, 3), d.reshape(-1, 3))
-    visits = tracer.last_visits.mean()
+    o, d = o.reshape(-1, 3).astype(np.float32), d.reshape(-1, 3).astype(np.float32)
+    from clrender.tracer import Tracer as _T  # closest hits from the exact (binary, SAH) tracer
+
+    t, prim, _ = _T(mesh, bvh_width=2).intersect(o, d)
     hit = np.isfinite(t)
-    p = o.reshape(-1, 3)[hit] + t[hit, None] * d.reshape(-1, 3)[hit]
+    p = o[hit].astype(np.float64) + t[hit, None] * d[hit].astype(np.float64)
+    n = np.asarray(mesh.face_normals, np.float64)[prim[hit]]
+    eps = 1e-4 * (1 + np.abs(np.asarray(mesh.vertices)).max())
     light = np.asarray(cam.position) + np.array([2.0, 3.0, 0.0]) * np.ptp(mesh.vertices, axis=0).max()
     to_light = light - p
     dist = np.linalg.norm(to_light, axis=1)
     to_light /= dist[:, None]
-    origins = p + to_light * 1e-4 * (1 + np.abs(p).max(1, keepdims=True))
-    m, so, sd = tracer._rays(origins, to_light)
-    t_max = dev.to_device(dist.astype(np.float32))
-    s_zeros = dev.to_device(np.zeros(m, np.float32))  # t_min
-    souts = (dev.empty(4 * m), dev.empty(4 * m))
-    tracer.launch_occluded(m, so, sd, s_zeros, t_max, souts).wait()
-    shadow = median_seconds(lambda: tracer.launch_occluded(m, so, sd, s_zeros, t_max, souts).wait(), runs)
-    return dict(primary_mrays=n / primary / 1e6, primary_mrays_per_cpu_s=n / primary_cpu / 1e6,
-                shadow_mrays=m / shadow / 1e6, hit_fraction=float(hit.mean()),
-                nodes_per_primary_ray=float(visits), compile_s=dev.compile_seconds, bvh_build_s=tracer.bvh_seconds)
+    side = np.sign(np.einsum("ij,ij->i", n, to_light))[:, None]
+    shadow = (p + side * n * eps, to_light, dist)
+    rng = np.random.default_rng(seed)
+    r = rng.normal(size=p.shape)
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    facing = -np.sign(np.einsum("ij,ij->i", n, d[hit]))[:, None]  # the side the camera sees
+    r *= np.where(np.einsum("ij,ij->i", r, n * facing) < 0, -1, 1)[:, None]
+    bounce = (p + facing * n * eps, r, np.full(len(p), np.inf))
+    f32 = lambda a: tuple(np.ascontiguousarray(x, np.float32) for x in a)  # noqa: E731
+    return {"primary": (o, d, np.full(len(o), np.inf, np.float32)), "shadow": f32(shadow),
+            "incoherent": f32(bounce)}, float(hit.mean())
+
+
+def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int):
+    """Mrays/s (wall) and Mrays per CPU-second of this process for each ray kind, with nodes and
+    primitives tested per ray; kernel time only (rays on the device, compile and warm-up excluded)."""
+    dev = get_device()
+    tracer = Tracer(mesh, builder=builder, bvh_width=width, device=dev)
+    counter = Tracer(mesh, builder=builder, bvh_width=width, device=dev, count_prim_tests=True)
+    row = dict(bvh_build_s=tracer.bvh_seconds)
+    for kind, (o, d, t_max) in rays.items():
+        n, o_buf, d_buf = tracer._rays(o, d)
+        zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
+        if kind == "shadow":
+            t_buf, outs = dev.to_device(t_max), (dev.empty(4 * n), dev.empty(4 * n))
+            launch = lambda: tracer.launch_occluded(n, o_buf, d_buf, zeros, t_buf, outs).wait()  # noqa: E731
+            query = lambda tr: tr.occluded(o, d, t_max)  # noqa: E731
+        else:
+            outs = tuple(dev.empty(4 * n) for _ in range(4))
+            launch = lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()  # noqa: E731
+            query = lambda tr: tr.intersect(o, d)  # noqa: E731
+        launch()  # warm-up: PoCL finishes compiling here
+        row[f"{kind}_mrays"] = n / median_seconds(launch, runs) / 1e6
+        row[f"{kind}_mrays_per_cpu_s"] = n / median_cpu_seconds(launch, runs) / 1e6
+        query(tracer)
+        row[f"{kind}_nodes_per_ray"] = float(tracer.last_visits.mean())
+        query(counter)
+        row[f"{kind}_prims_per_ray"] = float(counter.last_visits.mean())
+    return row
+
+
+def embree_rates(mesh, rays: dict, runs: int):
+    """The same rays through Embree (embreex): rtcIntersect1 / rtcOccluded1 once per ray in
+    embreex's Cython loop, on this one thread (Embree's build may use more)."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    scene = rtcore_scene.EmbreeScene()
+    TriangleMesh(scene, np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)])
+    row = {}
+    for kind, (o, d, t_max) in rays.items():
+        if kind == "shadow":
+            launch = lambda: scene.run(o, d, dists=t_max.copy(), query="OCCLUDED")  # noqa: E731
+        else:
+            launch = lambda: scene.run(o, d)  # noqa: E731
+        launch()
+        row[f"{kind}_mrays"] = len(o) / median_seconds(launch, runs) / 1e6
+        row[f"{kind}_mrays_per_cpu_s"] = len(o) / median_cpu_seconds(launch, runs) / 1e6
+    return row
 
 
 def build_times(n_triangles: int, runs: int):
+    """Build time and SAH cost of each builder (binary tree, then the 4-wide collapse of it)."""
     from clrender.bvh import build_bvh
+    from clrender.bvh_wide import collapse
     from clrender.meshes import dense_mesh
 
     mesh = dense_mesh(n_triangles, seed=1)
@@ -86,9 +146,28 @@ def build_times(n_triangles: int, runs: int):
     for builder in ("sah", "median"):
         seconds = median_seconds(lambda: build_bvh(lo, hi, builder=builder), runs)
         bvh = build_bvh(lo, hi, builder=builder)
+        collapse_s = median_seconds(lambda: collapse(bvh, 4), runs)
+        wide = collapse(bvh, 4)
         rows.append(dict(builder=builder, triangles=len(tri), build_s=seconds, nodes=len(bvh.nodes),
-                         sah_cost=float(bvh.sah_cost())))
+                         sah_cost=float(bvh.sah_cost()), collapse4_s=collapse_s, wide4_nodes=wide.node_count,
+                         wide4_sah_cost=wide.sah_cost()))
     return rows
+
+
+KINDS = ("primary", "shadow", "incoherent")
+
+
+def summary(rows: list[dict]) -> str:
+    """One line per layout and ray kind: Mrays/s, per CPU-second, ratios to Embree, work per ray."""
+    lines = ["| layout | rays | Mrays/s | Mrays/CPU-s | vs Embree (wall) | vs Embree (per CPU-s) | nodes/ray | prims/ray |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        layout = "embree (1 thread)" if r["builder"] == "embree" else f"{r['builder']}, width {r['width']}"
+        for k in KINDS:
+            g = lambda key: r.get(f"{k}_{key}", float("nan"))  # noqa: E731
+            lines.append(f"| {layout} | {k} | {g('mrays'):.3g} | {g('mrays_per_cpu_s'):.3g} | {g('vs_embree'):.3g} | "
+                         f"{g('vs_embree_per_cpu_s'):.3g} | {g('nodes_per_ray'):.3g} | {g('prims_per_ray'):.3g} |")
+    return "\n".join(lines)
 
 
 def main(argv=None):
@@ -99,6 +178,9 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=5, help="timed runs; the median is reported")
     ap.add_argument("--build-triangles", type=int, default=1_000_000, help="triangles for the build benchmark")
     ap.add_argument("--out", default="bench/out", help="folder for rays.csv / rays.md")
+    ap.add_argument("--peer", choices=("embree",), help="also trace the same rays with Embree (embreex, one thread) "
+                    "and report clrender / Embree ratios measured in this run")
+    ap.add_argument("--no-build", action="store_true", help="skip the 1M-triangle build benchmark")
     args = ap.parse_args(argv)
     if args.mesh:
         mesh = load_mesh_file(Path(args.mesh), "--mesh")
@@ -108,12 +190,28 @@ def main(argv=None):
 
         mesh = dense_mesh(100_000, seed=0)
         label = "generated"
+    rays, hit_fraction = ray_sets(mesh, args.size)
+    peer = embree_rates(mesh, rays, args.runs) if args.peer == "embree" else None
     rows = []
-    for builder in ("sah", "median"):
-        r = ray_throughput(mesh, args.size, args.runs, builder)
-        rows.append(dict(mesh=label, triangles=len(mesh.faces), builder=builder, **r))
+    for builder, width in LAYOUTS:
+        r = clrender_rates(mesh, rays, args.runs, builder, width)
+        row = dict(mesh=label, triangles=len(mesh.faces), builder=builder, width=width, hit_fraction=hit_fraction, **r)
+        if peer:
+            for kind in KINDS:
+                row[f"{kind}_vs_embree"] = r[f"{kind}_mrays"] / peer[f"{kind}_mrays"]
+                row[f"{kind}_vs_embree_per_cpu_s"] = r[f"{kind}_mrays_per_cpu_s"] / peer[f"{kind}_mrays_per_cpu_s"]
+        rows.append(row)
+    if peer:
+        base = dict(mesh=label, triangles=len(mesh.faces), builder="embree", width=0, hit_fraction=hit_fraction, **peer)
+        rows.append({k: base.get(k, float("nan")) for k in rows[0]})
     out = Path(args.out)
-    print(write_table(out, "rays", rows, f"Ray throughput at {args.size}x{args.size} (median of {args.runs})"))
+    write_table(out, "rays", rows, f"Ray throughput at {args.size}x{args.size} (median of {args.runs})")
+    table = summary(rows)
+    (out / "rays_summary.md").write_text(table + "\n")
+    print(f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} primary rays, {hit_fraction:.1%} hit")
+    print(table)
+    if args.no_build:
+        return 0
     build = build_times(args.build_triangles, max(1, min(args.runs, 3)))
     print()
     print(write_table(out, "bvh_build", build, "BVH build time"))

@@ -34,6 +34,7 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
 BUILDERS = ("sah", "median")
+DEFAULT_BVH_WIDTH = 4  # 4-wide nodes (clrender/bvh_wide.py); 2 traverses the binary tree as built
 
 
 def as_scene(scene_or_mesh) -> Scene:
@@ -54,9 +55,17 @@ def global_size(n: int) -> tuple:
 
 
 class Tracer:
-    def __init__(self, scene_or_mesh, *, use_bvh: bool = True, builder: str = "sah", device: Device | str | None = None):
+    def __init__(self, scene_or_mesh, *, use_bvh: bool = True, builder: str = "sah", device: Device | str | None = None,
+                 bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False):
+        from .bvh_wide import WIDTHS
+
         if builder not in BUILDERS:
             raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
+        if bvh_width not in WIDTHS:
+            raise UsageError(f"BVH width {bvh_width!r}; allowed: {', '.join(map(str, WIDTHS))}")
+        self.bvh_width = int(bvh_width)
+        self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
+        self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
         self.use_bvh = use_bvh
@@ -71,12 +80,18 @@ class Tracer:
             lo, hi = self.primitives.bounds()
             start = time.perf_counter()
             self.bvh = build_bvh(lo, hi, builder=builder)
+            if self.bvh_width == 2:
+                nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
+            else:
+                from .bvh_wide import collapse
+
+                self.wide = collapse(self.bvh, self.bvh_width)
+                nodes = np.ascontiguousarray(self.wide.nodes).reshape(-1, 4)
             self.bvh_seconds = time.perf_counter() - start
             order = np.asarray(self.bvh.prim_order, np.int64)
-            nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
         else:
             order = np.arange(n, dtype=np.int64)
-            nodes = np.zeros((2, 4), np.float32)
+            nodes = np.zeros((8, 4), np.float32)
         self.device.check_fits(n * 48, f"{n} primitives")
         dev = self.device
         self.n_prims = n
@@ -92,8 +107,11 @@ class Tracer:
     @property
     def defines(self) -> dict:
         from .bvh import STACK_SIZE
+        from .bvh_wide import stack_size
 
-        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE}
+        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE,
+                "BVH_WIDTH": self.bvh_width, "WIDE_STACK_SIZE": stack_size(4),
+                "COUNT_PRIM_TESTS": int(self.count_prim_tests)}
 
     def kernel(self, name: str) -> cl.Kernel:
         return self.device.kernel("trace.cl", name, self.defines)

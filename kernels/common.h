@@ -1,9 +1,10 @@
 /* Shared definitions for the tracing kernels (OpenCL C 1.2, float32).
  *
  * Buffer layouts (written once here, packed by clrender/gpu_scene.py):
- *   nodes     float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
+ *   nodes     BVH_WIDTH 2: float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
  *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
  *             interior: count == 0, near child i+1, far child `offset`.
+ *             BVH_WIDTH 4: float4 x8 per node, see intersect.h / clrender/bvh_wide.py.
  *   prims     float4 x3 per primitive slot, in BVH leaf order:
  *             triangle: (v0, id) (v1, 0) (v2, 0) -- the vertices themselves, so two
  *             triangles that share an edge see bit-identical endpoints (watertight)
@@ -31,6 +32,24 @@
 #define STACK_SIZE 64         /* BVH traversal stack (clrender.bvh.STACK_SIZE); the builder keeps trees shallower */
 #endif
 #define RAY_STACK (MAX_DEPTH + 2)
+#ifndef BVH_WIDTH
+#define BVH_WIDTH 2           /* 2: binary nodes; 4: 4-wide nodes (clrender/bvh_wide.py) */
+#endif
+#if BVH_WIDTH != 2 && BVH_WIDTH != 4
+#error "BVH_WIDTH must be 2 or 4"
+#endif
+#ifndef WIDE_STACK_SIZE
+#define WIDE_STACK_SIZE 190   /* clrender.bvh_wide.stack_size(4) */
+#endif
+/* What the per-ray `visits` counter counts: nodes visited (leaves included; a wide node counts
+ * once for its four boxes), or with -DCOUNT_PRIM_TESTS=1 the primitives tested. */
+#if COUNT_PRIM_TESTS
+#define COUNT_NODE(v)
+#define COUNT_PRIMS(v, n) (*(v) += (uint)(n))
+#else
+#define COUNT_NODE(v) (*(v) += 1)
+#define COUNT_PRIMS(v, n)
+#endif
 
 #define LIGHT_POINT 0
 #define LIGHT_DIRECTIONAL 1

@@ -185,11 +185,86 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
     }
 }
 
+/* ---------------------------------------------------------------- 4-wide BVH (clrender/bvh_wide.py)
+ * A node is 8 float4 rows: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its 4 children, then the
+ * children's int32 index (wide node, or first slot of a leaf) and count (0 interior, > 0 leaf
+ * slots, -1 empty lane).  The slab test is hit_box's, lane by lane: the same float operations,
+ * so each lane's answer is bit for bit the binary test's for that box.  Stack entries name a
+ * lane (node * 4 + lane); a node pushes its hit lanes farthest first, so the nearest pops first. */
+#if BVH_WIDTH == 4
+inline void slab4(float4 lo, float4 hi, float o, float inv_d, float4 *t_enter, float4 *t_exit) {
+    float4 t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
+    bool backwards = inv_d < 0.0f;
+    float4 near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
+    *t_enter = select(*t_enter, near, near > *t_enter); /* a NaN lane of `near` keeps t_enter */
+    *t_exit = select(*t_exit, far, far < *t_exit);
+}
+
+/* Entry distances of the four lanes (INF_T where the box is missed or the lane is empty). */
+inline float4 hit_boxes4(Ray r, __global const float4 *node, float t_max) {
+    float4 t_enter = (float4)(0.0f), t_exit = (float4)(t_max);
+    slab4(node[0], node[1], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab4(node[2], node[3], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab4(node[4], node[5], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    t_exit *= 1.0000004f;
+    int4 hit = (t_enter <= t_exit) & (as_int4(node[7]) >= 0);
+    return select((float4)(INF_T), t_enter, hit);
+}
+
+/* Push the lanes of `node` with a finite entry distance, farthest first. */
+inline int push_lanes4(int node, float4 t4, int *stack, float *stack_t, int sp, bool *overflow) {
+    float t[4] = {t4.x, t4.y, t4.z, t4.w};
+    int lane[4];
+    int n = 0;
+    for (int k = 0; k < 4; ++k) { /* insertion sort by decreasing distance */
+        if (t[k] == INF_T) continue;
+        int j = n++;
+        while (j > 0 && t[lane[j - 1]] < t[k]) { lane[j] = lane[j - 1]; --j; }
+        lane[j] = k;
+    }
+    for (int j = 0; j < n; ++j) {
+        if (sp < WIDE_STACK_SIZE) { stack[sp] = 4 * node + lane[j]; stack_t[sp] = t[lane[j]]; ++sp; }
+        else *overflow = true;
+    }
+    return sp;
+}
+
+inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+                            Ray r, float t_min, Hit best, uint *visits) {
+    /* trees are at most MAX_DEPTH deep: the stack holds at most 3 siblings per level plus one
+       node's lanes (clrender.bvh_wide.stack_size); should it fill up, every primitive is tested */
+    __global const int *ints = (__global const int *)nodes;
+    int stack[WIDE_STACK_SIZE];
+    float stack_t[WIDE_STACK_SIZE];
+    int sp = 0;
+    bool overflow = false;
+    if (n_prims > 0) {
+        COUNT_NODE(visits);
+        sp = push_lanes4(0, hit_boxes4(r, nodes, best.t), stack, stack_t, sp, &overflow);
+    }
+    while (sp > 0) {
+        --sp;
+        if (stack_t[sp] > best.t * 1.0000004f) continue; /* beyond the nearest hit so far */
+        int node = stack[sp] >> 2, lane = stack[sp] & 3;
+        int child = ints[32 * node + 24 + lane], count = ints[32 * node + 28 + lane];
+        COUNT_NODE(visits);
+        if (count > 0) {
+            COUNT_PRIMS(visits, count);
+            test_slots(prims, child, child + count, r, t_min, &best);
+        } else {
+            sp = push_lanes4(child, hit_boxes4(r, nodes + 8 * child, best.t), stack, stack_t, sp, &overflow);
+        }
+    }
+    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
+    return best;
+}
+#endif
+
 inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                        Ray r, float t_min, float t_max, uint *visits) {
     Hit best = no_hit();
     best.t = t_max;
-#if USE_BVH
+#if USE_BVH && BVH_WIDTH == 2
     /* the builder keeps trees at most clrender.bvh.MAX_DEPTH deep, so near-first traversal holds
        at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
        primitives are then all tested (the answer is the same, only slower) */
@@ -199,11 +274,12 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     bool overflow = false;
     int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
     while (node >= 0) {
-        *visits += 1;
+        COUNT_NODE(visits);
         float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
         int count = as_int(hi.w), offset = as_int(lo.w);
         int next = -1;
         if (count > 0) {
+            COUNT_PRIMS(visits, count);
             test_slots(prims, offset, offset + count, r, t_min, &best);
         } else {
             int near_child = node + 1, far_child = offset;
@@ -229,6 +305,8 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
         node = next;
     }
     if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
+#elif USE_BVH
+    best = closest_hit_wide(nodes, prims, n_prims, r, t_min, best, visits);
 #else
     test_slots(prims, 0, n_prims, r, t_min, &best);
     *visits += (uint)n_prims;
@@ -264,22 +342,77 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
     return crossings == 2 ? transparency * transparency : transparency;
 }
 
+#if BVH_WIDTH == 4
+/* Push the lanes of `node` that the ray enters before t_max, in lane order (no sort: an any-hit
+ * query needs no order, and nearest-first finds first the boxes around a shadow ray's origin,
+ * which rarely block it). */
+inline int push_hit_lanes4(int node, float4 t4, int *stack, int sp, bool *overflow) {
+    int4 hit = t4 != (float4)(INF_T);
+    int h[4] = {hit.x, hit.y, hit.z, hit.w};
+    for (int k = 0; k < 4; ++k) {
+        if (!h[k]) continue;
+        if (sp < WIDE_STACK_SIZE) stack[sp++] = 4 * node + k;
+        else *overflow = true;
+    }
+    return sp;
+}
+
+/* Any-hit traversal of the 4-wide tree: every hit lane goes on the stack. */
+inline float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+                                __global const int *prim_object, __global const int2 *objects,
+                                __global const float4 *materials, Ray r, float t_min, float t_max,
+                                bool opaque_only, uint *visits) {
+    __global const int *ints = (__global const int *)nodes;
+    int stack[WIDE_STACK_SIZE];
+    int sp = 0;
+    bool overflow = false;
+    float T = 1.0f;
+    if (n_prims > 0) {
+        COUNT_NODE(visits);
+        sp = push_hit_lanes4(0, hit_boxes4(r, nodes, t_max), stack, sp, &overflow);
+    }
+    while (sp > 0 && T > 0.0f) {
+        --sp;
+        int node = stack[sp] >> 2, lane = stack[sp] & 3;
+        int child = ints[32 * node + 24 + lane], count = ints[32 * node + 28 + lane];
+        COUNT_NODE(visits);
+        if (count > 0) {
+            COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
+            for (int s = child; s < child + count && T > 0.0f; ++s)
+                T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+        } else {
+            sp = push_hit_lanes4(child, hit_boxes4(r, nodes + 8 * child, t_max), stack, sp, &overflow);
+        }
+    }
+    if (overflow && T > 0.0f) { /* a lane did not fit on the stack: test every primitive instead */
+        T = 1.0f;
+        for (int s = 0; s < n_prims && T > 0.0f; ++s)
+            T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+    }
+    return T;
+}
+#endif
+
 inline float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                            __global const int *prim_object, __global const int2 *objects,
                            __global const float4 *materials, Ray r, float t_min, float t_max, bool opaque_only,
                            uint *visits) {
     float T = 1.0f;
-#if USE_BVH
+#if USE_BVH && BVH_WIDTH == 4
+    T = transmittance_wide(nodes, prims, n_prims, prim_object, objects, materials, r, t_min, t_max, opaque_only,
+                           visits);
+#elif USE_BVH
     int stack[STACK_SIZE]; /* holds at most the tree's depth; on overflow see below */
     int sp = 0;
     bool overflow = false;
     if (n_prims > 0 && hit_box(r, nodes[0], nodes[1], t_max) != INF_T) stack[sp++] = 0;
     while (sp > 0 && T > 0.0f) {
         int node = stack[--sp];
-        *visits += 1;
+        COUNT_NODE(visits);
         float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
         int count = as_int(hi.w), offset = as_int(lo.w);
         if (count > 0) {
+            COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
             for (int s = offset; s < offset + count && T > 0.0f; ++s)
                 T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
         } else {

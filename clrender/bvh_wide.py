@@ -1,0 +1,165 @@
+"""Wide BVH: the binary tree of clrender.bvh collapsed into nodes of up to WIDTH children.
+
+One ray tests all children of a node at once with float4 operations (the slab
+test of kernels/intersect.h, lane by lane), then visits the hit ones nearest
+first.  Layout of one node, 8 rows of WIDTH lanes (float4 rows in the kernel
+for WIDTH = 4; a node is 128 bytes)::
+
+    row 0..5  lo_x, hi_x, lo_y, hi_y, lo_z, hi_z   bounds of each child (float32)
+    row 6     child   (int32 bits)  interior child: its wide node index; leaf child: first slot
+    row 7     count   (int32 bits)  interior child: 0; leaf child: number of slots (> 0); empty lane: -1
+
+Empty lanes also get inverted bounds (lo = 1, hi = -1), but the kernels test
+``count >= 0`` first.  Node 0 is the root; a binary tree that is a single leaf
+becomes a root with that leaf in lane 0.  Leaves and primitive slots are the
+binary tree's, unchanged (``prim_order`` stays valid).
+
+Collapse rule (as Embree's BVH4 from a binary SAH tree): a wide node starts
+with the two children of its binary node, then repeatedly replaces the
+interior child of largest surface area by its two children until it has
+WIDTH children or only leaves.  Vectorised over all nodes of a level.  A wide
+node is never deeper than the binary node it came from, so wide trees keep the
+binary depth bound (MAX_DEPTH) and the kernels' stack bound below.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bvh import BVH, MAX_DEPTH, half_area
+
+WIDTHS = (2, 4)  # 2: the binary tree as is
+ROWS = 8
+
+
+def stack_size(width: int) -> int:
+    """Traversal stack entries for a wide tree (-DWIDE_STACK_SIZE).  A tree of at most MAX_DEPTH
+    levels needs (width - 1) * (MAX_DEPTH - 1) + width: along the path to the current node at most
+    width - 1 pending siblings per level, plus one node's lanes.  Scaled from the binary stack
+    (clrender.bvh.STACK_SIZE, read at call time) so that shrinking it, as a test does to force the
+    kernels' overflow fallback, shrinks this one too."""
+    from . import bvh
+
+    return (width - 1) * (bvh.STACK_SIZE - 1) + 1
+
+
+assert stack_size(4) >= 3 * (MAX_DEPTH - 1) + 4
+
+
+@dataclass
+class WideBVH:
+    nodes: np.ndarray  # (n_nodes, ROWS, width) float32; rows 6, 7 hold int32 bits
+    prim_order: np.ndarray  # int32, the binary tree's slot order
+    width: int
+    build_seconds: float  # binary build + collapse
+    binary: BVH
+
+    @property
+    def node_count(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def child(self) -> np.ndarray:
+        return self.nodes[:, 6].view(np.int32)
+
+    @property
+    def count(self) -> np.ndarray:
+        return self.nodes[:, 7].view(np.int32)
+
+    @property
+    def depth(self) -> int:
+        """Levels on the longest root-to-leaf-node path (leaves live in their parent's lanes)."""
+        depth = np.zeros(len(self.nodes), np.int64)
+        for i in range(len(self.nodes)):  # children always follow their parent (breadth-first)
+            kids = self.child[i][self.count[i] == 0]
+            depth[kids] = depth[i] + 1
+        return int(depth.max()) + 1
+
+    def sah_cost(self, traversal_cost: float = 1.0, intersect_cost: float = 1.0) -> float:
+        """Expected cost of a ray hitting the root, as BVH.sah_cost: every wide node visited costs
+        traversal_cost (its lanes are tested at once), every leaf intersect_cost per primitive."""
+        lo = self.nodes[:, 0:6:2].astype(np.float64).transpose(0, 2, 1)
+        hi = self.nodes[:, 1:6:2].astype(np.float64).transpose(0, 2, 1)
+        valid = self.count >= 0
+        area = np.where(valid, half_area(lo, hi), 0.0)
+        root = half_area(lo[0][valid[0]].min(0), hi[0][valid[0]].max(0))
+        rel = area / root if root > 0 else valid.astype(np.float64)
+        interior = (self.count == 0).astype(np.float64)
+        leaf_prims = np.where(self.count > 0, self.count, 0)
+        return float(traversal_cost + (rel * (traversal_cost * interior + intersect_cost * leaf_prims)).sum())
+
+
+def collapse(bvh: BVH, width: int = 4) -> WideBVH:
+    """Collapse a binary BVH into a wide one (see the module docstring)."""
+    start = time.perf_counter()
+    if width not in WIDTHS or width == 2:
+        raise ValueError(f"width {width}; allowed: 4")
+    bn = bvh.nodes
+    n_bin = len(bn)
+    count = bn["count"].astype(np.int64)
+    offset = bn["offset"].astype(np.int64)
+    interior = count == 0
+    if n_bin == 1:  # a lone root: a leaf, or the empty tree (count 0 and no primitives)
+        interior[:] = False
+    area = half_area(bn["bmin"].astype(np.float64), bn["bmax"].astype(np.float64))
+
+    levels = []  # per level: (binary ids of the wide nodes' lanes, (k, width) with -1 for empty)
+    if n_bin == 1:
+        lanes = np.full((1, width), -1, np.int64)
+        lanes[0, 0] = 0
+        levels.append(lanes)
+        frontier = np.zeros(0, np.int64)
+    else:
+        frontier = np.zeros(1, np.int64)  # binary nodes that become wide nodes
+    while len(frontier):
+        k = len(frontier)
+        lanes = np.full((k, width), -1, np.int64)
+        lanes[:, 0], lanes[:, 1] = frontier + 1, offset[frontier]
+        rows = np.arange(k)
+        for filled in range(2, width):
+            lane_area = np.where(lanes >= 0, area[np.maximum(lanes, 0)], -1.0)
+            lane_area[(lanes < 0) | ~interior[np.maximum(lanes, 0)]] = -1.0
+            pick = np.argmax(lane_area, axis=1)
+            grow = lane_area[rows, pick] >= 0
+            r, p = rows[grow], pick[grow]
+            b = lanes[r, p]
+            lanes[r, p] = b + 1
+            lanes[r, filled] = offset[b]
+        levels.append(lanes)
+        flat = lanes[lanes >= 0]
+        frontier = flat[interior[flat]]
+
+    # wide node indices: breadth-first, in order of appearance
+    n_wide = sum(len(lv) for lv in levels)
+    nodes = np.zeros((n_wide, ROWS, width), np.float32)
+    ints = nodes.view(np.int32)
+    nodes[:, 0:6:2] = 1.0
+    nodes[:, 1:6:2] = -1.0
+    ints[:, 7] = -1
+    wide_of = np.full(n_bin, -1, np.int64)
+    # assign wide indices level by level: a level's interior lanes become the next level's nodes
+    wide_of[0] = 0
+    base = 0
+    for lv in levels:
+        flat = lv[lv >= 0]
+        nxt = flat[interior[flat]]
+        wide_of[nxt] = base + len(lv) + np.arange(len(nxt))
+        base += len(lv)
+    base = 0
+    for lv in levels:
+        k = len(lv)
+        valid = lv >= 0
+        b = np.maximum(lv, 0)
+        sl = slice(base, base + k)
+        for a in range(3):
+            nodes[sl, 2 * a] = np.where(valid, bn["bmin"][b, a], 1.0)
+            nodes[sl, 2 * a + 1] = np.where(valid, bn["bmax"][b, a], -1.0)
+        is_int = valid & interior[b]
+        ints[sl, 6] = np.where(is_int, wide_of[b], np.where(valid, offset[b], 0))
+        ints[sl, 7] = np.where(is_int, 0, np.where(valid, count[b], -1))
+        base += k
+    if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
+        ints[0, 7] = -1
+    return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
