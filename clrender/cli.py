@@ -96,6 +96,20 @@ def _memory_size(text: str) -> int:
 
 def main(argv=None) -> int:
     """Run one command; every failure ends here as one line and an exit code."""
+    code = _main(argv)
+    if _RUN_AS_PROGRAM and argv is None:
+        # Leave now: interpreter shutdown (PoCL's teardown, a fraction of a second) runs with the
+        # default signal actions, so a Ctrl-C then would kill the finished program silently (-2).
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except OSError:  # a closed pipe: nothing more can be said
+            pass
+        os._exit(code)
+    return code
+
+
+def _main(argv) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv or os.environ.get("CLRENDER_DEBUG", "") not in ("", "0")
     if "--debug" in argv:  # accepted anywhere on the line, e.g. after the subcommand
@@ -175,6 +189,8 @@ class _signals_raise:
         self.saved = {}
         if threading.current_thread() is threading.main_thread():
             for signum in (signal.SIGINT, signal.SIGTERM):
+                if signal.getsignal(signum) is signal.SIG_IGN:
+                    continue  # ignored when we started (nohup, a background job of a script): keep it so
                 self.saved[signum] = signal.signal(signum, _on_signal)
                 if _RUN_AS_PROGRAM:  # signal.signal() drops SA_RESTART; EINTR would fail a kernel build
                     signal.siginterrupt(signum, False)
@@ -187,12 +203,15 @@ class _signals_raise:
 
 
 def _on_signal(signum, frame):
-    from . import outputs
-
-    if outputs.hold_signal(signum):
+    # no import here: the signal may arrive while clrender.outputs itself is being imported
+    outputs = sys.modules.get("clrender.outputs")
+    hold = getattr(outputs, "hold_signal", None)
+    if hold is not None and hold(signum):
         return
     if _RUN_AS_PROGRAM:
-        outputs.discard_all()
+        discard = getattr(outputs, "discard_all", None)
+        if discard is not None:
+            discard()
         os.write(2, b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
         os._exit(128 + signum)
     raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()

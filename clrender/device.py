@@ -11,6 +11,7 @@ source strings together.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from dataclasses import dataclass, field
@@ -177,7 +178,31 @@ def get_device(spec: str | None = None) -> Device:
         spec = os.environ.get("CLRENDER_DEVICE") or None
     key = spec or ""
     if key not in _DEVICES:
-        dev = _pick(spec)
-        ctx = cl.Context([dev])
+        with _signal_handlers_kept():
+            dev = _pick(spec)
+            ctx = cl.Context([dev])
         _DEVICES[key] = Device(ctx, cl.CommandQueue(ctx), dev)
     return _DEVICES[key]
+
+
+@contextlib.contextmanager
+def _signal_handlers_kept():
+    """PoCL's LLVM installs its own SIGINT/SIGTERM handlers when the platform starts; put Python's back.
+
+    Without this, Ctrl-C after the first get_device() was lost or killed the process silently
+    (LLVM's handler restores the default action and re-raises), and KeyboardInterrupt never came.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in saved.items():
+            if handler is not None:
+                signal.signal(signum, handler)
+                signal.siginterrupt(signum, False)  # as LLVM had it: a signal does not fail a system call

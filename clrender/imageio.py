@@ -74,6 +74,10 @@ def read_image(path: str | os.PathLike) -> Image:
         spec = inp.spec()
         with _library_messages() as said:
             pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+    except (RuntimeError, UnicodeError) as exc:  # the bindings' own errors on a damaged file
+        if isinstance(exc, RenderFailure):
+            raise
+        raise UsageError(f"cannot read {shown(path)}: the file is damaged ({_reason(str(exc), type(exc).__name__)})") from None
     finally:
         inp.close()
     if pixels is None:
@@ -84,10 +88,22 @@ def read_image(path: str | os.PathLike) -> Image:
 
 
 def _channel_names(spec, path) -> tuple:
+    """The file's channel names; UsageError when the header's names are damaged (bytes that are not text)."""
     try:
-        return tuple(spec.channelnames)
-    except UnicodeDecodeError:
-        raise UsageError(f"cannot read {shown(path)}: its channel names are damaged (not UTF-8)") from None
+        names = tuple(spec.channelnames)
+    except (UnicodeDecodeError, RuntimeError):
+        names = (None,)
+    if not all(isinstance(n, str) and _is_utf8(n) for n in names):
+        raise UsageError(f"cannot read {shown(path)}: its channel names are damaged (not UTF-8 text)")
+    return names
+
+
+def _is_utf8(text: str) -> bool:
+    try:
+        text.encode("utf-8")  # undecodable bytes come back as lone surrogates
+        return True
+    except UnicodeEncodeError:
+        return False
 
 
 def _library_error() -> str:

@@ -95,14 +95,19 @@ def test_a_signal_mid_render_leaves_old_or_new_outputs(tmp_path, new_render, sig
 
 @pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
-def test_signals_at_many_moments(tmp_path, new_render, signum):
-    """Seeded moments per signal (8, or $CLRENDER_FAULT_MOMENTS) across the whole run, imports and final write included."""
+def test_signals_at_many_moments(tmp_path, new_render, interpreter_start, signum):
+    """Seeded moments per signal (8, or $CLRENDER_FAULT_MOMENTS) across the whole run, imports and final write included.
+
+    The moments start once the bare interpreter could have started (twice its measured start time):
+    before Python runs clrender's first line, nothing can catch a signal (Python itself prints a
+    traceback from its `site` import), though nothing has been written either."""
     new, seconds = new_render
     moments = random.Random(1000 + int(signum))
     for i in range(int(os.environ.get("CLRENDER_FAULT_MOMENTS", "8"))):
         folder = tmp_path / f"run{i}"
         folder.mkdir()
-        rc, err = interrupt_render(folder, signum, moments.uniform(0.0, 1.15) * seconds, new)
+        after = moments.uniform(2 * interpreter_start, 1.15 * seconds)
+        rc, err = interrupt_render(folder, signum, after, new)
         check_exit(signum, rc, err)
 
 

@@ -569,3 +569,14 @@ def test_exr_header_with_bytes_that_are_not_utf8(inputs, tmp_path, capfd):
         rc, err = run(capfd, "convolve", bad, tmp_path / "o.png", "box_blur_3")
         assert_one_line_error(rc, err, 2, "bad.exr")
         assert not (tmp_path / "o.png").exists()
+
+
+def test_exr_channel_name_that_is_not_text(inputs, tmp_path, capfd):
+    """Found by the long fuzz run: a channel named by the byte 0x80 read as None, and writing it back
+    failed in OpenImageIO ("basic_string: construction from null")."""
+    good = inputs["exr"].read_bytes()
+    at = good.find(b"G\x00\x02\x00\x00\x00", good.find(b"chlist"))
+    (tmp_path / "bad.exr").write_bytes(good[:at] + b"\x80" + good[at + 1:])
+    rc, err = run(capfd, "convolve", tmp_path / "bad.exr", tmp_path / "o.png", "box_blur_3")
+    assert_one_line_error(rc, err, 2, "channel names are damaged")
+    assert not (tmp_path / "o.png").exists()
