@@ -84,6 +84,15 @@ def test_distributed_render_is_byte_identical_to_local(client, aa):
         assert tasks == {"trace"}
 
 
+def test_aovs_come_back_from_the_workers_too(client):
+    settings = dict(TINY, aa="edge_detect", samples=2, aovs=("depth", "normal", "albedo", "id", "edges"))
+    remote = crd.run("refract1", client=client, **settings)
+    local = clrender.Renderer("refract1", **settings).run()
+    assert set(remote.aovs) == set(local.aovs) == set(settings["aovs"])
+    for name in settings["aovs"]:
+        assert remote.aovs[name].tobytes() == local.aovs[name].tobytes(), name
+
+
 def test_workers_build_each_scene_once(client):
     scene = Scene.load("refract1")
     first = crd.DistributedRenderer(scene, client=client, **TINY, seed=101)
