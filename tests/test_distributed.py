@@ -393,3 +393,19 @@ def test_bench_distributed_quick_runs_and_checks_bytes(tmp_path):
     assert [r["workers"] for r in rows] == ["local (this process)", "1", "2"]
     assert all(r["identical"] == "True" for r in rows) and all(int(r["tasks"]) >= 64 for r in rows)
     assert all(float(r["overhead_per_task_ms"]) > 0 for r in rows[1:])
+
+
+@pytest.mark.slow
+def test_ctrl_c_on_the_program_leaves_no_output_and_no_tasks(client, tmp_path):
+    import subprocess
+
+    out = tmp_path / "big.png"
+    proc = subprocess.Popen([sys.executable, "-m", "clrender", "render", "wizard_cat", "--width", "256", "--height", "192",
+                             "--aa", "full", "--samples", "6", "--tile-size", "16", "-o", str(out),
+                             "--scheduler", client.scheduler.address], stderr=subprocess.PIPE, text=True)
+    assert wait_for(lambda: scheduler_tasks(client) > 10, 60)  # tiles are on the cluster
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130 and err.strip().splitlines()[-1] == "clrender: interrupted"
+    assert list(tmp_path.iterdir()) == []
+    assert wait_for(lambda: scheduler_tasks(client) == 0, 30)  # the scheduler dropped the render's tasks
