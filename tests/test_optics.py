@@ -189,6 +189,27 @@ def test_the_exit_direction_through_a_glass_sphere_is_the_two_refraction_deviati
     assert np.array_equal(ids[..., 2][clear], expected[clear])
 
 
+@pytest.mark.parametrize("ior, reflected", [(1.5, True), (1.3, False)])
+def test_a_right_angle_prism_reflects_totally_only_past_the_critical_angle(ior, reflected, tmp_path):
+    """Light entering a 45-degree prism square-on meets the hypotenuse at 45 degrees: totally
+    reflected when asin(1/n) < 45 degrees (n > sqrt 2), refracted out otherwise."""
+    corners = np.array([[-1, -2], [1, -2], [1, -4]])  # (x, z): legs on z = -2 and x = 1, hypotenuse at 45 degrees
+    points = np.array([[x, y, z] for x, z in corners for y in (-3, 3)], float)
+    prism = trimesh.convex.convex_hull(points)  # outward-facing triangles
+    file = write_obj(tmp_path / "prism.obj", prism.vertices, prism.faces)
+    data = {"ambient": [1, 1, 1],  # no lights: every opaque surface shows exactly its diffuse colour
+            "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 8}],
+            "materials": {"glass": {"transparency": 1.0, "ior": ior}, "side": {"diffuse": [0.2, 0.9, 0.3]},
+                          "back": {"diffuse": [0.9, 0.1, 0.1]}},
+            "objects": [{"type": "mesh", "file": file, "material": "glass"},
+                        big_quad(x=3.0, material="side"), big_quad(z=-6.0, material="back")]}
+    result = render(data, 9, 9, base_dir=tmp_path)
+    through = 1 if reflected else 2
+    assert (result.path_ids[..., :2] == 0).all()
+    assert (result.path_ids[..., 3 if reflected else 2] == through).all()
+    assert np.allclose(result.image, data["materials"]["side" if reflected else "back"]["diffuse"], atol=1e-6)
+
+
 # ------------------------------------------------------------------ Fresnel
 def fresnel_scene(ior, tilt_degrees):
     """A clear glass sheet in front of a black wall under a white sky: a pixel shows exactly the reflectance."""
@@ -264,6 +285,17 @@ def test_blinn_phong_adds_lambert_and_specular_terms():
     expected = 0.7 * np.array([1, 0.5, 0.25]) * (np.array([0.5, 0.3, 0.1]) * l[..., 1:2]
                                                   + np.array([0.2, 0.4, 0.6]) * h[..., 1:2] ** 8)
     assert np.allclose(image, expected, atol=1e-5)
+
+
+def test_a_light_below_the_horizon_gives_no_highlight():
+    """The specular term needs n.l > 0: a light under the surface lights nothing, however h leans."""
+    data = {"cameras": [{"position": [0, 1, 0], "look_at": [0, 0, -4], "fov": 50}],
+            "materials": {"gloss": {"diffuse": [0.5, 0.5, 0.5], "specular": [1, 1, 1], "shininess": 1}},
+            "lights": [{"type": "point", "position": [0, -0.3, -30]}],
+            "objects": [big_quad(y=0.0, material="gloss")]}
+    result = render(data, 16, 12)
+    floor = result.ids == 0
+    assert floor.sum() > 50 and (result.image[floor] == 0).all()
 
 
 # ------------------------------------------------------ Lambert, directional
@@ -439,3 +471,18 @@ def test_a_transparent_sheet_passes_its_transparency_once():
     expected = 0.8 * np.where(under, tau, 1.0) * l[..., 1]
     assert (under & clear).sum() > 10
     assert np.allclose(result.image[..., 0][clear], expected[clear], rtol=1e-5, atol=1e-6)
+
+
+def test_a_surface_beyond_a_point_light_casts_no_shadow():
+    """Shadow rays stop at the light: a ceiling above the lamp does not darken the floor."""
+    W, H, light = 24, 16, np.array([0.0, 2.0, -3.0])
+    data = {"cameras": [{"position": [0, 1.5, 1], "look_at": [0, 0, -3], "fov": 40}],
+            "lights": [{"type": "point", "position": light.tolist()}],
+            "objects": [big_quad(y=0.0), big_quad(y=3.0)]}
+    result = render(data, W, H)
+    eye, d = rays(data, W, H)
+    p, _ = hit_plane(eye, d, 1, 0.0)
+    l = light - p
+    expected = 0.8 * l[..., 1] / np.linalg.norm(l, axis=-1)
+    assert (result.ids == 0).all()
+    assert np.allclose(result.image[..., 0], expected, rtol=1e-5, atol=1e-6)

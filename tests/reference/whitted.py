@@ -29,9 +29,10 @@ and shades by the README's rules:
 
 Besides the image it returns, per pixel, a signature of every discrete choice
 made along the path (objects hit, refraction or total internal reflection,
-which side of the terminator, each shadow ray's transmittance), so tests can
-leave out pixels next to a pixel whose path differs: there float32 and
-float64 may legitimately pick different branches.
+which side of the terminator, each shadow ray's transmittance).
+`render_steady` compares it with the signatures of rays moved a twentieth of
+a pixel, so tests can leave out pixels that lie that close to a branch
+boundary: there float32 and float64 may legitimately pick different branches.
 """
 from __future__ import annotations
 
@@ -65,6 +66,18 @@ class World:
     lights: list = field(default_factory=list)
     background: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ambient: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def bounds(self):
+        """(triangle indices, bounding-sphere centre, radius) of each object's triangles, padded a little."""
+        if not hasattr(self, "_bounds"):
+            self._bounds = []
+            for obj in np.unique(self.triangle_object):
+                index = np.flatnonzero(self.triangle_object == obj)
+                points = self.triangles[index].reshape(-1, 3)
+                centre = (points.min(0) + points.max(0)) / 2
+                radius = np.linalg.norm(points - centre, axis=1).max() * (1 + 1e-6) + 1e-9
+                self._bounds.append((index, centre, radius))
+        return self._bounds
 
 
 def read_obj(path) -> tuple[np.ndarray, np.ndarray]:
@@ -153,8 +166,8 @@ def build_world(scene: dict, base_dir=".") -> World:
         ambient=np.array(scene.get("ambient", (0, 0, 0)), np.float64))
 
 
-def camera_rays(camera: dict, width: int, height: int):
-    """Eye and unit directions (H*W, 3) through the pixel centres, row-major from the top-left."""
+def camera_rays(camera: dict, width: int, height: int, offset=(0.5, 0.5)):
+    """Eye and unit directions (H*W, 3) through each pixel at `offset` (the centre), row-major from the top-left."""
     eye = np.array(camera.get("position", (0, 0, 0)), np.float64)
     forward = np.array(camera.get("look_at", (0, 0, -1)), np.float64) - eye
     forward /= np.linalg.norm(forward)
@@ -164,17 +177,16 @@ def camera_rays(camera: dict, width: int, height: int):
     half_h = math.tan(math.radians(camera.get("fov", 60.0)) / 2)
     half_w = half_h * width / height
     ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
-    sx = (2 * (xs + 0.5) / width - 1) * half_w
-    sy = (1 - 2 * (ys + 0.5) / height) * half_h
+    sx = (2 * (xs + offset[0]) / width - 1) * half_w
+    sy = (1 - 2 * (ys + offset[1]) / height) * half_h
     d = forward + sx[..., None] * right + sy[..., None] * up
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     return eye, d.reshape(-1, 3)
 
 
 # ------------------------------------------------------------ intersection
-def _triangle_hits(world: World, o, d):
-    """Distances (N, T) to every triangle (inf where missed) and barycentrics u, v of corners 1 and 2."""
-    tri = world.triangles
+def _moller_trumbore(o, d, tri):
+    """Distances (N, T) from rays to triangles (inf where missed) and barycentrics u, v of corners 1 and 2."""
     v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     pvec = np.cross(d[:, None, :], e2[None])
     det = (e1[None] * pvec).sum(-1)
@@ -185,8 +197,24 @@ def _triangle_hits(world: World, o, d):
         qvec = np.cross(tvec, e1[None])
         v = (d[:, None, :] * qvec).sum(-1) * inv
         t = (e2[None] * qvec).sum(-1) * inv
-    ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
     return np.where(ok, t, np.inf), u, v
+
+
+def _triangle_hits(world: World, o, d):
+    """Distances (N, T) to every triangle (inf where missed) and barycentrics u, v of corners 1 and 2.
+    Only rays that pass through an object's bounding sphere are tested against its triangles."""
+    n, T = len(d), len(world.triangles)
+    t, u, v = np.full((n, T), np.inf), np.zeros((n, T)), np.zeros((n, T))
+    for index, centre, radius in world.bounds():
+        oc = centre - o
+        b = (oc * d).sum(-1)
+        near = ((oc * oc).sum(-1) - b * b <= radius * radius) & (b + radius >= 0)
+        if near.any():
+            rows = np.flatnonzero(near)
+            block = np.ix_(rows, index)
+            t[block], u[block], v[block] = _moller_trumbore(o[rows], d[rows], world.triangles[index])
+    return t, u, v
 
 
 def _sphere_roots(world: World, o, d):
@@ -263,6 +291,12 @@ class _Render:
         self.image = np.zeros((n, 3))
         self.signature = np.zeros(n, np.uint64)
         self.rng_dim = np.zeros(n, np.int64)  # next random dimension of each pixel's stream
+        # which effects each pixel's path met, so tests can check a scene exercises what it claims
+        self.seen = {k: np.zeros(n, bool) for k in ("mirror", "refraction", "tir", "fresnel", "smooth_normal",
+                                                      "shadow", "glass_shadow", "highlight", "partial_light")}
+
+    def mark(self, effect, pix, where):
+        self.seen[effect][pix[where]] = True
 
     def note(self, pix, event):
         """Fold a discrete event (an int per ray) into the pixels' signatures."""
@@ -288,6 +322,7 @@ class _Render:
                 cells = [(i, j) for i in range(side) for j in range(side)]
             else:
                 side, cells = 1, [(0, 0)]
+            visible_sum = 0
             for i, j in cells:
                 if kind == "directional":
                     l = np.broadcast_to(-_unit(np.array(light["direction"], np.float64)), p.shape)
@@ -322,6 +357,13 @@ class _Render:
                 else:  # the seed's model: kd n.l + ks (n.h)^s, no 1/pi
                     term = kd * np.maximum(n_dot_l, 0)[:, None] + ks * np.where(facing, spec, 0.0)[:, None]
                 total += (T * falloff * intensity / side**2)[:, None] * colour * term
+                self.mark("shadow", pix, facing & (T == 0))
+                self.mark("glass_shadow", pix, facing & (T > 0) & (T < 1))
+                self.mark("highlight", pix, facing & (T > 0) & (ks.max(axis=1) * spec > 0.05))
+                if kind == "area":
+                    visible_sum = visible_sum + (facing & (T > 0))
+            if kind == "area":
+                self.mark("partial_light", pix, (visible_sum > 0) & (visible_sum < len(cells)))
                 self.note(pix, np.where(facing, 1 + np.round(T * 1000).astype(np.int64), 0))
         return total
 
@@ -351,6 +393,7 @@ class _Render:
             ui, vi = u[is_tri][:, None], v[is_tri][:, None]
             interpolated = _unit((1 - ui - vi) * vn[:, 0] + ui * vn[:, 1] + vi * vn[:, 2])
             n_shade[is_tri] = np.where(smooth[:, None], interpolated, n_geo[is_tri])
+            self.mark("smooth_normal", pix[is_tri], smooth)
         front_face = _dot(d, n_geo) < 0
         n_geo[~front_face] *= -1
         n_shade[~front_face] *= -1
@@ -383,6 +426,10 @@ class _Render:
         F = np.where(cannot_refract, 1.0, F)  # total internal reflection: all of it is reflected
         transparent = tr > 0
         self.note(pix, np.where(transparent, 1 + cannot_refract, 0))
+        self.mark("mirror", pix, mirror > 0)
+        self.mark("refraction", pix, transparent & ~cannot_refract)
+        self.mark("tir", pix, transparent & cannot_refract)
+        self.mark("fresnel", pix, transparent & ~cannot_refract & (F > 0))
         w_reflect += weight * (tr * F)[:, None]
         w_refract += weight * (tr * (1 - F))[:, None]
         leave = (LEAVE * (1 + np.abs(p).max(axis=1)))[:, None]
@@ -397,23 +444,26 @@ class _Render:
 
 
 def render(scene: dict, width: int, height: int, *, camera: int = 1, max_depth: int = 8, fresnel: bool = False,
-           seed: int = 0, light_samples: int = 0, base_dir="."):
-    """(image (H, W, 3) float64, signature (H, W) uint64) of the scene dict, one ray per pixel centre."""
+           seed: int = 0, light_samples: int = 0, base_dir=".", offset=(0.5, 0.5)):
+    """(image (H, W, 3) float64, signature (H, W) uint64) of the scene dict, one ray per pixel (at its centre)."""
     world = build_world(scene, base_dir)
     cameras = scene.get("cameras", [{}])
-    eye, d = camera_rays(cameras[camera - 1], width, height)
+    eye, d = camera_rays(cameras[camera - 1], width, height, offset)
     job = _Render(world, width, height, max_depth, fresnel, seed, light_samples)
     n = width * height
     job.trace(np.broadcast_to(eye, d.shape).copy(), d, np.ones((n, 3)), np.ones(n), 0, np.arange(n), True)
+    render.seen = {k: v.reshape(height, width) for k, v in job.seen.items()}  # effects met by the last render
     return job.image.reshape(height, width, 3), job.signature.reshape(height, width)
 
 
-def steady_pixels(signature: np.ndarray) -> np.ndarray:
-    """True where the pixel and its eight neighbours made the same discrete choices along their paths."""
-    H, W = signature.shape
-    padded = np.pad(signature, 1, mode="edge")
-    same = np.ones((H, W), bool)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            same &= padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] == signature
-    return same
+def render_steady(scene: dict, width: int, height: int, margin: float = 0.05, **settings):
+    """The image and where it is steady: pixels whose rays, moved by `margin` of a pixel in any
+    direction, make the same discrete choices (so float32 rounding cannot change the branch)."""
+    image, signature = render(scene, width, height, **settings)
+    seen = render.seen
+    steady = np.ones(signature.shape, bool)
+    for dx, dy in ((-1, -1), (1, -1), (-1, 1), (1, 1)):
+        _, moved = render(scene, width, height, offset=(0.5 + dx * margin, 0.5 + dy * margin), **settings)
+        steady &= moved == signature
+    render.seen = seen
+    return image, steady
