@@ -127,9 +127,9 @@ def bundled_scenes() -> dict:
 # ---------------------------------------------------------------------- limits
 # Every value from a file is checked against these before anything is built.  Coordinates and
 # lengths stay far inside float32 (3.4e38) so that the kernels' products (squared distances,
-# colour x intensity x albedo, 1/r^2 falloff) cannot overflow; counts are bounded so that no
-# file can ask for hours of work or gigabytes of memory.
-COORD_LIMIT = 1e6  # |x| of every point, length of every vector, radius and plane size (scene units)
+# colour x intensity x albedo x falloff, with 1/r^2 capped in kernels/shade.h) cannot overflow;
+# counts are bounded so that no file can ask for hours of work or gigabytes of memory.
+COORD_LIMIT = 1e6  # |x| of every coordinate and vector component, radius and plane size (scene units)
 MIN_LENGTH = 1e-6  # shortest radius, edge, direction or scale factor
 RELATIVE_PRECISION = 1e-5  # a length must be >= this x the distance of its object from the origin (float32 resolves it)
 RADIANCE_LIMIT = 1e6  # colours (background, ambient, diffuse, specular, light colour) and light intensity
