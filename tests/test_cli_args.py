@@ -155,6 +155,27 @@ def test_kernel_build_failure_exits_1(tmp_path, capsys, monkeypatch):
     assert list(tmp_path.iterdir()) == [broken]  # no output, not even a partial one
 
 
+def test_output_folder_vanishing_during_the_render_exits_1(tmp_path, capsys, monkeypatch):
+    """The output is checked before rendering; a folder removed meanwhile is a run-time failure."""
+    import shutil
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    render_run = clrender.renderer.Renderer.run
+
+    def run_then_remove_the_folder(self):
+        result = render_run(self)
+        shutil.rmtree(folder)
+        return result
+
+    monkeypatch.setattr(clrender.renderer.Renderer, "run", run_then_remove_the_folder)
+    code, stdout, err = run_cli(capsys, "-q", "render", "refract1", "--width", "8", "--height", "6",
+                                "-o", str(folder / "x.png"))
+    assert code == 1, err
+    assert err.startswith("clrender: ") and err.count("\n") == 1 and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
 # ------------------------------------------------------------------ devices, --list, --filter
 
 def test_devices_lists_every_device_and_stars_the_default(capsys):
