@@ -112,8 +112,7 @@ def main(argv=None) -> int:
 def _main(argv) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv or os.environ.get("CLRENDER_DEBUG", "") not in ("", "0")
-    if "--debug" in argv:  # accepted anywhere on the line, e.g. after the subcommand
-        argv = ["--debug"] + [a for a in argv if a != "--debug"]
+    argv = _global_options_first(argv)
     with _signals_raise():
         try:
             return _run(argv)
@@ -142,6 +141,22 @@ def _main(argv) -> int:
                 return _fail(f"OpenCL failed: {exc}", EXIT_FAILURE)
             return _fail(f"internal error (a bug in clrender): {type(exc).__name__}: {exc}; "
                          "run again with --debug or CLRENDER_DEBUG=1 for the traceback", EXIT_FAILURE)
+
+
+def _global_options_first(argv: list) -> list:
+    """--debug and --max-memory are accepted anywhere on the line (e.g. after the subcommand)."""
+    front, rest, i = [], [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a == "--debug" or a.startswith("--max-memory="):
+            front.append(a)
+        elif a == "--max-memory" and i + 1 < len(argv):
+            front += argv[i:i + 2]
+            i += 1
+        else:
+            rest.append(a)
+        i += 1
+    return front + rest
 
 
 def _run(argv) -> int:

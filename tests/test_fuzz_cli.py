@@ -289,9 +289,12 @@ def test_run_time_failures_are_one_line_with_a_reason(monkeypatch, capfd, exc, c
     assert not err.rstrip().endswith(":")
 
 
-def test_memory_estimate_refuses_before_allocating(tmp_path, capfd):
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_memory_estimate_refuses_before_allocating(tmp_path, capfd, where):
     out = tmp_path / "big.png"
-    rc, err = run(capfd, "--max-memory", "300M", "render", "refract1", "--width", "4096", "--height", "4096", "-o", out)
+    command = ["render", "refract1", "--width", "4096", "--height", "4096", "-o", out]
+    limit = ["--max-memory", "300M"]
+    rc, err = run(capfd, *(limit + command if where == "before" else command + limit))
     assert_one_line_error(rc, err, 2, "4096x4096", "GiB", "--max-memory is 300 MiB")
     assert not out.exists()
 
