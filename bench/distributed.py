@@ -19,6 +19,14 @@ pinned to one thread (POCL_MAX_PTHREAD_COUNT=1).  Reports, per cluster size:
 
 Every distributed image is checked byte for byte against the local one.
 Numbers depend on what else the machine runs; the table says how loaded it was.
+
+Linux autogroups: with kernel.sched_autogroup_enabled=1 the scheduler shares
+the CPU fairly between sessions, not processes, so on a busy machine all the
+workers of a LocalCluster (children of this session) together get one
+session's share however many there are, and adding a worker cannot speed
+anything up.  Workers started by hand (`dask worker` in its own shell, or on
+other machines) each have their own session; the benchmark gives each worker
+its own session (setsid) to measure that case, unless --same-session.
 """
 from __future__ import annotations
 
@@ -56,6 +64,8 @@ def main(argv=None):
     ap.add_argument("--samples", type=int, default=2, help="N: full AA with N x N stratified samples")
     ap.add_argument("--runs", type=int, default=3, help="warm renders per cluster size (median)")
     ap.add_argument("--workers", default="1,2", help="cluster sizes to compare")
+    ap.add_argument("--same-session", action="store_true",
+                    help="leave the workers in this process's session (see 'Linux autogroups' above)")
     ap.add_argument("--quick", action="store_true", help="128x128, 16-pixel tiles, N=1, 1 run")
     ap.add_argument("--out", default="bench/out")
     args = ap.parse_args(argv)
@@ -95,6 +105,8 @@ def main(argv=None):
                                       silence_logs=logging.ERROR, env=pocl_env(1)) as cluster, \
                 distributed.Client(cluster) as client:
             client.wait_for_workers(workers)
+            if not args.same_session:
+                client.run(os.setsid)  # each worker its own autogroup, as workers started by hand are
             cluster_start = time.perf_counter() - start
             cold = crd.DistributedRenderer(scene, settings, client)
             cold.run()
@@ -124,7 +136,8 @@ def main(argv=None):
         print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
 
     title = (f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, {n_tiles} tiles; "
-             f"one PoCL thread per worker; {os.cpu_count()} CPUs, load average (1/5/15 min) before {load_before}, "
+             f"one PoCL thread per worker{', workers in this session' if args.same_session else ', one session per worker'}; "
+             f"{os.cpu_count()} CPUs, load average (1/5/15 min) before {load_before}, "
              f"after {load_average()}")
     table = write_table(Path(args.out), "distributed", rows, title)
     print(table)
