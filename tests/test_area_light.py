@@ -75,6 +75,7 @@ def render_floor(scene, device, **settings):
     return Renderer(scene, device=None, tracer=None, **settings).run().image[..., 0]
 
 
+@pytest.mark.slow  # 32x32 light samples + dense quadrature (~3-6 s); the inverse-square test below checks the same path fast
 def test_stratified_estimate_matches_quadrature_within_one_percent(device):
     scene = floor_scene()
     image = render_floor(scene, device, light_samples=32, seed=1)

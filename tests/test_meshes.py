@@ -50,6 +50,7 @@ def test_dense_mesh_bad_size(n):
         meshes.dense_mesh(n)
 
 
+@pytest.mark.slow  # builds the bunny from its implicit surface (~1-4 s); test_bunny_deterministic_without_cache stays fast
 def test_bunny_built_cached_and_loaded(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     m = meshes.bunny()
