@@ -95,7 +95,7 @@ MUTANTS = [
       "Blinn-Phong half vector built as l - v"),
     M("schlick-one", "kernels/shade.h", "return r0 + (1.0f - r0) * m * m * m * m * m;", "return 1.0f;",
       "Schlick's Fresnel term always 1 (--fresnel reflects everything)"),
-    M("shininess-ignored", "kernels/shade.h", "native_exp2(kd_shine.w * native_log2(", "native_exp2(1.0f * native_log2(",
+    M("shininess-ignored", "kernels/shade.h", "* native_log2(max_f(dot3(n, h)", "* 0.0f + native_log2(max_f(dot3(n, h)",
       "Blinn-Phong exponent fixed at 1"),
     M("ambient-dropped", "kernels/shade.h", "float3 surface = sc->ambient * kd.xyz +",
       "float3 surface = 0.0f * sc->ambient * kd.xyz +", "ambient term dropped"),
@@ -271,17 +271,17 @@ def occurrences(base: Path, m: Mutant) -> int:
     return path.read_text().count(m.old) if path.is_file() else 0
 
 
-def pytest_command(python: Path, tests) -> list:
-    return [str(python), "-m", "pytest", "-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
-            "-p", "no:randomly", *tests]
+def pytest_command(python: Path, tests, first_failure_stops=True, deselect=()) -> list:
+    return [str(python), "-m", "pytest", *(["-x"] if first_failure_stops else []), "-q", "-rfE", "-m", "not slow",
+            "-p", "no:cacheprovider", "-p", "no:randomly", *[f"--deselect={d}" for d in deselect], *tests]
 
 
-def run_tests(python: Path, cwd: Path, tests, timeout: float):
+def run_tests(python: Path, cwd: Path, tests, timeout: float, **options):
     """(return code or None on timeout, seconds, output) of the tests run in cwd."""
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
     env.pop("PYTHONPATH", None)
     start = time.perf_counter()
-    proc = subprocess.Popen(pytest_command(python, tests), cwd=cwd, env=env, stdout=subprocess.PIPE,
+    proc = subprocess.Popen(pytest_command(python, tests, **options), cwd=cwd, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
         out, _ = proc.communicate(timeout=timeout)
@@ -310,7 +310,7 @@ def check_imports(python: Path, copy: Path) -> None:
         raise SystemExit(f"mutants: running from {copy} imports {paths}, not the copy; cannot test mutants there")
 
 
-def run_mutant(m: Mutant, base: Path, work: Path, python: Path, timeout: float, skip=()) -> dict:
+def run_mutant(m: Mutant, base: Path, work: Path, python: Path, timeout: float, skip=(), deselect=()) -> dict:
     copy = work / m.id
     shutil.copytree(base, copy)
     try:
@@ -320,7 +320,8 @@ def run_mutant(m: Mutant, base: Path, work: Path, python: Path, timeout: float, 
         tests = [t for t in m.tests if (copy / t).is_file() and t not in skip]
         if not tests:  # pytest with no file would run the whole suite
             return dict(id=m.id, file=m.file, what=m.what, status="error", seconds=0, detail="no test files")
-        rc, seconds, out = run_tests(python, copy, tests, timeout)
+        rc, seconds, out = run_tests(python, copy, tests, timeout,
+                                     deselect=[d for d in deselect if d.split("::")[0] in tests])
     finally:
         shutil.rmtree(copy, ignore_errors=True)
     if rc is None:
@@ -389,24 +390,32 @@ def main(argv) -> int:
         print(f"snapshot of {n_files} files in {base}; {len(runnable)} mutants to run, {args.jobs} at a time",
               flush=True)
         check_imports(args.python, base)
-        broken = set()
+        broken, failing = set(), []
         if not args.no_baseline:
-            # a test file that fails without any mutation would "kill" every mutant: leave it out
+            # a test that fails without any mutation would "kill" every mutant: deselect it (or
+            # leave its whole file out when the file does not even run)
             tests = [t for t in dict.fromkeys(t for m in runnable for t in m.tests) if (base / t).is_file()]
             start = time.perf_counter()
             for t in tests:
-                rc, seconds, out = run_tests(args.python, base, [t], args.timeout)
-                if rc != 0:
+                rc, seconds, out = run_tests(args.python, base, [t], args.timeout, first_failure_stops=False)
+                if rc == 0:
+                    continue
+                ids = re.findall(r"^FAILED (\S+)", out, re.M)
+                if rc == 1 and ids and not re.search(r"^ERROR ", out, re.M):
+                    failing += ids
+                    print(f"BASELINE FAILS {len(ids)} test(s) of {t} (e.g. {ids[0]}): deselected for every mutant",
+                          flush=True)
+                else:
                     broken.add(t)
                     print(f"BASELINE FAILS {t} (exit {rc}, {first_failure(out)}): left out of every mutant's run",
                           flush=True)
-            print(f"baseline (no mutation): {len(tests) - len(broken)} of {len(tests)} test files pass, "
-                  f"{time.perf_counter() - start:.0f} s", flush=True)
+            print(f"baseline (no mutation): {len(tests) - len(broken)} of {len(tests)} test files run, "
+                  f"{len(failing)} failing tests deselected, {time.perf_counter() - start:.0f} s", flush=True)
 
         rows = []
 
         def one(m):
-            row = run_mutant(m, base, work, args.python, args.timeout, broken)
+            row = run_mutant(m, base, work, args.python, args.timeout, broken, failing)
             print(f"{row['status']:9s} {m.id:32s} {row['seconds']:6.1f} s  {row['detail']}", flush=True)
             return row
 
@@ -418,7 +427,8 @@ def main(argv) -> int:
     rows.sort(key=lambda r: order[r["id"]])
     killed = sum(r["status"] == "killed" for r in rows)
     ran = sum(r["status"] in ("killed", "survived") for r in rows)
-    summary = (("baseline failures left out: " + ", ".join(sorted(broken)) + "\n\n") if broken else "") + (
+    left_out = sorted(broken) + failing
+    summary = (("baseline failures left out: " + ", ".join(left_out) + "\n\n") if left_out else "") + (
                f"{killed} of {ran} mutants killed ({100 * killed / max(ran, 1):.0f}%), "
                f"{sum(r['status'] == 'survived' for r in rows)} survived, {len(stale)} stale, "
                f"{sum(r['status'] == 'error' for r in rows)} errors")
