@@ -143,6 +143,13 @@ MUTANTS = [
     M("sphere-one-crossing", "kernels/intersect.h", "+ (t1 > ", "+ 0 * (t1 > ",
       "a shadow ray counts only one crossing of a sphere"),
 
+    M("barycentric-u-from-v0", "kernels/intersect.h", "*u = e1 * inv_det;", "*u = e0 * inv_det;",
+      "triangle hit reports v0's barycentric as u (v1's)"),
+    M("watertight-edge-2-ignored", "kernels/intersect.h", "(e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) &&",
+      "(e0 < 0.0f || e1 < 0.0f) &&", "inside test forgets one edge for one winding"),
+    M("offset-dropped", "kernels/common.h", "float3 offset = d * n;", "float3 offset = 0.0f * d * n;",
+      "secondary rays start on the surface (only the one-ulp nudge is left)"),
+
     # ---- kernels/trace.cl, common.h: camera rays, filtering, records
     M("image-upside-down", "kernels/trace.cl", "float sy = 1.0f - 2.0f * (py + off.y) / (float)height;",
       "float sy = 2.0f * (py + off.y) / (float)height - 1.0f;", "image rows flipped"),
