@@ -10,11 +10,11 @@ harness snapshots the working tree once (git's tracked files plus untracked ones
 not ignore, as they are on disk now, uncommitted edits included) into a temporary folder,
 and for every mutant copies that snapshot, replaces the old snippet, which must occur
 exactly once, by the new one, and runs its test files there with
-`python -m pytest -x -q -m "not slow"` and the copy as the working directory.  Python puts
-the working directory first on sys.path, so the copy's clrender/ is imported and its
-kernels/ are built (clrender/package_data.py finds them beside the package); the harness
-checks this before it starts, and the `sanity-*` mutants must be killed too.  The
-repository itself is never modified.
+`python -m pytest -x -q -m "not slow"`, the copy as the working directory and on PYTHONPATH
+(for tests that start `python -m clrender` elsewhere), so the copy's clrender/ is imported
+before the editable install's, and its kernels/ are built (clrender/package_data.py finds them
+beside the package); the harness checks this before it starts, and the `sanity-*` mutants must
+be killed too.  The repository itself is never modified.
 
 A mutant is *killed* when the tests fail (or time out), *survived* when they pass,
 *stale* when its old snippet no longer occurs exactly once (the code moved on: update the
@@ -285,8 +285,8 @@ def pytest_command(python: Path, tests, first_failure_stops=True, deselect=()) -
 
 def run_tests(python: Path, cwd: Path, tests, timeout: float, **options):
     """(return code or None on timeout, seconds, output) of the tests run in cwd."""
-    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-    env.pop("PYTHONPATH", None)
+    # PYTHONPATH too, so tests that start `python -m clrender` in another folder also run the copy
+    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONPATH=str(cwd))
     start = time.perf_counter()
     proc = subprocess.Popen(pytest_command(python, tests, **options), cwd=cwd, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
@@ -311,7 +311,11 @@ def first_failure(output: str) -> str:
 def check_imports(python: Path, copy: Path) -> None:
     """The copy's clrender and kernels are the ones used when running from the copy."""
     code = "import clrender, clrender.device as d; print(clrender.__file__); print(d.kernel_dir())"
+    elsewhere = copy.parent  # as a test that runs `python -m clrender` from a temporary folder
+    env = dict(os.environ, PYTHONPATH=str(copy))
     out = subprocess.run([str(python), "-c", code], cwd=copy, capture_output=True, text=True, check=True).stdout
+    out += subprocess.run([str(python), "-c", code], cwd=elsewhere, env=env, capture_output=True, text=True,
+                          check=True).stdout
     paths = [Path(line).resolve() for line in out.split()]
     if not all(copy.resolve() in p.parents for p in paths):
         raise SystemExit(f"mutants: running from {copy} imports {paths}, not the copy; cannot test mutants there")
