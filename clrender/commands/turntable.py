@@ -102,8 +102,6 @@ def _srgb8(image: np.ndarray) -> np.ndarray:
 
 
 def run_turntable(args, settings) -> int:
-    from dataclasses import replace
-
     from ..imageio import check_output_path, write_display_image
     from ..outputs import output_set
     from ..progress import progress
