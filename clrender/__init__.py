@@ -1,5 +1,23 @@
 """clrender: a Whitted ray tracer, convolution filters and image splatting on OpenCL."""
 import os
+import sys
+
+if os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.exe", "-m", "__main__.py"):
+    # Run as the `clrender` program (console script, python -m): from this first line on, Ctrl-C or
+    # SIGTERM ends it with one line and no traceback; clrender/cli.py takes over in main().
+    # Nothing has been written this early, so leaving at once is safe.
+    import _signal
+
+    def _interrupted_while_starting(signum, frame):
+        os.write(2, b"clrender: interrupted\n" if signum == _signal.SIGINT else b"clrender: terminated\n")
+        os._exit(128 + signum)
+
+    if _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:
+        _signal.signal(_signal.SIGINT, _interrupted_while_starting)
+        _signal.siginterrupt(_signal.SIGINT, False)
+    if _signal.getsignal(_signal.SIGTERM) == _signal.SIG_DFL:
+        _signal.signal(_signal.SIGTERM, _interrupted_while_starting)
+        _signal.siginterrupt(_signal.SIGTERM, False)
 
 # numpy's OpenBLAS threads spin-wait after a matrix product and steal the
 # cores PoCL runs the kernels on; clrender's host work never needs them.

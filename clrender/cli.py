@@ -8,31 +8,20 @@ the traceback (--debug or CLRENDER_DEBUG=1).  Each subcommand lives in
 clrender/commands/<name>.py and registers itself with
 `add_parser(subparsers)`, setting `run` to the function that does the work.
 """
-# SIGINT is handled before anything heavy is imported: this module is the
-# console script's entry point, and the package's own __init__ imports lazily.
+# SIGINT and SIGTERM are handled from the package's first line when clrender runs as a program
+# (clrender/__init__.py, which imports nothing heavy); main() takes over with _on_signal.
 import os
 import signal
 import sys
 
 _RUN_AS_PROGRAM = os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.exe", "__main__.py", "-m")
 
-
-def _interrupted_while_starting(signum, frame):  # pragma: no cover - exercised in a subprocess
-    # nothing has been written yet (outputs are only placed at the end), so leaving at once is safe
-    os.write(2, b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
-    os._exit(128 + signum)
-
-
-if _RUN_AS_PROGRAM and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-    for _signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(_signum, _interrupted_while_starting)
-        signal.siginterrupt(_signum, False)  # restart system calls: a kernel build must not fail on EINTR
-
 import argparse  # noqa: E402
 import threading  # noqa: E402
 
 from . import progress  # noqa: E402
-from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, RenderFailure, UsageError, one_line, shown  # noqa: E402
+from .errors import (EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, STDERR_FD, RenderFailure, UsageError,  # noqa: E402
+                     one_line, shown)
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
 
@@ -227,7 +216,7 @@ def _on_signal(signum, frame):
         discard = getattr(outputs, "discard_all", None)
         if discard is not None:
             discard()
-        os.write(2, b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
+        os.write(STDERR_FD[0], b"clrender: interrupted\n" if signum == signal.SIGINT else b"clrender: terminated\n")
         os._exit(128 + signum)
     raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import RenderFailure, UsageError, shown
+from .errors import STDERR_FD, RenderFailure, UsageError, shown
 from .outputs import write_file
 
 # An image header may promise any size; more pixels than this are refused
@@ -152,10 +152,12 @@ def _library_messages():
     with tempfile.TemporaryFile() as sink:
         try:
             sys.stderr.flush()
+            STDERR_FD[0] = saved
             os.dup2(sink.fileno(), 2)
             yield said
         finally:
             os.dup2(saved, 2)
+            STDERR_FD[0] = 2
             os.close(saved)
             sink.seek(0)
             said.text = sink.read(4096).decode("utf-8", "replace")

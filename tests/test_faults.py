@@ -309,3 +309,64 @@ def test_a_failing_writer_leaves_nothing(tmp_path):
             save_npz(tmp_path / "b.npz", x=np.zeros(2))
             raise RuntimeError("the fit failed after one output was written")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv"] and old.read_text() == "old"
+
+
+# ----------------------------------------------------------------------------- a set of four outputs
+GAUSS_OUTPUTS = ["fit.png", "fit.curve.png", "params.npz", "log.csv"]
+
+
+def _classify(folder: Path, old: dict) -> dict[str, str]:
+    """Each output is 'old' (byte for byte) or 'new' (different and whole: it loads to the end)."""
+    import csv
+
+    from clrender.imageio import read_image
+    from clrender.splat.gauss import GaussParams
+
+    kinds = {}
+    for name in GAUSS_OUTPUTS:
+        path = folder / name
+        assert path.exists(), f"{name} vanished"
+        if path.read_bytes() == old[name]:
+            kinds[name] = "old"
+            continue
+        if name.endswith(".png"):
+            read_image(path)
+        elif name.endswith(".npz"):
+            assert GaussParams.load(path).n == 6
+        else:
+            rows = list(csv.DictReader(open(path)))
+            assert rows and int(rows[-1]["step"]) == 40
+        kinds[name] = "new"
+    return kinds
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_signals_during_a_fit_leave_the_old_set_or_the_new(tmp_path, interpreter_start, signum):
+    """`splat gauss` writes an image, its curve, the parameters and a log: after a signal at a seeded
+    moment each is whole, and (for the signals a program can catch) all four are old or all are new."""
+    photo = tmp_path / "in.png"
+    write_image(photo, np.random.default_rng(4).uniform(0, 1, (24, 32, 3)).astype(np.float32))
+    command = ["splat", "gauss", photo, "-o", "fit.png", "--splats", "6", "--epochs", "40",
+               "--save-params", "params.npz", "--log", "log.csv", "--overwrite"]
+    start = time.perf_counter()
+    first = clrender(*command, cwd=tmp_path)
+    assert first.wait(timeout=300) == 0, first.stderr.read()
+    seconds = time.perf_counter() - start
+    moments = random.Random(2000 + int(signum))
+    for i in range(int(os.environ.get("CLRENDER_FAULT_MOMENTS", "8"))):
+        # an old set unlike any new one (a rerun's image and parameters would be byte-identical)
+        for name in ("fit.png", "fit.curve.png"):
+            write_image(tmp_path / name, np.full((4, 4, 3), i / 10, np.float32))
+        np.savez(tmp_path / "params.npz", old=np.full(3, i))
+        (tmp_path / "log.csv").write_text(f"old {i}\n")
+        old = files(tmp_path, GAUSS_OUTPUTS)
+        proc = clrender(*command, cwd=tmp_path)
+        time.sleep(moments.uniform(2 * interpreter_start, 1.1 * seconds))
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=300)
+        check_exit(signum, proc.returncode, err)
+        kinds = _classify(tmp_path, old)
+        if signum != signal.SIGKILL:
+            assert len(set(kinds.values())) == 1, kinds
+        assert not leftovers(tmp_path)
