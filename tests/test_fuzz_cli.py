@@ -436,10 +436,15 @@ def run_case(argv, folder: Path, capfd, seconds=120):
     return rc, capfd.readouterr().err
 
 
-def check_case(argv, folder: Path, capfd):
+RUN_TIME_FAILURES: list[str] = []  # the exit-1 lines the fuzzer met, printed at the end (pytest -s)
+
+
+def check_case(argv, folder: Path, capfd, run_time_failures=None):
     """The promise, for one argument list."""
     before = snapshot(folder)
     rc, err = run_case(argv, folder, capfd)
+    if rc == 1 and run_time_failures is not None:
+        run_time_failures.append(err.strip()[:160])
     assert rc in (0, 1, 2), (argv, rc, err)
     assert "Traceback" not in err and "internal error" not in err, (argv, err)
     assert not temp_files(folder), (argv, temp_files(folder))
@@ -478,6 +483,8 @@ def fuzz_root(tmp_path_factory):
     yield root
     for kind, codes in CASES.items():
         print(f"\nCLI fuzz, {kind}: {sum(codes.values())} cases, exit codes {dict(sorted(codes.items()))}")
+    for line in sorted(set(RUN_TIME_FAILURES))[:10]:
+        print(f"  exit 1: {line}")
 
 
 def fresh_folder(root: Path) -> Path:
@@ -502,7 +509,7 @@ def fresh_folder(root: Path) -> Path:
 @example(argv=["-q", "--max-memory", "600M", "render", "tiny.toml", "--width", "12", "--height", "9", "--aov", "depth"])
 def test_any_argument_list_keeps_the_promise(argv, fuzz_root, capfd):
     folder = fresh_folder(fuzz_root)
-    rc = check_case(argv, folder, capfd)
+    rc = check_case(argv, folder, capfd, run_time_failures=RUN_TIME_FAILURES)
     count("argument list", rc)
 
 
