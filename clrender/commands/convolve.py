@@ -115,8 +115,12 @@ def run(args) -> int:
 
 def check_memory(info: imageio.ImageInfo) -> None:
     """Refuse an image whose working copies would not fit in the memory available now."""
+    from .. import memory
+
     need = info.nbytes * WORKING_COPIES
     available = _available_bytes()
+    if memory.MAX_MEMORY is not None:  # clrender --max-memory
+        available = min(available, memory.MAX_MEMORY) if available is not None else memory.MAX_MEMORY
     if available is not None and need > available:
         raise UsageError(f"image of {info.width}x{info.height}x{info.nchannels} needs about {_bytes(need)} "
                          f"to filter but {_bytes(available)} is available; use a smaller image")
