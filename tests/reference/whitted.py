@@ -443,27 +443,33 @@ class _Render:
             self.trace(p[go] - n_geo[go] * leave[go], refracted[go], w_refract[go], n2[go], depth + 1, pix[go], False)
 
 
+@dataclass
+class Rendering:
+    image: np.ndarray  # (H, W, 3) float64 linear RGB
+    signature: np.ndarray  # (H, W) uint64 hash of the discrete choices along each pixel's path
+    seen: dict  # effect name -> (H, W) bool: the pixel's path met it (mirror, tir, glass_shadow, ...)
+    steady: np.ndarray | None = None  # (H, W) bool, from render_steady
+
+
 def render(scene: dict, width: int, height: int, *, camera: int = 1, max_depth: int = 8, fresnel: bool = False,
-           seed: int = 0, light_samples: int = 0, base_dir=".", offset=(0.5, 0.5)):
-    """(image (H, W, 3) float64, signature (H, W) uint64) of the scene dict, one ray per pixel (at its centre)."""
+           seed: int = 0, light_samples: int = 0, base_dir=".", offset=(0.5, 0.5)) -> Rendering:
+    """The scene dict rendered with one ray per pixel (through its centre unless `offset` says otherwise)."""
     world = build_world(scene, base_dir)
     cameras = scene.get("cameras", [{}])
     eye, d = camera_rays(cameras[camera - 1], width, height, offset)
     job = _Render(world, width, height, max_depth, fresnel, seed, light_samples)
     n = width * height
     job.trace(np.broadcast_to(eye, d.shape).copy(), d, np.ones((n, 3)), np.ones(n), 0, np.arange(n), True)
-    render.seen = {k: v.reshape(height, width) for k, v in job.seen.items()}  # effects met by the last render
-    return job.image.reshape(height, width, 3), job.signature.reshape(height, width)
+    return Rendering(job.image.reshape(height, width, 3), job.signature.reshape(height, width),
+                     {k: v.reshape(height, width) for k, v in job.seen.items()})
 
 
-def render_steady(scene: dict, width: int, height: int, margin: float = 0.05, **settings):
-    """The image and where it is steady: pixels whose rays, moved by `margin` of a pixel in any
-    direction, make the same discrete choices (so float32 rounding cannot change the branch)."""
-    image, signature = render(scene, width, height, **settings)
-    seen = render.seen
-    steady = np.ones(signature.shape, bool)
+def render_steady(scene: dict, width: int, height: int, margin: float = 0.05, **settings) -> Rendering:
+    """`render`, plus where the image is steady: pixels whose rays, moved by `margin` of a pixel in
+    any direction, make the same discrete choices (so float32 rounding cannot change the branch)."""
+    result = render(scene, width, height, **settings)
+    result.steady = np.ones(result.signature.shape, bool)
     for dx, dy in ((-1, -1), (1, -1), (-1, 1), (1, 1)):
-        _, moved = render(scene, width, height, offset=(0.5 + dx * margin, 0.5 + dy * margin), **settings)
-        steady &= moved == signature
-    render.seen = seen
-    return image, steady
+        moved = render(scene, width, height, offset=(0.5 + dx * margin, 0.5 + dy * margin), **settings)
+        result.steady &= moved.signature == result.signature
+    return result
