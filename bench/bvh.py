@@ -37,7 +37,9 @@ def time_case(name: str, use_bvh: bool, camera: int, width: int, height: int, ru
     case = {"seconds": statistics.median(times), "visits_per_ray": result.node_visits / max(result.rays, 1),
             "primitives": tracer.n_prims, "path_ids": result.path_ids}
     if use_bvh:
-        case.update(build_s=tracer.bvh_seconds, nodes=len(tracer.bvh.nodes))
+        # nodes of the tree the kernels traverse: 4-wide nodes (each visit tests four boxes) or binary ones
+        nodes = tracer.wide.node_count if tracer.wide is not None else len(tracer.bvh.nodes)
+        case.update(build_s=tracer.bvh_seconds, nodes=nodes, bvh_width=tracer.bvh_width)
     return case
 
 
@@ -47,7 +49,7 @@ def scene_row(name: str, camera: int, on: dict, off: dict) -> dict:
         differ = int((on["path_ids"] != off["path_ids"]).any(-1).sum())
         raise SystemExit(f"bench bvh: {name}: BVH on and off disagree on the object ids of {differ} pixels")
     return {"scene": name, "camera": camera, "primitives": on["primitives"], "on_s": on["seconds"],
-            "on_visits_per_ray": on["visits_per_ray"], "build_s": on["build_s"], "nodes": on["nodes"],
+            "on_visits_per_ray": on["visits_per_ray"], "build_s": on["build_s"], "bvh_width": on["bvh_width"], "nodes": on["nodes"],
             "off_s": off["seconds"], "off_visits_per_ray": off["visits_per_ray"], "speedup": off["seconds"] / on["seconds"]}
 
 

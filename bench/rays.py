@@ -13,6 +13,7 @@ Also the BVH build time for a 1,000,000-triangle mesh and the SAH cost of both b
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -145,10 +146,11 @@ def build_times(n_triangles: int, runs: int):
     rows = []
     for builder in ("sah", "median"):
         seconds = median_seconds(lambda: build_bvh(lo, hi, builder=builder), runs)
+        cpu_seconds = median_cpu_seconds(lambda: build_bvh(lo, hi, builder=builder), runs)
         bvh = build_bvh(lo, hi, builder=builder)
         collapse_s = median_seconds(lambda: collapse(bvh, 4), runs)
         wide = collapse(bvh, 4)
-        rows.append(dict(builder=builder, triangles=len(tri), build_s=seconds, nodes=len(bvh.nodes),
+        rows.append(dict(builder=builder, triangles=len(tri), build_s=seconds, build_cpu_s=cpu_seconds, nodes=len(bvh.nodes),
                          sah_cost=float(bvh.sah_cost()), collapse4_s=collapse_s, wide4_nodes=wide.node_count,
                          wide4_sah_cost=wide.sah_cost()))
     return rows
@@ -168,6 +170,16 @@ def summary(rows: list[dict]) -> str:
             lines.append(f"| {layout} | {k} | {g('mrays'):.3g} | {g('mrays_per_cpu_s'):.3g} | {g('vs_embree'):.3g} | "
                          f"{g('vs_embree_per_cpu_s'):.3g} | {g('nodes_per_ray'):.3g} | {g('prims_per_ray'):.3g} |")
     return "\n".join(lines)
+
+
+def chart(path: Path, rows: list[dict], title: str) -> None:
+    """Bars of Mrays/s (wall) and Mrays per CPU-second for each ray kind, one series per layout."""
+    from clrender.plot import bar_chart
+
+    name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {r['builder']} width {r['width']}"  # noqa: E731
+    labels = [f"{k}\n{unit}" for k in KINDS for unit in ("Mrays/s", "per CPU-s")]
+    series = {name(r): [r[f"{k}_{m}"] for k in KINDS for m in ("mrays", "mrays_per_cpu_s")] for r in rows}
+    bar_chart(path, labels, series, title=title, ylabel="million rays")
 
 
 def main(argv=None):
@@ -208,7 +220,9 @@ def main(argv=None):
     write_table(out, "rays", rows, f"Ray throughput at {args.size}x{args.size} (median of {args.runs})")
     table = summary(rows)
     (out / "rays_summary.md").write_text(table + "\n")
-    print(f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} primary rays, {hit_fraction:.1%} hit")
+    chart(out / "rays.png", rows, f"{label} ({len(mesh.faces)} triangles), {args.size}x{args.size}")
+    print(f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} primary rays, {hit_fraction:.1%} hit; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     print(table)
     if args.no_build:
         return 0
