@@ -50,7 +50,8 @@ inline int refract_dir(float3 d, float3 n, float eta, float3 *out) {
     return 1;
 }
 
-/* Schlick's approximation, using the angle on the denser side. */
+/* Schlick's approximation, with the cosine of the angle on the less dense side (the larger
+ * angle): cos_i going into a denser medium, cos_t coming out of one. */
 inline float schlick(float cos_i, float n1, float n2, float cos_t) {
     float r0 = (n1 - n2) / (n1 + n2);
     r0 *= r0;
