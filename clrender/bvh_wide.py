@@ -71,11 +71,15 @@ class WideBVH:
     @property
     def depth(self) -> int:
         """Levels on the longest root-to-leaf-node path (leaves live in their parent's lanes)."""
-        depth = np.zeros(len(self.nodes), np.int64)
-        for i in range(len(self.nodes)):  # children always follow their parent (breadth-first)
-            kids = self.child[i][self.count[i] == 0]
-            depth[kids] = depth[i] + 1
-        return int(depth.max()) + 1
+        frontier, levels = np.zeros(1, np.int64), 0
+        while len(frontier):  # one level of wide nodes at a time
+            interior = self.count[frontier] == 0
+            frontier, levels = self.child[frontier][interior].astype(np.int64), levels + 1
+        return levels
+
+    def stats(self) -> dict:
+        return dict(builder=self.binary.builder, width=self.width, nodes=self.node_count, depth=self.depth,
+                    sah_cost=self.sah_cost(), binary_sah_cost=self.binary.sah_cost(), build_s=self.build_seconds)
 
     def sah_cost(self, traversal_cost: float = 1.0, intersect_cost: float = 1.0) -> float:
         """Expected cost of a ray hitting the root, as BVH.sah_cost: every wide node visited costs
