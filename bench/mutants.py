@@ -143,6 +143,12 @@ MUTANTS = [
     M("sphere-one-crossing", "kernels/intersect.h", "+ (t1 > ", "+ 0 * (t1 > ",
       "a shadow ray counts only one crossing of a sphere"),
 
+    M("wide-prunes-too-much", "kernels/intersect.h", "if (stack_t[sp] > best.t * 1.0000004f) continue;",
+      "if (stack_t[sp] > best.t * 0.5f) continue;", "4-wide BVH skips boxes that can still hold a nearer hit"),
+    M("wide-slab-backwards", "kernels/intersect.h", "bool backwards = inv_d < 0.0f;", "bool backwards = inv_d > 0.0f;",
+      "4-wide slab test swaps near and far for every ray direction"),
+    M("wide-push-nearest-first", "kernels/intersect.h", "while (j > 0 && t[lane[j - 1]] < t[k])",
+      "while (j > 0 && t[lane[j - 1]] > t[k])", "4-wide BVH visits the farthest child first (slower, same hits)"),
     M("barycentric-u-from-v0", "kernels/intersect.h", "*u = e1 * inv_det;", "*u = e0 * inv_det;",
       "triangle hit reports v0's barycentric as u (v1's)"),
     M("watertight-edge-2-ignored", "kernels/intersect.h", "(e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) &&",
