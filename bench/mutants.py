@@ -55,11 +55,12 @@ class Mutant:
 TRACE = ("tests/test_optics.py", "tests/test_reference_renderer.py", "tests/test_fresnel_tir.py",
          "tests/test_shading_rules.py", "tests/test_ties.py", "tests/test_render.py",
          "tests/test_outputs.py", "tests/test_sampling.py", "tests/test_refraction.py", "tests/test_area_light.py",
-         "tests/test_intersect.py", "tests/test_exact_rays.py", "tests/test_bvh.py", "tests/test_mesh_normals.py",
+         "tests/test_intersect.py", "tests/test_exact_rays.py", "tests/test_bvh.py", "tests/test_bvh_wide.py",
+         "tests/test_mesh_normals.py",
          "tests/test_aov.py", "tests/test_edges.py")
 SAMPLING = ("tests/test_sampling.py", "tests/test_outputs.py") + TRACE
 OUTPUT = ("tests/test_outputs.py", "tests/test_cli.py", "tests/test_cli_args.py", "tests/test_convolve_cli.py",
-          "tests/test_filters.py")
+          "tests/test_filters.py", "tests/test_display.py", "tests/test_faults.py")
 SPLAT = ("tests/test_splat_gauss.py", "tests/test_splat_gauss_fit.py", "tests/test_splat_gauss_cli.py")
 VORONOI = ("tests/test_voronoi.py",)
 
@@ -145,7 +146,7 @@ MUTANTS = [
 
     M("wide-prunes-too-much", "kernels/intersect.h", "if (stack_t[sp] > best.t * 1.0000004f) continue;",
       "if (stack_t[sp] > best.t * 0.5f) continue;", "4-wide BVH skips boxes that can still hold a nearer hit"),
-    M("wide-slab-backwards", "kernels/intersect.h", "bool backwards = inv_d < 0.0f;", "bool backwards = inv_d > 0.0f;",
+    M("wide-slab-backwards", "kernels/intersect.h", "bool backwards = inv_d < 0.0f;\n    float4 near", "bool backwards = inv_d > 0.0f;\n    float4 near",
       "4-wide slab test swaps near and far for every ray direction"),
     M("wide-push-nearest-first", "kernels/intersect.h", "while (j > 0 && t[lane[j - 1]] < t[k])",
       "while (j > 0 && t[lane[j - 1]] > t[k])", "4-wide BVH visits the farthest child first (slower, same hits)"),
