@@ -126,12 +126,18 @@ class Tracer:
         d = np.asarray(directions, np.float32).reshape(-1, 3)
         if o.shape != d.shape:
             raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-        length = np.linalg.norm(d.astype(np.float64), axis=1)
-        if not (np.isfinite(o).all() and np.isfinite(length).all() and (length > 0).all()):
+        d64 = d.astype(np.float64)
+        length_sq = np.einsum("ij,ij->i", d64, d64)  # float64: exact enough, never overflows for float32 input
+        if not (np.isfinite(o).all() and np.isfinite(length_sq).all() and (length_sq > 0).all()):
             raise UsageError("ray origins and directions must be finite, and directions nonzero")
         n = len(o)
         self.device.check_fits(n * 16, f"{n} rays")
-        pad = lambda a: np.concatenate([a, np.zeros((n, 1), np.float32)], axis=1)  # noqa: E731
+
+        def pad(a):  # float4 per ray, as the kernels read them
+            a4 = np.empty((n, 4), np.float32)
+            a4[:, :3], a4[:, 3] = a, 0.0
+            return a4
+
         return n, self.device.to_device(pad(o)), self.device.to_device(pad(d))
 
     def _per_ray(self, n, value, name):
@@ -161,13 +167,15 @@ class Tracer:
         lowest primitive id is returned, with the BVH on or off and for every builder."""
         n, o, d = self._rays(origins, directions)
         dev = self.device
-        t_buf, p_buf, o_buf, v_buf = (dev.empty(4 * n) for _ in range(4))
-        self.launch_intersect(n, o, d, self._per_ray(n, t_min, "t_min"), (t_buf, p_buf, o_buf, v_buf))
-        t, prim, obj = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
-        self.last_visits = np.empty(n, np.uint32)
-        for host, buf in ((t, t_buf), (prim, p_buf), (obj, o_buf), (self.last_visits, v_buf)):
-            cl.enqueue_copy(dev.queue, host, buf)
-        return t, prim, obj
+        # the kernel writes straight into the result arrays (USE_HOST_PTR: no copy on a CPU device)
+        t, prim, obj = np.empty(max(n, 1), np.float32), np.empty(max(n, 1), np.int32), np.empty(max(n, 1), np.int32)
+        visits = np.empty(max(n, 1), np.uint32)
+        bufs = [dev.host_buffer(a) for a in (t, prim, obj, visits)]
+        self.launch_intersect(n, o, d, self._per_ray(n, t_min, "t_min"), bufs)
+        for buf, host in zip(bufs, (t, prim, obj, visits)):
+            dev.sync_to_host(buf, host)
+        self.last_visits = visits[:n]
+        return t[:n], prim[:n], obj[:n]
 
     def occluded(self, origins, directions, t_max, t_min=0.0):
         """True where any surface lies at origin + t * direction with t_min < t < t_max (t in units of
