@@ -1,9 +1,9 @@
 """Wide BVH: the binary tree of clrender.bvh collapsed into nodes of up to WIDTH children.
 
-One ray tests all children of a node at once with float4 operations (the slab
-test of kernels/intersect.h, lane by lane), then visits the hit ones nearest
-first.  Layout of one node, 8 rows of WIDTH lanes (float4 rows in the kernel
-for WIDTH = 4; a node is 128 bytes)::
+One ray tests all children of a node at once with float4 / float8 operations
+(the slab test of kernels/intersect.h, lane by lane), then visits the hit ones
+nearest first.  Layout of one node, 8 rows of WIDTH lanes (float4 or float8
+rows in the kernel; a node is 128 or 256 bytes)::
 
     row 0..5  lo_x, hi_x, lo_y, hi_y, lo_z, hi_z   bounds of each child (float32)
     row 6     child   (int32 bits)  interior child: its wide node index; leaf child: first slot
@@ -30,7 +30,7 @@ import numpy as np
 
 from .bvh import BVH, MAX_DEPTH, half_area
 
-WIDTHS = (2, 4)  # 2: the binary tree as is
+WIDTHS = (2, 4, 8)  # 2: the binary tree as is
 ROWS = 8
 
 
@@ -45,7 +45,7 @@ def stack_size(width: int) -> int:
     return (width - 1) * (bvh.STACK_SIZE - 1) + 1
 
 
-assert stack_size(4) >= 3 * (MAX_DEPTH - 1) + 4
+assert all(stack_size(w) >= (w - 1) * (MAX_DEPTH - 1) + w for w in (4, 8))
 
 
 @dataclass
@@ -99,7 +99,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
     """Collapse a binary BVH into a wide one (see the module docstring)."""
     start = time.perf_counter()
     if width not in WIDTHS or width == 2:
-        raise ValueError(f"width {width}; allowed: 4")
+        raise ValueError(f"width {width}; allowed: 4 or 8")
     bn = bvh.nodes
     n_bin = len(bn)
     count = bn["count"].astype(np.int64)

@@ -34,11 +34,11 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
 BUILDERS = ("sah", "median")
-DEFAULT_BVH_WIDTH = 4  # 4-wide nodes (clrender/bvh_wide.py); 2 traverses the binary tree as built
+DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 # Leaf size of the binary tree per traversal width: under 4-wide nodes leaves of at most 2 primitives
 # traced 3-10% faster than 4 (more nodes, but four boxes per visit; the SAH cost of the 1M-triangle
 # tree also drops from 51.1 to 49.7 at the same build time); see docs/bvh.md.
-MAX_LEAF_SIZE = {2: 4, 4: 2}
+MAX_LEAF_SIZE = {2: 4, 4: 2, 8: 2}
 
 
 def as_scene(scene_or_mesh) -> Scene:
@@ -114,7 +114,7 @@ class Tracer:
         from .bvh_wide import stack_size
 
         return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE,
-                "BVH_WIDTH": self.bvh_width, "WIDE_STACK_SIZE": stack_size(4),
+                "BVH_WIDTH": self.bvh_width, "WIDE_STACK_SIZE": stack_size(max(self.bvh_width, 4)),
                 "COUNT_PRIM_TESTS": int(self.count_prim_tests)}
 
     def kernel(self, name: str) -> cl.Kernel:

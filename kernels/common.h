@@ -4,7 +4,7 @@
  *   nodes     BVH_WIDTH 2: float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
  *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
  *             interior: count == 0, near child i+1, far child `offset`.
- *             BVH_WIDTH 4: float4 x8 per node, see intersect.h / clrender/bvh_wide.py.
+ *             BVH_WIDTH 4 or 8: 8 rows of BVH_WIDTH floats per node, see clrender/bvh_wide.py.
  *   prims     float4 x3 per primitive slot, in BVH leaf order:
  *             triangle: (v0, id) (v1, 0) (v2, 0) -- the vertices themselves, so two
  *             triangles that share an edge see bit-identical endpoints (watertight)
@@ -33,10 +33,10 @@
 #endif
 #define RAY_STACK (MAX_DEPTH + 2)
 #ifndef BVH_WIDTH
-#define BVH_WIDTH 2           /* 2: binary nodes; 4: 4-wide nodes (clrender/bvh_wide.py) */
+#define BVH_WIDTH 2           /* 2: binary nodes; 4 or 8: wide nodes (clrender/bvh_wide.py) */
 #endif
-#if BVH_WIDTH != 2 && BVH_WIDTH != 4
-#error "BVH_WIDTH must be 2 or 4"
+#if BVH_WIDTH != 2 && BVH_WIDTH != 4 && BVH_WIDTH != 8
+#error "BVH_WIDTH must be 2, 4 or 8"
 #endif
 #ifndef WIDE_STACK_SIZE
 #define WIDE_STACK_SIZE 190   /* clrender.bvh_wide.stack_size(4) */

@@ -185,45 +185,64 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
     }
 }
 
-/* ---------------------------------------------------------------- 4-wide BVH (clrender/bvh_wide.py)
- * A node is 8 float4 rows: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its 4 children, then the
- * children's int32 index (wide node, or first slot of a leaf) and count (0 interior, > 0 leaf
- * slots, -1 empty lane).  The slab test is hit_box's, lane by lane: the same float operations,
- * so each lane's answer is bit for bit the binary test's for that box.  Stack entries name a
- * lane (node * 4 + lane); a node pushes its hit lanes farthest first, so the nearest pops first. */
+/* ---------------------------------------------------------------- wide BVH (clrender/bvh_wide.py)
+ * BVH_WIDTH 4 or 8.  A node is 8 rows of BVH_WIDTH floats (float4 or float8 rows, read as typed
+ * vectors: vloadN here was 17% slower on PoCL): lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its
+ * children, then the children's int32 index (wide node, or first slot of a leaf) and count
+ * (0 interior, > 0 leaf slots, -1 empty lane).  The slab test is hit_box's, lane by lane: the
+ * same float operations, so each lane's answer is bit for bit the binary test's for that box.
+ * Stack entries name a lane ((node << LANE_BITS) + lane); a node pushes its hit lanes farthest
+ * first, so the nearest pops first. */
+#if BVH_WIDTH >= 4
 #if BVH_WIDTH == 4
-inline void slab4(float4 lo, float4 hi, float o, float inv_d, float4 *t_enter, float4 *t_exit) {
-    float4 t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
+typedef float4 lanes_f;
+typedef int4 lanes_i;
+#define as_lanes_i as_int4
+#define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
+#define LANE_BITS 2
+#else
+typedef float8 lanes_f;
+typedef int8 lanes_i;
+#define as_lanes_i as_int8
+#define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
+#define LANE_BITS 3
+#endif
+#define NODE_FLOATS (8 * BVH_WIDTH) /* 8 rows of BVH_WIDTH lanes */
+#define CHILD_ROW (6 * BVH_WIDTH)
+#define COUNT_ROW (7 * BVH_WIDTH)
+
+inline void slab_lanes(lanes_f lo, lanes_f hi, float o, float inv_d, lanes_f *t_enter, lanes_f *t_exit) {
+    lanes_f t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
     bool backwards = inv_d < 0.0f;
-    float4 near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
+    lanes_f near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
     *t_enter = select(*t_enter, near, near > *t_enter); /* a NaN lane of `near` keeps t_enter */
     *t_exit = select(*t_exit, far, far < *t_exit);
 }
 
-/* Entry distances of the four lanes (INF_T where the box is missed or the lane is empty). */
-inline float4 hit_boxes4(Ray r, __global const float4 *node, float t_max) {
-    float4 t_enter = (float4)(0.0f), t_exit = (float4)(t_max);
-    slab4(node[0], node[1], r.o.x, r.inv_d.x, &t_enter, &t_exit);
-    slab4(node[2], node[3], r.o.y, r.inv_d.y, &t_enter, &t_exit);
-    slab4(node[4], node[5], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+/* Entry distances of the lanes of a node (INF_T where the box is missed or the lane is empty). */
+inline lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
+    lanes_f t_enter = (lanes_f)(0.0f), t_exit = (lanes_f)(t_max);
+    slab_lanes(node[0], node[1], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab_lanes(node[2], node[3], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab_lanes(node[4], node[5], r.o.z, r.inv_d.z, &t_enter, &t_exit);
     t_exit *= 1.0000004f;
-    int4 hit = (t_enter <= t_exit) & (as_int4(node[7]) >= 0);
-    return select((float4)(INF_T), t_enter, hit);
+    lanes_i hit = (t_enter <= t_exit) & (as_lanes_i(node[7]) >= 0);
+    return select((lanes_f)(INF_T), t_enter, hit);
 }
 
 /* Push the lanes of `node` with a finite entry distance, farthest first. */
-inline int push_lanes4(int node, float4 t4, int *stack, float *stack_t, int sp, bool *overflow) {
-    float t[4] = {t4.x, t4.y, t4.z, t4.w};
-    int lane[4];
+inline int push_lanes(int node, lanes_f t_lanes, int *stack, float *stack_t, int sp, bool *overflow) {
+    float t[BVH_WIDTH] = LANES_ARRAY(t_lanes);
+    int lane[BVH_WIDTH];
     int n = 0;
-    for (int k = 0; k < 4; ++k) { /* insertion sort by decreasing distance */
+    for (int k = 0; k < BVH_WIDTH; ++k) { /* insertion sort by decreasing distance */
         if (t[k] == INF_T) continue;
         int j = n++;
         while (j > 0 && t[lane[j - 1]] < t[k]) { lane[j] = lane[j - 1]; --j; }
         lane[j] = k;
     }
     for (int j = 0; j < n; ++j) {
-        if (sp < WIDE_STACK_SIZE) { stack[sp] = 4 * node + lane[j]; stack_t[sp] = t[lane[j]]; ++sp; }
+        if (sp < WIDE_STACK_SIZE) { stack[sp] = (node << LANE_BITS) + lane[j]; stack_t[sp] = t[lane[j]]; ++sp; }
         else *overflow = true;
     }
     return sp;
@@ -233,6 +252,7 @@ inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 
                             Ray r, float t_min, Hit best, uint *visits) {
     /* trees are at most MAX_DEPTH deep: the stack holds at most 3 siblings per level plus one
        node's lanes (clrender.bvh_wide.stack_size); should it fill up, every primitive is tested */
+    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE];
     float stack_t[WIDE_STACK_SIZE];
@@ -240,19 +260,19 @@ inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 
     bool overflow = false;
     if (n_prims > 0) {
         COUNT_NODE(visits);
-        sp = push_lanes4(0, hit_boxes4(r, nodes, best.t), stack, stack_t, sp, &overflow);
+        sp = push_lanes(0, hit_boxes(r, rows, best.t), stack, stack_t, sp, &overflow);
     }
     while (sp > 0) {
         --sp;
         if (stack_t[sp] > best.t * 1.0000004f) continue; /* beyond the nearest hit so far */
-        int node = stack[sp] >> 2, lane = stack[sp] & 3;
-        int child = ints[32 * node + 24 + lane], count = ints[32 * node + 28 + lane];
+        int node = stack[sp] >> LANE_BITS, lane = stack[sp] & (BVH_WIDTH - 1);
+        int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
         COUNT_NODE(visits);
         if (count > 0) {
             COUNT_PRIMS(visits, count);
             test_slots(prims, child, child + count, r, t_min, &best);
         } else {
-            sp = push_lanes4(child, hit_boxes4(r, nodes + 8 * child, best.t), stack, stack_t, sp, &overflow);
+            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, best.t), stack, stack_t, sp, &overflow);
         }
     }
     if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
@@ -342,26 +362,27 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
     return crossings == 2 ? transparency * transparency : transparency;
 }
 
-#if BVH_WIDTH == 4
+#if BVH_WIDTH >= 4
 /* Push the lanes of `node` that the ray enters before t_max, in lane order (no sort: an any-hit
  * query needs no order, and nearest-first finds first the boxes around a shadow ray's origin,
  * which rarely block it). */
-inline int push_hit_lanes4(int node, float4 t4, int *stack, int sp, bool *overflow) {
-    int4 hit = t4 != (float4)(INF_T);
-    int h[4] = {hit.x, hit.y, hit.z, hit.w};
-    for (int k = 0; k < 4; ++k) {
-        if (!h[k]) continue;
-        if (sp < WIDE_STACK_SIZE) stack[sp++] = 4 * node + k;
+inline int push_hit_lanes(int node, lanes_f t_lanes, int *stack, int sp, bool *overflow) {
+    lanes_i hit_lanes = t_lanes != (lanes_f)(INF_T);
+    int hit[BVH_WIDTH] = LANES_ARRAY(hit_lanes);
+    for (int k = 0; k < BVH_WIDTH; ++k) {
+        if (!hit[k]) continue;
+        if (sp < WIDE_STACK_SIZE) stack[sp++] = (node << LANE_BITS) + k;
         else *overflow = true;
     }
     return sp;
 }
 
-/* Any-hit traversal of the 4-wide tree: every hit lane goes on the stack. */
+/* Any-hit traversal of the wide tree: every hit lane goes on the stack. */
 inline float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                                 __global const int *prim_object, __global const int2 *objects,
                                 __global const float4 *materials, Ray r, float t_min, float t_max,
                                 bool opaque_only, uint *visits) {
+    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE];
     int sp = 0;
@@ -369,19 +390,19 @@ inline float transmittance_wide(__global const float4 *nodes, __global const flo
     float T = 1.0f;
     if (n_prims > 0) {
         COUNT_NODE(visits);
-        sp = push_hit_lanes4(0, hit_boxes4(r, nodes, t_max), stack, sp, &overflow);
+        sp = push_hit_lanes(0, hit_boxes(r, rows, t_max), stack, sp, &overflow);
     }
     while (sp > 0 && T > 0.0f) {
         --sp;
-        int node = stack[sp] >> 2, lane = stack[sp] & 3;
-        int child = ints[32 * node + 24 + lane], count = ints[32 * node + 28 + lane];
+        int node = stack[sp] >> LANE_BITS, lane = stack[sp] & (BVH_WIDTH - 1);
+        int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
         COUNT_NODE(visits);
         if (count > 0) {
             COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
             for (int s = child; s < child + count && T > 0.0f; ++s)
                 T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
         } else {
-            sp = push_hit_lanes4(child, hit_boxes4(r, nodes + 8 * child, t_max), stack, sp, &overflow);
+            sp = push_hit_lanes(child, hit_boxes(r, rows + 8 * child, t_max), stack, sp, &overflow);
         }
     }
     if (overflow && T > 0.0f) { /* a lane did not fit on the stack: test every primitive instead */
@@ -398,7 +419,7 @@ inline float transmittance(__global const float4 *nodes, __global const float4 *
                            __global const float4 *materials, Ray r, float t_min, float t_max, bool opaque_only,
                            uint *visits) {
     float T = 1.0f;
-#if USE_BVH && BVH_WIDTH == 4
+#if USE_BVH && BVH_WIDTH >= 4
     T = transmittance_wide(nodes, prims, n_prims, prim_object, objects, materials, r, t_min, t_max, opaque_only,
                            visits);
 #elif USE_BVH

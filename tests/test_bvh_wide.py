@@ -1,5 +1,5 @@
-"""The 4-wide BVH (clrender/bvh_wide.py): the tree's invariants, and the same closest hits and
-occlusion answers as the binary tree and as the BVH-off path (every ray tests every primitive)."""
+"""The wide BVHs (clrender/bvh_wide.py, 4 and 8 lanes): the tree's invariants, and the same closest
+hits and occlusion answers as the binary tree and as the BVH-off path (every ray tests every primitive)."""
 import numpy as np
 import pytest
 from test_exact_rays import degenerate_meshes, rays_at_triangles
@@ -17,7 +17,7 @@ def triangle_bounds(vertices, faces):
 
 
 def lane_boxes(wide, i):
-    """(lo, hi) of the lanes of wide node i, each (4, 3)."""
+    """(lo, hi) of the lanes of wide node i, each (width, 3)."""
     return wide.nodes[i, 0:6:2].T, wide.nodes[i, 1:6:2].T
 
 
@@ -56,13 +56,14 @@ def check_invariants(wide, lo, hi):
     assert wide.depth <= wide.binary.depth
 
 
+@pytest.mark.parametrize("width", [4, 8])
 @pytest.mark.parametrize("builder", ["sah", "median"])
-def test_wide_tree_holds_every_primitive_once_inside_bounds_that_contain_their_children(builder):
+def test_wide_tree_holds_every_primitive_once_inside_bounds_that_contain_their_children(builder, width):
     mesh = dense_mesh(3000, seed=3)
     lo, hi = triangle_bounds(mesh.vertices, mesh.faces)
-    wide = collapse(build_bvh(lo, hi, builder=builder), 4)
+    wide = collapse(build_bvh(lo, hi, builder=builder), width)
     check_invariants(wide, lo, hi)
-    # collapsing fills nodes: far fewer wide nodes than binary interior nodes
+    # collapsing fills nodes: each wide node stands for at least two binary interior nodes on average
     assert wide.node_count < 0.5 * (wide.binary.node_count - wide.binary.leaf_count)
 
 
@@ -70,11 +71,13 @@ def test_wide_tree_invariants_on_degenerate_and_tiny_inputs():
     rng = np.random.default_rng(5)
     for name, vertices in degenerate_meshes(rng):
         lo, hi = triangle_bounds(vertices, np.arange(len(vertices)).reshape(-1, 3))
-        check_invariants(collapse(build_bvh(lo, hi), 4), lo, hi)
-    for n in (1, 2, 3, 5, 9):  # a lone leaf root, and trees of one or two levels
+        for width in (4, 8):
+            check_invariants(collapse(build_bvh(lo, hi), width), lo, hi)
+    for n in (1, 2, 3, 5, 9, 17):  # a lone leaf root, and trees of one to three levels
         lo = rng.uniform(-1, 0, (n, 3)).astype(np.float32)
         hi = lo + rng.uniform(0, 1, (n, 3)).astype(np.float32)
-        check_invariants(collapse(build_bvh(lo, hi, max_leaf_size=1), 4), lo, hi)
+        for width in (4, 8):
+            check_invariants(collapse(build_bvh(lo, hi, max_leaf_size=1), width), lo, hi)
 
 
 def test_wide_sah_cost_counts_wide_nodes_and_the_same_leaves():
@@ -91,9 +94,9 @@ def test_wide_sah_cost_counts_wide_nodes_and_the_same_leaves():
 
 
 def three_ways(mesh, o, d, t_max, device, **kw):
-    """(t, prim, occluded) from the wide tree, the binary tree and no BVH."""
+    """(t, prim, occluded) from the 8- and 4-wide trees, the binary tree and no BVH (last)."""
     out = []
-    for width, use_bvh in ((4, True), (2, True), (4, False)):
+    for width, use_bvh in ((8, True), (4, True), (2, True), (4, False)):
         tracer = Tracer(mesh, bvh_width=width, use_bvh=use_bvh, device=device, **kw)
         t, prim, _ = tracer.intersect(o, d)
         out.append((t, prim, tracer.occluded(o, d, t_max)))
@@ -101,9 +104,9 @@ def three_ways(mesh, o, d, t_max, device, **kw):
 
 
 def assert_same_answers(answers, label):
-    (t4, p4, b4), (t2, p2, b2), (t0, p0, b0) = answers
+    *trees, (t0, p0, b0) = answers
     assert np.isfinite(t0).any(), label
-    for t, p, b, name in ((t4, p4, b4, "wide"), (t2, p2, b2, "binary")):
+    for (t, p, b), name in zip(trees, ("8-wide", "4-wide", "binary")):
         np.testing.assert_array_equal(p, p0, err_msg=f"{label}: {name} primitive")
         np.testing.assert_array_equal(t, t0, err_msg=f"{label}: {name} t")  # the same float32 test: bit-equal
         np.testing.assert_array_equal(b, b0, err_msg=f"{label}: {name} occluded")
@@ -149,8 +152,8 @@ def test_wide_binary_and_brute_force_agree_on_axis_aligned_and_grazing_rays(devi
 @pytest.mark.parametrize("stack_size", [None, 2])
 def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(
         device, stack_size, monkeypatch):
-    """With clrender.bvh.STACK_SIZE = 2 the wide stack (scaled from it) holds 4 lanes: it overflows on
-    purpose and the kernels' fallback must still give the brute-force answers."""
+    """With clrender.bvh.STACK_SIZE = 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
+    on purpose and the kernels' fallback must still give the brute-force answers."""
     if stack_size is not None:
         monkeypatch.setattr("clrender.bvh.STACK_SIZE", stack_size)
     rng = np.random.default_rng(23)
