@@ -49,7 +49,7 @@ def median_cpu_seconds(fn, runs: int) -> float:
     return float(np.median(times))
 
 
-LAYOUTS = (("sah", 4), ("sah", 2))  # (builder, BVH width); the first is the default. The median tree
+LAYOUTS = (("sah", 8), ("sah", 4), ("sah", 2))  # (builder, BVH width); the first is the default. The median tree
 # traces 20-50x slower (457 nodes per primary ray on the generated mesh): only its build is timed.
 
 
@@ -135,24 +135,27 @@ def embree_rates(mesh, rays: dict, runs: int):
 
 
 def build_times(n_triangles: int, runs: int):
-    """Build time and SAH cost of each builder (binary tree, then the 4-wide collapse of it)."""
+    """Build time (wall and CPU) and SAH cost of each builder with its default leaves, and of the tree
+    the Tracer builds for its default width (leaves of MAX_LEAF_SIZE[width], then the collapse)."""
     from clrender.bvh import build_bvh
     from clrender.bvh_wide import collapse
     from clrender.meshes import dense_mesh
+    from clrender.tracer import DEFAULT_BVH_WIDTH, MAX_LEAF_SIZE
 
     mesh = dense_mesh(n_triangles, seed=1)
     tri = np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)]
     lo, hi = tri.min(1), tri.max(1)
+    w = DEFAULT_BVH_WIDTH
     rows = []
-    for builder in ("sah", "median"):
-        seconds = median_seconds(lambda: build_bvh(lo, hi, builder=builder), runs)
-        cpu_seconds = median_cpu_seconds(lambda: build_bvh(lo, hi, builder=builder), runs)
-        bvh = build_bvh(lo, hi, builder=builder)
-        collapse_s = median_seconds(lambda: collapse(bvh, 4), runs)
-        wide = collapse(bvh, 4)
-        rows.append(dict(builder=builder, triangles=len(tri), build_s=seconds, build_cpu_s=cpu_seconds, nodes=len(bvh.nodes),
-                         sah_cost=float(bvh.sah_cost()), collapse4_s=collapse_s, wide4_nodes=wide.node_count,
-                         wide4_sah_cost=wide.sah_cost()))
+    for builder, leaf in (("sah", 4), ("median", 4), ("sah", MAX_LEAF_SIZE[w])):
+        build = lambda: build_bvh(lo, hi, builder=builder, max_leaf_size=leaf)  # noqa: E731
+        seconds, cpu_seconds = median_seconds(build, runs), median_cpu_seconds(build, runs)
+        bvh = build()
+        collapse_s = median_seconds(lambda: collapse(bvh, w), runs)
+        wide = collapse(bvh, w)
+        rows.append(dict(builder=builder, max_leaf=leaf, triangles=len(tri), build_s=seconds, build_cpu_s=cpu_seconds,
+                         nodes=len(bvh.nodes), sah_cost=float(bvh.sah_cost()), width=w, collapse_s=collapse_s,
+                         wide_nodes=wide.node_count, wide_sah_cost=wide.sah_cost()))
     return rows
 
 
