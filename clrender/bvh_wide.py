@@ -109,6 +109,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         interior[:] = False
     area = half_area(bn["bmin"].astype(np.float64), bn["bmax"].astype(np.float64))
 
+    score = np.append(np.where(interior, area, -1.0), -1.0)  # index -1 (an empty lane) reads the last entry
     levels = []  # per level: (binary ids of the wide nodes' lanes, (k, width) with -1 for empty)
     if n_bin == 1:
         lanes = np.full((1, width), -1, np.int64)
@@ -123,8 +124,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         lanes[:, 0], lanes[:, 1] = frontier + 1, offset[frontier]
         rows = np.arange(k)
         for filled in range(2, width):
-            lane_area = np.where(lanes >= 0, area[np.maximum(lanes, 0)], -1.0)
-            lane_area[(lanes < 0) | ~interior[np.maximum(lanes, 0)]] = -1.0
+            lane_area = score[lanes]  # -1 for leaves and empty lanes: they cannot be opened
             pick = np.argmax(lane_area, axis=1)
             grow = lane_area[rows, pick] >= 0
             r, p = rows[grow], pick[grow]
@@ -139,9 +139,6 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
     n_wide = sum(len(lv) for lv in levels)
     nodes = np.zeros((n_wide, ROWS, width), np.float32)
     ints = nodes.view(np.int32)
-    nodes[:, 0:6:2] = 1.0
-    nodes[:, 1:6:2] = -1.0
-    ints[:, 7] = -1
     wide_of = np.full(n_bin, -1, np.int64)
     # assign wide indices level by level: a level's interior lanes become the next level's nodes
     wide_of[0] = 0
@@ -151,19 +148,19 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         nxt = flat[interior[flat]]
         wide_of[nxt] = base + len(lv) + np.arange(len(nxt))
         base += len(lv)
+    # per binary node, what a lane pointing at it holds; one extra last entry for empty lanes (-1)
+    lo_of = np.vstack([bn["bmin"], np.ones((1, 3), np.float32)])
+    hi_of = np.vstack([bn["bmax"], -np.ones((1, 3), np.float32)])
+    child_of = np.append(np.where(interior, wide_of, offset), 0)
+    count_of = np.append(np.where(interior, 0, count), -1)
     base = 0
     for lv in levels:
-        k = len(lv)
-        valid = lv >= 0
-        b = np.maximum(lv, 0)
-        sl = slice(base, base + k)
-        for a in range(3):
-            nodes[sl, 2 * a] = np.where(valid, bn["bmin"][b, a], 1.0)
-            nodes[sl, 2 * a + 1] = np.where(valid, bn["bmax"][b, a], -1.0)
-        is_int = valid & interior[b]
-        ints[sl, 6] = np.where(is_int, wide_of[b], np.where(valid, offset[b], 0))
-        ints[sl, 7] = np.where(is_int, 0, np.where(valid, count[b], -1))
-        base += k
+        sl = slice(base, base + len(lv))
+        nodes[sl, 0:6:2] = lo_of[lv].transpose(0, 2, 1)
+        nodes[sl, 1:6:2] = hi_of[lv].transpose(0, 2, 1)
+        ints[sl, 6] = child_of[lv]
+        ints[sl, 7] = count_of[lv]
+        base += len(lv)
     if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
         ints[0, 7] = -1
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
