@@ -409,3 +409,12 @@ def test_ctrl_c_on_the_program_leaves_no_output_and_no_tasks(client, tmp_path):
     assert proc.returncode == 130 and err.strip().splitlines()[-1] == "clrender: interrupted"
     assert list(tmp_path.iterdir()) == []
     assert wait_for(lambda: scheduler_tasks(client) == 0, 30)  # the scheduler dropped the render's tasks
+
+
+def test_a_worker_with_other_code_refuses_with_one_line(client):
+    from clrender.errors import RenderFailure
+
+    renderer = crd.DistributedRenderer("refract1", client=client, **TINY)
+    renderer.payload.code = "0" * 16  # as if the client ran another version
+    with pytest.raises(RenderFailure, match="runs different clrender code .* the client's 0000000000000000"):
+        renderer.run()

@@ -26,10 +26,38 @@ class ScenePayload:
     description: dict  # the Scene as nested dicts/lists/numbers; arrays replaced by {"__array__": name}
     arrays: dict  # name -> numpy array (mesh vertices, faces, normals)
     key: str  # sha256 of description and array bytes: equal keys, equal scenes
+    code: str = ""  # the client's code_fingerprint(); workers refuse to render with other code
 
     @property
     def nbytes(self) -> int:
         return sum(a.nbytes for a in self.arrays.values())
+
+
+_FINGERPRINT: str | None = None
+
+
+def code_fingerprint() -> str:
+    """A hash of this process's clrender sources and kernels (computed once per process).
+
+    The client and every worker must run the same code, or the images differ
+    (or the results cannot even be unpickled): tasks check it first.
+    """
+    global _FINGERPRINT
+    if _FINGERPRINT is None:
+        from pathlib import Path
+
+        from ..device import kernel_dir
+
+        package = Path(__file__).resolve().parent.parent
+        # what a worker runs: the library and the kernels (not the command line, which only the client runs)
+        files = [p for p in sorted(package.rglob("*.py")) if "commands" not in p.relative_to(package).parts]
+        files += sorted(p for p in kernel_dir().iterdir() if p.suffix in (".cl", ".h"))
+        digest = hashlib.sha256()
+        for path in files:
+            digest.update(path.name.encode())
+            digest.update(path.read_bytes())
+        _FINGERPRINT = digest.hexdigest()[:16]
+    return _FINGERPRINT
 
 
 def split(scene) -> ScenePayload:
@@ -41,7 +69,7 @@ def split(scene) -> ScenePayload:
         a = np.ascontiguousarray(arrays[name])
         digest.update(f"{name}{a.dtype.str}{a.shape}".encode())
         digest.update(a.tobytes())
-    return ScenePayload(description, arrays, digest.hexdigest()[:32])
+    return ScenePayload(description, arrays, digest.hexdigest()[:32], code_fingerprint())
 
 
 def join(payload: ScenePayload):

@@ -21,7 +21,8 @@ from dataclasses import replace
 
 from ..renderer import Renderer, RenderSettings
 from ..tracer import Tracer
-from .payload import ScenePayload, join
+from ..errors import RenderFailure
+from .payload import ScenePayload, code_fingerprint, join
 
 TRACERS_KEPT = 4  # scenes (BVH + device buffers) a worker keeps
 RENDERERS_KEPT = 16  # (scene, settings, camera) combinations a worker keeps
@@ -46,6 +47,16 @@ def _cached(cache: OrderedDict, key, build, keep: int):
 
 def is_built(payload: ScenePayload, settings: RenderSettings) -> bool:
     return (payload.key, repr(settings), None) in _RENDERERS
+
+
+def check_code(payload: ScenePayload) -> None:
+    """Refuse to render for a client that runs other clrender code (the bytes would differ)."""
+    if payload.code and payload.code != code_fingerprint():
+        import socket
+
+        raise RenderFailure(f"the worker on {socket.gethostname()} (pid {os.getpid()}) runs different clrender code "
+                            f"(fingerprint {code_fingerprint()}, the client's {payload.code}); install the same "
+                            "version on the client and every worker")
 
 
 def scene_of(payload: ScenePayload):
@@ -75,6 +86,7 @@ def _info(renderer: Renderer, start: float, ready: float, built: bool, cpu_ready
 
 def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sampler: str, n: int, record: bool):
     """One tile (or edge-pixel chunk): what `Renderer.launch` returns, plus timing info."""
+    check_code(payload)
     with _LOCK:
         start = time.perf_counter()
         built = not is_built(payload, settings)
@@ -86,6 +98,7 @@ def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sample
 
 def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
     """One whole image with `camera` in place of the scene's cameras (a turntable frame)."""
+    check_code(payload)
     with _LOCK:
         start = time.perf_counter()
         scene = replace(scene_of(payload), cameras=[camera])
