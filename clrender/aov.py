@@ -6,7 +6,7 @@ compositing and denoising tools:
 | AOV      | EXR channels                 | value                                                          |
 |----------|------------------------------|----------------------------------------------------------------|
 | `depth`  | `Z`                          | distance from the eye along the primary ray (Mitsuba's `depth`, |
-|          |                              | not camera-space z); inf where the ray escapes                 |
+|          |                              | not camera-space z); 0 where the ray escapes                   |
 | `normal` | `N.x`, `N.y`, `N.z`          | world-space unit shading normal (interpolated on smooth        |
 |          |                              | meshes), turned to face the camera; 0 on a miss                |
 | `albedo` | `albedo.R`, `albedo.G`, `albedo.B` | the material's diffuse colour kd (linear); 0 on a miss   |

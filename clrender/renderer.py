@@ -32,7 +32,9 @@ ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then 
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
 KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWRITE_AOV=1 variant writes
 # The kernel's AOV record per pixel before the trace: (normal, t) = (0, 0, 0, inf), albedo 0 -- what a miss leaves.
-AOV_MISS = np.array([0, 0, 0, np.inf, 0, 0, 0, 0], np.float32)
+# A pixel whose primary ray escapes: depth 0 as Mitsuba's `aov` integrator writes it (renders never
+# hold inf; the id AOV, -1 there, tells a miss from a hit), zero normal and albedo.
+AOV_MISS = np.array([0, 0, 0, 0, 0, 0, 0, 0], np.float32)
 
 
 @dataclass

@@ -69,7 +69,7 @@ def test_depth_is_the_distance_along_the_primary_ray(result):
     hit = clear & (obj >= 0)
     assert (obj[clear] == 0).sum() > 20 and (obj[clear] == 1).sum() > 20  # both surfaces are seen
     np.testing.assert_allclose(depth[hit], t[hit], rtol=1e-5)
-    assert np.isinf(depth[clear & (obj < 0)]).all()
+    assert (depth[clear & (obj < 0)] == 0).all()  # escaped rays: 0, as Mitsuba writes them, never inf
 
 
 def test_normals_are_the_world_space_normals_of_the_surfaces(result):
