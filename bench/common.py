@@ -25,7 +25,7 @@ def write_table(out_dir: Path, name: str, rows: list[dict], title: str) -> str:
         writer = csv.DictWriter(f, keys)
         writer.writeheader()
         writer.writerows(rows)
-    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
+    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)
     lines = [f"| {' | '.join(keys)} |", "|" + "---|" * len(keys)]
     lines += [f"| {' | '.join(fmt(r[k]) for k in keys)} |" for r in rows]
     table = "\n".join(lines)

@@ -41,10 +41,10 @@ from pathlib import Path
 os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", "1")
 os.environ.setdefault("POCL_CPU_MAX_CU_NUM", "1")
 
-from clrender.renderer import Renderer, RenderSettings  # noqa: E402
-from clrender.scene import Scene  # noqa: E402
+from clrender.renderer import Renderer, RenderSettings
+from clrender.scene import Scene
 
-from .common import write_table  # noqa: E402
+from .common import write_table
 
 
 def load_average() -> str:

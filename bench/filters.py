@@ -168,7 +168,7 @@ def main(argv=None):
                "plain numpy": [r["numpy_s"] for r in both]},
               title=title, ylabel="seconds (log scale)", log=True)
     grown = sorted({r["size"] for r in rows if r["filter"].startswith(("box", "gauss"))})
-    by_size = lambda family: [next((r["opencv_s"] for r in rows if r["filter"] == f"{family}_{k}"), None)  # noqa: E731
+    by_size = lambda family: [next((r["opencv_s"] for r in rows if r["filter"] == f"{family}_{k}"), None)
                               for k in grown]
     line_chart(out / "filters_growth.png", grown, {"box_blur": by_size("box_blur"), "gauss_blur": by_size("gauss_blur")},
                title=f"OpenCV time against kernel size, {args.size}x{args.size} RGB",

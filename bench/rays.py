@@ -81,7 +81,7 @@ def ray_sets(mesh, size: int, seed: int = 0):
     facing = -np.sign(np.einsum("ij,ij->i", n, d[hit]))[:, None]  # the side the camera sees
     r *= np.where(np.einsum("ij,ij->i", r, n * facing) < 0, -1, 1)[:, None]
     bounce = (p + facing * n * eps, r, np.full(len(p), np.inf))
-    f32 = lambda a: tuple(np.ascontiguousarray(x, np.float32) for x in a)  # noqa: E731
+    f32 = lambda a: tuple(np.ascontiguousarray(x, np.float32) for x in a)
     return {"primary": (o, d, np.full(len(o), np.inf, np.float32)), "shadow": f32(shadow),
             "incoherent": f32(bounce)}, float(hit.mean())
 
@@ -98,12 +98,12 @@ def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int):
         zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
         if kind == "shadow":
             t_buf, outs = dev.to_device(t_max), (dev.empty(4 * n), dev.empty(4 * n))
-            launch = lambda: tracer.launch_occluded(n, o_buf, d_buf, zeros, t_buf, outs).wait()  # noqa: E731
-            query = lambda tr: tr.occluded(o, d, t_max)  # noqa: E731
+            launch = lambda: tracer.launch_occluded(n, o_buf, d_buf, zeros, t_buf, outs).wait()
+            query = lambda tr: tr.occluded(o, d, t_max)
         else:
             outs = tuple(dev.empty(4 * n) for _ in range(4))
-            launch = lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()  # noqa: E731
-            query = lambda tr: tr.intersect(o, d)  # noqa: E731
+            launch = lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()
+            query = lambda tr: tr.intersect(o, d)
         launch()  # warm-up: PoCL finishes compiling here
         row[f"{kind}_mrays"] = n / median_seconds(launch, runs) / 1e6
         row[f"{kind}_mrays_per_cpu_s"] = n / median_cpu_seconds(launch, runs) / 1e6
@@ -125,9 +125,9 @@ def embree_rates(mesh, rays: dict, runs: int):
     row = {}
     for kind, (o, d, t_max) in rays.items():
         if kind == "shadow":
-            launch = lambda: scene.run(o, d, dists=t_max.copy(), query="OCCLUDED")  # noqa: E731
+            launch = lambda: scene.run(o, d, dists=t_max.copy(), query="OCCLUDED")
         else:
-            launch = lambda: scene.run(o, d)  # noqa: E731
+            launch = lambda: scene.run(o, d)
         launch()
         row[f"{kind}_mrays"] = len(o) / median_seconds(launch, runs) / 1e6
         row[f"{kind}_mrays_per_cpu_s"] = len(o) / median_cpu_seconds(launch, runs) / 1e6
@@ -148,7 +148,7 @@ def build_times(n_triangles: int, runs: int):
     w = DEFAULT_BVH_WIDTH
     rows = []
     for builder, leaf in (("sah", 4), ("median", 4), ("sah", MAX_LEAF_SIZE[w])):
-        build = lambda: build_bvh(lo, hi, builder=builder, max_leaf_size=leaf)  # noqa: E731
+        build = lambda: build_bvh(lo, hi, builder=builder, max_leaf_size=leaf)
         seconds, cpu_seconds = median_seconds(build, runs), median_cpu_seconds(build, runs)
         bvh = build()
         collapse_s = median_seconds(lambda: collapse(bvh, w), runs)
@@ -169,7 +169,7 @@ def summary(rows: list[dict]) -> str:
     for r in rows:
         layout = "embree (1 thread)" if r["builder"] == "embree" else f"{r['builder']}, width {r['width']}"
         for k in KINDS:
-            g = lambda key: r.get(f"{k}_{key}", float("nan"))  # noqa: E731
+            g = lambda key: r.get(f"{k}_{key}", float("nan"))
             lines.append(f"| {layout} | {k} | {g('mrays'):.3g} | {g('mrays_per_cpu_s'):.3g} | {g('vs_embree'):.3g} | "
                          f"{g('vs_embree_per_cpu_s'):.3g} | {g('nodes_per_ray'):.3g} | {g('prims_per_ray'):.3g} |")
     return "\n".join(lines)
@@ -179,7 +179,7 @@ def chart(path: Path, rows: list[dict], title: str) -> None:
     """Bars of Mrays/s (wall) and Mrays per CPU-second for each ray kind, one series per layout."""
     from clrender.plot import bar_chart
 
-    name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {r['builder']} width {r['width']}"  # noqa: E731
+    name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {r['builder']} width {r['width']}"
     labels = [f"{k}\n{unit}" for k in KINDS for unit in ("Mrays/s", "per CPU-s")]
     series = {name(r): [r[f"{k}_{m}"] for k in KINDS for m in ("mrays", "mrays_per_cpu_s")] for r in rows}
     bar_chart(path, labels, series, title=title, ylabel="million rays")

@@ -42,6 +42,7 @@ from __future__ import annotations
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -334,7 +335,7 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
             # count as left too, and go to the tail)
             n = len(ids)
             i = np.arange(n, dtype=np.int64)
-            per_prim = lambda a: np.repeat(a, count)  # noqa: E731  (faster than a[seg_of])
+            per_prim = partial(np.repeat, repeats=count)  # a per-node value for each primitive (faster than a[seg_of])
             done = ~per_prim(binned)
             if n_binned:
                 rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis

@@ -16,12 +16,11 @@ import sys
 
 _RUN_AS_PROGRAM = os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.exe", "__main__.py", "-m")
 
-import argparse  # noqa: E402
-import threading  # noqa: E402
+import argparse
+import threading
 
-from . import progress  # noqa: E402
-from .errors import (EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, STDERR_FD, RenderFailure, UsageError,  # noqa: E402
-                     one_line, shown)
+from . import progress
+from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, STDERR_FD, RenderFailure, UsageError, one_line, shown
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
 

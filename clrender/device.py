@@ -35,9 +35,9 @@ INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
 class Device:
     """A context and in-order queue on one OpenCL device, plus its program cache."""
 
-    context: "cl.Context"
-    queue: "cl.CommandQueue"
-    device: "cl.Device"
+    context: cl.Context
+    queue: cl.CommandQueue
+    device: cl.Device
     _programs: dict = field(default_factory=dict, repr=False)
     _kernels: dict = field(default_factory=dict, repr=False)
     compile_seconds: float = 0.0  # total time spent building programs so far
@@ -50,7 +50,7 @@ class Device:
     def is_cpu(self) -> bool:
         return bool(self.device.type & cl.device_type.CPU)
 
-    def program(self, filename: str, defines: dict | None = None) -> "cl.Program":
+    def program(self, filename: str, defines: dict | None = None) -> cl.Program:
         """The built program for kernels/<filename> with -D<k>=<v> options (cached)."""
         key = (filename, tuple(sorted((defines or {}).items())))
         prg = self._programs.get(key)
@@ -69,7 +69,7 @@ class Device:
             self._programs[key] = prg
         return prg
 
-    def kernel(self, filename: str, name: str, defines: dict | None = None) -> "cl.Kernel":
+    def kernel(self, filename: str, name: str, defines: dict | None = None) -> cl.Kernel:
         """Kernel `name` of kernels/<filename>, fetched once and kept."""
         key = (filename, name, tuple(sorted((defines or {}).items())))
         knl = self._kernels.get(key)
@@ -78,7 +78,7 @@ class Device:
             self._kernels[key] = knl
         return knl
 
-    def to_device(self, array: np.ndarray, writable: bool = False) -> "cl.Buffer":
+    def to_device(self, array: np.ndarray, writable: bool = False) -> cl.Buffer:
         """A read-only (or read-write) buffer holding a copy of `array` (at least one byte)."""
         array = np.ascontiguousarray(array)
         mf = cl.mem_flags
@@ -87,16 +87,16 @@ class Device:
         return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR,
                          hostbuf=array)
 
-    def empty(self, nbytes: int) -> "cl.Buffer":
+    def empty(self, nbytes: int) -> cl.Buffer:
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
 
-    def host_buffer(self, array: np.ndarray) -> "cl.Buffer":
+    def host_buffer(self, array: np.ndarray) -> cl.Buffer:
         """A write-only buffer backed by `array`'s own memory (USE_HOST_PTR): on a CPU device
         kernels write straight into it; `sync_to_host` before reading `array`."""
         return cl.Buffer(self.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=array)
 
-    def sync_to_host(self, buffer: "cl.Buffer", array: np.ndarray) -> None:
+    def sync_to_host(self, buffer: cl.Buffer, array: np.ndarray) -> None:
         """Make `array` hold what kernels wrote to its `host_buffer` (a no-op copy on a CPU)."""
         mapped, _ = cl.enqueue_map_buffer(self.queue, buffer, cl.map_flags.READ, 0, array.shape,
                                           array.dtype, is_blocking=True)

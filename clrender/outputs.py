@@ -29,14 +29,14 @@ import os
 import signal
 import tempfile
 import weakref
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from .errors import UsageError
 
 # the output set that writes join while a `with output_set(...)` block runs
-_LIVE: "weakref.WeakSet[OutputSet]" = weakref.WeakSet()  # sets with staged files, for discard_all
-_CURRENT: contextvars.ContextVar["OutputSet | None"] = contextvars.ContextVar("clrender_output_set", default=None)
+_LIVE: weakref.WeakSet[OutputSet] = weakref.WeakSet()  # sets with staged files, for discard_all
+_CURRENT: contextvars.ContextVar[OutputSet | None] = contextvars.ContextVar("clrender_output_set", default=None)
 TEMP_MARK = ".clrender-tmp"  # part of every named temp file's name (tests look for it)
 
 

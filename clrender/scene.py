@@ -18,9 +18,9 @@ import numpy as np
 
 from .camera import Camera
 from .errors import UsageError
-from .package_data import data_dir
 from .lights import FALLOFFS, LIGHT_TYPES, Light
 from .materials import DEFAULT_MATERIAL, Material
+from .package_data import data_dir
 
 
 @dataclass
@@ -58,7 +58,7 @@ class Scene:
 
     # ------------------------------------------------------------------ loading
     @classmethod
-    def from_file(cls, path, allow_outside: bool = True) -> "Scene":
+    def from_file(cls, path, allow_outside: bool = True) -> Scene:
         """Read a TOML scene file; mesh paths are relative to its folder (see `from_dict` for allow_outside)."""
         path = Path(path)
         where = escape(str(path))
@@ -75,7 +75,7 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict, base_dir=".", where: str = "<dict>", name: str = "scene",
-                  allow_outside: bool = True) -> "Scene":
+                  allow_outside: bool = True) -> Scene:
         """A scene from the dict a TOML file parses to.  Every value is checked (types, ranges, counts,
         nesting; see the limits below) before any mesh is built or read.  Mesh `file` paths are relative
         to `base_dir`; they may be absolute or climb out with ../ (fine for local files), unless
@@ -84,7 +84,7 @@ class Scene:
         return _SceneReader(Path(base_dir), where, allow_outside).read(data, name)
 
     @classmethod
-    def load(cls, name_or_path) -> "Scene":
+    def load(cls, name_or_path) -> Scene:
         """A bundled scene by name (see `bundled_scenes()`), or a scene file by path."""
         if isinstance(name_or_path, Scene):
             return name_or_path

@@ -63,4 +63,4 @@ for ax in axes.ravel():
     ax.set_axis_off()
 fig.suptitle(f"{SCENE}, camera {CAMERA}, {w}x{h}, stratified 4x4")
 print(save(OUT, fig))
-fig
+fig  # noqa: B018 - a notebook shows the figure

@@ -1,6 +1,5 @@
 """Parallelogram area lights: the kernel's stratified estimate against host quadrature and Lambert's formula."""
 import numpy as np
-import pytest
 
 from clrender.renderer import Renderer
 from clrender.scene import Scene

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from test_exact_rays import degenerate_meshes, rays_at_triangles
 
+import clrender.tracer
 from clrender.bvh import build_bvh, half_area
 from clrender.bvh_wide import collapse
 from clrender.meshes import dense_mesh
-import clrender.tracer
 from clrender.tracer import Tracer
 
 
@@ -69,7 +69,7 @@ def test_wide_tree_holds_every_primitive_once_inside_bounds_that_contain_their_c
 
 def test_wide_tree_invariants_on_degenerate_and_tiny_inputs():
     rng = np.random.default_rng(5)
-    for name, vertices in degenerate_meshes(rng):
+    for _name, vertices in degenerate_meshes(rng):
         lo, hi = triangle_bounds(vertices, np.arange(len(vertices)).reshape(-1, 3))
         for width in (4, 8):
             check_invariants(collapse(build_bvh(lo, hi), width), lo, hi)

@@ -7,7 +7,7 @@ import pytest
 
 from clrender import filters
 from clrender.cli import main
-from clrender.imageio import probe_image, read_image, srgb_to_linear, linear_to_srgb, write_image
+from clrender.imageio import linear_to_srgb, probe_image, read_image, srgb_to_linear, write_image
 
 RGBA = ("R", "G", "B", "A")
 

@@ -174,9 +174,9 @@ CAMS = [dict(position=[0, 5, 7], look_at=[0, 0, 0], fov=40), dict(position=[1.3,
 
 
 def contact_scene(scale, shift, size):
-    at = lambda x: (np.asarray(x, float) * scale + shift).tolist()  # noqa: E731
-    length = lambda x: (np.asarray(x, float) * scale).tolist()  # noqa: E731
-    quad = lambda corner, a, b: {"type": "quad", "corner": at(corner), "edge_a": length(a),  # noqa: E731
+    at = lambda x: (np.asarray(x, float) * scale + shift).tolist()
+    length = lambda x: (np.asarray(x, float) * scale).tolist()
+    quad = lambda corner, a, b: {"type": "quad", "corner": at(corner), "edge_a": length(a),
                                  "edge_b": length(b), "material": "white"}
     return Scene.from_dict({
         "width": size, "height": size,
@@ -349,7 +349,7 @@ def test_ties_at_shared_edges_and_vertices_go_to_the_lowest_id(device):
     tri = vertices[faces][:, :, :2]
     contains = []
     for a, b, c in tri:
-        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])  # noqa: E731
+        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])
         s = np.stack([cross(a, b, pts), cross(b, c, pts), cross(c, a, pts)])
         contains.append((s >= 0).all(0) | (s <= 0).all(0))
     expected = np.argmax(np.array(contains), axis=0)

@@ -24,8 +24,8 @@ from clrender.imageio import read_image, write_image
 from clrender.outputs import TEMP_MARK
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, example, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 
 TINY_SCENE = """name = "tiny"
 width = 12

@@ -193,8 +193,8 @@ def test_a_symlink_out_of_the_base_dir_is_outside(tmp_path):
 
 
 # ------------------------------------------------------------------ the fuzzer
-from hypothesis import HealthCheck, example, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 # Generators stay small so every case renders in milliseconds (their size bounds are tested above).
 SMALL_PARAMS = {"bunny": {"resolution": 16}, "cat": {"resolution": 16}, "dense": {"n_triangles": 200, "seed": 1},

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from reference.whitted import render_steady
 
 import clrender
-from reference.whitted import render_steady
 
 W, H = 48, 36
 TOLERANCE = 1e-4  # absolute, linear RGB: float32 rounding and ray offsets; measured at most 2.2e-5 (glass meshes)
@@ -71,7 +71,7 @@ def scene(objects, lights, **extra):
 def scenes(tmp_path):
     """name -> (scene dict, render settings); every README rule is switched on somewhere."""
     ico, coarse, tri_prism = icosphere(tmp_path, 2), icosphere(tmp_path, 1), prism(tmp_path)
-    mesh = lambda file, **kw: {"type": "mesh", "file": file, **kw}  # noqa: E731
+    mesh = lambda file, **kw: {"type": "mesh", "file": file, **kw}
     return {
         "lambert_shadows": (scene([FLOOR, {"type": "sphere", "center": [-0.8, 0, -1.5], "radius": 1, "material": "blue"},
                                    {"type": "triangle", "vertices": [[0.5, -0.6, -0.5], [1.8, -0.6, -1.0], [1.1, 0.9, -1.2]]}],

@@ -77,7 +77,7 @@ def test_mean_colours_beat_sampled_colours(device):
     index = V.nearest_site(device, sites, 96, 80)
     sample = V.sample_colors(image, sites)
     mean = V.mean_colors(image, index, len(sites), fallback=sample)
-    mse = lambda c: float(np.mean((V.render(index, c) - image) ** 2))  # noqa: E731
+    mse = lambda c: float(np.mean((V.render(index, c) - image) ** 2))
     assert mse(mean) < 0.9 * mse(sample)
     # the mean is the least-squares optimum: nudging any colour makes it worse
     nudged = mean.copy()

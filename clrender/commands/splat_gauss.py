@@ -148,7 +148,6 @@ def run_gauss(args):
     from ..imageio import check_distinct_outputs, check_output_path, write_image
     from ..outputs import output_set
     from ..splat.fit import Fitter
-
     from .splat_batch import is_batch, run_gauss_batch
 
     if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)

@@ -13,8 +13,8 @@ EXAMPLES = """examples:
 
 
 def add_parsers(group):
-    from . import add_device_argument
     from ..splat.voronoi import COLOR_MODES, INITS, METHODS, VoronoiSettings
+    from . import add_device_argument
 
     d = VoronoiSettings()
     p = group.add_parser("voronoi", help="nearest-site (Voronoi) splatting of an image", epilog=EXAMPLES,
@@ -46,12 +46,10 @@ def add_parsers(group):
 
 def run(args):
     from ..device import get_device
-    from ..errors import UsageError
-    from ..errors import shown
+    from ..errors import UsageError, shown
     from ..imageio import check_distinct_outputs, check_output_path, read_image, write_image
     from ..outputs import output_set, save_npz
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
-
     from .splat_batch import is_batch, run_voronoi_batch
 
     if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)

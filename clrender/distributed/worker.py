@@ -19,9 +19,9 @@ import time
 from collections import OrderedDict
 from dataclasses import replace
 
+from ..errors import RenderFailure
 from ..renderer import Renderer, RenderSettings
 from ..tracer import Tracer
-from ..errors import RenderFailure
 from .payload import ScenePayload, code_fingerprint, join
 
 TRACERS_KEPT = 4  # scenes (BVH + device buffers) a worker keeps

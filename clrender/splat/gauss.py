@@ -70,16 +70,16 @@ class GaussParams:
         """The learnable arrays by group name (views: the optimiser updates them in place)."""
         return {name: getattr(self, name) for name in GROUPS}
 
-    def select(self, index: np.ndarray) -> "GaussParams":
+    def select(self, index: np.ndarray) -> GaussParams:
         """A new model made of the splats at `index` (repeats allowed)."""
         return GaussParams(**{name: getattr(self, name)[index] for name in GROUPS},
                            width=self.width, height=self.height, blend=self.blend,
                            background=self.background)
 
-    def copy(self) -> "GaussParams":
+    def copy(self) -> GaussParams:
         return self.select(np.arange(self.n))
 
-    def scaled(self, factor: float, width: int, height: int) -> "GaussParams":
+    def scaled(self, factor: float, width: int, height: int) -> GaussParams:
         """The same picture for a (factor x) larger image: centres and scales grow, colours stay."""
         out = self.copy()
         out.xy *= factor
@@ -95,7 +95,7 @@ class GaussParams:
                  blend=self.blend, background=self.background)
 
     @classmethod
-    def load(cls, path) -> "GaussParams":
+    def load(cls, path) -> GaussParams:
         """Splats saved by `save`; UsageError (one line) for a file that is damaged or not a splat file."""
         where = shown(path)
         try:
@@ -222,7 +222,7 @@ class GaussRenderer:
 
     def forward(self, params: GaussParams, tiles: np.ndarray | None = None) -> Frame:
         """Render all tiles (or only `tiles`, the rest left 0); returns a Frame for `backward`."""
-        cl, dev = self.cl, self.dev
+        dev = self.dev
         if (params.width, params.height) != (self.width, self.height):
             raise UsageError(f"parameters are for {params.width}x{params.height}, renderer is {self.width}x{self.height}")
         tiles = self.all_tiles if tiles is None else np.ascontiguousarray(tiles, np.int32)

@@ -153,7 +153,7 @@ def build_world(scene: dict, base_dir=".") -> World:
         tris.append(v[f])
         tri_obj.append(np.full(len(f), oid))
         tri_n.append(angle_weighted_normals(v, f)[f] if smooth else np.full((len(f), 3, 3), np.nan))
-    field_of = lambda key: np.array([m[key] for m in mats], np.float64).reshape(len(mats), -1)  # noqa: E731
+    field_of = lambda key: np.array([m[key] for m in mats], np.float64).reshape(len(mats), -1)
     return World(
         spheres=np.array(spheres, np.float64).reshape(-1, 4), sphere_object=np.array(sphere_obj, int),
         triangles=np.concatenate(tris) if tris else np.zeros((0, 3, 3)),
