@@ -25,7 +25,9 @@ import numpy as np
 
 from clrender.device import get_device
 from clrender.splat import voronoi as V
+from clrender.splat.losses import psnr
 from clrender.splat.voronoi_soft import SoftVoronoi, TrainSettings, train
+from clrender.testing import synthetic_photo
 
 from .common import median_seconds, write_table
 
@@ -92,7 +94,7 @@ def quality(dev, image, n, lloyd_steps, train_steps, seed):
         if colors_mode == "mean":
             colors = V.mean_colors(image, index, n, fallback=colors)
         pic = V.render(index, colors)
-        rows.append(dict(config=label, psnr_db=V.psnr(pic, image), seconds=seconds))
+        rows.append(dict(config=label, psnr_db=psnr(pic, image), seconds=seconds))
         if show:
             pictures[label] = pic
 
@@ -112,7 +114,7 @@ def quality(dev, image, n, lloyd_steps, train_steps, seed):
     _, _, _, soft = SoftVoronoi(dev, w, h, st.k).loss_and_grads(result.sites, result.colors, image,
                                                                 w * h / n * st.t_end)
     rows.append(dict(config=f"soft Voronoi x{train_steps} from uniform (soft image)",
-                     psnr_db=V.psnr(soft, image), seconds=seconds))
+                     psnr_db=psnr(soft, image), seconds=seconds))
     hard("soft-trained sites, hard, mean colours", result.sites, seconds=seconds, show=True)
     return rows, pictures, energies, result.losses
 
@@ -152,7 +154,7 @@ def main(argv=None):
         image = read_image(args.image).pixels
         label = args.image
     else:
-        image = V.synthetic_photo(args.size, args.size, args.seed)
+        image = synthetic_photo(args.size, args.size, args.seed)
         label = f"synthetic {args.size}x{args.size}"
     h, w = image.shape[:2]
     dev = get_device()

@@ -46,10 +46,6 @@ class Device:
     def name(self) -> str:
         return f"{self.device.platform.name.strip()}: {self.device.name.strip()}"
 
-    @property
-    def is_cpu(self) -> bool:
-        return bool(self.device.type & cl.device_type.CPU)
-
     def program(self, filename: str, defines: dict | None = None) -> cl.Program:
         """The built program for kernels/<filename> with -D<k>=<v> options (cached)."""
         key = (filename, tuple(sorted((defines or {}).items())))

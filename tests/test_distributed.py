@@ -294,7 +294,7 @@ def test_a_turntable_stopped_early_cancels_its_frames(client):
 
 # ------------------------------------------------------------------ splat fits
 def small_photos():
-    from clrender.splat.voronoi import synthetic_photo
+    from clrender.testing import synthetic_photo
 
     return [np.ascontiguousarray(synthetic_photo(40, 24, seed=s)[..., :3], np.float32) for s in (1, 2)]
 

@@ -149,14 +149,16 @@ for blend in ("sum", "normalized"):
     assert np.abs(grads["color"]).sum() > 0
 """),
     "voronoi_nearest": (("nearest_naive", "nearest_grid"), """
-from clrender.splat.voronoi import nearest_site, nearest_site_reference
+from clrender.splat.voronoi import nearest_site
+from clrender.testing import nearest_site_reference
 sites = np.vstack([rng.uniform(0, [23, 13], (9, 2)), [[0.0, 0.0], [22.9, 12.9]]]).astype(np.float32)
 ref = nearest_site_reference(sites, 23, 13)
 for method in ("naive", "grid"):
     assert (nearest_site(dev, sites, 23, 13, method) == ref).all(), method
 """),
     "voronoi_soft": (("soft_forward", "soft_backward"), """
-from clrender.splat.voronoi_soft import SoftVoronoi, soft_loss_reference
+from clrender.splat.voronoi_soft import SoftVoronoi
+from clrender.testing import soft_loss_reference
 sites = rng.uniform(0, [12, 9], (6, 2)).astype(np.float32)
 colors = rng.uniform(0, 1, (6, 3)).astype(np.float32)
 target = rng.uniform(0, 1, (9, 12, 3)).astype(np.float32)

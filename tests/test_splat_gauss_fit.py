@@ -3,7 +3,7 @@ densification, re-rendering at another resolution, saved parameters."""
 import numpy as np
 import pytest
 
-from clrender.splat.fit import FitConfig, Fitter, densify, initial_params
+from clrender.splat.fit import FitConfig, Fitter, densify, fit, initial_params
 from clrender.splat.gauss import GaussParams, render
 from clrender.splat.optim import Optimizer
 
@@ -64,6 +64,14 @@ def test_epochs_zero_renders_the_initial_splats(device, target):
     result = Fitter(device, target, FitConfig(splats=9, epochs=0, init="uniform")).run(show_progress=False)
     assert result.steps == 0 and result.params.n == 9
     np.testing.assert_array_equal(result.params.theta, 0)
+
+
+def test_fit_overrides_leave_the_callers_config_as_it_was(device, target):
+    config = FitConfig(splats=9, epochs=0, init="uniform")
+    result = fit(device, target, config, splats=4)
+    assert result.params.n == 4 and config.splats == 9 and config == FitConfig(splats=9, epochs=0, init="uniform")
+    with pytest.raises(TypeError):
+        fit(device, target, config, no_such_setting=1)
 
 
 def test_optimizers_minimise_a_quadratic():

@@ -6,7 +6,8 @@ from clrender.cli import main
 from clrender.errors import UsageError
 from clrender.imageio import read_image, write_image
 from clrender.splat import voronoi as V
-from clrender.splat.voronoi_soft import SoftVoronoi, soft_loss_reference, train
+from clrender.splat.voronoi_soft import SoftVoronoi, TrainSettings, train
+from clrender.testing import nearest_site_reference, soft_loss_reference, synthetic_photo
 
 
 def both_methods(device, sites, w, h):
@@ -42,7 +43,7 @@ def test_grid_equals_naive_equals_numpy(device, rng, case):
     name, sites, w, h = site_sets(rng)[case]
     sites = sites.astype(np.float32)
     grid, naive = both_methods(device, sites, w, h)
-    ref = V.nearest_site_reference(sites, w, h)
+    ref = nearest_site_reference(sites, w, h)
     assert np.array_equal(naive, ref), name
     assert np.array_equal(grid, ref), name
 
@@ -72,7 +73,7 @@ def test_bad_sites_are_refused(device):
 
 
 def test_mean_colours_beat_sampled_colours(device):
-    image = V.synthetic_photo(96, 80, seed=2)
+    image = synthetic_photo(96, 80, seed=2)
     sites = V.init_sites(image, 150, "random", seed=1)
     index = V.nearest_site(device, sites, 96, 80)
     sample = V.sample_colors(image, sites)
@@ -103,7 +104,7 @@ def test_lloyd_never_increases_the_energy(device):
     steps = np.diff(energies)
     assert (steps <= 1e-9 * energies[0]).all(), energies
     assert energies[-1] < 0.8 * energies[0]
-    assert np.array_equal(index, V.nearest_site_reference(sites, 90, 70))
+    assert np.array_equal(index, nearest_site_reference(sites, 90, 70))
 
 
 def test_lloyd_step_moves_to_the_centroid():
@@ -115,7 +116,7 @@ def test_lloyd_step_moves_to_the_centroid():
 
 @pytest.mark.parametrize("method", V.INITS)
 def test_init_sites_are_deterministic_and_inside(method):
-    image = V.synthetic_photo(50, 30, seed=1)
+    image = synthetic_photo(50, 30, seed=1)
     a = V.init_sites(image, 77, method, seed=3)
     b = V.init_sites(image, 77, method, seed=3)
     assert a.shape == (77, 2) and np.array_equal(a, b)
@@ -166,12 +167,19 @@ def test_soft_voronoi_tends_to_hard_nearest_site(device, rng):
 
 
 def test_training_lowers_the_loss_and_is_deterministic(device):
-    image = V.synthetic_photo(48, 40, seed=5)
+    image = synthetic_photo(48, 40, seed=5)
     sites = V.init_sites(image, 40, "uniform")
     a = train(device, image, sites, steps=25)
     b = train(device, image, sites, steps=25)
     assert np.array_equal(a.sites, b.sites)
     assert a.losses[-1] < 0.8 * a.losses[0]
+
+
+def test_training_steps_leave_the_callers_settings_as_they_were(device):
+    image = synthetic_photo(16, 12, seed=5)
+    settings = TrainSettings(steps=7, k=4)
+    result = train(device, image, V.init_sites(image, 6, "uniform"), steps=2, settings=settings)
+    assert len(result.losses) == 2 and settings == TrainSettings(steps=7, k=4)
 
 
 # ---------------------------------------------------------------- command line
@@ -188,7 +196,7 @@ def run_cli(capsys, *argv):
 @pytest.fixture
 def photo(tmp_path):
     path = tmp_path / "photo.png"
-    write_image(path, V.synthetic_photo(64, 48, seed=3))
+    write_image(path, synthetic_photo(64, 48, seed=3))
     return path
 
 
@@ -202,7 +210,7 @@ def test_cli_end_to_end(tmp_path, capsys, photo):
     saved = np.load(npz)
     assert saved["sites"].shape == (120, 2) and int(saved["width"]) == 64
     # the output is the saved sites' Voronoi image in the saved colours (up to 8-bit rounding)
-    index = V.nearest_site_reference(saved["sites"], 64, 48)
+    index = nearest_site_reference(saved["sites"], 64, 48)
     np.testing.assert_allclose(result, saved["colors"][index], atol=0.5 / 255 + 1e-6)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import itertools
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -219,9 +220,7 @@ def run_sweep(args):
     combos = list(itertools.product(args.lrs, args.batches))
     configs = []
     for lr, batch in combos:
-        config = _config(args, lr=lr, time_budget=args.time_budget)
-        config.batch = batch
-        configs.append(config)
+        configs.append(replace(_config(args, lr=lr, time_budget=args.time_budget), batch=batch))
     from .splat_batch import sweep_results  # here one by one, or one task each under --scheduler / --workers
 
     for (lr, batch), result in zip(combos, sweep_results(args, target, configs)):

@@ -94,7 +94,7 @@ def run(args):
             save_npz(sites_path, sites=result.sites, colors=result.colors, width=w, height=h)
     print(output)
     if not args.quiet:
-        from ..splat.voronoi import psnr
+        from ..splat.losses import psnr
 
         sys.stderr.write(f"voronoi: {w}x{h}, {settings.n} sites ({settings.method}, {settings.init}, "
                          f"{settings.colors}, lloyd {settings.lloyd}, train {settings.train}); "

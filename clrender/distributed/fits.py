@@ -11,7 +11,6 @@ Images are scattered to the cluster, not put in the task graph.
 """
 from __future__ import annotations
 
-import copy
 import uuid
 
 from . import worker
@@ -54,7 +53,7 @@ def fit_gauss(targets, config=None, client=None, device=None) -> list:
 
     targets = list(targets)
     config = config or FitConfig()
-    return _map(client, worker.fit_gauss, targets, [copy.copy(config) for _ in targets], device, "gauss")
+    return _map(client, worker.fit_gauss, targets, [config] * len(targets), device, "gauss")
 
 
 def sweep_gauss(target, configs, client=None, device=None) -> list:

@@ -1,1 +1,3 @@
-"""Image splatting: Gaussian splats (gauss.py, fit.py) and nearest-site Voronoi splats (voronoi.py)."""
+"""Image splatting: Gaussian splats fitted by gradient descent (gauss, fit) and Voronoi splats (voronoi)."""
+
+INITS = ("uniform", "random", "gradient")  # where splats (fit.py) and sites (voronoi.py) start

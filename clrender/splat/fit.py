@@ -14,18 +14,18 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import UsageError, require
 from ..progress import progress
+from . import INITS
 from .gauss import BLENDS, MIN_LOG_SCALE, TILE, GaussParams, GaussRenderer
 from .losses import LOSSES, loss_and_grad, psnr
 from .optim import OPTIMIZERS, Optimizer
 
-INITS = ("uniform", "random", "gradient")
 LEARN = ("seed", "all")
 MAX_LR = 1000.0  # --lr multiplier; far above any useful rate, below where float32 steps overflow
 LEARN_GROUPS = {"seed": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
@@ -36,8 +36,10 @@ ADAM_LR = {"xy": 0.4, "log_scale": 0.04, "theta": 0.06, "color": 0.02, "lum": 0.
 SGD_LR = {"xy": 3.0, "log_scale": 0.15, "theta": 0.15, "color": 0.3, "lum": 0.3, "opacity": 0.3}
 
 
-@dataclass
+@dataclass(frozen=True)
 class FitConfig:
+    """Settings of one fit, each with its default; change one with dataclasses.replace."""
+
     splats: int = 5000  # initial number of splats
     epochs: int | None = None  # passes over the image; None: 1000, or until the time budget
     init: str = "gradient"  # uniform | random | gradient (more splats where the image has detail)
@@ -56,24 +58,22 @@ class FitConfig:
     log_every: int = 10  # steps between full-image PSNR measurements in the log
 
     def validate(self, width: int, height: int) -> None:
-        def check(ok, msg):
-            if not ok:
-                raise UsageError(msg)
-        check(self.splats >= 1, f"--splats {self.splats} must be >= 1")
-        check(self.epochs is None or self.epochs >= 0, f"--epochs {self.epochs} must be >= 0")
-        check(self.init in INITS, f"--init {self.init!r} is unknown; allowed: {', '.join(INITS)}")
-        check(self.learn in LEARN, f"--learn {self.learn!r} is unknown; allowed: {', '.join(LEARN)}")
-        check(self.blend in BLENDS, f"--blend {self.blend!r} is unknown; allowed: {', '.join(BLENDS)}")
-        check(self.optimizer in OPTIMIZERS,
+        """UsageError naming the first setting that is out of range for a width x height target."""
+        require(self.splats >= 1, f"--splats {self.splats} must be >= 1")
+        require(self.epochs is None or self.epochs >= 0, f"--epochs {self.epochs} must be >= 0")
+        require(self.init in INITS, f"--init {self.init!r} is unknown; allowed: {', '.join(INITS)}")
+        require(self.learn in LEARN, f"--learn {self.learn!r} is unknown; allowed: {', '.join(LEARN)}")
+        require(self.blend in BLENDS, f"--blend {self.blend!r} is unknown; allowed: {', '.join(BLENDS)}")
+        require(self.optimizer in OPTIMIZERS,
               f"--optimizer {self.optimizer!r} is unknown; allowed: {', '.join(OPTIMIZERS)}")
-        check(self.loss in LOSSES, f"--loss {self.loss!r} is unknown; allowed: {', '.join(LOSSES)}")
-        check(math.isfinite(self.lr) and 0 < self.lr <= MAX_LR, f"--lr {self.lr} must be a number > 0 and <= {MAX_LR:g}")
-        check(0 <= self.seed < 2**32, f"--seed {self.seed} must be from 0 to 2**32-1")
-        check(self.time_budget is None or self.time_budget > 0, f"--time-budget {self.time_budget} must be > 0")
-        check(self.batch >= 0, f"--batch {self.batch} must be >= 0 (0 = the full image)")
-        check(self.max_splats is None or self.max_splats >= self.splats,
+        require(self.loss in LOSSES, f"--loss {self.loss!r} is unknown; allowed: {', '.join(LOSSES)}")
+        require(math.isfinite(self.lr) and 0 < self.lr <= MAX_LR, f"--lr {self.lr} must be a number > 0 and <= {MAX_LR:g}")
+        require(0 <= self.seed < 2**32, f"--seed {self.seed} must be from 0 to 2**32-1")
+        require(self.time_budget is None or self.time_budget > 0, f"--time-budget {self.time_budget} must be > 0")
+        require(self.batch >= 0, f"--batch {self.batch} must be >= 0 (0 = the full image)")
+        require(self.max_splats is None or self.max_splats >= self.splats,
               f"--max-splats {self.max_splats} must be >= --splats {self.splats}")
-        check(self.splats <= width * height * 4,
+        require(self.splats <= width * height * 4,
               f"--splats {self.splats} is more than 4 per pixel of the {width}x{height} image")
 
 
@@ -289,9 +289,5 @@ class Fitter:
 
 def fit(device, target: np.ndarray, config: FitConfig | None = None, **overrides) -> FitResult:
     """Fit splats to `target`; keyword overrides set FitConfig fields."""
-    config = config or FitConfig()
-    for k, v in overrides.items():
-        if not hasattr(config, k):
-            raise TypeError(f"FitConfig has no field {k!r}")
-        setattr(config, k, v)
+    config = replace(config or FitConfig(), **overrides)  # the caller's config stays as it was
     return Fitter(device, target, config).run()

@@ -32,7 +32,6 @@ from ..errors import UsageError, shown
 TILE = 16
 NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
 EPS = 1e-3  # normalized blend: weight of the background colour
-CUTOFF_SIGMA = 3.0
 BACKWARD_GROUP = 64  # work-items per work-group of the backward kernel
 PREPARE_GROUP = 64  # and of the packing kernel
 BLENDS = ("sum", "normalized")
@@ -199,7 +198,7 @@ class GaussRenderer:
             raise UsageError(f"blend {blend!r} is unknown; allowed: {', '.join(BLENDS)}")
         if width < 1 or height < 1:
             raise UsageError(f"image size {width}x{height} is empty; both sides must be >= 1")
-        self.cl = cl
+        self._cl = cl
         self.dev = device
         self.width, self.height, self.blend = int(width), int(height), blend
         self.background = np.zeros(4, np.float32)
@@ -248,7 +247,7 @@ class GaussRenderer:
         Binning, whose entry_splat is filled by a copy still queued (the in-order
         queue finishes it before anything read back later).
         """
-        cl, dev = self.cl, self.dev
+        cl, dev = self._cl, self.dev
         n, tiles = params.n, len(self.all_tiles)
         packed = np.concatenate([params.xy, params.log_scale, params.theta[:, None], params.color,
                                  params.lum[:, None], params.opacity[:, None]], axis=1)
@@ -282,7 +281,7 @@ class GaussRenderer:
         Also returns "weight": each splat's summed weight over the rendered
         pixels (how much it contributes; used for pruning).
         """
-        cl, dev = self.cl, self.dev
+        cl, dev = self._cl, self.dev
         binning, params = frame.binning, frame.params
         dimg = self._dimg_host
         pixel_adjoint(d_image, frame.image, frame.weight, self.blend, dimg[:, : self.height, : self.width])

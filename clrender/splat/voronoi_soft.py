@@ -23,14 +23,14 @@ the width of the soft borders, or training diverges as T falls.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import UsageError
 from ..progress import progress
 from .optim import Optimizer
-from .voronoi import build_grid, check_sites, mean_colors, nearest_site, sample_colors
+from .voronoi_cells import build_grid, check_sites, mean_colors, nearest_site, sample_colors
 
 MAX_K = 16
 
@@ -100,25 +100,10 @@ class SoftVoronoi:
         return loss, grad_sites, grad_colors, out4[:, :c].reshape(h, w, c)
 
 
-def soft_loss_reference(sites, colors, target, temperature: float, k: int) -> float:
-    """The same loss in float64 numpy, brute force (for finite-difference tests; small sizes)."""
-    h, w, c = target.shape
-    ys, xs = np.mgrid[0:h, 0:w]
-    p = np.stack([xs.ravel() + 0.5, ys.ravel() + 0.5], axis=1)
-    s = np.asarray(sites, np.float64)
-    d2 = ((p[:, None, :] - s[None, :, :]) ** 2).sum(axis=2)
-    k = min(k, len(s))
-    order = np.lexsort((np.broadcast_to(np.arange(len(s)), d2.shape), d2), axis=1)[:, :k]
-    dk = np.take_along_axis(d2, order, axis=1)
-    a = -(dk - dk[:, :1]) / temperature
-    wts = np.exp(a)
-    wts /= wts.sum(axis=1, keepdims=True)
-    out = (wts[:, :, None] * np.asarray(colors, np.float64)[order]).sum(axis=1)
-    return float(np.mean((out - target.reshape(-1, c)) ** 2))
-
-
-@dataclass
+@dataclass(frozen=True)
 class TrainSettings:
+    """Settings of the soft-Voronoi training, each with its default; change one with dataclasses.replace."""
+
     steps: int = 100            # Adam steps
     k: int = 8                  # sites blended per pixel
     t_start: float = 0.25       # starting temperature, in units of the mean site spacing squared
@@ -140,7 +125,7 @@ def train(device, image, sites, *, steps: int | None = None, settings: TrainSett
     """Fit sites and colours of the soft model to `image`; returns the trained sites and colours."""
     st = settings or TrainSettings()
     if steps is not None:
-        st.steps = steps
+        st = replace(st, steps=steps)  # the caller's settings stay as they were
     image = np.ascontiguousarray(image, dtype=np.float32)
     h, w, c = image.shape
     sites = check_sites(sites, w, h).copy()
