@@ -19,10 +19,6 @@ if os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.e
         _signal.signal(_signal.SIGTERM, _interrupted_while_starting)
         _signal.siginterrupt(_signal.SIGTERM, False)
 
-# numpy's OpenBLAS threads spin-wait after a matrix product and steal the
-# cores PoCL runs the kernels on; clrender's host work never needs them.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 __version__ = "0.1.0"
 
 # Imported on first use (PEP 562), so `import clrender.cli` is light and the

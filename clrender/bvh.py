@@ -24,14 +24,14 @@ renumbered depth-first):
   cheaper than the leaf and it holds at most ``4 * max_leaf_size``.  Nodes of
   at most ``2 * bins`` primitives use ``bins // 2`` bins.  A node of
   at most ``halving_below`` primitives, one whose centroids all fall in one bin
-  (e.g. they coincide), or one too deep for MAX_DEPTH is finished by halving:
+  (e.g. they coincide), or one too deep for MAX_TREE_LEVELS is finished by halving:
   its primitives are sorted once by Morton code and every split below cuts the
   range in halves (count // 2 to the first child).
 * ``median`` -- the seed's rule: primitives sorted by centroid x, every node
   split into halves (the first child gets ``count // 2``), leaves of at most
   ``max_leaf_size``.
 
-Every tree is at most ``MAX_DEPTH`` levels deep (the kernels' traversal stack
+Every tree is at most ``MAX_TREE_LEVELS`` levels deep (the kernels' traversal stack
 is 64 entries): SAH nodes switch to halving early enough.  SAH builds of more
 than ``PARALLEL_ABOVE`` primitives grow their subtrees in two threads
 (two groups of whole subtrees below the third level; numpy releases the GIL in
@@ -50,12 +50,12 @@ from .errors import UsageError
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
 BUILDERS = ("sah", "median")
-MAX_DEPTH = 48  # levels, root included
+MAX_TREE_LEVELS = 48  # levels, root included
 # The kernels' traversal stack (-DSTACK_SIZE): near-first closest-hit traversal keeps at most
-# depth - 1 far nodes, any-hit traversal at most depth nodes, so a tree of MAX_DEPTH levels always
+# depth - 1 far nodes, any-hit traversal at most depth nodes, so a tree of MAX_TREE_LEVELS levels always
 # fits (the kernels also fall back to testing every primitive should a stack ever fill up).
 STACK_SIZE = 64
-assert MAX_DEPTH <= STACK_SIZE
+assert MAX_TREE_LEVELS <= STACK_SIZE
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
 PARALLEL_ABOVE = 100_000  # SAH builds of more primitives grow the root's two subtrees in two threads
@@ -281,8 +281,8 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
                 cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
                 bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
                 bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
-                # halving from here keeps depth <= MAX_DEPTH: a halved subtree adds ceil(log2(count)) levels
-                too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_DEPTH
+                # halving from here keeps depth <= MAX_TREE_LEVELS: a halved subtree adds ceil(log2(count)) levels
+                too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_TREE_LEVELS
                 enter = split & ((count <= small) | too_deep)
                 cand = np.flatnonzero(split & ~enter)
                 axis = np.zeros(k, np.int64)
@@ -383,20 +383,20 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
     state = (box, ids, np.zeros(1, np.int64), np.array([n_total], np.int64),
              np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
     if n_total < PARALLEL_ABOVE:
-        return grow(*state, max_levels=MAX_DEPTH + 1)[0], order
+        return grow(*state, max_levels=MAX_TREE_LEVELS + 1)[0], order
     # the top levels here; then two groups of whole subtrees, with about half the primitives
     # each, grow in two threads (numpy releases the GIL in its array loops)
     levels, state = grow(*state, max_levels=3)
     box, ids, gstart, count, hstart, hcount, depth = state
     if len(count) < 2 or len(hcount):
-        return levels + grow(*state, max_levels=MAX_DEPTH + 1)[0], order
+        return levels + grow(*state, max_levels=MAX_TREE_LEVELS + 1)[0], order
     cum = np.cumsum(count)
     g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(count) - 1))  # nodes in the first group
     half = int(cum[g - 1])
     parts = [(np.ascontiguousarray(box[:, :half]), ids[:half], gstart[:g], count[:g]),
              (np.ascontiguousarray(box[:, half:]), ids[half:], gstart[g:], count[g:])]
     with ThreadPoolExecutor(2) as pool:
-        first, second = pool.map(lambda p: grow(*p, hstart, hcount, depth, MAX_DEPTH + 1)[0], parts)
+        first, second = pool.map(lambda p: grow(*p, hstart, hcount, depth, MAX_TREE_LEVELS + 1)[0], parts)
     return levels + _merge_levels(first, second), order
 
 

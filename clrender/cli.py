@@ -17,6 +17,7 @@ import sys
 _RUN_AS_PROGRAM = os.path.basename(sys.argv[0] if sys.argv else "") in ("clrender", "clrender.exe", "__main__.py", "-m")
 
 import argparse
+import logging
 import threading
 
 from . import progress
@@ -157,7 +158,38 @@ def _run(argv) -> int:
         progress.SHOW = False
     elif args.verbose:
         progress.SHOW = True
-    return int(args.run(args) or 0)
+    _show_library_notes(quiet=args.quiet)
+    import numpy  # noqa: F401 - loaded now, so that threadpool_limits finds its BLAS
+    from threadpoolctl import threadpool_limits
+
+    # numpy's OpenBLAS threads spin-wait after a matrix product and steal the cores PoCL runs the
+    # kernels on; the host work never needs them.  Scoped to the command, not the environment.
+    with threadpool_limits(limits=1, user_api="blas"):
+        return int(args.run(args) or 0)
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to whatever sys.stderr is when a record comes (tests swap it)."""
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+def _show_library_notes(quiet: bool) -> None:
+    """The library logs its notes (logging.getLogger("clrender....")); the command line shows them on
+    stderr as plain lines, unless --quiet (warnings still show)."""
+    log = logging.getLogger("clrender")
+    if not any(isinstance(h, _StderrHandler) for h in log.handlers):
+        handler = _StderrHandler()
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        log.addHandler(handler)
+        log.propagate = False
+    log.setLevel(logging.WARNING if quiet else logging.INFO)
 
 
 def describe_os_error(exc: OSError) -> str:

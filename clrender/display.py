@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -64,7 +65,7 @@ def show(image, *, linear: bool = True, title: str | None = None):
         return _window(png, title)
     with tempfile.NamedTemporaryFile("wb", suffix=".png", prefix="clrender-show-", delete=False) as f:
         f.write(png)
-    sys.stderr.write(f"no display available: wrote {f.name}\n")
+    warnings.warn(f"no display available: wrote {f.name}", stacklevel=2)
     return Path(f.name)
 
 

@@ -13,10 +13,10 @@ trimesh's own routine needs scipy and otherwise falls back to a per-vertex Pytho
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+import platformdirs
 import trimesh
 
 from .errors import UsageError
@@ -252,9 +252,9 @@ def bunny_field(p: np.ndarray) -> np.ndarray:
 
 
 def cache_dir() -> Path:
-    """~/.cache/clrender, or $XDG_CACHE_HOME/clrender."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "clrender"
+    """The user's cache folder for clrender: $XDG_CACHE_HOME/clrender or ~/.cache/clrender on Linux,
+    ~/Library/Caches/clrender on macOS, %LOCALAPPDATA%\\clrender\\Cache on Windows."""
+    return Path(platformdirs.user_cache_dir("clrender", appauthor=False))
 
 
 def build_bunny(resolution: int = 112) -> trimesh.Trimesh:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import clrender.bvh as bvh_module
-from clrender.bvh import BUILDERS, MAX_DEPTH, NODE_DTYPE, build_bvh
+from clrender.bvh import BUILDERS, MAX_TREE_LEVELS, NODE_DTYPE, build_bvh
 from clrender.errors import UsageError
 
 
@@ -44,7 +44,7 @@ def check_tree(bvh, lo, hi, max_leaf=None):
     leaf_of_slot = np.repeat(np.flatnonzero(leaf), count[leaf])
     prims = order[np.concatenate([np.arange(o, o + c) for o, c in zip(offset[leaf], count[leaf])])]
     assert (bmin[leaf_of_slot] <= lo[prims]).all() and (bmax[leaf_of_slot] >= hi[prims]).all()
-    assert bvh.depth <= MAX_DEPTH
+    assert bvh.depth <= MAX_TREE_LEVELS
     if max_leaf is not None:
         assert bvh.max_leaf_size <= max_leaf
     assert bvh.node_count == len(nodes) and bvh.leaf_count == int(leaf.sum())
@@ -110,7 +110,7 @@ def test_depth_is_capped(monkeypatch):
     lo = np.concatenate([np.stack([x, 0 * x, 0 * x], axis=1), np.random.default_rng(0).random((200, 3))])
     lo = lo.astype(np.float32)
     assert build_bvh(lo, lo + 1, max_leaf_size=1).depth > 16
-    monkeypatch.setattr(bvh_module, "MAX_DEPTH", 12)
+    monkeypatch.setattr(bvh_module, "MAX_TREE_LEVELS", 12)
     for builder in BUILDERS:
         bvh = build_bvh(lo, lo + 1, builder=builder, max_leaf_size=1)
         assert bvh.depth <= 12

@@ -85,7 +85,7 @@ def test_show_displays_inline_under_ipython(monkeypatch):
     assert decode(result[1]).tolist() == (np.eye(3) * 255).astype(int).tolist()
 
 
-def test_show_without_any_display_writes_a_png(monkeypatch, capsys, tmp_path):
+def test_show_without_any_display_writes_a_png(monkeypatch, tmp_path):
     import matplotlib
 
     monkeypatch.setattr(matplotlib, "get_backend", lambda: "agg")
@@ -93,9 +93,10 @@ def test_show_without_any_display_writes_a_png(monkeypatch, capsys, tmp_path):
     import tempfile
 
     monkeypatch.setattr(tempfile, "tempdir", None)
-    path = clrender.show(np.full((2, 3, 3), 0.5, np.float32))
+    with pytest.warns(UserWarning, match="no display available") as warned:
+        path = clrender.show(np.full((2, 3, 3), 0.5, np.float32))
     assert path.parent == tmp_path and path.suffix == ".png"
-    assert f"wrote {path}" in capsys.readouterr().err
+    assert f"wrote {path}" in str(warned[0].message)
     assert decode(path.read_bytes()).shape == (2, 3, 3)
 
 

@@ -1,4 +1,4 @@
-"""One module per CLI subcommand; each defines add_parser(subparsers)."""
+"""One module per CLI subcommand; each defines add_parser(subparsers), which adds its subcommand(s)."""
 
 
 def add_device_argument(p) -> None:

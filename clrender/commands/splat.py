@@ -8,5 +8,5 @@ def add_parser(sub):
     p = sub.add_parser("splat", help="fit Gaussian or Voronoi splats to an image")
     group = p.add_subparsers(dest="splat_command", metavar="KIND", parser_class=type(p))
     group.required = True
-    splat_gauss.add_parsers(group)
-    splat_voronoi.add_parsers(group)
+    splat_gauss.add_parser(group)
+    splat_voronoi.add_parser(group)

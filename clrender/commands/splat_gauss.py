@@ -25,7 +25,7 @@ SWEEP_EXAMPLE = """example:
   clrender splat sweep photo.jpg --splats 2000 --lrs 0.5 1 2 --batches 0 65536 --time-budget 10"""
 
 
-def add_parsers(group):
+def add_parser(group):
     from ..splat.fit import INITS, LEARN, FitConfig
     from ..splat.gauss import BLENDS
     from ..splat.losses import LOSSES

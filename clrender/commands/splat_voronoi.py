@@ -12,7 +12,7 @@ EXAMPLES = """examples:
 """
 
 
-def add_parsers(group):
+def add_parser(group):
     from ..splat.voronoi import COLOR_MODES, INITS, METHODS, VoronoiSettings
     from . import add_device_argument
 

@@ -18,6 +18,8 @@ from contextlib import contextmanager
 
 from ..errors import UsageError
 
+log = logging.getLogger(__name__)
+
 INSTALL_HINT = "a Dask cluster needs the distributed extra: pip install 'clrender[distributed]'"
 CONNECT_TIMEOUT = 5.0  # seconds to reach a scheduler before giving up (exit 2)
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -34,7 +36,8 @@ def require_dask():
 
 def pocl_env(threads: int) -> dict:
     """Environment that limits PoCL's CPU device to `threads` threads (old and new variable names)."""
-    return {"POCL_MAX_PTHREAD_COUNT": str(threads), "POCL_CPU_MAX_CU_NUM": str(threads)}
+    # and one BLAS thread: OpenBLAS threads spin-wait after a matrix product and steal PoCL's cores
+    return {"POCL_MAX_PTHREAD_COUNT": str(threads), "POCL_CPU_MAX_CU_NUM": str(threads), "OPENBLAS_NUM_THREADS": "1"}
 
 
 def scheduler_address(scheduler: str | None) -> str | None:
@@ -80,7 +83,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, pocl_threa
         where = f"the scheduler at {address}"
     try:
         if announce:
-            sys.stderr.write(f"rendering on {where}; dashboard {client.dashboard_link}\n")  # 'clrender:' means an error
+            log.info("rendering on %s; dashboard %s", where, client.dashboard_link)  # the CLI shows it on stderr
         yield client
     finally:
         client.close()
