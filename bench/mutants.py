@@ -4,6 +4,7 @@
     python -m bench mutants --list           # the list, and whether each snippet still applies
     python -m bench mutants --only ID [ID …] # just these (ids or fnmatch patterns, e.g. 'shade-*')
     python -m bench mutants --jobs 2         # two mutants at a time (the default is 1)
+    python -m bench mutants --only mirror-off --tests tests/test_render.py   # does this file alone catch it?
 
 Each mutant is (id, file, old snippet, new snippet, what it breaks, test files).  The
 harness snapshots the working tree once (git's tracked files plus untracked ones git does
@@ -376,6 +377,8 @@ def main(argv) -> int:
     parser.add_argument("--list", action="store_true", help="list the mutants and whether each still applies, then exit")
     parser.add_argument("--only", nargs="+", metavar="ID", help="run only these mutants (ids or fnmatch patterns)")
     parser.add_argument("--jobs", type=int, default=1, help="mutants run at the same time")
+    parser.add_argument("--tests", nargs="+", metavar="FILE",
+                        help="run these test files for every chosen mutant instead of each mutant's own list")
     parser.add_argument("--timeout", type=float, default=900, help="seconds per mutant before it counts as killed")
     parser.add_argument("--python", type=Path, default=DEFAULT_PYTHON if DEFAULT_PYTHON.exists() else Path(sys.executable),
                         help="interpreter with pytest and the project's dependencies")
@@ -387,6 +390,10 @@ def main(argv) -> int:
     ids = [m.id for m in MUTANTS]
     assert len(ids) == len(set(ids)), "duplicate mutant ids"
     chosen = select(args.only)
+    if args.tests:
+        from dataclasses import replace
+
+        chosen = [replace(m, tests=tuple(args.tests)) for m in chosen]
 
     with tempfile.TemporaryDirectory(prefix="clrender-mutants-") as tmp:
         base, work = Path(tmp) / "base", Path(tmp) / "work"
