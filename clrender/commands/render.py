@@ -147,7 +147,7 @@ def settings_from_args(args) -> RenderSettings:
     explicit = {k for k, v in named.items() if v is not None} | set(values)
     for key, value in named.items():
         values.setdefault(key, getattr(d, key) if value is None else value)
-    if values["samples"] is None:
+    if "samples" not in explicit:  # the default depends on --aa: 1 without anti-aliasing, else 4
         values["samples"] = 1 if values["aa"] == "none" else 4
     args.warnings = []  # printed once the settings are known to be valid (run)
     if values["aa"] == "none" and "samples" in explicit and values["samples"] != 1:
