@@ -169,6 +169,29 @@ class OutputSet:
         self.staged = []
 
 
+def check_file_output(path, *, overwrite: bool, suffixes: tuple[str, ...], option: str = "output") -> Path:
+    """Refuse a non-image output we could not write (splats, sites, a video), before any work is done:
+    a folder, another extension, an existing file without --overwrite, a missing or read-only folder.
+    Images go through imageio.check_output_path, which also asks the image library for a writer;
+    the final no-clobber check happens when the finished file is put in place (above)."""
+    from .errors import shown
+
+    path = Path(path)
+    allowed = " or ".join(suffixes)
+    if path.is_dir():
+        raise UsageError(f"{option} {shown(path)} is a folder; name a file ending in {allowed}")
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{option} {shown(path)} must end in {allowed}")
+    if path.exists() and not overwrite:
+        raise UsageError(f"{option} {shown(path)} already exists; pass --overwrite to replace it")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"folder {shown(parent)} of {option} {shown(path)} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise UsageError(f"folder {shown(parent)} of {option} {shown(path)} is not writable")
+    return path
+
+
 @contextlib.contextmanager
 def output_set(overwrite: bool):
     """Writes inside the block are staged and placed together when it ends without error."""

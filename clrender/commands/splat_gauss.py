@@ -2,10 +2,8 @@
 from __future__ import annotations
 
 import itertools
-import os
 import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
@@ -96,20 +94,10 @@ def add_parser(group):
 
 
 def _check_side_output(path: str | None, overwrite: bool, suffixes: tuple[str, ...]) -> None:
-    from ..errors import shown
+    from ..outputs import check_file_output
 
-    if path is None:
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"output {shown(path)} is a folder; name a file ending in {' or '.join(suffixes)}")
-    if p.suffix.lower() not in suffixes:
-        raise UsageError(f"{shown(path)} should end in {' or '.join(suffixes)}")
-    if p.exists() and not overwrite:
-        raise UsageError(f"output {shown(path)} already exists; pass --overwrite to replace it")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise UsageError(f"output folder {str(parent)!r} does not exist or is not writable")
+    if path is not None:
+        check_file_output(path, overwrite=overwrite, suffixes=suffixes)
 
 
 def _config(args, **extra):

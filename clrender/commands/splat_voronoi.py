@@ -46,7 +46,6 @@ def add_parser(group):
 
 def run(args):
     from ..device import get_device
-    from ..errors import UsageError, shown
     from ..imageio import check_distinct_outputs, check_output_path, read_image, write_image
     from ..outputs import output_set, save_npz
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
@@ -58,17 +57,9 @@ def run(args):
     output = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     sites_path = None
     if args.save_sites:
-        from pathlib import Path
+        from ..outputs import check_file_output
 
-        sites_path = Path(args.save_sites)
-        if sites_path.is_dir():
-            raise UsageError(f"--save-sites {shown(args.save_sites)} is a folder; name a .npz file")
-        if sites_path.suffix != ".npz":
-            raise UsageError(f"--save-sites {shown(args.save_sites)} must end in .npz")
-        if sites_path.exists() and not args.overwrite:
-            raise UsageError(f"--save-sites {shown(args.save_sites)} already exists; pass --overwrite to replace it")
-        if not (sites_path.parent if str(sites_path.parent) else Path(".")).is_dir():
-            raise UsageError(f"folder of --save-sites {shown(args.save_sites)} does not exist")
+        sites_path = check_file_output(args.save_sites, overwrite=args.overwrite, suffixes=(".npz",), option="--save-sites")
         check_distinct_outputs(**{"IN": args.input, "-o": output, "--save-sites": sites_path})
     img = read_image(args.input)
     h, w = img.pixels.shape[:2]

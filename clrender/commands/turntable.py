@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import RenderFailure, UsageError
+from ..outputs import check_file_output
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv")
 
@@ -129,11 +130,7 @@ def run_turntable(args, settings) -> int:
         check_output_path(path, overwrite=args.overwrite)
     video_path = None
     if args.video:
-        video_path = Path(args.video)
-        if video_path.suffix.lower() not in VIDEO_SUFFIXES:
-            raise UsageError(f"video {args.video!r} must end in one of {', '.join(VIDEO_SUFFIXES)}")
-        if video_path.exists() and not args.overwrite:
-            raise UsageError(f"output {args.video!r} already exists; pass --overwrite to replace it")
+        video_path = check_file_output(args.video, overwrite=args.overwrite, suffixes=VIDEO_SUFFIXES, option="--video")
         if not (args.fps > 0 and np.isfinite(args.fps)):
             raise UsageError(f"--fps {args.fps} must be a positive number")
     settings = settings.validate(scene)
