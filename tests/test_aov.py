@@ -11,8 +11,8 @@ import OpenImageIO as oiio
 import pytest
 
 from clrender.aov import CHANNELS
-from clrender.cli import main
 from clrender.renderer import Renderer
+from clitools import run_cli
 
 W, H, FOV = 32, 24, 60.0
 CENTER, RADIUS = np.array([0.3, 0.2, -4.0]), 1.0
@@ -114,15 +114,6 @@ def test_asking_for_aovs_leaves_the_image_unchanged(result):
     plain = Renderer(SCENE).run()
     np.testing.assert_array_equal(plain.image, result.image)
     assert plain.aovs == {}
-
-
-def run_cli(capsys, *argv):
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def read_channels(path):

@@ -5,17 +5,8 @@ import sys
 
 import pytest
 
-from clrender.cli import main
 from clrender.imageio import read_image
-
-
-def run_cli(capsys, *argv):
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse's own errors
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+from clitools import run_cli
 
 
 def test_render_writes_a_readable_png(tmp_path, capsys):

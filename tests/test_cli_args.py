@@ -6,20 +6,11 @@ import pytest
 
 import clrender.device
 import clrender.renderer
-from clrender.cli import build_parser, main
+from clrender.cli import build_parser
 from clrender.commands.render import settings_from_args
 from clrender.errors import UsageError
 from clrender.renderer import RenderSettings, render
-
-
-def run_cli(capsys, *argv):
-    """(exit code, stdout, stderr); argparse's own errors leave through SystemExit."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+from clitools import run_cli
 
 
 def settings_for(*argv) -> RenderSettings:

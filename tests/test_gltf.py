@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from clrender.cli import main
 from clrender.gltf import node_mesh, scene_dict
 from clrender.renderer import Renderer
 from clrender.scene import Scene
 from clrender.tracer import Tracer
+from clitools import run_cli
 
 
 def quaternion(axis, degrees):
@@ -225,13 +225,6 @@ def test_strips_and_fans_become_triangles(tmp_path):
 
 
 # ------------------------------------------------------------- bad files
-def run_cli(capsys, *argv):
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _edit(doc, key, value):

@@ -2,12 +2,12 @@
 import numpy as np
 import pytest
 
-from clrender.cli import main
 from clrender.errors import UsageError
 from clrender.imageio import read_image, write_image
 from clrender.splat import voronoi as V
 from clrender.splat.voronoi_soft import SoftVoronoi, TrainSettings, train
 from clrender.testing import nearest_site_reference, soft_loss_reference, synthetic_photo
+from clitools import run_cli
 
 
 def both_methods(device, sites, w, h):
@@ -183,14 +183,6 @@ def test_training_steps_leave_the_callers_settings_as_they_were(device):
 
 
 # ---------------------------------------------------------------- command line
-
-def run_cli(capsys, *argv):
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture
