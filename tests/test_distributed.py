@@ -224,6 +224,34 @@ def test_a_worker_side_error_is_the_local_one_line_error(client, tmp_path, capsy
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_worker_error_with_an_unpicklable_cause_still_reaches_the_client_as_itself():
+    """A kernel build failure is raised from pyopencl's error, which does not pickle; Dask would then
+    send a generic Exception carrying the whole build log instead of the one-line RenderFailure."""
+    from distributed.core import error_message
+    from distributed.protocol import pickle as dask_pickle
+
+    from clrender.distributed.worker import task
+    from clrender.errors import RenderFailure
+
+    class Unpicklable(Exception):
+        def __reduce__(self):
+            raise TypeError("cannot pickle this")
+
+    @task
+    def build():
+        try:
+            raise Unpicklable()
+        except Unpicklable as exc:
+            raise RenderFailure("building kernels/trace.cl failed") from exc
+
+    try:
+        build()
+    except RenderFailure as exc:
+        message = error_message(exc)  # what a Dask worker sends back for a failed task
+    error = dask_pickle.loads(message["exception"].data)
+    assert type(error) is RenderFailure and str(error) == "building kernels/trace.cl failed"
+
+
 def test_scene_errors_read_the_same_with_a_scheduler(client, tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text('[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = -1\n')

@@ -13,13 +13,14 @@ two threads of one worker must not launch at once: one lock per process.
 """
 from __future__ import annotations
 
+import functools
 import os
 import threading
 import time
 from collections import OrderedDict
 from dataclasses import replace
 
-from ..errors import RenderFailure
+from ..errors import RenderFailure, UsageError
 from ..renderer import Renderer, RenderSettings
 from ..tracer import Tracer
 from .payload import ScenePayload, code_fingerprint, join
@@ -31,6 +32,22 @@ _LOCK = threading.RLock()
 _SCENES: OrderedDict = OrderedDict()  # scene key -> Scene
 _TRACERS: OrderedDict = OrderedDict()  # (scene key, bvh, builder, device) -> Tracer
 _RENDERERS: OrderedDict = OrderedDict()  # (scene key, settings repr) -> Renderer
+
+
+def task(fn):
+    """A Dask task whose clrender errors reach the client as themselves: re-raised without their
+    cause, since a chained pyopencl error does not pickle and Dask would send a generic
+    Exception with the whole build log instead of the one-line error."""
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except (UsageError, RenderFailure) as exc:
+            plain = type(exc)(str(exc))
+        raise plain  # outside the except block: no __context__ either
+
+    return run
 
 
 def _cached(cache: OrderedDict, key, build, keep: int):
@@ -84,6 +101,7 @@ def _info(renderer: Renderer, start: float, ready: float, built: bool, cpu_ready
             "compile_kernels": renderer.compile_seconds if built else 0.0}
 
 
+@task
 def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sampler: str, n: int, record: bool):
     """One tile (or edge-pixel chunk): what `Renderer.launch` returns, plus timing info."""
     check_code(payload)
@@ -96,6 +114,7 @@ def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sample
         return out, _info(renderer, start, ready, built, cpu_ready)
 
 
+@task
 def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
     """One whole image with `camera` in place of the scene's cameras (a turntable frame)."""
     check_code(payload)
@@ -108,6 +127,7 @@ def render_frame(payload: ScenePayload, settings: RenderSettings, camera):
         return image, _info(renderer, start, ready, True, cpu_ready)
 
 
+@task
 def fit_gauss(target, config, device: str | None):
     """One Gaussian-splat fit on this worker's device (the local `fit`, nothing else)."""
     from ..device import get_device
@@ -117,6 +137,7 @@ def fit_gauss(target, config, device: str | None):
         return fit(get_device(device), target, config)
 
 
+@task
 def splat_voronoi(image, settings, device: str | None):
     """One Voronoi splatting on this worker's device."""
     from ..device import get_device
