@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import UsageError
+from .layout import DEFINES as LAYOUT_DEFINES
 from .package_data import data_dir
 
 try:
@@ -47,13 +48,13 @@ class Device:
         return f"{self.device.platform.name.strip()}: {self.device.name.strip()}"
 
     def program(self, filename: str, defines: dict | None = None) -> cl.Program:
-        """The built program for kernels/<filename> with -D<k>=<v> options (cached)."""
+        """The built program for kernels/<filename> with -D<k>=<v> options (cached), clrender/layout.py's
+        shared values included."""
         key = (filename, tuple(sorted((defines or {}).items())))
         prg = self._programs.get(key)
         if prg is None:
             source = (kernel_dir() / filename).read_text()
-            options = [f"-I{kernel_dir()}", "-cl-std=CL1.2"]
-            options += [f"-D{k}={_define_value(v)}" for k, v in sorted((defines or {}).items())]
+            options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
             start = time.perf_counter()
             try:
                 prg = cl.Program(self.context, source).build(options=options)
@@ -106,6 +107,14 @@ class Device:
                 f"{what} needs {nbytes / 2**20:.0f} MiB but the device {self.name!r} "
                 f"allows at most {limit / 2**20:.0f} MiB in one buffer"
             )
+
+
+def build_options(defines: dict | None = None) -> list[str]:
+    """-D options for a build: the shared values of clrender/layout.py, then `defines` (a variant)."""
+    clash = set(defines or {}) & set(LAYOUT_DEFINES)
+    if clash:
+        raise ValueError(f"{sorted(clash)} are fixed in clrender/layout.py, not per build")
+    return [f"-D{k}={_define_value(v)}" for k, v in sorted({**LAYOUT_DEFINES, **(defines or {})}.items())]
 
 
 def _define_value(value) -> str:

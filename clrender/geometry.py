@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .layout import MATERIAL_DTYPE, PRIM_ROWS
 from .scene import Mesh, Scene, Sphere
 
 
@@ -19,7 +20,7 @@ class Primitives:
     spheres: np.ndarray  # (S, 4) float64 centre and radius
     object_of: np.ndarray  # (T + S,) int32 object id per primitive id
     objects: np.ndarray  # (O, 2) int32 material index and smooth flag per object
-    materials: np.ndarray  # (M, 3, 4) float32 packed materials
+    materials: np.ndarray  # (M,) layout.MATERIAL_DTYPE records
     material_names: list
 
     @property
@@ -39,7 +40,7 @@ class Primitives:
 def flatten(scene: Scene) -> Primitives:
     names = list(scene.materials)
     index = {n: i for i, n in enumerate(names)}
-    materials = np.stack([scene.materials[n].pack() for n in names]).astype(np.float32)
+    materials = np.array([scene.materials[n].pack() for n in names], MATERIAL_DTYPE)
     objects = np.zeros((max(len(scene.objects), 1), 2), np.int32)
     tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
     for oid, obj in enumerate(scene.objects):
@@ -64,9 +65,9 @@ def flatten(scene: Scene) -> Primitives:
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
-    """(N, 3, 4) float32 primitive records in slot order (see kernels/common.h)."""
+    """(N, PRIM_ROWS, 4) float32 primitive records in slot order (layout.PRIM_SLOT_DTYPE, kernels/common.h)."""
     n_tri = len(prims.triangles)
-    out = np.zeros((len(order), 3, 4), np.float32)
+    out = np.zeros((len(order), PRIM_ROWS, 4), np.float32)
     is_tri = order < n_tri
     t = prims.triangles[order[is_tri]]
     out[is_tri, 0, :3] = t[:, 0]

@@ -28,8 +28,6 @@ MAX_CHANNELS = 16
 
 # Formats whose writers store floats; everything else is written as integers.
 FLOAT_EXTENSIONS = {".exr", ".hdr", ".pfm"}
-# Extensions that are conventionally sRGB-encoded 8/16-bit images.
-DISPLAY_EXTENSIONS = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga", ".webp"}
 
 
 @dataclass

@@ -18,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}
+from .layout import LIGHT_DTYPE, LIGHT_TYPES
+
+__all__ = ["FALLOFFS", "LIGHT_TYPES", "Light"]
 FALLOFFS = {"none": 0, "inverse_square": 1}
 
 
@@ -35,15 +37,13 @@ class Light:
     falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
 
     def pack(self) -> np.ndarray:
-        """Five float4s: (type, samples, intensity, falloff) (position|direction|corner) (colour) (a) (b)."""
+        """The light's record (layout.LIGHT_DTYPE): head (type, samples, intensity, falloff), where
+        (position | direction | corner), colour, edge_a, edge_b."""
+        record = np.zeros((), LIGHT_DTYPE)
+        record["head"] = [LIGHT_TYPES[self.type], self.samples, self.intensity, FALLOFFS[self.falloff]]
         where = self.direction if self.type == "directional" else self.position
-        return np.array(
-            [
-                [LIGHT_TYPES[self.type], self.samples, self.intensity, FALLOFFS[self.falloff]],
-                [*where, 0],
-                [*self.color, 0],
-                [*self.edge_a, 0],
-                [*self.edge_b, 0],
-            ],
-            dtype=np.float32,
-        )
+        record["where"][:3] = where
+        record["colour"][:3] = self.color
+        record["edge_a"][:3] = self.edge_a
+        record["edge_b"][:3] = self.edge_b
+        return record

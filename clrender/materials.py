@@ -5,6 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .layout import MATERIAL_DTYPE
+
 
 @dataclass(frozen=True)
 class Material:
@@ -16,11 +18,12 @@ class Material:
     ior: float = 1.0  # index of refraction (> 0); air is 1.0, glass 1.5, water 1.333
 
     def pack(self) -> np.ndarray:
-        """Three float4s: (kd, shininess) (ks, mirror) (transparency, ior, 0, 0)."""
-        return np.array(
-            [[*self.diffuse, self.shininess], [*self.specular, self.mirror], [self.transparency, self.ior, 0, 0]],
-            dtype=np.float32,
-        )
+        """The material's record (layout.MATERIAL_DTYPE): (kd, shininess) (ks, mirror) (transparency, ior, 0, 0)."""
+        record = np.zeros((), MATERIAL_DTYPE)
+        record["kd_shininess"] = [*self.diffuse, self.shininess]
+        record["ks_mirror"] = [*self.specular, self.mirror]
+        record["transparency_ior"] = [self.transparency, self.ior, 0, 0]
+        return record
 
 
 DEFAULT_MATERIAL = Material()

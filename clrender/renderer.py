@@ -19,16 +19,13 @@ import pyopencl as cl
 
 from .aov import AOV_NAMES
 from .errors import UsageError
+from .layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
 from .progress import progress
 from .scene import Scene
 from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
 LIGHT_SAMPLERS = ("stratified", "random")
-PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}
-SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}
-PATH_LEN = 8  # object ids recorded per pixel path (kernels/common.h)
-ID_RECORD = PATH_LEN + 1  # ints written per pixel: the path's object ids, then the primary hit's facet
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
 KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWRITE_AOV=1 variant writes
 # The kernel's AOV record per pixel before the trace: (normal, t) = (0, 0, 0, inf), albedo 0 -- what a miss leaves.
@@ -60,7 +57,7 @@ class RenderSettings:
     device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else PoCL's CPU
     aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
 
-    def validate(self, scene: Scene) -> "RenderSettings":
+    def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in; UsageError for any value out of range."""
         width, height = self.width, self.height
         # one side given: the other keeps the scene's aspect ratio (width 100 alone is not a 100x360 sliver)
@@ -134,7 +131,7 @@ class Renderer:
             cam.frame(s.width, s.height),
             np.array([[*self.scene.background, 0], [*self.scene.ambient, 0]], np.float32)]))
         self.n_lights = len(self.scene.lights)
-        lights = np.concatenate([l.pack() for l in self.scene.lights]) if self.scene.lights else np.zeros((5, 4), np.float32)
+        lights = np.array([light.pack() for light in self.scene.lights] or [np.zeros((), LIGHT_DTYPE)], LIGHT_DTYPE)
         self.lights = dev.to_device(lights)
         start = time.perf_counter()
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
@@ -145,14 +142,14 @@ class Renderer:
         self.compile_seconds = time.perf_counter() - start
 
     def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
-        """Trace the given pixel indices: colours (k, 3), id records (k, ID_RECORD), shadow (k, L), stats (k, 2),
+        """Trace the given pixel indices: colours (k, 3), id records (k,) of layout.ID_RECORD_DTYPE, shadow (k, L), stats (k, 2),
         and with AOVs on and `record`, the primary hits' AOV records (k, 8), else None."""
         t = self.tracer
         dev = t.device
         s = self.settings
         k = len(pixels)
         L = max(self.n_lights, 1)
-        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, 4 * ID_RECORD, 4 * L, 8))
+        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, ID_RECORD_DTYPE.itemsize, 4 * L, 8))
         if record:  # background pixels never write their shadow entries: all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
         aov = self._no_aov
@@ -167,7 +164,7 @@ class Renderer:
             np.int32(s.max_depth),
             np.int32(s.fresnel), np.int32(s.light_samples),
             np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats, aov)
-        out = (np.empty((k, 4), np.float32), np.empty((k, ID_RECORD), np.int32),
+        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE),
                np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):
             cl.enqueue_copy(dev.queue, host, buf)
@@ -202,12 +199,12 @@ class Renderer:
         colour, ids, shadow, stats, aov = self._pass(tiles, first_sampler, first_n, True, "trace")
         timings["trace"] = time.perf_counter() - start
         image = np.empty((H * W, 3), np.float32)
-        records = np.empty((H * W, ID_RECORD), np.int32)
+        records = np.empty(H * W, ID_RECORD_DTYPE)
         shadows = np.empty((H * W, self.n_lights), np.float32)
         image[order], records[order], shadows[order] = colour, ids, shadow
         visits, rays = stats.sum(axis=0, dtype=np.int64)
-        records = records.reshape(H, W, ID_RECORD)
-        result = RenderResult(image.reshape(H, W, 3), records[..., :PATH_LEN], records[..., PATH_LEN],
+        records = records.reshape(H, W)
+        result = RenderResult(image.reshape(H, W, 3), records["path"], records["facet"],
                               shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays))
         if s.aa == "edge_detect":
             self._resample_edges(result)

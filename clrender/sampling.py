@@ -14,7 +14,7 @@ import numpy as np
 import pyopencl as cl
 
 from .device import Device, get_device
-from .renderer import SAMPLERS
+from .layout import SAMPLERS
 from .tracer import LOCAL_SIZE, MAX_DEPTH_LIMIT, global_size
 
 

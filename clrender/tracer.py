@@ -24,16 +24,17 @@ import time
 import numpy as np
 import pyopencl as cl
 
+from .bvh import BUILDERS
 from .device import Device, get_device
 from .errors import UsageError
 from .geometry import Primitives, flatten, pack_slots
+from .layout import NORMAL_ROWS
 from .scene import Mesh, Scene
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
 # A fixed work-group size: PoCL builds a work-group function per local size, so
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
-BUILDERS = ("sah", "median")
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 # Leaf size of the binary tree per traversal width: under 4-wide nodes leaves of at most 2 primitives
 # traced 3-10% faster than 4 (more nodes, but four boxes per visit; the SAH cost of the 1M-triangle
@@ -102,7 +103,7 @@ class Tracer:
         self.nodes = dev.to_device(nodes)
         self.prims = dev.to_device(pack_slots(self.primitives, order))
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros((max(n, 1), 3, 4), np.float32)
+        normals = np.zeros((max(n, 1), NORMAL_ROWS, 4), np.float32)
         normals[: len(self.primitives.triangles), :, :3] = self.primitives.triangle_normals
         self.normals = dev.to_device(normals)
         self.objects = dev.to_device(self.primitives.objects)

@@ -1,6 +1,7 @@
 /* Shared definitions for the tracing kernels (OpenCL C 1.2, float32).
  *
- * Buffer layouts (written once here, packed by clrender/gpu_scene.py):
+ * Buffer layouts (records and strides in clrender/layout.py; packed by clrender/geometry.py,
+ * tracer.py, materials.py, lights.py and renderer.py):
  *   nodes     BVH_WIDTH 2: float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
  *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
  *             interior: count == 0, near child i+1, far child `offset`.
@@ -20,14 +21,14 @@
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 
+#include "layout.h" /* PATH_LEN, ID_RECORD, the record strides, the light and sampler codes */
+
 #ifndef USE_BVH
 #define USE_BVH 1
 #endif
 #ifndef MAX_DEPTH
 #define MAX_DEPTH 8           /* longest mirror/refraction chain a kernel supports */
 #endif
-#define PATH_LEN 8            /* object ids recorded along each pixel's path */
-#define ID_RECORD (PATH_LEN + 1) /* per pixel: the path's object ids, then the primary hit's facet */
 #ifndef STACK_SIZE
 #define STACK_SIZE 64         /* BVH traversal stack (clrender.bvh.STACK_SIZE); the builder keeps trees shallower */
 #endif
@@ -50,15 +51,6 @@
 #define COUNT_NODE(v) (*(v) += 1)
 #define COUNT_PRIMS(v, n)
 #endif
-
-#define LIGHT_POINT 0
-#define LIGHT_DIRECTIONAL 1
-#define LIGHT_AREA 2
-
-#define SAMPLER_UNIFORM 0
-#define SAMPLER_RANDOM 1
-#define SAMPLER_STRATIFIED 2
-#define SAMPLER_SOBOL 3
 
 #define INF_T INFINITY
 

@@ -17,9 +17,9 @@ inline Hit no_hit(void) {
     return h;
 }
 
-inline bool is_sphere(__global const float4 *prims, int slot) { return prims[3 * slot + 1].w != 0.0f; }
+inline bool is_sphere(__global const float4 *prims, int slot) { return prims[PRIM_ROWS * slot + 1].w != 0.0f; }
 
-inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[3 * slot].w); }
+inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
 
 /* a*b - c*d by Kahan's algorithm: relative error at most 2u (Jeannerod, Louvet
  * and Muller 2013), so its sign is exact (barring underflow).  An edge function
@@ -139,7 +139,7 @@ inline float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err
 
 /* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
 inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
-    float4 a = prims[3 * s], b = prims[3 * s + 1], c = prims[3 * s + 2];
+    float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
     if (b.w != 0.0f) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
     return hit_triangle(r, a, b, c, t_min, t_max, u, v);
 }
@@ -178,7 +178,7 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
     for (int s = begin; s < end; ++s) {
         float u = 0.0f, v = 0.0f;
         float t = hit_slot(prims, s, r, t_min, best->t * 1.0000002f, &u, &v);
-        int id = as_int(prims[3 * s].w);
+        int id = as_int(prims[PRIM_ROWS * s].w);
         if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
             best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
         }
@@ -342,7 +342,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
 inline float crossing_transmittance(__global const float4 *prims, __global const int *prim_object,
                                     __global const int2 *objects, __global const float4 *materials,
                                     int s, Ray r, float t_min, float t_max, bool opaque_only) {
-    float4 a = prims[3 * s], b = prims[3 * s + 1], c = prims[3 * s + 2];
+    float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
     int crossings = 0;
     if (b.w != 0.0f) {
         float t0, t1;
@@ -358,7 +358,7 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
     if (crossings == 0) return 1.0f;
     if (opaque_only) return 0.0f;
     int material = objects[prim_object[as_int(a.w)]].x;
-    float transparency = materials[3 * material + 2].x;
+    float transparency = materials[MATERIAL_ROWS * material + 2].x;
     return crossings == 2 ? transparency * transparency : transparency;
 }
 

@@ -4,6 +4,7 @@
 #ifndef CLRENDER_SAMPLING_H
 #define CLRENDER_SAMPLING_H
 
+#include "layout.h" /* the PIXEL_FILTER_* codes */
 #include "rng.h"
 
 /* Bit reversal by a byte table: compilers turn the shift-and-mask idiom into
@@ -76,10 +77,6 @@ inline float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     rng->dim += 2; /* keep later dimensions aligned with the other samplers */
     return (float2)(u01(x), u01(y));
 }
-
-#define PIXEL_FILTER_BOX 0
-#define PIXEL_FILTER_TENT 1
-#define PIXEL_FILTER_GAUSSIAN 2
 
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
  * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the

@@ -84,18 +84,18 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
     /* shadow rays start off the surface on the side they leave towards */
     float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
     for (int li = 0; li < sc->n_lights; ++li) {
-        float4 head = sc->lights[5 * li];
+        float4 head = sc->lights[LIGHT_ROWS * li];
         int type = (int)head.x;
         float intensity = head.z;
         bool inverse_square = head.w != 0.0f;
-        float3 pos = sc->lights[5 * li + 1].xyz;
-        float3 colour = sc->lights[5 * li + 2].xyz;
+        float3 pos = sc->lights[LIGHT_ROWS * li + 1].xyz;
+        float3 colour = sc->lights[LIGHT_ROWS * li + 2].xyz;
         uint n_side = 1;
         float3 edge_a = (float3)(0.0f), edge_b = (float3)(0.0f);
         if (type == LIGHT_AREA) {
             n_side = sc->light_samples > 0 ? (uint)sc->light_samples : (uint)head.y;
-            edge_a = sc->lights[5 * li + 3].xyz;
-            edge_b = sc->lights[5 * li + 4].xyz;
+            edge_a = sc->lights[LIGHT_ROWS * li + 3].xyz;
+            edge_b = sc->lights[LIGHT_ROWS * li + 4].xyz;
         }
         float3 light_normal = cross3(edge_a, edge_b);
         float area = norm(light_normal);
@@ -173,11 +173,11 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             continue;
         }
         int2 obj = sc->objects[object];
-        if (ids && first_hit && !obj.y && sc->prims[3 * h.slot + 1].w == 0.0f) ids[PATH_LEN] = h.id;
-        float4 kd = sc->materials[3 * obj.x], ks = sc->materials[3 * obj.x + 1], tr = sc->materials[3 * obj.x + 2];
+        if (ids && first_hit && !obj.y && sc->prims[PRIM_ROWS * h.slot + 1].w == 0.0f) ids[PATH_LEN] = h.id;
+        float4 kd = sc->materials[MATERIAL_ROWS * obj.x], ks = sc->materials[MATERIAL_ROWS * obj.x + 1], tr = sc->materials[MATERIAL_ROWS * obj.x + 2];
         float transparency = tr.x, ior = tr.y, mirror = ks.w;
 
-        float4 a = sc->prims[3 * h.slot], b = sc->prims[3 * h.slot + 1], c = sc->prims[3 * h.slot + 2];
+        float4 a = sc->prims[PRIM_ROWS * h.slot], b = sc->prims[PRIM_ROWS * h.slot + 1], c = sc->prims[PRIM_ROWS * h.slot + 2];
         float3 p, p_err; /* the hit point from the primitive, and its float32 error per axis */
         float3 n_geo, n_shade;
         if (b.w != 0.0f) {
@@ -189,7 +189,7 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
             n_shade = n_geo;
             if (obj.y) {
-                __global const float4 *vn = sc->normals + 3 * h.id;
+                __global const float4 *vn = sc->normals + NORMAL_ROWS * h.id;
                 n_shade = unit((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
             }
         }

@@ -26,17 +26,14 @@
  * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
  * CPU), so PoCL runs 8 SIMD lanes per splat.
  */
+#include "layout.h" /* TILE, NGRAD (floats per gradient entry), EPS (the background's weight) */
+
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0
 #endif
-#ifndef EPS
-#define EPS 1e-3f
-#endif
-#define TILE 16
 #define VW 8            /* pixels per work-item */
 #define CUTOFF_Q 9.0f   /* 3 sigma */
 #define NEG_HALF_LOG2E (-0.72134752f)  /* exp(-q / 2) = 2^(NEG_HALF_LOG2E q) */
-#define NGRAD 10        /* per entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of w */
 
 #define LANES ((float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f))
 

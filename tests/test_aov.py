@@ -12,6 +12,7 @@ import pytest
 
 from clrender.aov import CHANNELS
 from clrender.renderer import Renderer
+
 from clitools import run_cli
 
 W, H, FOV = 32, 24, 60.0

@@ -6,6 +6,7 @@ import sys
 import pytest
 
 from clrender.imageio import read_image
+
 from clitools import run_cli
 
 

@@ -10,6 +10,7 @@ from clrender.cli import build_parser
 from clrender.commands.render import settings_from_args
 from clrender.errors import UsageError
 from clrender.renderer import RenderSettings, render
+
 from clitools import run_cli
 
 

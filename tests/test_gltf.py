@@ -17,6 +17,7 @@ from clrender.gltf import node_mesh, scene_dict
 from clrender.renderer import Renderer
 from clrender.scene import Scene
 from clrender.tracer import Tracer
+
 from clitools import run_cli
 
 

@@ -14,10 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from reference.whitted import camera_rays
 from scipy.spatial import Delaunay
 
 import clrender
+
+from reference.whitted import camera_rays
 
 HAIR = 2e-3  # distance (scene units) within which a ray counts as grazing a boundary
 

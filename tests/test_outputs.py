@@ -7,7 +7,7 @@ import pytest
 from scipy.stats import qmc
 
 from clrender.cli import main
-from clrender.device import kernel_dir
+from clrender.device import build_options, kernel_dir
 from clrender.imageio import linear_to_srgb, srgb_to_linear, write_display_image
 from clrender.renderer import render
 from clrender.sampling import sample_offsets
@@ -98,7 +98,7 @@ __kernel void filter_weights(int filter, int n, __global const float2 *offsets, 
 
 @pytest.fixture(scope="module")
 def helpers(device):
-    options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", "-DUSE_BVH=1", "-DMAX_DEPTH=16"]
+    options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options({"USE_BVH": 1, "MAX_DEPTH": 16})]
     program = cl.Program(device.context, HELPERS).build(options=options)
     return {name: cl.Kernel(program, name) for name in ("sobol_points", "filter_weights")}
 

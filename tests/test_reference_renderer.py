@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from reference.whitted import render_steady
 
 import clrender
+
+from reference.whitted import render_steady
 
 W, H = 48, 36
 TOLERANCE = 1e-4  # absolute, linear RGB: float32 rounding and ray offsets; measured at most 2.2e-5 (glass meshes)

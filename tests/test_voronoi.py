@@ -7,6 +7,7 @@ from clrender.imageio import read_image, write_image
 from clrender.splat import voronoi as V
 from clrender.splat.voronoi_soft import SoftVoronoi, TrainSettings, train
 from clrender.testing import nearest_site_reference, soft_loss_reference, synthetic_photo
+
 from clitools import run_cli
 
 

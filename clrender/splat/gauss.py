@@ -28,10 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UsageError, shown
+from ..layout import SPLAT_EPS, SPLAT_NGRAD, SPLAT_TILE
 
-TILE = 16
-NGRAD = 10  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
-EPS = 1e-3  # normalized blend: weight of the background colour
+TILE = SPLAT_TILE  # pixels per tile side (shared with the kernels: clrender/layout.py)
+NGRAD = SPLAT_NGRAD  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
+EPS = SPLAT_EPS  # normalized blend: weight of the background colour
 BACKWARD_GROUP = 64  # work-items per work-group of the backward kernel
 PREPARE_GROUP = 64  # and of the packing kernel
 BLENDS = ("sum", "normalized")

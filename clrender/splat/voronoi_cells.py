@@ -11,10 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
+from ..layout import VORONOI_STRIP
 
 METHODS = ("grid", "naive")
 SITES_PER_CELL = 1.0  # target grid density; the cell side is rounded to a power of two
-STRIP = 8  # pixels per work-item in the grid kernel (one float8)
+STRIP = VORONOI_STRIP  # pixels per work-item in the grid kernel (one float8; clrender/layout.py)
 
 
 # ----------------------------------------------------------------- site grid
