@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -251,67 +251,71 @@ def _median_levels(lo, hi, max_leaf):
 
 
 # ---------------------------------------------------------------- binned SAH
-def _sah_levels(lo, hi, max_leaf, bins, samples, small):
+@dataclass
+class _Frontier:
+    """The nodes one level of the SAH build works on.
+
+    Active nodes still split by SAH bins: `box` holds their primitives' bounds as (6, n) rows
+    lo.xyz, hi.xyz, node after node, `ids` the primitives in the same order.  Halving nodes
+    have their primitives at their final slots already and only split slot ranges in halves.
+    """
+
+    box: np.ndarray  # (6, n) float32 bounds of the active nodes' primitives
+    ids: np.ndarray  # (n,) int32 primitive ids, in the same order
+    start: np.ndarray  # (k,) first final slot of each active node
+    count: np.ndarray  # (k,) primitives of each active node
+    hstart: np.ndarray  # (h,) first slot of each halving node
+    hcount: np.ndarray  # (h,) primitives of each halving node
+    depth: int  # tree level of these nodes (the root is level 1)
+
+
+@dataclass
+class _Splits:
+    """What one level decided for its k active nodes (one entry per node unless said)."""
+
+    split: np.ndarray  # bool: an interior node
+    enter: np.ndarray  # bool: leaves the active set and splits slot ranges in halves from here on
+    binned: np.ndarray  # bool: splits by its best SAH bin
+    axis: np.ndarray | None  # the bin split's axis
+    cut: np.ndarray | None  # primitives with bin <= cut go left
+    bmin: np.ndarray  # (k, 3) float32 node bounds
+    bmax: np.ndarray
+    seg_start: np.ndarray | None  # first column of each node in the frontier's `box`
+    cen: np.ndarray | None  # (3, n) twice the primitives' centroids
+    cmin: np.ndarray | None  # (k, 3) lowest centroid of each node that splits
+    scale: np.ndarray | None  # (k, 3) bins per unit of centroid extent
+
+
+class _SahBuild:
     """Binned SAH, one level at a time.
 
-    Active nodes: `box` holds their primitives' bounds as (6, n) rows lo.xyz, hi.xyz, ordered so
-    that each node owns one contiguous segment, and every level splits them by their best SAH bin.
-    A node that is small, too deep, or has no bin split leaves the active set: its primitives are
-    sorted once by Morton code (of the centroid, within the node's centroid bounds) and written at
-    their final slots (`order`, and their bounds to `fixed`); its subtree then splits slot ranges
-    in halves, which only needs the bounds of those ranges.  Leaves leave the active set the same way.
+    Every level splits the active nodes by their best SAH bin.  A node that is small, too deep, or
+    has no bin split leaves the active set ("enters" halving): its primitives are sorted once by
+    Morton code (of the centroid, within the node's centroid bounds) and written at their final
+    slots (`order`, and their bounds to `fixed`); its subtree then splits slot ranges in halves,
+    which only needs the bounds of those ranges.  Leaves leave the active set the same way.
     """
-    n_total = len(lo)
-    box = np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T)
-    ids = np.arange(n_total, dtype=np.int32)
-    order = np.empty(n_total, np.int32)
-    fixed = np.zeros((6, n_total + 1), np.float32)  # bounds by final slot, for the halving nodes
-    leaf_cap = 4 * max_leaf
 
-    def grow(box, ids, gstart, count, hstart, hcount, depth, max_levels):
-        """Run the level loop on a set of nodes; returns their levels and the state left."""
+    def __init__(self, n_total: int, max_leaf: int, bins: int, samples: int, small: int):
+        self.max_leaf, self.bins, self.samples, self.small = max_leaf, bins, samples, small
+        self.leaf_cap = 4 * max_leaf
+        self.order = np.empty(n_total, np.int32)  # primitive id by final slot
+        self.fixed = np.zeros((6, n_total + 1), np.float32)  # bounds by final slot, for the halving nodes
+
+    def grow(self, frontier: _Frontier, max_levels: int) -> tuple[list[_Level], _Frontier]:
+        """Run the level loop on a frontier; returns its levels and the frontier left."""
+        box, ids, gstart, count = frontier.box, frontier.ids, frontier.start, frontier.count
+        hstart, hcount, depth = frontier.hstart, frontier.hcount, frontier.depth
+        max_leaf, fixed = self.max_leaf, self.fixed
         levels = []
         while (len(count) or len(hcount)) and len(levels) < max_levels:
             k = len(count)
-            split = count > max_leaf
-            binned = np.zeros(k, bool)
-            enter = np.zeros(k, bool)
-            if k:
-                seg_start, seg_of = _segments(count)
-                cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
-                bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
-                bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
-                # halving from here keeps depth <= MAX_TREE_LEVELS: a halved subtree adds ceil(log2(count)) levels
-                too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_TREE_LEVELS
-                enter = split & ((count <= small) | too_deep)
-                cand = np.flatnonzero(split & ~enter)
-                axis = np.zeros(k, np.int64)
-                cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
-                if split.any():
-                    cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
-                    cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
-                    extent = cmax - cmin
-                if len(cand):
-                    # small nodes use half the bins: their bin tables would outweigh their primitives
-                    node_bins = np.where(count > 2 * bins, bins, max(bins // 2, 2))
-                    scale = np.where(extent > 0, node_bins[:, None] / np.where(extent > 0, extent, 1), 0)
-                    scale = scale.astype(np.float32)
-                    for nb in np.unique(node_bins[cand]):
-                        c = cand[node_bins[cand] == nb]
-                        ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale,
-                                                                 bmin, bmax, int(nb), samples)
-                        make_leaf = ok & (cost >= INTERSECT_COST * count[c]) & (count[c] <= leaf_cap)
-                        split[c[make_leaf]] = False
-                        enter[c[~ok]] = True
-                binned = split & ~enter
-                if enter.any():
-                    box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
-            else:
-                bmin = bmax = np.zeros((0, 3), np.float32)
+            box, ids, sp = self._choose_splits(box, ids, count, depth)
             hsplit = hcount > max_leaf
-            hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (bmin[:0], bmin[:0])
+            hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (sp.bmin[:0], sp.bmin[:0])
 
             # next level: children of binned nodes (active), then halves of entering and halving nodes
+            split, enter, binned = sp.split, sp.enter, sp.binned
             n_binned = int(binned.sum())
             e_start, e_count = _halves(gstart[enter], count[enter])
             h_start, h_count = _halves(hstart[hsplit], hcount[hsplit])
@@ -323,81 +327,138 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
             child_active[binned] = 2 * np.arange(n_binned)
             child_active[enter] = 2 * n_binned + where[0:len(e_start):2]
             child_h = 2 * n_binned + where[len(e_start)::2]
-            levels.append(_Level(np.concatenate([bmin, hmin]), np.concatenate([bmax, hmax]),
+            levels.append(_Level(np.concatenate([sp.bmin, hmin]), np.concatenate([sp.bmax, hmax]),
                                  np.concatenate([gstart, hstart]), np.concatenate([count, hcount]),
                                  np.concatenate([split, hsplit]), np.concatenate([child_active[split], child_h])))
             hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
             depth += 1
-            if not k:
-                continue
+            if len(count):
+                # side of every active primitive, then the stable partition into the next level's nodes
+                box, ids, gstart, count = self._partition(box, ids, gstart, count, sp)
+        return levels, _Frontier(box, ids, gstart, count, hstart, hcount, depth)
 
-            # side of every active primitive: True = left (primitives of leaves and entering nodes
-            # count as left too, and go to the tail)
-            n = len(ids)
-            i = np.arange(n, dtype=np.int64)
-            per_prim = partial(np.repeat, repeats=count)  # a per-node value for each primitive (faster than a[seg_of])
-            done = ~per_prim(binned)
-            if n_binned:
-                rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
-                kk = np.arange(k)
-                rows -= per_prim(cmin[kk, axis])
-                rows *= per_prim(scale[kk, axis])
-                # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
-                go_left = rows < per_prim((cut + 1).astype(np.float32))
-                go_left |= done
-            else:
-                go_left = np.ones(n, bool)
+    def _choose_splits(self, box, ids, count, depth) -> tuple[np.ndarray, np.ndarray, _Splits]:
+        """How each active node splits: by its best SAH bin, or not at all (a leaf), or it enters
+        halving (its primitives Morton-sorted in `box` and `ids`, which are returned)."""
+        max_leaf, bins, samples, small, leaf_cap = self.max_leaf, self.bins, self.samples, self.small, self.leaf_cap
+        k = len(count)
+        split = count > max_leaf
+        if not k:
+            empty = np.zeros(0, bool)
+            return box, ids, _Splits(split, empty, empty, None, None, np.zeros((0, 3), np.float32),
+                                     np.zeros((0, 3), np.float32), None, None, None, None)
+        cmin = scale = None  # centroid bounds and bin scale, for nodes that split
+        seg_start, seg_of = _segments(count)
+        cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
+        bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
+        bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
+        # halving from here keeps depth <= MAX_TREE_LEVELS: a halved subtree adds ceil(log2(count)) levels
+        too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_TREE_LEVELS
+        enter = split & ((count <= small) | too_deep)
+        cand = np.flatnonzero(split & ~enter)
+        axis = np.zeros(k, np.int64)
+        cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
+        if split.any():
+            cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
+            cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
+            extent = cmax - cmin
+        if len(cand):
+            # small nodes use half the bins: their bin tables would outweigh their primitives
+            node_bins = np.where(count > 2 * bins, bins, max(bins // 2, 2))
+            scale = np.where(extent > 0, node_bins[:, None] / np.where(extent > 0, extent, 1), 0)
+            scale = scale.astype(np.float32)
+            for nb in np.unique(node_bins[cand]):
+                c = cand[node_bins[cand] == nb]
+                ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale,
+                                                         bmin, bmax, int(nb), samples)
+                make_leaf = ok & (cost >= INTERSECT_COST * count[c]) & (count[c] <= leaf_cap)
+                split[c[make_leaf]] = False
+                enter[c[~ok]] = True
+        binned = split & ~enter
+        if enter.any():
+            box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
+        return box, ids, _Splits(split, enter, binned, axis, cut, bmin, bmax, seg_start, cen, cmin, scale)
 
-            # stable partition within each node: left primitives, then right ones; the primitives of
-            # nodes leaving the active set, in node order, at the tail
-            left_incl = np.cumsum(go_left)
-            before = np.concatenate([[0], left_incl])[seg_start]
-            n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
-            s = np.flatnonzero(binned)
-            new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
-            new_start, _ = _segments(new_count)
-            n_keep = int(new_count.sum())
-            leaving = ~binned
-            tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
-            base_left = tail_start - before
-            base_left[s] = new_start[0::2] - before[s]
-            base_right = np.zeros(k, np.int64)
-            base_right[s] = new_start[1::2] - seg_start[s] + before[s]
-            dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
-            perm = np.empty(n, np.int64)
-            perm[dest] = i
-            ids = np.take(ids, perm)
-            if n_keep < n:  # final slots of the primitives leaving the active set
-                slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
-                order[slot] = ids[n_keep:]
-                if enter.any():
-                    tail = perm[n_keep:]
-                    for d in range(6):
-                        fixed[d, slot] = box[d, tail]
-            box = np.take(box, perm[:n_keep], axis=1)
-            ids = ids[:n_keep]
-            gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
-            count = new_count
-        return levels, (box, ids, gstart, count, hstart, hcount, depth)
+    def _partition(self, box, ids, gstart, count, sp: _Splits):
+        """Each binned node's primitives split into its two children (left ones first, order kept
+        within each side); the primitives of nodes leaving the active set go to their final slots."""
+        order, fixed = self.order, self.fixed
+        binned, enter, axis, cut, cmin, scale, cen, seg_start = (sp.binned, sp.enter, sp.axis, sp.cut, sp.cmin, sp.scale,
+                                                                 sp.cen, sp.seg_start)
+        k = len(count)
+        n_binned = int(binned.sum())
+        # side of every active primitive: True = left (primitives of leaves and entering nodes
+        # count as left too, and go to the tail)
+        n = len(ids)
+        i = np.arange(n, dtype=np.int64)
+        per_prim = partial(np.repeat, repeats=count)  # a per-node value for each primitive (faster than a[seg_of])
+        done = ~per_prim(binned)
+        if n_binned:
+            rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
+            kk = np.arange(k)
+            rows -= per_prim(cmin[kk, axis])
+            rows *= per_prim(scale[kk, axis])
+            # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
+            go_left = rows < per_prim((cut + 1).astype(np.float32))
+            go_left |= done
+        else:
+            go_left = np.ones(n, bool)
 
-    state = (box, ids, np.zeros(1, np.int64), np.array([n_total], np.int64),
-             np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
+        # stable partition within each node: left primitives, then right ones; the primitives of
+        # nodes leaving the active set, in node order, at the tail
+        left_incl = np.cumsum(go_left)
+        before = np.concatenate([[0], left_incl])[seg_start]
+        n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
+        s = np.flatnonzero(binned)
+        new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
+        new_start, _ = _segments(new_count)
+        n_keep = int(new_count.sum())
+        leaving = ~binned
+        tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
+        base_left = tail_start - before
+        base_left[s] = new_start[0::2] - before[s]
+        base_right = np.zeros(k, np.int64)
+        base_right[s] = new_start[1::2] - seg_start[s] + before[s]
+        dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
+        perm = np.empty(n, np.int64)
+        perm[dest] = i
+        ids = np.take(ids, perm)
+        if n_keep < n:  # final slots of the primitives leaving the active set
+            slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
+            order[slot] = ids[n_keep:]
+            if enter.any():
+                tail = perm[n_keep:]
+                for d in range(6):
+                    fixed[d, slot] = box[d, tail]
+        box = np.take(box, perm[:n_keep], axis=1)
+        ids = ids[:n_keep]
+        gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
+        return box, ids, gstart, new_count
+
+
+def _sah_levels(lo, hi, max_leaf, bins, samples, small):
+    """The binned SAH build's levels (see _SahBuild) and the primitive order."""
+    n_total = len(lo)
+    build = _SahBuild(n_total, max_leaf, bins, samples, small)
+    root = _Frontier(np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T), np.arange(n_total, dtype=np.int32),
+                     np.zeros(1, np.int64), np.array([n_total], np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
     if n_total < PARALLEL_ABOVE:
-        return grow(*state, max_levels=MAX_TREE_LEVELS + 1)[0], order
+        return build.grow(root, max_levels=MAX_TREE_LEVELS + 1)[0], build.order
     # the top levels here; then two groups of whole subtrees, with about half the primitives
     # each, grow in two threads (numpy releases the GIL in its array loops)
-    levels, state = grow(*state, max_levels=3)
-    box, ids, gstart, count, hstart, hcount, depth = state
-    if len(count) < 2 or len(hcount):
-        return levels + grow(*state, max_levels=MAX_TREE_LEVELS + 1)[0], order
-    cum = np.cumsum(count)
-    g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(count) - 1))  # nodes in the first group
+    levels, top = build.grow(root, max_levels=3)
+    if len(top.count) < 2 or len(top.hcount):
+        return levels + build.grow(top, max_levels=MAX_TREE_LEVELS + 1)[0], build.order
+    cum = np.cumsum(top.count)
+    g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(top.count) - 1))  # nodes in the first group
     half = int(cum[g - 1])
-    parts = [(np.ascontiguousarray(box[:, :half]), ids[:half], gstart[:g], count[:g]),
-             (np.ascontiguousarray(box[:, half:]), ids[half:], gstart[g:], count[g:])]
+    groups = [replace(top, box=np.ascontiguousarray(top.box[:, :half]), ids=top.ids[:half], start=top.start[:g],
+                      count=top.count[:g]),
+              replace(top, box=np.ascontiguousarray(top.box[:, half:]), ids=top.ids[half:], start=top.start[g:],
+                      count=top.count[g:])]
     with ThreadPoolExecutor(2) as pool:
-        first, second = pool.map(lambda p: grow(*p, hstart, hcount, depth, MAX_TREE_LEVELS + 1)[0], parts)
-    return levels + _merge_levels(first, second), order
+        first, second = pool.map(lambda group: build.grow(group, MAX_TREE_LEVELS + 1)[0], groups)
+    return levels + _merge_levels(first, second), build.order
 
 
 def _merge_levels(first: list[_Level], second: list[_Level]) -> list[_Level]:
