@@ -17,7 +17,11 @@ inline Hit no_hit(void) {
     return h;
 }
 
-inline bool is_sphere(__global const float4 *prims, int slot) { return prims[PRIM_ROWS * slot + 1].w != 0.0f; }
+/* A primitive slot (layout.PRIM_SLOT_DTYPE): its second row ends in 1 for a sphere, 0 for a triangle;
+ * its first row ends in the primitive's id, as int bits. */
+inline bool is_sphere_row(float4 second_row) { return second_row.w != 0.0f; }
+
+inline bool is_sphere(__global const float4 *prims, int slot) { return is_sphere_row(prims[PRIM_ROWS * slot + 1]); }
 
 inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
 
@@ -140,7 +144,7 @@ inline float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err
 /* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
 inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
     float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
-    if (b.w != 0.0f) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
+    if (is_sphere_row(b)) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
     return hit_triangle(r, a, b, c, t_min, t_max, u, v);
 }
 
@@ -178,7 +182,7 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
     for (int s = begin; s < end; ++s) {
         float u = 0.0f, v = 0.0f;
         float t = hit_slot(prims, s, r, t_min, best->t * 1.0000002f, &u, &v);
-        int id = as_int(prims[PRIM_ROWS * s].w);
+        int id = prim_id(prims, s);
         if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
             best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
         }
@@ -344,7 +348,7 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
                                     int s, Ray r, float t_min, float t_max, bool opaque_only) {
     float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
     int crossings = 0;
-    if (b.w != 0.0f) {
+    if (is_sphere_row(b)) {
         float t0, t1;
         float4 cr = (float4)(a.xyz, b.x);
         if (sphere_roots(r, cr, &t0, &t1)) {

@@ -173,14 +173,14 @@ inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             continue;
         }
         int2 obj = sc->objects[object];
-        if (ids && first_hit && !obj.y && sc->prims[PRIM_ROWS * h.slot + 1].w == 0.0f) ids[PATH_LEN] = h.id;
+        if (ids && first_hit && !obj.y && !is_sphere(sc->prims, h.slot)) ids[PATH_LEN] = h.id;
         float4 kd = sc->materials[MATERIAL_ROWS * obj.x], ks = sc->materials[MATERIAL_ROWS * obj.x + 1], tr = sc->materials[MATERIAL_ROWS * obj.x + 2];
         float transparency = tr.x, ior = tr.y, mirror = ks.w;
 
         float4 a = sc->prims[PRIM_ROWS * h.slot], b = sc->prims[PRIM_ROWS * h.slot + 1], c = sc->prims[PRIM_ROWS * h.slot + 2];
         float3 p, p_err; /* the hit point from the primitive, and its float32 error per axis */
         float3 n_geo, n_shade;
-        if (b.w != 0.0f) {
+        if (is_sphere_row(b)) {
             p = hit_point_sphere((float4)(a.xyz, b.x), o + h.t * d, &p_err);
             n_geo = unit(p - a.xyz);
             n_shade = n_geo;
