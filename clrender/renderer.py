@@ -18,7 +18,7 @@ import numpy as np
 import pyopencl as cl
 
 from .aov import AOV_NAMES
-from .errors import UsageError
+from .errors import require
 from .layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
 from .progress import progress
 from .scene import Scene
@@ -66,27 +66,22 @@ class RenderSettings:
         elif height is not None and width is None:
             width = max(1, round(height * scene.width / scene.height))
         s = replace(self, width=scene.width if width is None else width, height=scene.height if height is None else height)
-        checks = [
-            (s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1"),
-            (s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels"),
-            (s.aa in AA_MODES, f"unknown anti-aliasing mode {s.aa!r}; allowed: {', '.join(AA_MODES)}"),
-            (s.sampler in SAMPLERS, f"unknown sampler {s.sampler!r}; allowed: {', '.join(SAMPLERS)}"),
-            (s.pixel_filter in PIXEL_FILTERS, f"unknown pixel filter {s.pixel_filter!r}; allowed: {', '.join(PIXEL_FILTERS)}"),
-            (1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)"),
-            (math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0"),
-            (math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {s.contrast} must be a real number >= 0 (0: off)"),
-            (0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64"),
-            (s.light_sampler in LIGHT_SAMPLERS, f"unknown light sampler {s.light_sampler!r}; allowed: {', '.join(LIGHT_SAMPLERS)}"),
-            (0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}"),
-            (s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}"),
-            (0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1"),
-            (s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1"),
-            (isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
-             f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}"),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise UsageError(message)
+        require(s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1")
+        require(s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels")
+        require(s.aa in AA_MODES, f"unknown anti-aliasing mode {s.aa!r}; allowed: {', '.join(AA_MODES)}")
+        require(s.sampler in SAMPLERS, f"unknown sampler {s.sampler!r}; allowed: {', '.join(SAMPLERS)}")
+        require(s.pixel_filter in PIXEL_FILTERS, f"unknown pixel filter {s.pixel_filter!r}; allowed: {', '.join(PIXEL_FILTERS)}")
+        require(1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)")
+        require(math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0")
+        require(math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {s.contrast} must be a real number >= 0 (0: off)")
+        require(0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64")
+        require(s.light_sampler in LIGHT_SAMPLERS, f"unknown light sampler {s.light_sampler!r}; allowed: {', '.join(LIGHT_SAMPLERS)}")
+        require(0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}")
+        require(s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}")
+        require(0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1")
+        require(s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1")
+        require(isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
+                f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}")
         scene.camera(s.camera)
         return s
 
