@@ -19,7 +19,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .errors import STDERR_FD, RenderFailure, UsageError, shown
-from .outputs import write_file
+from .outputs import check_writable, write_file
 
 # An image header may promise any size; more pixels than this are refused
 # before a byte of them is allocated (the renderer's own limit, 8192 x 8192).
@@ -253,14 +253,7 @@ def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, input
     for other in inputs:
         if Path(other).resolve() == path.resolve() and not overwrite:
             raise UsageError(f"output {shown(path)} is the input; pass --overwrite to replace it")
-    if path.exists() and not overwrite:
-        raise UsageError(f"output {shown(path)} already exists; pass --overwrite to replace it")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"output folder {shown(parent)} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise UsageError(f"output folder {shown(parent)} is not writable")
-    return path
+    return check_writable(path, overwrite=overwrite)
 
 
 def check_distinct_outputs(**outputs) -> None:

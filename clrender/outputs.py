@@ -182,6 +182,14 @@ def check_file_output(path, *, overwrite: bool, suffixes: tuple[str, ...], optio
         raise UsageError(f"{option} {shown(path)} is a folder; name a file ending in {allowed}")
     if path.suffix.lower() not in suffixes:
         raise UsageError(f"{option} {shown(path)} must end in {allowed}")
+    return check_writable(path, overwrite=overwrite, option=option)
+
+
+def check_writable(path: Path, *, overwrite: bool, option: str = "output") -> Path:
+    """The part of every early output check that is about the file system: no file there
+    (unless overwrite), and a folder that exists and is writable."""
+    from .errors import shown
+
     if path.exists() and not overwrite:
         raise UsageError(f"{option} {shown(path)} already exists; pass --overwrite to replace it")
     parent = path.parent if str(path.parent) else Path(".")
