@@ -15,7 +15,7 @@ import pyopencl as cl
 
 from .device import Device, get_device
 from .layout import SAMPLERS
-from .tracer import LOCAL_SIZE, MAX_DEPTH_LIMIT, global_size
+from .tracer import LOCAL_SIZE, global_size, trace_defines
 
 
 def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device | None = None) -> np.ndarray:
@@ -24,7 +24,7 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     pixels = np.asarray(pixels, np.int32).ravel()
     k = len(pixels)
     out = dev.empty(8 * k * n * n)
-    knl = dev.kernel("trace.cl", "sample_offsets", {"USE_BVH": 1, "MAX_DEPTH": MAX_DEPTH_LIMIT})
+    knl = dev.kernel("trace.cl", "sample_offsets", trace_defines())  # the renderer's own build
     knl(dev.queue, global_size(k), (LOCAL_SIZE,), dev.to_device(pixels), np.int32(k), np.int32(SAMPLERS[sampler]),
         np.int32(n), np.uint32(seed), out)
     result = np.empty((k, n * n, 2), np.float32)

@@ -59,6 +59,17 @@ def global_size(n: int) -> tuple:
     return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
 
 
+def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False) -> dict:
+    """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
+    (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
+    from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
+    from .bvh_wide import stack_size
+
+    return {"USE_BVH": int(use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE,
+            "BVH_WIDTH": bvh_width, "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
+            "COUNT_PRIM_TESTS": int(count_prim_tests)}
+
+
 class Tracer:
     def __init__(self, scene_or_mesh, *, use_bvh: bool = True, builder: str = "sah", device: Device | str | None = None,
                  bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False):
@@ -111,12 +122,7 @@ class Tracer:
 
     @property
     def defines(self) -> dict:
-        from .bvh import STACK_SIZE
-        from .bvh_wide import stack_size
-
-        return {"USE_BVH": int(self.use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE,
-                "BVH_WIDTH": self.bvh_width, "WIDE_STACK_SIZE": stack_size(max(self.bvh_width, 4)),
-                "COUNT_PRIM_TESTS": int(self.count_prim_tests)}
+        return trace_defines(use_bvh=self.use_bvh, bvh_width=self.bvh_width, count_prim_tests=self.count_prim_tests)
 
     def kernel(self, name: str) -> cl.Kernel:
         return self.device.kernel("trace.cl", name, self.defines)

@@ -23,24 +23,16 @@
 
 #include "layout.h" /* PATH_LEN, ID_RECORD, the record strides, the light and sampler codes */
 
-#ifndef USE_BVH
-#define USE_BVH 1
-#endif
-#ifndef MAX_DEPTH
-#define MAX_DEPTH 8           /* longest mirror/refraction chain a kernel supports */
-#endif
-#ifndef STACK_SIZE
-#define STACK_SIZE 64         /* BVH traversal stack (clrender.bvh.STACK_SIZE); the builder keeps trees shallower */
+/* The traversal's build knobs come from the host (clrender.tracer.trace_defines), never from defaults here:
+ * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),
+ * STACK_SIZE (BVH traversal stack, clrender.bvh.STACK_SIZE; the builder keeps trees shallower),
+ * BVH_WIDTH (2: binary nodes; 4 or 8: wide nodes, clrender/bvh_wide.py), WIDE_STACK_SIZE. */
+#if !defined(USE_BVH) || !defined(MAX_DEPTH) || !defined(STACK_SIZE) || !defined(BVH_WIDTH) || !defined(WIDE_STACK_SIZE)
+#error "a traversal knob is missing: build trace.cl with clrender.tracer.trace_defines()"
 #endif
 #define RAY_STACK (MAX_DEPTH + 2)
-#ifndef BVH_WIDTH
-#define BVH_WIDTH 2           /* 2: binary nodes; 4 or 8: wide nodes (clrender/bvh_wide.py) */
-#endif
 #if BVH_WIDTH != 2 && BVH_WIDTH != 4 && BVH_WIDTH != 8
 #error "BVH_WIDTH must be 2, 4 or 8"
-#endif
-#ifndef WIDE_STACK_SIZE
-#define WIDE_STACK_SIZE 190   /* clrender.bvh_wide.stack_size(4) */
 #endif
 /* What the per-ray `visits` counter counts: nodes visited (leaves included; a wide node counts
  * once for its four boxes), or with -DCOUNT_PRIM_TESTS=1 the primitives tested. */

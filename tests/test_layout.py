@@ -8,6 +8,7 @@ import pytest
 
 from clrender import layout
 from clrender.device import build_options, kernel_dir
+from clrender.tracer import trace_defines
 
 KERNEL_FILES = ("trace.cl", "splat_gauss.cl", "splat_voronoi.cl")
 INT_NAMES = [name for name, value in layout.DEFINES.items() if isinstance(value, int)]
@@ -29,7 +30,7 @@ __kernel void report(__global int *ints, __global float *eps) {{
 
 
 def test_the_kernels_see_the_hosts_values_and_record_sizes(device):
-    program = cl.Program(device.context, REPORT).build(options=[f"-I{kernel_dir()}", *build_options({"MAX_DEPTH": 4})])
+    program = cl.Program(device.context, REPORT).build(options=[f"-I{kernel_dir()}", *build_options(trace_defines())])
     ints, eps = np.zeros(len(INT_NAMES) + 4, np.int32), np.zeros(1, np.float32)
     ints_buf, eps_buf = device.empty(ints.nbytes), device.empty(eps.nbytes)
     program.report(device.queue, (1,), None, ints_buf, eps_buf)

@@ -120,8 +120,8 @@ for use_bvh, width, count in ((True, 4, False), (True, 2, False), (False, 4, Fal
 """),
     "refract_rays": (("refract_rays",), """
 import math
-from clrender.tracer import MAX_DEPTH_LIMIT
-knl = dev.kernel("trace.cl", "refract_rays", {"USE_BVH": 1, "MAX_DEPTH": MAX_DEPTH_LIMIT})
+from clrender.tracer import trace_defines
+knl = dev.kernel("trace.cl", "refract_rays", trace_defines())
 angles = np.radians([0.0, 30.0, 60.0, 80.0])
 d = np.stack([np.sin(angles), np.zeros(4), -np.cos(angles), np.zeros(4)], 1).astype(np.float32)
 normals = np.tile(np.float32([0, 0, 1, 0]), (4, 1))

@@ -12,6 +12,7 @@ from clrender.imageio import linear_to_srgb, srgb_to_linear, write_display_image
 from clrender.renderer import render
 from clrender.sampling import sample_offsets
 from clrender.scene import Scene
+from clrender.tracer import trace_defines
 
 # Linear values whose sRGB codes are known from IEC 61966-2-1, worked by hand:
 #   0.5        -> 1.055 * 0.5**(1/2.4) - 0.055 = 0.735357 -> 8-bit round(187.52) = 188
@@ -98,7 +99,7 @@ __kernel void filter_weights(int filter, int n, __global const float2 *offsets, 
 
 @pytest.fixture(scope="module")
 def helpers(device):
-    options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options({"USE_BVH": 1, "MAX_DEPTH": 16})]
+    options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(trace_defines())]
     program = cl.Program(device.context, HELPERS).build(options=options)
     return {name: cl.Kernel(program, name) for name in ("sobol_points", "filter_weights")}
 

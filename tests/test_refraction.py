@@ -5,7 +5,7 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from clrender.tracer import MAX_DEPTH_LIMIT
+from clrender.tracer import trace_defines
 
 
 def refract(device, incidence_degrees, n1, n2):
@@ -17,7 +17,7 @@ def refract(device, incidence_degrees, n1, n2):
     normals = np.tile(np.float32([0, 0, 1, 0]), (k, 1))
     eta = np.full(k, n1 / n2, np.float32)
     out = device.empty(16 * k)
-    knl = device.kernel("trace.cl", "refract_rays", {"USE_BVH": 1, "MAX_DEPTH": MAX_DEPTH_LIMIT})
+    knl = device.kernel("trace.cl", "refract_rays", trace_defines())
     knl(device.queue, (k,), None, np.int32(k), device.to_device(d), device.to_device(normals), device.to_device(eta), out)
     result = np.empty((k, 4), np.float32)
     cl.enqueue_copy(device.queue, result, out)
