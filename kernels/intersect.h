@@ -254,7 +254,7 @@ inline int push_lanes(int node, lanes_f t_lanes, int *stack, float *stack_t, int
 
 inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                             Ray r, float t_min, Hit best, uint *visits) {
-    /* trees are at most MAX_DEPTH deep: the stack holds at most 3 siblings per level plus one
+    /* trees are at most clrender.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
        node's lanes (clrender.bvh_wide.stack_size); should it fill up, every primitive is tested */
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
@@ -289,7 +289,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     Hit best = no_hit();
     best.t = t_max;
 #if USE_BVH && BVH_WIDTH == 2
-    /* the builder keeps trees at most clrender.bvh.MAX_DEPTH deep, so near-first traversal holds
+    /* the builder keeps trees at most clrender.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
        at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
        primitives are then all tested (the answer is the same, only slower) */
     int stack[STACK_SIZE];
