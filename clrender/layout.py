@@ -36,6 +36,11 @@ PRIM_SLOT_DTYPE = np.dtype([("a", *_F4), ("b", *_F4), ("c", *_F4)])
 MATERIAL_DTYPE = np.dtype([("kd_shininess", *_F4), ("ks_mirror", *_F4), ("transparency_ior", *_F4)])
 # (type, samples per side, intensity, falloff) (position | direction of travel | corner, 0) (colour, 0) (edge a, 0) (edge b, 0)
 LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edge_a", *_F4), ("edge_b", *_F4)])
+# one splat-tile entry of the backward kernel: d/d(mean x, y), d/d(A, B2, C) of the inverse covariance,
+# d/d(colour), d/d(opacity), and the splat's summed weight over the tile
+SPLAT_GRAD_DTYPE = np.dtype([("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3),
+                             ("opacity", "<f4"), ("weight", "<f4")])
+assert SPLAT_GRAD_DTYPE.itemsize == 4 * SPLAT_NGRAD
 assert ID_RECORD_DTYPE.itemsize == 4 * ID_RECORD
 assert PRIM_SLOT_DTYPE.itemsize == 16 * PRIM_ROWS and MATERIAL_DTYPE.itemsize == 16 * MATERIAL_ROWS
 assert LIGHT_DTYPE.itemsize == 16 * LIGHT_ROWS

@@ -28,10 +28,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UsageError, shown
-from ..layout import SPLAT_EPS, SPLAT_NGRAD, SPLAT_TILE
+from ..layout import SPLAT_EPS, SPLAT_GRAD_DTYPE, SPLAT_NGRAD, SPLAT_TILE
 
 TILE = SPLAT_TILE  # pixels per tile side (shared with the kernels: clrender/layout.py)
-NGRAD = SPLAT_NGRAD  # kernel gradient row: mx, my, A, B2, C, r, g, b, opacity, sum of weights
+NGRAD = SPLAT_NGRAD  # floats per kernel gradient entry (layout.SPLAT_GRAD_DTYPE)
+# the per-splat sums of the entries, in float64 (np.bincount's), with the entries' field names
+_GRAD_SUMS = np.dtype([(name, "<f8", SPLAT_GRAD_DTYPE[name].shape) for name in SPLAT_GRAD_DTYPE.names])
 EPS = SPLAT_EPS  # normalized blend: weight of the background colour
 BACKWARD_GROUP = 64  # work-items per work-group of the backward kernel
 PREPARE_GROUP = 64  # and of the packing kernel
@@ -295,12 +297,12 @@ class GaussRenderer:
         entry_splat = np.ascontiguousarray(binning.entry_splat[entries])
         entry_tile = np.ascontiguousarray(binning.entry_tile[entries])
         n_entries = len(entry_splat)
-        nbytes = n_entries * NGRAD * 4
+        nbytes = n_entries * SPLAT_GRAD_DTYPE.itemsize
         dev.check_fits(nbytes, f"{n_entries} splat-tile gradient rows")
         if nbytes > self._partial_bytes:
             self._partial_bytes = max(nbytes, int(self._partial_bytes * 1.5))
             self._partial = dev.empty(self._partial_bytes)
-        partial = np.empty((n_entries, NGRAD), np.float32)
+        partial = np.empty(n_entries, SPLAT_GRAD_DTYPE)
         if n_entries:
             b_splats, b_colors, b_box = frame.packed
             # a fixed work-group size: PoCL builds a kernel binary per local size, so letting the
@@ -312,8 +314,8 @@ class GaussRenderer:
             cl.enqueue_copy(dev.queue, partial, self._partial)
         # sum the rows of each splat: one bincount over (splat, column) pairs, in entry order
         keys = (entry_splat[:, None] * NGRAD + np.arange(NGRAD)).ravel()
-        raw = np.bincount(keys, weights=partial.ravel(), minlength=params.n * NGRAD).reshape(params.n, NGRAD)
-        return chain_rule(params, raw)
+        sums = np.bincount(keys, weights=partial.view(np.float32), minlength=params.n * NGRAD)
+        return chain_rule(params, sums.view(_GRAD_SUMS))
 
 
 def aligned_array(shape, zero: bool) -> np.ndarray:
@@ -345,24 +347,25 @@ def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, bl
 
 
 def chain_rule(params: GaussParams, raw: np.ndarray) -> dict[str, np.ndarray]:
-    """From the kernel's (mx, my, A, B2, C, colour, opacity) gradients to every parameter group."""
+    """From the kernel's gradients per splat (mean, A, B2, C, colour, opacity; fields of
+    layout.SPLAT_GRAD_DTYPE) to every parameter group."""
     ls = params.log_scale.astype(np.float64)
     a, b = np.exp(-2.0 * ls[:, 0]), np.exp(-2.0 * ls[:, 1])
     c, s = np.cos(params.theta.astype(np.float64)), np.sin(params.theta.astype(np.float64))
-    gA, gB, gC = raw[:, 2], raw[:, 3], raw[:, 4]
+    gA, gB, gC = raw["A"], raw["B2"], raw["C"]
     # A = c^2 a + s^2 b, B2 = 2cs (a - b), C = s^2 a + c^2 b;  da/dlog sx = -2a
     g_a = gA * c * c + gB * 2 * c * s + gC * s * s
     g_b = gA * s * s - gB * 2 * c * s + gC * c * c
     g_theta = gA * 2 * c * s * (b - a) + gB * 2 * (c * c - s * s) * (a - b) + gC * 2 * c * s * (a - b)
-    g_color_eff = raw[:, 5:8]
+    g_color_eff = raw["color"]
     return {
-        "xy": raw[:, 0:2].astype(np.float32),
+        "xy": raw["mean"].astype(np.float32),
         "log_scale": np.stack([-2 * a * g_a, -2 * b * g_b], axis=1).astype(np.float32),
         "theta": g_theta.astype(np.float32),
         "color": (g_color_eff * params.lum[:, None]).astype(np.float32),
         "lum": np.einsum("ij,ij->i", g_color_eff, params.color).astype(np.float32),
-        "opacity": raw[:, 8].astype(np.float32),
-        "weight": raw[:, 9].astype(np.float32),
+        "opacity": raw["opacity"].astype(np.float32),
+        "weight": raw["weight"].astype(np.float32),
     }
 
 
