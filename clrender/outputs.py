@@ -14,6 +14,13 @@ Several outputs of one command form a set (`output_set`): every file is
 written first, then all are put in place; if any step fails, the ones already
 placed are undone, so the folder holds the old set or the new one.
 
+Placing with overwrite (and keeping the old files of a set for undo) needs
+hidden *named* files for a few system calls, since Linux cannot rename an
+unnamed file over an existing one.  A SIGKILL inside that window (catchable
+signals wait for it) leaves one such `.NAME.PID.XXXXXXXX.clrender-tmp`; it
+carries the writer's pid, and the next write into that folder removes those
+whose process is gone.
+
     with output_set(overwrite=args.overwrite):
         write_image(out, pixels)            # staged, not yet visible
         save_npz(params_path, xy=xy)        # staged
@@ -26,6 +33,7 @@ import contextvars
 import csv
 import errno
 import os
+import re
 import signal
 import tempfile
 import weakref
@@ -38,6 +46,8 @@ from .errors import UsageError
 _LIVE: weakref.WeakSet[OutputSet] = weakref.WeakSet()  # sets with staged files, for discard_all
 _CURRENT: contextvars.ContextVar[OutputSet | None] = contextvars.ContextVar("clrender_output_set", default=None)
 TEMP_MARK = ".clrender-tmp"  # part of every named temp file's name (tests look for it)
+# ".NAME.PID.XXXXXXXX.clrender-tmp[.ext]": which process left a named temp file
+_TEMP_NAME = re.compile(r"^\..*\.(\d+)\.[A-Za-z0-9_]+" + re.escape(TEMP_MARK) + r"(\.[^.]*)?$")
 
 
 class _Staged:
@@ -53,7 +63,7 @@ class _Staged:
         except (AttributeError, OSError) as exc:
             if isinstance(exc, OSError) and exc.errno not in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL):
                 raise
-            fd, self.named = tempfile.mkstemp(prefix=f".{final.name}.", suffix=f"{TEMP_MARK}{final.suffix}", dir=folder)
+            fd, self.named = tempfile.mkstemp(prefix=_temp_prefix(final), suffix=f"{TEMP_MARK}{final.suffix}", dir=folder)
             os.close(fd)
             mask = os.umask(0)
             os.umask(mask)
@@ -123,6 +133,7 @@ class OutputSet:
         final = Path(final)
         if final.is_dir():
             raise UsageError(f"output {_show(final)} is a folder; name a file inside it")
+        remove_stale_temps(final.parent)
         staged = _Staged(final)
         self.staged.append(staged)
         writer(staged.path)
@@ -251,8 +262,35 @@ def write_csv(final, rows: list[dict], *, overwrite: bool = True) -> Path:
     return write_file(final, writer, overwrite=overwrite)
 
 
+def _temp_prefix(final: Path) -> str:
+    return f".{final.name}.{os.getpid()}."
+
+
+def remove_stale_temps(folder: Path) -> None:
+    """Remove the named temp files in `folder` whose writer no longer runs (left by a SIGKILL)."""
+    try:
+        names = [e.name for e in os.scandir(folder) if TEMP_MARK in e.name]
+    except OSError:
+        return  # the write itself reports an unreadable folder
+    for name in names:
+        match = _TEMP_NAME.match(name)
+        if match and not _process_runs(int(match.group(1))):
+            with contextlib.suppress(OSError):
+                os.unlink(os.path.join(folder, name))
+
+
+def _process_runs(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # someone else's process, or not a pid: leave the file alone
+    return True
+
+
 def _hidden_name(final: Path) -> str:
-    fd, name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=TEMP_MARK, dir=str(final.parent) or ".")
+    fd, name = tempfile.mkstemp(prefix=_temp_prefix(final), suffix=TEMP_MARK, dir=str(final.parent) or ".")
     os.close(fd)
     os.unlink(name)  # only the unique name is wanted; link() needs it absent
     return name
