@@ -12,7 +12,10 @@ source strings together.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
+import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,11 +60,14 @@ class Device:
             options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
             start = time.perf_counter()
             try:
-                prg = cl.Program(self.context, source).build(options=options)
+                with _compiler_stderr_silenced():
+                    prg = cl.Program(self.context, source).build(options=options)
             except cl.RuntimeError as exc:
                 from .errors import RenderFailure
 
-                raise RenderFailure(f"building kernels/{filename} failed on {self.name}:\n{exc}") from exc
+                logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
+                raise RenderFailure(
+                    f"building kernels/{filename} failed on {self.name}: {_first_error(str(exc))}") from exc
             self.compile_seconds += time.perf_counter() - start
             self._programs[key] = prg
         return prg
@@ -115,6 +121,29 @@ def build_options(defines: dict | None = None) -> list[str]:
     if clash:
         raise ValueError(f"{sorted(clash)} are fixed in clrender/layout.py, not per build")
     return [f"-D{k}={_define_value(v)}" for k, v in sorted({**LAYOUT_DEFINES, **(defines or {})}.items())]
+
+
+@contextlib.contextmanager
+def _compiler_stderr_silenced():
+    """Keep the OpenCL compiler's own writes to the process's stderr (PoCL's clang prints
+    "1 error generated.") off the terminal: the build log comes back in the exception."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
+    finally:
+        os.close(saved)
+
+
+def _first_error(log: str) -> str:
+    """The first compiler error of a build log (the whole log is logged at debug level)."""
+    lines = [line.strip() for line in log.splitlines() if line.strip()]
+    return next((line for line in lines if "error:" in line), lines[0] if lines else "no build log")
 
 
 def _define_value(value) -> str:
