@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from clrender.imageio import linear_to_srgb, write_display_image
-from clrender.renderer import Renderer
-from clrender.scene import Scene
-from clrender.tracer import Tracer
+from clrender.image.files import linear_to_srgb, write_display_image
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
 
 from .common import write_table
 
@@ -71,7 +71,7 @@ def main(argv=None):
              f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     print(write_table(out, "aa", rows, title))
     write_display_image(out / "aa_edge.png", runs["edge_detect"].image)
-    from clrender.edges import overlay_edges
+    from clrender.trace.edges import overlay_edges
 
     write_display_image(out / "aa_mask.png", overlay_edges(runs["none"].image, runs["edge_detect"].edge_mask))
     full, edge = rows[1], rows[3]

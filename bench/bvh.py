@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from clrender.renderer import Renderer
-from clrender.scene import Scene
-from clrender.tracer import Tracer
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
 
 from .common import write_table
 
@@ -102,7 +102,7 @@ def main(argv=None):
     title = (f"BVH on vs off, {args.width}x{args.height}, 1 sample per pixel, "
              f"{args.light_samples}x{args.light_samples} area-light samples, median of {args.runs}")
     print(write_table(out, "bvh", rows, title))
-    from clrender.plot import bar_chart
+    from clrender.image.plot import bar_chart
 
     bar_chart(out / "bvh.png", [r["scene"] if args.cameras == "1" else f"{r['scene']} {r['camera']}" for r in rows],
               {"without BVH": [r["off_s"] for r in rows], "with BVH": [r["on_s"] for r in rows]},

@@ -41,8 +41,8 @@ from pathlib import Path
 os.environ.setdefault("POCL_MAX_PTHREAD_COUNT", "1")
 os.environ.setdefault("POCL_CPU_MAX_CU_NUM", "1")
 
-from clrender.renderer import Renderer, RenderSettings
-from clrender.scene import Scene
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer, RenderSettings
 
 from .common import write_table
 

@@ -1,7 +1,7 @@
 """Convolution filters, OpenCV vs plain numpy: `python -m bench filters [--size N] [--runs K] [--out DIR]`.
 
 Each filter family at sizes 3, 33, 101 on an N x N RGB float32 image
-(default 4096): the median of K runs of `clrender.filters.apply` (OpenCV)
+(default 4096): the median of K runs of `clrender.image.filters.apply` (OpenCV)
 after one untimed warm-up call,
 and the same operation in plain numpy with the same reflect-101 border --
 brighten by one multiply, box blur by running sums along rows then columns,
@@ -29,8 +29,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from clrender import filters
-from clrender.plot import bar_chart, line_chart
+from clrender.image import filters
+from clrender.image.plot import bar_chart, line_chart
 
 from .common import write_table
 
@@ -164,7 +164,7 @@ def main(argv=None):
     print(write_table(out, "filters", rows, title))
     both = [r for r in rows if r["numpy_s"] != ""]
     bar_chart(out / "filters.png", [r["filter"] for r in both],
-              {"OpenCV (clrender.filters)": [r["opencv_s"] for r in both],
+              {"OpenCV (clrender.image.filters)": [r["opencv_s"] for r in both],
                "plain numpy": [r["numpy_s"] for r in both]},
               title=title, ylabel="seconds (log scale)", log=True)
     grown = sorted({r["size"] for r in rows if r["filter"].startswith(("box", "gauss"))})

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from clrender.camera import Camera
 from clrender.device import get_device
-from clrender.scene import load_mesh_file
-from clrender.tracer import Tracer
+from clrender.scene.camera import Camera
+from clrender.scene.scene import load_mesh_file
+from clrender.trace.tracer import Tracer
 
 from .common import median_seconds, write_table
 
@@ -62,7 +62,7 @@ def ray_sets(mesh, size: int, seed: int = 0):
     cam = framing_camera(np.asarray(mesh.vertices))
     o, d = cam.rays(size, size)
     o, d = o.reshape(-1, 3).astype(np.float32), d.reshape(-1, 3).astype(np.float32)
-    from clrender.tracer import Tracer as _T  # closest hits from the exact (binary, SAH) tracer
+    from clrender.trace.tracer import Tracer as _T  # closest hits from the exact (binary, SAH) tracer
 
     t, prim, _ = _T(mesh, bvh_width=2).intersect(o, d)
     hit = np.isfinite(t)
@@ -137,10 +137,10 @@ def embree_rates(mesh, rays: dict, runs: int):
 def build_times(n_triangles: int, runs: int):
     """Build time (wall and CPU) and SAH cost of each builder with its default leaves, and of the tree
     the Tracer builds for its default width (leaves of MAX_LEAF_SIZE[width], then the collapse)."""
-    from clrender.bvh import build_bvh
-    from clrender.bvh_wide import collapse
-    from clrender.meshes import dense_mesh
-    from clrender.tracer import DEFAULT_BVH_WIDTH, MAX_LEAF_SIZE
+    from clrender.scene.meshes import dense_mesh
+    from clrender.trace.bvh import build_bvh
+    from clrender.trace.bvh_wide import collapse
+    from clrender.trace.tracer import DEFAULT_BVH_WIDTH, MAX_LEAF_SIZE
 
     mesh = dense_mesh(n_triangles, seed=1)
     tri = np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)]
@@ -177,7 +177,7 @@ def summary(rows: list[dict]) -> str:
 
 def chart(path: Path, rows: list[dict], title: str) -> None:
     """Bars of Mrays/s (wall) and Mrays per CPU-second for each ray kind, one series per layout."""
-    from clrender.plot import bar_chart
+    from clrender.image.plot import bar_chart
 
     name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {r['builder']} width {r['width']}"
     labels = [f"{k}\n{unit}" for k in KINDS for unit in ("Mrays/s", "per CPU-s")]
@@ -201,7 +201,7 @@ def main(argv=None):
         mesh = load_mesh_file(Path(args.mesh), "--mesh")
         label = args.mesh
     else:
-        from clrender.meshes import dense_mesh
+        from clrender.scene.meshes import dense_mesh
 
         mesh = dense_mesh(100_000, seed=0)
         label = "generated"

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from clrender.device import get_device
-from clrender.imageio import read_image, write_image
+from clrender.image.files import read_image, write_image
 from clrender.splat.fit import FitConfig, Fitter, as_rgb, initial_params
 from clrender.splat.gauss import GaussRenderer
 from clrender.splat.losses import loss_and_grad
@@ -171,9 +171,9 @@ def main(argv=None):
     if not curves:
         return 0
     try:
-        from clrender.plot import line_chart
+        from clrender.image.plot import line_chart
     except ImportError:
-        print("clrender.plot is not available: no curve picture")
+        print("clrender.image.plot is not available: no curve picture")
         return 0
     # PSNR against time, each blend resampled on a common time axis
     end = max(budgets)

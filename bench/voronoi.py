@@ -123,7 +123,7 @@ def montage(path, image, pictures):
     """Original and reconstructions side by side, labelled, as one PNG (stored values, no transform)."""
     import cv2
 
-    from clrender.imageio import write_image
+    from clrender.image.files import write_image
 
     tiles = [("original", image)] + list(pictures.items())
     out = []
@@ -149,7 +149,7 @@ def main(argv=None):
     ap.add_argument("--out", default="bench/out", help="output folder")
     args = ap.parse_args(argv)
     if args.image:
-        from clrender.imageio import read_image
+        from clrender.image.files import read_image
 
         image = read_image(args.image).pixels
         label = args.image
@@ -183,7 +183,7 @@ def main(argv=None):
     print(f"Lloyd energy per step: {', '.join(f'{e:.4g}' for e in energies)}")
     montage(out / "voronoi.png", image, pictures)
     try:
-        from clrender.plot import bar_chart, line_chart
+        from clrender.image.plot import bar_chart, line_chart
 
         bar_chart(out / "voronoi_times.png", [r["method"] for r in rows], {"ms": [r["ms"] for r in rows]},
                   title=f"Nearest-site pass, {args.splats} sites, {w}x{h}", ylabel="ms (log)", log=True)

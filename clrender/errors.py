@@ -11,7 +11,7 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 1
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 MAX_SHOWN = 200  # characters of any echoed value kept in a message
-# The terminal's stderr while a C library's messages are being caught (imageio redirects fd 2 for a moment):
+# The terminal's stderr while a C library's messages are being caught (image/files.py redirects fd 2 for a moment):
 # a signal handler that says "interrupted" must write there, not into the catch.
 STDERR_FD = [2]
 

@@ -183,7 +183,7 @@ class OutputSet:
 def check_file_output(path, *, overwrite: bool, suffixes: tuple[str, ...], option: str = "output") -> Path:
     """Refuse a non-image output we could not write (splats, sites, a video), before any work is done:
     a folder, another extension, an existing file without --overwrite, a missing or read-only folder.
-    Images go through imageio.check_output_path, which also asks the image library for a writer;
+    Images go through image.files.check_output_path, which also asks the image library for a writer;
     the final no-clobber check happens when the finished file is put in place (above)."""
     from .errors import shown
 

@@ -16,8 +16,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import clrender
-from clrender.imageio import linear_to_srgb
-from clrender.plot import save
+from clrender.image.files import linear_to_srgb
+from clrender.image.plot import save
 
 SCENE, CAMERA = "wizard_cat", 3  # the seed's edge-AA run: camera 3, stratified 4x4 here
 args = [a for a in sys.argv[1:] if not a.startswith("-")]  # a notebook kernel passes -f FILE

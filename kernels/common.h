@@ -1,11 +1,11 @@
 /* Shared definitions for the tracing kernels (OpenCL C 1.2, float32).
  *
- * Buffer layouts (records and strides in clrender/layout.py; packed by clrender/geometry.py,
+ * Buffer layouts (records and strides in clrender/layout.py; packed by clrender/trace/geometry.py,
  * tracer.py, materials.py, lights.py and renderer.py):
  *   nodes     BVH_WIDTH 2: float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
  *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
  *             interior: count == 0, near child i+1, far child `offset`.
- *             BVH_WIDTH 4 or 8: 8 rows of BVH_WIDTH floats per node, see clrender/bvh_wide.py.
+ *             BVH_WIDTH 4 or 8: 8 rows of BVH_WIDTH floats per node, see clrender/trace/bvh_wide.py.
  *   prims     float4 x3 per primitive slot, in BVH leaf order:
  *             triangle: (v0, id) (v1, 0) (v2, 0) -- the vertices themselves, so two
  *             triangles that share an edge see bit-identical endpoints (watertight)
@@ -23,12 +23,12 @@
 
 #include "layout.h" /* PATH_LEN, ID_RECORD, the record strides, the light and sampler codes */
 
-/* The traversal's build knobs come from the host (clrender.tracer.trace_defines), never from defaults here:
+/* The traversal's build knobs come from the host (clrender.trace.tracer.trace_defines), never from defaults here:
  * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),
- * STACK_SIZE (BVH traversal stack, clrender.bvh.STACK_SIZE; the builder keeps trees shallower),
- * BVH_WIDTH (2: binary nodes; 4 or 8: wide nodes, clrender/bvh_wide.py), WIDE_STACK_SIZE. */
+ * STACK_SIZE (BVH traversal stack, clrender.trace.bvh.STACK_SIZE; the builder keeps trees shallower),
+ * BVH_WIDTH (2: binary nodes; 4 or 8: wide nodes, clrender/trace/bvh_wide.py), WIDE_STACK_SIZE. */
 #if !defined(USE_BVH) || !defined(MAX_DEPTH) || !defined(STACK_SIZE) || !defined(BVH_WIDTH) || !defined(WIDE_STACK_SIZE)
-#error "a traversal knob is missing: build trace.cl with clrender.tracer.trace_defines()"
+#error "a traversal knob is missing: build trace.cl with clrender.trace.tracer.trace_defines()"
 #endif
 #define RAY_STACK (MAX_DEPTH + 2)
 #if BVH_WIDTH != 2 && BVH_WIDTH != 4 && BVH_WIDTH != 8

@@ -189,7 +189,7 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
     }
 }
 
-/* ---------------------------------------------------------------- wide BVH (clrender/bvh_wide.py)
+/* ---------------------------------------------------------------- wide BVH (clrender/trace/bvh_wide.py)
  * BVH_WIDTH 4 or 8.  A node is 8 rows of BVH_WIDTH floats (float4 or float8 rows, read as typed
  * vectors: vloadN here was 17% slower on PoCL): lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its
  * children, then the children's int32 index (wide node, or first slot of a leaf) and count
@@ -254,8 +254,8 @@ inline int push_lanes(int node, lanes_f t_lanes, int *stack, float *stack_t, int
 
 inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                             Ray r, float t_min, Hit best, uint *visits) {
-    /* trees are at most clrender.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
-       node's lanes (clrender.bvh_wide.stack_size); should it fill up, every primitive is tested */
+    /* trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
+       node's lanes (clrender.trace.bvh_wide.stack_size); should it fill up, every primitive is tested */
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE];
@@ -289,7 +289,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     Hit best = no_hit();
     best.t = t_max;
 #if USE_BVH && BVH_WIDTH == 2
-    /* the builder keeps trees at most clrender.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
+    /* the builder keeps trees at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
        at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
        primitives are then all tested (the answer is the same, only slower) */
     int stack[STACK_SIZE];

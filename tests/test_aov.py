@@ -10,8 +10,8 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from clrender.aov import CHANNELS
-from clrender.renderer import Renderer
+from clrender.trace.aov import CHANNELS
+from clrender.trace.renderer import Renderer
 
 from clitools import run_cli
 

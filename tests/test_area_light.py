@@ -1,8 +1,8 @@
 """Parallelogram area lights: the kernel's stratified estimate against host quadrature and Lambert's formula."""
 import numpy as np
 
-from clrender.renderer import Renderer
-from clrender.scene import Scene
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
 
 SIZE = 24
 LIGHT = dict(type="area", corner=[-0.6, 1.5, -0.4], edge_a=[1.2, 0, 0], edge_b=[0, 0.3, 0.8], intensity=2.0)

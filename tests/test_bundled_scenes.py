@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from clrender.scene import bundled_scenes
+from clrender.scene.scene import bundled_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = sorted(bundled_scenes())
@@ -83,7 +83,7 @@ def test_checkout_uses_its_own_kernels_and_scenes(tmp_path, no_scipy):
     for name in ("clrender", "kernels", "scenes"):
         shutil.copytree(ROOT / name, checkout / name, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "setup.cfg", checkout / "setup.cfg")
-    probe = ("import clrender, clrender.package_data as p, clrender.scene as s; "
+    probe = ("import clrender, clrender.package_data as p, clrender.scene.scene as s; "
              "print(clrender.__file__); print(p.data_dir('kernels')); print(s.bundled_scenes()['refract1'])")
     proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=checkout,
                           env=dict(os.environ, PYTHONPATH=str(checkout)))

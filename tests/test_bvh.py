@@ -3,9 +3,9 @@ traversal in numpy against brute force."""
 import numpy as np
 import pytest
 
-import clrender.bvh as bvh_module
-from clrender.bvh import BUILDERS, MAX_TREE_LEVELS, NODE_DTYPE, build_bvh
+import clrender.trace.bvh as bvh_module
 from clrender.errors import UsageError
+from clrender.trace.bvh import BUILDERS, MAX_TREE_LEVELS, NODE_DTYPE, build_bvh
 
 
 def soup(rng, n, size=0.05):

@@ -1,14 +1,14 @@
-"""The wide BVHs (clrender/bvh_wide.py, 4 and 8 lanes): the tree's invariants, and the same closest
+"""The wide BVHs (clrender/trace/bvh_wide.py, 4 and 8 lanes): the tree's invariants, and the same closest
 hits and occlusion answers as the binary tree and as the BVH-off path (every ray tests every primitive)."""
 import numpy as np
 import pytest
 from test_exact_rays import degenerate_meshes, rays_at_triangles
 
-import clrender.tracer
-from clrender.bvh import build_bvh, half_area
-from clrender.bvh_wide import collapse
-from clrender.meshes import dense_mesh
-from clrender.tracer import Tracer
+import clrender.trace.tracer
+from clrender.scene.meshes import dense_mesh
+from clrender.trace.bvh import build_bvh, half_area
+from clrender.trace.bvh_wide import collapse
+from clrender.trace.tracer import Tracer
 
 
 def triangle_bounds(vertices, faces):
@@ -152,10 +152,10 @@ def test_wide_binary_and_brute_force_agree_on_axis_aligned_and_grazing_rays(devi
 @pytest.mark.parametrize("stack_size", [None, 2])
 def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(
         device, stack_size, monkeypatch):
-    """With clrender.bvh.STACK_SIZE = 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
+    """With clrender.trace.bvh.STACK_SIZE = 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
     on purpose and the kernels' fallback must still give the brute-force answers."""
     if stack_size is not None:
-        monkeypatch.setattr("clrender.bvh.STACK_SIZE", stack_size)
+        monkeypatch.setattr("clrender.trace.bvh.STACK_SIZE", stack_size)
     rng = np.random.default_rng(23)
     for name, vertices in degenerate_meshes(rng):
         mesh = (vertices, np.arange(len(vertices)).reshape(-1, 3))
@@ -167,7 +167,7 @@ def test_wide_tree_counts_fewer_node_visits_for_the_same_primitive_tests(device,
     """The BVH on/off harness stays honest: node visits and primitive tests are counted per ray, and
     the wide tree visits fewer nodes for about the same primitive tests on camera-like rays (both
     layouts over the same binary tree: leaves of at most 4)."""
-    monkeypatch.setitem(clrender.tracer.MAX_LEAF_SIZE, 4, 4)
+    monkeypatch.setitem(clrender.trace.tracer.MAX_LEAF_SIZE, 4, 4)
     mesh = dense_mesh(5000, seed=2)
     v = np.asarray(mesh.vertices)
     centre = (v.min(0) + v.max(0)) / 2

@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from clrender.imageio import read_image
+from clrender.image.files import read_image
 
 from clitools import run_cli
 

@@ -5,11 +5,11 @@ import OpenImageIO as oiio
 import pytest
 
 import clrender.device
-import clrender.renderer
+import clrender.trace.renderer
 from clrender.cli import build_parser
 from clrender.commands.render import settings_from_args
 from clrender.errors import UsageError
-from clrender.renderer import RenderSettings, render
+from clrender.trace.renderer import RenderSettings, render
 
 from clitools import run_cli
 
@@ -74,7 +74,7 @@ def test_the_settings_reach_the_renderer(tmp_path, capsys, monkeypatch):
         raise UsageError("stopped by the test")  # a clean exit 2, nothing rendered
 
     # the class itself, wherever the command imports it from
-    monkeypatch.setattr(clrender.renderer.Renderer, "__init__", recorder)
+    monkeypatch.setattr(clrender.trace.renderer.Renderer, "__init__", recorder)
     code, _, err = run_cli(capsys, "-q", "render", "refract1", "2", "full", "stratified", "3", "1.5", "off",
                            "--seed", "7", "-o", str(tmp_path / "x.png"))
     assert code == 2 and "stopped by the test" in err
@@ -154,14 +154,14 @@ def test_output_folder_vanishing_during_the_render_exits_1(tmp_path, capsys, mon
 
     folder = tmp_path / "out"
     folder.mkdir()
-    render_run = clrender.renderer.Renderer.run
+    render_run = clrender.trace.renderer.Renderer.run
 
     def run_then_remove_the_folder(self):
         result = render_run(self)
         shutil.rmtree(folder)
         return result
 
-    monkeypatch.setattr(clrender.renderer.Renderer, "run", run_then_remove_the_folder)
+    monkeypatch.setattr(clrender.trace.renderer.Renderer, "run", run_then_remove_the_folder)
     code, stdout, err = run_cli(capsys, "-q", "render", "refract1", "--width", "8", "--height", "6",
                                 "-o", str(folder / "x.png"))
     assert code == 1, err
@@ -225,7 +225,7 @@ def test_unknown_filter_is_refused_before_rendering(tmp_path, capsys, monkeypatc
     def no_render(*args, **kwargs):
         raise AssertionError("rendered before checking the filter")
 
-    monkeypatch.setattr(clrender.renderer.Renderer, "__init__", no_render)
+    monkeypatch.setattr(clrender.trace.renderer.Renderer, "__init__", no_render)
     code, _, err = run_cli(capsys, "render", "refract1", "--filter", "sharpen_3", "-o", str(tmp_path / "x.png"))
     assert code == 2 and err.startswith("clrender: ") and "sharpen_3" in err
     assert list(tmp_path.iterdir()) == []

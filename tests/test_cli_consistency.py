@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from clrender.cli import main
-from clrender.imageio import probe_image, write_image
-from clrender.renderer import RenderSettings
-from clrender.scene import Scene, bundled_scenes
+from clrender.image.files import probe_image, write_image
+from clrender.scene.scene import Scene, bundled_scenes
+from clrender.trace.renderer import RenderSettings
 
 
 def run(capsys, *argv):

@@ -5,9 +5,9 @@ import sys
 import numpy as np
 import pytest
 
-from clrender import filters
 from clrender.cli import main
-from clrender.imageio import linear_to_srgb, probe_image, read_image, srgb_to_linear, write_image
+from clrender.image import filters
+from clrender.image.files import linear_to_srgb, probe_image, read_image, srgb_to_linear, write_image
 
 RGBA = ("R", "G", "B", "A")
 
@@ -179,7 +179,7 @@ def test_image_too_large_for_memory_is_refused_before_reading(tmp_path, rng, mon
     src = tmp_path / "in.png"
     make(src, rng)
     monkeypatch.setattr(command, "_available_bytes", lambda: 1000)
-    monkeypatch.setattr(command.imageio, "read_image", lambda path: pytest.fail("read before the memory check"))
+    monkeypatch.setattr(command.image_files, "read_image", lambda path: pytest.fail("read before the memory check"))
     assert convolve(src, tmp_path / "out.png", "box_blur_3") == 2
     err = capsys.readouterr().err
     assert "MiB" in err and "31x24x3" in err

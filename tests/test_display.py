@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender.display import png_bytes
+from clrender.image.display import png_bytes
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender.camera import Camera
 from clrender.cli import main
 from clrender.distributed.payload import join, split
 from clrender.errors import UsageError
-from clrender.scene import Scene
-from clrender.turntable import frame_scene, orbit, render_turntable
+from clrender.scene.camera import Camera
+from clrender.scene.scene import Scene
+from clrender.trace.turntable import frame_scene, orbit, render_turntable
 
 distributed = pytest.importorskip("distributed")
 crd = pytest.importorskip("clrender.distributed")
@@ -187,7 +187,7 @@ def test_cli_turntable_writes_frames_and_video(client, tmp_path):
 
 
 def test_interrupted_turntable_leaves_no_frames(tmp_path, monkeypatch):
-    import clrender.turntable as tt
+    import clrender.trace.turntable as tt
 
     real = tt.render_turntable
 
@@ -356,7 +356,7 @@ def test_voronoi_splats_are_the_local_ones(client, device):
 
 
 def test_cli_splat_a_folder_of_photos_on_the_cluster(client, tmp_path):
-    from clrender.imageio import write_image
+    from clrender.image.files import write_image
 
     photos = tmp_path / "photos"
     photos.mkdir()
@@ -377,7 +377,7 @@ def test_cli_splat_a_folder_of_photos_on_the_cluster(client, tmp_path):
 def test_splat_folder_errors(tmp_path, capsys):
     assert main(["splat", "gauss", str(tmp_path / "none" / "*.jpg"), "-o", str(tmp_path / "out")]) == 2
     assert "no images in" in capsys.readouterr().err
-    from clrender.imageio import write_image
+    from clrender.image.files import write_image
 
     write_image(tmp_path / "p.png", small_photos()[0])
     assert main(["splat", "gauss", str(tmp_path), "-o", str(tmp_path / "x.png")]) == 2

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from clrender import edges
-from clrender.edges import dilate, disc, edge_mask, edge_pixels, overlay_edges
 from clrender.errors import UsageError
+from clrender.trace import edges
+from clrender.trace.edges import dilate, disc, edge_mask, edge_pixels, overlay_edges
 
 
 def picture(text: str) -> np.ndarray:

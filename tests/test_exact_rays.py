@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from clrender.renderer import Renderer
-from clrender.scene import Scene
-from clrender.tracer import Tracer
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
 
 AXES = np.eye(3)
 
@@ -278,7 +278,7 @@ def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, st
     """Every builder against no BVH; with stack_size=2 the kernels' stack overflows on purpose and their
     fallback must still give the brute-force answers."""
     if stack_size is not None:
-        monkeypatch.setattr("clrender.bvh.STACK_SIZE", stack_size)
+        monkeypatch.setattr("clrender.trace.bvh.STACK_SIZE", stack_size)
     rng = np.random.default_rng(21)
     for name, vertices in degenerate_meshes(rng):
         mesh = (vertices, np.arange(len(vertices)).reshape(-1, 3))

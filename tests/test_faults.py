@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from clrender.cli import main
-from clrender.imageio import write_image
+from clrender.image.files import write_image
 from clrender.outputs import TEMP_MARK, OutputSet, output_set, save_npz
 
 REPO = Path(__file__).resolve().parents[1]
@@ -337,7 +337,7 @@ def _classify(folder: Path, old: dict) -> dict[str, str]:
     """Each output is 'old' (byte for byte) or 'new' (different and whole: it loads to the end)."""
     import csv
 
-    from clrender.imageio import read_image
+    from clrender.image.files import read_image
     from clrender.splat.gauss import GaussParams
 
     kinds = {}

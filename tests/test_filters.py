@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from clrender import filters
 from clrender.errors import UsageError
-from clrender.imageio import Image
+from clrender.image import filters
+from clrender.image.files import Image
 
 
 def reflect101(index: np.ndarray, n: int) -> np.ndarray:

@@ -11,8 +11,8 @@ normal pointing away) is leaving glass, as the README's medium rule says.
 import numpy as np
 import pytest
 
-from clrender.renderer import render
-from clrender.scene import Scene
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import render
 
 W, H = 40, 30
 EYE = np.array([0.0, 0.0, 4.0])

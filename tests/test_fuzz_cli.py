@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from clrender.cli import main
-from clrender.imageio import read_image, write_image
+from clrender.image.files import read_image, write_image
 from clrender.outputs import TEMP_MARK
 
 hypothesis = pytest.importorskip("hypothesis")
@@ -314,7 +314,7 @@ def test_render_bytes_grow_with_pixels_and_triangles():
     assert memory.render_bytes(200, 100) - small == 100 * 100 * memory.RENDER_BYTES_PER_PIXEL
     assert memory.render_bytes(100, 100, triangles=1000) - small == 1000 * memory.BYTES_PER_TRIANGLE
     # the dense generator's cap is what memory.py allows, about 5 GiB, not the 24 GiB of 50 M triangles
-    from clrender.meshes import MAX_DENSE_TRIANGLES
+    from clrender.scene.meshes import MAX_DENSE_TRIANGLES
 
     assert MAX_DENSE_TRIANGLES * memory.BYTES_PER_TRIANGLE < 6 * 2**30
 

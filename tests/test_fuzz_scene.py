@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from clrender.errors import UsageError
-from clrender.scene import Scene, bundled_scenes
+from clrender.scene.scene import Scene, bundled_scenes
 
 MAX_MESSAGE = 300  # characters: a message is a line a person reads, not a dump of the value
 CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
@@ -39,7 +39,7 @@ def usage_error(data, tmp_path=None, **kwargs) -> str:
 
 
 def render_tiny(scene: Scene) -> np.ndarray:
-    from clrender.renderer import render
+    from clrender.trace.renderer import render
 
     return render(scene, **TINY)
 
@@ -397,7 +397,7 @@ def test_fuzz_counts_report():
 def test_a_light_touching_the_surface_it_lights_stays_finite(height):
     # the camera looks straight down at a bright plane with a point light just above it: 1/r^2
     # overflowed float32 and the pixels under the light were inf (capped at r = 1e-5 in shade.h)
-    from clrender.renderer import render
+    from clrender.trace.renderer import render
 
     data = {"cameras": [{"position": [0, 1, 0], "look_at": [0, -1, 0], "up": [0, 0, -1]}],
             "materials": {"white": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}},

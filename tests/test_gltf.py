@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from clrender.gltf import node_mesh, scene_dict
-from clrender.renderer import Renderer
-from clrender.scene import Scene
-from clrender.tracer import Tracer
+from clrender.scene.gltf import node_mesh, scene_dict
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
 
 from clitools import run_cli
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from clrender.scene import Scene
-from clrender.tracer import Tracer
+from clrender.scene.scene import Scene
+from clrender.trace.tracer import Tracer
 
 
 def sphere_scene(center=(0, 0, -5), radius=1.0):
@@ -104,7 +104,7 @@ def test_bvh_and_brute_force_find_the_same_hits(device, builder):
     spheres = [{"type": "sphere", "center": c.tolist(), "radius": float(r)}
                for c, r in zip(rng.uniform(-3, 3, (30, 3)) + [0, 0, -8], rng.uniform(0.1, 0.5, 30))]
     scene = Scene.from_dict({"objects": spheres})
-    from clrender.scene import Mesh
+    from clrender.scene.scene import Mesh
 
     scene.objects.append(Mesh(tris.reshape(-1, 3), np.arange(1200).reshape(-1, 3)))
     o = rng.normal(scale=0.3, size=(5000, 3))

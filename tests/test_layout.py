@@ -8,7 +8,7 @@ import pytest
 
 from clrender import layout
 from clrender.device import build_options, kernel_dir
-from clrender.tracer import trace_defines
+from clrender.trace.tracer import trace_defines
 
 KERNEL_FILES = ("trace.cl", "splat_gauss.cl", "splat_voronoi.cl")
 INT_NAMES = [name for name, value in layout.DEFINES.items() if isinstance(value, int)]

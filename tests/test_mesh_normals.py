@@ -1,9 +1,9 @@
-"""Vertex normals computed with numpy (clrender.meshes.vertex_normals), so a fresh install never
+"""Vertex normals computed with numpy (clrender.scene.meshes.vertex_normals), so a fresh install never
 asks trimesh for them (trimesh needs scipy for that and otherwise loops over vertices in Python)."""
 import numpy as np
 import trimesh
 
-from clrender import meshes
+from clrender.scene import meshes
 
 
 def test_sphere_normals_point_along_the_radius():

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from clrender import meshes
 from clrender.errors import UsageError
+from clrender.scene import meshes
 
 
 def check_closed_outward(mesh, watertight=True):
@@ -97,7 +97,7 @@ def test_low_poly_props(name, watertight, faces):
 
 def test_scene_generators_exist():
     """Every generator name the scene loader accepts is a zero-argument function here."""
-    from clrender.scene import MESH_GENERATORS
+    from clrender.scene.scene import MESH_GENERATORS
 
     for name in MESH_GENERATORS:
         assert callable(getattr(meshes, name))

@@ -50,7 +50,7 @@ rng = np.random.default_rng(7)
 """
 
 SCENE = """
-from clrender.scene import Scene
+from clrender.scene.scene import Scene
 scene = Scene.from_dict({
     "background": [0.2, 0.3, 0.4], "ambient": [0.05, 0.05, 0.05],
     "materials": {"glass": {"transparency": 0.7, "ior": 1.5, "specular": [1, 1, 1], "shininess": 50},
@@ -69,24 +69,24 @@ scene = Scene.from_dict({
 # name -> (kernels it runs, code)
 CASES = {
     "render_bvh_edges": (("render",), SCENE + """
-from clrender.renderer import Renderer
+from clrender.trace.renderer import Renderer
 r = Renderer(scene, width=6, height=4, aa="edge_detect", samples=2, max_depth=3, device="oclgrind").run()
 assert np.isfinite(r.image).all() and r.image.max() > 0.05
 assert len(set(np.unique(r.ids)) - {-1}) >= 2  # the sphere and something else are in view
 assert r.edge_mask.any()  # the edge pass (a compacted pixel list) ran too
 """),
     "render_no_bvh_full_aa": (("render",), SCENE + """
-from clrender.renderer import Renderer
+from clrender.trace.renderer import Renderer
 kw = dict(width=5, height=3, aa="full", samples=2, sampler="sobol", pixel_filter="gaussian", fresnel=True,
           light_sampler="random", max_depth=4)
-from clrender.tracer import Tracer
+from clrender.trace.tracer import Tracer
 a = Renderer(scene, bvh=False, device="oclgrind", **kw).run().image
 b = Renderer(scene, tracer=Tracer(scene, bvh_width=2, device=dev), device="oclgrind", **kw).run().image
 assert np.isfinite(a).all()
 np.testing.assert_allclose(a, b, atol=1e-4)  # the (binary) BVH changes the order of tests, not the answer
 """),
     "render_aov_variant": (("render",), SCENE + """
-from clrender.renderer import Renderer
+from clrender.trace.renderer import Renderer
 # -DWRITE_AOV=1: the kernel also writes the primary hit's depth, normal and albedo
 r = Renderer(scene, width=5, height=4, aa="none", aovs=("depth", "normal", "albedo"), device="oclgrind").run()
 hit = r.ids >= 0
@@ -94,7 +94,7 @@ assert hit.any() and np.isfinite(r.aovs["depth"][hit]).all() and (r.aovs["depth"
 np.testing.assert_allclose(np.linalg.norm(r.aovs["normal"][hit], axis=-1), 1, atol=1e-4)  # unit normals
 """),
     "sample_offsets": (("sample_offsets",), """
-from clrender.sampling import sample_offsets
+from clrender.trace.sampling import sample_offsets
 for sampler in ("uniform", "random", "stratified", "sobol"):
     o = sample_offsets([0, 5, 17], sampler, 3, seed=1, device=dev)
     assert o.shape == (3, 9, 2) and (o >= 0).all() and (o < 1).all(), sampler
@@ -103,10 +103,10 @@ cells = np.floor(s * 3).astype(int)
 assert len({tuple(c) for c in cells}) == 9  # one sample in each of the 3 x 3 cells
 """),
     "intersect_and_occluded_rays": (("intersect_rays", "occluded_rays"), """
-from clrender.tracer import Tracer
+from clrender.trace.tracer import Tracer
 spheres = [{"type": "sphere", "center": [0, 0, -5], "radius": 1}, {"type": "sphere", "center": [3, 0, -5], "radius": 0.5}]
 tri = {"type": "triangle", "vertices": [[-1, -1, -8], [1, -1, -8], [0, 1, -8]]}
-from clrender.scene import Scene
+from clrender.scene.scene import Scene
 # the binary and the 4-wide BVH, no BVH, and the variant that counts primitive tests
 for use_bvh, width, count in ((True, 4, False), (True, 2, False), (False, 4, False), (True, 4, True)):
     tracer = Tracer(Scene.from_dict({"objects": spheres + [tri]}), use_bvh=use_bvh, bvh_width=width,
@@ -120,7 +120,7 @@ for use_bvh, width, count in ((True, 4, False), (True, 2, False), (False, 4, Fal
 """),
     "refract_rays": (("refract_rays",), """
 import math
-from clrender.tracer import trace_defines
+from clrender.trace.tracer import trace_defines
 knl = dev.kernel("trace.cl", "refract_rays", trace_defines())
 angles = np.radians([0.0, 30.0, 60.0, 80.0])
 d = np.stack([np.sin(angles), np.zeros(4), -np.cos(angles), np.zeros(4)], 1).astype(np.float32)

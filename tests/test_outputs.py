@@ -8,11 +8,11 @@ from scipy.stats import qmc
 
 from clrender.cli import main
 from clrender.device import build_options, kernel_dir
-from clrender.imageio import linear_to_srgb, srgb_to_linear, write_display_image
-from clrender.renderer import render
-from clrender.sampling import sample_offsets
-from clrender.scene import Scene
-from clrender.tracer import trace_defines
+from clrender.image.files import linear_to_srgb, srgb_to_linear, write_display_image
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import render
+from clrender.trace.sampling import sample_offsets
+from clrender.trace.tracer import trace_defines
 
 # Linear values whose sRGB codes are known from IEC 61966-2-1, worked by hand:
 #   0.5        -> 1.055 * 0.5**(1/2.4) - 0.055 = 0.735357 -> 8-bit round(187.52) = 188

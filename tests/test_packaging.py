@@ -27,7 +27,7 @@ def test_wheel_contains_kernels_and_scenes(tmp_path):
 
 def test_installed_package_finds_its_kernels_and_scenes():
     from clrender.device import kernel_dir
-    from clrender.scene import bundled_scenes
+    from clrender.scene.scene import bundled_scenes
 
     assert (kernel_dir() / "trace.cl").is_file()
     assert "refract1" in bundled_scenes()

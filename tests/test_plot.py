@@ -4,8 +4,8 @@ import matplotlib.colors
 import numpy as np
 import pytest
 
-from clrender import plot
-from clrender.imageio import probe_image
+from clrender.image import plot
+from clrender.image.files import probe_image
 
 
 def ink(pixels, colour, tolerance=0):

@@ -5,7 +5,7 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from clrender.tracer import trace_defines
+from clrender.trace.tracer import trace_defines
 
 
 def refract(device, incidence_degrees, n1, n2):

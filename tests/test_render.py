@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from clrender.renderer import Renderer, render
-from clrender.scene import Mesh, Scene
-from clrender.tracer import Tracer
+from clrender.scene.scene import Mesh, Scene
+from clrender.trace.renderer import Renderer, render
+from clrender.trace.tracer import Tracer
 
 W, H = 48, 36
 

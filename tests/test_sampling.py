@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from clrender.sampling import sample_offsets
+from clrender.trace.sampling import sample_offsets
 
 PIXELS = np.arange(0, 5000, 37)
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from clrender.errors import UsageError
-from clrender.scene import Mesh, Scene, Sphere, bundled_scenes
+from clrender.scene.scene import Mesh, Scene, Sphere, bundled_scenes
 
 TRIANGLE_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
 

@@ -1,8 +1,8 @@
 """Small shading rules the bigger scenes do not reach (found by `python -m bench mutants`)."""
 import numpy as np
 
-from clrender.renderer import render
-from clrender.scene import Mesh, Scene
+from clrender.scene.scene import Mesh, Scene
+from clrender.trace.renderer import render
 
 KD = np.array([0.6, 0.5, 0.4])
 

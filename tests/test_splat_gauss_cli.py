@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from clrender.cli import main
-from clrender.imageio import read_image, write_image
+from clrender.image.files import read_image, write_image
 from clrender.splat.gauss import GaussParams
 
 

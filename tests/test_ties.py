@@ -3,7 +3,7 @@ whatever the traversal order (kernels/intersect.h), so BVH on, BVH off and both 
 import numpy as np
 import pytest
 
-from clrender.tracer import Tracer
+from clrender.trace.tracer import Tracer
 
 
 @pytest.mark.parametrize("use_bvh, builder", [(False, "sah"), (True, "sah"), (True, "median")])

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from clrender.errors import UsageError
-from clrender.imageio import read_image, write_image
+from clrender.image.files import read_image, write_image
 from clrender.splat import voronoi as V
 from clrender.splat.voronoi_soft import SoftVoronoi, TrainSettings, train
 from clrender.testing import nearest_site_reference, soft_loss_reference, synthetic_photo

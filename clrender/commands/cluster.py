@@ -53,7 +53,7 @@ def renderer_for(args, scene, settings):
         settings = replace(settings, tile_size=args.tile_size)
     with cluster_client(args) as client:
         if client is None:
-            from ..renderer import Renderer
+            from ..trace.renderer import Renderer
 
             yield Renderer(scene, settings)
         else:

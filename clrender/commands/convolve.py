@@ -8,8 +8,10 @@ import time
 
 import numpy as np
 
-from .. import filters, imageio, progress
+from .. import progress
 from ..errors import UsageError
+from ..image import files as image_files
+from ..image import filters
 
 EPILOG = f"""\
 filters (applied left to right; `--list` prints this table):
@@ -76,44 +78,44 @@ def run(args) -> int:
                          "'clrender convolve in.jpg out.jpg box_blur_33'; see --list for the filters")
     # everything that can be refused is refused before the image is read
     chain = filters.parse_all(args.filters)
-    info = imageio.probe_image(args.input)
-    out_path = imageio.check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
+    info = image_files.probe_image(args.input)
+    out_path = image_files.check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     check_memory(info)
 
     start = time.perf_counter()
-    image = imageio.read_image(args.input)
+    image = image_files.read_image(args.input)
     pixels, names = image.pixels, image.channel_names
     alpha = image.alpha_channel
     colour = [c for c in range(pixels.shape[2]) if c != alpha]
-    out_format = imageio.output_format(out_path, image.format)
+    out_format = image_files.output_format(out_path, image.format)
     # integer files hold sRGB codes, float files linear light; --space picks where the filters run,
     # and a change of kind between IN and OUT (EXR to PNG, say) is converted either way
-    in_linear = image.format in imageio.FLOAT_FORMATS
-    out_linear = out_format in imageio.FLOAT_FORMATS
+    in_linear = image.format in image_files.FLOAT_FORMATS
+    out_linear = out_format in image_files.FLOAT_FORMATS
     filter_linear = in_linear if args.space == "stored" else True
     if filter_linear and not in_linear:
         pixels = pixels.copy()
-        pixels[:, :, colour] = imageio.srgb_to_linear(pixels[:, :, colour])
+        pixels[:, :, colour] = image_files.srgb_to_linear(pixels[:, :, colour])
 
     for f in progress.progress(chain, total=len(chain), desc="convolve"):
         pixels = filters.apply(pixels, f, alpha_channel=alpha)
 
     if filter_linear and not out_linear:
-        pixels[:, :, colour] = imageio.linear_to_srgb(pixels[:, :, colour])
+        pixels[:, :, colour] = image_files.linear_to_srgb(pixels[:, :, colour])
     elif not filter_linear and out_linear:
-        pixels[:, :, colour] = imageio.srgb_to_linear(pixels[:, :, colour])
-    if alpha is not None and not imageio.writer_supports_alpha(out_path):
+        pixels[:, :, colour] = image_files.srgb_to_linear(pixels[:, :, colour])
+    if alpha is not None and not image_files.writer_supports_alpha(out_path):
         note(args, f"warning: {out_path.suffix} has no alpha channel: alpha dropped")
         pixels = np.ascontiguousarray(pixels[:, :, colour])
         names = tuple(n for i, n in enumerate(names) if i != alpha)
-    imageio.write_image(out_path, pixels, format=out_format, channel_names=names, overwrite=args.overwrite)
+    image_files.write_image(out_path, pixels, format=out_format, channel_names=names, overwrite=args.overwrite)
     print(out_path)  # stdout: the written path, for scripts
     note(args, f"{pixels.shape[1]}x{pixels.shape[0]}, {out_format}, {len(chain)} filters in "
                f"{time.perf_counter() - start:.2f} s")
     return 0
 
 
-def check_memory(info: imageio.ImageInfo) -> None:
+def check_memory(info: image_files.ImageInfo) -> None:
     """Refuse an image whose working copies would not fit in the memory available now."""
     from .. import memory
 

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from ..errors import UsageError
-from ..renderer import AA_MODES, SAMPLERS, RenderSettings
+from ..trace.renderer import AA_MODES, SAMPLERS, RenderSettings
 from . import add_device_argument
 
 EXAMPLES = """examples:
@@ -157,7 +157,7 @@ def settings_from_args(args) -> RenderSettings:
     if values["aa"] != "edge_detect" and "thickness" in explicit and not edges_aov:
         args.warnings.append(f"--thickness has no effect with --aa {values['aa']} (it widens the edge mask of --aa edge_detect)")
     if args.aov is not None:
-        from ..aov import parse_aov_list
+        from ..trace.aov import parse_aov_list
 
         values["aovs"] = parse_aov_list(args.aov)
     return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
@@ -168,9 +168,9 @@ def settings_from_args(args) -> RenderSettings:
 
 def run(args):
     from .. import memory
-    from ..imageio import check_distinct_outputs, check_output_path, write_display_image
+    from ..image.files import check_distinct_outputs, check_output_path, write_display_image
     from ..outputs import output_set
-    from ..scene import Scene, bundled_scenes
+    from ..scene.scene import Scene, bundled_scenes
 
     if args.list:
         print_scene_list(bundled_scenes())
@@ -186,12 +186,12 @@ def run(args):
     edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
     if edges_out and settings.aa != "edge_detect":
         raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
-    from ..aov import aov_output
+    from ..trace.aov import aov_output
 
     aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
     check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out})
     if args.filter:
-        from .. import filters
+        from ..image import filters
 
         for name in args.filter:
             filters.parse(name)
@@ -215,8 +215,8 @@ def run(args):
     image = result.image
     if args.filter:
         image = filters.apply(image, *args.filter)
-    from ..aov import write_exr
-    from ..edges import overlay_edges
+    from ..trace.aov import write_exr
+    from ..trace.edges import overlay_edges
 
     with output_set(overwrite=args.overwrite):  # every output is written, then all are put in place together
         if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels

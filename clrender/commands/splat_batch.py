@@ -34,7 +34,7 @@ def photos(text: str) -> list[Path]:
 
 def batch_outputs(args, inputs: list[Path], refused: dict) -> list[Path]:
     """OUT/<photo name> for each photo, checked before any work."""
-    from ..imageio import check_output_path
+    from ..image.files import check_output_path
 
     for option, value in refused.items():
         if value:
@@ -53,7 +53,7 @@ def batch_outputs(args, inputs: list[Path], refused: dict) -> list[Path]:
 
 def run_gauss_batch(args, config_of) -> int:
     """One Gaussian fit per photo; config_of(args) is the FitConfig a single fit would use."""
-    from ..imageio import read_image, write_image
+    from ..image.files import read_image, write_image
     from ..outputs import output_set
     from ..splat.fit import as_rgb
     from .cluster import cluster_client
@@ -88,7 +88,7 @@ def run_gauss_batch(args, config_of) -> int:
 
 def run_voronoi_batch(args, settings_of) -> int:
     """One Voronoi splatting per photo; settings_of(args) is the VoronoiSettings a single run would use."""
-    from ..imageio import read_image, write_image
+    from ..image.files import read_image, write_image
     from ..outputs import output_set
     from ..splat.voronoi import cell_edges
     from .cluster import cluster_client

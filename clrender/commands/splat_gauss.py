@@ -109,7 +109,7 @@ def _config(args, **extra):
 
 
 def _read_target(path):
-    from ..imageio import read_image
+    from ..image.files import read_image
     from ..splat.fit import as_rgb
 
     return as_rgb(read_image(path).pixels)
@@ -125,7 +125,7 @@ def write_log(path, log: list[dict], overwrite: bool = True) -> None:
 def write_curve(path, log: list[dict], title: str) -> bool:
     """The loss (log scale) above the PSNR against step, in two panels: for the L2 loss PSNR is
     -10 log10(loss) exactly, so on one shared axis one line would hide the other."""
-    from ..plot import training_curve
+    from ..image.plot import training_curve
 
     training_curve(path, [r["step"] for r in log], [r["loss"] for r in log], [r["psnr"] for r in log], title=title)
     return True
@@ -134,7 +134,7 @@ def write_curve(path, log: list[dict], title: str) -> bool:
 def run_gauss(args):
     from ..device import get_device
     from ..errors import RenderFailure
-    from ..imageio import check_distinct_outputs, check_output_path, write_image
+    from ..image.files import check_distinct_outputs, check_output_path, write_image
     from ..outputs import output_set
     from ..splat.fit import Fitter
     from .splat_batch import is_batch, run_gauss_batch
@@ -172,7 +172,7 @@ def run_gauss(args):
 
 def run_render(args):
     from ..device import get_device
-    from ..imageio import check_output_path, write_image
+    from ..image.files import check_output_path, write_image
     from ..splat.gauss import GaussParams, render
 
     out = check_output_path(args.output, overwrite=args.overwrite)
@@ -197,7 +197,7 @@ def run_render(args):
 def run_sweep(args):
     _check_side_output(args.csv, args.overwrite, (".csv",))
     if args.csv:
-        from ..imageio import check_distinct_outputs
+        from ..image.files import check_distinct_outputs
 
         check_distinct_outputs(**{"IN": args.input, "--csv": args.csv})
     for lr in args.lrs:

@@ -46,7 +46,7 @@ def add_parser(group):
 
 def run(args):
     from ..device import get_device
-    from ..imageio import check_distinct_outputs, check_output_path, read_image, write_image
+    from ..image.files import check_distinct_outputs, check_output_path, read_image, write_image
     from ..outputs import output_set, save_npz
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
     from .splat_batch import is_batch, run_voronoi_batch

@@ -1,7 +1,7 @@
 """`clrender render SCENE --turntable K -o frames/`: K frames orbiting the camera's look-at point.
 
 Frames are named OUT/frame_0000.png, frame_0001.png, ...
-(clrender.turntable.FRAME_PATTERN), or by a pattern given as -o with a
+(clrender.trace.turntable.FRAME_PATTERN), or by a pattern given as -o with a
 {:04d}-style field, e.g. -o 'shots/{:03d}.exr'.  With --video the frames also
 go, in order, into an MP4 through OpenCV's VideoWriter.  On --scheduler /
 --workers each frame is one task.  Frames are staged as they finish (unnamed
@@ -35,7 +35,7 @@ def add_turntable_arguments(p):
 
 def frame_paths(output: str | None, scene_name: str, frames: int) -> list[Path]:
     """Where each frame goes: a {}-pattern as given, else FRAME_PATTERN inside the folder `output`."""
-    from ..turntable import FRAME_PATTERN
+    from ..trace.turntable import FRAME_PATTERN
 
     if output and "{" in output:
         try:
@@ -97,17 +97,17 @@ class _Video:
 
 
 def _srgb8(image: np.ndarray) -> np.ndarray:
-    from ..imageio import linear_to_srgb
+    from ..image.files import linear_to_srgb
 
     return np.round(linear_to_srgb(image) * 255.0).astype(np.uint8)
 
 
 def run_turntable(args, settings) -> int:
-    from ..imageio import check_output_path, write_display_image
+    from ..image.files import check_output_path, write_display_image
     from ..outputs import output_set
     from ..progress import progress
-    from ..scene import Scene
-    from ..turntable import MAX_FRAMES, render_turntable
+    from ..scene.scene import Scene
+    from ..trace.turntable import MAX_FRAMES, render_turntable
     from .cluster import cluster_client
 
     k_frames = args.turntable
@@ -119,7 +119,7 @@ def run_turntable(args, settings) -> int:
         if option:
             raise UsageError(f"{name} is for single renders; --turntable writes only the frames")
     if args.filter:
-        from .. import filters
+        from ..image import filters
 
         for name in args.filter:
             filters.parse(name)

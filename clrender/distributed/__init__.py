@@ -24,8 +24,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..progress import progress
-from ..renderer import Renderer, RenderResult, RenderSettings
-from ..scene import Scene
+from ..scene.scene import Scene
+from ..trace.renderer import Renderer, RenderResult, RenderSettings
 from . import worker
 from .cluster import INSTALL_HINT, connect, require_dask
 from .payload import ScenePayload, join, split
@@ -135,7 +135,7 @@ def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 
     """Yield (k, image) for each turntable frame as it finishes (any order); one task per frame."""
     from distributed import as_completed
 
-    from ..turntable import orbit
+    from ..trace.turntable import orbit
 
     client = _client(client)
     scene = Scene.load(scene)
@@ -154,7 +154,7 @@ def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 
 
 
 def turntable(scene, settings: RenderSettings | None = None, frames: int = 36, client=None, **overrides) -> list:
-    """The turntable's frames in order, as `clrender.turntable.render_turntable` gives them locally."""
+    """The turntable's frames in order, as `clrender.trace.turntable.render_turntable` gives them locally."""
     images = [None] * frames
     with progress(total=frames, desc="frames", unit="frame") as bar:
         for k, image in iter_turntable(scene, settings, frames, client, **overrides):

@@ -21,8 +21,8 @@ from collections import OrderedDict
 from dataclasses import replace
 
 from ..errors import RenderFailure, UsageError
-from ..renderer import Renderer, RenderSettings
-from ..tracer import Tracer
+from ..trace.renderer import Renderer, RenderSettings
+from ..trace.tracer import Tracer
 from .payload import ScenePayload, code_fingerprint, join
 
 TRACERS_KEPT = 4  # scenes (BVH + device buffers) a worker keeps

@@ -88,7 +88,7 @@ class FitResult:
 
     def _repr_png_(self) -> bytes:
         """The fitted image inline in Jupyter (the target's stored values, as written to files)."""
-        from ..display import png_bytes
+        from ..image.display import png_bytes
 
         return png_bytes(self.image, linear=False)
 

@@ -166,7 +166,7 @@ class VoronoiResult:
 
     def _repr_png_(self) -> bytes:
         """The cells inline in Jupyter (the input's stored values, as written to files)."""
-        from ..display import png_bytes
+        from ..image.display import png_bytes
 
         return png_bytes(self.image, linear=False)
 

@@ -13,8 +13,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from .camera import Camera
-from .errors import UsageError
+from ..errors import UsageError
+from ..scene.camera import Camera
 
 FRAME_PATTERN = "frame_{:04d}.png"
 MAX_FRAMES = 10_000  # frames are staged as open temporary files until all are done
@@ -45,8 +45,8 @@ def frame_scene(scene, camera: Camera):
 
 def render_turntable(scene, settings=None, frames: int = 36, **overrides):
     """Yield (k, linear image) for each frame in order, rendered on this machine."""
+    from ..scene.scene import Scene
     from .renderer import Renderer, RenderSettings
-    from .scene import Scene
     from .tracer import Tracer
 
     scene = Scene.load(scene)

@@ -46,7 +46,7 @@ from functools import partial
 
 import numpy as np
 
-from .errors import UsageError
+from ..errors import UsageError
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
 BUILDERS = ("sah", "median")

@@ -33,8 +33,8 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from .errors import UsageError
-from .imageio import Image
+from ..errors import UsageError
+from .files import Image
 
 BORDER = cv2.BORDER_REFLECT_101
 MAX_SIZE = 10001  # widest box or Gaussian accepted

@@ -17,11 +17,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pyopencl as cl
 
+from ..errors import require
+from ..layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
+from ..progress import progress
+from ..scene.scene import Scene
 from .aov import AOV_NAMES
-from .errors import require
-from .layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
-from .progress import progress
-from .scene import Scene
 from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
@@ -96,7 +96,7 @@ class RenderResult:
     timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
     node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
-    aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/aov.py)
+    aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/trace/aov.py)
 
     @property
     def ids(self) -> np.ndarray:
@@ -109,7 +109,7 @@ class RenderResult:
 
     def _repr_png_(self) -> bytes:
         """The image inline in Jupyter (sRGB 8-bit); clrender.show(result.edge_mask) shows the mask."""
-        from .display import png_bytes
+        from ..image.display import png_bytes
 
         return png_bytes(self.image, linear=True)
 
@@ -213,7 +213,7 @@ class Renderer:
         return result
 
     def _aovs(self, result: RenderResult, records) -> dict:
-        """The requested AOVs, all from the ray the ids come from (see clrender/aov.py)."""
+        """The requested AOVs, all from the ray the ids come from (see clrender/trace/aov.py)."""
         s = self.settings
         out = {}
         for name in s.aovs:
@@ -231,8 +231,8 @@ class Renderer:
 
     def _edge_mask(self, result: RenderResult) -> np.ndarray:
         """The mask edge-only AA would resample, for renders that did not run it."""
+        from ..image.files import linear_to_srgb
         from .edges import edge_mask
-        from .imageio import linear_to_srgb
 
         s = self.settings
         # a change of facet on a flat-shaded mesh is a shading edge too

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError
+from ..errors import UsageError
 
 # Channel names of each AOV in a multi-channel EXR, in the order they are written.
 CHANNELS = {
@@ -68,7 +68,7 @@ def channels(aovs: dict, beauty: np.ndarray | None = None):
 
 def write_exr(path: str | os.PathLike, aovs: dict, beauty: np.ndarray | None = None) -> Path:
     """Write the AOVs (and the beauty image, when given) as float channels of one EXR, atomically."""
-    from .imageio import write_image
+    from ..image.files import write_image
 
     pixels, names = channels(aovs, beauty)
     return write_image(path, pixels, format="float", channel_names=names)
@@ -76,7 +76,7 @@ def write_exr(path: str | os.PathLike, aovs: dict, beauty: np.ndarray | None = N
 
 def read_exr(path: str | os.PathLike) -> dict:
     """Channel name -> (H, W) float32 plane of an EXR, whatever order the file keeps them in."""
-    from .imageio import read_image
+    from ..image.files import read_image
 
     image = read_image(path)
     return {name: image.pixels[..., i] for i, name in enumerate(image.channel_names)}
@@ -102,7 +102,7 @@ def aov_output(output: Path, aov_out: str | None, aovs: tuple, overwrite: bool) 
     the beauty EXR, so an .exr output carries them; a PNG or JPEG cannot, so
     they go to OUT.aov.exr beside it unless --aov-out names another file.
     """
-    from .imageio import check_output_path
+    from ..image.files import check_output_path
 
     if not aovs:
         if aov_out is not None:

@@ -8,7 +8,7 @@ Figures are built with matplotlib's object API (a Figure on the Agg canvas), nev
 nothing here changes a notebook's backend or its current figure.  Values that are None or not
 finite are left out (a missing bar, a gap in a line).  Each `*_figure` function returns the
 Figure (to show in a notebook or restyle); the functions without it also write the PNG,
-atomically through imageio.write_image, creating the parent folder.
+atomically through image.files.write_image, creating the parent folder.
 """
 from __future__ import annotations
 
@@ -105,7 +105,7 @@ def figure_pixels(fig: Figure) -> np.ndarray:
 
 def save(path, fig: Figure) -> Path:
     """Write the figure as an 8-bit PNG (atomically, through write_image); returns the path."""
-    from .imageio import write_image
+    from .files import write_image
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .layout import MATERIAL_DTYPE, PRIM_ROWS
-from .scene import Mesh, Scene, Sphere
+from ..layout import MATERIAL_DTYPE, PRIM_ROWS
+from ..scene.scene import Mesh, Scene, Sphere
 
 
 @dataclass

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pyopencl as cl
 
-from .device import Device, get_device
-from .layout import SAMPLERS
+from ..device import Device, get_device
+from ..layout import SAMPLERS
 from .tracer import LOCAL_SIZE, global_size, trace_defines
 
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .layout import MATERIAL_DTYPE
+from ..layout import MATERIAL_DTYPE
 
 
 @dataclass(frozen=True)

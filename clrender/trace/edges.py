@@ -19,7 +19,7 @@ from numbers import Real
 import cv2
 import numpy as np
 
-from .errors import UsageError
+from ..errors import UsageError
 
 # The three neighbours of the seed's rule, as (dy, dx) offsets from the pixel.
 NEIGHBOURS = ((-1, 0), (0, -1), (-1, -1))

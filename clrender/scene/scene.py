@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import UsageError
+from ..package_data import data_dir
 from .camera import Camera
-from .errors import UsageError
 from .lights import FALLOFFS, LIGHT_TYPES, Light
 from .materials import DEFAULT_MATERIAL, Material
-from .package_data import data_dir
 
 
 @dataclass
@@ -556,7 +556,7 @@ class _SceneReader:
         return path
 
     def generator(self, o, path):
-        """(name, params) of a built-in mesh: `generator` names a function of clrender.meshes, `params` its keyword arguments."""
+        """(name, params) of a built-in mesh: `generator` names a function of clrender.scene.meshes, `params` its keyword arguments."""
         gen = self.choice(o, "generator", path, None, MESH_GENERATORS)
         params = self.table(o.get("params", {}), f"{path}.params")
         bounds = GENERATOR_PARAMS[gen]

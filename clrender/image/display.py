@@ -22,7 +22,7 @@ def png_bytes(image, *, linear: bool = True) -> bytes:
     linear=True: the colour channels are linear light and are sRGB-encoded (alpha is not)."""
     import cv2
 
-    from .imageio import linear_to_srgb
+    from .files import linear_to_srgb
 
     pixels = np.asarray(image)
     if pixels.dtype == bool:

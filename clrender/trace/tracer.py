@@ -24,18 +24,18 @@ import time
 import numpy as np
 import pyopencl as cl
 
+from ..device import Device, get_device
+from ..errors import UsageError
+from ..layout import NORMAL_ROWS
+from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
-from .device import Device, get_device
-from .errors import UsageError
 from .geometry import Primitives, flatten, pack_slots
-from .layout import NORMAL_ROWS
-from .scene import Mesh, Scene
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
 # A fixed work-group size: PoCL builds a work-group function per local size, so
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
-DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
+DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 # Leaf size of the binary tree per traversal width: under 4-wide nodes leaves of at most 2 primitives
 # traced 3-10% faster than 4 (more nodes, but four boxes per visit; the SAH cost of the 1M-triangle
 # tree also drops from 51.1 to 49.7 at the same build time); see docs/bvh.md.

@@ -1,4 +1,4 @@
-"""Wide BVH: the binary tree of clrender.bvh collapsed into nodes of up to WIDTH children.
+"""Wide BVH: the binary tree of clrender.trace.bvh collapsed into nodes of up to WIDTH children.
 
 One ray tests all children of a node at once with float4 / float8 operations
 (the slab test of kernels/intersect.h, lane by lane), then visits the hit ones
@@ -38,7 +38,7 @@ def stack_size(width: int) -> int:
     """Traversal stack entries for a wide tree (-DWIDE_STACK_SIZE).  A tree of at most MAX_TREE_LEVELS
     levels needs (width - 1) * (MAX_TREE_LEVELS - 1) + width: along the path to the current node at most
     width - 1 pending siblings per level, plus one node's lanes.  Scaled from the binary stack
-    (clrender.bvh.STACK_SIZE, read at call time) so that shrinking it, as a test does to force the
+    (clrender.trace.bvh.STACK_SIZE, read at call time) so that shrinking it, as a test does to force the
     kernels' overflow fallback, shrinks this one too."""
     from . import bvh
 

@@ -19,9 +19,9 @@ import numpy as np
 import platformdirs
 import trimesh
 
-from .errors import UsageError
-from .memory import MAX_TRIANGLES, triangles_bytes
-from .memory import require as require_memory
+from ..errors import UsageError
+from ..memory import MAX_TRIANGLES, triangles_bytes
+from ..memory import require as require_memory
 
 MAX_DENSE_TRIANGLES = MAX_TRIANGLES  # memory.py: about 640 bytes each to load, build and trace
 
@@ -309,7 +309,7 @@ def save_cached_mesh(path: Path, mesh: trimesh.Trimesh) -> None:
     """Write vertices, faces and vertex normals as .npz (temp file + rename, so a reader never
     sees half a file); a read-only home just means no cache."""
     try:
-        from .outputs import save_npz
+        from ..outputs import save_npz
 
         path.parent.mkdir(parents=True, exist_ok=True)
         save_npz(path, join=False, vertices=mesh.vertices, faces=mesh.faces.astype(np.int32), normals=mesh.vertex_normals)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .layout import LIGHT_DTYPE, LIGHT_TYPES
+from ..layout import LIGHT_DTYPE, LIGHT_TYPES
 
 __all__ = ["FALLOFFS", "LIGHT_TYPES", "Light"]
 FALLOFFS = {"none": 0, "inverse_square": 1}

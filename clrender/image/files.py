@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import STDERR_FD, RenderFailure, UsageError, shown
-from .outputs import check_writable, write_file
+from ..errors import STDERR_FD, RenderFailure, UsageError, shown
+from ..outputs import check_writable, write_file
 
 # An image header may promise any size; more pixels than this are refused
 # before a byte of them is allocated (the renderer's own limit, 8192 x 8192).
