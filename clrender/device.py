@@ -14,15 +14,13 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError
+from .errors import UsageError, library_messages
 from .layout import DEFINES as LAYOUT_DEFINES
 from .package_data import data_dir
 
@@ -60,7 +58,7 @@ class Device:
             options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
             start = time.perf_counter()
             try:
-                with _compiler_stderr_silenced():
+                with library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
                     prg = cl.Program(self.context, source).build(options=options)
             except cl.RuntimeError as exc:
                 from .errors import RenderFailure
@@ -121,23 +119,6 @@ def build_options(defines: dict | None = None) -> list[str]:
     if clash:
         raise ValueError(f"{sorted(clash)} are fixed in clrender/layout.py, not per build")
     return [f"-D{k}={_define_value(v)}" for k, v in sorted({**LAYOUT_DEFINES, **(defines or {})}.items())]
-
-
-@contextlib.contextmanager
-def _compiler_stderr_silenced():
-    """Keep the OpenCL compiler's own writes to the process's stderr (PoCL's clang prints
-    "1 error generated.") off the terminal: the build log comes back in the exception."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield
-            finally:
-                os.dup2(saved, 2)
-    finally:
-        os.close(saved)
 
 
 def _first_error(log: str) -> str:

@@ -7,13 +7,46 @@ and exits 2.  `RenderFailure` is something that went wrong at run time
 is a bug: the CLI says so in one line and `--debug` shows the traceback.
 """
 
+import contextlib
+import os
+import sys
+import tempfile
+
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 MAX_SHOWN = 200  # characters of any echoed value kept in a message
-# The terminal's stderr while a C library's messages are being caught (image/files.py redirects fd 2 for a moment):
-# a signal handler that says "interrupted" must write there, not into the catch.
+# The terminal's stderr while a C library's messages are being caught (library_messages redirects fd 2 for a
+# moment): a signal handler that says "interrupted" must write there, not into the catch.
 STDERR_FD = [2]
+
+
+class _Said:
+    text = ""
+
+
+@contextlib.contextmanager
+def library_messages():
+    """Catch what C libraries (libpng, the OpenCL compiler) print straight to stderr, so the CLI's error
+    stays one line.  The yielded object's `text` holds the captured output once the block ends."""
+    said = _Said()
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield said
+        return
+    with tempfile.TemporaryFile() as sink:
+        try:
+            sys.stderr.flush()
+            STDERR_FD[0] = saved
+            os.dup2(sink.fileno(), 2)
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            STDERR_FD[0] = 2
+            os.close(saved)
+            sink.seek(0)
+            said.text = sink.read(4096).decode("utf-8", "replace")
 
 
 class UsageError(ValueError):

@@ -8,17 +8,14 @@ write never leaves a half-written image.
 """
 from __future__ import annotations
 
-import contextlib
 import os
-import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 
-from ..errors import STDERR_FD, RenderFailure, UsageError, shown
+from ..errors import RenderFailure, UsageError, library_messages, shown
 from ..outputs import check_writable, write_file
 
 # An image header may promise any size; more pixels than this are refused
@@ -51,7 +48,7 @@ def _open_input(path: Path):
     """An open OpenImageIO ImageInput; UsageError if the file is missing, not an image or too large."""
     if not path.is_file():
         raise UsageError(f"input image {shown(path)} does not exist")
-    with _library_messages() as said:
+    with library_messages() as said:
         inp = oiio.ImageInput.open(_library_name(path))
     if inp is None:
         raise UsageError(f"cannot read {shown(path)} as an image ({_reason(_library_error(), said.text, 'unknown format')})")
@@ -70,7 +67,7 @@ def read_image(path: str | os.PathLike) -> Image:
     inp = _open_input(path)
     try:
         spec = inp.spec()
-        with _library_messages() as said:
+        with library_messages() as said:
             pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
     except (RuntimeError, UnicodeError) as exc:  # the bindings' own errors on a damaged file
         if isinstance(exc, RenderFailure):
@@ -130,35 +127,6 @@ def _reason(*texts: str) -> str:
                 return line.strip()
     return ""
 
-
-class _Said:
-    text = ""
-
-
-@contextlib.contextmanager
-def _library_messages():
-    """Catch what C libraries (libpng) print straight to stderr, so the CLI's error stays one line.
-
-    The yielded object's `text` holds the captured output once the block ends.
-    """
-    said = _Said()
-    try:
-        saved = os.dup(2)
-    except OSError:
-        yield said
-        return
-    with tempfile.TemporaryFile() as sink:
-        try:
-            sys.stderr.flush()
-            STDERR_FD[0] = saved
-            os.dup2(sink.fileno(), 2)
-            yield said
-        finally:
-            os.dup2(saved, 2)
-            STDERR_FD[0] = 2
-            os.close(saved)
-            sink.seek(0)
-            said.text = sink.read(4096).decode("utf-8", "replace")
 
 
 # Channel types each writer stores, keyed by extension (OpenImageIO's plugins).
@@ -316,7 +284,7 @@ def write_image(
         out = oiio.ImageOutput.create(_library_name(path))  # the writer is chosen by the final name's extension
         if out is None:
             raise UsageError(f"no image writer for {shown(path)}: {_reason(_library_error())}")
-        with _library_messages() as said:
+        with library_messages() as said:
             ok = out.open(temp, spec) and out.write_image(np.ascontiguousarray(pixels))
             ok = out.close() and ok
         if not ok:
