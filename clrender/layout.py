@@ -26,6 +26,10 @@ SPLAT_TILE = 16  # Gaussian splats are binned into TILE x TILE pixel tiles
 SPLAT_NGRAD = 10  # floats per gradient entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of weights
 SPLAT_EPS = 1e-3  # normalized blend: weight of the background colour
 VORONOI_STRIP = 8  # pixels per work-item of the grid kernel (one float8)
+BVH_NODE_ROWS = 2  # float4 rows per binary BVH node: (bmin, offset), (bmax, count) -- trace/bvh.py's NODE_DTYPE
+WIDE_NODE_ROWS = 8  # rows of BVH_WIDTH lanes per wide BVH node: lo/hi per axis (rows 0-5), then child and count
+WIDE_CHILD_ROW = 6  # a wide node's row of child indices / first slots (int32 bits)
+WIDE_COUNT_ROW = 7  # a wide node's row of slot counts (int32 bits; 0 interior, -1 empty lane)
 
 # ---- buffer records (host view of one element; the kernels read them as float4 / int rows)
 _F4 = ("<f4", 4)
@@ -53,4 +57,6 @@ DEFINES = {
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
     "TILE": SPLAT_TILE, "NGRAD": SPLAT_NGRAD, "EPS": SPLAT_EPS, "STRIP": VORONOI_STRIP,
+    "BVH_NODE_ROWS": BVH_NODE_ROWS, "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
+    "WIDE_CHILD_ROW": WIDE_CHILD_ROW, "WIDE_COUNT_ROW": WIDE_COUNT_ROW,
 }

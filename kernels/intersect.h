@@ -211,9 +211,9 @@ typedef int8 lanes_i;
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
 #define LANE_BITS 3
 #endif
-#define NODE_FLOATS (8 * BVH_WIDTH) /* 8 rows of BVH_WIDTH lanes */
-#define CHILD_ROW (6 * BVH_WIDTH)
-#define COUNT_ROW (7 * BVH_WIDTH)
+#define NODE_FLOATS (WIDE_NODE_ROWS * BVH_WIDTH) /* rows of BVH_WIDTH lanes (clrender/layout.py) */
+#define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
+#define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
 
 inline void slab_lanes(lanes_f lo, lanes_f hi, float o, float inv_d, lanes_f *t_enter, lanes_f *t_exit) {
     lanes_f t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
@@ -299,7 +299,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
     while (node >= 0) {
         COUNT_NODE(visits);
-        float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
+        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
         int count = as_int(hi.w), offset = as_int(lo.w);
         int next = -1;
         if (count > 0) {
@@ -307,8 +307,8 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
             test_slots(prims, offset, offset + count, r, t_min, &best);
         } else {
             int near_child = node + 1, far_child = offset;
-            float t_near = hit_box(r, nodes[2 * near_child], nodes[2 * near_child + 1], best.t);
-            float t_far = hit_box(r, nodes[2 * far_child], nodes[2 * far_child + 1], best.t);
+            float t_near = hit_box(r, nodes[BVH_NODE_ROWS * near_child], nodes[BVH_NODE_ROWS * near_child + 1], best.t);
+            float t_far = hit_box(r, nodes[BVH_NODE_ROWS * far_child], nodes[BVH_NODE_ROWS * far_child + 1], best.t);
             if (t_far < t_near) { /* visit the nearer box first */
                 int tmp = near_child; near_child = far_child; far_child = tmp;
                 float tt = t_near; t_near = t_far; t_far = tt;
@@ -434,7 +434,7 @@ inline float transmittance(__global const float4 *nodes, __global const float4 *
     while (sp > 0 && T > 0.0f) {
         int node = stack[--sp];
         COUNT_NODE(visits);
-        float4 lo = nodes[2 * node], hi = nodes[2 * node + 1];
+        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
         int count = as_int(hi.w), offset = as_int(lo.w);
         if (count > 0) {
             COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
@@ -444,7 +444,7 @@ inline float transmittance(__global const float4 *nodes, __global const float4 *
             int children[2] = {node + 1, offset};
             for (int k = 0; k < 2; ++k) {
                 int child = children[k];
-                if (hit_box(r, nodes[2 * child], nodes[2 * child + 1], t_max) != INF_T) {
+                if (hit_box(r, nodes[BVH_NODE_ROWS * child], nodes[BVH_NODE_ROWS * child + 1], t_max) != INF_T) {
                     if (sp < STACK_SIZE) stack[sp++] = child;
                     else overflow = true;
                 }

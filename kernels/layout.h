@@ -61,6 +61,18 @@
 #ifndef STRIP
 #error "STRIP is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
 #endif
+#ifndef BVH_NODE_ROWS
+#error "BVH_NODE_ROWS is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#ifndef WIDE_NODE_ROWS
+#error "WIDE_NODE_ROWS is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#ifndef WIDE_CHILD_ROW
+#error "WIDE_CHILD_ROW is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#ifndef WIDE_COUNT_ROW
+#error "WIDE_COUNT_ROW is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
 #if STRIP != 8
 #error "STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
 #endif

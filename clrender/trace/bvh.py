@@ -47,8 +47,10 @@ from functools import partial
 import numpy as np
 
 from ..errors import UsageError
+from ..layout import BVH_NODE_ROWS
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
+assert NODE_DTYPE.itemsize == 16 * BVH_NODE_ROWS  # the kernels read a node as BVH_NODE_ROWS float4s
 BUILDERS = ("sah", "median")
 MAX_TREE_LEVELS = 48  # levels, root included
 # The kernels' traversal stack (-DSTACK_SIZE): near-first closest-hit traversal keeps at most

@@ -28,10 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..layout import WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
 from .bvh import BVH, MAX_TREE_LEVELS, half_area
 
 WIDTHS = (2, 4, 8)  # 2: the binary tree as is
-ROWS = 8
+ROWS = WIDE_NODE_ROWS
 
 
 def stack_size(width: int) -> int:
@@ -62,11 +63,11 @@ class WideBVH:
 
     @property
     def child(self) -> np.ndarray:
-        return self.nodes[:, 6].view(np.int32)
+        return self.nodes[:, WIDE_CHILD_ROW].view(np.int32)
 
     @property
     def count(self) -> np.ndarray:
-        return self.nodes[:, 7].view(np.int32)
+        return self.nodes[:, WIDE_COUNT_ROW].view(np.int32)
 
     @property
     def depth(self) -> int:
@@ -158,9 +159,9 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         sl = slice(base, base + len(lv))
         nodes[sl, 0:6:2] = lo_of[lv].transpose(0, 2, 1)
         nodes[sl, 1:6:2] = hi_of[lv].transpose(0, 2, 1)
-        ints[sl, 6] = child_of[lv]
-        ints[sl, 7] = count_of[lv]
+        ints[sl, WIDE_CHILD_ROW] = child_of[lv]
+        ints[sl, WIDE_COUNT_ROW] = count_of[lv]
         base += len(lv)
     if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
-        ints[0, 7] = -1
+        ints[0, WIDE_COUNT_ROW] = -1
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
