@@ -1,4 +1,5 @@
 """Dispatch `python -m bench NAME ...` to bench/NAME.py's main(argv)."""
+
 import importlib
 import sys
 

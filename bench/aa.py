@@ -6,6 +6,7 @@ time (wall, and CPU seconds of this process) of `full` and `edge_detect`, the fr
 RMSE of each (sRGB values in [0, 1]) against a high-sample reference.
 The seed took 3700 s (full) and 1129 s (edge) for this render.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,8 +26,7 @@ from .common import write_table
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench aa", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog="python -m bench aa", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="wizard_cat")
     ap.add_argument("--camera", type=int, default=3, help="the seed's recommended view for wizard_cat")
     ap.add_argument("--size", type=int, default=400)
@@ -44,9 +44,12 @@ def main(argv=None):
     tracer = Tracer(scene) if args.bvh_width is None else Tracer(scene, bvh_width=args.bvh_width)
     common = dict(tracer=tracer, width=args.size, height=args.size, camera=args.camera, sampler="stratified")
     runs = {}
-    modes = {"none": dict(aa="none"), "full": dict(aa="full"),
-             "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0),
-             "edge_detect": dict(aa="edge_detect")}
+    modes = {
+        "none": dict(aa="none"),
+        "full": dict(aa="full"),
+        "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0),
+        "edge_detect": dict(aa="edge_detect"),
+    }
     cpu = {}
     for mode, settings in modes.items():
         renderer = Renderer(scene, samples=args.samples, thickness=args.thickness, seed=1, **settings, **common)
@@ -62,22 +65,35 @@ def main(argv=None):
         t = result.timings
         total = t["trace"] + t.get("edges", 0.0) + t.get("resample", 0.0)
         rmse = float("nan") if ref is None else float(np.sqrt(np.mean((linear_to_srgb(result.image) - ref) ** 2)))
-        rows.append(dict(mode=mode, seconds=total, cpu_s=cpu[mode], pass1_s=t["trace"], pass2_s=t.get("resample", 0.0),
-                         resampled=result.resampled_fraction if mode.startswith("edge") else float(mode == "full"),
-                         rmse=rmse, compile_s=t["compile"]))
+        rows.append(
+            dict(
+                mode=mode,
+                seconds=total,
+                cpu_s=cpu[mode],
+                pass1_s=t["trace"],
+                pass2_s=t.get("resample", 0.0),
+                resampled=result.resampled_fraction if mode.startswith("edge") else float(mode == "full"),
+                rmse=rmse,
+                compile_s=t["compile"],
+            )
+        )
     out = Path(args.out)
-    title = (f"{args.scene} camera {args.camera}, {args.size}x{args.size}, stratified N={args.samples}, "
-             f"thickness {args.thickness}; reference N={args.reference_samples}; BVH width {tracer.bvh_width}; "
-             f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    title = (
+        f"{args.scene} camera {args.camera}, {args.size}x{args.size}, stratified N={args.samples}, "
+        f"thickness {args.thickness}; reference N={args.reference_samples}; BVH width {tracer.bvh_width}; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
+    )
     print(write_table(out, "aa", rows, title))
     write_display_image(out / "aa_edge.png", runs["edge_detect"].image)
     from clrender.trace.edges import overlay_edges
 
     write_display_image(out / "aa_mask.png", overlay_edges(runs["none"].image, runs["edge_detect"].edge_mask))
     full, edge = rows[1], rows[3]
-    print(f"edge-AA: {edge['seconds']:.2f}s vs full {full['seconds']:.2f}s ({full['seconds'] / edge['seconds']:.1f}x), "
-          f"{100 * edge['resampled']:.1f}% of pixels resampled, RMSE {edge['rmse']:.4f} vs {full['rmse']:.4f} "
-          f"({100 * (edge['rmse'] / full['rmse'] - 1):+.1f}%)")
+    print(
+        f"edge-AA: {edge['seconds']:.2f}s vs full {full['seconds']:.2f}s ({full['seconds'] / edge['seconds']:.1f}x), "
+        f"{100 * edge['resampled']:.1f}% of pixels resampled, RMSE {edge['rmse']:.4f} vs {full['rmse']:.4f} "
+        f"({100 * (edge['rmse'] / full['rmse'] - 1):+.1f}%)"
+    )
     return 0
 
 

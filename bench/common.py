@@ -1,4 +1,5 @@
 """Shared benchmark helpers: timing medians, tables, output files."""
+
 from __future__ import annotations
 
 import csv

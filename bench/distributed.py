@@ -28,6 +28,7 @@ anything up.  Workers started by hand (`dask worker` in its own shell, or on
 other machines) each have their own session; the benchmark gives each worker
 its own session (setsid) to measure that case, unless --same-session.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -55,8 +56,7 @@ def load_average() -> str:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench distributed", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog="python -m bench distributed", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="wizard_cat")
     ap.add_argument("--camera", type=int, default=3)
     ap.add_argument("--size", type=int, default=384, help="square image side")
@@ -64,8 +64,7 @@ def main(argv=None):
     ap.add_argument("--samples", type=int, default=2, help="N: full AA with N x N stratified samples")
     ap.add_argument("--runs", type=int, default=3, help="warm renders per cluster size (median)")
     ap.add_argument("--workers", default="1,2", help="cluster sizes to compare")
-    ap.add_argument("--same-session", action="store_true",
-                    help="leave the workers in this process's session (see 'Linux autogroups' above)")
+    ap.add_argument("--same-session", action="store_true", help="leave the workers in this process's session (see 'Linux autogroups' above)")
     ap.add_argument("--quick", action="store_true", help="128x128, 16-pixel tiles, N=1, 1 run")
     ap.add_argument("--out", default="bench/out")
     args = ap.parse_args(argv)
@@ -80,12 +79,14 @@ def main(argv=None):
     from clrender.distributed.cluster import pocl_env
 
     scene = Scene.load(args.scene)
-    settings = RenderSettings(width=args.size, height=args.size, camera=args.camera, aa="full",
-                              samples=args.samples, tile_size=args.tile, seed=1)
+    settings = RenderSettings(width=args.size, height=args.size, camera=args.camera, aa="full", samples=args.samples, tile_size=args.tile, seed=1)
     n_tiles = (-(-args.size // args.tile)) ** 2
     load_before = load_average()
-    print(f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, "
-          f"{n_tiles} tiles of {args.tile}x{args.tile}; load average {load_before}", file=sys.stderr)
+    print(
+        f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, "
+        f"{n_tiles} tiles of {args.tile}x{args.tile}; load average {load_before}",
+        file=sys.stderr,
+    )
 
     local = Renderer(scene, settings)
     local.run()  # warm: kernels built
@@ -94,16 +95,32 @@ def main(argv=None):
         start = time.perf_counter()
         reference = local.run()
         local_times.append(time.perf_counter() - start)
-    rows = [dict(workers="local (this process)", wall_s=statistics.median(local_times), speedup=1.0, tasks=n_tiles,
-                 compute_s=float("nan"), compute_cpu_s=float("nan"), compute_per_task_ms=float("nan"), overhead_per_task_ms=float("nan"),
-                 tasks_per_worker="", first_pixel_s=float("nan"), cluster_start_s=float("nan"), identical=True)]
+    rows = [
+        dict(
+            workers="local (this process)",
+            wall_s=statistics.median(local_times),
+            speedup=1.0,
+            tasks=n_tiles,
+            compute_s=float("nan"),
+            compute_cpu_s=float("nan"),
+            compute_per_task_ms=float("nan"),
+            overhead_per_task_ms=float("nan"),
+            tasks_per_worker="",
+            first_pixel_s=float("nan"),
+            cluster_start_s=float("nan"),
+            identical=True,
+        )
+    ]
 
     walls = {}
     for workers in [int(w) for w in args.workers.split(",")]:
         start = time.perf_counter()
-        with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                      silence_logs=logging.ERROR, env=pocl_env(1)) as cluster, \
-                distributed.Client(cluster) as client:
+        with (
+            distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR, env=pocl_env(1)
+            ) as cluster,
+            distributed.Client(cluster) as client,
+        ):
             client.wait_for_workers(workers)
             if not args.same_session:
                 client.run(os.setsid)  # each worker its own autogroup, as workers started by hand are
@@ -127,18 +144,30 @@ def main(argv=None):
         for t in log:
             per_worker[t["pid"]] = per_worker.get(t["pid"], 0) + 1
         walls[workers] = wall
-        rows.append(dict(workers=workers, wall_s=wall, speedup=walls[min(walls)] / wall if walls else 1.0,
-                         tasks=len(log), compute_s=compute, compute_cpu_s=compute_cpu,
-                         compute_per_task_ms=1e3 * compute / len(log),
-                         overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
-                         tasks_per_worker="/".join(map(str, sorted(per_worker.values(), reverse=True))),
-                         first_pixel_s=first_pixel, cluster_start_s=cluster_start, identical=identical))
+        rows.append(
+            dict(
+                workers=workers,
+                wall_s=wall,
+                speedup=walls[min(walls)] / wall if walls else 1.0,
+                tasks=len(log),
+                compute_s=compute,
+                compute_cpu_s=compute_cpu,
+                compute_per_task_ms=1e3 * compute / len(log),
+                overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
+                tasks_per_worker="/".join(map(str, sorted(per_worker.values(), reverse=True))),
+                first_pixel_s=first_pixel,
+                cluster_start_s=cluster_start,
+                identical=identical,
+            )
+        )
         print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
 
-    title = (f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, {n_tiles} tiles; "
-             f"one PoCL thread per worker{', workers in this session' if args.same_session else ', one session per worker'}; "
-             f"{os.cpu_count()} CPUs, load average (1/5/15 min) before {load_before}, "
-             f"after {load_average()}")
+    title = (
+        f"{args.scene} camera {args.camera}, {args.size}x{args.size}, full AA N={args.samples}, {n_tiles} tiles; "
+        f"one PoCL thread per worker{', workers in this session' if args.same_session else ', one session per worker'}; "
+        f"{os.cpu_count()} CPUs, load average (1/5/15 min) before {load_before}, "
+        f"after {load_average()}"
+    )
     table = write_table(Path(args.out), "distributed", rows, title)
     print(table)
     if not all(r["identical"] for r in rows):

@@ -18,6 +18,7 @@ and DIR/filters_growth.png (time against size); with --crossover also
 DIR/filters_crossover.{csv,md}, the Gaussian timed both ways, which is how
 FFT_FROM_SIZE was chosen.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -105,15 +106,15 @@ def timed(fn, runs: int, warm_up: bool = False):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench filters", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog="python -m bench filters", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=4096, help="image is SIZE x SIZE x 3 float32")
     ap.add_argument("--runs", type=int, default=3, help="timed OpenCV runs per filter; the median is reported")
     ap.add_argument("--numpy-runs", type=int, default=1, help="timed numpy runs per filter (slow at size 101)")
     ap.add_argument("--sizes", default="3,33,101", help="kernel sizes timed with both implementations")
     ap.add_argument("--wide", default="301,1001", help="wider sizes timed with OpenCV only ('' for none)")
-    ap.add_argument("--crossover", default="", metavar="SIZES",
-                    help="also time the Gaussian both ways (separable and FFT) at these sizes, e.g. 75,101,151,201")
+    ap.add_argument(
+        "--crossover", default="", metavar="SIZES", help="also time the Gaussian both ways (separable and FFT) at these sizes, e.g. 75,101,151,201"
+    )
     ap.add_argument("--quick", action="store_true", help="512 x 512, one run each: a smoke test")
     ap.add_argument("--out", default="bench/out", help="folder for filters.csv/.md/.png")
     args = ap.parse_args(argv)
@@ -126,21 +127,26 @@ def main(argv=None):
     names = ["brighten_1.5"]
     names += [f"{family}_{k}" for family in ("box_blur", "gauss_blur") for k in sizes + wide]
     names += ["edge_detect_1", "edge_detect_2"]
-    print(f"{args.size}x{args.size} RGB float32, OpenCV {cv2.__version__} with {cv2.getNumThreads()} threads, "
-          f"median of {args.runs} (numpy: {args.numpy_runs})", flush=True)
+    print(
+        f"{args.size}x{args.size} RGB float32, OpenCV {cv2.__version__} with {cv2.getNumThreads()} threads, "
+        f"median of {args.runs} (numpy: {args.numpy_runs})",
+        flush=True,
+    )
     rows = []
     for name in names:
         f = filters.parse(name)
         size = 1 if f.kind == "brighten" else (3 if f.kind == "edge_detect" else int(f.value))
-        path = {"brighten": "multiply", "box_blur": "running sums", "edge_detect": "3x3 direct",
-                "gauss_blur": "FFT" if size >= filters.FFT_FROM_SIZE else "separable"}[f.kind]
+        path = {
+            "brighten": "multiply",
+            "box_blur": "running sums",
+            "edge_detect": "3x3 direct",
+            "gauss_blur": "FFT" if size >= filters.FFT_FROM_SIZE else "separable",
+        }[f.kind]
         opencv_s, ours = timed(lambda: filters.apply(img, name), args.runs, warm_up=True)
-        row = {"filter": name, "size": size, "path": path, "opencv_s": opencv_s,
-               "numpy_s": "", "numpy_over_opencv": "", "max_abs_diff": ""}
+        row = {"filter": name, "size": size, "path": path, "opencv_s": opencv_s, "numpy_s": "", "numpy_over_opencv": "", "max_abs_diff": ""}
         if f.kind in ("brighten", "edge_detect") or size in sizes:
             numpy_s, theirs = timed(lambda: numpy_version(name)(img), args.numpy_runs)
-            row.update(numpy_s=numpy_s, numpy_over_opencv=numpy_s / opencv_s,
-                       max_abs_diff=float(np.abs(ours - theirs).max()))
+            row.update(numpy_s=numpy_s, numpy_over_opencv=numpy_s / opencv_s, max_abs_diff=float(np.abs(ours - theirs).max()))
             del theirs
         del ours
         rows.append(row)
@@ -156,23 +162,35 @@ def main(argv=None):
             fft_s, _ = timed(lambda: filters.separable_fft(img, g), args.runs)
             both_ways.append({"size": k, "separable_s": sep_s, "fft_s": fft_s, "separable_over_fft": sep_s / fft_s})
             print(f"  gauss {k:<5} separable {sep_s:7.3f} s   FFT {fft_s:7.3f} s", flush=True)
-        print(write_table(out, "filters_crossover", both_ways,
-                          f"Gaussian, separable vs FFT, {args.size}x{args.size} RGB, median of {args.runs} "
-                          f"(clrender switches at {filters.FFT_FROM_SIZE})"))
-    title = (f"Filters on {args.size}x{args.size} RGB float32, median of {args.runs} "
-             f"(numpy {args.numpy_runs}), {cv2.getNumThreads()} OpenCV threads")
+        print(
+            write_table(
+                out,
+                "filters_crossover",
+                both_ways,
+                f"Gaussian, separable vs FFT, {args.size}x{args.size} RGB, median of {args.runs} (clrender switches at {filters.FFT_FROM_SIZE})",
+            )
+        )
+    title = f"Filters on {args.size}x{args.size} RGB float32, median of {args.runs} (numpy {args.numpy_runs}), {cv2.getNumThreads()} OpenCV threads"
     print(write_table(out, "filters", rows, title))
     both = [r for r in rows if r["numpy_s"] != ""]
-    bar_chart(out / "filters.png", [r["filter"] for r in both],
-              {"OpenCV (clrender.image.filters)": [r["opencv_s"] for r in both],
-               "plain numpy": [r["numpy_s"] for r in both]},
-              title=title, ylabel="seconds (log scale)", log=True)
+    bar_chart(
+        out / "filters.png",
+        [r["filter"] for r in both],
+        {"OpenCV (clrender.image.filters)": [r["opencv_s"] for r in both], "plain numpy": [r["numpy_s"] for r in both]},
+        title=title,
+        ylabel="seconds (log scale)",
+        log=True,
+    )
     grown = sorted({r["size"] for r in rows if r["filter"].startswith(("box", "gauss"))})
-    by_size = lambda family: [next((r["opencv_s"] for r in rows if r["filter"] == f"{family}_{k}"), None)
-                              for k in grown]
-    line_chart(out / "filters_growth.png", grown, {"box_blur": by_size("box_blur"), "gauss_blur": by_size("gauss_blur")},
-               title=f"OpenCV time against kernel size, {args.size}x{args.size} RGB",
-               xlabel="kernel size K", ylabel="seconds")
+    by_size = lambda family: [next((r["opencv_s"] for r in rows if r["filter"] == f"{family}_{k}"), None) for k in grown]
+    line_chart(
+        out / "filters_growth.png",
+        grown,
+        {"box_blur": by_size("box_blur"), "gauss_blur": by_size("gauss_blur")},
+        title=f"OpenCV time against kernel size, {args.size}x{args.size} RGB",
+        xlabel="kernel size K",
+        ylabel="seconds",
+    )
     print(f"wrote {out / 'filters.csv'}, {out / 'filters.md'}, {out / 'filters.png'}, {out / 'filters_growth.png'}")
     return 0
 

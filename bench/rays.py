@@ -10,6 +10,7 @@ embree traces the same rays with Embree in the same run (embreex, which calls
 rtcIntersect1 / rtcOccluded1 once per ray on one thread) and reports the ratios.
 Also the BVH build time for a 1,000,000-triangle mesh and the SAH cost of both builders.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -82,8 +83,7 @@ def ray_sets(mesh, size: int, seed: int = 0):
     r *= np.where(np.einsum("ij,ij->i", r, n * facing) < 0, -1, 1)[:, None]
     bounce = (p + facing * n * eps, r, np.full(len(p), np.inf))
     f32 = lambda a: tuple(np.ascontiguousarray(x, np.float32) for x in a)
-    return {"primary": (o, d, np.full(len(o), np.inf, np.float32)), "shadow": f32(shadow),
-            "incoherent": f32(bounce)}, float(hit.mean())
+    return {"primary": (o, d, np.full(len(o), np.inf, np.float32)), "shadow": f32(shadow), "incoherent": f32(bounce)}, float(hit.mean())
 
 
 def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int):
@@ -153,9 +153,21 @@ def build_times(n_triangles: int, runs: int):
         bvh = build()
         collapse_s = median_seconds(lambda: collapse(bvh, w), runs)
         wide = collapse(bvh, w)
-        rows.append(dict(builder=builder, max_leaf=leaf, triangles=len(tri), build_s=seconds, build_cpu_s=cpu_seconds,
-                         nodes=len(bvh.nodes), sah_cost=float(bvh.sah_cost()), width=w, collapse_s=collapse_s,
-                         wide_nodes=wide.node_count, wide_sah_cost=wide.sah_cost()))
+        rows.append(
+            dict(
+                builder=builder,
+                max_leaf=leaf,
+                triangles=len(tri),
+                build_s=seconds,
+                build_cpu_s=cpu_seconds,
+                nodes=len(bvh.nodes),
+                sah_cost=float(bvh.sah_cost()),
+                width=w,
+                collapse_s=collapse_s,
+                wide_nodes=wide.node_count,
+                wide_sah_cost=wide.sah_cost(),
+            )
+        )
     return rows
 
 
@@ -164,14 +176,18 @@ KINDS = ("primary", "shadow", "incoherent")
 
 def summary(rows: list[dict]) -> str:
     """One line per layout and ray kind: Mrays/s, per CPU-second, ratios to Embree, work per ray."""
-    lines = ["| layout | rays | Mrays/s | Mrays/CPU-s | vs Embree (wall) | vs Embree (per CPU-s) | nodes/ray | prims/ray |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| layout | rays | Mrays/s | Mrays/CPU-s | vs Embree (wall) | vs Embree (per CPU-s) | nodes/ray | prims/ray |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         layout = "embree (1 thread)" if r["builder"] == "embree" else f"{r['builder']}, width {r['width']}"
         for k in KINDS:
             g = lambda key: r.get(f"{k}_{key}", float("nan"))
-            lines.append(f"| {layout} | {k} | {g('mrays'):.3g} | {g('mrays_per_cpu_s'):.3g} | {g('vs_embree'):.3g} | "
-                         f"{g('vs_embree_per_cpu_s'):.3g} | {g('nodes_per_ray'):.3g} | {g('prims_per_ray'):.3g} |")
+            lines.append(
+                f"| {layout} | {k} | {g('mrays'):.3g} | {g('mrays_per_cpu_s'):.3g} | {g('vs_embree'):.3g} | "
+                f"{g('vs_embree_per_cpu_s'):.3g} | {g('nodes_per_ray'):.3g} | {g('prims_per_ray'):.3g} |"
+            )
     return "\n".join(lines)
 
 
@@ -186,15 +202,17 @@ def chart(path: Path, rows: list[dict], title: str) -> None:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench rays", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog="python -m bench rays", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--mesh", help="mesh file to trace (default: a generated ~100k-triangle mesh)")
     ap.add_argument("--size", type=int, default=512, help="image side in pixels (rays = size^2)")
     ap.add_argument("--runs", type=int, default=5, help="timed runs; the median is reported")
     ap.add_argument("--build-triangles", type=int, default=1_000_000, help="triangles for the build benchmark")
     ap.add_argument("--out", default="bench/out", help="folder for rays.csv / rays.md")
-    ap.add_argument("--peer", choices=("embree",), help="also trace the same rays with Embree (embreex, one thread) "
-                    "and report clrender / Embree ratios measured in this run")
+    ap.add_argument(
+        "--peer",
+        choices=("embree",),
+        help="also trace the same rays with Embree (embreex, one thread) and report clrender / Embree ratios measured in this run",
+    )
     ap.add_argument("--no-build", action="store_true", help="skip the 1M-triangle build benchmark")
     args = ap.parse_args(argv)
     if args.mesh:
@@ -224,8 +242,10 @@ def main(argv=None):
     table = summary(rows)
     (out / "rays_summary.md").write_text(table + "\n")
     chart(out / "rays.png", rows, f"{label} ({len(mesh.faces)} triangles), {args.size}x{args.size}")
-    print(f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} primary rays, {hit_fraction:.1%} hit; "
-          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(
+        f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} primary rays, {hit_fraction:.1%} hit; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
+    )
     print(table)
     if args.no_build:
         return 0

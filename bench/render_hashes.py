@@ -6,6 +6,7 @@
 
 The clrender imported is the one of the current folder's checkout (run it from the repository root).
 """
+
 import hashlib
 import sys
 from pathlib import Path

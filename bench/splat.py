@@ -11,6 +11,7 @@ Without --image it fits `test_image()`: a deterministic 512x512 landscape
 made of smooth gradients, soft-edged shapes and band-limited noise texture
 (none of our dependencies ships a photograph).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,7 +49,7 @@ def test_image(size: int = 512, seed: int = 0) -> np.ndarray:
     img[:] = sky * (1 - 0.6 * clouds) + 0.6 * clouds
     # sun: a soft disc
     r = np.hypot(xs - 0.75, ys - 0.2)
-    img += (np.clip((0.07 - r) / 0.01, 0, 1) * 0.8 + np.exp(-(r / 0.12) ** 2) * 0.25)[..., None] * [1.0, 0.9, 0.6]
+    img += (np.clip((0.07 - r) / 0.01, 0, 1) * 0.8 + np.exp(-((r / 0.12) ** 2)) * 0.25)[..., None] * [1.0, 0.9, 0.6]
     # two hill ranges with wiggly ridges, shaded by height and textured
     for level, amp, col, sig in ((0.45, 0.08, (0.3, 0.4, 0.35), 30), (0.6, 0.06, (0.25, 0.5, 0.2), 20)):
         ridge = level + amp * np.sin(xs * (7 + 5 * level) + level * 10) + 0.02 * band_noise(rng, (size, size), sig)
@@ -115,10 +116,8 @@ def time_steps(device, target, blend, splats, runs):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench splat", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--image", help="fit this image (its centre square resized to --size x --size) "
-                                    "instead of the built-in test image")
+    ap = argparse.ArgumentParser(prog="python -m bench splat", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--image", help="fit this image (its centre square resized to --size x --size) instead of the built-in test image")
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--splats", type=int, default=5000)
     ap.add_argument("--runs", type=int, default=20, help="timed runs; the median is reported")
@@ -136,9 +135,8 @@ def main(argv=None):
         target = as_rgb(read_image(args.image).pixels)
         h, w = target.shape[:2]
         side = min(h, w)  # the centre square, resized
-        target = target[(h - side) // 2: (h - side) // 2 + side, (w - side) // 2: (w - side) // 2 + side]
-        target = cv2.resize(target, (args.size, args.size), interpolation=cv2.INTER_AREA if side > args.size
-                            else cv2.INTER_CUBIC)
+        target = target[(h - side) // 2 : (h - side) // 2 + side, (w - side) // 2 : (w - side) // 2 + side]
+        target = cv2.resize(target, (args.size, args.size), interpolation=cv2.INTER_AREA if side > args.size else cv2.INTER_CUBIC)
         target = np.clip(target, 0, 1)
         source = args.image
     else:
@@ -150,11 +148,19 @@ def main(argv=None):
     rows, curves = [], {}
     for blend in args.blends:
         t = time_steps(device, target, blend, args.splats, runs)
-        row = {"blend": blend, "splats": args.splats, "size": args.size, "tile_entries": t["entries"],
-               "forward_ms": t["forward"] * 1e3, "forward_min_ms": t["forward_min"] * 1e3,
-               "forward_cpu_ms": t["forward_cpu"] * 1e3, "step_ms": t["step"] * 1e3,
-               "step_min_ms": t["step_min"] * 1e3, "step_cpu_ms": t["step_cpu"] * 1e3,
-               "compile_s": t["compile"]}
+        row = {
+            "blend": blend,
+            "splats": args.splats,
+            "size": args.size,
+            "tile_entries": t["entries"],
+            "forward_ms": t["forward"] * 1e3,
+            "forward_min_ms": t["forward_min"] * 1e3,
+            "forward_cpu_ms": t["forward_cpu"] * 1e3,
+            "step_ms": t["step"] * 1e3,
+            "step_min_ms": t["step_min"] * 1e3,
+            "step_cpu_ms": t["step_cpu"] * 1e3,
+            "compile_s": t["compile"],
+        }
         for budget in budgets:
             cfg = FitConfig(splats=args.splats, blend=blend, time_budget=budget, seed=0)
             result = Fitter(device, target, cfg).run(show_progress=False)
@@ -165,8 +171,7 @@ def main(argv=None):
                 curves[blend] = result.log
         rows.append(row)
         print({k: (round(v, 3) if isinstance(v, float) else v) for k, v in row.items()}, flush=True)
-    table = write_table(args.out, "splat", rows,
-                        f"Gaussian splats, {args.splats} splats, {args.size}x{args.size}, image: {source}")
+    table = write_table(args.out, "splat", rows, f"Gaussian splats, {args.splats} splats, {args.size}x{args.size}, image: {source}")
     print(table)
     if not curves:
         return 0
@@ -178,8 +183,6 @@ def main(argv=None):
     # PSNR against time, each blend resampled on a common time axis
     end = max(budgets)
     t = np.linspace(0, end, 121)
-    series = {f"{b} PSNR (dB)": list(np.interp(t, [r["seconds"] for r in log], [r["psnr"] for r in log]))
-              for b, log in curves.items()}
-    line_chart(args.out / "splat.png", list(t), series, title=f"PSNR while fitting {args.splats} splats",
-               xlabel="seconds", ylabel="PSNR (dB)")
+    series = {f"{b} PSNR (dB)": list(np.interp(t, [r["seconds"] for r in log], [r["psnr"] for r in log])) for b, log in curves.items()}
+    line_chart(args.out / "splat.png", list(t), series, title=f"PSNR while fitting {args.splats} splats", xlabel="seconds", ylabel="PSNR (dB)")
     return 0

@@ -14,6 +14,7 @@ colours, mean colours after Lloyd steps, and after soft-Voronoi training
 Writes DIR/voronoi.csv/.md, voronoi_quality.csv/.md, voronoi_scaling.csv/.md,
 voronoi.png (original and the four reconstructions) and voronoi_times.png.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -111,10 +112,8 @@ def quality(dev, image, n, lloyd_steps, train_steps, seed):
     start = time.perf_counter()
     result = train(dev, image, uniform, settings=st)
     seconds = time.perf_counter() - start
-    _, _, _, soft = SoftVoronoi(dev, w, h, st.k).loss_and_grads(result.sites, result.colors, image,
-                                                                w * h / n * st.t_end)
-    rows.append(dict(config=f"soft Voronoi x{train_steps} from uniform (soft image)",
-                     psnr_db=psnr(soft, image), seconds=seconds))
+    _, _, _, soft = SoftVoronoi(dev, w, h, st.k).loss_and_grads(result.sites, result.colors, image, w * h / n * st.t_end)
+    rows.append(dict(config=f"soft Voronoi x{train_steps} from uniform (soft image)", psnr_db=psnr(soft, image), seconds=seconds))
     hard("soft-trained sites, hard, mean colours", result.sites, seconds=seconds, show=True)
     return rows, pictures, energies, result.losses
 
@@ -137,8 +136,7 @@ def montage(path, image, pictures):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench voronoi", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog="python -m bench voronoi", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--image", help="image to splat (default: a generated photo-like image)")
     ap.add_argument("--size", type=int, default=512, help="side of the generated image")
     ap.add_argument("--splats", type=int, default=5000, help="number of sites")
@@ -164,14 +162,14 @@ def main(argv=None):
     rows, same, kd_diff = timings(dev, sites, w, h, args.runs)
     for r in rows:
         r["image"] = label
-    print(write_table(out, "voronoi", rows, f"One nearest-site pass, {args.splats} sites at {w}x{h} "
-                                            f"(median of {args.runs}; {dev.name})"))
-    print(f"grid == naive exactly: {same}; pixels where cKDTree differs: {kd_diff}; "
-          f"compile {dev.compile_seconds:.2f}s (excluded)")
+    print(write_table(out, "voronoi", rows, f"One nearest-site pass, {args.splats} sites at {w}x{h} (median of {args.runs}; {dev.name})"))
+    print(f"grid == naive exactly: {same}; pixels where cKDTree differs: {kd_diff}; compile {dev.compile_seconds:.2f}s (excluded)")
     by = {r["method"]: r["ms"] for r in rows}
     if "scipy cKDTree (all cores)" in by:
-        print(f"grid kernel is {by['scipy cKDTree (all cores)'] / by['grid kernel']:.1f}x faster than cKDTree, "
-              f"{by['naive kernel'] / by['grid kernel']:.0f}x faster than naive")
+        print(
+            f"grid kernel is {by['scipy cKDTree (all cores)'] / by['grid kernel']:.1f}x faster than cKDTree, "
+            f"{by['naive kernel'] / by['grid kernel']:.0f}x faster than naive"
+        )
 
     scale = scaling(dev, w, h, max(3, args.runs // 2), [1000, 5000, 20000, 100000])
     print()
@@ -185,10 +183,17 @@ def main(argv=None):
     try:
         from clrender.image.plot import bar_chart, line_chart
 
-        bar_chart(out / "voronoi_times.png", [r["method"] for r in rows], {"ms": [r["ms"] for r in rows]},
-                  title=f"Nearest-site pass, {args.splats} sites, {w}x{h}", ylabel="ms (log)", log=True)
-        line_chart(out / "voronoi_training.png", list(range(len(losses))), {"MSE": losses},
-                   title="Soft-Voronoi training", xlabel="step", ylabel="MSE")
+        bar_chart(
+            out / "voronoi_times.png",
+            [r["method"] for r in rows],
+            {"ms": [r["ms"] for r in rows]},
+            title=f"Nearest-site pass, {args.splats} sites, {w}x{h}",
+            ylabel="ms (log)",
+            log=True,
+        )
+        line_chart(
+            out / "voronoi_training.png", list(range(len(losses))), {"MSE": losses}, title="Soft-Voronoi training", xlabel="step", ylabel="MSE"
+        )
     except ImportError:  # pragma: no cover - plot.py lands separately
         pass
     print(f"wrote {out}/voronoi.csv/.md, voronoi_quality.*, voronoi_scaling.*, voronoi.png")

@@ -1,4 +1,5 @@
 """clrender: a Whitted ray tracer, convolution filters and image splatting on OpenCL."""
+
 import os
 import sys
 
@@ -24,11 +25,24 @@ __version__ = "0.1.0"
 # Imported on first use (PEP 562), so `import clrender.cli` is light and the
 # command line can take over Ctrl-C before numpy and pyopencl load.
 _EXPORTS = {  # the public API, by the module that defines it (README: code map)
-    "Renderer": "trace.renderer", "RenderResult": "trace.renderer", "RenderSettings": "trace.renderer",
-    "render": "trace.renderer", "Tracer": "trace.tracer", "edge_mask": "trace.edges", "build_bvh": "trace.bvh",
-    "Scene": "scene.scene", "Camera": "scene.camera", "Light": "scene.lights", "Material": "scene.materials",
-    "read_image": "image.files", "write_image": "image.files", "show": "image.display",
-    "get_device": "device", "list_devices": "device", "UsageError": "errors", "RenderFailure": "errors",
+    "Renderer": "trace.renderer",
+    "RenderResult": "trace.renderer",
+    "RenderSettings": "trace.renderer",
+    "render": "trace.renderer",
+    "Tracer": "trace.tracer",
+    "edge_mask": "trace.edges",
+    "build_bvh": "trace.bvh",
+    "Scene": "scene.scene",
+    "Camera": "scene.camera",
+    "Light": "scene.lights",
+    "Material": "scene.materials",
+    "read_image": "image.files",
+    "write_image": "image.files",
+    "show": "image.display",
+    "get_device": "device",
+    "list_devices": "device",
+    "UsageError": "errors",
+    "RenderFailure": "errors",
 }
 __all__ = sorted(_EXPORTS)
 

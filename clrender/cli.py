@@ -8,6 +8,7 @@ the traceback (--debug or CLRENDER_DEBUG=1).  Each subcommand lives in
 clrender/commands/<name>.py and registers itself with
 `add_parser(subparsers)`, setting `run` to the function that does the work.
 """
+
 # SIGINT and SIGTERM are handled from the package's first line when clrender runs as a program
 # (clrender/__init__.py, which imports nothing heavy); main() takes over with _on_signal.
 import os
@@ -64,9 +65,13 @@ def build_parser() -> ArgumentParser:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or timings")
     parser.add_argument("-v", "--verbose", action="store_true", help="progress bars even off a terminal")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error (also CLRENDER_DEBUG=1)")
-    parser.add_argument("--max-memory", type=_memory_size, default=None, metavar="SIZE",
-                        help="refuse a job whose estimated peak memory exceeds SIZE (e.g. 2G; also CLRENDER_MAX_MEMORY) "
-                             "(default: the memory available now)")
+    parser.add_argument(
+        "--max-memory",
+        type=_memory_size,
+        default=None,
+        metavar="SIZE",
+        help="refuse a job whose estimated peak memory exceeds SIZE (e.g. 2G; also CLRENDER_MAX_MEMORY) (default: the memory available now)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
     sub.required = True
     for module in (render, convolve, splat, devices):
@@ -128,8 +133,10 @@ def _main(argv) -> int:
                 raise
             if _is_device_error(exc):
                 return _fail(f"OpenCL failed: {exc}", EXIT_FAILURE)
-            return _fail(f"internal error (a bug in clrender): {type(exc).__name__}: {exc}; "
-                         "run again with --debug or CLRENDER_DEBUG=1 for the traceback", EXIT_FAILURE)
+            return _fail(
+                f"internal error (a bug in clrender): {type(exc).__name__}: {exc}; run again with --debug or CLRENDER_DEBUG=1 for the traceback",
+                EXIT_FAILURE,
+            )
 
 
 def _global_options_first(argv: list) -> list:
@@ -140,7 +147,7 @@ def _global_options_first(argv: list) -> list:
         if a == "--debug" or a.startswith("--max-memory="):
             front.append(a)
         elif a == "--max-memory" and i + 1 < len(argv):
-            front += argv[i:i + 2]
+            front += argv[i : i + 2]
             i += 1
         else:
             rest.append(a)

@@ -9,6 +9,7 @@ Programs are built once per process for each (file, defines) pair and their
 kernels fetched once; variants are chosen with -D options, never by pasting
 source strings together.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -64,8 +65,7 @@ class Device:
                 from .errors import RenderFailure
 
                 logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
-                raise RenderFailure(
-                    f"building kernels/{filename} failed on {self.name}: {_first_error(str(exc))}") from exc
+                raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {_first_error(str(exc))}") from exc
             self.compile_seconds += time.perf_counter() - start
             self._programs[key] = prg
         return prg
@@ -85,8 +85,7 @@ class Device:
         mf = cl.mem_flags
         if array.nbytes == 0:
             array = np.zeros(1, dtype=array.dtype if array.dtype.itemsize else np.uint8)
-        return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR,
-                         hostbuf=array)
+        return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR, hostbuf=array)
 
     def empty(self, nbytes: int) -> cl.Buffer:
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""
@@ -99,8 +98,7 @@ class Device:
 
     def sync_to_host(self, buffer: cl.Buffer, array: np.ndarray) -> None:
         """Make `array` hold what kernels wrote to its `host_buffer` (a no-op copy on a CPU)."""
-        mapped, _ = cl.enqueue_map_buffer(self.queue, buffer, cl.map_flags.READ, 0, array.shape,
-                                          array.dtype, is_blocking=True)
+        mapped, _ = cl.enqueue_map_buffer(self.queue, buffer, cl.map_flags.READ, 0, array.shape, array.dtype, is_blocking=True)
         mapped.base.release(self.queue)
 
     def check_fits(self, nbytes: int, what: str) -> None:
@@ -108,8 +106,7 @@ class Device:
         limit = min(self.device.max_mem_alloc_size, self.device.global_mem_size)
         if nbytes > limit:
             raise UsageError(
-                f"{what} needs {nbytes / 2**20:.0f} MiB but the device {self.name!r} "
-                f"allows at most {limit / 2**20:.0f} MiB in one buffer"
+                f"{what} needs {nbytes / 2**20:.0f} MiB but the device {self.name!r} allows at most {limit / 2**20:.0f} MiB in one buffer"
             )
 
 
@@ -171,15 +168,11 @@ def _pick(spec: str | None):
             found = "; ".join(_describe(d) for d in devices)
             raise UsageError(f"no OpenCL device matches {spec!r}; available: {found}")
         return matches[0]
-    pocl_cpus = [
-        d for d in devices
-        if "portable computing language" in d.platform.name.lower() and d.type & cl.device_type.CPU
-    ]
+    pocl_cpus = [d for d in devices if "portable computing language" in d.platform.name.lower() and d.type & cl.device_type.CPU]
     if not pocl_cpus:
         found = "; ".join(_describe(d) for d in devices)
         raise UsageError(
-            f"the PoCL CPU device was not found (available: {found}); {INSTALL_HINT}, "
-            "or choose a device with --device / CLRENDER_DEVICE"
+            f"the PoCL CPU device was not found (available: {found}); {INSTALL_HINT}, or choose a device with --device / CLRENDER_DEVICE"
         )
     return pocl_cpus[0]
 

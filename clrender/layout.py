@@ -5,6 +5,7 @@ Device.program passes `DEFINES` to every program build as -D options; the kernel
 sides.  The record dtypes below say what each buffer element holds; tests/test_layout.py checks
 them against what the kernels see (sizeof, the codes, the strides).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,21 +43,30 @@ MATERIAL_DTYPE = np.dtype([("kd_shininess", *_F4), ("ks_mirror", *_F4), ("transp
 LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edge_a", *_F4), ("edge_b", *_F4)])
 # one splat-tile entry of the backward kernel: d/d(mean x, y), d/d(A, B2, C) of the inverse covariance,
 # d/d(colour), d/d(opacity), and the splat's summed weight over the tile
-SPLAT_GRAD_DTYPE = np.dtype([("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3),
-                             ("opacity", "<f4"), ("weight", "<f4")])
+SPLAT_GRAD_DTYPE = np.dtype(
+    [("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3), ("opacity", "<f4"), ("weight", "<f4")]
+)
 assert SPLAT_GRAD_DTYPE.itemsize == 4 * SPLAT_NGRAD
 assert ID_RECORD_DTYPE.itemsize == 4 * ID_RECORD
 assert PRIM_SLOT_DTYPE.itemsize == 16 * PRIM_ROWS and MATERIAL_DTYPE.itemsize == 16 * MATERIAL_ROWS
 assert LIGHT_DTYPE.itemsize == 16 * LIGHT_ROWS
 
 DEFINES = {
-    "PATH_LEN": PATH_LEN, "ID_RECORD": ID_RECORD,
-    "PRIM_ROWS": PRIM_ROWS, "MATERIAL_ROWS": MATERIAL_ROWS, "LIGHT_ROWS": LIGHT_ROWS,
+    "PATH_LEN": PATH_LEN,
+    "ID_RECORD": ID_RECORD,
+    "PRIM_ROWS": PRIM_ROWS,
+    "MATERIAL_ROWS": MATERIAL_ROWS,
+    "LIGHT_ROWS": LIGHT_ROWS,
     "NORMAL_ROWS": NORMAL_ROWS,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
-    "TILE": SPLAT_TILE, "NGRAD": SPLAT_NGRAD, "EPS": SPLAT_EPS, "STRIP": VORONOI_STRIP,
-    "BVH_NODE_ROWS": BVH_NODE_ROWS, "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
-    "WIDE_CHILD_ROW": WIDE_CHILD_ROW, "WIDE_COUNT_ROW": WIDE_COUNT_ROW,
+    "TILE": SPLAT_TILE,
+    "NGRAD": SPLAT_NGRAD,
+    "EPS": SPLAT_EPS,
+    "STRIP": VORONOI_STRIP,
+    "BVH_NODE_ROWS": BVH_NODE_ROWS,
+    "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
+    "WIDE_CHILD_ROW": WIDE_CHILD_ROW,
+    "WIDE_COUNT_ROW": WIDE_COUNT_ROW,
 }

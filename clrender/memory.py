@@ -12,6 +12,7 @@ Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now (MemAvailable) or --max-memory is refused with the
 figure (exit 2) instead of dying half-way with a MemoryError.
 """
+
 from __future__ import annotations
 
 import os
@@ -79,8 +80,7 @@ def require(need: int, what: str, max_memory: int | None = None) -> None:
         raise UsageError(f"{what} needs about {format_bytes(need)} of memory but {budget}; use a smaller size")
 
 
-def render_bytes(width: int, height: int, triangles: int = 0, *, aa: str = "none", aovs: int = 0,
-                 filters: int = 0, extra_images: int = 0) -> int:
+def render_bytes(width: int, height: int, triangles: int = 0, *, aa: str = "none", aovs: int = 0, filters: int = 0, extra_images: int = 0) -> int:
     """Peak bytes of one render with these settings (see the table at the top)."""
     per_pixel = RENDER_BYTES_PER_PIXEL
     if aa == "edge_detect":

@@ -26,6 +26,7 @@ whose process is gone.
         save_npz(params_path, xy=xy)        # staged
     # both in place here, or neither if anything above raised
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -253,6 +254,7 @@ def save_npz(final, *, overwrite: bool = True, join: bool = True, **arrays) -> P
 
 def write_csv(final, rows: list[dict], *, overwrite: bool = True) -> Path:
     """A CSV table with a header row from the first row's keys."""
+
     def writer(path):
         with open(path, "w", newline="") as f:
             table = csv.DictWriter(f, list(rows[0]) if rows else [])

@@ -7,6 +7,7 @@ example `python -m pytest` at the repository root after a non-editable
 subpackages; the top-level `kernels/` and `scenes/` beside it are then the
 ones that belong to the code being run.
 """
+
 from __future__ import annotations
 
 from importlib import resources

@@ -3,6 +3,7 @@
 Used by the tests and the benchmarks: each reference is brute force in numpy, written independently
 of the kernels it checks (small sizes only).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,9 +21,9 @@ def synthetic_photo(width: int = 512, height: int = 512, seed: int = 0) -> np.nd
     img[...] = np.stack([0.35 + 0.3 * v, 0.5 + 0.25 * v, 0.85 - 0.2 * v], axis=2)  # sky
     texture = np.zeros((height, width), np.float32)
     for octave in range(1, 9):  # value noise: coarse-to-fine random grids, smoothly upsampled
-        cells = 2 ** octave
+        cells = 2**octave
         grid = rng.random((cells + 1, cells + 1)).astype(np.float32)
-        texture += cv2.resize(grid, (width, height), interpolation=cv2.INTER_CUBIC) / 1.35 ** octave
+        texture += cv2.resize(grid, (width, height), interpolation=cv2.INTER_CUBIC) / 1.35**octave
     texture = (texture - texture.min()) / max(float(np.ptp(texture)), 1e-6)
     for k in range(3):  # hills, farther ones paler
         phase, amp, base = rng.random() * 6.3, 0.04 + 0.05 * rng.random(), 0.45 + 0.15 * k

@@ -41,6 +41,7 @@ print(f"{100 * edges.mean():.1f}% of the pixels resampled")
 if "ipykernel" in sys.modules:
     clrender.show(edges)
 
+
 # %% Side by side, each with its time and its RMSE against full AA, and a 4x crop below.
 def rmse(a, b):
     return float(np.sqrt(np.mean((linear_to_srgb(a) - linear_to_srgb(b)) ** 2)))
@@ -49,8 +50,10 @@ def rmse(a, b):
 reference = results["full"].image
 h, w = reference.shape[:2]
 crop = (slice(int(0.1 * h), int(0.35 * h)), slice(int(0.18 * w), int(0.43 * w)))  # the hat and its brim
-panels = [(f"--aa {aa}: {seconds[aa]:.2f} s, " + (f"RMSE {rmse(r.image, reference):.4f}" if aa != "full" else "the reference"),
-           linear_to_srgb(r.image)) for aa, r in results.items()]
+panels = [
+    (f"--aa {aa}: {seconds[aa]:.2f} s, " + (f"RMSE {rmse(r.image, reference):.4f}" if aa != "full" else "the reference"), linear_to_srgb(r.image))
+    for aa, r in results.items()
+]
 panels.append((f"edge mask: {100 * edges.mean():.1f}% of pixels", edges.astype(np.float32)))
 fig = Figure(figsize=(14, 7), layout="constrained")
 axes = fig.subplots(2, 4)

@@ -1,4 +1,5 @@
 """Running the command line in-process from tests."""
+
 from clrender.cli import main
 
 

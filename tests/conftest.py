@@ -13,6 +13,7 @@ Hypothesis profiles for the fuzz tests (tests/test_fuzz_*.py):
 A fuzz test that wants fewer examples than the profile gives under ci asks for
 `min(n, settings().max_examples)` only when `settings.get_current_profile_name() == "ci"`.
 """
+
 import os
 
 import pytest
@@ -26,10 +27,10 @@ if len(TEST_DEVICES) == 1:
 try:
     from hypothesis import HealthCheck, settings
 
-    settings.register_profile("ci", deadline=None, print_blob=True, derandomize=True,
-                              suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-    settings.register_profile("long", deadline=None, print_blob=True, max_examples=10_000,
-                              suppress_health_check=list(HealthCheck))
+    settings.register_profile(
+        "ci", deadline=None, print_blob=True, derandomize=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
+    )
+    settings.register_profile("long", deadline=None, print_blob=True, max_examples=10_000, suppress_health_check=list(HealthCheck))
     settings.load_profile("ci")
 except ImportError:  # hypothesis is in the `test` extra; without it the fuzz tests skip themselves
     pass
@@ -38,8 +39,7 @@ except ImportError:  # hypothesis is in the `test` extra; without it the fuzz te
 def pytest_generate_tests(metafunc):
     # only when devices are listed: by default the test ids stay as they are, without a [device] suffix
     if TEST_DEVICES and "device" in metafunc.fixturenames:
-        metafunc.parametrize("device", TEST_DEVICES, ids=[f"dev-{spec}" for spec in TEST_DEVICES],
-                             indirect=True, scope="session")
+        metafunc.parametrize("device", TEST_DEVICES, ids=[f"dev-{spec}" for spec in TEST_DEVICES], indirect=True, scope="session")
 
 
 @pytest.fixture(scope="session")

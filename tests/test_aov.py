@@ -4,6 +4,7 @@ The references are computed here in numpy float64 from the scene's numbers
 alone: the pinhole camera's ray through each pixel centre, the sphere's and
 the plane's intersection formulas, and the materials' colours.
 """
+
 import math
 
 import numpy as np
@@ -20,7 +21,9 @@ CENTER, RADIUS = np.array([0.3, 0.2, -4.0]), 1.0
 FLOOR_Y = -1.0
 RED, GREEN = (0.9, 0.2, 0.1), (0.1, 0.7, 0.3)
 SCENE = {
-    "width": W, "height": H, "background": [0.2, 0.3, 0.4],
+    "width": W,
+    "height": H,
+    "background": [0.2, 0.3, 0.4],
     "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": FOV}],
     "materials": {"red": {"diffuse": list(RED)}, "green": {"diffuse": list(GREEN), "mirror": 0.3}},
     "lights": [{"type": "point", "position": [2, 4, 0]}],
@@ -190,19 +193,21 @@ def test_png_output_gets_its_aovs_in_an_exr_beside_it(tmp_path, capsys, scene_fi
     np.testing.assert_array_equal(planes["Z"], result.aovs["depth"])
     # --aov-out names the file instead
     named = tmp_path / "passes.exr"
-    code, stdout, err = run_cli(capsys, "render", str(scene_file), "--aov", "normal", "--aov-out", str(named),
-                                "-o", str(tmp_path / "s.png"))
+    code, stdout, err = run_cli(capsys, "render", str(scene_file), "--aov", "normal", "--aov-out", str(named), "-o", str(tmp_path / "s.png"))
     assert code == 0, err
     assert sorted(read_channels(named)[0]) == ["N.x", "N.y", "N.z"]
 
 
-@pytest.mark.parametrize("argv, fragment", [
-    (["--aov", "depth,colour"], "unknown AOV 'colour'"),
-    (["--aov", "depth,depth"], "twice"),
-    (["--aov", ","], "names no AOV"),
-    (["--aov", "depth", "--aov-out", "passes.png"], "must be an .exr"),
-    (["--aov-out", "passes.exr"], "needs --aov"),
-])
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["--aov", "depth,colour"], "unknown AOV 'colour'"),
+        (["--aov", "depth,depth"], "twice"),
+        (["--aov", ","], "names no AOV"),
+        (["--aov", "depth", "--aov-out", "passes.png"], "must be an .exr"),
+        (["--aov-out", "passes.exr"], "needs --aov"),
+    ],
+)
 def test_bad_aov_options_are_refused_with_one_line(tmp_path, capsys, argv, fragment, monkeypatch):
     monkeypatch.chdir(tmp_path)
     code, stdout, err = run_cli(capsys, "render", "refract1", "--width", "8", "--height", "6", *argv, "-o", "x.png")

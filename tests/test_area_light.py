@@ -1,4 +1,5 @@
 """Parallelogram area lights: the kernel's stratified estimate against host quadrature and Lambert's formula."""
+
 import numpy as np
 
 from clrender.scene.scene import Scene
@@ -10,13 +11,16 @@ CAMERA = dict(position=[0, 6, 0], look_at=[0, 0, 0], up=[0, 0, -1], fov=50)
 
 
 def floor_scene(light=LIGHT, extra=()):
-    return Scene.from_dict({
-        "width": SIZE, "height": SIZE, "cameras": [CAMERA],
-        "materials": {"white": {"diffuse": [1, 1, 1], "specular": [0, 0, 0]}},
-        "lights": [light],
-        "objects": [{"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"},
-                    *extra],
-    })
+    return Scene.from_dict(
+        {
+            "width": SIZE,
+            "height": SIZE,
+            "cameras": [CAMERA],
+            "materials": {"white": {"diffuse": [1, 1, 1], "specular": [0, 0, 0]}},
+            "lights": [light],
+            "objects": [{"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"}, *extra],
+        }
+    )
 
 
 def floor_points(scene):

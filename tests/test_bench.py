@@ -1,4 +1,5 @@
 """Smoke tests of the benchmark harnesses (their --quick modes)."""
+
 import csv
 import subprocess
 import sys
@@ -11,8 +12,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.mark.slow
 def test_bvh_harness_runs_all_six_scenes_and_writes_its_outputs(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "bench", "bvh", "--quick", "--out", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "bvh", "--quick", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr
     rows = list(csv.DictReader(open(tmp_path / "bvh.csv")))
     assert [r["scene"] for r in rows] == ["refract1", "bunny", "refract2", "wizard_tower", "wizard_hat", "wizard_cat"]

@@ -5,6 +5,7 @@ spent 72 s in a Python loop).
 
 The renders run in a subprocess with scipy hidden (a stand-in package that refuses to import),
 so the test also proves the bundled scenes need no optional dependency of trimesh."""
+
 import os
 import re
 import shutil
@@ -32,8 +33,7 @@ def no_scipy(tmp_path_factory):
 
 
 def render(scene: str, out: Path, cache: Path, no_scipy: Path, *extra, cwd=None, python_path=None):
-    env = dict(os.environ, XDG_CACHE_HOME=str(cache),
-               PYTHONPATH=os.pathsep.join(str(p) for p in (no_scipy, python_path) if p))
+    env = dict(os.environ, XDG_CACHE_HOME=str(cache), PYTHONPATH=os.pathsep.join(str(p) for p in (no_scipy, python_path) if p))
     env.pop("CLRENDER_DEBUG", None)
     cmd = [sys.executable, "-m", "clrender", "render", scene, "--width", "24", "--height", "18", "-o", str(out), *extra]
     return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd, timeout=300)
@@ -83,10 +83,11 @@ def test_checkout_uses_its_own_kernels_and_scenes(tmp_path, no_scipy):
     for name in ("clrender", "kernels", "scenes"):
         shutil.copytree(ROOT / name, checkout / name, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "setup.cfg", checkout / "setup.cfg")
-    probe = ("import clrender, clrender.package_data as p, clrender.scene.scene as s; "
-             "print(clrender.__file__); print(p.data_dir('kernels')); print(s.bundled_scenes()['refract1'])")
-    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=checkout,
-                          env=dict(os.environ, PYTHONPATH=str(checkout)))
+    probe = (
+        "import clrender, clrender.package_data as p, clrender.scene.scene as s; "
+        "print(clrender.__file__); print(p.data_dir('kernels')); print(s.bundled_scenes()['refract1'])"
+    )
+    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=checkout, env=dict(os.environ, PYTHONPATH=str(checkout)))
     assert proc.returncode == 0, proc.stderr
     module, kernels, scene = proc.stdout.split("\n")[:3]
     assert Path(module).parent == checkout / "clrender"

@@ -1,5 +1,6 @@
 """Host BVH builders: layout and bounds invariants, edge cases, SAH quality, and a closest-hit
 traversal in numpy against brute force."""
+
 import numpy as np
 import pytest
 
@@ -154,15 +155,18 @@ def test_deterministic(rng):
         assert a.nodes.tobytes() == b.nodes.tobytes() and np.array_equal(a.prim_order, b.prim_order)
 
 
-@pytest.mark.parametrize("bad", [
-    dict(lo=np.zeros((3, 2)), hi=np.zeros((3, 2))),
-    dict(lo=np.zeros((3, 3)), hi=np.zeros((4, 3))),
-    dict(lo=np.full((3, 3), np.nan), hi=np.zeros((3, 3))),
-    dict(lo=np.ones((3, 3)), hi=np.zeros((3, 3))),
-    dict(builder="octree"),
-    dict(max_leaf_size=0),
-    dict(bins=1),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(lo=np.zeros((3, 2)), hi=np.zeros((3, 2))),
+        dict(lo=np.zeros((3, 3)), hi=np.zeros((4, 3))),
+        dict(lo=np.full((3, 3), np.nan), hi=np.zeros((3, 3))),
+        dict(lo=np.ones((3, 3)), hi=np.zeros((3, 3))),
+        dict(builder="octree"),
+        dict(max_leaf_size=0),
+        dict(bins=1),
+    ],
+)
 def test_bad_input(bad):
     args = dict(lo=np.zeros((3, 3)), hi=np.ones((3, 3)), builder="sah")
     args.update(bad)
@@ -204,7 +208,7 @@ def closest_hit(bvh, tri, o, d):
         if not slab(o, inv_d, nodes["bmin"][i], nodes["bmax"][i], best_t):
             continue
         if nodes["count"][i] > 0:
-            ids = bvh.prim_order[nodes["offset"][i]:nodes["offset"][i] + nodes["count"][i]]
+            ids = bvh.prim_order[nodes["offset"][i] : nodes["offset"][i] + nodes["count"][i]]
             t = ray_triangles(o, d, tri[ids])
             j = int(np.argmin(t))
             if t[j] < best_t:
@@ -240,8 +244,7 @@ def test_float64_bounds_round_outward(rng):
     bvh = build_bvh(lo, hi)
     leaf = bvh.nodes["count"] > 0
     slot_leaf = np.repeat(np.flatnonzero(leaf), bvh.nodes["count"][leaf])
-    prims = bvh.prim_order[np.concatenate([np.arange(o, o + c) for o, c in
-                                           zip(bvh.nodes["offset"][leaf], bvh.nodes["count"][leaf])])]
+    prims = bvh.prim_order[np.concatenate([np.arange(o, o + c) for o, c in zip(bvh.nodes["offset"][leaf], bvh.nodes["count"][leaf])])]
     assert (bvh.nodes["bmin"][slot_leaf].astype(np.float64) <= lo[prims]).all()
     assert (bvh.nodes["bmax"][slot_leaf].astype(np.float64) >= hi[prims]).all()
 

@@ -1,5 +1,6 @@
 """The wide BVHs (clrender/trace/bvh_wide.py, 4 and 8 lanes): the tree's invariants, and the same closest
 hits and occlusion answers as the binary tree and as the BVH-off path (every ray tests every primitive)."""
+
 import numpy as np
 import pytest
 from test_exact_rays import degenerate_meshes, rays_at_triangles
@@ -29,7 +30,7 @@ def check_invariants(wide, lo, hi):
     starts, counts = child[leaf], count[leaf]
     covered = np.zeros(n, np.int64)
     for s, c in zip(starts, counts):
-        covered[s:s + c] += 1
+        covered[s : s + c] += 1
     assert (covered == 1).all()
     assert np.array_equal(np.sort(wide.prim_order), np.arange(n))
     # every wide node but the root is the child of exactly one interior lane, and comes after it
@@ -47,7 +48,7 @@ def check_invariants(wide, lo, hi):
         assert valid.any()
         assert (clo[valid] >= plo[k]).all() and (chi[valid] <= phi[k]).all()
     for i, k in zip(*np.nonzero(leaf)):
-        prims = wide.prim_order[child[i, k]:child[i, k] + count[i, k]]
+        prims = wide.prim_order[child[i, k] : child[i, k] + count[i, k]]
         blo, bhi = lane_boxes(wide, i)
         assert (lo[prims] >= blo[k]).all() and (hi[prims] <= bhi[k]).all()
     # empty lanes are inverted boxes, and a wide tree is no deeper than the binary one
@@ -141,17 +142,20 @@ def test_wide_binary_and_brute_force_agree_on_axis_aligned_and_grazing_rays(devi
     n = 400
     pts = np.c_[rng.integers(0, k + 1, (n, 2)) + rng.choice([0.0, 0.5], (n, 2)), np.zeros(n)]
     down = (pts + [0, 0, 3], np.tile([0.0, 0, -1], (n, 1)))  # on vertices, edges and face centres
-    sideways = (np.c_[np.full(n, -2.0), pts[:, 1], rng.choice([0.0, 1e-7, -1e-7], n)],
-                np.tile([1.0, 0, 0], (n, 1)))  # in the plane, or a hair above or below it
-    grazing = (np.c_[np.full(n, -2.0), pts[:, 1], np.full(n, 1e-3)],
-               np.c_[np.ones(n), rng.uniform(-0.2, 0.2, n), np.full(n, -1e-3) / rng.uniform(1, 14, n)])
+    sideways = (
+        np.c_[np.full(n, -2.0), pts[:, 1], rng.choice([0.0, 1e-7, -1e-7], n)],
+        np.tile([1.0, 0, 0], (n, 1)),
+    )  # in the plane, or a hair above or below it
+    grazing = (
+        np.c_[np.full(n, -2.0), pts[:, 1], np.full(n, 1e-3)],
+        np.c_[np.ones(n), rng.uniform(-0.2, 0.2, n), np.full(n, -1e-3) / rng.uniform(1, 14, n)],
+    )
     for label, (o, d) in (("axis-aligned", down), ("in-plane", sideways), ("grazing", grazing)):
         assert_same_answers(three_ways((vertices, faces), o, d, 30.0, device), label)
 
 
 @pytest.mark.parametrize("stack_size", [None, 2])
-def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(
-        device, stack_size, monkeypatch):
+def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(device, stack_size, monkeypatch):
     """With clrender.trace.bvh.STACK_SIZE = 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
     on purpose and the kernels' fallback must still give the brute-force answers."""
     if stack_size is not None:

@@ -1,6 +1,7 @@
 """One consistent command line: contradictory options refused, pointless ones warned about, the
 image's aspect ratio kept, written paths on stdout, timings and warnings on stderr, and
 'clrender:' only in front of errors."""
+
 import os
 import re
 import tomllib
@@ -25,11 +26,14 @@ def tiny(tmp_path, name="r.png"):
 
 
 # ------------------------------------------------------------------ refused
-@pytest.mark.parametrize("option, words", [
-    (["--aa", "none"], ["--aa none", "AA_TYPE 'full'"]),
-    (["--camera", "2"], ["--camera 2", "CAMERA '1'"]),
-    (["--sampler", "sobol"], ["--sampler sobol", "SAMPLE_TYPE 'uniform'"]),
-])
+@pytest.mark.parametrize(
+    "option, words",
+    [
+        (["--aa", "none"], ["--aa none", "AA_TYPE 'full'"]),
+        (["--camera", "2"], ["--camera 2", "CAMERA '1'"]),
+        (["--sampler", "sobol"], ["--sampler sobol", "SAMPLE_TYPE 'uniform'"]),
+    ],
+)
 def test_seed_positionals_and_the_same_named_option_are_refused(tmp_path, capsys, option, words):
     code, out, err = run(capsys, "render", "refract1", "1", "full", "uniform", *option, *tiny(tmp_path))
     assert code == 2 and out == ""
@@ -65,11 +69,14 @@ def test_zero_width_from_python_is_refused_not_taken_as_the_scenes():
 
 
 # ------------------------------------------------------------------ warned
-@pytest.mark.parametrize("extra, says", [
-    (["--samples", "3"], "3 x 3 samples have no effect with --aa none"),
-    (["--thickness", "2"], "--thickness has no effect with --aa none"),
-    (["--aa", "full", "--thickness", "2"], "--thickness has no effect with --aa full"),
-])
+@pytest.mark.parametrize(
+    "extra, says",
+    [
+        (["--samples", "3"], "3 x 3 samples have no effect with --aa none"),
+        (["--thickness", "2"], "--thickness has no effect with --aa none"),
+        (["--aa", "full", "--thickness", "2"], "--thickness has no effect with --aa full"),
+    ],
+)
 def test_options_without_effect_warn_and_still_render(tmp_path, capsys, extra, says):
     code, out, err = run(capsys, "-q", "render", "refract1", *extra, *tiny(tmp_path))
     assert code == 0 and out == f"{tmp_path / 'r.png'}\n"
@@ -77,8 +84,7 @@ def test_options_without_effect_warn_and_still_render(tmp_path, capsys, extra, s
 
 
 def test_options_with_effect_do_not_warn(tmp_path, capsys):
-    code, _, err = run(capsys, "-q", "render", "refract1", "--aa", "edge_detect", "--samples", "2",
-                       "--thickness", "2", *tiny(tmp_path))
+    code, _, err = run(capsys, "-q", "render", "refract1", "--aa", "edge_detect", "--samples", "2", "--thickness", "2", *tiny(tmp_path))
     assert code == 0 and err == ""
 
 
@@ -96,11 +102,14 @@ def test_scene_without_lights_warns(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ aspect ratio
-@pytest.mark.parametrize("given, expected", [
-    (["--width", "48"], (48, 36)),     # refract1 is 480 x 360
-    (["--height", "45"], (60, 45)),
-    (["--width", "50", "--height", "10"], (50, 10)),  # both given: exactly those
-])
+@pytest.mark.parametrize(
+    "given, expected",
+    [
+        (["--width", "48"], (48, 36)),  # refract1 is 480 x 360
+        (["--height", "45"], (60, 45)),
+        (["--width", "50", "--height", "10"], (50, 10)),  # both given: exactly those
+    ],
+)
 def test_one_side_keeps_the_scenes_aspect_ratio(tmp_path, capsys, given, expected):
     out = tmp_path / "r.png"
     assert run(capsys, "-q", "render", "refract1", *given, "-o", out)[0] == 0
@@ -159,19 +168,18 @@ def photo(tmp_path):
 
 
 def test_splat_commands_honour_device(tmp_path, photo, capsys):
-    code, out, err = run(capsys, "splat", "voronoi", photo, "-o", tmp_path / "v.png", "--splats", "8",
-                         "--device", "no-such-device-anywhere")
+    code, out, err = run(capsys, "splat", "voronoi", photo, "-o", tmp_path / "v.png", "--splats", "8", "--device", "no-such-device-anywhere")
     assert code == 2 and "no-such-device-anywhere" in err and err.startswith("clrender: ")
-    code, out, err = run(capsys, "splat", "gauss", photo, "-o", tmp_path / "g.png", "--splats", "8",
-                         "--epochs", "1", "--device", "no-such-device-anywhere")
+    code, out, err = run(
+        capsys, "splat", "gauss", photo, "-o", tmp_path / "g.png", "--splats", "8", "--epochs", "1", "--device", "no-such-device-anywhere"
+    )
     assert code == 2 and "no-such-device-anywhere" in err
     assert sorted(os.listdir(tmp_path)) == ["in.png"]
 
 
 def test_splat_gauss_prints_every_written_path(tmp_path, photo, capsys):
     out = tmp_path / "g.png"
-    code, stdout, err = run(capsys, "-q", "splat", "gauss", photo, "-o", out, "--splats", "16", "--epochs", "2",
-                            "--save-params", tmp_path / "p.npz")
+    code, stdout, err = run(capsys, "-q", "splat", "gauss", photo, "-o", out, "--splats", "16", "--epochs", "2", "--save-params", tmp_path / "p.npz")
     assert code == 0 and err == ""
     assert stdout.split() == [str(out), str(tmp_path / "p.npz"), str(tmp_path / "g.curve.png")]
     code, stdout, err = run(capsys, "-q", "splat", "render", tmp_path / "p.npz", "-o", tmp_path / "big.png", "--width", "64")

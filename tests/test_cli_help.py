@@ -1,5 +1,6 @@
 """`--help` of every command and subcommand: each option has a help line that states its default
 exactly once, in words a user can act on (never "None" or "[]"), and --help itself exits 0."""
+
 import argparse
 import subprocess
 import sys
@@ -35,7 +36,16 @@ def shown_help(parser, action) -> str:
 
 def test_the_tree_has_every_command():
     assert {" ".join(w) for w, _ in PARSERS} >= {
-        "", "render", "convolve", "devices", "splat", "splat gauss", "splat render", "splat sweep", "splat voronoi"}
+        "",
+        "render",
+        "convolve",
+        "devices",
+        "splat",
+        "splat gauss",
+        "splat render",
+        "splat sweep",
+        "splat voronoi",
+    }
 
 
 @pytest.mark.parametrize("words,parser", PARSERS, ids=IDS)
@@ -81,8 +91,7 @@ def test_help_shows_a_worked_example_for_commands_that_do_work():
 
 
 def test_every_kernel_running_command_takes_device():
-    kernel_commands = {("render",), ("devices",), ("splat", "gauss"), ("splat", "render"), ("splat", "sweep"),
-                       ("splat", "voronoi")}
+    kernel_commands = {("render",), ("devices",), ("splat", "gauss"), ("splat", "render"), ("splat", "sweep"), ("splat", "voronoi")}
     for words, parser in PARSERS:
         if words in kernel_commands:
             assert any("--device" in a.option_strings for a in parser._actions), " ".join(words)

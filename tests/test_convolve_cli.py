@@ -1,4 +1,5 @@
 """`clrender convolve`: bit depth, colour space and alpha through files; bad input exits 2 and writes nothing."""
+
 import subprocess
 import sys
 
@@ -22,9 +23,20 @@ def convolve(*argv):
     return main(["convolve", *map(str, argv)])
 
 
-@pytest.mark.parametrize("ext,format", [(".png", "uint8"), (".png", "uint16"), (".tif", "uint8"),
-                                        (".tif", "uint16"), (".jpg", "uint8"), (".exr", "half"),
-                                        (".exr", "float"), (".tif", "float"), (".hdr", "float")])
+@pytest.mark.parametrize(
+    "ext,format",
+    [
+        (".png", "uint8"),
+        (".png", "uint16"),
+        (".tif", "uint8"),
+        (".tif", "uint16"),
+        (".jpg", "uint8"),
+        (".exr", "half"),
+        (".exr", "float"),
+        (".tif", "float"),
+        (".hdr", "float"),
+    ],
+)
 def test_identity_filter_keeps_format_and_values(tmp_path, rng, ext, format):
     src, dst = tmp_path / f"in{ext}", tmp_path / f"out{ext}"
     stored = make(src, rng, format=format)
@@ -166,8 +178,9 @@ def test_console_script_runs_the_seed_example(tmp_path, rng):
     """The seed's Convolve.blur(src, out, "box_blur_33"), as one command line."""
     src, dst = tmp_path / "treebranch_source.jpg", tmp_path / "treebranch_convolution.jpg"
     make(src, rng, shape=(48, 64, 3))
-    done = subprocess.run([sys.executable, "-m", "clrender", "convolve", str(src), str(dst), "box_blur_33"],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-m", "clrender", "convolve", str(src), str(dst), "box_blur_33"], capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout == f"{dst}\n"  # the written path, as every command prints it
     assert probe_image(dst).width == 64

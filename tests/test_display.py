@@ -1,5 +1,6 @@
 """Images in notebooks: PNG bytes that decode to the expected sRGB codes, `_repr_png_` on results,
 clrender.show inline under IPython and as a file without any display; the example script runs."""
+
 import os
 import subprocess
 import sys
@@ -64,8 +65,7 @@ def test_splat_results_show_their_stored_values():
     image = np.random.default_rng(2).random((4, 6, 3)).astype(np.float32)
     codes = np.round(image * 255).astype(np.uint8)
     fit = FitResult(params=None, image=image, psnr=0.0, steps=0, seconds=0.0)
-    cells = VoronoiResult(sites=np.zeros((1, 2), np.float32), colors=np.zeros((1, 3), np.float32),
-                          index=np.zeros((4, 6), np.int32), image=image)
+    cells = VoronoiResult(sites=np.zeros((1, 2), np.float32), colors=np.zeros((1, 3), np.float32), index=np.zeros((4, 6), np.int32), image=image)
     for result in (fit, cells):
         assert np.abs(decode(result._repr_png_()).astype(int) - codes).max() <= 1
 
@@ -103,8 +103,13 @@ def test_show_without_any_display_writes_a_png(monkeypatch, tmp_path):
 @pytest.mark.slow
 def test_example_script_renders_and_compares_the_aa_modes(tmp_path):
     out = tmp_path / "aa.png"
-    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "aa_modes.py"), "40", str(out)],
-                          capture_output=True, text=True, timeout=600, env=dict(os.environ, MPLBACKEND="agg"))
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "aa_modes.py"), "40", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=dict(os.environ, MPLBACKEND="agg"),
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == str(out)
     assert "% of the pixels resampled" in proc.stdout

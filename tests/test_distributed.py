@@ -5,6 +5,7 @@ One LocalCluster of two single-thread worker processes serves the module
 reference is always the local renderer in this process, never the code
 under test.
 """
+
 import math
 import os
 import signal
@@ -35,8 +36,9 @@ TINY = dict(width=48, height=32, tile_size=16)  # 6 tiles: work for both workers
 def local_cluster(workers=2):
     import logging
 
-    return distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                    silence_logs=logging.ERROR, env=pocl_env(1))
+    return distributed.LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR, env=pocl_env(1)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -168,8 +170,27 @@ def test_cli_turntable_writes_frames_and_video(client, tmp_path):
 
     out = tmp_path / "frames"
     video = tmp_path / "tt.mp4"
-    rc = main(["-q", "render", "refract1", "--camera", "2", "--width", "40", "--height", "30", "--turntable", "3",
-               "-o", str(out), "--video", str(video), "--scheduler", client.scheduler.address])
+    rc = main(
+        [
+            "-q",
+            "render",
+            "refract1",
+            "--camera",
+            "2",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--turntable",
+            "3",
+            "-o",
+            str(out),
+            "--video",
+            str(video),
+            "--scheduler",
+            client.scheduler.address,
+        ]
+    )
     assert rc == 0
     assert sorted(p.name for p in out.iterdir()) == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
     local = tmp_path / "local.png"
@@ -199,8 +220,9 @@ def test_interrupted_turntable_leaves_no_frames(tmp_path, monkeypatch):
 
     monkeypatch.setattr(tt, "render_turntable", interrupted)
     out = tmp_path / "frames"
-    rc = main(["-q", "render", "refract1", "--width", "16", "--height", "12", "--turntable", "4", "-o", str(out),
-               "--video", str(tmp_path / "tt.mp4")])
+    rc = main(
+        ["-q", "render", "refract1", "--width", "16", "--height", "12", "--turntable", "4", "-o", str(out), "--video", str(tmp_path / "tt.mp4")]
+    )
     assert rc == 130
     assert list(out.iterdir()) == [] and [p.name for p in tmp_path.iterdir()] == ["frames"]
 
@@ -364,10 +386,10 @@ def test_cli_splat_a_folder_of_photos_on_the_cluster(client, tmp_path):
         write_image(photos / f"p{i}.png", photo)
     fit = ["--splats", "30", "--epochs", "6"]
     assert main(["-q", "splat", "gauss", str(photos), "-o", str(tmp_path / "here")] + fit) == 0
-    assert main(["-q", "splat", "gauss", str(photos / "*.png"), "-o", str(tmp_path / "there"), "--scheduler",
-                 client.scheduler.address] + fit) == 0
-    assert main(["-q", "splat", "voronoi", str(photos), "-o", str(tmp_path / "cells"), "--splats", "20",
-                 "--scheduler", client.scheduler.address]) == 0
+    assert main(["-q", "splat", "gauss", str(photos / "*.png"), "-o", str(tmp_path / "there"), "--scheduler", client.scheduler.address] + fit) == 0
+    assert (
+        main(["-q", "splat", "voronoi", str(photos), "-o", str(tmp_path / "cells"), "--splats", "20", "--scheduler", client.scheduler.address]) == 0
+    )
     assert main(["-q", "splat", "voronoi", str(photos / "p0.png"), "-o", str(tmp_path / "one.png"), "--splats", "20"]) == 0
     for name in ("p0.png", "p1.png"):
         assert (tmp_path / "there" / name).read_bytes() == (tmp_path / "here" / name).read_bytes()
@@ -414,8 +436,9 @@ def test_bench_distributed_quick_runs_and_checks_bytes(tmp_path):
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
-    proc = subprocess.run([sys.executable, "-m", "bench", "distributed", "--quick", "--out", str(tmp_path)],
-                          cwd=root, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "distributed", "--quick", "--out", str(tmp_path)], cwd=root, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr
     rows = list(csv.DictReader(open(tmp_path / "distributed.csv")))
     assert [r["workers"] for r in rows] == ["local (this process)", "1", "2"]
@@ -428,9 +451,31 @@ def test_ctrl_c_on_the_program_leaves_no_output_and_no_tasks(client, tmp_path):
     import subprocess
 
     out = tmp_path / "big.png"
-    proc = subprocess.Popen([sys.executable, "-m", "clrender", "render", "wizard_cat", "--width", "256", "--height", "192",
-                             "--aa", "full", "--samples", "6", "--tile-size", "16", "-o", str(out),
-                             "--scheduler", client.scheduler.address], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "clrender",
+            "render",
+            "wizard_cat",
+            "--width",
+            "256",
+            "--height",
+            "192",
+            "--aa",
+            "full",
+            "--samples",
+            "6",
+            "--tile-size",
+            "16",
+            "-o",
+            str(out),
+            "--scheduler",
+            client.scheduler.address,
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert wait_for(lambda: scheduler_tasks(client) > 10, 60)  # tiles are on the cluster
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)

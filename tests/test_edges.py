@@ -1,5 +1,6 @@
 """Edge masks from object IDs: the seed's up/left/up-left rule on hand-made buffers, disc dilation
 against a brute-force distance computation, reflection and shadow edges, and bad input."""
+
 import math
 
 import numpy as np
@@ -25,6 +26,7 @@ def brute_force_dilate(mask: np.ndarray, L: float) -> np.ndarray:
 
 
 # ---- the seed's rule on hand-made ID buffers --------------------------------------------
+
 
 def test_square_marks_top_left_boundary_and_just_past_bottom_right():
     ids = np.full((8, 8), -1, np.int32)
@@ -126,6 +128,7 @@ def test_edges_match_a_direct_per_pixel_reference(rng):
 
 # ---- the ID path: edges seen in reflections and refractions -----------------------------
 
+
 def test_path_ids_that_differ_only_after_a_bounce_are_edges():
     H, W = 6, 8
     ids = np.full((H, W, 3), -1, np.int32)
@@ -150,6 +153,7 @@ def test_k1_path_equals_plain_id_image(rng):
 
 
 # ---- shadow edges -------------------------------------------------------------------------
+
 
 def test_shadow_edges_appear_only_when_enabled():
     H, W = 6, 6
@@ -179,6 +183,7 @@ def test_shadow_tolerance():
 
 
 # ---- thickness: discs ------------------------------------------------------------------------
+
 
 def test_single_pixel_grows_as_discs():
     mask = np.zeros((9, 9), bool)
@@ -247,6 +252,7 @@ def test_disc_structuring_element():
 
 # ---- bad input --------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("bad", [-1, -0.5, float("nan"), float("inf"), -float("inf"), "1", None, True])
 def test_bad_thickness_raises_usage_error(bad):
     ids = np.zeros((4, 4), np.int32)
@@ -270,6 +276,7 @@ def test_bad_buffers_raise_usage_error():
 
 
 # ---- the green picture --------------------------------------------------------------------
+
 
 def test_overlay_paints_only_masked_pixels(rng):
     image = rng.random((6, 5, 3)).astype(np.float32)

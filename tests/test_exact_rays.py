@@ -4,6 +4,7 @@ surface offsets, a traversal stack that never drops a node, t_min and ties, phys
 Every answer is checked against an independent one: the analytic distance, the same query with the
 BVH off, or a float64 reference computed here with numpy.
 """
+
 import numpy as np
 import pytest
 import trimesh
@@ -32,7 +33,7 @@ def axis_rays(rng, n, half_width):
             d = np.zeros((n, 3))
             d[:, axis] = sign
             others = [a for a in range(3) if a != axis]
-            d[n // 2:, others] = -0.0  # negative zeros: 1/d is -inf there
+            d[n // 2 :, others] = -0.0  # negative zeros: 1/d is -inf there
             o = np.zeros((n, 3))
             o[:, others] = rng.uniform(-half_width, half_width, (n, 2))
             o[:, axis] = np.where(np.arange(n) % 2 == 0, -5.0, 5.0)  # in front of the object, or past it
@@ -82,23 +83,29 @@ def test_rays_in_a_boxs_face_plane_still_find_the_face(device):
 def test_axis_aligned_camera_sees_no_background_through_objects(device):
     # odd image sizes: the centre row and column have exactly zero direction components
     mesh = {"type": "mesh", "generator": "dense", "params": {"n_triangles": 2000, "seed": 3}}
-    scene = Scene.from_dict({"width": 33, "height": 33, "objects": [mesh],
-                             "cameras": [dict(position=[-0.3, -0.2, 6], look_at=[-0.3, -0.2, 0], up=[0, 1, 0], fov=40)]})
+    scene = Scene.from_dict(
+        {"width": 33, "height": 33, "objects": [mesh], "cameras": [dict(position=[-0.3, -0.2, 6], look_at=[-0.3, -0.2, 0], up=[0, 1, 0], fov=40)]}
+    )
     ids = {bvh: Renderer(scene, bvh=bvh).run().ids for bvh in (False, True)}
     assert (ids[False][16, 12:21] == 0).all() and (ids[False][12:21, 16] == 0).all()  # the mesh fills the centre
     np.testing.assert_array_equal(ids[True], ids[False])
 
 
 def sphere_over_floor(light, size=40, extra=()):
-    return Scene.from_dict({
-        "width": size, "height": size,
-        "cameras": [dict(position=[0, 4, 6], look_at=[0, 0, 0], up=[0, 1, 0], fov=45)],
-        "materials": {"white": {"diffuse": [0.8, 0.8, 0.8], "specular": [0, 0, 0]}},
-        "lights": [light],
-        "objects": [{"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10],
-                     "material": "white"},
-                    {"type": "sphere", "center": [0, 1, 0], "radius": 0.8, "material": "white"}, *extra],
-    })
+    return Scene.from_dict(
+        {
+            "width": size,
+            "height": size,
+            "cameras": [dict(position=[0, 4, 6], look_at=[0, 0, 0], up=[0, 1, 0], fov=45)],
+            "materials": {"white": {"diffuse": [0.8, 0.8, 0.8], "specular": [0, 0, 0]}},
+            "lights": [light],
+            "objects": [
+                {"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"},
+                {"type": "sphere", "center": [0, 1, 0], "radius": 0.8, "material": "white"},
+                *extra,
+            ],
+        }
+    )
 
 
 def test_light_straight_down_casts_the_whole_shadow_with_the_bvh(device):
@@ -134,8 +141,11 @@ def shared_edge_rays(mesh, rng, n, distance):
     facing_both = (np.einsum("nij,nj->ni", normals, away) > 0.05).all(1)
     origin = target + away * distance * np.linalg.norm(mesh.extents)
     d = target - origin
-    return origin[facing_both], d[facing_both] / np.linalg.norm(d[facing_both], axis=1, keepdims=True), \
-        np.linalg.norm(target - origin, axis=1)[facing_both]
+    return (
+        origin[facing_both],
+        d[facing_both] / np.linalg.norm(d[facing_both], axis=1, keepdims=True),
+        np.linalg.norm(target - origin, axis=1)[facing_both],
+    )
 
 
 @pytest.mark.parametrize("distance", [0.05, 1.0, 20.0, 1000.0])
@@ -176,17 +186,21 @@ CAMS = [dict(position=[0, 5, 7], look_at=[0, 0, 0], fov=40), dict(position=[1.3,
 def contact_scene(scale, shift, size):
     at = lambda x: (np.asarray(x, float) * scale + shift).tolist()
     length = lambda x: (np.asarray(x, float) * scale).tolist()
-    quad = lambda corner, a, b: {"type": "quad", "corner": at(corner), "edge_a": length(a),
-                                 "edge_b": length(b), "material": "white"}
-    return Scene.from_dict({
-        "width": size, "height": size,
-        "cameras": [dict(position=at(c["position"]), look_at=at(c["look_at"]), up=[0, 1, 0], fov=c["fov"]) for c in CAMS],
-        "materials": {"white": {"diffuse": [0.8, 0.8, 0.8], "specular": [0, 0, 0]}},
-        "lights": [{"type": "point", "position": at(LIGHT_AT)}],
-        "objects": [quad([-4, 0, 4], [8, 0, 0], [0, 0, -8]), quad([-1, CARD_Y, 1], [2, 0, 0], [0, 0, -2]),
-                    *({"type": "sphere", "center": at(c), "radius": r * scale, "material": "white"}
-                      for c, r in SPHERES)],
-    })
+    quad = lambda corner, a, b: {"type": "quad", "corner": at(corner), "edge_a": length(a), "edge_b": length(b), "material": "white"}
+    return Scene.from_dict(
+        {
+            "width": size,
+            "height": size,
+            "cameras": [dict(position=at(c["position"]), look_at=at(c["look_at"]), up=[0, 1, 0], fov=c["fov"]) for c in CAMS],
+            "materials": {"white": {"diffuse": [0.8, 0.8, 0.8], "specular": [0, 0, 0]}},
+            "lights": [{"type": "point", "position": at(LIGHT_AT)}],
+            "objects": [
+                quad([-4, 0, 4], [8, 0, 0], [0, 0, -8]),
+                quad([-1, CARD_Y, 1], [2, 0, 0], [0, 0, -2]),
+                *({"type": "sphere", "center": at(c), "radius": r * scale, "material": "white"} for c, r in SPHERES),
+            ],
+        }
+    )
 
 
 def first_hits(o, d):
@@ -231,8 +245,10 @@ def reference_buffers(scene, camera, size, offset):
 @pytest.mark.parametrize("scale, shift", [(1e-3, 0.0), (1.0, 0.0), (1e3, 0.0), (1.0, 1e3)])
 def test_near_contact_shadows_are_the_same_at_every_scale_and_position(device, scale, shift, camera):
     size = 40
-    ref = [reference_buffers(contact_scene(1.0, 0.0, size), camera - 1, size, off)
-           for off in [(0.5, 0.5), (0.2, 0.2), (0.8, 0.2), (0.2, 0.8), (0.8, 0.8)]]
+    ref = [
+        reference_buffers(contact_scene(1.0, 0.0, size), camera - 1, size, off)
+        for off in [(0.5, 0.5), (0.2, 0.2), (0.8, 0.2), (0.2, 0.8), (0.8, 0.8)]
+    ]
     ids_ref, vis_ref = ref[0]
     # pixels whose whole footprint agrees: no id or shadow boundary runs through them
     clear = np.all([(i == ids_ref) & (v == vis_ref) for i, v in ref], axis=0)
@@ -320,8 +336,14 @@ def test_t_min_skips_nearer_hits(device, use_bvh):
 
 @pytest.mark.parametrize("use_bvh", [False, True])
 def test_t_is_in_units_of_the_direction_as_given(device, use_bvh):
-    scene = Scene.from_dict({"objects": [{"type": "sphere", "center": [4, 0, -5], "radius": 1},
-                                         {"type": "triangle", "vertices": [[-1, -1, -4], [1, -1, -4], [0, 1, -4]]}]})
+    scene = Scene.from_dict(
+        {
+            "objects": [
+                {"type": "sphere", "center": [4, 0, -5], "radius": 1},
+                {"type": "triangle", "vertices": [[-1, -1, -4], [1, -1, -4], [0, 1, -4]]},
+            ]
+        }
+    )
     tracer = Tracer(scene, use_bvh=use_bvh, device=device)
     o = np.array([[0.0, 0, 0], [0, 0, 0], [4, 0, 0]])
     d = np.array([[0.0, 0, -2], [0, 0, -0.5], [0, 0, -8]])
@@ -375,10 +397,16 @@ FLOOR_CAM = dict(position=[0, 3, 2.5], look_at=[0, 0, 0], up=[0, 1, 0], fov=50)
 
 
 def lit_floor(light, material, size=20):
-    return Scene.from_dict({
-        "width": size, "height": size, "cameras": [FLOOR_CAM], "materials": {"m": material}, "lights": [light],
-        "objects": [{"type": "quad", "corner": [-6, 0, 6], "edge_a": [12, 0, 0], "edge_b": [0, 0, -12], "material": "m"}],
-    })
+    return Scene.from_dict(
+        {
+            "width": size,
+            "height": size,
+            "cameras": [FLOOR_CAM],
+            "materials": {"m": material},
+            "lights": [light],
+            "objects": [{"type": "quad", "corner": [-6, 0, 6], "edge_a": [12, 0, 0], "edge_b": [0, 0, -12], "material": "m"}],
+        }
+    )
 
 
 def floor_hits(scene, size):
@@ -401,8 +429,7 @@ def polygon_irradiance(points, corners, radiance):
 
 
 def test_physical_diffuse_radiance_is_kd_over_pi_times_lamberts_irradiance(device):
-    light = dict(type="area", corner=[-0.5, 1.5, -0.5], edge_a=[1, 0, 0], edge_b=[0, 0, 1], intensity=3.0,
-                 falloff="inverse_square")
+    light = dict(type="area", corner=[-0.5, 1.5, -0.5], edge_a=[1, 0, 0], edge_b=[0, 0, 1], intensity=3.0, falloff="inverse_square")
     kd = 0.6
     scene = lit_floor(light, {"diffuse": [kd] * 3, "specular": [0, 0, 0]})
     image = Renderer(scene, light_samples=32, seed=4).run().image[..., 0]
@@ -436,5 +463,6 @@ def test_the_seeds_model_stays_the_default(device):
     image = Renderer(scene).run().image[..., 0]
     p, _ = floor_hits(scene, 20)
     to_light = light["position"] - p
-    np.testing.assert_allclose(image, kd * light["intensity"] * to_light[..., 1] / np.linalg.norm(to_light, axis=-1),
-                               rtol=1e-4)  # kd I cos(theta): no 1/pi, no falloff
+    np.testing.assert_allclose(
+        image, kd * light["intensity"] * to_light[..., 1] / np.linalg.norm(to_light, axis=-1), rtol=1e-4
+    )  # kd I cos(theta): no 1/pi, no falloff

@@ -3,6 +3,7 @@
 In every case each output is the old file, the new file, or absent -- never a truncated file --
 no temp file is left beside it, and a command's several outputs are the old set or the new set.
 """
+
 from __future__ import annotations
 
 import errno
@@ -29,8 +30,15 @@ RENDER = ["render", "refract1", "--width", "96", "--height", "72", "--aa", "edge
 def clrender(*argv, cwd, **kwargs):
     """Start `python -m clrender ARGV` in cwd; the package comes from this checkout."""
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.Popen([sys.executable, "-m", "clrender", "-q", *map(str, argv)], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+    return subprocess.Popen(
+        [sys.executable, "-m", "clrender", "-q", *map(str, argv)],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
 
 
 def leftovers(folder: Path) -> list[str]:
@@ -156,8 +164,7 @@ def small_disk(tmp_path):
     """A 256 KiB tmpfs (needs mount rights, as root in a container); skipped where mounting is refused."""
     mount_point = tmp_path / "small"
     mount_point.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount_point)],
-                          capture_output=True)
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount_point)], capture_output=True)
     if done.returncode != 0:
         pytest.skip("cannot mount a tmpfs here")
     yield mount_point
@@ -167,8 +174,9 @@ def small_disk(tmp_path):
 def test_render_onto_a_full_disk_is_exit_1_with_a_reason(small_disk, capfd):
     """A full disk exited 2 (the bad-input code) with an empty reason."""
     old = old_set(small_disk)
-    rc = main(["-q", *RENDER[:2], "--width", "640", "--height", "480", "-o", str(small_disk / "out.exr"),
-               "--overwrite"])  # a 3.5 MiB float EXR cannot fit in 256 KiB
+    rc = main(
+        ["-q", *RENDER[:2], "--width", "640", "--height", "480", "-o", str(small_disk / "out.exr"), "--overwrite"]
+    )  # a 3.5 MiB float EXR cannot fit in 256 KiB
     err = capfd.readouterr().err
     assert rc == 1, err
     assert err.startswith("clrender: ") and err.count("\n") == 1 and "out.exr" in err
@@ -188,8 +196,27 @@ def test_params_on_a_full_disk_keep_the_good_file(tmp_path, monkeypatch, capfd):
     photo = tmp_path / "in.png"
     write_image(photo, np.random.default_rng(2).uniform(0, 1, (12, 16, 3)).astype(np.float32))
     good = {"params.npz": None, "fit.csv": None, "out.png": None}
-    assert main(["-q", "splat", "gauss", str(photo), "-o", str(tmp_path / "out.png"), "--splats", "4", "--epochs", "2",
-                 "--save-params", str(tmp_path / "params.npz"), "--log", str(tmp_path / "fit.csv")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "splat",
+                "gauss",
+                str(photo),
+                "-o",
+                str(tmp_path / "out.png"),
+                "--splats",
+                "4",
+                "--epochs",
+                "2",
+                "--save-params",
+                str(tmp_path / "params.npz"),
+                "--log",
+                str(tmp_path / "fit.csv"),
+            ]
+        )
+        == 0
+    )
     good = files(tmp_path, list(good) + ["out.curve.png"])
 
     real_open = builtins.open
@@ -218,8 +245,25 @@ def test_params_on_a_full_disk_keep_the_good_file(tmp_path, monkeypatch, capfd):
         return FillsUp(f) if str(path).startswith("/proc/self/fd/") and "w" in mode else f
 
     monkeypatch.setattr(outputs, "open", full_open, raising=False)
-    rc = main(["-q", "splat", "gauss", str(photo), "-o", str(tmp_path / "out.png"), "--splats", "6", "--epochs", "3",
-               "--save-params", str(tmp_path / "params.npz"), "--log", str(tmp_path / "fit.csv"), "--overwrite"])
+    rc = main(
+        [
+            "-q",
+            "splat",
+            "gauss",
+            str(photo),
+            "-o",
+            str(tmp_path / "out.png"),
+            "--splats",
+            "6",
+            "--epochs",
+            "3",
+            "--save-params",
+            str(tmp_path / "params.npz"),
+            "--log",
+            str(tmp_path / "fit.csv"),
+            "--overwrite",
+        ]
+    )
     err = capfd.readouterr().err
     assert rc == 1 and err.count("\n") == 1 and "No space left on device" in err, err
     assert files(tmp_path, list(good)) == good  # the old set, every file of it
@@ -253,8 +297,7 @@ def test_side_output_refused_at_the_last_step_undoes_the_image(tmp_path, monkeyp
         return real_place(self, overwrite)
 
     monkeypatch.setattr(outputs._Staged, "place", place)
-    rc = main(["-q", "splat", "voronoi", str(photo), "-o", str(tmp_path / "cells.png"), "--splats", "5",
-               "--save-sites", str(tmp_path / "sites.npz")])
+    rc = main(["-q", "splat", "voronoi", str(photo), "-o", str(tmp_path / "cells.png"), "--splats", "5", "--save-sites", str(tmp_path / "sites.npz")])
     err = capfd.readouterr().err
     assert rc == 1 and err.count("\n") == 1 and "Permission denied" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.png"]
@@ -365,8 +408,22 @@ def test_signals_during_a_fit_leave_the_old_set_or_the_new(tmp_path, interpreter
     moment each is whole, and (for the signals a program can catch) all four are old or all are new."""
     photo = tmp_path / "in.png"
     write_image(photo, np.random.default_rng(4).uniform(0, 1, (24, 32, 3)).astype(np.float32))
-    command = ["splat", "gauss", photo, "-o", "fit.png", "--splats", "6", "--epochs", "40",
-               "--save-params", "params.npz", "--log", "log.csv", "--overwrite"]
+    command = [
+        "splat",
+        "gauss",
+        photo,
+        "-o",
+        "fit.png",
+        "--splats",
+        "6",
+        "--epochs",
+        "40",
+        "--save-params",
+        "params.npz",
+        "--log",
+        "log.csv",
+        "--overwrite",
+    ]
     start = time.perf_counter()
     first = clrender(*command, cwd=tmp_path)
     assert first.wait(timeout=300) == 0, first.stderr.read()

@@ -1,4 +1,5 @@
 """Filters against a direct numpy convolution with reflect-101 borders, plus their invariants."""
+
 import numpy as np
 import pytest
 
@@ -45,9 +46,16 @@ LAPLACE_4 = np.array([[0, -1, 0], [-1, 4, -1], [0, -1, 0]], float)
 LAPLACE_8 = np.array([[-1, -1, -1], [-1, 8, -1], [-1, -1, -1]], float)
 
 SHAPES = [(9, 7, 3), (16, 11, 1), (5, 4, 4), (1, 6, 3), (6, 1, 3), (1, 1, 3)]
-CASES = [("box_blur_3", box(3)), ("box_blur_5", box(5)), ("box_blur_15", box(15)),
-         ("gauss_blur_3", gauss(3)), ("gauss_blur_7", gauss(7)), ("gauss_blur_21", gauss(21)),
-         ("edge_detect_1", LAPLACE_4), ("edge_detect_2", LAPLACE_8)]
+CASES = [
+    ("box_blur_3", box(3)),
+    ("box_blur_5", box(5)),
+    ("box_blur_15", box(15)),
+    ("gauss_blur_3", gauss(3)),
+    ("gauss_blur_7", gauss(7)),
+    ("gauss_blur_21", gauss(21)),
+    ("edge_detect_1", LAPLACE_4),
+    ("edge_detect_2", LAPLACE_8),
+]
 
 
 @pytest.mark.parametrize("name,kernel", CASES, ids=[c[0] for c in CASES])
@@ -77,8 +85,7 @@ def test_wide_gaussian_takes_fft_path_and_agrees_with_separable(rng, monkeypatch
     np.testing.assert_allclose(via_fft, direct, atol=2e-6)
 
 
-@pytest.mark.parametrize("name", ["box_blur_1", "box_blur_3", "box_blur_101", "gauss_blur_1", "gauss_blur_5",
-                                  "gauss_blur_201", "gauss_blur_1001"])
+@pytest.mark.parametrize("name", ["box_blur_1", "box_blur_3", "box_blur_101", "gauss_blur_1", "gauss_blur_5", "gauss_blur_201", "gauss_blur_1001"])
 def test_averaging_weights_sum_to_one(name):
     f = filters.parse(name)
     assert f.kernel().sum() == pytest.approx(1.0, abs=1e-12)
@@ -157,8 +164,7 @@ def test_blur_with_alpha_is_premultiplied(rng):
     seen = alpha > 1e-3
     np.testing.assert_allclose(out[:, :, :3][seen], (premult / np.maximum(alpha, 1e-12)[:, :, None])[seen], atol=1e-5)
     # wherever any alpha reached, the colour is exactly the visible colour
-    np.testing.assert_allclose(out[:, :, :3][seen], np.broadcast_to([0.2, 0.5, 0.9], out[:, :, :3][seen].shape),
-                               atol=1e-5)
+    np.testing.assert_allclose(out[:, :, :3][seen], np.broadcast_to([0.2, 0.5, 0.9], out[:, :, :3][seen].shape), atol=1e-5)
     assert np.all(out[:, :, :3][~seen] == 0)
 
 
@@ -179,13 +185,28 @@ def test_image_objects_use_their_alpha_channel(rng):
     assert np.array_equal(out.pixels[:, :, :3], rgba[:, :, :3] * np.float32(2))
 
 
-@pytest.mark.parametrize("name,says", [
-    ("box_blur_4", "odd"), ("gauss_blur_0", "odd"), ("box_blur_-3", "odd"), ("gauss_blur_10003", "odd"),
-    ("box_blur_x", "whole number"), ("box_blur_", "whole number"), ("gauss_blur_3.0", "whole number"),
-    ("brighten_x", "not a number"), ("brighten_nan", "not a number"), ("brighten_inf", "not a number"),
-    ("brighten_-1", ">= 0"), ("brighten_1e999", "finite"), ("brighten_", "not a number"),
-    ("edge_detect_3", "allowed"), ("sharpen", "allowed"), ("", "allowed"), ("BOX_BLUR_3", "allowed"),
-])
+@pytest.mark.parametrize(
+    "name,says",
+    [
+        ("box_blur_4", "odd"),
+        ("gauss_blur_0", "odd"),
+        ("box_blur_-3", "odd"),
+        ("gauss_blur_10003", "odd"),
+        ("box_blur_x", "whole number"),
+        ("box_blur_", "whole number"),
+        ("gauss_blur_3.0", "whole number"),
+        ("brighten_x", "not a number"),
+        ("brighten_nan", "not a number"),
+        ("brighten_inf", "not a number"),
+        ("brighten_-1", ">= 0"),
+        ("brighten_1e999", "finite"),
+        ("brighten_", "not a number"),
+        ("edge_detect_3", "allowed"),
+        ("sharpen", "allowed"),
+        ("", "allowed"),
+        ("BOX_BLUR_3", "allowed"),
+    ],
+)
 def test_bad_names_are_refused_with_the_allowed_forms(name, says):
     with pytest.raises(UsageError, match=says) as info:
         filters.parse(name)

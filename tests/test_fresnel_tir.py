@@ -8,6 +8,7 @@ wall and blue otherwise, so each pixel is F * (what the reflection sees) + (1 - 
 refraction sees), worked out here in float64.  A ray that meets the sheet from behind (its
 normal pointing away) is leaving glass, as the README's medium rule says.
 """
+
 import numpy as np
 import pytest
 
@@ -31,16 +32,20 @@ def sheet_scene(tilt_degrees, facing_camera):
     a, b = (2 * HALF * u, 2 * HALF * v) if facing_camera else (2 * HALF * v, 2 * HALF * u)  # normal a x b
     corner = -HALF * (u + v)
     normal = np.cross(a, b) / np.linalg.norm(np.cross(a, b))
-    scene = Scene.from_dict({
-        "width": W, "height": H, "background": SKY.tolist(), "ambient": [1, 1, 1],
-        "cameras": [{"position": EYE.tolist(), "look_at": [0, 0, 0], "fov": FOV}],
-        "materials": {"glass": {"transparency": 1.0, "ior": IOR}, "wall": {"diffuse": WALL.tolist()}},
-        "objects": [
-            {"type": "quad", "corner": corner.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "glass"},
-            {"type": "quad", "corner": [-200, -200, WALL_Z], "edge_a": [400, 0, 0], "edge_b": [0, 400, 0],
-             "material": "wall"},
-        ],
-    })
+    scene = Scene.from_dict(
+        {
+            "width": W,
+            "height": H,
+            "background": SKY.tolist(),
+            "ambient": [1, 1, 1],
+            "cameras": [{"position": EYE.tolist(), "look_at": [0, 0, 0], "fov": FOV}],
+            "materials": {"glass": {"transparency": 1.0, "ior": IOR}, "wall": {"diffuse": WALL.tolist()}},
+            "objects": [
+                {"type": "quad", "corner": corner.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "glass"},
+                {"type": "quad", "corner": [-200, -200, WALL_Z], "edge_a": [400, 0, 0], "edge_b": [0, 400, 0], "material": "wall"},
+            ],
+        }
+    )
     return scene, normal, u, v
 
 
@@ -82,8 +87,7 @@ def expected_image(normal, u, v, fresnel):
     F = np.where(tir, 1.0, F)
     colour = F[..., None] * seen_along(reflected) + (1 - F)[..., None] * seen_along(refracted)
     # away from the critical angle and from rays that skim the wall's plane
-    usable = on_sheet & (np.abs(sin2_t - 1) > 0.03) & (np.abs(reflected[..., 2]) > 0.05) & \
-        (tir | (np.abs(refracted[..., 2]) > 0.05))
+    usable = on_sheet & (np.abs(sin2_t - 1) > 0.03) & (np.abs(reflected[..., 2]) > 0.05) & (tir | (np.abs(refracted[..., 2]) > 0.05))
     return colour, usable, tir
 
 

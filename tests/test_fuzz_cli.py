@@ -8,6 +8,7 @@ The first half pins each defect of issue 14 as a test; the second half generates
 for every subcommand (profile ci: ~150 cases; --hypothesis-profile=long: 2,000+) and damaged
 .npz / image files.
 """
+
 from __future__ import annotations
 
 import os
@@ -60,6 +61,7 @@ def assert_one_line_error(rc, err, code=2, *words):
 
 def png_bytes(width: int, height: int, rows: bytes | None = None) -> bytes:
     """A grey 8-bit PNG written by hand: its header may promise any size (a 'PNG bomb')."""
+
     def chunk(kind, data):
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
@@ -87,9 +89,19 @@ def make_inputs(folder: Path) -> dict[str, Path]:
     files["npz"] = folder / "p.npz"
     n = 6
     rng = np.random.default_rng(7)
-    np.savez(files["npz"], xy=rng.uniform(0, 14, (n, 2)), log_scale=np.zeros((n, 2)), theta=np.zeros(n),
-             color=rng.uniform(0, 1, (n, 3)), lum=np.ones(n), opacity=np.full(n, 0.8), width=14, height=10,
-             blend="normalized", background=np.zeros(3))
+    np.savez(
+        files["npz"],
+        xy=rng.uniform(0, 14, (n, 2)),
+        log_scale=np.zeros((n, 2)),
+        theta=np.zeros(n),
+        color=rng.uniform(0, 1, (n, 3)),
+        lum=np.ones(n),
+        opacity=np.full(n, 0.8),
+        width=14,
+        height=10,
+        blend="normalized",
+        background=np.zeros(3),
+    )
     files["existing"] = folder / "existing.png"
     files["existing"].write_bytes(good_png)
     files["dir"] = folder / "adir.png"  # a folder whose name looks like an image
@@ -113,13 +125,16 @@ def inputs(tmp_path):
 
 
 # ----------------------------------------------------------------------------- reproducers: outputs
-@pytest.mark.parametrize("command", [
-    ["render", "{scene}", "--width", "8", "--height", "6"],
-    ["convolve", "{png}", "{out}", "box_blur_3"],
-    ["splat", "voronoi", "{png}", "--splats", "4"],
-    ["splat", "gauss", "{png}", "--splats", "4", "--epochs", "1"],
-    ["splat", "render", "{npz}"],
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["render", "{scene}", "--width", "8", "--height", "6"],
+        ["convolve", "{png}", "{out}", "box_blur_3"],
+        ["splat", "voronoi", "{png}", "--splats", "4"],
+        ["splat", "gauss", "{png}", "--splats", "4", "--epochs", "1"],
+        ["splat", "render", "{npz}"],
+    ],
+)
 def test_output_that_is_a_folder_is_one_line_exit_2(inputs, tmp_path, capfd, command):
     argv = [a.format(scene=inputs["scene"], png=inputs["png"], npz=inputs["npz"], out=inputs["dir"]) for a in command]
     if "{out}" not in command:
@@ -130,11 +145,13 @@ def test_output_that_is_a_folder_is_one_line_exit_2(inputs, tmp_path, capfd, com
     assert snapshot(tmp_path) == before
 
 
-@pytest.mark.parametrize("command, first, second", [
-    (["render", "{scene}", "--aa", "edge_detect", "--width", "8", "--height", "6", "--edges-out", "{same}", "-o", "{same}"],
-     "-o", "--edges-out"),
-    (["splat", "gauss", "{png}", "--splats", "4", "--epochs", "1", "--curve", "{same}", "-o", "{same}"], "-o", "--curve"),
-])
+@pytest.mark.parametrize(
+    "command, first, second",
+    [
+        (["render", "{scene}", "--aa", "edge_detect", "--width", "8", "--height", "6", "--edges-out", "{same}", "-o", "{same}"], "-o", "--edges-out"),
+        (["splat", "gauss", "{png}", "--splats", "4", "--epochs", "1", "--curve", "{same}", "-o", "{same}"], "-o", "--curve"),
+    ],
+)
 def test_two_outputs_naming_one_file_are_refused(inputs, tmp_path, capfd, command, first, second):
     names = {"scene": inputs["scene"], "png": inputs["png"], "same": tmp_path / "o.png"}
     before = snapshot(tmp_path)
@@ -145,8 +162,7 @@ def test_two_outputs_naming_one_file_are_refused(inputs, tmp_path, capfd, comman
 
 def test_voronoi_sites_into_a_missing_folder_writes_nothing(inputs, tmp_path, capfd):
     before = snapshot(tmp_path)
-    rc, err = run(capfd, "splat", "voronoi", inputs["png"], "-o", tmp_path / "v.png", "--splats", "4",
-                  "--save-sites", tmp_path / "afile" / "s.npz")
+    rc, err = run(capfd, "splat", "voronoi", inputs["png"], "-o", tmp_path / "v.png", "--splats", "4", "--save-sites", tmp_path / "afile" / "s.npz")
     assert rc == 2 and err.count("\n") == 1
     assert snapshot(tmp_path) == before
 
@@ -154,26 +170,48 @@ def test_voronoi_sites_into_a_missing_folder_writes_nothing(inputs, tmp_path, ca
 # ----------------------------------------------------------------------------- reproducers: splat render's .npz
 def _params(**change):
     n = 5
-    data = dict(xy=np.full((n, 2), 5.0), log_scale=np.zeros((n, 2)), theta=np.zeros(n), color=np.full((n, 3), 0.5),
-                lum=np.ones(n), opacity=np.full(n, 0.9), width=14, height=10, blend="sum", background=np.zeros(3))
+    data = dict(
+        xy=np.full((n, 2), 5.0),
+        log_scale=np.zeros((n, 2)),
+        theta=np.zeros(n),
+        color=np.full((n, 3), 0.5),
+        lum=np.ones(n),
+        opacity=np.full(n, 0.9),
+        width=14,
+        height=10,
+        blend="sum",
+        background=np.zeros(3),
+    )
     data.update(change)
     return data
 
 
-@pytest.mark.parametrize("damage, words", [
-    ("truncated", ["cannot read splat parameters"]),
-    ("empty", ["cannot read splat parameters"]),
-    ("npy", ["cannot read splat parameters"]),
-    ({"theta": np.zeros(3)}, ["theta", "shape"]),  # mismatched lengths gave an IndexError
-    ({"xy": np.full((5, 2), np.nan)}, ["xy", "NaN"]),  # exited 0 with a black image
-    ({"xy": np.zeros((4, 3)), "log_scale": np.zeros((4, 2)), "theta": np.zeros(4), "color": np.zeros((4, 3)),
-      "lum": np.ones(4), "opacity": np.ones(4)}, ["xy", "shape"]),
-    ({"color": np.full((5, 3), 1e39)}, ["color"]),  # beyond float32: inf
-    ({"width": 0}, ["width"]),
-    ({"height": 10**9}, ["height"]),
-    ({"blend": "glow"}, ["blend"]),
-    ({"opacity": np.array(["a"] * 5)}, ["opacity"]),
-])
+@pytest.mark.parametrize(
+    "damage, words",
+    [
+        ("truncated", ["cannot read splat parameters"]),
+        ("empty", ["cannot read splat parameters"]),
+        ("npy", ["cannot read splat parameters"]),
+        ({"theta": np.zeros(3)}, ["theta", "shape"]),  # mismatched lengths gave an IndexError
+        ({"xy": np.full((5, 2), np.nan)}, ["xy", "NaN"]),  # exited 0 with a black image
+        (
+            {
+                "xy": np.zeros((4, 3)),
+                "log_scale": np.zeros((4, 2)),
+                "theta": np.zeros(4),
+                "color": np.zeros((4, 3)),
+                "lum": np.ones(4),
+                "opacity": np.ones(4),
+            },
+            ["xy", "shape"],
+        ),
+        ({"color": np.full((5, 3), 1e39)}, ["color"]),  # beyond float32: inf
+        ({"width": 0}, ["width"]),
+        ({"height": 10**9}, ["height"]),
+        ({"blend": "glow"}, ["blend"]),
+        ({"opacity": np.array(["a"] * 5)}, ["opacity"]),
+    ],
+)
 def test_splat_render_refuses_a_damaged_params_file(inputs, tmp_path, capfd, damage, words):
     bad = tmp_path / "bad.npz"
     if damage == "truncated":
@@ -199,8 +237,10 @@ def test_splat_render_of_good_params_still_works(inputs, tmp_path, capfd):
 
 
 # ----------------------------------------------------------------------------- reproducers: numbers
-@pytest.mark.parametrize("command", [["splat", "gauss", "{png}", "-o", "{out}", "--splats", "4", "--epochs", "1"],
-                                     ["splat", "voronoi", "{png}", "-o", "{out}", "--splats", "4"]])
+@pytest.mark.parametrize(
+    "command",
+    [["splat", "gauss", "{png}", "-o", "{out}", "--splats", "4", "--epochs", "1"], ["splat", "voronoi", "{png}", "-o", "{out}", "--splats", "4"]],
+)
 @pytest.mark.parametrize("seed", ["-1", str(2**32)])
 def test_seed_out_of_range_is_exit_2(inputs, tmp_path, capfd, command, seed):
     argv = [a.format(png=inputs["png"], out=tmp_path / "o.png") for a in command]
@@ -211,8 +251,7 @@ def test_seed_out_of_range_is_exit_2(inputs, tmp_path, capfd, command, seed):
 
 @pytest.mark.parametrize("lr", ["inf", "nan", "-inf", "1e300"])
 def test_learning_rate_must_be_finite(inputs, tmp_path, capfd, lr):
-    rc, err = run(capfd, "splat", "gauss", inputs["png"], "-o", tmp_path / "o.png", "--splats", "4", "--epochs", "2",
-                  "--lr", lr)
+    rc, err = run(capfd, "splat", "gauss", inputs["png"], "-o", tmp_path / "o.png", "--splats", "4", "--epochs", "2", "--lr", lr)
     assert_one_line_error(rc, err, 2, "--lr")
     assert not (tmp_path / "o.png").exists()
 
@@ -224,9 +263,14 @@ def test_sweep_learning_rates_must_be_finite(inputs, capfd):
 
 # ----------------------------------------------------------------------------- reproducers: damaged images
 @pytest.mark.parametrize("name", ["trunc_png", "trunc_jpg", "bomb"])
-@pytest.mark.parametrize("command", [["convolve", "{src}", "{out}", "box_blur_3"],
-                                     ["splat", "voronoi", "{src}", "-o", "{out}", "--splats", "3"],
-                                     ["splat", "gauss", "{src}", "-o", "{out}", "--splats", "3", "--epochs", "1"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["convolve", "{src}", "{out}", "box_blur_3"],
+        ["splat", "voronoi", "{src}", "-o", "{out}", "--splats", "3"],
+        ["splat", "gauss", "{src}", "-o", "{out}", "--splats", "3", "--epochs", "1"],
+    ],
+)
 def test_damaged_or_huge_input_image_is_one_line(inputs, tmp_path, capfd, name, command):
     """libpng prints its own lines straight to fd 2; they are caught, and the first becomes the reason."""
     out = tmp_path / "o.png"
@@ -271,12 +315,15 @@ def test_an_unexpected_exception_is_one_line_naming_a_bug(monkeypatch, capfd):
         main(["devices"])
 
 
-@pytest.mark.parametrize("exc, code, words", [
-    (OSError(28, "No space left on device"), 1, ["No space left on device"]),
-    (OSError(), 1, ["OSError"]),  # never an empty reason
-    (MemoryError(), 1, ["out of memory"]),
-    (KeyboardInterrupt(), 130, ["interrupted"]),
-])
+@pytest.mark.parametrize(
+    "exc, code, words",
+    [
+        (OSError(28, "No space left on device"), 1, ["No space left on device"]),
+        (OSError(), 1, ["OSError"]),  # never an empty reason
+        (MemoryError(), 1, ["out of memory"]),
+        (KeyboardInterrupt(), 130, ["interrupted"]),
+    ],
+)
 def test_run_time_failures_are_one_line_with_a_reason(monkeypatch, capfd, exc, code, words):
     from clrender.commands import devices
 
@@ -333,13 +380,49 @@ def test_bad_memory_size_is_exit_2(capfd, text):
 
 
 # ----------------------------------------------------------------------------- hypothesis: argument lists
-HOSTILE_TEXT = ["", "-", "--", "\x1b[31mred", "line\nbreak", "\u00e9t\u00e9", "x" * 3000, "../../nowhere",
-                "\udcff", "1e999", "nan", "-inf", "0x10", " 3", "\u202e"]
+HOSTILE_TEXT = [
+    "",
+    "-",
+    "--",
+    "\x1b[31mred",
+    "line\nbreak",
+    "\u00e9t\u00e9",
+    "x" * 3000,
+    "../../nowhere",
+    "\udcff",
+    "1e999",
+    "nan",
+    "-inf",
+    "0x10",
+    " 3",
+    "\u202e",
+]
 INTS = ["0", "1", "2", "3", "-1", "-7", "64", "65", "4096", str(2**31), str(2**32), str(10**30)]
 FLOATS = ["0", "0.5", "1", "2.5", "-1", "nan", "inf", "-inf", "1e-300", "1e300", "3.4e39"]
-FILE_NAMES = ["in.png", "in.jpg", "in.exr", "trunc.png", "trunc.jpg", "bomb.png", "p.npz", "tiny.toml", "existing.png",
-              "adir.png", "afile", "afile/x.png", "missing.png", "nofolder/o.png", "o.png", "o.exr", "o.txt", "o", "o.npz",
-              "o.csv", "e.png", "c.png"]
+FILE_NAMES = [
+    "in.png",
+    "in.jpg",
+    "in.exr",
+    "trunc.png",
+    "trunc.jpg",
+    "bomb.png",
+    "p.npz",
+    "tiny.toml",
+    "existing.png",
+    "adir.png",
+    "afile",
+    "afile/x.png",
+    "missing.png",
+    "nofolder/o.png",
+    "o.png",
+    "o.exr",
+    "o.txt",
+    "o",
+    "o.npz",
+    "o.csv",
+    "e.png",
+    "c.png",
+]
 
 
 def values(kind):
@@ -350,38 +433,107 @@ def values(kind):
 
 # (flag, kind of value or None for a switch); positional arguments come from POSITIONALS
 OPTIONS = {
-    "render": [("-o", "file"), ("--overwrite", None), ("--camera", "int"), ("--width", "int"), ("--height", "int"),
-               ("--aa", "text"), ("--sampler", "text"), ("--samples", "int"), ("--pixel-filter", "text"),
-               ("--thickness", "float"), ("--contrast", "float"), ("--edges-out", "file"), ("--light-samples", "int"),
-               ("--max-depth", "int"), ("--fresnel", None), ("--no-bvh", None), ("--seed", "int"),
-               ("--filter", "text"), ("--aov", "text"), ("--aov-out", "file"), ("--list", None)],
+    "render": [
+        ("-o", "file"),
+        ("--overwrite", None),
+        ("--camera", "int"),
+        ("--width", "int"),
+        ("--height", "int"),
+        ("--aa", "text"),
+        ("--sampler", "text"),
+        ("--samples", "int"),
+        ("--pixel-filter", "text"),
+        ("--thickness", "float"),
+        ("--contrast", "float"),
+        ("--edges-out", "file"),
+        ("--light-samples", "int"),
+        ("--max-depth", "int"),
+        ("--fresnel", None),
+        ("--no-bvh", None),
+        ("--seed", "int"),
+        ("--filter", "text"),
+        ("--aov", "text"),
+        ("--aov-out", "file"),
+        ("--list", None),
+    ],
     "convolve": [("--space", "text"), ("--overwrite", None), ("--list", None)],
-    "splat gauss": [("-o", "file"), ("--splats", "int"), ("--epochs", "int"), ("--init", "text"), ("--learn", "text"),
-                    ("--blend", "text"), ("--optimizer", "text"), ("--loss", "text"), ("--seed", "int"),
-                    ("--max-splats", "int"), ("--batch", "int"), ("--lr", "float"), ("--time-budget", "float"),
-                    ("--save-params", "file"), ("--log", "file"), ("--curve", "file"), ("--overwrite", None)],
+    "splat gauss": [
+        ("-o", "file"),
+        ("--splats", "int"),
+        ("--epochs", "int"),
+        ("--init", "text"),
+        ("--learn", "text"),
+        ("--blend", "text"),
+        ("--optimizer", "text"),
+        ("--loss", "text"),
+        ("--seed", "int"),
+        ("--max-splats", "int"),
+        ("--batch", "int"),
+        ("--lr", "float"),
+        ("--time-budget", "float"),
+        ("--save-params", "file"),
+        ("--log", "file"),
+        ("--curve", "file"),
+        ("--overwrite", None),
+    ],
     "splat render": [("-o", "file"), ("--width", "int"), ("--overwrite", None)],
-    "splat sweep": [("--splats", "int"), ("--epochs", "int"), ("--lrs", "float"), ("--batches", "int"),
-                    ("--time-budget", "float"), ("--csv", "file"), ("--seed", "int"), ("--overwrite", None)],
-    "splat voronoi": [("-o", "file"), ("--overwrite", None), ("--splats", "int"), ("--method", "text"),
-                      ("--init", "text"), ("--colors", "text"), ("--lloyd", "int"), ("--train", "int"),
-                      ("--seed", "int"), ("--edges", None), ("--save-sites", "file")],
+    "splat sweep": [
+        ("--splats", "int"),
+        ("--epochs", "int"),
+        ("--lrs", "float"),
+        ("--batches", "int"),
+        ("--time-budget", "float"),
+        ("--csv", "file"),
+        ("--seed", "int"),
+        ("--overwrite", None),
+    ],
+    "splat voronoi": [
+        ("-o", "file"),
+        ("--overwrite", None),
+        ("--splats", "int"),
+        ("--method", "text"),
+        ("--init", "text"),
+        ("--colors", "text"),
+        ("--lloyd", "int"),
+        ("--train", "int"),
+        ("--seed", "int"),
+        ("--edges", None),
+        ("--save-sites", "file"),
+    ],
     "devices": [("--device", "text")],
 }
 # sensible values, so that many generated cases get past parsing and really run
 SENSIBLE = {
-    "--aa": ["none", "full", "edge_detect"], "--sampler": ["uniform", "random", "stratified", "sobol"],
-    "--pixel-filter": ["box", "tent", "gaussian"], "--filter": ["box_blur_3", "gauss_blur_5", "brighten_1.5"],
-    "--aov": ["depth", "normal,id", "edges"], "--space": ["linear", "stored"], "--init": ["uniform", "random", "gradient"],
-    "--learn": ["seed", "all"], "--blend": ["sum", "normalized"], "--optimizer": ["adam", "sgd"],
-    "--loss": ["l2", "l1"], "--method": ["naive", "grid"], "--colors": ["sample", "mean"],
-    "--width": ["8", "12", "1"], "--height": ["6", "9", "1"], "--splats": ["3", "8"], "--epochs": ["1", "2"],
-    "--samples": ["1", "2"], "--lloyd": ["0", "1"], "--train": ["0", "2"], "--time-budget": ["0.5"],
+    "--aa": ["none", "full", "edge_detect"],
+    "--sampler": ["uniform", "random", "stratified", "sobol"],
+    "--pixel-filter": ["box", "tent", "gaussian"],
+    "--filter": ["box_blur_3", "gauss_blur_5", "brighten_1.5"],
+    "--aov": ["depth", "normal,id", "edges"],
+    "--space": ["linear", "stored"],
+    "--init": ["uniform", "random", "gradient"],
+    "--learn": ["seed", "all"],
+    "--blend": ["sum", "normalized"],
+    "--optimizer": ["adam", "sgd"],
+    "--loss": ["l2", "l1"],
+    "--method": ["naive", "grid"],
+    "--colors": ["sample", "mean"],
+    "--width": ["8", "12", "1"],
+    "--height": ["6", "9", "1"],
+    "--splats": ["3", "8"],
+    "--epochs": ["1", "2"],
+    "--samples": ["1", "2"],
+    "--lloyd": ["0", "1"],
+    "--train": ["0", "2"],
+    "--time-budget": ["0.5"],
 }
 POSITIONALS = {
     "render": [["tiny.toml"], ["refract1"], ["tiny.toml", "1", "edge_detect", "stratified", "2"], []],
-    "convolve": [["in.png", "o.png", "box_blur_3"], ["in.exr", "o.exr", "gauss_blur_5", "brighten_2"],
-                 ["in.jpg", "in.jpg", "edge_detect_1"], ["in.png"]],
+    "convolve": [
+        ["in.png", "o.png", "box_blur_3"],
+        ["in.exr", "o.exr", "gauss_blur_5", "brighten_2"],
+        ["in.jpg", "in.jpg", "edge_detect_1"],
+        ["in.png"],
+    ],
     "splat gauss": [["in.png"], ["in.jpg"]],
     "splat render": [["p.npz"], ["in.png"]],
     "splat sweep": [["in.png"]],
@@ -389,9 +541,15 @@ POSITIONALS = {
     "devices": [[]],
 }
 # keeps every generated case cheap: a few splats and epochs, a tiny image, unless a value says otherwise
-DEFAULTS = {"render": ["--width", "12", "--height", "9"], "splat gauss": ["--splats", "4", "--epochs", "2"],
-            "splat sweep": ["--splats", "3", "--epochs", "1", "--lrs", "1", "--batches", "0", "--time-budget", "1"],
-            "splat voronoi": ["--splats", "4"], "splat render": ["--width", "16"], "convolve": [], "devices": []}
+DEFAULTS = {
+    "render": ["--width", "12", "--height", "9"],
+    "splat gauss": ["--splats", "4", "--epochs", "2"],
+    "splat sweep": ["--splats", "3", "--epochs", "1", "--lrs", "1", "--batches", "0", "--time-budget", "1"],
+    "splat voronoi": ["--splats", "4"],
+    "splat render": ["--width", "16"],
+    "convolve": [],
+    "devices": [],
+}
 
 
 @st.composite
@@ -420,6 +578,7 @@ class Hang(BaseException):
 
 def run_case(argv, folder: Path, capfd, seconds=120):
     """Run one generated command in `folder`; returns (rc, stderr)."""
+
     def alarm(signum, frame):
         raise Hang(" ".join(argv))
 
@@ -496,8 +655,7 @@ def fresh_folder(root: Path) -> Path:
     return folder
 
 
-@settings(max_examples=_examples(120), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-          deadline=None)
+@settings(max_examples=_examples(120), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow], deadline=None)
 @given(argv=argument_lists())
 # regressions the fuzzer (and issue 14) found: a folder as output, a surrogate in a file name,
 # two outputs naming one file, an out-of-range seed
@@ -539,21 +697,20 @@ def good_bytes(name: str) -> bytes:
     return GOOD_FILES[name]
 
 
-@settings(max_examples=_examples(40), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-          deadline=None)
+@settings(max_examples=_examples(40), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow], deadline=None)
 @given(data=st.data(), kind=st.sampled_from(["png", "jpg", "exr"]))
 def test_damaged_image_input_keeps_the_promise(data, kind, fuzz_root, capfd):
     folder = fresh_folder(fuzz_root)
     (folder / f"bad.{kind}").write_bytes(data.draw(damaged(good_bytes(kind))))
-    command = data.draw(st.sampled_from([["convolve", f"bad.{kind}", "o.png", "box_blur_3"],
-                                         ["splat", "voronoi", f"bad.{kind}", "-o", "o.png", "--splats", "2"]]))
+    command = data.draw(
+        st.sampled_from([["convolve", f"bad.{kind}", "o.png", "box_blur_3"], ["splat", "voronoi", f"bad.{kind}", "-o", "o.png", "--splats", "2"]])
+    )
     rc = check_case(["-q", *command], folder, capfd)
     assert rc in (0, 2)
     count("damaged image", rc)
 
 
-@settings(max_examples=_examples(40), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
-          deadline=None)
+@settings(max_examples=_examples(40), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow], deadline=None)
 @given(data=st.data())
 @example(data=None)  # placeholder replaced below: the whole good file must still render
 def test_damaged_params_file_keeps_the_promise(data, fuzz_root, capfd):
@@ -572,7 +729,7 @@ def test_exr_header_with_bytes_that_are_not_utf8(inputs, tmp_path, capfd):
     which (21 bytes into displayWindow) reproduced it."""
     good = inputs["exr"].read_bytes()
     at = good.find(b"displayWindow\x00box2i")
-    damaged_exr = good[:at] + b"displayWindow\x00\x80ox2i" + good[at + len(b"displayWindow\x00box2i"):]
+    damaged_exr = good[:at] + b"displayWindow\x00\x80ox2i" + good[at + len(b"displayWindow\x00box2i") :]
     for cut in range(at, at + 60, 3):
         bad = tmp_path / "bad.exr"
         bad.write_bytes(damaged_exr[:cut])
@@ -586,7 +743,7 @@ def test_exr_channel_name_that_is_not_text(inputs, tmp_path, capfd):
     failed in OpenImageIO ("basic_string: construction from null")."""
     good = inputs["exr"].read_bytes()
     at = good.find(b"G\x00\x02\x00\x00\x00", good.find(b"chlist"))
-    (tmp_path / "bad.exr").write_bytes(good[:at] + b"\x80" + good[at + 1:])
+    (tmp_path / "bad.exr").write_bytes(good[:at] + b"\x80" + good[at + 1 :])
     rc, err = run(capfd, "convolve", tmp_path / "bad.exr", tmp_path / "o.png", "box_blur_3")
     assert_one_line_error(rc, err, 2, "channel names are damaged")
     assert not (tmp_path / "o.png").exists()

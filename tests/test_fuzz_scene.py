@@ -7,6 +7,7 @@ below as @example lines, so they run in every profile.
 Long run (>= 10,000 scene cases):  CLRENDER_FUZZ_EXAMPLES=10000 pytest tests/test_fuzz_scene.py -m slow
 (or --hypothesis-profile=long where tests/conftest.py registers it).
 """
+
 from __future__ import annotations
 
 import copy
@@ -82,13 +83,16 @@ def test_generator_range_errors_name_the_file_and_key():
     assert "objects[0].params.resolution" in message and "16 to" in message
 
 
-@pytest.mark.parametrize("gen, params", [
-    ("bunny", {"resolution": 256}),  # did not finish in 120 s
-    ("cat", {"resolution": 10_000}),
-    ("dense", {"n_triangles": 50_000_000}),  # about 24 GiB
-    ("wizard_hat", {"segments": 10**9}),
-    ("tower", {"segments": 10**9}),
-])
+@pytest.mark.parametrize(
+    "gen, params",
+    [
+        ("bunny", {"resolution": 256}),  # did not finish in 120 s
+        ("cat", {"resolution": 10_000}),
+        ("dense", {"n_triangles": 50_000_000}),  # about 24 GiB
+        ("wizard_hat", {"segments": 10**9}),
+        ("tower", {"segments": 10**9}),
+    ],
+)
 def test_generator_sizes_are_bounded(gen, params):
     (key,) = params
     assert f"objects[0].params.{key}" in usage_error({"objects": [{"type": "mesh", "generator": gen, "params": params}]})
@@ -105,22 +109,25 @@ def test_area_light_samples_are_bounded_like_the_cli():
     assert "lights[0].samples" in message and "64" in message
 
 
-@pytest.mark.parametrize("data, key", [
-    ({"ambient": [1e39, 0, 0]}, "ambient"),
-    ({"background": [0, 1e300, 0]}, "background"),
-    ({"materials": {"m": {"diffuse": [1e300, 0, 0]}}}, "materials.m.diffuse"),
-    ({"materials": {"m": {"specular": [0, 0, 3.5e38]}}}, "materials.m.specular"),
-    ({"lights": [{"type": "point", "position": [0, 1, 0], "intensity": 1e39}]}, "lights[0].intensity"),
-    ({"lights": [{"type": "point", "position": [0, 1, 0], "color": [1e300, 1, 1]}]}, "lights[0].color"),
-    ({"lights": [{"type": "point", "position": [4e38, 1, 0]}]}, "lights[0].position"),
-    ({"cameras": [{"position": [0, 0, 1e39]}]}, "cameras[0].position"),
-    ({"objects": [{"type": "sphere", "center": [0, 0, -3.5e38], "radius": 1}]}, "objects[0].center"),
-    ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1e-300}]}, "objects[0].radius"),
-    ({"objects": [{"type": "sphere", "center": [0, 0, -3], "radius": 1e39}]}, "objects[0].radius"),
-    ({"objects": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1e39, 0]]}]}, "objects[0].vertices[2]"),
-    ({"objects": [{"type": "mesh", "generator": "tower", "translate": [1e39, 0, 0]}]}, "objects[0].translate"),
-    ({"width": 10**400}, "width"),
-])
+@pytest.mark.parametrize(
+    "data, key",
+    [
+        ({"ambient": [1e39, 0, 0]}, "ambient"),
+        ({"background": [0, 1e300, 0]}, "background"),
+        ({"materials": {"m": {"diffuse": [1e300, 0, 0]}}}, "materials.m.diffuse"),
+        ({"materials": {"m": {"specular": [0, 0, 3.5e38]}}}, "materials.m.specular"),
+        ({"lights": [{"type": "point", "position": [0, 1, 0], "intensity": 1e39}]}, "lights[0].intensity"),
+        ({"lights": [{"type": "point", "position": [0, 1, 0], "color": [1e300, 1, 1]}]}, "lights[0].color"),
+        ({"lights": [{"type": "point", "position": [4e38, 1, 0]}]}, "lights[0].position"),
+        ({"cameras": [{"position": [0, 0, 1e39]}]}, "cameras[0].position"),
+        ({"objects": [{"type": "sphere", "center": [0, 0, -3.5e38], "radius": 1}]}, "objects[0].center"),
+        ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1e-300}]}, "objects[0].radius"),
+        ({"objects": [{"type": "sphere", "center": [0, 0, -3], "radius": 1e39}]}, "objects[0].radius"),
+        ({"objects": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1e39, 0]]}]}, "objects[0].vertices[2]"),
+        ({"objects": [{"type": "mesh", "generator": "tower", "translate": [1e39, 0, 0]}]}, "objects[0].translate"),
+        ({"width": 10**400}, "width"),
+    ],
+)
 def test_values_beyond_float32_name_the_file_and_key(data, key):
     assert f"s.toml: {key}" in usage_error(data)
 
@@ -150,8 +157,9 @@ def test_long_bad_values_are_cut():
     assert "..." in message or "\u2026" in message
 
 
-@pytest.mark.parametrize("data", [{1: 2}, {"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, 3: 4}]},
-                                  {"materials": {"m": {(1, 2): 1}}}])
+@pytest.mark.parametrize(
+    "data", [{1: 2}, {"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, 3: 4}]}, {"materials": {"m": {(1, 2): 1}}}]
+)
 def test_non_string_keys_are_refused(data):
     usage_error(data)
 
@@ -197,8 +205,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 # Generators stay small so every case renders in milliseconds (their size bounds are tested above).
-SMALL_PARAMS = {"bunny": {"resolution": 16}, "cat": {"resolution": 16}, "dense": {"n_triangles": 200, "seed": 1},
-                "wizard_hat": {"segments": 6}, "tower": {"segments": 5}}
+SMALL_PARAMS = {
+    "bunny": {"resolution": 16},
+    "cat": {"resolution": 16},
+    "dense": {"n_triangles": 200, "seed": 1},
+    "wizard_hat": {"segments": 6},
+    "tower": {"segments": 5},
+}
 TRI_OBJ = "v 0 0 -3\nv 1 0 -3\nv 0 1 -3\nf 1 2 3\n"
 
 
@@ -215,13 +228,93 @@ def small_base_scenes() -> dict:
 
 
 BASES = small_base_scenes()
-NASTY_FLOATS = [math.nan, math.inf, -math.inf, 3.5e38, -3.5e38, 1e39, 1e300, -1e300, 1e-300, -1e-300, 1e-45, 1e-40,
-                0.0, -0.0, 1e-7, 1e-6, 1e-5, 1e6, -1e6, 1.0000001e6, 1e7, 179.0, 180.0, 0.5, 1.0, -1.0, 2.0]
-NASTY_INTS = [-(2**63), -1, 0, 1, 2, 3, 5, 7, 8, 15, 16, 17, 64, 65, 192, 193, 4096, 4097, 16384, 16385,
-              2**31 - 1, 2**31, 2**32 - 1, 2**32, 2**63, 10**400]
-NASTY_TEXT = ["", "glass", "default", "mirror", "point", "area", "directional", "sphere", "mesh", "quad", "plane",
-              "triangle", "bunny", "dense", "inverse_square", "none", "tri.obj", "missing.obj", "broken.obj",
-              "../tri.obj", "evil\nkey", "\x1b[2J\x1b[31m", "\u2028", "\u202e", "\x00", "x" * 5000, "ключ", "🦊"]
+NASTY_FLOATS = [
+    math.nan,
+    math.inf,
+    -math.inf,
+    3.5e38,
+    -3.5e38,
+    1e39,
+    1e300,
+    -1e300,
+    1e-300,
+    -1e-300,
+    1e-45,
+    1e-40,
+    0.0,
+    -0.0,
+    1e-7,
+    1e-6,
+    1e-5,
+    1e6,
+    -1e6,
+    1.0000001e6,
+    1e7,
+    179.0,
+    180.0,
+    0.5,
+    1.0,
+    -1.0,
+    2.0,
+]
+NASTY_INTS = [
+    -(2**63),
+    -1,
+    0,
+    1,
+    2,
+    3,
+    5,
+    7,
+    8,
+    15,
+    16,
+    17,
+    64,
+    65,
+    192,
+    193,
+    4096,
+    4097,
+    16384,
+    16385,
+    2**31 - 1,
+    2**31,
+    2**32 - 1,
+    2**32,
+    2**63,
+    10**400,
+]
+NASTY_TEXT = [
+    "",
+    "glass",
+    "default",
+    "mirror",
+    "point",
+    "area",
+    "directional",
+    "sphere",
+    "mesh",
+    "quad",
+    "plane",
+    "triangle",
+    "bunny",
+    "dense",
+    "inverse_square",
+    "none",
+    "tri.obj",
+    "missing.obj",
+    "broken.obj",
+    "../tri.obj",
+    "evil\nkey",
+    "\x1b[2J\x1b[31m",
+    "\u2028",
+    "\u202e",
+    "\x00",
+    "x" * 5000,
+    "ключ",
+    "🦊",
+]
 
 floats = st.sampled_from(NASTY_FLOATS) | st.floats(allow_nan=True, allow_infinity=True) | st.floats(-10, 10)
 ints = st.sampled_from(NASTY_INTS) | st.integers(-5, 40)
@@ -229,8 +322,7 @@ numbers = floats | ints
 texts = st.sampled_from(NASTY_TEXT) | st.text(max_size=12)
 scalars = numbers | texts | st.booleans() | st.none()
 vectors = st.lists(numbers, min_size=3, max_size=3) | st.lists(numbers, max_size=5)
-values = st.recursive(scalars | vectors, lambda inner: st.lists(inner, max_size=4)
-                      | st.dictionaries(texts, inner, max_size=3), max_leaves=8)
+values = st.recursive(scalars | vectors, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(texts, inner, max_size=3), max_leaves=8)
 
 
 def nested(depth: int, leaf=0.5):
@@ -243,34 +335,47 @@ def nested(depth: int, leaf=0.5):
 # values at the edges of what the scene reader allows
 extremes = st.sampled_from([0, 0.0, 1e-6, -1e-6, 1e-5, 1e-3, 0.01, 1, -1, 2, 5, 64, 100, 179, 1e6, -1e6, 999_999.9])
 deep_values = st.integers(2, 600).map(nested)
-new_objects = st.sampled_from([
-    {"type": "sphere", "center": [0, 0, -3], "radius": 1},
-    {"type": "sphere", "center": [0, 0, 0], "radius": 1e-6},  # around the eye
-    {"type": "triangle", "vertices": [[0, 0, -2], [1, 1, -2], [2, 2, -2]]},  # collinear
-    {"type": "triangle", "vertices": [[0, 0, -2], [0, 0, -2], [0, 0, -2]]},  # a point
-    {"type": "quad", "corner": [-1, -1, -2], "edge_a": [2, 0, 0], "edge_b": [4, 0, 0]},  # no area
-    {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "size": 1e-6},  # through the eye
-    {"type": "mesh", "file": "tri.obj"},
-    {"type": "mesh", "file": "tri.obj", "scale": 1e-6, "translate": [0, 0, -1]},
-    {"type": "mesh", "file": "broken.obj"},
-    {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 3}, "scale": [1, 1e-6, 1], "translate": [0, 0, -2]},
-    {"type": "mesh", "generator": "dense", "params": {"n_triangles": 8}, "scale": -1, "translate": [0, 0, -3], "smooth": True},
-])
-new_lights = st.sampled_from([
-    {"type": "point", "position": [0, 0, 0]},  # at the eye
-    {"type": "point", "position": [0, 0, -2], "falloff": "inverse_square", "intensity": 1e6},  # on a surface
-    {"type": "directional", "direction": [0, 0, -1e-6]},
-    {"type": "area", "corner": [-1, -1, -2], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0], "falloff": "inverse_square",
-     "intensity": 1e6, "color": [1e6, 1e6, 1e6]},  # a light on the geometry
-    {"type": "area", "corner": [0, 0, 0], "edge_a": [1e-6, 0, 0], "edge_b": [0, 1e-6, 0], "samples": 64},
-])
-new_cameras = st.sampled_from([
-    {"position": [0, 0, 0], "look_at": [0, 0, 0]},
-    {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [0, 1, 0]},  # up along the view
-    {"position": [0, 0, 0], "look_at": [0, 0, -1e-6], "fov": 1e-3},
-    {"position": [1e6, 1e6, 1e6], "look_at": [0, 0, -3], "fov": 179},
-    {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 0, 0]},
-])
+new_objects = st.sampled_from(
+    [
+        {"type": "sphere", "center": [0, 0, -3], "radius": 1},
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1e-6},  # around the eye
+        {"type": "triangle", "vertices": [[0, 0, -2], [1, 1, -2], [2, 2, -2]]},  # collinear
+        {"type": "triangle", "vertices": [[0, 0, -2], [0, 0, -2], [0, 0, -2]]},  # a point
+        {"type": "quad", "corner": [-1, -1, -2], "edge_a": [2, 0, 0], "edge_b": [4, 0, 0]},  # no area
+        {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "size": 1e-6},  # through the eye
+        {"type": "mesh", "file": "tri.obj"},
+        {"type": "mesh", "file": "tri.obj", "scale": 1e-6, "translate": [0, 0, -1]},
+        {"type": "mesh", "file": "broken.obj"},
+        {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 3}, "scale": [1, 1e-6, 1], "translate": [0, 0, -2]},
+        {"type": "mesh", "generator": "dense", "params": {"n_triangles": 8}, "scale": -1, "translate": [0, 0, -3], "smooth": True},
+    ]
+)
+new_lights = st.sampled_from(
+    [
+        {"type": "point", "position": [0, 0, 0]},  # at the eye
+        {"type": "point", "position": [0, 0, -2], "falloff": "inverse_square", "intensity": 1e6},  # on a surface
+        {"type": "directional", "direction": [0, 0, -1e-6]},
+        {
+            "type": "area",
+            "corner": [-1, -1, -2],
+            "edge_a": [2, 0, 0],
+            "edge_b": [0, 2, 0],
+            "falloff": "inverse_square",
+            "intensity": 1e6,
+            "color": [1e6, 1e6, 1e6],
+        },  # a light on the geometry
+        {"type": "area", "corner": [0, 0, 0], "edge_a": [1e-6, 0, 0], "edge_b": [0, 1e-6, 0], "samples": 64},
+    ]
+)
+new_cameras = st.sampled_from(
+    [
+        {"position": [0, 0, 0], "look_at": [0, 0, 0]},
+        {"position": [0, 0, 0], "look_at": [0, 1, 0], "up": [0, 1, 0]},  # up along the view
+        {"position": [0, 0, 0], "look_at": [0, 0, -1e-6], "fov": 1e-3},
+        {"position": [1e6, 1e6, 1e6], "look_at": [0, 0, -3], "fov": 179},
+        {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 0, 0]},
+    ]
+)
 
 
 def locations(node, path=()):
@@ -286,15 +391,16 @@ def mutated_scenes(draw, allowed_only=False):
     """A bundled scene with 1-4 mutations; allowed_only: only values at the edges of what is allowed
     and degenerate objects, lights and cameras, so that most cases get as far as rendering."""
     data = copy.deepcopy(BASES[draw(st.sampled_from(sorted(BASES)))])
-    ops = (["extreme", "object", "light", "camera"] if allowed_only else
-           ["replace", "component", "scale", "delete", "add_key", "deep", "extreme", "extreme", "extreme", "object",
-            "light", "camera"])
+    ops = (
+        ["extreme", "object", "light", "camera"]
+        if allowed_only
+        else ["replace", "component", "scale", "delete", "add_key", "deep", "extreme", "extreme", "extreme", "object", "light", "camera"]
+    )
     for _ in range(draw(st.integers(1, 4))):
         op = draw(st.sampled_from(ops))
         spots = list(locations(data))
         if op in ("object", "light", "camera"):
-            key, strategy = {"object": ("objects", new_objects), "light": ("lights", new_lights),
-                             "camera": ("cameras", new_cameras)}[op]
+            key, strategy = {"object": ("objects", new_objects), "light": ("lights", new_lights), "camera": ("cameras", new_cameras)}[op]
             if isinstance(data.get(key, []), list):
                 item = copy.deepcopy(draw(strategy))
                 data.setdefault(key, []).insert(0 if op == "camera" else len(data.get(key, [])), item)
@@ -351,8 +457,7 @@ def fuzz_dir(tmp_path_factory):
 
 
 FUZZ_EXAMPLES = os.environ.get("CLRENDER_FUZZ_EXAMPLES")  # the long run sets it; else the hypothesis profile decides
-FUZZ = settings(deadline=None, suppress_health_check=list(HealthCheck),
-                **({"max_examples": int(FUZZ_EXAMPLES)} if FUZZ_EXAMPLES else {}))
+FUZZ = settings(deadline=None, suppress_health_check=list(HealthCheck), **({"max_examples": int(FUZZ_EXAMPLES)} if FUZZ_EXAMPLES else {}))
 STATS = {"cases": 0, "refused": 0, "rendered": 0, "slowest": 0.0}
 
 
@@ -399,17 +504,19 @@ def test_a_light_touching_the_surface_it_lights_stays_finite(height):
     # overflowed float32 and the pixels under the light were inf (capped at r = 1e-5 in shade.h)
     from clrender.trace.renderer import render
 
-    data = {"cameras": [{"position": [0, 1, 0], "look_at": [0, -1, 0], "up": [0, 0, -1]}],
-            "materials": {"white": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}},
-            "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 10, "material": "white"}],
-            "lights": [{"type": "point", "position": [0, height, 0], "falloff": "inverse_square", "intensity": 1e6,
-                        "color": [1e6] * 3}]}
+    data = {
+        "cameras": [{"position": [0, 1, 0], "look_at": [0, -1, 0], "up": [0, 0, -1]}],
+        "materials": {"white": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}},
+        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 10, "material": "white"}],
+        "lights": [{"type": "point", "position": [0, height, 0], "falloff": "inverse_square", "intensity": 1e6, "color": [1e6] * 3}],
+    }
     image = render(Scene.from_dict(data), width=5, height=3, aa="none")
     assert np.isfinite(image).all()
     assert image.max() > 1e20  # still the brightest thing in the scene, not dropped
 
 
-@pytest.mark.parametrize("data, key", [({"name": "two\nlines"}, "name"), ({"description": "\x1b[2Jclear"}, "description"),
-                                       ({"materials": {"a\rb": {}}}, "materials")])
+@pytest.mark.parametrize(
+    "data, key", [({"name": "two\nlines"}, "name"), ({"description": "\x1b[2Jclear"}, "description"), ({"materials": {"a\rb": {}}}, "materials")]
+)
 def test_names_shown_on_a_terminal_may_not_hold_control_characters(data, key):
     assert key in usage_error(data)

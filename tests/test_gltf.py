@@ -5,6 +5,7 @@ every expected value comes from the numbers put into the file: transforms
 applied in numpy, the camera's axes from its quaternion, Lambert's law for
 the glTF BRDF base_colour / pi.
 """
+
 import base64
 import json
 import math
@@ -35,8 +36,7 @@ def rotation(axis, degrees):
 QUAD = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)  # 2 x 2, facing +z
 
 
-def gltf_file(tmp_path, nodes, *, mode=4, indices=(0, 1, 2, 0, 2, 3), lights=(), cameras=(), materials=None,
-              normals=None, name="scene.gltf", **top):
+def gltf_file(tmp_path, nodes, *, mode=4, indices=(0, 1, 2, 0, 2, 3), lights=(), cameras=(), materials=None, normals=None, name="scene.gltf", **top):
     """A .gltf with the quad as mesh 0 (data-URI buffer), the given nodes, lights and cameras."""
     idx = np.asarray(indices, np.uint16)
     blob = QUAD.tobytes() + idx.tobytes()
@@ -50,14 +50,15 @@ def gltf_file(tmp_path, nodes, *, mode=4, indices=(0, 1, 2, 0, 2, 3), lights=(),
         "scene": 0,
         "scenes": [{"nodes": [i for i in range(len(nodes)) if not any(i in n.get("children", []) for n in nodes)]}],
         "nodes": nodes,
-        "meshes": [{"primitives": [{"attributes": attributes, "indices": 1, "mode": mode,
-                                    **({"material": 0} if materials else {})}]}],
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": 1, "mode": mode, **({"material": 0} if materials else {})}]}],
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"},
             {"bufferView": 1, "componentType": 5123, "count": len(idx), "type": "SCALAR"},
         ],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": QUAD.nbytes},
-                        {"buffer": 0, "byteOffset": QUAD.nbytes, "byteLength": idx.nbytes}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": QUAD.nbytes},
+            {"buffer": 0, "byteOffset": QUAD.nbytes, "byteLength": idx.nbytes},
+        ],
         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
     }
     if normals is not None:
@@ -113,8 +114,7 @@ def test_a_mesh_object_can_name_a_gltf_node(box_glb, tmp_path):
     mesh = node_mesh(path, box_object["node"])
     np.testing.assert_allclose(mesh.vertices, trimesh.transform_points(box.vertices, world), atol=1e-5)
     # in a TOML scene: the node's world transform first, then the object's own translate
-    (tmp_path / "s.toml").write_text(f'[[objects]]\ntype = "mesh"\nfile = "box.glb"\nnode = {box_object["node"]}\n'
-                                     'translate = [0, 10, 0]\n')
+    (tmp_path / "s.toml").write_text(f'[[objects]]\ntype = "mesh"\nfile = "box.glb"\nnode = {box_object["node"]}\ntranslate = [0, 10, 0]\n')
     placed = Scene.load(tmp_path / "s.toml").objects[0]
     np.testing.assert_allclose(placed.vertices, mesh.vertices + [0, 10, 0], atol=1e-5)
 
@@ -153,30 +153,34 @@ def test_smooth_without_normals_in_the_file_averages_the_faces(tmp_path):
 
 def test_camera_position_direction_and_field_of_view(tmp_path):
     q = quaternion([0, 1, 0], 30)
-    nodes = [{"mesh": 0, "translation": [0, 0, -5]},
-             {"children": [2], "translation": [0, 1, 0]},  # a rig lifting the camera by 1
-             {"camera": 0, "translation": [1, 1, 10], "rotation": q}]
-    path = gltf_file(tmp_path, nodes, cameras=[{"type": "perspective",
-                                                "perspective": {"yfov": 0.6, "aspectRatio": 2.0, "znear": 0.1}}])
+    nodes = [
+        {"mesh": 0, "translation": [0, 0, -5]},
+        {"children": [2], "translation": [0, 1, 0]},  # a rig lifting the camera by 1
+        {"camera": 0, "translation": [1, 1, 10], "rotation": q},
+    ]
+    path = gltf_file(tmp_path, nodes, cameras=[{"type": "perspective", "perspective": {"yfov": 0.6, "aspectRatio": 2.0, "znear": 0.1}}])
     scene = Scene.load(path)
     (cam,) = scene.cameras
     np.testing.assert_allclose(cam.position, [1, 2, 10])
     forward = np.subtract(cam.look_at, cam.position)
-    np.testing.assert_allclose(forward / np.linalg.norm(forward), [-math.sin(math.radians(30)), 0, -math.cos(math.radians(30))],
-                               atol=1e-12)
+    np.testing.assert_allclose(forward / np.linalg.norm(forward), [-math.sin(math.radians(30)), 0, -math.cos(math.radians(30))], atol=1e-12)
     np.testing.assert_allclose(cam.up, [0, 1, 0], atol=1e-12)
     assert cam.fov == pytest.approx(math.degrees(0.6))
     assert (scene.width, scene.height) == (640, 320)  # the camera's aspect ratio
 
 
 def test_punctual_lights_are_placed_by_their_nodes(tmp_path):
-    nodes = [{"mesh": 0},
-             {"translation": [3, 4, 5], "extensions": {"KHR_lights_punctual": {"light": 0}}},
-             {"rotation": quaternion([1, 0, 0], -90), "extensions": {"KHR_lights_punctual": {"light": 1}}},
-             {"translation": [0, 7, 0], "extensions": {"KHR_lights_punctual": {"light": 2}}}]
-    lights = [{"type": "point", "color": [1, 0.5, 0.25], "intensity": 20},
-              {"type": "directional", "intensity": 3},
-              {"type": "spot", "intensity": 5, "spot": {"outerConeAngle": 0.5}}]
+    nodes = [
+        {"mesh": 0},
+        {"translation": [3, 4, 5], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+        {"rotation": quaternion([1, 0, 0], -90), "extensions": {"KHR_lights_punctual": {"light": 1}}},
+        {"translation": [0, 7, 0], "extensions": {"KHR_lights_punctual": {"light": 2}}},
+    ]
+    lights = [
+        {"type": "point", "color": [1, 0.5, 0.25], "intensity": 20},
+        {"type": "directional", "intensity": 3},
+        {"type": "spot", "intensity": 5, "spot": {"outerConeAngle": 0.5}},
+    ]
     scene = Scene.load(gltf_file(tmp_path, nodes, lights=lights))
     point, sun, spot = scene.lights
     assert point.type == "point" and point.falloff == "inverse_square"
@@ -192,12 +196,18 @@ def test_a_flat_lit_quad_shows_lambert_for_the_gltf_brdf(tmp_path):
     """Radiance of a Lambertian surface (BRDF base_colour / pi) under E lux arriving at 60 degrees: base_colour / pi * E * cos 60."""
     base = [0.8, 0.5, 0.2]
     lux = 2.0
-    nodes = [{"mesh": 0, "scale": [4, 4, 1], "translation": [0, 0, -3]},  # an 8 x 8 quad facing the camera
-             {"camera": 0, "translation": [0, 0, 0]},
-             {"rotation": quaternion([1, 0, 0], -60), "extensions": {"KHR_lights_punctual": {"light": 0}}}]
-    path = gltf_file(tmp_path, nodes, materials=[{"pbrMetallicRoughness": {"baseColorFactor": [*base, 1.0], "metallicFactor": 0}}],
-                     cameras=[{"type": "perspective", "perspective": {"yfov": 0.5}}],
-                     lights=[{"type": "directional", "intensity": lux}])
+    nodes = [
+        {"mesh": 0, "scale": [4, 4, 1], "translation": [0, 0, -3]},  # an 8 x 8 quad facing the camera
+        {"camera": 0, "translation": [0, 0, 0]},
+        {"rotation": quaternion([1, 0, 0], -60), "extensions": {"KHR_lights_punctual": {"light": 0}}},
+    ]
+    path = gltf_file(
+        tmp_path,
+        nodes,
+        materials=[{"pbrMetallicRoughness": {"baseColorFactor": [*base, 1.0], "metallicFactor": 0}}],
+        cameras=[{"type": "perspective", "perspective": {"yfov": 0.5}}],
+        lights=[{"type": "directional", "intensity": lux}],
+    )
     image = Renderer(path, width=8, height=6).run().image
     expected = np.array(base) / math.pi * lux * math.cos(math.radians(60))
     np.testing.assert_allclose(image, np.broadcast_to(expected, image.shape), rtol=1e-5)
@@ -238,17 +248,22 @@ def _edit(doc, key, value):
     return doc
 
 
-@pytest.mark.parametrize("damage, fragment", [
-    (lambda p: p.write_bytes(b"glTF\x02\x00\x00\x00\xff\xff\x00\x00"), "GLB"),
-    (lambda p: p.write_text("{not json"), "not a glTF file"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["asset", "version"], "1.0"))), "version"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["accessors", 0, "count"], 400))), "do not fit"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["extensionsRequired"], ["KHR_draco_mesh_compression"]))),
-     "KHR_draco_mesh_compression"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["nodes", 0, "mesh"], 7))), "meshes[7]"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["nodes", 0, "children"], [0]))), "twice"),
-    (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["meshes", 0, "primitives"], "x"))), "primitives"),
-])
+@pytest.mark.parametrize(
+    "damage, fragment",
+    [
+        (lambda p: p.write_bytes(b"glTF\x02\x00\x00\x00\xff\xff\x00\x00"), "GLB"),
+        (lambda p: p.write_text("{not json"), "not a glTF file"),
+        (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["asset", "version"], "1.0"))), "version"),
+        (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["accessors", 0, "count"], 400))), "do not fit"),
+        (
+            lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["extensionsRequired"], ["KHR_draco_mesh_compression"]))),
+            "KHR_draco_mesh_compression",
+        ),
+        (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["nodes", 0, "mesh"], 7))), "meshes[7]"),
+        (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["nodes", 0, "children"], [0]))), "twice"),
+        (lambda p: p.write_text(json.dumps(_edit(json.loads(p.read_text()), ["meshes", 0, "primitives"], "x"))), "primitives"),
+    ],
+)
 def test_a_bad_gltf_is_refused_with_one_line(tmp_path, capsys, monkeypatch, damage, fragment):
     path = gltf_file(tmp_path, [{"mesh": 0}], name="bad.gltf")
     damage(path)

@@ -1,4 +1,5 @@
 """Ray-primitive intersection through the Tracer API, against analytic and numpy references."""
+
 import numpy as np
 import pytest
 
@@ -101,8 +102,10 @@ def test_bvh_and_brute_force_find_the_same_hits(device, builder):
     rng = np.random.default_rng(5)
     centres = rng.uniform(-3, 3, (400, 3)) + [0, 0, -8]
     tris = centres[:, None, :] + rng.normal(scale=0.4, size=(400, 3, 3))
-    spheres = [{"type": "sphere", "center": c.tolist(), "radius": float(r)}
-               for c, r in zip(rng.uniform(-3, 3, (30, 3)) + [0, 0, -8], rng.uniform(0.1, 0.5, 30))]
+    spheres = [
+        {"type": "sphere", "center": c.tolist(), "radius": float(r)}
+        for c, r in zip(rng.uniform(-3, 3, (30, 3)) + [0, 0, -8], rng.uniform(0.1, 0.5, 30))
+    ]
     scene = Scene.from_dict({"objects": spheres})
     from clrender.scene.scene import Mesh
 
@@ -119,8 +122,7 @@ def test_bvh_and_brute_force_find_the_same_hits(device, builder):
     # the BVH visits far fewer nodes than there are primitives
     assert fast_tracer.last_visits.mean() < 0.25 * 430
     t_max = rng.uniform(1, 12, 5000)
-    np.testing.assert_array_equal(
-        Tracer(scene, use_bvh=False, device=device).occluded(o, d, t_max), fast_tracer.occluded(o, d, t_max))
+    np.testing.assert_array_equal(Tracer(scene, use_bvh=False, device=device).occluded(o, d, t_max), fast_tracer.occluded(o, d, t_max))
 
 
 def test_no_cracks_along_an_edge_two_triangles_share(device):

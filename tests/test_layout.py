@@ -1,5 +1,6 @@
 """The values and records shared by host and kernels (clrender/layout.py) reach every kernel build, and no
 kernel file keeps a copy of its own: a build without them stops with #error."""
+
 import re
 
 import numpy as np
@@ -37,14 +38,21 @@ def test_the_kernels_see_the_hosts_values_and_record_sizes(device):
     cl.enqueue_copy(device.queue, ints, ints_buf)
     cl.enqueue_copy(device.queue, eps, eps_buf)
     assert dict(zip(INT_NAMES, ints.tolist())) == {name: layout.DEFINES[name] for name in INT_NAMES}
-    assert ints[-4:].tolist() == [layout.PRIM_SLOT_DTYPE.itemsize, layout.MATERIAL_DTYPE.itemsize,
-                                  layout.LIGHT_DTYPE.itemsize, layout.ID_RECORD_DTYPE.itemsize]
+    assert ints[-4:].tolist() == [
+        layout.PRIM_SLOT_DTYPE.itemsize,
+        layout.MATERIAL_DTYPE.itemsize,
+        layout.LIGHT_DTYPE.itemsize,
+        layout.ID_RECORD_DTYPE.itemsize,
+    ]
     assert eps[0] == np.float32(layout.SPLAT_EPS)
 
 
 def test_record_fields_are_whole_float4_rows_in_the_kernels_order():
-    for dtype, rows in ((layout.LIGHT_DTYPE, layout.LIGHT_ROWS), (layout.MATERIAL_DTYPE, layout.MATERIAL_ROWS),
-                        (layout.PRIM_SLOT_DTYPE, layout.PRIM_ROWS)):
+    for dtype, rows in (
+        (layout.LIGHT_DTYPE, layout.LIGHT_ROWS),
+        (layout.MATERIAL_DTYPE, layout.MATERIAL_ROWS),
+        (layout.PRIM_SLOT_DTYPE, layout.PRIM_ROWS),
+    ):
         assert [dtype.fields[name][1] for name in dtype.names] == [16 * row for row in range(rows)]
     assert layout.ID_RECORD_DTYPE.fields["facet"][1] == 4 * layout.PATH_LEN
 

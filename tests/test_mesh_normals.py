@@ -1,5 +1,6 @@
 """Vertex normals computed with numpy (clrender.scene.meshes.vertex_normals), so a fresh install never
 asks trimesh for them (trimesh needs scipy for that and otherwise loops over vertices in Python)."""
+
 import numpy as np
 import trimesh
 

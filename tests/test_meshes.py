@@ -1,4 +1,5 @@
 """Procedural meshes: closed, outward-wound, sized as asked, finite, deterministic, cached."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -79,15 +80,23 @@ def test_bunny_deterministic_without_cache(tmp_path, monkeypatch):
     assert not (tmp_path / "clrender").exists()
 
 
-@pytest.mark.parametrize("call", [lambda: meshes.bunny(4), lambda: meshes.bunny(10_000), lambda: meshes.bunny(64.5),
-                                  lambda: meshes.wizard_hat(2), lambda: meshes.tower(True), lambda: meshes.cat(0)])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: meshes.bunny(4),
+        lambda: meshes.bunny(10_000),
+        lambda: meshes.bunny(64.5),
+        lambda: meshes.wizard_hat(2),
+        lambda: meshes.tower(True),
+        lambda: meshes.cat(0),
+    ],
+)
 def test_bad_parameters(call):
     with pytest.raises(UsageError):
         call()
 
 
-@pytest.mark.parametrize("name, watertight, faces", [
-    ("wizard_hat", True, (200, 5000)), ("tower", True, (50, 5000)), ("cat", False, (500, 10000))])
+@pytest.mark.parametrize("name, watertight, faces", [("wizard_hat", True, (200, 5000)), ("tower", True, (50, 5000)), ("cat", False, (500, 10000))])
 def test_low_poly_props(name, watertight, faces):
     m = getattr(meshes, name)()
     check_closed_outward(m, watertight=watertight)

@@ -13,6 +13,7 @@ Each case also checks its results against an independent answer, so a kernel tha
 silently skipped would fail.  A canary kernel with a deliberate out-of-bounds read proves the
 error reports are seen.  Run: pytest -m oclgrind tests/test_oclgrind.py
 """
+
 from __future__ import annotations
 
 import os
@@ -25,8 +26,19 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-ERROR_MARKERS = ("Invalid read", "Invalid write", "data race", "Uninitialized", "Uninitialised", "runtime error",
-                 "FATAL", "divergence", "Unsupported", "out of bounds", "Oclgrind - ")
+ERROR_MARKERS = (
+    "Invalid read",
+    "Invalid write",
+    "data race",
+    "Uninitialized",
+    "Uninitialised",
+    "runtime error",
+    "FATAL",
+    "divergence",
+    "Unsupported",
+    "out of bounds",
+    "Oclgrind - ",
+)
 
 
 def oclgrind_present() -> bool:
@@ -38,8 +50,11 @@ def oclgrind_present() -> bool:
         return False
 
 
-pytestmark = [pytest.mark.oclgrind, pytest.mark.slow,
-              pytest.mark.skipif(not oclgrind_present(), reason="the Oclgrind OpenCL platform is not installed")]
+pytestmark = [
+    pytest.mark.oclgrind,
+    pytest.mark.slow,
+    pytest.mark.skipif(not oclgrind_present(), reason="the Oclgrind OpenCL platform is not installed"),
+]
 
 PRELUDE = """
 import numpy as np
@@ -68,14 +83,21 @@ scene = Scene.from_dict({
 
 # name -> (kernels it runs, code)
 CASES = {
-    "render_bvh_edges": (("render",), SCENE + """
+    "render_bvh_edges": (
+        ("render",),
+        SCENE
+        + """
 from clrender.trace.renderer import Renderer
 r = Renderer(scene, width=6, height=4, aa="edge_detect", samples=2, max_depth=3, device="oclgrind").run()
 assert np.isfinite(r.image).all() and r.image.max() > 0.05
 assert len(set(np.unique(r.ids)) - {-1}) >= 2  # the sphere and something else are in view
 assert r.edge_mask.any()  # the edge pass (a compacted pixel list) ran too
-"""),
-    "render_no_bvh_full_aa": (("render",), SCENE + """
+""",
+    ),
+    "render_no_bvh_full_aa": (
+        ("render",),
+        SCENE
+        + """
 from clrender.trace.renderer import Renderer
 kw = dict(width=5, height=3, aa="full", samples=2, sampler="sobol", pixel_filter="gaussian", fresnel=True,
           light_sampler="random", max_depth=4)
@@ -84,16 +106,23 @@ a = Renderer(scene, bvh=False, device="oclgrind", **kw).run().image
 b = Renderer(scene, tracer=Tracer(scene, bvh_width=2, device=dev), device="oclgrind", **kw).run().image
 assert np.isfinite(a).all()
 np.testing.assert_allclose(a, b, atol=1e-4)  # the (binary) BVH changes the order of tests, not the answer
-"""),
-    "render_aov_variant": (("render",), SCENE + """
+""",
+    ),
+    "render_aov_variant": (
+        ("render",),
+        SCENE
+        + """
 from clrender.trace.renderer import Renderer
 # -DWRITE_AOV=1: the kernel also writes the primary hit's depth, normal and albedo
 r = Renderer(scene, width=5, height=4, aa="none", aovs=("depth", "normal", "albedo"), device="oclgrind").run()
 hit = r.ids >= 0
 assert hit.any() and np.isfinite(r.aovs["depth"][hit]).all() and (r.aovs["depth"][hit] > 0).all()
 np.testing.assert_allclose(np.linalg.norm(r.aovs["normal"][hit], axis=-1), 1, atol=1e-4)  # unit normals
-"""),
-    "sample_offsets": (("sample_offsets",), """
+""",
+    ),
+    "sample_offsets": (
+        ("sample_offsets",),
+        """
 from clrender.trace.sampling import sample_offsets
 for sampler in ("uniform", "random", "stratified", "sobol"):
     o = sample_offsets([0, 5, 17], sampler, 3, seed=1, device=dev)
@@ -101,8 +130,11 @@ for sampler in ("uniform", "random", "stratified", "sobol"):
 s = sample_offsets([4], "stratified", 3, device=dev)[0]
 cells = np.floor(s * 3).astype(int)
 assert len({tuple(c) for c in cells}) == 9  # one sample in each of the 3 x 3 cells
-"""),
-    "intersect_and_occluded_rays": (("intersect_rays", "occluded_rays"), """
+""",
+    ),
+    "intersect_and_occluded_rays": (
+        ("intersect_rays", "occluded_rays"),
+        """
 from clrender.trace.tracer import Tracer
 spheres = [{"type": "sphere", "center": [0, 0, -5], "radius": 1}, {"type": "sphere", "center": [3, 0, -5], "radius": 0.5}]
 tri = {"type": "triangle", "vertices": [[-1, -1, -8], [1, -1, -8], [0, 1, -8]]}
@@ -117,8 +149,11 @@ for use_bvh, width, count in ((True, 4, False), (True, 2, False), (False, 4, Fal
     assert obj[2] == -1 and t[2] == np.inf
     blocked = tracer.occluded(o, d, [3.0, 100.0, 100.0, 100.0])
     assert blocked.tolist() == [False, True, False, True]
-"""),
-    "refract_rays": (("refract_rays",), """
+""",
+    ),
+    "refract_rays": (
+        ("refract_rays",),
+        """
 import math
 from clrender.trace.tracer import trace_defines
 knl = dev.kernel("trace.cl", "refract_rays", trace_defines())
@@ -132,8 +167,11 @@ import pyopencl as cl
 res = np.empty((4, 4), np.float32); cl.enqueue_copy(dev.queue, res, out)
 assert res[:, 3].tolist() == [1, 1, 0, 0]
 np.testing.assert_allclose(np.hypot(res[1, 0], res[1, 1]), 1.5 * math.sin(angles[1]), rtol=1e-5)  # Snell
-"""),
-    "splat_gauss": (("splat_prepare", "splat_bin_count", "splat_bin_fill", "splat_forward", "splat_backward"), """
+""",
+    ),
+    "splat_gauss": (
+        ("splat_prepare", "splat_bin_count", "splat_bin_fill", "splat_forward", "splat_backward"),
+        """
 from clrender.splat.gauss import GaussParams, GaussRenderer
 W, H = 20, 17  # partial tiles on two sides
 n = 4
@@ -147,16 +185,22 @@ for blend in ("sum", "normalized"):
     grads = renderer.backward(frame, np.ones((H, W, 3), np.float32))
     assert all(np.isfinite(g).all() for g in grads.values())
     assert np.abs(grads["color"]).sum() > 0
-"""),
-    "voronoi_nearest": (("nearest_naive", "nearest_grid"), """
+""",
+    ),
+    "voronoi_nearest": (
+        ("nearest_naive", "nearest_grid"),
+        """
 from clrender.splat.voronoi import nearest_site
 from clrender.testing import nearest_site_reference
 sites = np.vstack([rng.uniform(0, [23, 13], (9, 2)), [[0.0, 0.0], [22.9, 12.9]]]).astype(np.float32)
 ref = nearest_site_reference(sites, 23, 13)
 for method in ("naive", "grid"):
     assert (nearest_site(dev, sites, 23, 13, method) == ref).all(), method
-"""),
-    "voronoi_soft": (("soft_forward", "soft_backward"), """
+""",
+    ),
+    "voronoi_soft": (
+        ("soft_forward", "soft_backward"),
+        """
 from clrender.splat.voronoi_soft import SoftVoronoi
 from clrender.testing import soft_loss_reference
 sites = rng.uniform(0, [12, 9], (6, 2)).astype(np.float32)
@@ -165,7 +209,8 @@ target = rng.uniform(0, 1, (9, 12, 3)).astype(np.float32)
 loss, g_sites, g_colors, image = SoftVoronoi(dev, 12, 9, 4).loss_and_grads(sites, colors, target, 0.5)
 assert abs(loss - soft_loss_reference(sites, colors, target, 0.5, 4)) <= 1e-4 * abs(loss)
 assert np.isfinite(g_sites).all() and np.isfinite(g_colors).all()
-"""),
+""",
+    ),
 }
 
 CANARY = """
@@ -192,22 +237,28 @@ OCLGRIND_LIMIT = "Undefined external function: llvm.experimental.noalias.scope.d
 NO_UNINITIALIZED = {"splat_gauss"}
 
 
-def run_under_oclgrind(code: str, build_options: str = "", uninitialized: bool = False,
-                       timeout: float = 600) -> subprocess.CompletedProcess:
-    env = dict(os.environ, CLRENDER_DEVICE="oclgrind", PYOPENCL_NO_CACHE="1", OCLGRIND_CHECK_API="1",
-               OCLGRIND_DATA_RACES="1", OCLGRIND_UNINITIALIZED="1" if uninitialized else "0",
-               OCLGRIND_BUILD_OPTIONS=build_options,
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+def run_under_oclgrind(code: str, build_options: str = "", uninitialized: bool = False, timeout: float = 600) -> subprocess.CompletedProcess:
+    env = dict(
+        os.environ,
+        CLRENDER_DEVICE="oclgrind",
+        PYOPENCL_NO_CACHE="1",
+        OCLGRIND_CHECK_API="1",
+        OCLGRIND_DATA_RACES="1",
+        OCLGRIND_UNINITIALIZED="1" if uninitialized else "0",
+        OCLGRIND_BUILD_OPTIONS=build_options,
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
     env.pop("PYOPENCL_CTX", None)
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(PRELUDE + code)], env=env, cwd=ROOT,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(PRELUDE + code)], env=env, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
 
 
 # pyopencl's C++ layer asks clGetDeviceInfo for a parameter newer than Oclgrind's OpenCL 1.2 when it
 # creates a kernel object (no Python-level get_info fails); CHECK_API reports that probe.  It is
 # host-side and not ours, so exactly that report is set aside; every other report counts.
-PYOPENCL_PROBE = re.compile(r"Oclgrind - OpenCL runtime error detected\s+Function: clGetDeviceInfo\s+"
-                            r"Error:\s+CL_INVALID_VALUE\s+For argument 'param_name'\s*")
+PYOPENCL_PROBE = re.compile(
+    r"Oclgrind - OpenCL runtime error detected\s+Function: clGetDeviceInfo\s+"
+    r"Error:\s+CL_INVALID_VALUE\s+For argument 'param_name'\s*"
+)
 
 
 def error_reports(stderr: str) -> list[str]:

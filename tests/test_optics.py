@@ -9,6 +9,7 @@ cosine law, the Blinn-Phong half-vector, projections of shadows).  Pixels
 whose ray passes within a hair of a boundary (a silhouette, a shadow edge, a
 stripe edge) are left out, since there float32 may fall either side.
 """
+
 from pathlib import Path
 
 import numpy as np
@@ -65,8 +66,16 @@ def sphere_t(o, d, centre, radius):
 
 def stripes(x0, width, count, z, height=60.0, prefix="stripe"):
     """Vertical stripes (one object each) side by side along x in the plane z."""
-    return [{"type": "quad", "corner": [x0 + i * width, -height / 2, z], "edge_a": [width, 0, 0], "edge_b": [0, height, 0],
-             "material": f"{prefix}{i % 2}"} for i in range(count)]
+    return [
+        {
+            "type": "quad",
+            "corner": [x0 + i * width, -height / 2, z],
+            "edge_a": [width, 0, 0],
+            "edge_b": [0, height, 0],
+            "material": f"{prefix}{i % 2}",
+        }
+        for i in range(count)
+    ]
 
 
 STRIPE_MATERIALS = {"stripe0": {"diffuse": [0.9, 0.2, 0.2]}, "stripe1": {"diffuse": [0.2, 0.2, 0.9]}}
@@ -76,11 +85,12 @@ STRIPE_MATERIALS = {"stripe0": {"diffuse": [0.9, 0.2, 0.2]}, "stripe1": {"diffus
 def test_sphere_seen_in_a_plane_mirror_sits_at_its_mirrored_position():
     W, H = 64, 48
     centre, radius = np.array([1.5, 0.3, -1.0]), 1.0  # outside the view: only its image shows
-    data = {"cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 60}],
-            "materials": {"mirror": {"mirror": 1.0}, "red": {"diffuse": [0.8, 0.1, 0.1]}},
-            "lights": [{"type": "point", "position": [0, 5, 0]}],
-            "objects": [big_quad(z=-6.0, material="mirror"),
-                        {"type": "sphere", "center": centre.tolist(), "radius": radius, "material": "red"}]}
+    data = {
+        "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 60}],
+        "materials": {"mirror": {"mirror": 1.0}, "red": {"diffuse": [0.8, 0.1, 0.1]}},
+        "lights": [{"type": "point", "position": [0, 5, 0]}],
+        "objects": [big_quad(z=-6.0, material="mirror"), {"type": "sphere", "center": centre.tolist(), "radius": radius, "material": "red"}],
+    }
     ids = render(data, W, H).path_ids
     eye, d = rays(data, W, H)
     image_centre = centre * [1, 1, -1] + [0, 0, 2 * -6.0]  # the mirror z = -6 sends z to -12 - z
@@ -95,11 +105,16 @@ def test_sphere_seen_in_a_plane_mirror_sits_at_its_mirrored_position():
 
 def parallel_mirrors(max_depth):
     """Two facing mirrors at x = -1.5 and x = +1.5 and a sphere between them, viewed at a slant."""
-    data = {"cameras": [{"position": [-0.5, 0.2, 0], "look_at": [1.5, 0, -3], "fov": 70}],
-            "materials": {"mirror": {"mirror": 1.0}, "red": {"diffuse": [0.8, 0.1, 0.1]}},
-            "lights": [{"type": "point", "position": [0, 3, -2]}],
-            "objects": [big_quad(x=-1.5, half=100, material="mirror"), big_quad(x=1.5, half=100, material="mirror", outward=-1),
-                        {"type": "sphere", "center": [0.5, 0, -4], "radius": 0.4, "material": "red"}]}
+    data = {
+        "cameras": [{"position": [-0.5, 0.2, 0], "look_at": [1.5, 0, -3], "fov": 70}],
+        "materials": {"mirror": {"mirror": 1.0}, "red": {"diffuse": [0.8, 0.1, 0.1]}},
+        "lights": [{"type": "point", "position": [0, 3, -2]}],
+        "objects": [
+            big_quad(x=-1.5, half=100, material="mirror"),
+            big_quad(x=1.5, half=100, material="mirror", outward=-1),
+            {"type": "sphere", "center": [0.5, 0, -4], "radius": 0.4, "material": "red"},
+        ],
+    }
     return data
 
 
@@ -130,11 +145,16 @@ def test_a_hall_of_two_mirrors_shows_exactly_max_depth_nested_images(max_depth):
 def test_a_glass_slab_shifts_a_ray_sideways_by_t_sin_theta_minus_theta_t_over_cos_theta_t():
     W, H, n, thickness = 48, 32, 1.5, 1.0
     count, width, x0, z_back = 80, 0.25, -18.0, -8.0
-    data = {"cameras": [{"position": [0, 0, 0], "look_at": [-1, 0, -1], "fov": 40}],
-            "materials": {"glass": {"transparency": 1.0, "ior": n}, **STRIPE_MATERIALS},
-            "lights": [{"type": "point", "position": [0, 5, 0]}],
-            "objects": [big_quad(z=-2.0, material="glass"), big_quad(z=-2.0 - thickness, material="glass", outward=-1),
-                        *stripes(x0, width, count, z_back)]}
+    data = {
+        "cameras": [{"position": [0, 0, 0], "look_at": [-1, 0, -1], "fov": 40}],
+        "materials": {"glass": {"transparency": 1.0, "ior": n}, **STRIPE_MATERIALS},
+        "lights": [{"type": "point", "position": [0, 5, 0]}],
+        "objects": [
+            big_quad(z=-2.0, material="glass"),
+            big_quad(z=-2.0 - thickness, material="glass", outward=-1),
+            *stripes(x0, width, count, z_back),
+        ],
+    }
     ids = render(data, W, H).path_ids
     eye, d = rays(data, W, H)
     cos_theta = -d[..., 2]
@@ -160,12 +180,23 @@ def test_the_exit_direction_through_a_glass_sphere_is_the_two_refraction_deviati
     W, H, n, R = 48, 48, 1.5, 1.0
     centre = np.array([0.0, 0.0, -4.0])
     cells, size, z_back = 24, 0.5, -7.0
-    board = [{"type": "quad", "corner": [-6 + i * size, -6 + j * size, z_back], "edge_a": [size, 0, 0], "edge_b": [0, size, 0],
-              "material": f"stripe{(i + j) % 2}"} for j in range(cells) for i in range(cells)]
-    data = {"cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 34}],
-            "materials": {"glass": {"transparency": 1.0, "ior": n}, **STRIPE_MATERIALS},
-            "lights": [{"type": "point", "position": [0, 5, 0]}],
-            "objects": [{"type": "sphere", "center": centre.tolist(), "radius": R, "material": "glass"}, *board]}
+    board = [
+        {
+            "type": "quad",
+            "corner": [-6 + i * size, -6 + j * size, z_back],
+            "edge_a": [size, 0, 0],
+            "edge_b": [0, size, 0],
+            "material": f"stripe{(i + j) % 2}",
+        }
+        for j in range(cells)
+        for i in range(cells)
+    ]
+    data = {
+        "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 34}],
+        "materials": {"glass": {"transparency": 1.0, "ior": n}, **STRIPE_MATERIALS},
+        "lights": [{"type": "point", "position": [0, 5, 0]}],
+        "objects": [{"type": "sphere", "center": centre.tolist(), "radius": R, "material": "glass"}, *board],
+    }
     ids = render(data, W, H).path_ids
     eye, d = rays(data, W, H)
     t, rim = sphere_t(eye, d, centre, R)
@@ -198,12 +229,12 @@ def test_a_right_angle_prism_reflects_totally_only_past_the_critical_angle(ior, 
     points = np.array([[x, y, z] for x, z in corners for y in (-3, 3)], float)
     prism = trimesh.convex.convex_hull(points)  # outward-facing triangles
     file = write_obj(tmp_path / "prism.obj", prism.vertices, prism.faces)
-    data = {"ambient": [1, 1, 1],  # no lights: every opaque surface shows exactly its diffuse colour
-            "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 8}],
-            "materials": {"glass": {"transparency": 1.0, "ior": ior}, "side": {"diffuse": [0.2, 0.9, 0.3]},
-                          "back": {"diffuse": [0.9, 0.1, 0.1]}},
-            "objects": [{"type": "mesh", "file": file, "material": "glass"},
-                        big_quad(x=3.0, material="side"), big_quad(z=-6.0, material="back")]}
+    data = {
+        "ambient": [1, 1, 1],  # no lights: every opaque surface shows exactly its diffuse colour
+        "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 8}],
+        "materials": {"glass": {"transparency": 1.0, "ior": ior}, "side": {"diffuse": [0.2, 0.9, 0.3]}, "back": {"diffuse": [0.9, 0.1, 0.1]}},
+        "objects": [{"type": "mesh", "file": file, "material": "glass"}, big_quad(x=3.0, material="side"), big_quad(z=-6.0, material="back")],
+    }
     result = render(data, 9, 9, base_dir=tmp_path)
     through = 1 if reflected else 2
     assert (result.path_ids[..., :2] == 0).all()
@@ -220,11 +251,15 @@ def fresnel_scene(ior, tilt_degrees):
     b = np.array([0, 40.0, 0])
     corner = np.array([0, 0, -3.0]) - (a + b) / 2
     behind = corner - 0.5 * normal  # a black sheet just behind the glass takes every refracted ray, none reflected
-    return {"background": [1, 1, 1],
-            "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 10}],
-            "materials": {"glass": {"transparency": 1.0, "ior": ior}, "black": {"diffuse": [0, 0, 0]}},
-            "objects": [{"type": "quad", "corner": corner.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "glass"},
-                        {"type": "quad", "corner": behind.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "black"}]}, normal
+    return {
+        "background": [1, 1, 1],
+        "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 10}],
+        "materials": {"glass": {"transparency": 1.0, "ior": ior}, "black": {"diffuse": [0, 0, 0]}},
+        "objects": [
+            {"type": "quad", "corner": corner.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "glass"},
+            {"type": "quad", "corner": behind.tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "black"},
+        ],
+    }, normal
 
 
 @pytest.mark.parametrize("ior", [1.33, 1.5, 2.4])
@@ -254,10 +289,12 @@ def test_the_blinn_phong_highlight_peaks_where_the_half_vector_meets_the_normal(
     eye, light = np.array([0, 1.5, 0.0]), np.array([1.0, 2.0, -4.0])
     mirrored_light = light * [1, -1, 1]
     peak = eye + eye[1] / (eye[1] - mirrored_light[1]) * (mirrored_light - eye)  # where the view ray meets y = 0
-    data = {"cameras": [{"position": eye.tolist(), "look_at": peak.tolist(), "fov": 50}],
-            "materials": {"gloss": {"diffuse": [0, 0, 0], "specular": [1, 1, 1], "shininess": shininess}},
-            "lights": [{"type": "point", "position": light.tolist()}],
-            "objects": [big_quad(y=0.0, material="gloss")]}
+    data = {
+        "cameras": [{"position": eye.tolist(), "look_at": peak.tolist(), "fov": 50}],
+        "materials": {"gloss": {"diffuse": [0, 0, 0], "specular": [1, 1, 1], "shininess": shininess}},
+        "lights": [{"type": "point", "position": light.tolist()}],
+        "objects": [big_quad(y=0.0, material="gloss")],
+    }
     image = render(data, W, H).image[..., 0]
     assert image[H // 2, W // 2] == pytest.approx(1.0, abs=1e-5)  # n.h = 1 at the peak: ks * I
     assert np.unravel_index(image.argmax(), image.shape) == (H // 2, W // 2)
@@ -272,10 +309,12 @@ def test_the_blinn_phong_highlight_peaks_where_the_half_vector_meets_the_normal(
 
 def test_blinn_phong_adds_lambert_and_specular_terms():
     W, H = 16, 12
-    data = {"cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -2], "fov": 60}],
-            "materials": {"plastic": {"diffuse": [0.5, 0.3, 0.1], "specular": [0.2, 0.4, 0.6], "shininess": 8}},
-            "lights": [{"type": "point", "position": [-1, 3, -1], "intensity": 0.7, "color": [1, 0.5, 0.25]}],
-            "objects": [big_quad(y=0.0, material="plastic")]}
+    data = {
+        "cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -2], "fov": 60}],
+        "materials": {"plastic": {"diffuse": [0.5, 0.3, 0.1], "specular": [0.2, 0.4, 0.6], "shininess": 8}},
+        "lights": [{"type": "point", "position": [-1, 3, -1], "intensity": 0.7, "color": [1, 0.5, 0.25]}],
+        "objects": [big_quad(y=0.0, material="plastic")],
+    }
     image = render(data, W, H).image
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)
@@ -283,17 +322,18 @@ def test_blinn_phong_adds_lambert_and_specular_terms():
     l /= np.linalg.norm(l, axis=-1, keepdims=True)
     h = l - d
     h /= np.linalg.norm(h, axis=-1, keepdims=True)
-    expected = 0.7 * np.array([1, 0.5, 0.25]) * (np.array([0.5, 0.3, 0.1]) * l[..., 1:2]
-                                                  + np.array([0.2, 0.4, 0.6]) * h[..., 1:2] ** 8)
+    expected = 0.7 * np.array([1, 0.5, 0.25]) * (np.array([0.5, 0.3, 0.1]) * l[..., 1:2] + np.array([0.2, 0.4, 0.6]) * h[..., 1:2] ** 8)
     assert np.allclose(image, expected, atol=1e-5)
 
 
 def test_a_light_below_the_horizon_gives_no_highlight():
     """The specular term needs n.l > 0: a light under the surface lights nothing, however h leans."""
-    data = {"cameras": [{"position": [0, 1, 0], "look_at": [0, 0, -4], "fov": 50}],
-            "materials": {"gloss": {"diffuse": [0.5, 0.5, 0.5], "specular": [1, 1, 1], "shininess": 1}},
-            "lights": [{"type": "point", "position": [0, -0.3, -30]}],
-            "objects": [big_quad(y=0.0, material="gloss")]}
+    data = {
+        "cameras": [{"position": [0, 1, 0], "look_at": [0, 0, -4], "fov": 50}],
+        "materials": {"gloss": {"diffuse": [0.5, 0.5, 0.5], "specular": [1, 1, 1], "shininess": 1}},
+        "lights": [{"type": "point", "position": [0, -0.3, -30]}],
+        "objects": [big_quad(y=0.0, material="gloss")],
+    }
     result = render(data, 16, 12)
     floor = result.ids == 0
     assert floor.sum() > 50 and (result.image[floor] == 0).all()
@@ -303,20 +343,25 @@ def test_a_light_below_the_horizon_gives_no_highlight():
 @pytest.mark.parametrize("theta", [0, 30, 60, 85])
 def test_a_directional_light_lights_a_floor_by_the_cosine_of_its_angle(theta):
     t = np.radians(theta)
-    data = {"ambient": [0.05, 0.05, 0.05],
-            "cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -3], "fov": 40}],
-            "materials": {"floor": {"diffuse": [0.7, 0.6, 0.5]}},
-            "lights": [{"type": "directional", "direction": [np.sin(t), -np.cos(t), 0], "intensity": 0.8}],
-            "objects": [big_quad(y=0.0, material="floor")]}
+    data = {
+        "ambient": [0.05, 0.05, 0.05],
+        "cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -3], "fov": 40}],
+        "materials": {"floor": {"diffuse": [0.7, 0.6, 0.5]}},
+        "lights": [{"type": "directional", "direction": [np.sin(t), -np.cos(t), 0], "intensity": 0.8}],
+        "objects": [big_quad(y=0.0, material="floor")],
+    }
     image = render(data, 12, 8).image
     expected = np.array([0.7, 0.6, 0.5]) * (0.05 + 0.8 * np.cos(t))
     assert np.allclose(image, expected, atol=1e-6)
 
 
 def test_a_directional_light_from_below_leaves_only_ambient():
-    data = {"ambient": [0.1, 0.1, 0.1], "cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -3]}],
-            "lights": [{"type": "directional", "direction": [0.2, 1, 0]}],
-            "objects": [big_quad(y=0.0)]}
+    data = {
+        "ambient": [0.1, 0.1, 0.1],
+        "cameras": [{"position": [0, 2, 1], "look_at": [0, 0, -3]}],
+        "lights": [{"type": "directional", "direction": [0.2, 1, 0]}],
+        "objects": [big_quad(y=0.0)],
+    }
     result = render(data, 8, 6)
     floor = result.ids == 0
     assert floor.sum() > 10 and np.allclose(result.image[floor], 0.08, atol=1e-7)
@@ -337,8 +382,7 @@ def lambert_sphere_errors(tmp_path, smooth):
     file = write_obj(tmp_path / "ico.obj", s.vertices, s.faces)
     light = {"type": "directional", "direction": direction.tolist()}
     camera = [{"position": [0, 0, 0], "look_at": centre.tolist(), "fov": 45}]
-    mesh = {"cameras": camera, "lights": [light],
-            "objects": [{"type": "mesh", "file": file, "translate": centre.tolist(), "smooth": smooth}]}
+    mesh = {"cameras": camera, "lights": [light], "objects": [{"type": "mesh", "file": file, "translate": centre.tolist(), "smooth": smooth}]}
     sphere = {"cameras": camera, "lights": [light], "objects": [{"type": "sphere", "center": centre.tolist(), "radius": 1.0}]}
     got = render(mesh, W, H, base_dir=tmp_path)
     exact_sphere = render(sphere, W, H).image[..., 0]
@@ -369,10 +413,12 @@ def test_a_triangles_shadow_under_a_point_light_is_its_projection_onto_the_floor
     W, H = 64, 48
     light = np.array([0.3, 4.0, -2.5])
     tri = np.array([[-0.5, 1.0, -3.0], [0.7, 1.2, -3.4], [0.0, 0.9, -2.2]])
-    data = {"ambient": [0.1, 0.1, 0.1],
-            "cameras": [{"position": [0, 3, 1], "look_at": [0, 0, -3], "fov": 50}],
-            "lights": [{"type": "point", "position": light.tolist()}],
-            "objects": [big_quad(y=0.0), {"type": "triangle", "vertices": tri.tolist()}]}
+    data = {
+        "ambient": [0.1, 0.1, 0.1],
+        "cameras": [{"position": [0, 3, 1], "look_at": [0, 0, -3], "fov": 50}],
+        "lights": [{"type": "point", "position": light.tolist()}],
+        "objects": [big_quad(y=0.0), {"type": "triangle", "vertices": tri.tolist()}],
+    }
     result = render(data, W, H)
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)
@@ -408,10 +454,12 @@ def test_a_mesh_casts_the_shadow_of_its_projection_along_a_directional_light(tmp
     box.apply_translation([0, 1.0, -3])
     file = write_obj(tmp_path / "box.obj", box.vertices, box.faces)
     direction = np.array([0.4, -1.0, 0.3])
-    data = {"ambient": [0.1, 0.1, 0.1],
-            "cameras": [{"position": [0, 3, 1], "look_at": [0, 0, -3], "fov": 50}],
-            "lights": [{"type": "directional", "direction": direction.tolist()}],
-            "objects": [big_quad(y=0.0), {"type": "mesh", "file": file}]}
+    data = {
+        "ambient": [0.1, 0.1, 0.1],
+        "cameras": [{"position": [0, 3, 1], "look_at": [0, 0, -3], "fov": 50}],
+        "lights": [{"type": "directional", "direction": direction.tolist()}],
+        "objects": [big_quad(y=0.0), {"type": "mesh", "file": file}],
+    }
     result = render(data, W, H, base_dir=tmp_path)
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)
@@ -433,11 +481,13 @@ def test_a_glass_sphere_passes_its_transparency_squared_into_its_shadow(fresnel)
     """Shadow rays are not bent; each of the two crossings passes `transparency` (README, Shading)."""
     W, H, tau, kd, ambient = 48, 36, 0.6, 0.8, 0.05
     centre, radius, light = np.array([0.2, 1.0, -3.0]), 0.5, np.array([0.0, 4.0, -3.2])
-    data = {"ambient": [ambient] * 3,
-            "cameras": [{"position": [0, 3, 2], "look_at": [0, 0, -3], "fov": 45}],
-            "materials": {"glass": {"transparency": tau, "ior": 1.5}},
-            "lights": [{"type": "point", "position": light.tolist()}],
-            "objects": [big_quad(y=0.0), {"type": "sphere", "center": centre.tolist(), "radius": radius, "material": "glass"}]}
+    data = {
+        "ambient": [ambient] * 3,
+        "cameras": [{"position": [0, 3, 2], "look_at": [0, 0, -3], "fov": 45}],
+        "materials": {"glass": {"transparency": tau, "ior": 1.5}},
+        "lights": [{"type": "point", "position": light.tolist()}],
+        "objects": [big_quad(y=0.0), {"type": "sphere", "center": centre.tolist(), "radius": radius, "material": "glass"}],
+    }
     result = render(data, W, H, fresnel=fresnel)
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)
@@ -455,11 +505,12 @@ def test_a_glass_sphere_passes_its_transparency_squared_into_its_shadow(fresnel)
 def test_a_transparent_sheet_passes_its_transparency_once():
     W, H, tau = 32, 24, 0.35
     light = np.array([0.0, 4.0, -3.0])
-    data = {"cameras": [{"position": [0, 3, 2], "look_at": [0, 0, -3], "fov": 45}],
-            "materials": {"film": {"transparency": tau}},
-            "lights": [{"type": "point", "position": light.tolist()}],
-            "objects": [big_quad(y=0.0),
-                        {"type": "quad", "corner": [-0.5, 2, -3.5], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "material": "film"}]}
+    data = {
+        "cameras": [{"position": [0, 3, 2], "look_at": [0, 0, -3], "fov": 45}],
+        "materials": {"film": {"transparency": tau}},
+        "lights": [{"type": "point", "position": light.tolist()}],
+        "objects": [big_quad(y=0.0), {"type": "quad", "corner": [-0.5, 2, -3.5], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "material": "film"}],
+    }
     result = render(data, W, H)
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)
@@ -477,9 +528,11 @@ def test_a_transparent_sheet_passes_its_transparency_once():
 def test_a_surface_beyond_a_point_light_casts_no_shadow():
     """Shadow rays stop at the light: a ceiling above the lamp does not darken the floor."""
     W, H, light = 24, 16, np.array([0.0, 2.0, -3.0])
-    data = {"cameras": [{"position": [0, 1.5, 1], "look_at": [0, 0, -3], "fov": 40}],
-            "lights": [{"type": "point", "position": light.tolist()}],
-            "objects": [big_quad(y=0.0), big_quad(y=3.0)]}
+    data = {
+        "cameras": [{"position": [0, 1.5, 1], "look_at": [0, 0, -3], "fov": 40}],
+        "lights": [{"type": "point", "position": light.tolist()}],
+        "objects": [big_quad(y=0.0), big_quad(y=3.0)],
+    }
     result = render(data, W, H)
     eye, d = rays(data, W, H)
     p, _ = hit_plane(eye, d, 1, 0.0)

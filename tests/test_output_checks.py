@@ -1,4 +1,5 @@
 """The early check every non-image output goes through (splats, sites, logs, videos): one refusal per reason."""
+
 import os
 
 import pytest
@@ -11,12 +12,15 @@ def test_a_writable_new_file_with_an_allowed_extension_passes(tmp_path):
     assert check_file_output(tmp_path / "sites.NPZ", overwrite=False, suffixes=(".npz",)) == tmp_path / "sites.NPZ"
 
 
-@pytest.mark.parametrize("name, reason", [
-    ("folder", "is a folder"),
-    ("sites.csv", "must end in .npz"),
-    ("old.npz", "already exists; pass --overwrite"),
-    ("missing/sites.npz", "does not exist"),
-])
+@pytest.mark.parametrize(
+    "name, reason",
+    [
+        ("folder", "is a folder"),
+        ("sites.csv", "must end in .npz"),
+        ("old.npz", "already exists; pass --overwrite"),
+        ("missing/sites.npz", "does not exist"),
+    ],
+)
 def test_each_unwritable_output_is_refused_with_its_reason(tmp_path, name, reason):
     (tmp_path / "folder").mkdir()
     (tmp_path / "old.npz").write_bytes(b"")

@@ -1,5 +1,6 @@
 """What ends up in the output: EXR linear, PNG sRGB (checked against the standard's own numbers),
 Sobol points against scipy, and pixel-filter weights against their formulas."""
+
 import numpy as np
 import OpenImageIO as oiio
 import pyopencl as cl
@@ -37,8 +38,7 @@ def read_stored(path, fmt):
 def test_srgb_curve_matches_the_standards_numbers():
     np.testing.assert_allclose(linear_to_srgb(np.array(KNOWN_LINEAR)), KNOWN_SRGB, atol=2e-6)
     # the other direction, at the break point of the piecewise curve and at mid-grey
-    np.testing.assert_allclose(srgb_to_linear(np.array([0.04045, 0.735357, 1.0, 0.0])), [0.0031308, 0.5, 1.0, 0.0],
-                               rtol=2e-5)
+    np.testing.assert_allclose(srgb_to_linear(np.array([0.04045, 0.735357, 1.0, 0.0])), [0.0031308, 0.5, 1.0, 0.0], rtol=2e-5)
     # the linear toe below the break point: 12.92 x, not a power law
     np.testing.assert_allclose(linear_to_srgb(np.array([0.001])), [0.01292], rtol=1e-6)
 
@@ -147,8 +147,7 @@ def test_pixel_filter_weights_match_their_formulas(device, helpers, name):
     g = (np.arange(11) + 0.5) / 11
     off = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2).astype(np.float32)
     out = device.empty(4 * len(off))
-    helpers["filter_weights"](device.queue, (len(off),), None, np.int32(FILTERS[name]), np.int32(len(off)),
-                           device.to_device(off), out)
+    helpers["filter_weights"](device.queue, (len(off),), None, np.int32(FILTERS[name]), np.int32(len(off)), device.to_device(off), out)
     w = np.empty(len(off), np.float32)
     cl.enqueue_copy(device.queue, w, out)
     expected = formula_weight(name, off[:, 0] - 0.5, off[:, 1] - 0.5)
@@ -156,14 +155,20 @@ def test_pixel_filter_weights_match_their_formulas(device, helpers, name):
 
 
 def contrast_scene(width, height):
-    return Scene.from_dict({
-        "width": width, "height": height, "background": [0.1, 0.2, 0.4],
-        "cameras": [{"position": [0, 0, 5], "look_at": [0, 0, 0], "fov": 40}],
-        "materials": {"red": {"diffuse": [0.9, 0.1, 0.1]}, "white": {"diffuse": [1, 1, 1]}},
-        "lights": [{"type": "point", "position": [2, 3, 4]}],
-        "objects": [{"type": "sphere", "center": [-0.6, 0.2, 0], "radius": 0.7, "material": "red"},
-                    {"type": "sphere", "center": [0.8, -0.3, -0.5], "radius": 0.6, "material": "white"}],
-    })
+    return Scene.from_dict(
+        {
+            "width": width,
+            "height": height,
+            "background": [0.1, 0.2, 0.4],
+            "cameras": [{"position": [0, 0, 5], "look_at": [0, 0, 0], "fov": 40}],
+            "materials": {"red": {"diffuse": [0.9, 0.1, 0.1]}, "white": {"diffuse": [1, 1, 1]}},
+            "lights": [{"type": "point", "position": [2, 3, 4]}],
+            "objects": [
+                {"type": "sphere", "center": [-0.6, 0.2, 0], "radius": 0.7, "material": "red"},
+                {"type": "sphere", "center": [0.8, -0.3, -0.5], "radius": 0.6, "material": "white"},
+            ],
+        }
+    )
 
 
 @pytest.mark.parametrize("name", ["tent", "gaussian"])

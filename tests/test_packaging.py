@@ -1,4 +1,5 @@
 """The wheel carries the kernels and the scenes inside the package."""
+
 import subprocess
 import sys
 import zipfile
@@ -11,8 +12,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.mark.slow
 def test_wheel_contains_kernels_and_scenes(tmp_path):
-    subprocess.run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(tmp_path), str(ROOT)],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(tmp_path), str(ROOT)], check=True, capture_output=True
+    )
     wheel = next(tmp_path.glob("clrender-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
     for cl_file in (ROOT / "kernels").glob("*.cl"):

@@ -1,5 +1,6 @@
 """Charts (matplotlib): bars and lines land where their values say, both training curves stay
 visible when they carry the same numbers, bad series are refused, files are whole PNGs."""
+
 import matplotlib.colors
 import numpy as np
 import pytest

@@ -11,6 +11,7 @@ wherever the pixel's ray, moved a twentieth of a pixel either way, makes the
 same discrete choices (same objects hit, same shadow visibility, same
 refract-or-reflect branch).
 """
+
 from pathlib import Path
 
 import numpy as np
@@ -46,8 +47,7 @@ def prism(tmp_path):
 
 
 FLOOR = {"type": "quad", "corner": [-6, -1, 2], "edge_a": [12, 0, 0], "edge_b": [0, 0, -14], "material": "floor"}
-STRIPES = [{"type": "quad", "corner": [-5 + 2 * i, -1, -6], "edge_a": [2, 0, 0], "edge_b": [0, 6, 0],
-            "material": f"stripe{i % 3}"} for i in range(5)]
+STRIPES = [{"type": "quad", "corner": [-5 + 2 * i, -1, -6], "edge_a": [2, 0, 0], "edge_b": [0, 6, 0], "material": f"stripe{i % 3}"} for i in range(5)]
 BASE_MATERIALS = {
     "floor": {"diffuse": [0.7, 0.7, 0.6]},
     "red": {"diffuse": [0.8, 0.2, 0.15], "specular": [0.5, 0.5, 0.5], "shininess": 24},
@@ -65,8 +65,15 @@ POINT = {"type": "point", "position": [2, 4, 2], "intensity": 0.9}
 
 
 def scene(objects, lights, **extra):
-    return {"background": [0.3, 0.4, 0.6], "ambient": [0.06, 0.05, 0.04], "cameras": CAMERA,
-            "materials": BASE_MATERIALS, "lights": lights, "objects": objects, **extra}
+    return {
+        "background": [0.3, 0.4, 0.6],
+        "ambient": [0.06, 0.05, 0.04],
+        "cameras": CAMERA,
+        "materials": BASE_MATERIALS,
+        "lights": lights,
+        "objects": objects,
+        **extra,
+    }
 
 
 def scenes(tmp_path):
@@ -74,45 +81,128 @@ def scenes(tmp_path):
     ico, coarse, tri_prism = icosphere(tmp_path, 2), icosphere(tmp_path, 1), prism(tmp_path)
     mesh = lambda file, **kw: {"type": "mesh", "file": file, **kw}
     return {
-        "lambert_shadows": (scene([FLOOR, {"type": "sphere", "center": [-0.8, 0, -1.5], "radius": 1, "material": "blue"},
-                                   {"type": "triangle", "vertices": [[0.5, -0.6, -0.5], [1.8, -0.6, -1.0], [1.1, 0.9, -1.2]]}],
-                                  [POINT]), {}),
-        "blinn_phong_directional": (scene([FLOOR, {"type": "sphere", "center": [-1, 0, -2], "radius": 1, "material": "red"},
-                                           {"type": "sphere", "center": [1.2, -0.2, -1.2], "radius": 0.8, "material": "shiny"}],
-                                          [{"type": "point", "position": [-3, 3, 3], "color": [1, 0.9, 0.8], "intensity": 0.7},
-                                           {"type": "directional", "direction": [1, -2, -1], "color": [0.6, 0.7, 1.0], "intensity": 0.6}]),
-                                    {}),
-        "mirrors": (scene([FLOOR, {"type": "quad", "corner": [-4, -1, -4], "edge_a": [8, 0, 0], "edge_b": [0, 4, 0], "material": "mirror"},
-                           {"type": "sphere", "center": [0.8, 0, -1.5], "radius": 0.9, "material": "mirror"},
-                           {"type": "sphere", "center": [-1.2, -0.3, -1], "radius": 0.7, "material": "red"}], [POINT]),
-                    {"max_depth": 4}),
-        "glass_sphere_shadow": (scene([FLOOR, *STRIPES, {"type": "sphere", "center": [0, 0, -1.5], "radius": 1, "material": "glass"}],
-                                   [POINT]), {}),
-        "glass_sphere_fresnel": (scene([FLOOR, *STRIPES, {"type": "sphere", "center": [0.3, 0, -1.5], "radius": 1, "material": "water"},
-                                        {"type": "sphere", "center": [-1.6, -0.4, -2.5], "radius": 0.6, "material": "glass"}], [POINT]),
-                                 {"fresnel": True, "max_depth": 5}),
-        "flat_mesh_shadow": (scene([FLOOR, mesh(coarse, translate=[0, 0, -1.5], scale=1.0, rotate=[10, 20, 0], material="shiny")],
-                                   [{"type": "directional", "direction": [-1, -2, -0.5], "intensity": 0.9}]), {}),
-        "smooth_mesh": (scene([FLOOR, mesh(ico, translate=[0.2, 0, -1.5], smooth=True, material="red"),
-                               mesh(coarse, translate=[-1.6, -0.4, -0.8], scale=0.6, smooth=True, material="shiny")], [POINT]), {}),
-        "glass_meshes": (scene([FLOOR, *STRIPES, mesh(ico, translate=[0.9, 0, -1.5], scale=0.9, smooth=True, material="glass"),
-                                mesh(tri_prism, translate=[-1.2, 0, -1.2], rotate=[0, 30, 0], material="water")], [POINT]),
-                         {"fresnel": True, "max_depth": 4}),
-        "area_light": (scene([FLOOR, {"type": "sphere", "center": [-0.6, 0, -1.5], "radius": 1, "material": "red"},
-                              {"type": "triangle", "vertices": [[0.8, -0.8, -0.4], [1.9, -0.8, -0.9], [1.2, 0.5, -1.1]],
-                               "material": "shiny"}],
-                             [{"type": "area", "corner": [-1, 3, -1], "edge_a": [2, 0, 0], "edge_b": [0, 0.3, 1.5],
-                               "samples": 3, "intensity": 0.9}]), {}),
+        "lambert_shadows": (
+            scene(
+                [
+                    FLOOR,
+                    {"type": "sphere", "center": [-0.8, 0, -1.5], "radius": 1, "material": "blue"},
+                    {"type": "triangle", "vertices": [[0.5, -0.6, -0.5], [1.8, -0.6, -1.0], [1.1, 0.9, -1.2]]},
+                ],
+                [POINT],
+            ),
+            {},
+        ),
+        "blinn_phong_directional": (
+            scene(
+                [
+                    FLOOR,
+                    {"type": "sphere", "center": [-1, 0, -2], "radius": 1, "material": "red"},
+                    {"type": "sphere", "center": [1.2, -0.2, -1.2], "radius": 0.8, "material": "shiny"},
+                ],
+                [
+                    {"type": "point", "position": [-3, 3, 3], "color": [1, 0.9, 0.8], "intensity": 0.7},
+                    {"type": "directional", "direction": [1, -2, -1], "color": [0.6, 0.7, 1.0], "intensity": 0.6},
+                ],
+            ),
+            {},
+        ),
+        "mirrors": (
+            scene(
+                [
+                    FLOOR,
+                    {"type": "quad", "corner": [-4, -1, -4], "edge_a": [8, 0, 0], "edge_b": [0, 4, 0], "material": "mirror"},
+                    {"type": "sphere", "center": [0.8, 0, -1.5], "radius": 0.9, "material": "mirror"},
+                    {"type": "sphere", "center": [-1.2, -0.3, -1], "radius": 0.7, "material": "red"},
+                ],
+                [POINT],
+            ),
+            {"max_depth": 4},
+        ),
+        "glass_sphere_shadow": (scene([FLOOR, *STRIPES, {"type": "sphere", "center": [0, 0, -1.5], "radius": 1, "material": "glass"}], [POINT]), {}),
+        "glass_sphere_fresnel": (
+            scene(
+                [
+                    FLOOR,
+                    *STRIPES,
+                    {"type": "sphere", "center": [0.3, 0, -1.5], "radius": 1, "material": "water"},
+                    {"type": "sphere", "center": [-1.6, -0.4, -2.5], "radius": 0.6, "material": "glass"},
+                ],
+                [POINT],
+            ),
+            {"fresnel": True, "max_depth": 5},
+        ),
+        "flat_mesh_shadow": (
+            scene(
+                [FLOOR, mesh(coarse, translate=[0, 0, -1.5], scale=1.0, rotate=[10, 20, 0], material="shiny")],
+                [{"type": "directional", "direction": [-1, -2, -0.5], "intensity": 0.9}],
+            ),
+            {},
+        ),
+        "smooth_mesh": (
+            scene(
+                [
+                    FLOOR,
+                    mesh(ico, translate=[0.2, 0, -1.5], smooth=True, material="red"),
+                    mesh(coarse, translate=[-1.6, -0.4, -0.8], scale=0.6, smooth=True, material="shiny"),
+                ],
+                [POINT],
+            ),
+            {},
+        ),
+        "glass_meshes": (
+            scene(
+                [
+                    FLOOR,
+                    *STRIPES,
+                    mesh(ico, translate=[0.9, 0, -1.5], scale=0.9, smooth=True, material="glass"),
+                    mesh(tri_prism, translate=[-1.2, 0, -1.2], rotate=[0, 30, 0], material="water"),
+                ],
+                [POINT],
+            ),
+            {"fresnel": True, "max_depth": 4},
+        ),
+        "area_light": (
+            scene(
+                [
+                    FLOOR,
+                    {"type": "sphere", "center": [-0.6, 0, -1.5], "radius": 1, "material": "red"},
+                    {"type": "triangle", "vertices": [[0.8, -0.8, -0.4], [1.9, -0.8, -0.9], [1.2, 0.5, -1.1]], "material": "shiny"},
+                ],
+                [{"type": "area", "corner": [-1, 3, -1], "edge_a": [2, 0, 0], "edge_b": [0, 0.3, 1.5], "samples": 3, "intensity": 0.9}],
+            ),
+            {},
+        ),
         "inverse_square_lights_camera_2": (
-            scene([FLOOR, {"type": "sphere", "center": [0, 0, -1.5], "radius": 1, "material": "shiny"}],
-                  [{"type": "point", "position": [2, 3, 1], "intensity": 12, "falloff": "inverse_square"},
-                   {"type": "area", "corner": [-3, 2, -2], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1],
-                    "samples": 2, "intensity": 3, "falloff": "inverse_square"}],
-                  cameras=[*CAMERA, {"position": [1, 1.5, 3], "look_at": [0, 0, -1.5], "up": [0.3, 1, 0], "fov": 65}]),
-            {"camera": 2}),
-        "nested_media": (scene([FLOOR, *STRIPES, {"type": "sphere", "center": [0, 0, -1.5], "radius": 1.1, "material": "water"},
-                                {"type": "sphere", "center": [0.1, 0, -1.5], "radius": 0.5, "material": "glass"}], [POINT]),
-                         {"max_depth": 6}),
+            scene(
+                [FLOOR, {"type": "sphere", "center": [0, 0, -1.5], "radius": 1, "material": "shiny"}],
+                [
+                    {"type": "point", "position": [2, 3, 1], "intensity": 12, "falloff": "inverse_square"},
+                    {
+                        "type": "area",
+                        "corner": [-3, 2, -2],
+                        "edge_a": [1, 0, 0],
+                        "edge_b": [0, 0, 1],
+                        "samples": 2,
+                        "intensity": 3,
+                        "falloff": "inverse_square",
+                    },
+                ],
+                cameras=[*CAMERA, {"position": [1, 1.5, 3], "look_at": [0, 0, -1.5], "up": [0.3, 1, 0], "fov": 65}],
+            ),
+            {"camera": 2},
+        ),
+        "nested_media": (
+            scene(
+                [
+                    FLOOR,
+                    *STRIPES,
+                    {"type": "sphere", "center": [0, 0, -1.5], "radius": 1.1, "material": "water"},
+                    {"type": "sphere", "center": [0.1, 0, -1.5], "radius": 0.5, "material": "glass"},
+                ],
+                [POINT],
+            ),
+            {"max_depth": 6},
+        ),
         "hall_of_mirrors_depth2": (hall(), {"max_depth": 2}),
         "hall_of_mirrors_depth0": (hall(), {"max_depth": 0}),
     }
@@ -120,10 +210,12 @@ def scenes(tmp_path):
 
 def hall():
     """Two facing mirrors and a sphere between them, seen from above the sphere."""
-    objects = [FLOOR,
-               {"type": "quad", "corner": [-2, -1, -6], "edge_a": [0, 0, 8], "edge_b": [0, 4, 0], "material": "mirror"},
-               {"type": "quad", "corner": [2, -1, -6], "edge_a": [0, 4, 0], "edge_b": [0, 0, 8], "material": "mirror"},
-               {"type": "sphere", "center": [0.6, -0.3, -2], "radius": 0.5, "material": "red"}]
+    objects = [
+        FLOOR,
+        {"type": "quad", "corner": [-2, -1, -6], "edge_a": [0, 0, 8], "edge_b": [0, 4, 0], "material": "mirror"},
+        {"type": "quad", "corner": [2, -1, -6], "edge_a": [0, 4, 0], "edge_b": [0, 0, 8], "material": "mirror"},
+        {"type": "sphere", "center": [0.6, -0.3, -2], "radius": 0.5, "material": "red"},
+    ]
     return scene(objects, [POINT], cameras=[{"position": [-0.5, 1.2, 3], "look_at": [0.3, -0.2, -2], "fov": 70}])
 
 
@@ -150,8 +242,7 @@ SCENE_NAMES = list(EFFECTS)
 def test_renderer_matches_the_float64_reference(name, tmp_path):
     data, settings = scenes(tmp_path)[name]
     settings = {"max_depth": 8, "fresnel": False, **settings}
-    ours = clrender.Renderer(clrender.Scene.from_dict(data, base_dir=tmp_path), aa="none", width=W, height=H,
-                             **settings).run().image
+    ours = clrender.Renderer(clrender.Scene.from_dict(data, base_dir=tmp_path), aa="none", width=W, height=H, **settings).run().image
     reference = render_steady(data, W, H, base_dir=tmp_path, **settings)
     ref, steady = reference.image, reference.steady
     for effect in EFFECTS[name]:
@@ -159,5 +250,6 @@ def test_renderer_matches_the_float64_reference(name, tmp_path):
     assert steady.mean() > 0.8, f"only {steady.mean():.0%} of the pixels are away from edges"
     diff = np.abs(ours - ref).max(axis=-1)[steady]
     assert ref[steady].max() > 0.05  # the scene is lit where compared
-    assert diff.max() < TOLERANCE, (f"{name}: max |clrender - reference| = {diff.max():.2e} over {steady.sum()} pixels"
-                                    f" ({(diff >= TOLERANCE).sum()} over tolerance)")
+    assert diff.max() < TOLERANCE, (
+        f"{name}: max |clrender - reference| = {diff.max():.2e} over {steady.sum()} pixels ({(diff >= TOLERANCE).sum()} over tolerance)"
+    )

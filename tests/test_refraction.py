@@ -1,4 +1,5 @@
 """Snell's law and total internal reflection, as the tracing kernel applies them."""
+
 import math
 
 import numpy as np

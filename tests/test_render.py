@@ -1,4 +1,5 @@
 """Whole renders: shading against analytic values, BVH on/off agreement, determinism, the edge-AA identities."""
+
 import numpy as np
 import pytest
 
@@ -10,16 +11,20 @@ W, H = 48, 36
 
 
 def lit_floor_scene(**light):
-    return Scene.from_dict({
-        "width": W, "height": H, "ambient": [0.1, 0.1, 0.1],
-        "cameras": [{"position": [0, 4, 4], "look_at": [0, 0, 0]}],
-        "materials": {"floor": {"diffuse": [0.5, 0.6, 0.7], "specular": [0, 0, 0]}},
-        "lights": [{"type": "point", "position": [1, 5, 1], "intensity": 0.8, **light}],
-        "objects": [
-            {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 40, "material": "floor"},
-            {"type": "sphere", "center": [0.5, 2.5, 0.5], "radius": 0.5},
-        ],
-    })
+    return Scene.from_dict(
+        {
+            "width": W,
+            "height": H,
+            "ambient": [0.1, 0.1, 0.1],
+            "cameras": [{"position": [0, 4, 4], "look_at": [0, 0, 0]}],
+            "materials": {"floor": {"diffuse": [0.5, 0.6, 0.7], "specular": [0, 0, 0]}},
+            "lights": [{"type": "point", "position": [1, 5, 1], "intensity": 0.8, **light}],
+            "objects": [
+                {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 40, "material": "floor"},
+                {"type": "sphere", "center": [0.5, 2.5, 0.5], "radius": 0.5},
+            ],
+        }
+    )
 
 
 def pinhole_rays(position, look_at, up=(0, 1, 0), fov=60.0, width=W, height=H):
@@ -82,23 +87,30 @@ def test_inverse_square_point_light(device):
 def mixed_scene():
     """Spheres, a mirror, glass and a triangle soup: every kind of ray."""
     rng = np.random.default_rng(8)
-    scene = Scene.from_dict({
-        "width": W, "height": H, "ambient": [0.05, 0.05, 0.05], "background": [0.2, 0.3, 0.5],
-        "cameras": [{"position": [0, 1, 6], "look_at": [0, 0, 0]}],
-        "materials": {
-            "mirror": {"mirror": 0.8, "diffuse": [0.2, 0.2, 0.2]},
-            "glass": {"transparency": 0.9, "ior": 1.5, "specular": [0.5, 0.5, 0.5], "shininess": 80},
-            "red": {"diffuse": [0.9, 0.1, 0.1], "specular": [0.3, 0.3, 0.3], "shininess": 20},
-        },
-        "lights": [{"type": "point", "position": [3, 5, 4]},
-                   {"type": "area", "corner": [-2, 4, -1], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "samples": 3}],
-        "objects": [
-            {"type": "sphere", "center": [-1.2, 0, 0], "radius": 0.8, "material": "glass"},
-            {"type": "sphere", "center": [1.2, 0, -0.5], "radius": 0.8, "material": "mirror"},
-            {"type": "sphere", "center": [0, 0.3, -2.5], "radius": 0.7, "material": "red"},
-            {"type": "plane", "point": [0, -0.8, 0], "normal": [0, 1, 0], "size": 30},
-        ],
-    })
+    scene = Scene.from_dict(
+        {
+            "width": W,
+            "height": H,
+            "ambient": [0.05, 0.05, 0.05],
+            "background": [0.2, 0.3, 0.5],
+            "cameras": [{"position": [0, 1, 6], "look_at": [0, 0, 0]}],
+            "materials": {
+                "mirror": {"mirror": 0.8, "diffuse": [0.2, 0.2, 0.2]},
+                "glass": {"transparency": 0.9, "ior": 1.5, "specular": [0.5, 0.5, 0.5], "shininess": 80},
+                "red": {"diffuse": [0.9, 0.1, 0.1], "specular": [0.3, 0.3, 0.3], "shininess": 20},
+            },
+            "lights": [
+                {"type": "point", "position": [3, 5, 4]},
+                {"type": "area", "corner": [-2, 4, -1], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "samples": 3},
+            ],
+            "objects": [
+                {"type": "sphere", "center": [-1.2, 0, 0], "radius": 0.8, "material": "glass"},
+                {"type": "sphere", "center": [1.2, 0, -0.5], "radius": 0.8, "material": "mirror"},
+                {"type": "sphere", "center": [0, 0.3, -2.5], "radius": 0.7, "material": "red"},
+                {"type": "plane", "point": [0, -0.8, 0], "normal": [0, 1, 0], "size": 30},
+            ],
+        }
+    )
     tris = rng.uniform(-2.5, 2.5, (150, 1, 3)) * [1, 0.4, 1] + [0, 0.8, -3] + rng.normal(scale=0.3, size=(150, 3, 3))
     scene.objects.append(Mesh(tris.reshape(-1, 3), np.arange(450).reshape(-1, 3), material="red"))
     return scene
@@ -174,10 +186,14 @@ def test_edge_aa_equals_none_off_the_mask_and_full_on_it(device, sampler):
 
 @pytest.mark.parametrize("smooth", [False, True])
 def test_flat_meshes_report_facets_and_smooth_ones_do_not(device, smooth):
-    scene = Scene.from_dict({
-        "width": 40, "height": 40, "cameras": [{"position": [0, 0, 3]}],
-        "objects": [{"type": "mesh", "generator": "dense", "params": {"n_triangles": 200}, "smooth": smooth}],
-    })
+    scene = Scene.from_dict(
+        {
+            "width": 40,
+            "height": 40,
+            "cameras": [{"position": [0, 0, 3]}],
+            "objects": [{"type": "mesh", "generator": "dense", "params": {"n_triangles": 200}, "smooth": smooth}],
+        }
+    )
     scene.cameras[0] = scene.cameras[0].__class__(position=(0, 0, 3), look_at=(0, 0, 0))
     result = Renderer(scene).run()
     on_mesh = result.ids == 0

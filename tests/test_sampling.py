@@ -1,4 +1,5 @@
 """Where anti-aliasing samples fall inside a pixel."""
+
 import numpy as np
 import pytest
 

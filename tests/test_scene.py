@@ -1,4 +1,5 @@
 """Scene files and dicts: the same structure, and clear errors for bad input."""
+
 import numpy as np
 import pytest
 
@@ -43,8 +44,7 @@ material = "glass"
 def test_mesh_paths_are_relative_to_the_scene_file(tmp_path):
     (tmp_path / "meshes").mkdir()
     (tmp_path / "meshes" / "tri.obj").write_text(TRIANGLE_OBJ)
-    (tmp_path / "s.toml").write_text(
-        '[[objects]]\ntype = "mesh"\nfile = "meshes/tri.obj"\ntranslate = [1, 2, 3]\nscale = 2\n')
+    (tmp_path / "s.toml").write_text('[[objects]]\ntype = "mesh"\nfile = "meshes/tri.obj"\ntranslate = [1, 2, 3]\nscale = 2\n')
     scene = Scene.from_file(tmp_path / "s.toml")
     mesh = scene.objects[0]
     assert isinstance(mesh, Mesh)
@@ -57,23 +57,26 @@ def test_rotation_turns_x_into_y_about_z(tmp_path):
     np.testing.assert_allclose(scene.objects[0].vertices[1], [0, 1, 0], atol=1e-12)
 
 
-@pytest.mark.parametrize("data, words", [
-    ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "colour": 1}]}, ["objects[0].colour", "unknown key"]),
-    ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "gold"}]}, ["unknown material 'gold'"]),
-    ({"objects": [{"type": "sphere", "center": [0, 0], "radius": 1}]}, ["objects[0].center", "3 numbers"]),
-    ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": "big"}]}, ["objects[0].radius", "expected a number"]),
-    ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": -1}]}, ["objects[0].radius", "> 0"]),
-    ({"objects": [{"type": "cone"}]}, ["objects[0].type", "'cone'"]),
-    ({"materials": {"glass": {"ior": 0}}}, ["materials.glass.ior", "> 0"]),
-    ({"materials": {"glass": {"ior": -1.5}}}, ["materials.glass.ior"]),
-    ({"materials": {"m": {"transparency": 1.5}}}, ["materials.m.transparency", "<= 1"]),
-    ({"lights": [{"type": "spot"}]}, ["lights[0].type", "'spot'"]),
-    ({"lights": [{"type": "point"}]}, ["lights[0].position", "required"]),
-    ({"cameras": [{"position": [0, 0, 0], "look_at": [0, 0, 0]}]}, ["cameras[0].look_at"]),
-    ({"widht": 3}, ["widht", "unknown key"]),
-    ({"objects": [{"type": "mesh", "file": "nowhere.obj"}]}, ["objects[0].file", "does not exist"]),
-    ({"objects": [{"type": "mesh", "generator": "teapot"}]}, ["objects[0].generator", "'teapot'"]),
-])
+@pytest.mark.parametrize(
+    "data, words",
+    [
+        ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "colour": 1}]}, ["objects[0].colour", "unknown key"]),
+        ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "gold"}]}, ["unknown material 'gold'"]),
+        ({"objects": [{"type": "sphere", "center": [0, 0], "radius": 1}]}, ["objects[0].center", "3 numbers"]),
+        ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": "big"}]}, ["objects[0].radius", "expected a number"]),
+        ({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": -1}]}, ["objects[0].radius", "> 0"]),
+        ({"objects": [{"type": "cone"}]}, ["objects[0].type", "'cone'"]),
+        ({"materials": {"glass": {"ior": 0}}}, ["materials.glass.ior", "> 0"]),
+        ({"materials": {"glass": {"ior": -1.5}}}, ["materials.glass.ior"]),
+        ({"materials": {"m": {"transparency": 1.5}}}, ["materials.m.transparency", "<= 1"]),
+        ({"lights": [{"type": "spot"}]}, ["lights[0].type", "'spot'"]),
+        ({"lights": [{"type": "point"}]}, ["lights[0].position", "required"]),
+        ({"cameras": [{"position": [0, 0, 0], "look_at": [0, 0, 0]}]}, ["cameras[0].look_at"]),
+        ({"widht": 3}, ["widht", "unknown key"]),
+        ({"objects": [{"type": "mesh", "file": "nowhere.obj"}]}, ["objects[0].file", "does not exist"]),
+        ({"objects": [{"type": "mesh", "generator": "teapot"}]}, ["objects[0].generator", "'teapot'"]),
+    ],
+)
 def test_bad_scenes_name_the_key_and_what_is_allowed(data, words, tmp_path):
     with pytest.raises(UsageError) as err:
         Scene.from_dict(data, base_dir=tmp_path, where="test.toml")

@@ -1,4 +1,5 @@
 """Small shading rules the bigger scenes do not reach (found by `python -m bench mutants`)."""
+
 import numpy as np
 
 from clrender.scene.scene import Mesh, Scene
@@ -9,12 +10,16 @@ KD = np.array([0.6, 0.5, 0.4])
 
 def triangle_with_normals(vertex_normals):
     """One large triangle in the plane z = 0, facing the camera on +z, lit head-on by a directional light."""
-    scene = Scene.from_dict({
-        "width": 16, "height": 16, "ambient": [0.05, 0.05, 0.05],
-        "cameras": [{"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 30}],
-        "materials": {"matte": {"diffuse": KD.tolist()}},
-        "lights": [{"type": "directional", "direction": [0, 0, -1]}],
-    })
+    scene = Scene.from_dict(
+        {
+            "width": 16,
+            "height": 16,
+            "ambient": [0.05, 0.05, 0.05],
+            "cameras": [{"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 30}],
+            "materials": {"matte": {"diffuse": KD.tolist()}},
+            "lights": [{"type": "directional", "direction": [0, 0, -1]}],
+        }
+    )
     vertices = np.array([[-4.0, -4, 0], [4, -4, 0], [0, 4, 0]])
     normals = np.asarray(vertex_normals, float)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)

@@ -1,5 +1,6 @@
 """Gaussian splats: forward kernel vs a float64 numpy reference, backward kernel vs central
 finite differences of that reference's loss, binning invariants, losses, optimisers, fitting."""
+
 import numpy as np
 import pyopencl as cl
 import pytest
@@ -32,11 +33,15 @@ def reference_render(p: dict, width: int, height: int, blend: str, background=(0
 def make_splats(rng, n=7):
     """Rotated, anisotropic splats, some near or over the borders, some spanning several tiles."""
     xy = np.array([[3.0, 4.0], [20.3, 18.7], [38.5, 35.2], [15.9, 16.1], [31.0, 6.0], [8.0, 30.0], [24.0, 24.0]])[:n]
-    log_scale = np.log(np.array([[2.0, 5.0], [6.0, 2.5], [3.0, 3.0], [1.2, 4.0], [4.0, 1.5], [7.0, 3.0],
-                                 [2.2, 2.8]]))[:n]
-    return {"xy": xy, "log_scale": log_scale, "theta": rng.uniform(-np.pi, np.pi, n),
-            "color": rng.uniform(0.05, 0.9, (n, 3)), "lum": rng.uniform(0.7, 1.2, n),
-            "opacity": rng.uniform(0.4, 1.0, n)}
+    log_scale = np.log(np.array([[2.0, 5.0], [6.0, 2.5], [3.0, 3.0], [1.2, 4.0], [4.0, 1.5], [7.0, 3.0], [2.2, 2.8]]))[:n]
+    return {
+        "xy": xy,
+        "log_scale": log_scale,
+        "theta": rng.uniform(-np.pi, np.pi, n),
+        "color": rng.uniform(0.05, 0.9, (n, 3)),
+        "lum": rng.uniform(0.7, 1.2, n),
+        "opacity": rng.uniform(0.4, 1.0, n),
+    }
 
 
 def to_params(p, blend, background=(0.1, 0.2, 0.3)):
@@ -81,11 +86,17 @@ def test_binning_covers_every_touching_tile(device, rng):
     # brute force: splat i belongs to tile t iff their pixel rectangles intersect, listed in splat order
     for t in range(b.tiles_x * b.tiles_y):
         tx, ty = t % b.tiles_x, t // b.tiles_x
-        hit = ((box[:, 0] < tx * 16 + 16) & (box[:, 2] > tx * 16) & (box[:, 1] < ty * 16 + 16)
-               & (box[:, 3] > ty * 16) & (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1]))
-        listed = b.entry_splat[b.tile_start[t]: b.tile_start[t + 1]]
+        hit = (
+            (box[:, 0] < tx * 16 + 16)
+            & (box[:, 2] > tx * 16)
+            & (box[:, 1] < ty * 16 + 16)
+            & (box[:, 3] > ty * 16)
+            & (box[:, 2] > box[:, 0])
+            & (box[:, 3] > box[:, 1])
+        )
+        listed = b.entry_splat[b.tile_start[t] : b.tile_start[t + 1]]
         np.testing.assert_array_equal(listed, np.nonzero(hit)[0])
-        np.testing.assert_array_equal(b.entry_tile[b.tile_start[t]: b.tile_start[t + 1]], t)
+        np.testing.assert_array_equal(b.entry_tile[b.tile_start[t] : b.tile_start[t + 1]], t)
     # the box holds every pixel centre inside the 3-sigma ellipse ...
     ys, xs = np.mgrid[0:70, 0:100] + 0.5
     for i in range(n):
@@ -98,8 +109,7 @@ def test_binning_covers_every_touching_tile(device, rng):
     sx2, sy2 = np.exp(2 * log_scale[:, 0]), np.exp(2 * log_scale[:, 1])
     c2, s2 = np.cos(theta) ** 2, np.sin(theta) ** 2
     rx, ry = 3 * np.sqrt(c2 * sx2 + s2 * sy2), 3 * np.sqrt(s2 * sx2 + c2 * sy2)
-    ref = np.stack([np.ceil(xy[:, 0] - rx - 0.5), np.ceil(xy[:, 1] - ry - 0.5),
-                    np.floor(xy[:, 0] + rx + 0.5), np.floor(xy[:, 1] + ry + 0.5)], 1)
+    ref = np.stack([np.ceil(xy[:, 0] - rx - 0.5), np.ceil(xy[:, 1] - ry - 0.5), np.floor(xy[:, 0] + rx + 0.5), np.floor(xy[:, 1] + ry + 0.5)], 1)
     ref = np.clip(ref, 0, [100, 70, 100, 70])
     assert np.abs(box - ref).max() <= 1 and np.mean(box == ref) > 0.99
 
@@ -109,6 +119,7 @@ def fd_gradient(p, blend, loss, target, name, index, h):
         q = {k: v.copy() for k, v in p.items()}
         q[name][index] += delta
         return loss_and_grad(loss, reference_render(q, W, H, blend), target)[0]
+
     return (value(h) - value(-h)) / (2 * h)
 
 

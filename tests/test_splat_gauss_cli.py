@@ -1,4 +1,5 @@
 """`clrender splat gauss|render|sweep` end to end on a tiny image, and their bad-input errors (exit 2)."""
+
 import csv
 
 import numpy as np
@@ -20,8 +21,24 @@ def photo(tmp_path):
 
 def test_gauss_writes_image_params_log_and_curve(tmp_path, photo):
     out = tmp_path / "out.png"
-    rc = main(["-q", "splat", "gauss", str(photo), "-o", str(out), "--splats", "40", "--epochs", "30",
-               "--save-params", str(tmp_path / "p.npz"), "--log", str(tmp_path / "log.csv")])
+    rc = main(
+        [
+            "-q",
+            "splat",
+            "gauss",
+            str(photo),
+            "-o",
+            str(out),
+            "--splats",
+            "40",
+            "--epochs",
+            "30",
+            "--save-params",
+            str(tmp_path / "p.npz"),
+            "--log",
+            str(tmp_path / "log.csv"),
+        ]
+    )
     assert rc == 0
     fitted = read_image(out).pixels
     assert fitted.shape == (40, 56, 3)
@@ -36,25 +53,46 @@ def test_gauss_writes_image_params_log_and_curve(tmp_path, photo):
 
 
 def test_sweep_reports_the_best(tmp_path, photo, capsys):
-    rc = main(["-q", "splat", "sweep", str(photo), "--splats", "20", "--epochs", "5", "--lrs", "0.5", "2",
-               "--batches", "0", "512", "--csv", str(tmp_path / "sweep.csv")])
+    rc = main(
+        [
+            "-q",
+            "splat",
+            "sweep",
+            str(photo),
+            "--splats",
+            "20",
+            "--epochs",
+            "5",
+            "--lrs",
+            "0.5",
+            "2",
+            "--batches",
+            "0",
+            "512",
+            "--csv",
+            str(tmp_path / "sweep.csv"),
+        ]
+    )
     assert rc == 0
     out = capsys.readouterr().out
     assert out.count("PSNR") == 5 and "best: --lr" in out
     assert len(list(csv.DictReader(open(tmp_path / "sweep.csv")))) == 4
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--splats", "0"], "--splats 0"),
-    (["--epochs", "-1"], "--epochs -1"),
-    (["--lr", "0"], "--lr 0"),
-    (["--batch", "-5"], "--batch -5"),
-    (["--max-splats", "3", "--splats", "10"], "--max-splats 3"),
-    (["--time-budget", "0"], "--time-budget 0"),
-    (["--init", "spiral"], "invalid choice"),
-    (["--loss", "l3"], "invalid choice"),
-    (["--save-params", "p.txt"], ".npz"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--splats", "0"], "--splats 0"),
+        (["--epochs", "-1"], "--epochs -1"),
+        (["--lr", "0"], "--lr 0"),
+        (["--batch", "-5"], "--batch -5"),
+        (["--max-splats", "3", "--splats", "10"], "--max-splats 3"),
+        (["--time-budget", "0"], "--time-budget 0"),
+        (["--init", "spiral"], "invalid choice"),
+        (["--loss", "l3"], "invalid choice"),
+        (["--save-params", "p.txt"], ".npz"),
+    ],
+)
 def test_gauss_bad_input_exits_2_and_writes_nothing(tmp_path, photo, capsys, args, message):
     out = tmp_path / "out.png"
     try:

@@ -1,5 +1,6 @@
 """Gaussian splat fitting: recovery of a known image, monotone progress, determinism, optimisers,
 densification, re-rendering at another resolution, saved parameters."""
+
 import numpy as np
 import pytest
 
@@ -10,9 +11,17 @@ from clrender.splat.optim import Optimizer
 
 def known_gaussians(n=5, size=48, seed=3, blend="sum"):
     rng = np.random.default_rng(seed)
-    return GaussParams(xy=rng.uniform(8, size - 8, (n, 2)), log_scale=np.log(rng.uniform(2.5, 7, (n, 2))),
-                       theta=rng.uniform(-1.5, 1.5, n), color=rng.uniform(0.2, 0.9, (n, 3)), lum=np.ones(n),
-                       opacity=np.full(n, 0.6), width=size, height=size, blend=blend)
+    return GaussParams(
+        xy=rng.uniform(8, size - 8, (n, 2)),
+        log_scale=np.log(rng.uniform(2.5, 7, (n, 2))),
+        theta=rng.uniform(-1.5, 1.5, n),
+        color=rng.uniform(0.2, 0.9, (n, 3)),
+        lum=np.ones(n),
+        opacity=np.full(n, 0.6),
+        width=size,
+        height=size,
+        blend=blend,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -40,12 +49,15 @@ def test_same_seed_same_parameters(device, target):
     assert a.n != c.n or not np.array_equal(a.xy, c.xy)
 
 
-@pytest.mark.parametrize("settings", [
-    dict(learn="seed", blend="sum", optimizer="sgd", init="uniform"),
-    dict(optimizer="momentum", loss="l1"),
-    dict(loss="l1-ssim", batch=1024, init="random"),
-    dict(blend="normalized", batch=256),
-])
+@pytest.mark.parametrize(
+    "settings",
+    [
+        dict(learn="seed", blend="sum", optimizer="sgd", init="uniform"),
+        dict(optimizer="momentum", loss="l1"),
+        dict(loss="l1-ssim", batch=1024, init="random"),
+        dict(blend="normalized", batch=256),
+    ],
+)
 def test_loss_decreases(device, target, settings):
     cfg = FitConfig(splats=16, epochs=30, **settings)
     fitter = Fitter(device, target, cfg)
@@ -95,9 +107,16 @@ def test_optimizer_reindex_keeps_state_rows():
 
 def test_densify_prunes_splits_clones_within_budget():
     n = 6
-    params = GaussParams(xy=np.full((n, 2), 20.0), log_scale=np.log([[1, 1], [1, 1], [6, 2], [1, 1], [1, 1], [1, 1]]),
-                         theta=np.zeros(n), color=np.full((n, 3), 0.5), lum=np.ones(n),
-                         opacity=np.array([1, 0.001, 1, 1, 1, 1]), width=40, height=40)
+    params = GaussParams(
+        xy=np.full((n, 2), 20.0),
+        log_scale=np.log([[1, 1], [1, 1], [6, 2], [1, 1], [1, 1], [1, 1]]),
+        theta=np.zeros(n),
+        color=np.full((n, 3), 0.5),
+        lum=np.ones(n),
+        opacity=np.array([1, 0.001, 1, 1, 1, 1]),
+        width=40,
+        height=40,
+    )
     grad = np.array([0.0, 5.0, 3.0, 2.0, 0.0, 0.0])
     weight = np.full(n, 10.0)
     weight[5] = 0.0  # contributes nothing

@@ -1,5 +1,6 @@
 """Ties: a ray that meets two surfaces at exactly the same distance reports the lower primitive id,
 whatever the traversal order (kernels/intersect.h), so BVH on, BVH off and both builders agree."""
+
 import numpy as np
 import pytest
 

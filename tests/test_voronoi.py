@@ -1,4 +1,5 @@
 """Voronoi splats: grid == naive == numpy exactly, colours, Lloyd energy, soft-Voronoi gradients, CLI."""
+
 import numpy as np
 import pytest
 
@@ -148,10 +149,8 @@ def test_soft_voronoi_gradients_match_finite_differences(device, n, k):
         plus[i, a] += eps
         minus[i, a] -= eps
         if is_sites:
-            return (soft_loss_reference(plus, colors, target, temp, k)
-                    - soft_loss_reference(minus, colors, target, temp, k)) / (2 * eps)
-        return (soft_loss_reference(sites, plus, target, temp, k)
-                - soft_loss_reference(sites, minus, target, temp, k)) / (2 * eps)
+            return (soft_loss_reference(plus, colors, target, temp, k) - soft_loss_reference(minus, colors, target, temp, k)) / (2 * eps)
+        return (soft_loss_reference(sites, plus, target, temp, k) - soft_loss_reference(sites, minus, target, temp, k)) / (2 * eps)
 
     fd_sites = np.array([[fd(sites, i, a, True) for a in range(2)] for i in range(n)])
     fd_colors = np.array([[fd(colors, i, a, False) for a in range(3)] for i in range(n)])
@@ -195,8 +194,7 @@ def photo(tmp_path):
 
 def test_cli_end_to_end(tmp_path, capsys, photo):
     out, npz = tmp_path / "cells.png", tmp_path / "sites.npz"
-    code, stdout, err = run_cli(capsys, "splat", "voronoi", str(photo), "-o", str(out), "--splats", "120",
-                                "--lloyd", "2", "--save-sites", str(npz))
+    code, stdout, err = run_cli(capsys, "splat", "voronoi", str(photo), "-o", str(out), "--splats", "120", "--lloyd", "2", "--save-sites", str(npz))
     assert code == 0, err
     assert stdout.strip() == str(out) and "PSNR" in err
     result = read_image(out).pixels
@@ -210,18 +208,25 @@ def test_cli_end_to_end(tmp_path, capsys, photo):
 def test_cli_methods_agree(tmp_path, capsys, photo):
     outs = [tmp_path / f"{m}.png" for m in ("grid", "naive")]
     for m, out in zip(("grid", "naive"), outs):
-        assert run_cli(capsys, "splat", "voronoi", str(photo), "-o", str(out), "-n", "50",
-                       "--init", "random", "--seed", "7", "--method", m, "--edges")[0] == 0
+        assert (
+            run_cli(capsys, "splat", "voronoi", str(photo), "-o", str(out), "-n", "50", "--init", "random", "--seed", "7", "--method", m, "--edges")[
+                0
+            ]
+            == 0
+        )
     assert np.array_equal(read_image(outs[0]).pixels, read_image(outs[1]).pixels)
 
 
-@pytest.mark.parametrize("args, words", [
-    (["-n", "0"], "--splats 0"),
-    (["-n", "3073"], "3072"),
-    (["-n", "50", "--lloyd", "-1"], "--lloyd"),
-    (["-n", "50", "--train", "-3"], "--train"),
-    (["--save-sites", "x.txt"], ".npz"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["-n", "0"], "--splats 0"),
+        (["-n", "3073"], "3072"),
+        (["-n", "50", "--lloyd", "-1"], "--lloyd"),
+        (["-n", "50", "--train", "-3"], "--train"),
+        (["--save-sites", "x.txt"], ".npz"),
+    ],
+)
 def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, capsys, photo, args, words):
     out = tmp_path / "o.png"
     code, stdout, err = run_cli(capsys, "splat", "voronoi", str(photo), "-o", str(out), *args)

@@ -3,6 +3,9 @@
 
 def add_device_argument(p) -> None:
     """--device, the same on every command that runs kernels."""
-    p.add_argument("--device", default=None,
-                   help="OpenCL device, a substring of '<platform>: <device>' as 'clrender devices' lists them "
-                        "(default: $CLRENDER_DEVICE, else PoCL's CPU device)")
+    p.add_argument(
+        "--device",
+        default=None,
+        help="OpenCL device, a substring of '<platform>: <device>' as 'clrender devices' lists them "
+        "(default: $CLRENDER_DEVICE, else PoCL's CPU device)",
+    )

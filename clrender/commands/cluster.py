@@ -4,6 +4,7 @@ Commands add these with `add_cluster_arguments(parser)` and get a client (or
 None, for this process) from `cluster_client(args)`.  Needs the extra
 `pip install 'clrender[distributed]'`; see docs/distributed.md.
 """
+
 from __future__ import annotations
 
 from contextlib import contextmanager
@@ -11,19 +12,29 @@ from contextlib import contextmanager
 
 def add_cluster_arguments(p, tiles: bool = True):
     g = p.add_argument_group("cluster (pip install 'clrender[distributed]'; see docs/distributed.md)")
-    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run on the Dask scheduler at ADDRESS, e.g. tcp://10.0.0.5:8786 "
-                        "(default: $DASK_SCHEDULER_ADDRESS; unset: this process)")
-    g.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="start a Dask LocalCluster of N single-thread worker processes on this machine "
-                        "(default: no local cluster)")
-    g.add_argument("--pocl-threads", type=int, default=None, metavar="T",
-                   help="PoCL threads per --workers process (default: CPU cores / N)")
+    g.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on the Dask scheduler at ADDRESS, e.g. tcp://10.0.0.5:8786 (default: $DASK_SCHEDULER_ADDRESS; unset: this process)",
+    )
+    g.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="start a Dask LocalCluster of N single-thread worker processes on this machine (default: no local cluster)",
+    )
+    g.add_argument("--pocl-threads", type=int, default=None, metavar="T", help="PoCL threads per --workers process (default: CPU cores / N)")
     if not tiles:
         return
-    g.add_argument("--tile-size", type=int, default=None, metavar="PIXELS",
-                   help="tiles (one task each on a cluster) are PIXELS x PIXELS; the image does not depend on it "
-                        "(default: 128)")
+    g.add_argument(
+        "--tile-size",
+        type=int,
+        default=None,
+        metavar="PIXELS",
+        help="tiles (one task each on a cluster) are PIXELS x PIXELS; the image does not depend on it (default: 128)",
+    )
 
 
 def cluster_requested(args) -> bool:

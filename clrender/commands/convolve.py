@@ -1,4 +1,5 @@
 """`clrender convolve IN OUT FILTER [FILTER ...]`: named convolution filters on an image file."""
+
 from __future__ import annotations
 
 import argparse
@@ -57,9 +58,12 @@ def add_parser(sub):
     p.add_argument("input", nargs="?", default=argparse.SUPPRESS, metavar="IN", help="image to read (PNG, JPEG, TIFF, EXR, HDR, ...)")
     p.add_argument("output", nargs="?", default=argparse.SUPPRESS, metavar="OUT", help="image to write; its extension picks the format")
     p.add_argument("filters", nargs="*", default=argparse.SUPPRESS, metavar="FILTER", help="filter names, applied left to right")
-    p.add_argument("--space", choices=("stored", "linear"), default="stored",
-                   help="filter the stored values (as the seed and OpenCV) or linear light "
-                        "(integer files are sRGB-decoded first; see below)")
+    p.add_argument(
+        "--space",
+        choices=("stored", "linear"),
+        default="stored",
+        help="filter the stored values (as the seed and OpenCV) or linear light (integer files are sRGB-decoded first; see below)",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists (or is IN)")
     p.add_argument("--list", action="store_true", help="print the filter names with a line each, and exit")
     p.set_defaults(run=run)
@@ -74,8 +78,7 @@ def run(args) -> int:
         if not hasattr(args, name):
             setattr(args, name, None)
     if not args.input or not args.output or not args.filters:
-        raise UsageError("convolve needs IN OUT FILTER [FILTER ...], e.g. "
-                         "'clrender convolve in.jpg out.jpg box_blur_33'; see --list for the filters")
+        raise UsageError("convolve needs IN OUT FILTER [FILTER ...], e.g. 'clrender convolve in.jpg out.jpg box_blur_33'; see --list for the filters")
     # everything that can be refused is refused before the image is read
     chain = filters.parse_all(args.filters)
     info = image_files.probe_image(args.input)
@@ -110,8 +113,7 @@ def run(args) -> int:
         names = tuple(n for i, n in enumerate(names) if i != alpha)
     image_files.write_image(out_path, pixels, format=out_format, channel_names=names, overwrite=args.overwrite)
     print(out_path)  # stdout: the written path, for scripts
-    note(args, f"{pixels.shape[1]}x{pixels.shape[0]}, {out_format}, {len(chain)} filters in "
-               f"{time.perf_counter() - start:.2f} s")
+    note(args, f"{pixels.shape[1]}x{pixels.shape[0]}, {out_format}, {len(chain)} filters in {time.perf_counter() - start:.2f} s")
     return 0
 
 
@@ -124,8 +126,10 @@ def check_memory(info: image_files.ImageInfo) -> None:
     if memory.MAX_MEMORY is not None:  # clrender --max-memory
         available = min(available, memory.MAX_MEMORY) if available is not None else memory.MAX_MEMORY
     if available is not None and need > available:
-        raise UsageError(f"image of {info.width}x{info.height}x{info.nchannels} needs about {_bytes(need)} "
-                         f"to filter but {_bytes(available)} is available; use a smaller image")
+        raise UsageError(
+            f"image of {info.width}x{info.height}x{info.nchannels} needs about {_bytes(need)} "
+            f"to filter but {_bytes(available)} is available; use a smaller image"
+        )
 
 
 def _bytes(n: int) -> str:

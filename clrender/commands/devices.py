@@ -1,4 +1,5 @@
 """`clrender devices`: list the OpenCL devices and which one is the default."""
+
 from __future__ import annotations
 
 from ..device import get_device, list_devices
@@ -11,8 +12,12 @@ EXAMPLES = """examples:
 
 
 def add_parser(sub):
-    p = sub.add_parser("devices", help="list OpenCL devices (the one --device would pick is marked *)", epilog=EXAMPLES,
-                       description="List the OpenCL devices as '<platform>: <device>'; * marks the one in use.")
+    p = sub.add_parser(
+        "devices",
+        help="list OpenCL devices (the one --device would pick is marked *)",
+        epilog=EXAMPLES,
+        description="List the OpenCL devices as '<platform>: <device>'; * marks the one in use.",
+    )
     add_device_argument(p)
     p.set_defaults(run=run)
 

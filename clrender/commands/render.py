@@ -1,4 +1,5 @@
 """`clrender render`: ray trace a bundled scene or a scene file to an image."""
+
 from __future__ import annotations
 
 import argparse
@@ -44,51 +45,76 @@ def print_scene_list(scenes: dict) -> None:
 
 def add_parser(sub):
     d = RenderSettings()
-    p = sub.add_parser("render", help="ray trace a scene to an image", epilog=EXAMPLES,
-                       description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.")
+    p = sub.add_parser(
+        "render",
+        help="ray trace a scene to an image",
+        epilog=EXAMPLES,
+        description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.",
+    )
     p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list) or path to a .toml scene file")
-    p.add_argument("seed_args", nargs="*", metavar="ARG",
-                   help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], "
-                        "instead of the options of the same meaning")
+    p.add_argument(
+        "seed_args",
+        nargs="*",
+        metavar="ARG",
+        help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], instead of the options of the same meaning",
+    )
     # Options the seed's positionals can also set default to None, so giving both is caught; their
     # help states the real default in words.
-    p.add_argument("-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float) "
-                                                        "(default: SCENE.png in the current folder)")
+    p.add_argument(
+        "-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float) (default: SCENE.png in the current folder)"
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    p.add_argument("--camera", type=int, default=None,
-                   help=f"camera number, 1 = canonical; --list marks the seed's camera of each scene (default: {d.camera})")
-    p.add_argument("--width", type=positive_int, default=None,
-                   help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)")
-    p.add_argument("--height", type=positive_int, default=None,
-                   help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)")
+    p.add_argument(
+        "--camera", type=int, default=None, help=f"camera number, 1 = canonical; --list marks the seed's camera of each scene (default: {d.camera})"
+    )
+    p.add_argument(
+        "--width", type=positive_int, default=None, help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)"
+    )
+    p.add_argument(
+        "--height",
+        type=positive_int,
+        default=None,
+        help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)",
+    )
     p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: {d.aa})")
-    p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None,
-                   help=f"where AA samples fall in a pixel (default: {d.sampler})")
-    p.add_argument("--samples", type=int, default=None,
-                   help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
-    p.add_argument("--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter,
-                   help="weighting of a pixel's samples (box: plain average)")
-    p.add_argument("--thickness", type=float, default=None,
-                   help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
-    p.add_argument("--shadow-edges", action=argparse.BooleanOptionalAction, default=None,
-                   help=f"count changes in light visibility as edges (default: {'on' if d.shadow_edges else 'off'})")
-    p.add_argument("--contrast", type=float, default=d.contrast,
-                   help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed")
-    p.add_argument("--edges-out", default=None, metavar="PATH",
-                   help="also write the render with edge pixels in green (default: not written)")
-    p.add_argument("--aov", default=None, metavar="LIST",
-                   help="also write AOVs, comma-separated from depth,normal,albedo,id,edges, as named EXR channels "
-                        "(in OUT itself when it is .exr, else in --aov-out) (default: none)")
-    p.add_argument("--aov-out", default=None, metavar="PATH",
-                   help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)")
+    p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
+    p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
+    p.add_argument(
+        "--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter, help="weighting of a pixel's samples (box: plain average)"
+    )
+    p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
+    p.add_argument(
+        "--shadow-edges",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help=f"count changes in light visibility as edges (default: {'on' if d.shadow_edges else 'off'})",
+    )
+    p.add_argument(
+        "--contrast",
+        type=float,
+        default=d.contrast,
+        help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed",
+    )
+    p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green (default: not written)")
+    p.add_argument(
+        "--aov",
+        default=None,
+        metavar="LIST",
+        help="also write AOVs, comma-separated from depth,normal,albedo,id,edges, as named EXR channels "
+        "(in OUT itself when it is .exr, else in --aov-out) (default: none)",
+    )
+    p.add_argument(
+        "--aov-out", default=None, metavar="PATH", help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)"
+    )
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
     p.add_argument("--seed", type=int, default=d.seed, help="random seed (same seed, same image)")
-    p.add_argument("--filter", action="append", default=[], metavar="NAME",
-                   help="convolution filter applied to the result, repeatable (default: none)")
+    p.add_argument(
+        "--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result, repeatable (default: none)"
+    )
     add_device_argument(p)
     p.add_argument("--list", action="store_true", help="list the bundled scenes with their cameras and exit")
     # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
@@ -112,8 +138,14 @@ def positive_int(text: str) -> int:
 
 
 # the seed's positional arguments, in order, and the setting each one gives
-SEED_NAMES = {"camera": "CAMERA", "aa": "AA_TYPE", "sampler": "SAMPLE_TYPE", "samples": "AA_SAMPLES",
-              "thickness": "THICKNESS", "shadow_edges": "DETECT_SHADOWS"}
+SEED_NAMES = {
+    "camera": "CAMERA",
+    "aa": "AA_TYPE",
+    "sampler": "SAMPLE_TYPE",
+    "samples": "AA_SAMPLES",
+    "thickness": "THICKNESS",
+    "shadow_edges": "DETECT_SHADOWS",
+}
 
 
 def warn(message: str) -> None:
@@ -125,21 +157,27 @@ def settings_from_args(args) -> RenderSettings:
     """Named options or the seed-style positional arguments (never both for one setting), then the defaults;
     warnings for options that have no effect with the chosen --aa."""
     d = RenderSettings()
-    named = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples,
-                 thickness=args.thickness, shadow_edges=args.shadow_edges)
+    named = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples, thickness=args.thickness, shadow_edges=args.shadow_edges)
     values = {}
     extra = list(args.seed_args)
     if len(extra) > 6:
         raise UsageError(f"too many arguments {extra!r}; the seed's order is CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
     if extra and len(extra) < 3:
         raise UsageError("the seed's order needs at least CAMERA AA_TYPE SAMPLE_TYPE, e.g. 'wizard_cat 3 edge_detect stratified 6'")
-    converters = [("camera", int, "an integer from 1 to 5"), ("aa", str, "|".join(AA_MODES)),
-                  ("sampler", str, "|".join(SAMPLERS)), ("samples", int, "an integer > 0"),
-                  ("thickness", float, "a real number >= 0"), ("shadow_edges", _bool, "true|false")]
+    converters = [
+        ("camera", int, "an integer from 1 to 5"),
+        ("aa", str, "|".join(AA_MODES)),
+        ("sampler", str, "|".join(SAMPLERS)),
+        ("samples", int, "an integer > 0"),
+        ("thickness", float, "a real number >= 0"),
+        ("shadow_edges", _bool, "true|false"),
+    ]
     for text, (key, convert, allowed) in zip(extra, converters):
         if named[key] is not None:
-            raise UsageError(f"--{key.replace('_', '-')} {named[key]} and the seed-style positional {SEED_NAMES[key]} "
-                             f"{text!r} set the same thing; give one of them")
+            raise UsageError(
+                f"--{key.replace('_', '-')} {named[key]} and the seed-style positional {SEED_NAMES[key]} "
+                f"{text!r} set the same thing; give one of them"
+            )
         try:
             values[key] = convert(text)
         except ValueError:
@@ -151,8 +189,10 @@ def settings_from_args(args) -> RenderSettings:
         values["samples"] = 1 if values["aa"] == "none" else 4
     args.warnings = []  # printed once the settings are known to be valid (run)
     if values["aa"] == "none" and "samples" in explicit and values["samples"] != 1:
-        args.warnings.append(f"{values['samples']} x {values['samples']} samples have no effect with --aa none "
-             "(one ray through each pixel centre); use --aa full or edge_detect")
+        args.warnings.append(
+            f"{values['samples']} x {values['samples']} samples have no effect with --aa none "
+            "(one ray through each pixel centre); use --aa full or edge_detect"
+        )
     edges_aov = args.aov is not None and "edges" in args.aov
     if values["aa"] != "edge_detect" and "thickness" in explicit and not edges_aov:
         args.warnings.append(f"--thickness has no effect with --aa {values['aa']} (it widens the edge mask of --aa edge_detect)")
@@ -160,10 +200,20 @@ def settings_from_args(args) -> RenderSettings:
         from ..trace.aov import parse_aov_list
 
         values["aovs"] = parse_aov_list(args.aov)
-    return RenderSettings(width=args.width, height=args.height, light_samples=args.light_samples,
-                          pixel_filter=args.pixel_filter, contrast=args.contrast,
-                          max_depth=args.max_depth, fresnel=args.fresnel, bvh=args.bvh,
-                          bvh_builder=args.bvh_builder, seed=args.seed, device=args.device, **values)
+    return RenderSettings(
+        width=args.width,
+        height=args.height,
+        light_samples=args.light_samples,
+        pixel_filter=args.pixel_filter,
+        contrast=args.contrast,
+        max_depth=args.max_depth,
+        fresnel=args.fresnel,
+        bvh=args.bvh,
+        bvh_builder=args.bvh_builder,
+        seed=args.seed,
+        device=args.device,
+        **values,
+    )
 
 
 def run(args):
@@ -204,10 +254,18 @@ def run(args):
     if not scene.lights:
         warn(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
     size = settings.validate(scene)  # the scene's own width and height where not given
-    memory.require(memory.render_bytes(size.width, size.height, scene.triangle_count, aa=settings.aa,
-                                       aovs=len(settings.aovs), filters=len(args.filter),
-                                       extra_images=edges_out is not None),
-                   f"a {size.width}x{size.height} render of {scene.triangle_count} triangles")
+    memory.require(
+        memory.render_bytes(
+            size.width,
+            size.height,
+            scene.triangle_count,
+            aa=settings.aa,
+            aovs=len(settings.aovs),
+            filters=len(args.filter),
+            extra_images=edges_out is not None,
+        ),
+        f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
+    )
     from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
 
     with renderer_for(args, scene, settings) as renderer:
@@ -236,6 +294,7 @@ def run(args):
         parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
         if "resample" in t:
             parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
-        sys.stderr.write(f"{scene.name}: {s.width}x{s.height}, {renderer.tracer.n_prims} primitives, "
-                         f"{result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n")
+        sys.stderr.write(
+            f"{scene.name}: {s.width}x{s.height}, {renderer.tracer.n_prims} primitives, {result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n"
+        )
     return 0

@@ -1,4 +1,5 @@
 """`clrender splat ...`: the splatting subcommands, gathered under one group."""
+
 from __future__ import annotations
 
 from . import splat_gauss, splat_voronoi

@@ -6,6 +6,7 @@ file name.  With --scheduler / --workers each fit is one task
 (clrender.distributed.fits); without, the fits run one after another here.
 All results are written together at the end, or none (clrender/outputs.py).
 """
+
 from __future__ import annotations
 
 import glob
@@ -115,8 +116,7 @@ def run_voronoi_batch(args, settings_of) -> int:
             if args.edges:
                 pixels = pixels.copy()
                 pixels[cell_edges(result.index)] = 0.0
-            fmt = "float" if out.suffix.lower() in (".exr", ".hdr", ".pfm") else (
-                img.format if img.format in ("uint8", "uint16") else None)
+            fmt = "float" if out.suffix.lower() in (".exr", ".hdr", ".pfm") else (img.format if img.format in ("uint8", "uint16") else None)
             write_image(out, pixels, format=fmt, channel_names=img.channel_names or None)
     for out in outs:
         print(out)

@@ -1,4 +1,5 @@
 """`clrender splat gauss|render|sweep`: fit Gaussian splats to an image, re-render saved splats, sweep settings."""
+
 from __future__ import annotations
 
 import itertools
@@ -33,35 +34,39 @@ def add_parser(group):
 
     def fit_options(p):
         p.add_argument("--splats", type=int, default=d.splats, metavar="N", help="number of splats to start with")
-        p.add_argument("--epochs", type=int, default=None, metavar="E",
-                       help="passes over the image (default: 1000, or unlimited with --time-budget)")
+        p.add_argument("--epochs", type=int, default=None, metavar="E", help="passes over the image (default: 1000, or unlimited with --time-budget)")
         p.add_argument("--init", choices=INITS, default=d.init, help="initial centres")
-        p.add_argument("--learn", choices=LEARN, default=d.learn,
-                       help="seed: log-scales and luminance (the seed's); all: every parameter")
-        p.add_argument("--blend", choices=BLENDS, default=d.blend,
-                       help="sum: background + sum of w c; normalized: sum of w c / sum of w")
-        p.add_argument("--optimizer", choices=OPTIMIZERS, default=d.optimizer,
-                       help="host-side update rule; sgd with --learn seed --blend sum is the seed's setting")
-        p.add_argument("--loss", choices=LOSSES, default=d.loss,
-                       help="l2: mean squared error (the seed's); l1: mean absolute error; l1-ssim: l1 + 0.2 (1 - SSIM)")
+        p.add_argument("--learn", choices=LEARN, default=d.learn, help="seed: log-scales and luminance (the seed's); all: every parameter")
+        p.add_argument("--blend", choices=BLENDS, default=d.blend, help="sum: background + sum of w c; normalized: sum of w c / sum of w")
+        p.add_argument(
+            "--optimizer",
+            choices=OPTIMIZERS,
+            default=d.optimizer,
+            help="host-side update rule; sgd with --learn seed --blend sum is the seed's setting",
+        )
+        p.add_argument(
+            "--loss",
+            choices=LOSSES,
+            default=d.loss,
+            help="l2: mean squared error (the seed's); l1: mean absolute error; l1-ssim: l1 + 0.2 (1 - SSIM)",
+        )
         p.add_argument("--seed", type=int, default=d.seed, help="seed of every random choice")
-        p.add_argument("--max-splats", type=int, default=None, metavar="M",
-                       help="densification keeps N <= M (default: the same as --splats)")
-        p.add_argument("--batch", type=int, default=d.batch, metavar="B",
-                       help="pixels per step, rounded to whole 16x16 tiles; 0 = the full image")
+        p.add_argument("--max-splats", type=int, default=None, metavar="M", help="densification keeps N <= M (default: the same as --splats)")
+        p.add_argument("--batch", type=int, default=d.batch, metavar="B", help="pixels per step, rounded to whole 16x16 tiles; 0 = the full image")
         add_device_argument(p)
 
-    p = group.add_parser("gauss", help="fit Gaussian splats to an image", epilog=GAUSS_EXAMPLE,
-                         description="Fit 2D Gaussian splats to IN with OpenCL forward/backward kernels "
-                                     "and a host-side optimiser; write the rendered fit to OUT.")
+    p = group.add_parser(
+        "gauss",
+        help="fit Gaussian splats to an image",
+        epilog=GAUSS_EXAMPLE,
+        description="Fit 2D Gaussian splats to IN with OpenCL forward/backward kernels and a host-side optimiser; write the rendered fit to OUT.",
+    )
     p.add_argument("input", metavar="IN", help="image to fit (anything OpenImageIO reads)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="rendered fit (.png, .exr, ...); required")
     fit_options(p)
     p.add_argument("--lr", type=float, default=d.lr, help="multiplier of every group's default learning rate")
-    p.add_argument("--time-budget", type=float, default=None, metavar="SECONDS",
-                   help="stop fitting after this long (default: no limit)")
-    p.add_argument("--save-params", metavar="P.npz",
-                   help="save the fitted splats, to re-render with 'splat render' (default: not saved)")
+    p.add_argument("--time-budget", type=float, default=None, metavar="SECONDS", help="stop fitting after this long (default: no limit)")
+    p.add_argument("--save-params", metavar="P.npz", help="save the fitted splats, to re-render with 'splat render' (default: not saved)")
     p.add_argument("--log", metavar="CSV", help="write step, epoch, seconds, splats, loss, psnr rows (default: no log)")
     p.add_argument("--curve", metavar="PNG", help="loss/PSNR curve picture (default: OUT's name + .curve.png)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs")
@@ -73,14 +78,12 @@ def add_parser(group):
     p = group.add_parser("render", help="render saved Gaussian splats at another resolution", epilog=RENDER_EXAMPLE)
     p.add_argument("params", metavar="P.npz", help="parameters saved by 'splat gauss --save-params'")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="image to write (.png, .exr, ...); required")
-    p.add_argument("--width", type=int, default=None,
-                   help="output width; the height keeps the aspect ratio (default: the fitted image's)")
+    p.add_argument("--width", type=int, default=None, help="output width; the height keeps the aspect ratio (default: the fitted image's)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     add_device_argument(p)
     p.set_defaults(run=run_render)
 
-    p = group.add_parser("sweep", help="try a grid of learning rates and batch sizes, report the best",
-                         epilog=SWEEP_EXAMPLE)
+    p = group.add_parser("sweep", help="try a grid of learning rates and batch sizes, report the best", epilog=SWEEP_EXAMPLE)
     p.add_argument("input", metavar="IN", help="image to fit (anything OpenImageIO reads)")
     fit_options(p)
     p.set_defaults(splats=2000)
@@ -103,9 +106,19 @@ def _check_side_output(path: str | None, overwrite: bool, suffixes: tuple[str, .
 def _config(args, **extra):
     from ..splat.fit import FitConfig
 
-    return FitConfig(splats=args.splats, epochs=args.epochs, init=args.init, learn=args.learn, blend=args.blend,
-                     optimizer=args.optimizer, loss=args.loss, seed=args.seed, max_splats=args.max_splats,
-                     batch=args.batch, **extra)
+    return FitConfig(
+        splats=args.splats,
+        epochs=args.epochs,
+        init=args.init,
+        learn=args.learn,
+        blend=args.blend,
+        optimizer=args.optimizer,
+        loss=args.loss,
+        seed=args.seed,
+        max_splats=args.max_splats,
+        batch=args.batch,
+        **extra,
+    )
 
 
 def _read_target(path):
@@ -146,8 +159,7 @@ def run_gauss(args):
     check_output_path(curve, overwrite=args.overwrite, inputs=[args.input])
     _check_side_output(args.save_params, args.overwrite, (".npz",))
     _check_side_output(args.log, args.overwrite, (".csv",))
-    check_distinct_outputs(**{"-o": out, "--curve": curve, "--save-params": args.save_params, "--log": args.log,
-                              "IN": args.input})
+    check_distinct_outputs(**{"-o": out, "--curve": curve, "--save-params": args.save_params, "--log": args.log, "IN": args.input})
     target = _read_target(args.input)
     config = _config(args, lr=args.lr, time_budget=args.time_budget)
     fitter = Fitter(get_device(args.device), target, config)  # validates the settings and the image size
@@ -165,8 +177,7 @@ def run_gauss(args):
         if path:
             print(path)
     if not args.quiet:
-        sys.stderr.write(f"{result.params.n} splats, {result.steps} steps in {result.seconds:.1f} s, "
-                         f"PSNR {result.psnr:.2f} dB\n")
+        sys.stderr.write(f"{result.params.n} splats, {result.steps} steps in {result.seconds:.1f} s, PSNR {result.psnr:.2f} dB\n")
     return 0
 
 
@@ -212,8 +223,7 @@ def run_sweep(args):
     from .splat_batch import sweep_results  # here one by one, or one task each under --scheduler / --workers
 
     for (lr, batch), result in zip(combos, sweep_results(args, target, configs)):
-        rows.append({"lr": lr, "batch": batch, "steps": result.steps, "seconds": round(result.seconds, 2),
-                     "psnr": round(result.psnr, 3)})
+        rows.append({"lr": lr, "batch": batch, "steps": result.steps, "seconds": round(result.seconds, 2), "psnr": round(result.psnr, 3)})
         sys.stdout.write(f"lr {lr:g}  batch {batch:>7d}  steps {result.steps:>6d}  PSNR {result.psnr:6.2f} dB\n")
         sys.stdout.flush()
     best = max(rows, key=lambda r: r["psnr"])

@@ -1,4 +1,5 @@
 """`clrender splat voronoi`: colour each pixel by its nearest site (Voronoi splatting)."""
+
 from __future__ import annotations
 
 import sys
@@ -17,26 +18,33 @@ def add_parser(group):
     from . import add_device_argument
 
     d = VoronoiSettings()
-    p = group.add_parser("voronoi", help="nearest-site (Voronoi) splatting of an image", epilog=EXAMPLES,
-                         description="Approximate IN by N sites, each pixel taking the colour of its nearest "
-                                     "site (exact; ties go to the lower site index).")
+    p = group.add_parser(
+        "voronoi",
+        help="nearest-site (Voronoi) splatting of an image",
+        epilog=EXAMPLES,
+        description="Approximate IN by N sites, each pixel taking the colour of its nearest site (exact; ties go to the lower site index).",
+    )
     p.add_argument("input", metavar="IN", help="input image (anything OpenImageIO reads)")
     p.add_argument("-o", "--output", required=True, help="output image; same stored values as the input (no colour transform); required")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--splats", "-n", type=int, default=d.n, metavar="N", help="number of sites, 1 to the pixel count")
     p.add_argument("--method", choices=METHODS, default=d.method, help="nearest-site search (identical results)")
-    p.add_argument("--init", choices=INITS, default=d.init,
-                   help="starting sites: gradient puts more where the image has detail, random anywhere, "
-                        "uniform on a square grid (cells look like pixelation)")
-    p.add_argument("--colors", choices=COLOR_MODES, default=d.colors,
-                   help="sample: image at the site (the seed's); mean: mean of the cell (least squares)")
+    p.add_argument(
+        "--init",
+        choices=INITS,
+        default=d.init,
+        help="starting sites: gradient puts more where the image has detail, random anywhere, uniform on a square grid (cells look like pixelation)",
+    )
+    p.add_argument(
+        "--colors", choices=COLOR_MODES, default=d.colors, help="sample: image at the site (the seed's); mean: mean of the cell (least squares)"
+    )
     p.add_argument("--lloyd", type=int, default=d.lloyd, metavar="K", help="Lloyd (centroidal Voronoi) iterations")
-    p.add_argument("--train", type=int, default=d.train, metavar="STEPS",
-                   help="soft-Voronoi training steps (Adam, annealed temperature) after Lloyd")
+    p.add_argument("--train", type=int, default=d.train, metavar="STEPS", help="soft-Voronoi training steps (Adam, annealed temperature) after Lloyd")
     p.add_argument("--seed", type=int, default=d.seed, help="random seed for --init random|gradient")
     p.add_argument("--edges", action="store_true", help="draw cell borders in black")
-    p.add_argument("--save-sites", default=None, metavar="P.npz",
-                   help="also save sites (N,2 pixel units), colors (N,C) and the image size (default: not saved)")
+    p.add_argument(
+        "--save-sites", default=None, metavar="P.npz", help="also save sites (N,2 pixel units), colors (N,C) and the image size (default: not saved)"
+    )
     add_device_argument(p)
     from .cluster import add_cluster_arguments  # IN a folder or glob: one splatting per photo, on Dask if asked
 
@@ -52,8 +60,9 @@ def run(args):
     from .splat_batch import is_batch, run_voronoi_batch
 
     if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)
-        return run_voronoi_batch(args, lambda a: VoronoiSettings(n=a.splats, method=a.method, init=a.init, colors=a.colors,
-                                                                 lloyd=a.lloyd, train=a.train, seed=a.seed))
+        return run_voronoi_batch(
+            args, lambda a: VoronoiSettings(n=a.splats, method=a.method, init=a.init, colors=a.colors, lloyd=a.lloyd, train=a.train, seed=a.seed)
+        )
     output = check_output_path(args.output, overwrite=args.overwrite, inputs=[args.input])
     sites_path = None
     if args.save_sites:
@@ -63,8 +72,9 @@ def run(args):
         check_distinct_outputs(**{"IN": args.input, "-o": output, "--save-sites": sites_path})
     img = read_image(args.input)
     h, w = img.pixels.shape[:2]
-    settings = VoronoiSettings(n=args.splats, method=args.method, init=args.init, colors=args.colors,
-                               lloyd=args.lloyd, train=args.train, seed=args.seed)
+    settings = VoronoiSettings(
+        n=args.splats, method=args.method, init=args.init, colors=args.colors, lloyd=args.lloyd, train=args.train, seed=args.seed
+    )
     settings.validate(w, h)
     dev = get_device(args.device)
     start = time.perf_counter()
@@ -87,8 +97,10 @@ def run(args):
     if not args.quiet:
         from ..splat.losses import psnr
 
-        sys.stderr.write(f"voronoi: {w}x{h}, {settings.n} sites ({settings.method}, {settings.init}, "
-                         f"{settings.colors}, lloyd {settings.lloyd}, train {settings.train}); "
-                         f"PSNR {psnr(result.image, img.pixels):.2f} dB; {seconds:.2f}s "
-                         f"(compile {dev.compile_seconds:.2f}s)\n")
+        sys.stderr.write(
+            f"voronoi: {w}x{h}, {settings.n} sites ({settings.method}, {settings.init}, "
+            f"{settings.colors}, lloyd {settings.lloyd}, train {settings.train}); "
+            f"PSNR {psnr(result.image, img.pixels):.2f} dB; {seconds:.2f}s "
+            f"(compile {dev.compile_seconds:.2f}s)\n"
+        )
     return 0

@@ -8,6 +8,7 @@ go, in order, into an MP4 through OpenCV's VideoWriter.  On --scheduler /
 temporary files, clrender/outputs.py) and all put in place at the end: an
 interrupted (Ctrl-C) or failed turntable leaves no frame and no video.
 """
+
 from __future__ import annotations
 
 import os
@@ -25,11 +26,20 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv")
 
 def add_turntable_arguments(p):
     g = p.add_argument_group("turntable")
-    g.add_argument("--turntable", type=int, default=None, metavar="K",
-                   help="render K frames orbiting the camera's look-at point into the folder -o "
-                        "(frame_0000.png, frame_0001.png, ...) (default: one image, no turntable)")
-    g.add_argument("--video", default=None, metavar="OUT.mp4",
-                   help="with --turntable: also write the frames as a video (OpenCV VideoWriter, mp4v) (default: no video)")
+    g.add_argument(
+        "--turntable",
+        type=int,
+        default=None,
+        metavar="K",
+        help="render K frames orbiting the camera's look-at point into the folder -o "
+        "(frame_0000.png, frame_0001.png, ...) (default: one image, no turntable)",
+    )
+    g.add_argument(
+        "--video",
+        default=None,
+        metavar="OUT.mp4",
+        help="with --turntable: also write the frames as a video (OpenCV VideoWriter, mp4v) (default: no video)",
+    )
     g.add_argument("--fps", type=float, default=24.0, help="with --video: frames per second")
 
 
@@ -44,8 +54,10 @@ def frame_paths(output: str | None, scene_name: str, frames: int) -> list[Path]:
             raise UsageError(f"frame pattern {output!r} is not a valid {{:04d}}-style pattern ({exc})") from None
     folder = Path(output or f"{scene_name}_turntable")
     if folder.suffix and not folder.is_dir():
-        raise UsageError(f"--turntable writes a folder of frames; -o {output!r} looks like a file "
-                         "(give a folder such as frames/, or a pattern such as 'frames/{:04d}.png')")
+        raise UsageError(
+            f"--turntable writes a folder of frames; -o {output!r} looks like a file "
+            "(give a folder such as frames/, or a pattern such as 'frames/{:04d}.png')"
+        )
     return [folder / FRAME_PATTERN.format(k) for k in range(frames)]
 
 

@@ -15,6 +15,7 @@ The scene travels as a dict plus its mesh arrays, scattered once
 (payload.py); workers build its Tracer and kernels once (worker.py).
 Needs the extra: pip install 'clrender[distributed]'.
 """
+
 from __future__ import annotations
 
 import time
@@ -30,8 +31,7 @@ from . import worker
 from .cluster import INSTALL_HINT, connect, require_dask
 from .payload import ScenePayload, join, split
 
-__all__ = ["DistributedRenderer", "render", "run", "turntable", "iter_turntable", "connect", "split", "join",
-           "ScenePayload", "INSTALL_HINT"]
+__all__ = ["DistributedRenderer", "render", "run", "turntable", "iter_turntable", "connect", "split", "join", "ScenePayload", "INSTALL_HINT"]
 
 
 @dataclass
@@ -85,9 +85,12 @@ class DistributedRenderer(Renderer):
 
         payload = self._scene_future()
         token = uuid.uuid4().hex[:12]
-        futures = [self.client.submit(worker.trace_pixels, payload, self.settings, p.astype(np.int32), sampler, n, record,
-                                      key=f"clrender-{desc}-{token}-{i}")
-                   for i, p in enumerate(pixel_lists)]
+        futures = [
+            self.client.submit(
+                worker.trace_pixels, payload, self.settings, p.astype(np.int32), sampler, n, record, key=f"clrender-{desc}-{token}-{i}"
+            )
+            for i, p in enumerate(pixel_lists)
+        ]
         index = {f.key: i for i, f in enumerate(futures)}
         parts = [None] * len(futures)
         try:
@@ -143,8 +146,7 @@ def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 
     cameras = orbit(scene.camera(settings.camera), frames)
     payload = client.scatter(split(scene), hash=False, broadcast=True)
     token = uuid.uuid4().hex[:12]
-    futures = [client.submit(worker.render_frame, payload, settings, camera, key=f"clrender-frame-{token}-{k}")
-               for k, camera in enumerate(cameras)]
+    futures = [client.submit(worker.render_frame, payload, settings, camera, key=f"clrender-frame-{token}-{k}") for k, camera in enumerate(cameras)]
     index = {f.key: k for k, f in enumerate(futures)}
     try:
         for future, (image, _info) in as_completed(futures, with_results=True):

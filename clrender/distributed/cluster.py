@@ -9,6 +9,7 @@ passes `env` to each worker's nanny.  For workers started by hand, set
 POCL_MAX_PTHREAD_COUNT (and POCL_CPU_MAX_CU_NUM, its newer name) in the
 shell that runs `dask worker`.
 """
+
 from __future__ import annotations
 
 import logging
@@ -46,8 +47,9 @@ def scheduler_address(scheduler: str | None) -> str | None:
 
 
 @contextmanager
-def connect(scheduler: str | None = None, workers: int | None = None, pocl_threads: int | None = None,
-            timeout: float | None = None, announce: bool = True):
+def connect(
+    scheduler: str | None = None, workers: int | None = None, pocl_threads: int | None = None, timeout: float | None = None, announce: bool = True
+):
     """A dask Client to `scheduler`, or to a new LocalCluster of `workers` single-thread processes.
 
     Each local worker's PoCL device gets `pocl_threads` threads (default: this
@@ -69,8 +71,8 @@ def connect(scheduler: str | None = None, workers: int | None = None, pocl_threa
         if "ignore:resource_tracker:UserWarning" not in sys.warnoptions:
             sys.warnoptions.append("ignore:resource_tracker:UserWarning")
         cluster = distributed.LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-            silence_logs=logging.ERROR, env=pocl_env(threads))
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR, env=pocl_env(threads)
+        )
         client = distributed.Client(cluster)
         where = f"a LocalCluster of {workers} worker(s), {threads} PoCL thread(s) each"
     else:

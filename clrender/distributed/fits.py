@@ -9,6 +9,7 @@ Each returns what the local call returns for each input (`clrender.splat.fit.fit
 is bounded by epochs (a --time-budget stops wherever the clock says).
 Images are scattered to the cluster, not put in the task graph.
 """
+
 from __future__ import annotations
 
 import uuid
@@ -33,8 +34,10 @@ def _map(client, function, images, settings: list, device, desc: str) -> list:
     client = _client(client)
     scattered = client.scatter(list(images), hash=False)
     token = uuid.uuid4().hex[:12]
-    futures = [client.submit(function, image, setting, device, key=f"clrender-{desc}-{token}-{i}")
-               for i, (image, setting) in enumerate(zip(scattered, settings))]
+    futures = [
+        client.submit(function, image, setting, device, key=f"clrender-{desc}-{token}-{i}")
+        for i, (image, setting) in enumerate(zip(scattered, settings))
+    ]
     index = {f.key: i for i, f in enumerate(futures)}
     results = [None] * len(futures)
     try:

@@ -7,6 +7,7 @@ numpy array out into a flat {name: array} dict, which the client scatters to
 the cluster once.  `join` rebuilds the same Scene on the worker.  The key is
 a hash of both, so workers can cache a built Tracer per scene.
 """
+
 from __future__ import annotations
 
 import dataclasses

@@ -11,6 +11,7 @@ thread count is whatever the worker's environment set before OpenCL started
 A kernel object holds its arguments between `set_args` and the launch, so
 two threads of one worker must not launch at once: one lock per process.
 """
+
 from __future__ import annotations
 
 import functools
@@ -71,9 +72,11 @@ def check_code(payload: ScenePayload) -> None:
     if payload.code and payload.code != code_fingerprint():
         import socket
 
-        raise RenderFailure(f"the worker on {socket.gethostname()} (pid {os.getpid()}) runs different clrender code "
-                            f"(fingerprint {code_fingerprint()}, the client's {payload.code}); install the same "
-                            "version on the client and every worker")
+        raise RenderFailure(
+            f"the worker on {socket.gethostname()} (pid {os.getpid()}) runs different clrender code "
+            f"(fingerprint {code_fingerprint()}, the client's {payload.code}); install the same "
+            "version on the client and every worker"
+        )
 
 
 def scene_of(payload: ScenePayload):
@@ -82,23 +85,28 @@ def scene_of(payload: ScenePayload):
 
 def tracer_for(payload: ScenePayload, settings: RenderSettings) -> Tracer:
     key = (payload.key, settings.bvh, settings.bvh_builder, settings.device)
-    return _cached(_TRACERS, key, lambda: Tracer(scene_of(payload), use_bvh=settings.bvh,
-                                                   builder=settings.bvh_builder, device=settings.device), TRACERS_KEPT)
+    return _cached(
+        _TRACERS, key, lambda: Tracer(scene_of(payload), use_bvh=settings.bvh, builder=settings.bvh_builder, device=settings.device), TRACERS_KEPT
+    )
 
 
 def renderer_for(payload: ScenePayload, settings: RenderSettings, scene=None) -> Renderer:
     """A Renderer for the scene (or `scene`, the same geometry with other cameras) and settings, built once."""
     key = (payload.key, repr(settings), None if scene is None else repr(scene.cameras))
-    return _cached(_RENDERERS, key, lambda: Renderer(scene or scene_of(payload), settings,
-                                                       tracer=tracer_for(payload, settings)), RENDERERS_KEPT)
+    return _cached(_RENDERERS, key, lambda: Renderer(scene or scene_of(payload), settings, tracer=tracer_for(payload, settings)), RENDERERS_KEPT)
 
 
 def _info(renderer: Renderer, start: float, ready: float, built: bool, cpu_ready: float) -> dict:
     """Where and how long a task ran: setup (scene, BVH, kernels; 0 when cached), compute wall and CPU seconds."""
-    return {"pid": os.getpid(), "device": renderer.tracer.device.name, "setup": ready - start if built else 0.0,
-            "compute": time.perf_counter() - ready, "compute_cpu": time.process_time() - cpu_ready,
-            "bvh": renderer.tracer.bvh_seconds if built else 0.0,
-            "compile_kernels": renderer.compile_seconds if built else 0.0}
+    return {
+        "pid": os.getpid(),
+        "device": renderer.tracer.device.name,
+        "setup": ready - start if built else 0.0,
+        "compute": time.perf_counter() - ready,
+        "compute_cpu": time.process_time() - cpu_ready,
+        "bvh": renderer.tracer.bvh_seconds if built else 0.0,
+        "compile_kernels": renderer.compile_seconds if built else 0.0,
+    }
 
 
 @task

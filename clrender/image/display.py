@@ -7,6 +7,7 @@ result shows itself as the last expression of a Jupyter cell.  `show(x)` shows a
 result: inline under IPython, in a matplotlib window elsewhere, or (with no display at all) as a
 PNG file whose path it prints and returns.
 """
+
 from __future__ import annotations
 
 import sys

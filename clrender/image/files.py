@@ -6,6 +6,7 @@ format so a filter can write the same bit depth back.  Writes go to a
 temporary file beside the target and are renamed into place, so a failed
 write never leaves a half-written image.
 """
+
 from __future__ import annotations
 
 import os
@@ -56,8 +57,10 @@ def _open_input(path: Path):
     pixels = spec.width * spec.height * max(spec.depth, 1)
     if pixels > MAX_READ_PIXELS or spec.nchannels > MAX_CHANNELS or pixels < 1 or spec.nchannels < 1:
         inp.close()
-        raise UsageError(f"image {shown(path)} is {spec.width}x{spec.height} with {spec.nchannels} channels; "
-                         f"allowed: at most {MAX_READ_PIXELS} pixels and {MAX_CHANNELS} channels")
+        raise UsageError(
+            f"image {shown(path)} is {spec.width}x{spec.height} with {spec.nchannels} channels; "
+            f"allowed: at most {MAX_READ_PIXELS} pixels and {MAX_CHANNELS} channels"
+        )
     return inp
 
 
@@ -76,8 +79,7 @@ def read_image(path: str | os.PathLike) -> Image:
     finally:
         inp.close()
     if pixels is None:
-        raise UsageError(f"cannot read the pixels of {shown(path)} "
-                         f"({_reason(_library_error(), said.text, 'the file is truncated or damaged')})")
+        raise UsageError(f"cannot read the pixels of {shown(path)} ({_reason(_library_error(), said.text, 'the file is truncated or damaged')})")
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     return Image(pixels, str(spec.format), _channel_names(spec, path))
 
@@ -126,7 +128,6 @@ def _reason(*texts: str) -> str:
             if line.strip():
                 return line.strip()
     return ""
-
 
 
 # Channel types each writer stores, keyed by extension (OpenImageIO's plugins).
@@ -215,9 +216,7 @@ def check_output_path(path: str | os.PathLike, *, overwrite: bool = False, input
     probe = oiio.ImageOutput.create(_library_name(path))
     if probe is None:
         _library_error()  # clear it, or OpenImageIO prints it again at exit
-        raise UsageError(
-            f"no image writer for extension {shown(path.suffix)} of {shown(path)}; use .png, .jpg, .tif, .exr or .hdr"
-        )
+        raise UsageError(f"no image writer for extension {shown(path.suffix)} of {shown(path)}; use .png, .jpg, .tif, .exr or .hdr")
     for other in inputs:
         if Path(other).resolve() == path.resolve() and not overwrite:
             raise UsageError(f"output {shown(path)} is the input; pass --overwrite to replace it")

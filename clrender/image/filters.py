@@ -24,6 +24,7 @@ the same weights, colour is divided back), so hidden colours of transparent
 pixels do not bleed in; brighten and edge_detect change colour only and copy
 alpha.  Without it, every channel is filtered alike.
 """
+
 from __future__ import annotations
 
 import math
@@ -86,8 +87,7 @@ class Filter:
         if self.kind == "brighten":
             return pixels * np.float32(self.value)
         if self.kind == "edge_detect":
-            return _per_planes(lambda x: cv2.filter2D(x, cv2.CV_32F, EDGE_KERNELS[int(self.value)],
-                                                      borderType=BORDER), pixels)
+            return _per_planes(lambda x: cv2.filter2D(x, cv2.CV_32F, EDGE_KERNELS[int(self.value)], borderType=BORDER), pixels)
         size = int(self.value)
         if size == 1:
             return pixels.copy()
@@ -117,8 +117,7 @@ def parse(name: str) -> Filter:
     m = re.fullmatch(r"brighten_(.*)", text)
     if m:
         if not re.fullmatch(_NUMBER, m.group(1)):
-            raise UsageError(f"filter {text!r}: {m.group(1)!r} is not a number; use brighten_F with F >= 0, "
-                             "e.g. brighten_1.5")
+            raise UsageError(f"filter {text!r}: {m.group(1)!r} is not a number; use brighten_F with F >= 0, e.g. brighten_1.5")
         factor = float(m.group(1))
         if not math.isfinite(factor) or factor < 0:
             raise UsageError(f"filter {text!r}: the factor must be a finite number >= 0, e.g. brighten_1.5")
@@ -127,12 +126,12 @@ def parse(name: str) -> Filter:
     if m:
         kind, size = m.groups()
         if not re.fullmatch(r"[+-]?\d+", size):
-            raise UsageError(f"filter {text!r}: size {size!r} is not a whole number; use {kind}_K with K odd "
-                             f"in 1..{MAX_SIZE}, e.g. {kind}_5")
+            raise UsageError(f"filter {text!r}: size {size!r} is not a whole number; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_5")
         size = int(size)
         if size < 1 or size % 2 == 0 or size > MAX_SIZE:
-            raise UsageError(f"filter {text!r}: size {size} is not allowed; use {kind}_K with K odd "
-                             f"in 1..{MAX_SIZE}, e.g. {kind}_{_nearest_allowed(size)}")
+            raise UsageError(
+                f"filter {text!r}: size {size} is not allowed; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_{_nearest_allowed(size)}"
+            )
         return Filter(text, kind, size)
     m = re.fullmatch(r"edge_detect_([12])", text)
     if m:
@@ -202,8 +201,7 @@ def _per_planes(fn, pixels: np.ndarray) -> np.ndarray:
     channels = pixels.shape[2]
     if channels <= 4:
         return fn(pixels).reshape(pixels.shape)
-    parts = [fn(np.ascontiguousarray(pixels[:, :, c : c + 4])).reshape(pixels.shape[:2] + (-1,))
-             for c in range(0, channels, 4)]
+    parts = [fn(np.ascontiguousarray(pixels[:, :, c : c + 4])).reshape(pixels.shape[:2] + (-1,)) for c in range(0, channels, 4)]
     return np.concatenate(parts, axis=2)
 
 

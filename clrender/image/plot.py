@@ -10,6 +10,7 @@ finite are left out (a missing bar, a gap in a line).  Each `*_figure` function 
 Figure (to show in a notebook or restyle); the functions without it also write the PNG,
 atomically through image.files.write_image, creating the parent folder.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,8 +31,7 @@ def bar_chart(path, labels, series: dict, title: str = "", ylabel: str = "", *, 
     return save(path, bar_figure(labels, series, title, ylabel, log=log))
 
 
-def line_chart(path, x, series: dict, title: str = "", xlabel: str = "", ylabel: str = "", *,
-               log: bool = False) -> Path:
+def line_chart(path, x, series: dict, title: str = "", xlabel: str = "", ylabel: str = "", *, log: bool = False) -> Path:
     """Lines of y against shared x values, one per series."""
     return save(path, line_figure(x, series, title, xlabel, ylabel, log=log))
 

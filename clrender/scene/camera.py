@@ -1,4 +1,5 @@
 """Pinhole camera: position, look-at point, up vector and vertical field of view."""
+
 from __future__ import annotations
 
 import math

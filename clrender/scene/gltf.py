@@ -32,6 +32,7 @@ nothing in the file is dropped without being listed here:
 
 Anything malformed is a UsageError naming the file and what was wrong.
 """
+
 from __future__ import annotations
 
 import base64
@@ -53,8 +54,13 @@ NORMALIZED_DIVISOR = {np.int8: 127.0, np.uint8: 255.0, np.int16: 32767.0, np.uin
 TYPE_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN = 4, 5, 6
 # required extensions whose absence would not change what clrender draws
-UNDERSTOOD_EXTENSIONS = {"KHR_lights_punctual", "KHR_mesh_quantization", "KHR_texture_transform",
-                         "KHR_materials_emissive_strength", "KHR_materials_unlit"}
+UNDERSTOOD_EXTENSIONS = {
+    "KHR_lights_punctual",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_unlit",
+}
 IMAGE_WIDTH = 640  # default image width; the height follows the first camera's aspect ratio
 SUFFIXES = (".gltf", ".glb")
 
@@ -146,7 +152,7 @@ def _glb_chunks(path: Path, data: bytes):
         size, kind = struct.unpack_from("<II", data, offset)
         if offset + 8 + size > length:
             raise UsageError(f"{path}: GLB chunk at byte {offset} runs past the end of the file")
-        chunks.append((kind, data[offset + 8: offset + 8 + size]))
+        chunks.append((kind, data[offset + 8 : offset + 8 + size]))
         offset += 8 + size
     if not chunks or chunks[0][0] != CHUNK_JSON:
         raise UsageError(f"{path}: GLB has no JSON chunk first")
@@ -190,8 +196,7 @@ def accessor(doc: Document, index: int) -> np.ndarray:
     width = TYPE_WIDTH.get(acc.get("type"))
     count = acc.get("count")
     if dtype is None or width is None or isinstance(count, bool) or not isinstance(count, int) or count < 0:
-        doc.fail(f"{where}: componentType {acc.get('componentType')!r}, type {acc.get('type')!r} "
-                 f"or count {count!r} is not valid glTF")
+        doc.fail(f"{where}: componentType {acc.get('componentType')!r}, type {acc.get('type')!r} or count {count!r} is not valid glTF")
     if "sparse" in acc:
         doc.fail(f"{where}: sparse accessors are not supported")
     if "bufferView" not in acc:
@@ -209,8 +214,7 @@ def accessor(doc: Document, index: int) -> np.ndarray:
         view_end = view.get("byteOffset", 0) + view.get("byteLength", 0)
         needed = start + (stride * (count - 1) + element if count else 0)
         if not all(isinstance(v, int) for v in (stride, start, view_end)) or stride < element or needed > min(view_end, len(data)):
-            doc.fail(f"{where}: {count} elements of {element} bytes (stride {stride}) from byte {start} "
-                     f"do not fit bufferViews[{acc['bufferView']}]")
+            doc.fail(f"{where}: {count} elements of {element} bytes (stride {stride}) from byte {start} do not fit bufferViews[{acc['bufferView']}]")
         values = np.ndarray((count, width), dtype, buffer=data, offset=start, strides=(stride, item)).copy()
     if dtype == np.float32:
         return values.astype(np.float64)
@@ -222,11 +226,13 @@ def accessor(doc: Document, index: int) -> np.ndarray:
 # ------------------------------------------------------------ the node tree
 def _quaternion_matrix(q) -> np.ndarray:
     x, y, z, w = q / max(np.linalg.norm(q), 1e-300)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _numbers(doc, value, n, where):
@@ -279,7 +285,7 @@ def node_world_matrix(doc: Document, index: int) -> np.ndarray:
     doc.item("nodes", index)
     parent_of = {}
     for i, n in enumerate(doc.json["nodes"]):
-        for c in (n.get("children", []) if isinstance(n, dict) else []):
+        for c in n.get("children", []) if isinstance(n, dict) else []:
             parent_of[c] = i
     m, seen, i = np.eye(4), set(), index
     while i is not None:
@@ -426,8 +432,12 @@ def _camera(doc: Document, index: int, matrix: np.ndarray):
     eye = matrix[:3, 3]
     forward = matrix[:3, :3] @ [0.0, 0.0, -1.0]
     up = matrix[:3, :3] @ [0.0, 1.0, 0.0]
-    camera = {"position": eye.tolist(), "look_at": (eye + forward / np.linalg.norm(forward)).tolist(),
-              "up": up.tolist(), "fov": min(math.degrees(yfov), 179.0)}
+    camera = {
+        "position": eye.tolist(),
+        "look_at": (eye + forward / np.linalg.norm(forward)).tolist(),
+        "up": up.tolist(),
+        "fov": min(math.degrees(yfov), 179.0),
+    }
     return camera, aspect
 
 
@@ -446,8 +456,7 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
         doc.fail(f"{where}.intensity must be >= 0, got {intensity!r}")
     out = {"color": color.tolist(), "intensity": float(intensity)}
     if kind == "directional":  # the seed's light model: its Lambert term has no 1/pi
-        out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist(),
-                   intensity=float(intensity) / math.pi)
+        out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist(), intensity=float(intensity) / math.pi)
     else:  # a spot light is drawn as a point light: its cone is not modelled
         # inverse-square falloff selects the physical model, whose Lambert BRDF is kd / pi already
         out.update(type="point", position=matrix[:3, 3].tolist(), falloff="inverse_square")
@@ -484,9 +493,16 @@ def scene_dict(path) -> dict:
                 material = mesh["primitives"][p].get("material")
                 if material is not None:
                     doc.item("materials", material)  # checked: the index exists
-                objects.append({"type": "mesh", "file": path.name, "node": index, "primitive": p,
-                                "material": "default" if material is None else names[material],
-                                "smooth": tri[2] is not None})
+                objects.append(
+                    {
+                        "type": "mesh",
+                        "file": path.name,
+                        "node": index,
+                        "primitive": p,
+                        "material": "default" if material is None else names[material],
+                        "smooth": tri[2] is not None,
+                    }
+                )
         if "camera" in node:
             found = _camera(doc, node["camera"], matrix)
             if found is not None:
@@ -503,8 +519,15 @@ def scene_dict(path) -> dict:
         cam = cameras[0]
         lights.append({"type": "directional", "direction": np.subtract(cam["look_at"], cam["position"]).tolist()})
     height = max(1, round(IMAGE_WIDTH / aspect)) if aspect else IMAGE_WIDTH * 3 // 4
-    return {"name": path.stem, "width": IMAGE_WIDTH, "height": height, "cameras": cameras,
-            "materials": materials, "lights": lights, "objects": objects}
+    return {
+        "name": path.stem,
+        "width": IMAGE_WIDTH,
+        "height": height,
+        "cameras": cameras,
+        "materials": materials,
+        "lights": lights,
+        "objects": objects,
+    }
 
 
 def load_scene(path):

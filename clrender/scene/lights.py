@@ -12,6 +12,7 @@ cos(theta) cos(theta_light) / r^2 over the light (two-sided emitter); the
 surface then reflects E with the energy-conserving BRDF kd/pi + ks (s+8)/(8 pi)
 (n.h)^s (kernels/shade.h, blinn_phong).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,5 @@
 """Surface materials: the seed's Whitted model (Lambert + Blinn-Phong, mirror, transparency + IOR)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

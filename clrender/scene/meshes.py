@@ -11,6 +11,7 @@ Every generated mesh carries its vertex normals, computed here with numpy (`vert
 trimesh's own routine needs scipy and otherwise falls back to a per-vertex Python loop
 (72 s for the 120k-triangle rock of refract2) with a traceback on stderr.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -163,7 +164,7 @@ def surface_nets(field, lo, hi, resolution: int, project: int = 2) -> tuple[np.n
     corner_offsets = [(i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)]
 
     def corner(arr, o):
-        return arr[o[0]:o[0] + nx - 1, o[1]:o[1] + ny - 1, o[2]:o[2] + nz - 1]
+        return arr[o[0] : o[0] + nx - 1, o[1] : o[1] + ny - 1, o[2] : o[2] + nz - 1]
 
     n_in = sum(corner(inside, o).astype(np.int8) for o in corner_offsets)
     active = (n_in > 0) & (n_in < 8)
@@ -192,21 +193,22 @@ def surface_nets(field, lo, hi, resolution: int, project: int = 2) -> tuple[np.n
     for _ in range(project):  # Newton steps onto the surface, at most half a cell each
         e = h * 0.05
         fv = field(verts)
-        g = np.stack([(field(verts + e * np.eye(3)[a]) - field(verts - e * np.eye(3)[a])) / (2 * e)
-                      for a in range(3)], axis=1)
+        g = np.stack([(field(verts + e * np.eye(3)[a]) - field(verts - e * np.eye(3)[a])) / (2 * e) for a in range(3)], axis=1)
         step = -(fv / np.maximum((g * g).sum(1), 1e-12))[:, None] * g
         norm = np.linalg.norm(step, axis=1, keepdims=True)
         verts = verts + step * np.minimum(1, 0.5 * h / np.maximum(norm, 1e-30))
     # quads around every crossed grid edge, ordered counter-clockwise around the outward axis
     quads = []
-    rings = {0: [(0, -1, -1), (0, 0, -1), (0, 0, 0), (0, -1, 0)],
-             1: [(-1, 0, -1), (-1, 0, 0), (0, 0, 0), (0, 0, -1)],
-             2: [(-1, -1, 0), (0, -1, 0), (0, 0, 0), (-1, 0, 0)]}
+    rings = {
+        0: [(0, -1, -1), (0, 0, -1), (0, 0, 0), (0, -1, 0)],
+        1: [(-1, 0, -1), (-1, 0, 0), (0, 0, 0), (0, 0, -1)],
+        2: [(-1, -1, 0), (0, -1, 0), (0, 0, 0), (-1, 0, 0)],
+    }
     for a in range(3):
         o = [0, 0, 0]
         o[a] = 1
-        lo_in = inside[:nx - o[0], :ny - o[1], :nz - o[2]]
-        hi_in = inside[o[0]:, o[1]:, o[2]:]
+        lo_in = inside[: nx - o[0], : ny - o[1], : nz - o[2]]
+        hi_in = inside[o[0] :, o[1] :, o[2] :]
         e = np.argwhere(lo_in != hi_in)
         b = [x for x in range(3) if x != a]
         e = e[(e[:, b[0]] > 0) & (e[:, b[1]] > 0)]  # edges on the grid's boundary faces have no ring
@@ -327,8 +329,9 @@ def lathe(profile, segments: int) -> trimesh.Trimesh:
     inner = prof[1:-1]  # rings; the two ends become single pole vertices
     rings = len(inner)
     phi = 2 * np.pi * np.arange(segments) / segments
-    ring_v = np.stack([inner[:, :1] * np.sin(phi), np.broadcast_to(inner[:, 1:], (rings, segments)),
-                       inner[:, :1] * np.cos(phi)], axis=-1).reshape(-1, 3)
+    ring_v = np.stack([inner[:, :1] * np.sin(phi), np.broadcast_to(inner[:, 1:], (rings, segments)), inner[:, :1] * np.cos(phi)], axis=-1).reshape(
+        -1, 3
+    )
     verts = np.concatenate([[[0, prof[0, 1], 0], [0, prof[-1, 1], 0]], ring_v])
     # the same connectivity as a UV sphere: a pole, `rings` rings, a pole
     mesh = trimesh.Trimesh(verts, uv_sphere_faces(rings + 1, segments), process=False)
@@ -346,8 +349,8 @@ def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
     mesh = lathe(profile, segments)
     v = mesh.vertices.copy()
     bend = np.clip((v[:, 1] - 0.45) / 0.45, 0, None)
-    v[:, 2] -= 0.22 * bend ** 2  # the droop of the tip
-    v[:, 1] -= 0.06 * bend ** 3
+    v[:, 2] -= 0.22 * bend**2  # the droop of the tip
+    v[:, 1] -= 0.06 * bend**3
     mesh.vertices = v
     return with_normals(mesh)
 
@@ -364,18 +367,21 @@ def cat(resolution: int = 40) -> trimesh.Trimesh:
     resolution = _check_range("cat resolution", resolution, 16, 256)
 
     def field(p):
-        return smooth_union([
-            sd_ellipsoid(p, (0, 0.32, -0.05), (0.26, 0.32, 0.3)),  # body
-            sd_ellipsoid(p, (0, 0.16, 0.02), (0.3, 0.16, 0.34)),  # haunches
-            sd_ellipsoid(p, (0, 0.72, 0.1), (0.19, 0.17, 0.17)),  # head
-            sd_ellipsoid(p, (0, 0.68, 0.24), (0.08, 0.06, 0.06)),  # muzzle
-            sd_capsule(p, (0.1, 0.8, 0.08), (0.14, 0.96, 0.06), 0.06, 0.012),  # ears
-            sd_capsule(p, (-0.1, 0.8, 0.08), (-0.14, 0.96, 0.06), 0.06, 0.012),
-            sd_capsule(p, (0.09, 0.3, 0.2), (0.09, 0.04, 0.24), 0.055),  # front legs
-            sd_capsule(p, (-0.09, 0.3, 0.2), (-0.09, 0.04, 0.24), 0.055),
-            sd_capsule(p, (0.05, 0.06, -0.32), (0.3, 0.05, -0.1), 0.045),  # tail curled around
-            sd_capsule(p, (0.3, 0.05, -0.1), (0.3, 0.05, 0.15), 0.045, 0.035),
-        ], 0.05)
+        return smooth_union(
+            [
+                sd_ellipsoid(p, (0, 0.32, -0.05), (0.26, 0.32, 0.3)),  # body
+                sd_ellipsoid(p, (0, 0.16, 0.02), (0.3, 0.16, 0.34)),  # haunches
+                sd_ellipsoid(p, (0, 0.72, 0.1), (0.19, 0.17, 0.17)),  # head
+                sd_ellipsoid(p, (0, 0.68, 0.24), (0.08, 0.06, 0.06)),  # muzzle
+                sd_capsule(p, (0.1, 0.8, 0.08), (0.14, 0.96, 0.06), 0.06, 0.012),  # ears
+                sd_capsule(p, (-0.1, 0.8, 0.08), (-0.14, 0.96, 0.06), 0.06, 0.012),
+                sd_capsule(p, (0.09, 0.3, 0.2), (0.09, 0.04, 0.24), 0.055),  # front legs
+                sd_capsule(p, (-0.09, 0.3, 0.2), (-0.09, 0.04, 0.24), 0.055),
+                sd_capsule(p, (0.05, 0.06, -0.32), (0.3, 0.05, -0.1), 0.045),  # tail curled around
+                sd_capsule(p, (0.3, 0.05, -0.1), (0.3, 0.05, 0.15), 0.045, 0.035),
+            ],
+            0.05,
+        )
 
     verts, faces = surface_nets(field, (-0.5, -0.1, -0.5), (0.5, 1.1, 0.5), resolution)
     verts[:, 1] -= verts[:, 1].min()

@@ -5,6 +5,7 @@ can write in TOML they can build in Python.  Every key and its default is
 listed in the README's scene-format table.  Errors name the file, the key
 and what is allowed.
 """
+
 from __future__ import annotations
 
 import math
@@ -69,13 +70,11 @@ class Scene:
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise UsageError(shorten(escape(f"{where}: not valid TOML ({exc})"), MAX_MESSAGE)) from None
         except RecursionError:  # tomllib recurses once per nested array or inline table
-            raise UsageError(shorten(f"{where}: not valid TOML (nested too deeply; allowed: {MAX_NESTING} levels)",
-                                     MAX_MESSAGE)) from None
+            raise UsageError(shorten(f"{where}: not valid TOML (nested too deeply; allowed: {MAX_NESTING} levels)", MAX_MESSAGE)) from None
         return cls.from_dict(data, base_dir=path.parent, where=where, name=path.stem, allow_outside=allow_outside)
 
     @classmethod
-    def from_dict(cls, data: dict, base_dir=".", where: str = "<dict>", name: str = "scene",
-                  allow_outside: bool = True) -> Scene:
+    def from_dict(cls, data: dict, base_dir=".", where: str = "<dict>", name: str = "scene", allow_outside: bool = True) -> Scene:
         """A scene from the dict a TOML file parses to.  Every value is checked (types, ranges, counts,
         nesting; see the limits below) before any mesh is built or read.  Mesh `file` paths are relative
         to `base_dir`; they may be absolute or climb out with ../ (fine for local files), unless
@@ -170,8 +169,10 @@ def escape(text: str) -> str:
     for ch in text:
         if unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp", "Cs"):
             code = ord(ch)
-            out.append({"\n": "\\n", "\r": "\\r", "\t": "\\t"}.get(ch) or
-                       (f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"))
+            out.append(
+                {"\n": "\\n", "\r": "\\r", "\t": "\\t"}.get(ch)
+                or (f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}")
+            )
         else:
             out.append(ch)
     return "".join(out)
@@ -310,8 +311,10 @@ class _SceneReader:
         value = self.number(data, key, path, default, low=MIN_LENGTH, high=COORD_LIMIT, positive=True)
         smallest = RELATIVE_PRECISION * at
         if value < smallest:
-            self.fail(f"{path}.{key}", f"{value:.6g} is too small this far from the origin; allowed: >= {smallest:.3g} "
-                                       f"({RELATIVE_PRECISION:g} x the distance)")
+            self.fail(
+                f"{path}.{key}",
+                f"{value:.6g} is too small this far from the origin; allowed: >= {smallest:.3g} ({RELATIVE_PRECISION:g} x the distance)",
+            )
         return value
 
     def counted(self, data, key, limit):
@@ -323,8 +326,9 @@ class _SceneReader:
     # sections ----------------------------------------------------------------
     def read(self, data: dict, name: str) -> Scene:
         self.check_shape(data)
-        self.check_keys(data, "", ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name",
-                                  "description", "seed_camera"))
+        self.check_keys(
+            data, "", ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name", "description", "seed_camera")
+        )
         scene = Scene(name=self.name(data.get("name", name), "name"))
         scene.width = self.integer(data, "width", "", 640, low=1, high=MAX_SIDE)
         scene.height = self.integer(data, "height", "", 480, low=1, high=MAX_SIDE)
@@ -472,8 +476,7 @@ class _SceneReader:
         return self.mesh(o, path, materials, build)
 
     def mesh(self, o, path, materials, build=True) -> Mesh | None:
-        self.check_keys(o, path, ("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material",
-                                  "node", "primitive"))
+        self.check_keys(o, path, ("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive"))
         if ("file" in o) == ("generator" in o):
             self.fail(path, "a mesh needs exactly one of 'file' or 'generator'")
         gltf_node = self.gltf_node(o, path)
@@ -488,8 +491,9 @@ class _SceneReader:
         else:
             scale = self.vec3(o, "scale", path)
         if not all(abs(s) >= MIN_LENGTH for s in scale):
-            self.fail(f"{path}.scale", f"{show(o.get('scale'))}: each factor must be {MIN_LENGTH:g} to {COORD_LIMIT:g} "
-                                       "in magnitude (negative mirrors)")
+            self.fail(
+                f"{path}.scale", f"{show(o.get('scale'))}: each factor must be {MIN_LENGTH:g} to {COORD_LIMIT:g} in magnitude (negative mirrors)"
+            )
         rotate = self.vec3(o, "rotate", path, (0.0, 0.0, 0.0))
         translate = self.vec3(o, "translate", path, (0.0, 0.0, 0.0))
         smooth = self.boolean(o, "smooth", path, False)
@@ -525,12 +529,14 @@ class _SceneReader:
         """A transformed mesh lies within the coordinate limits and is big enough for float32 where it is."""
         reach = np.abs(vertices).max()
         if not reach <= 10 * COORD_LIMIT:
-            self.fail(path, f"after scale and translate the mesh reaches {reach:.3g}; allowed: within {10 * COORD_LIMIT:g} "
-                            "of the origin")
+            self.fail(path, f"after scale and translate the mesh reaches {reach:.3g}; allowed: within {10 * COORD_LIMIT:g} of the origin")
         extent = np.ptp(vertices, axis=0).max()
         if extent < RELATIVE_PRECISION * reach:
-            self.fail(f"{path}.scale", f"the mesh is {extent:.3g} across at distance {reach:.3g}; allowed: at least "
-                                       f"{RELATIVE_PRECISION:g} x its distance from the origin (float32 precision)")
+            self.fail(
+                f"{path}.scale",
+                f"the mesh is {extent:.3g} across at distance {reach:.3g}; allowed: at least "
+                f"{RELATIVE_PRECISION:g} x its distance from the origin (float32 precision)",
+            )
 
     def gltf_node(self, o, path):
         """(node, primitive or None) when the mesh is one node of a glTF file (keys `node`, `primitive`), else None."""
@@ -563,8 +569,7 @@ class _SceneReader:
         for key in params:
             if key not in bounds:
                 self.fail(f"{path}.params.{key}", f"unknown parameter of generator {gen!r}; allowed: {', '.join(bounds)}")
-        return gen, {key: self.integer(params, key, f"{path}.params", low=low, high=high) for key, (low, high) in bounds.items()
-                     if key in params}
+        return gen, {key: self.integer(params, key, f"{path}.params", low=low, high=high) for key, (low, high) in bounds.items() if key in params}
 
 
 def transform_matrix(translate=(0, 0, 0), rotate_degrees=(0, 0, 0), scale=(1, 1, 1)) -> np.ndarray:

@@ -10,6 +10,7 @@ contribute nothing are pruned and the freed budget (up to `max_splats`) goes
 to the splats with the largest mean position gradient: large ones are split
 in two along their major axis, small ones cloned half a sigma away.
 """
+
 from __future__ import annotations
 
 import math
@@ -64,17 +65,14 @@ class FitConfig:
         require(self.init in INITS, f"--init {self.init!r} is unknown; allowed: {', '.join(INITS)}")
         require(self.learn in LEARN, f"--learn {self.learn!r} is unknown; allowed: {', '.join(LEARN)}")
         require(self.blend in BLENDS, f"--blend {self.blend!r} is unknown; allowed: {', '.join(BLENDS)}")
-        require(self.optimizer in OPTIMIZERS,
-              f"--optimizer {self.optimizer!r} is unknown; allowed: {', '.join(OPTIMIZERS)}")
+        require(self.optimizer in OPTIMIZERS, f"--optimizer {self.optimizer!r} is unknown; allowed: {', '.join(OPTIMIZERS)}")
         require(self.loss in LOSSES, f"--loss {self.loss!r} is unknown; allowed: {', '.join(LOSSES)}")
         require(math.isfinite(self.lr) and 0 < self.lr <= MAX_LR, f"--lr {self.lr} must be a number > 0 and <= {MAX_LR:g}")
         require(0 <= self.seed < 2**32, f"--seed {self.seed} must be from 0 to 2**32-1")
         require(self.time_budget is None or self.time_budget > 0, f"--time-budget {self.time_budget} must be > 0")
         require(self.batch >= 0, f"--batch {self.batch} must be >= 0 (0 = the full image)")
-        require(self.max_splats is None or self.max_splats >= self.splats,
-              f"--max-splats {self.max_splats} must be >= --splats {self.splats}")
-        require(self.splats <= width * height * 4,
-              f"--splats {self.splats} is more than 4 per pixel of the {width}x{height} image")
+        require(self.max_splats is None or self.max_splats >= self.splats, f"--max-splats {self.max_splats} must be >= --splats {self.splats}")
+        require(self.splats <= width * height * 4, f"--splats {self.splats} is more than 4 per pixel of the {width}x{height} image")
 
 
 @dataclass
@@ -106,8 +104,7 @@ def as_rgb(pixels: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------- initialisation
 
 
-def initial_params(target: np.ndarray, n: int, init: str, blend: str, rng: np.random.Generator,
-                   renderer: GaussRenderer | None = None) -> GaussParams:
+def initial_params(target: np.ndarray, n: int, init: str, blend: str, rng: np.random.Generator, renderer: GaussRenderer | None = None) -> GaussParams:
     """n isotropic splats, sized by their local spacing, coloured from the target at their centres."""
     h, w = target.shape[:2]
     if init == "uniform":
@@ -133,8 +130,17 @@ def initial_params(target: np.ndarray, n: int, init: str, blend: str, rng: np.ra
     sigma = np.clip(0.6 / np.sqrt(density), np.exp(MIN_LOG_SCALE), max(w, h) / 4)
     px = np.clip(xy.astype(int), 0, [w - 1, h - 1])
     color = target[px[:, 1], px[:, 0]]
-    params = GaussParams(xy=xy, log_scale=np.log(np.stack([sigma, sigma], axis=1)), theta=np.zeros(n),
-                         color=color, lum=np.ones(n), opacity=np.ones(n), width=w, height=h, blend=blend)
+    params = GaussParams(
+        xy=xy,
+        log_scale=np.log(np.stack([sigma, sigma], axis=1)),
+        theta=np.zeros(n),
+        color=color,
+        lum=np.ones(n),
+        opacity=np.ones(n),
+        width=w,
+        height=h,
+        blend=blend,
+    )
     if blend == "sum" and renderer is not None:
         # overlapping splats add up: divide each colour by the total weight at its centre
         white = params.copy()
@@ -147,8 +153,7 @@ def initial_params(target: np.ndarray, n: int, init: str, blend: str, rng: np.ra
 # ----------------------------------------------------------------------------- densification
 
 
-def densify(params: GaussParams, grad_norm: np.ndarray, weight: np.ndarray, max_splats: int,
-            rng: np.random.Generator):
+def densify(params: GaussParams, grad_norm: np.ndarray, weight: np.ndarray, max_splats: int, rng: np.random.Generator):
     """Prune non-contributors, then split/clone the splats with the largest position gradients.
 
     Returns (new params, src) where row i of the new params came from row src[i].
@@ -197,12 +202,16 @@ class Fitter:
         self.rng = np.random.default_rng(config.seed)
         self.renderer = GaussRenderer(device, w, h, config.blend)
         self.groups = LEARN_GROUPS[config.learn]
-        base = ADAM_LR if config.optimizer == "adam" else {
-            k: v * 3 * config.splats * (0.1 if config.optimizer == "momentum" else 1.0) for k, v in SGD_LR.items()}
+        base = (
+            ADAM_LR
+            if config.optimizer == "adam"
+            else {k: v * 3 * config.splats * (0.1 if config.optimizer == "momentum" else 1.0) for k, v in SGD_LR.items()}
+        )
         self.base_lr = {k: base[k] * config.lr for k in self.groups}
         self.max_splats = config.max_splats or config.splats
-        self.tiles_per_step = (len(self.renderer.all_tiles) if config.batch == 0
-                               else min(len(self.renderer.all_tiles), max(1, round(config.batch / (TILE * TILE)))))
+        self.tiles_per_step = (
+            len(self.renderer.all_tiles) if config.batch == 0 else min(len(self.renderer.all_tiles), max(1, round(config.batch / (TILE * TILE))))
+        )
         self.steps_per_epoch = -(-len(self.renderer.all_tiles) // self.tiles_per_step)
 
     def pixel_mask(self, tiles: np.ndarray) -> np.ndarray:
@@ -226,8 +235,7 @@ class Fitter:
         start = time.perf_counter()
         bar = None
         if show_progress:
-            bar = progress(total=None if cfg.time_budget and cfg.epochs is None else total_steps,
-                           desc="splat gauss", unit="step")
+            bar = progress(total=None if cfg.time_budget and cfg.epochs is None else total_steps, desc="splat gauss", unit="step")
         step = 0
         order = np.zeros(0, np.int32)
         while step < total_steps:
@@ -236,14 +244,14 @@ class Fitter:
                 break
             done = max(step / total_steps, elapsed / cfg.time_budget if cfg.time_budget else 0.0)
             for k in self.groups:
-                opt.lrs[k] = self.base_lr[k] * cfg.lr_final ** done
+                opt.lrs[k] = self.base_lr[k] * cfg.lr_final**done
             # mini-batch: the next tiles of a shuffled pass over the image
             if self.tiles_per_step == len(r.all_tiles):
                 tiles, mask = None, None
             else:
                 if len(order) < self.tiles_per_step:
                     order = self.rng.permutation(len(r.all_tiles)).astype(np.int32)
-                tiles, order = np.sort(order[: self.tiles_per_step]), order[self.tiles_per_step:]
+                tiles, order = np.sort(order[: self.tiles_per_step]), order[self.tiles_per_step :]
                 mask = self.pixel_mask(tiles)
             frame = r.forward(params, tiles)
             image = frame.image if mask is None else np.where(mask[..., None], frame.image, self.target)
@@ -257,17 +265,22 @@ class Fitter:
             step += 1
             if step % cfg.log_every == 0 or step == 1:
                 value = psnr(image, self.target) if mask is None else psnr(r.forward(params).image, self.target)
-                log.append({"step": step, "epoch": step / self.steps_per_epoch,
-                            "seconds": time.perf_counter() - start, "splats": params.n,
-                            "loss": loss, "psnr": value})
+                log.append(
+                    {
+                        "step": step,
+                        "epoch": step / self.steps_per_epoch,
+                        "seconds": time.perf_counter() - start,
+                        "splats": params.n,
+                        "loss": loss,
+                        "psnr": value,
+                    }
+                )
                 if bar is not None:
                     bar.set_postfix(loss=f"{loss:.3g}", psnr=f"{value:.2f}", n=params.n, refresh=False)
             if bar is not None:
                 bar.update(1)
-            if (cfg.densify_every and step % cfg.densify_every == 0 and done < cfg.densify_until
-                    and "xy" in self.groups):
-                params, src = densify(params, grad_sum / seen, weight_sum / seen * self.steps_per_epoch,
-                                      self.max_splats, self.rng)
+            if cfg.densify_every and step % cfg.densify_every == 0 and done < cfg.densify_until and "xy" in self.groups:
+                params, src = densify(params, grad_sum / seen, weight_sum / seen * self.steps_per_epoch, self.max_splats, self.rng)
                 opt.reindex(src)
                 grad_sum, weight_sum, seen = np.zeros(params.n), np.zeros(params.n), 0
         if bar is not None:
@@ -275,8 +288,16 @@ class Fitter:
         image = r.forward(params).image
         final = psnr(image, self.target)
         seconds = time.perf_counter() - start
-        log.append({"step": step, "epoch": step / self.steps_per_epoch, "seconds": seconds,
-                    "splats": params.n, "loss": loss_and_grad(cfg.loss, image, self.target)[0], "psnr": final})
+        log.append(
+            {
+                "step": step,
+                "epoch": step / self.steps_per_epoch,
+                "seconds": seconds,
+                "splats": params.n,
+                "loss": loss_and_grad(cfg.loss, image, self.target)[0],
+                "psnr": final,
+            }
+        )
         return FitResult(params, image, final, step, seconds, log)
 
     def _project(self, params: GaussParams) -> None:

@@ -21,6 +21,7 @@ backward kernel writes one row of partial gradients per (tile, splat) entry;
 deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
 (log sx, log sy, theta) is done here, vectorised.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -74,9 +75,13 @@ class GaussParams:
 
     def select(self, index: np.ndarray) -> GaussParams:
         """A new model made of the splats at `index` (repeats allowed)."""
-        return GaussParams(**{name: getattr(self, name)[index] for name in GROUPS},
-                           width=self.width, height=self.height, blend=self.blend,
-                           background=self.background)
+        return GaussParams(
+            **{name: getattr(self, name)[index] for name in GROUPS},
+            width=self.width,
+            height=self.height,
+            blend=self.blend,
+            background=self.background,
+        )
 
     def copy(self) -> GaussParams:
         return self.select(np.arange(self.n))
@@ -93,8 +98,7 @@ class GaussParams:
         """Write the splats as .npz through a temp file (clrender/outputs.py)."""
         from ..outputs import save_npz
 
-        save_npz(path, overwrite=overwrite, **self.groups(), width=self.width, height=self.height,
-                 blend=self.blend, background=self.background)
+        save_npz(path, overwrite=overwrite, **self.groups(), width=self.width, height=self.height, blend=self.blend, background=self.background)
 
     @classmethod
     def load(cls, path) -> GaussParams:
@@ -113,9 +117,13 @@ class GaussParams:
         missing = [k for k in (*GROUPS, "width", "height", "blend") if k not in data]
         if missing:
             raise UsageError(f"{where} is not a splat parameter file (missing {', '.join(missing)})")
-        return cls(**_checked_groups(data, where), width=_checked_size(data, "width", where),
-                   height=_checked_size(data, "height", where), blend=_checked_blend(data, where),
-                   background=_checked_array(data.get("background", np.zeros(3)), "background", (3,), where))
+        return cls(
+            **_checked_groups(data, where),
+            width=_checked_size(data, "width", where),
+            height=_checked_size(data, "height", where),
+            blend=_checked_blend(data, where),
+            background=_checked_array(data.get("background", np.zeros(3)), "background", (3,), where),
+        )
 
 
 GROUP_SHAPES = {"xy": (2,), "log_scale": (2,), "theta": (), "color": (3,), "lum": (), "opacity": ()}  # per splat
@@ -235,13 +243,22 @@ class GaussRenderer:
         image, weight = aligned_array((self.rows, self.pitch, 3), zero), aligned_array((self.rows, self.pitch), zero)
         image_buf, weight_buf = dev.host_buffer(image), dev.host_buffer(weight)
         if len(tiles):
-            self._forward(dev.queue, (len(tiles),), (1,), *buffers, dev.to_device(binning.tile_start),
-                          tile_splats, dev.to_device(tiles), np.int32(self.tiles_x),
-                          self.background, image_buf, weight_buf)
+            self._forward(
+                dev.queue,
+                (len(tiles),),
+                (1,),
+                *buffers,
+                dev.to_device(binning.tile_start),
+                tile_splats,
+                dev.to_device(tiles),
+                np.int32(self.tiles_x),
+                self.background,
+                image_buf,
+                weight_buf,
+            )
         dev.sync_to_host(image_buf, image)
         dev.sync_to_host(weight_buf, weight)
-        return Frame(image[: self.height, : self.width], weight[: self.height, : self.width], tiles, binning,
-                     buffers, params)
+        return Frame(image[: self.height, : self.width], weight[: self.height, : self.width], tiles, binning, buffers, params)
 
     def _pack_and_bin(self, params: GaussParams):
         """Pack the splats and bin them into tiles on the device.
@@ -252,18 +269,25 @@ class GaussRenderer:
         """
         cl, dev = self._cl, self.dev
         n, tiles = params.n, len(self.all_tiles)
-        packed = np.concatenate([params.xy, params.log_scale, params.theta[:, None], params.color,
-                                 params.lum[:, None], params.opacity[:, None]], axis=1)
+        packed = np.concatenate(
+            [params.xy, params.log_scale, params.theta[:, None], params.color, params.lum[:, None], params.opacity[:, None]], axis=1
+        )
         buffers = (dev.empty(n * 32), dev.empty(n * 16), dev.empty(n * 16))
         count = np.zeros(tiles, np.int32)
         if n:
             # fixed local sizes: PoCL builds a kernel binary per local size
-            self._prepare(dev.queue, (-(-n // PREPARE_GROUP) * PREPARE_GROUP,), (PREPARE_GROUP,),
-                          dev.to_device(packed), np.int32(n), np.int32(self.width), np.int32(self.height),
-                          *buffers)
+            self._prepare(
+                dev.queue,
+                (-(-n // PREPARE_GROUP) * PREPARE_GROUP,),
+                (PREPARE_GROUP,),
+                dev.to_device(packed),
+                np.int32(n),
+                np.int32(self.width),
+                np.int32(self.height),
+                *buffers,
+            )
             count_buf = dev.empty(count.nbytes)
-            self._bin_count(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x),
-                            count_buf)
+            self._bin_count(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x), count_buf)
             cl.enqueue_copy(dev.queue, count, count_buf)
         tile_start = np.zeros(tiles + 1, np.int32)
         np.cumsum(count, out=tile_start[1:])
@@ -272,8 +296,16 @@ class GaussRenderer:
         entry_splat = np.empty(n_entries, np.int32)
         tile_splats = dev.empty(n_entries * 4)
         if n_entries:
-            self._bin_fill(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x),
-                           dev.to_device(tile_start[:-1], writable=True), tile_splats)
+            self._bin_fill(
+                dev.queue,
+                (self.tiles_y,),
+                (1,),
+                buffers[2],
+                np.int32(n),
+                np.int32(self.tiles_x),
+                dev.to_device(tile_start[:-1], writable=True),
+                tile_splats,
+            )
             cl.enqueue_copy(dev.queue, entry_splat, tile_splats, is_blocking=False)
         entry_tile = np.repeat(self.all_tiles, count)
         return buffers, tile_splats, Binning(self.tiles_x, self.tiles_y, tile_start, entry_splat, entry_tile)
@@ -308,9 +340,21 @@ class GaussRenderer:
             # a fixed work-group size: PoCL builds a kernel binary per local size, so letting the
             # driver choose one from the (changing) entry count would rebuild it every few steps
             groups = -(-n_entries // BACKWARD_GROUP)
-            self._backward(dev.queue, (groups * BACKWARD_GROUP,), (BACKWARD_GROUP,), b_splats, b_colors, b_box,
-                           dev.to_device(entry_splat), dev.to_device(entry_tile), np.int32(n_entries),
-                           np.int32(self.tiles_x), np.int32(self.plane), dev.to_device(dimg), self._partial)
+            self._backward(
+                dev.queue,
+                (groups * BACKWARD_GROUP,),
+                (BACKWARD_GROUP,),
+                b_splats,
+                b_colors,
+                b_box,
+                dev.to_device(entry_splat),
+                dev.to_device(entry_tile),
+                np.int32(n_entries),
+                np.int32(self.tiles_x),
+                np.int32(self.plane),
+                dev.to_device(dimg),
+                self._partial,
+            )
             cl.enqueue_copy(dev.queue, partial, self._partial)
         # sum the rows of each splat: one bincount over (splat, column) pairs, in entry order
         keys = (entry_splat[:, None] * NGRAD + np.arange(NGRAD)).ravel()
@@ -324,11 +368,10 @@ def aligned_array(shape, zero: bool) -> np.ndarray:
     n = int(np.prod(shape))
     raw = (np.zeros if zero else np.empty)(n + 16, np.float32)
     start = (-raw.ctypes.data % 64) // 4
-    return raw[start: start + n].reshape(shape)
+    return raw[start : start + n].reshape(shape)
 
 
-def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str,
-                  out: np.ndarray) -> np.ndarray:
+def pixel_adjoint(d_image: np.ndarray, image: np.ndarray, weight: np.ndarray, blend: str, out: np.ndarray) -> np.ndarray:
     """Fill `out` (4, H, W) with planes (g.rgb, k): dL/dc_i = g w_i and dL/dw_i = g . c_i - k.
 
     sum:        I = bg + S          -> g = dL/dI, k = 0

@@ -11,6 +11,7 @@ optional pixel mask (H, W) of the pixels that count (a mini-batch); it returns
              (the usual constants for values in [0, 1]); the SSIM map is averaged
              over the whole image, its gradient is then masked.
 """
+
 from __future__ import annotations
 
 import cv2
@@ -20,14 +21,13 @@ from ..errors import UsageError
 
 LOSSES = ("l2", "l1", "l1-ssim")
 SSIM_LAMBDA = 0.2
-SSIM_C1, SSIM_C2 = 0.01 ** 2, 0.03 ** 2
+SSIM_C1, SSIM_C2 = 0.01**2, 0.03**2
 _WINDOW = cv2.getGaussianKernel(11, 1.5)
 
 
 def _blur(a: np.ndarray) -> np.ndarray:
     """Gaussian window, zero padding: a symmetric linear map, so it is its own adjoint."""
-    return cv2.sepFilter2D(a, -1, _WINDOW.astype(a.dtype), _WINDOW.astype(a.dtype),
-                           borderType=cv2.BORDER_CONSTANT)
+    return cv2.sepFilter2D(a, -1, _WINDOW.astype(a.dtype), _WINDOW.astype(a.dtype), borderType=cv2.BORDER_CONSTANT)
 
 
 def ssim(x: np.ndarray, y: np.ndarray, *, with_grad: bool = False):

@@ -10,6 +10,7 @@ from old row src[i]).
     adam:     m = b1 m + (1-b1) g;  v = b2 v + (1-b2) g^2;
               p -= lr m_hat / (sqrt(v_hat) + eps)         (b1 0.9, b2 0.999, eps 1e-8)
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,8 +21,7 @@ OPTIMIZERS = ("sgd", "momentum", "adam")
 
 
 class Optimizer:
-    def __init__(self, kind: str, lrs: dict[str, float], *, momentum: float = 0.9,
-                 betas=(0.9, 0.999), eps: float = 1e-8):
+    def __init__(self, kind: str, lrs: dict[str, float], *, momentum: float = 0.9, betas=(0.9, 0.999), eps: float = 1e-8):
         if kind not in OPTIMIZERS:
             raise UsageError(f"optimizer {kind!r} is unknown; allowed: {', '.join(OPTIMIZERS)}")
         self.kind, self.lrs = kind, dict(lrs)
@@ -50,8 +50,8 @@ class Optimizer:
                 m += (1 - b1) * g
                 v *= b2
                 v += (1 - b2) * g * g
-                m_hat = m / (1 - b1 ** self.t)
-                v_hat = v / (1 - b2 ** self.t)
+                m_hat = m / (1 - b1**self.t)
+                v_hat = v / (1 - b2**self.t)
                 p -= lr * m_hat / (np.sqrt(v_hat) + self.eps)
 
     def reindex(self, src: np.ndarray) -> None:

@@ -18,6 +18,7 @@ Any number of sites >= 1 works here, including more sites than pixels (then
 some cells own no pixel and keep their sampled colour); the command line
 refuses N > pixel count because such sites can never show.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,14 +45,35 @@ from .voronoi_cells import (
 from .voronoi_soft import train
 
 # the grid, the nearest-site search and the cell colours live in voronoi_cells.py (shared with the soft model)
-__all__ = ["COLOR_MODES", "INITS", "METHODS", "NearestSite", "SiteGrid", "VoronoiResult", "VoronoiSettings",
-           "build_grid", "cell_edges", "cell_side", "check_sites", "init_sites", "lloyd", "lloyd_step",
-           "mean_colors", "nearest_site", "pixel_of_site", "quantisation_energy", "render", "sample_colors", "splat"]
+__all__ = [
+    "COLOR_MODES",
+    "INITS",
+    "METHODS",
+    "NearestSite",
+    "SiteGrid",
+    "VoronoiResult",
+    "VoronoiSettings",
+    "build_grid",
+    "cell_edges",
+    "cell_side",
+    "check_sites",
+    "init_sites",
+    "lloyd",
+    "lloyd_step",
+    "mean_colors",
+    "nearest_site",
+    "pixel_of_site",
+    "quantisation_energy",
+    "render",
+    "sample_colors",
+    "splat",
+]
 
 COLOR_MODES = ("sample", "mean")
 
 
 # ------------------------------------------------------------------- Lloyd
+
 
 def pixel_centres(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(x, y) float64 of every pixel centre, raveled in row-major order."""
@@ -94,6 +116,7 @@ def lloyd(device, sites: np.ndarray, width: int, height: int, steps: int, method
 
 # ---------------------------------------------------------- initial sites
 
+
 def init_sites(image: np.ndarray, n: int, method: str = "uniform", seed: int = 0) -> np.ndarray:
     """N starting sites (float32 (N, 2), pixel units) for an (H, W, C) image.
 
@@ -133,23 +156,26 @@ def init_sites(image: np.ndarray, n: int, method: str = "uniform", seed: int = 0
 
 # --------------------------------------------------------- one-call driver
 
+
 @dataclass(frozen=True)
 class VoronoiSettings:
     """Settings of one Voronoi splatting, each with its default; change one with dataclasses.replace."""
 
-    n: int = 5000            # number of sites
-    method: str = "grid"     # nearest-site search: grid | naive
-    init: str = "gradient"   # starting sites: gradient (denser where the image has detail) | random | uniform (a square grid: looks like pixelation)
-    colors: str = "mean"     # sample (image at the site) | mean (cell mean)
-    lloyd: int = 0           # Lloyd (centroidal) iterations before colouring
-    train: int = 0           # soft-Voronoi training steps (Adam) after Lloyd
-    seed: int = 0            # random seed for random/gradient initialisation
+    n: int = 5000  # number of sites
+    method: str = "grid"  # nearest-site search: grid | naive
+    init: str = "gradient"  # starting sites: gradient (denser where the image has detail) | random | uniform (a square grid: looks like pixelation)
+    colors: str = "mean"  # sample (image at the site) | mean (cell mean)
+    lloyd: int = 0  # Lloyd (centroidal) iterations before colouring
+    train: int = 0  # soft-Voronoi training steps (Adam) after Lloyd
+    seed: int = 0  # random seed for random/gradient initialisation
 
     def validate(self, width: int, height: int) -> None:
         """UsageError naming the first setting that is out of range for a width x height image."""
         require(self.n >= 1, f"--splats {self.n} must be at least 1")
-        require(self.n <= width * height, f"--splats {self.n} is more than the {width}x{height} image's "
-                f"{width * height} pixels; allowed: 1 to {width * height}")
+        require(
+            self.n <= width * height,
+            f"--splats {self.n} is more than the {width}x{height} image's {width * height} pixels; allowed: 1 to {width * height}",
+        )
         require(self.method in METHODS, f"method {self.method!r} is unknown; allowed: {', '.join(METHODS)}")
         require(self.colors in COLOR_MODES, f"colors {self.colors!r} is unknown; allowed: {', '.join(COLOR_MODES)}")
         require(self.lloyd >= 0, f"--lloyd {self.lloyd} must be >= 0")
@@ -159,10 +185,10 @@ class VoronoiSettings:
 
 @dataclass
 class VoronoiResult:
-    sites: np.ndarray   # float32 (N, 2)
+    sites: np.ndarray  # float32 (N, 2)
     colors: np.ndarray  # float32 (N, C)
-    index: np.ndarray   # int32 (H, W)
-    image: np.ndarray   # float32 (H, W, C)
+    index: np.ndarray  # int32 (H, W)
+    image: np.ndarray  # float32 (H, W, C)
 
     def _repr_png_(self) -> bytes:
         """The cells inline in Jupyter (the input's stored values, as written to files)."""

@@ -3,6 +3,7 @@
 Shared by the hard splats (voronoi.py) and the trainable soft model (voronoi_soft.py).
 Sites are float positions in pixel units; pixel (x, y) has its centre at (x + 0.5, y + 0.5).
 """
+
 from __future__ import annotations
 
 import math
@@ -20,6 +21,7 @@ STRIP = VORONOI_STRIP  # pixels per work-item in the grid kernel (one float8; cl
 
 # ----------------------------------------------------------------- site grid
 
+
 @dataclass
 class SiteGrid:
     """Sites counting-sorted into gw x gh square cells of side `cell` (a power of two)."""
@@ -28,7 +30,7 @@ class SiteGrid:
     gw: int
     gh: int
     cell_start: np.ndarray  # int32 (gw*gh + 1,): cell c holds order[cell_start[c]:cell_start[c+1]]
-    order: np.ndarray       # int32 (N,): site indices in cell order (stable: ascending within a cell)
+    order: np.ndarray  # int32 (N,): site indices in cell order (stable: ascending within a cell)
 
 
 def cell_side(n: int, width: int, height: int, sites_per_cell: float | None = None) -> float:
@@ -70,11 +72,11 @@ def check_sites(sites, width: int, height: int) -> np.ndarray:
 
 # ------------------------------------------------------------ nearest site
 
+
 class NearestSite:
     """Index map of the nearest site per pixel, `prepare` once and `enqueue` as often as wanted."""
 
-    def __init__(self, device, sites, width: int, height: int, method: str = "grid",
-                 local_size=None):
+    def __init__(self, device, sites, width: int, height: int, method: str = "grid", local_size=None):
         import pyopencl as cl
 
         if method not in METHODS:
@@ -87,15 +89,21 @@ class NearestSite:
         self.out = device.empty(npix * 4)
         if method == "naive":
             self.knl = device.kernel("splat_voronoi.cl", "nearest_naive")
-            self.args = (device.to_device(self.sites), np.int32(len(self.sites)),
-                         np.int32(width), np.int32(height), self.out)
+            self.args = (device.to_device(self.sites), np.int32(len(self.sites)), np.int32(width), np.int32(height), self.out)
         else:
             self.grid = grid = build_grid(self.sites, width, height)
             self.knl = device.kernel("splat_voronoi.cl", "nearest_grid")
-            self.args = (device.to_device(self.sites[grid.order]), device.to_device(grid.order),
-                         device.to_device(grid.cell_start), np.int32(grid.gw), np.int32(grid.gh),
-                         np.float32(grid.cell),
-                         np.int32(width), np.int32(height), self.out)
+            self.args = (
+                device.to_device(self.sites[grid.order]),
+                device.to_device(grid.order),
+                device.to_device(grid.cell_start),
+                np.int32(grid.gw),
+                np.int32(grid.gh),
+                np.float32(grid.cell),
+                np.int32(width),
+                np.int32(height),
+                self.out,
+            )
         self._cl = cl
 
     def enqueue(self):
@@ -122,6 +130,7 @@ def nearest_site(device, sites, width: int, height: int, method: str = "grid") -
 
 
 # ----------------------------------------------------------------- colours
+
 
 def pixel_of_site(sites: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(row, column) of the pixel containing each site, clamped into the image."""

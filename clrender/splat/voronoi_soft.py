@@ -20,6 +20,7 @@ K-th, where its weight is already tiny.  Training anneals T geometrically
 and steps sites and colours with Adam; position steps shrink with sqrt(T),
 the width of the soft borders, or training diverges as T falls.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,8 +58,7 @@ class SoftVoronoi:
 
     def _kernels(self, k: int):
         defines = {"K": k}
-        return (self.dev.kernel("splat_voronoi.cl", "soft_forward", defines),
-                self.dev.kernel("splat_voronoi.cl", "soft_backward", defines))
+        return (self.dev.kernel("splat_voronoi.cl", "soft_forward", defines), self.dev.kernel("splat_voronoi.cl", "soft_backward", defines))
 
     def loss_and_grads(self, sites, colors, target, temperature: float):
         """(loss, dL/dsites (N, 2), dL/dcolors (N, C), blended image (H, W, C)) for the MSE loss."""
@@ -76,18 +76,45 @@ class SoftVoronoi:
         colors4 = self.dev.to_device(_pad4(colors))
         sites_buf = self.dev.to_device(sites)
         inv_temp = np.float32(1.0 / temperature)
-        forward(q, (w, h), None, self.dev.to_device(sites[grid.order]), self.dev.to_device(grid.order),
-                self.dev.to_device(grid.cell_start), np.int32(grid.gw), np.int32(grid.gh),
-                np.float32(grid.cell), np.int32(w), np.int32(h), colors4, inv_temp,
-                self.knn_idx, self.knn_w, self.out)
+        forward(
+            q,
+            (w, h),
+            None,
+            self.dev.to_device(sites[grid.order]),
+            self.dev.to_device(grid.order),
+            self.dev.to_device(grid.cell_start),
+            np.int32(grid.gw),
+            np.int32(grid.gh),
+            np.float32(grid.cell),
+            np.int32(w),
+            np.int32(h),
+            colors4,
+            inv_temp,
+            self.knn_idx,
+            self.knn_w,
+            self.out,
+        )
         out4 = np.empty((h * w, 4), dtype=np.float32)
         cl.enqueue_copy(q, out4, self.out)
         residual = out4[:, :c] - target.reshape(-1, c)
         loss = float(np.mean(residual.astype(np.float64) ** 2))
         g4 = np.zeros((h * w, 4), dtype=np.float32)
         g4[:, :c] = residual * np.float32(2.0 / residual.size)
-        backward(q, (w, h), None, sites_buf, colors4, self.knn_idx, self.knn_w, self.out,
-                 self.dev.to_device(g4), inv_temp, np.int32(w), np.int32(h), self.grad_pairs)
+        backward(
+            q,
+            (w, h),
+            None,
+            sites_buf,
+            colors4,
+            self.knn_idx,
+            self.knn_w,
+            self.out,
+            self.dev.to_device(g4),
+            inv_temp,
+            np.int32(w),
+            np.int32(h),
+            self.grad_pairs,
+        )
         idx = np.empty(h * w * k, dtype=np.int32)
         wts = np.empty(h * w * k, dtype=np.float32)
         pairs = np.empty((h * w * k, 2), dtype=np.float32)
@@ -104,13 +131,13 @@ class SoftVoronoi:
 class TrainSettings:
     """Settings of the soft-Voronoi training, each with its default; change one with dataclasses.replace."""
 
-    steps: int = 100            # Adam steps
-    k: int = 8                  # sites blended per pixel
-    t_start: float = 0.25       # starting temperature, in units of the mean site spacing squared
-    t_end: float = 0.01         # final temperature, same units (geometric schedule)
-    lr_sites: float = 0.1       # Adam rate for positions at t_start, in units of the mean site spacing;
-                                # it shrinks with sqrt(T) as the temperature falls
-    lr_colors: float = 0.01     # Adam rate for colours
+    steps: int = 100  # Adam steps
+    k: int = 8  # sites blended per pixel
+    t_start: float = 0.25  # starting temperature, in units of the mean site spacing squared
+    t_end: float = 0.01  # final temperature, same units (geometric schedule)
+    lr_sites: float = 0.1  # Adam rate for positions at t_start, in units of the mean site spacing;
+    # it shrinks with sqrt(T) as the temperature falls
+    lr_colors: float = 0.01  # Adam rate for colours
 
 
 @dataclass
@@ -120,8 +147,7 @@ class TrainResult:
     losses: list = field(default_factory=list)
 
 
-def train(device, image, sites, *, steps: int | None = None, settings: TrainSettings | None = None,
-          colors=None, callback=None) -> TrainResult:
+def train(device, image, sites, *, steps: int | None = None, settings: TrainSettings | None = None, colors=None, callback=None) -> TrainResult:
     """Fit sites and colours of the soft model to `image`; returns the trained sites and colours."""
     st = settings or TrainSettings()
     if steps is not None:

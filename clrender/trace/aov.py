@@ -19,6 +19,7 @@ the pixel centre with `--aa none` or `edge_detect`, the first sample with
 object), and an averaged depth or normal across a silhouette would be a
 surface that is not there.
 """
+
 from __future__ import annotations
 
 import os

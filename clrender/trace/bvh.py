@@ -37,6 +37,7 @@ than ``PARALLEL_ABOVE`` primitives grow their subtrees in two threads
 (two groups of whole subtrees below the third level; numpy releases the GIL in
 its array loops); the tree is the same either way.
 """
+
 from __future__ import annotations
 
 import time
@@ -105,8 +106,15 @@ class BVH:
         return float((rel * per_node).sum())
 
     def stats(self) -> dict:
-        return dict(builder=self.builder, nodes=self.node_count, leaves=self.leaf_count, depth=self.depth,
-                    max_leaf_size=self.max_leaf_size, sah_cost=self.sah_cost(), build_s=self.build_seconds)
+        return dict(
+            builder=self.builder,
+            nodes=self.node_count,
+            leaves=self.leaf_count,
+            depth=self.depth,
+            max_leaf_size=self.max_leaf_size,
+            sah_cost=self.sah_cost(),
+            build_s=self.build_seconds,
+        )
 
 
 def half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -129,8 +137,16 @@ def node_depths(nodes: np.ndarray) -> np.ndarray:
     return depth
 
 
-def build_bvh(lo: np.ndarray, hi: np.ndarray, builder: str = "sah", max_leaf_size: int = 4, bins: int = 16,
-              *, sah_samples: int = SAH_SAMPLES, halving_below: int = HALVING_BELOW) -> BVH:
+def build_bvh(
+    lo: np.ndarray,
+    hi: np.ndarray,
+    builder: str = "sah",
+    max_leaf_size: int = 4,
+    bins: int = 16,
+    *,
+    sah_samples: int = SAH_SAMPLES,
+    halving_below: int = HALVING_BELOW,
+) -> BVH:
     """Build a BVH over N primitives given their bounds lo, hi (each (N, 3))."""
     start = time.perf_counter()
     if builder not in BUILDERS:
@@ -230,7 +246,7 @@ def _halves(start, count):
 def _range_bounds(box, start, count):
     """Bounds of the ranges [start, start + count) of box (6, n + 1): sorted, disjoint, non-empty."""
     ranges = np.stack([start, start + count], axis=1).ravel()  # keep every other reduction
-    box = box[:, :ranges[-1] + 1]  # the last (discarded) reduction covers one column only
+    box = box[:, : ranges[-1] + 1]  # the last (discarded) reduction covers one column only
     bmin = np.minimum.reduceat(box[0:3], ranges, axis=1)[:, 0::2].T
     bmax = np.maximum.reduceat(box[3:6], ranges, axis=1)[:, 0::2].T
     return bmin, bmax
@@ -327,11 +343,18 @@ class _SahBuild:
             where[srt] = np.arange(len(both))
             child_active = np.zeros(k, np.int64)
             child_active[binned] = 2 * np.arange(n_binned)
-            child_active[enter] = 2 * n_binned + where[0:len(e_start):2]
-            child_h = 2 * n_binned + where[len(e_start)::2]
-            levels.append(_Level(np.concatenate([sp.bmin, hmin]), np.concatenate([sp.bmax, hmax]),
-                                 np.concatenate([gstart, hstart]), np.concatenate([count, hcount]),
-                                 np.concatenate([split, hsplit]), np.concatenate([child_active[split], child_h])))
+            child_active[enter] = 2 * n_binned + where[0 : len(e_start) : 2]
+            child_h = 2 * n_binned + where[len(e_start) :: 2]
+            levels.append(
+                _Level(
+                    np.concatenate([sp.bmin, hmin]),
+                    np.concatenate([sp.bmax, hmax]),
+                    np.concatenate([gstart, hstart]),
+                    np.concatenate([count, hcount]),
+                    np.concatenate([split, hsplit]),
+                    np.concatenate([child_active[split], child_h]),
+                )
+            )
             hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
             depth += 1
             if len(count):
@@ -347,8 +370,11 @@ class _SahBuild:
         split = count > max_leaf
         if not k:
             empty = np.zeros(0, bool)
-            return box, ids, _Splits(split, empty, empty, None, None, np.zeros((0, 3), np.float32),
-                                     np.zeros((0, 3), np.float32), None, None, None, None)
+            return (
+                box,
+                ids,
+                _Splits(split, empty, empty, None, None, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), None, None, None, None),
+            )
         cmin = scale = None  # centroid bounds and bin scale, for nodes that split
         seg_start, seg_of = _segments(count)
         cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
@@ -371,8 +397,7 @@ class _SahBuild:
             scale = scale.astype(np.float32)
             for nb in np.unique(node_bins[cand]):
                 c = cand[node_bins[cand] == nb]
-                ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale,
-                                                         bmin, bmax, int(nb), samples)
+                ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale, bmin, bmax, int(nb), samples)
                 make_leaf = ok & (cost >= INTERSECT_COST * count[c]) & (count[c] <= leaf_cap)
                 split[c[make_leaf]] = False
                 enter[c[~ok]] = True
@@ -385,8 +410,7 @@ class _SahBuild:
         """Each binned node's primitives split into its two children (left ones first, order kept
         within each side); the primitives of nodes leaving the active set go to their final slots."""
         order, fixed = self.order, self.fixed
-        binned, enter, axis, cut, cmin, scale, cen, seg_start = (sp.binned, sp.enter, sp.axis, sp.cut, sp.cmin, sp.scale,
-                                                                 sp.cen, sp.seg_start)
+        binned, enter, axis, cut, cmin, scale, cen, seg_start = (sp.binned, sp.enter, sp.axis, sp.cut, sp.cmin, sp.scale, sp.cen, sp.seg_start)
         k = len(count)
         n_binned = int(binned.sum())
         # side of every active primitive: True = left (primitives of leaves and entering nodes
@@ -442,8 +466,15 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
     """The binned SAH build's levels (see _SahBuild) and the primitive order."""
     n_total = len(lo)
     build = _SahBuild(n_total, max_leaf, bins, samples, small)
-    root = _Frontier(np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T), np.arange(n_total, dtype=np.int32),
-                     np.zeros(1, np.int64), np.array([n_total], np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), 1)
+    root = _Frontier(
+        np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T),
+        np.arange(n_total, dtype=np.int32),
+        np.zeros(1, np.int64),
+        np.array([n_total], np.int64),
+        np.zeros(0, np.int64),
+        np.zeros(0, np.int64),
+        1,
+    )
     if n_total < PARALLEL_ABOVE:
         return build.grow(root, max_levels=MAX_TREE_LEVELS + 1)[0], build.order
     # the top levels here; then two groups of whole subtrees, with about half the primitives
@@ -454,10 +485,10 @@ def _sah_levels(lo, hi, max_leaf, bins, samples, small):
     cum = np.cumsum(top.count)
     g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(top.count) - 1))  # nodes in the first group
     half = int(cum[g - 1])
-    groups = [replace(top, box=np.ascontiguousarray(top.box[:, :half]), ids=top.ids[:half], start=top.start[:g],
-                      count=top.count[:g]),
-              replace(top, box=np.ascontiguousarray(top.box[:, half:]), ids=top.ids[half:], start=top.start[g:],
-                      count=top.count[g:])]
+    groups = [
+        replace(top, box=np.ascontiguousarray(top.box[:, :half]), ids=top.ids[:half], start=top.start[:g], count=top.count[:g]),
+        replace(top, box=np.ascontiguousarray(top.box[:, half:]), ids=top.ids[half:], start=top.start[g:], count=top.count[g:]),
+    ]
     with ThreadPoolExecutor(2) as pool:
         first, second = pool.map(lambda group: build.grow(group, MAX_TREE_LEVELS + 1)[0], groups)
     return levels + _merge_levels(first, second), build.order
@@ -473,9 +504,16 @@ def _merge_levels(first: list[_Level], second: list[_Level]) -> list[_Level]:
             merged.append(a or b)
             continue
         below = len(first[d + 1].count) if d + 1 < len(first) else 0
-        merged.append(_Level(np.concatenate([a.bmin, b.bmin]), np.concatenate([a.bmax, b.bmax]),
-                             np.concatenate([a.start, b.start]), np.concatenate([a.count, b.count]),
-                             np.concatenate([a.split, b.split]), np.concatenate([a.child, b.child + below])))
+        merged.append(
+            _Level(
+                np.concatenate([a.bmin, b.bmin]),
+                np.concatenate([a.bmax, b.bmax]),
+                np.concatenate([a.start, b.start]),
+                np.concatenate([a.count, b.count]),
+                np.concatenate([a.split, b.split]),
+                np.concatenate([a.child, b.child + below]),
+            )
+        )
     return merged
 
 

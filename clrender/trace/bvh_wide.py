@@ -21,6 +21,7 @@ WIDTH children or only leaves.  Vectorised over all nodes of a level.  A wide
 node is never deeper than the binary node it came from, so wide trees keep the
 binary depth bound (MAX_TREE_LEVELS) and the kernels' stack bound below.
 """
+
 from __future__ import annotations
 
 import time
@@ -79,8 +80,15 @@ class WideBVH:
         return levels
 
     def stats(self) -> dict:
-        return dict(builder=self.binary.builder, width=self.width, nodes=self.node_count, depth=self.depth,
-                    sah_cost=self.sah_cost(), binary_sah_cost=self.binary.sah_cost(), build_s=self.build_seconds)
+        return dict(
+            builder=self.binary.builder,
+            width=self.width,
+            nodes=self.node_count,
+            depth=self.depth,
+            sah_cost=self.sah_cost(),
+            binary_sah_cost=self.binary.sah_cost(),
+            build_s=self.build_seconds,
+        )
 
     def sah_cost(self, traversal_cost: float = 1.0, intersect_cost: float = 1.0) -> float:
         """Expected cost of a ray hitting the root, as BVH.sah_cost: every wide node visited costs

@@ -11,6 +11,7 @@ the neighbours that exist.
 `dilate` then marks every pixel within Euclidean distance L of an edge pixel
 (a disc of radius L: integer offsets with dx^2 + dy^2 <= L^2).
 """
+
 from __future__ import annotations
 
 import math
@@ -64,7 +65,7 @@ def _differs_from_neighbours(planes: np.ndarray, differs) -> np.ndarray:
     for plane in planes:  # whole-image comparisons: K planes x 3 neighbours
         for dy, dx in NEIGHBOURS:
             here = plane[-dy:, -dx:]  # pixels that have this neighbour
-            there = plane[:H + dy, :W + dx]  # the neighbour of each of them
+            there = plane[: H + dy, : W + dx]  # the neighbour of each of them
             edge[-dy:, -dx:] |= differs(here, there)
     return edge
 
@@ -121,8 +122,8 @@ def _dilate_rows(mask: np.ndarray, radius: float) -> np.ndarray:
     for dy in range(-r, r + 1):
         w = _half_width(radius, dy)
         # out[y] |= (source row y + dy has a True pixel within w columns)
-        src = dist[max(dy, 0):H + min(dy, 0)]
-        out[max(-dy, 0):H - max(dy, 0)] |= src <= w
+        src = dist[max(dy, 0) : H + min(dy, 0)]
+        out[max(-dy, 0) : H - max(dy, 0)] |= src <= w
     return out
 
 
@@ -161,8 +162,7 @@ def contrast_pixels(image, threshold: float) -> np.ndarray:
     return _differs_from_neighbours(planes, lambda p, q: np.abs(p - q) > threshold)
 
 
-def edge_mask(path_ids, thickness: float = 1.0, shadow=None, shadow_edges: bool = True,
-              image=None, contrast: float = 0.0) -> np.ndarray:
+def edge_mask(path_ids, thickness: float = 1.0, shadow=None, shadow_edges: bool = True, image=None, contrast: float = 0.0) -> np.ndarray:
     """(H, W) bool: the edge pixels of `edge_pixels` (and, when contrast > 0, of `contrast_pixels` of
     `image`), grown by a disc of radius `thickness`."""
     _check_nonnegative("thickness", thickness)  # refuse bad input before any work

@@ -3,6 +3,7 @@
 Primitive ids count triangles first (every mesh in object order), then
 spheres; `object_of[id]` gives the scene object each primitive belongs to.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -60,8 +61,7 @@ def flatten(scene: Scene) -> Primitives:
     triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
     normals = np.concatenate(tri_normals) if tri_normals else np.zeros((0, 3, 3), np.float32)
     object_of = np.concatenate([*tri_obj, np.asarray(sphere_obj, np.int32)]).astype(np.int32)
-    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects,
-                      materials, names)
+    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects, materials, names)
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:

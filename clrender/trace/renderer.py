@@ -8,6 +8,7 @@ Work is launched per tile (a list of pixel indices), so tiles can later be
 spread over processes or machines; the edge pass launches a compacted list
 of only the masked pixels.
 """
+
 from __future__ import annotations
 
 import math
@@ -80,8 +81,10 @@ class RenderSettings:
         require(s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}")
         require(0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1")
         require(s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1")
-        require(isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
-                f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}")
+        require(
+            isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
+            f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}",
+        )
         scene.camera(s.camera)
         return s
 
@@ -122,9 +125,9 @@ class Renderer:
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device)
         dev = self.tracer.device
         cam = self.scene.camera(s.camera)
-        self.frame = dev.to_device(np.concatenate([
-            cam.frame(s.width, s.height),
-            np.array([[*self.scene.background, 0], [*self.scene.ambient, 0]], np.float32)]))
+        self.frame = dev.to_device(
+            np.concatenate([cam.frame(s.width, s.height), np.array([[*self.scene.background, 0], [*self.scene.ambient, 0]], np.float32)])
+        )
         self.n_lights = len(self.scene.lights)
         lights = np.array([light.pack() for light in self.scene.lights] or [np.zeros((), LIGHT_DTYPE)], LIGHT_DTYPE)
         self.lights = dev.to_device(lights)
@@ -152,15 +155,39 @@ class Renderer:
             aov = dev.empty(k * AOV_MISS.nbytes)
             cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_MISS.nbytes)
         self.kernel(
-            dev.queue, global_size(k), (LOCAL_SIZE,), t.nodes, t.prims, t.prim_object, t.normals, t.objects, t.materials,
-            self.lights, self.frame, dev.to_device(pixels.astype(np.int32)),
-            np.int32(k), np.int32(t.n_prims), np.int32(self.n_lights), np.int32(s.width), np.int32(s.height),
-            np.int32(SAMPLERS[sampler]), np.int32(n), np.int32(PIXEL_FILTERS[s.pixel_filter]), np.uint32(s.seed),
+            dev.queue,
+            global_size(k),
+            (LOCAL_SIZE,),
+            t.nodes,
+            t.prims,
+            t.prim_object,
+            t.normals,
+            t.objects,
+            t.materials,
+            self.lights,
+            self.frame,
+            dev.to_device(pixels.astype(np.int32)),
+            np.int32(k),
+            np.int32(t.n_prims),
+            np.int32(self.n_lights),
+            np.int32(s.width),
+            np.int32(s.height),
+            np.int32(SAMPLERS[sampler]),
+            np.int32(n),
+            np.int32(PIXEL_FILTERS[s.pixel_filter]),
+            np.uint32(s.seed),
             np.int32(s.max_depth),
-            np.int32(s.fresnel), np.int32(s.light_samples),
-            np.int32(s.light_sampler == "stratified"), np.int32(record), colour, ids, shadow, stats, aov)
-        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE),
-               np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
+            np.int32(s.fresnel),
+            np.int32(s.light_samples),
+            np.int32(s.light_sampler == "stratified"),
+            np.int32(record),
+            colour,
+            ids,
+            shadow,
+            stats,
+            aov,
+        )
+        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):
             cl.enqueue_copy(dev.queue, host, buf)
         aov_host = None
@@ -180,7 +207,7 @@ class Renderer:
         ts = s.tile_size
         for y0 in range(0, s.height, ts):
             for x0 in range(0, s.width, ts):
-                ys, xs = np.mgrid[y0:min(y0 + ts, s.height), x0:min(x0 + ts, s.width)]
+                ys, xs = np.mgrid[y0 : min(y0 + ts, s.height), x0 : min(x0 + ts, s.width)]
                 yield (ys * s.width + xs).ravel()
 
     def run(self) -> RenderResult:
@@ -199,8 +226,9 @@ class Renderer:
         image[order], records[order], shadows[order] = colour, ids, shadow
         visits, rays = stats.sum(axis=0, dtype=np.int64)
         records = records.reshape(H, W)
-        result = RenderResult(image.reshape(H, W, 3), records["path"], records["facet"],
-                              shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays))
+        result = RenderResult(
+            image.reshape(H, W, 3), records["path"], records["facet"], shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays)
+        )
         if s.aa == "edge_detect":
             self._resample_edges(result)
         if s.aovs:
@@ -237,8 +265,7 @@ class Renderer:
         s = self.settings
         # a change of facet on a flat-shaded mesh is a shading edge too
         ids = np.concatenate([result.path_ids, result.facets[..., None]], axis=-1)
-        return edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges,
-                         linear_to_srgb(result.image), s.contrast)
+        return edge_mask(ids, s.thickness, result.shadow if self.n_lights else None, s.shadow_edges, linear_to_srgb(result.image), s.contrast)
 
     def _resample_edges(self, result: RenderResult):
         """Pass 2 of edge-only AA: re-render just the masked pixels with the chosen sampler."""
@@ -251,7 +278,7 @@ class Renderer:
         chunk = s.tile_size * s.tile_size
         start = time.perf_counter()
         if len(pixels):
-            chunks = [pixels[i:i + chunk] for i in range(0, len(pixels), chunk)]
+            chunks = [pixels[i : i + chunk] for i in range(0, len(pixels), chunk)]
             colour, _, _, stats, _ = self._pass(chunks, s.sampler, s.samples, False, "edges")
             result.image.reshape(-1, 3)[pixels] = colour
             visits, rays = stats.sum(axis=0, dtype=np.int64)

@@ -8,6 +8,7 @@ lies in sub-square row p = s // N and column q = s % N:
   sobol       the first N*N points of a 2-D Sobol sequence, Owen-scrambled per pixel
 Random numbers come from a hash of (seed, pixel, sample, dimension).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,8 +26,7 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     k = len(pixels)
     out = dev.empty(8 * k * n * n)
     knl = dev.kernel("trace.cl", "sample_offsets", trace_defines())  # the renderer's own build
-    knl(dev.queue, global_size(k), (LOCAL_SIZE,), dev.to_device(pixels), np.int32(k), np.int32(SAMPLERS[sampler]),
-        np.int32(n), np.uint32(seed), out)
+    knl(dev.queue, global_size(k), (LOCAL_SIZE,), dev.to_device(pixels), np.int32(k), np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(seed), out)
     result = np.empty((k, n * n, 2), np.float32)
     cl.enqueue_copy(dev.queue, result, out)
     return result

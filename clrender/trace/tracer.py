@@ -17,6 +17,7 @@ pass a t_min.  Exact answers (see the README, "Exact ray queries"): the slab tes
 holds for every direction, the triangle test is watertight, and of hits at the
 same float32 t the lowest primitive id wins, whatever the BVH.
 """
+
 from __future__ import annotations
 
 import time
@@ -65,14 +66,27 @@ def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, c
     from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
     from .bvh_wide import stack_size
 
-    return {"USE_BVH": int(use_bvh), "MAX_DEPTH": MAX_DEPTH_LIMIT, "STACK_SIZE": STACK_SIZE,
-            "BVH_WIDTH": bvh_width, "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
-            "COUNT_PRIM_TESTS": int(count_prim_tests)}
+    return {
+        "USE_BVH": int(use_bvh),
+        "MAX_DEPTH": MAX_DEPTH_LIMIT,
+        "STACK_SIZE": STACK_SIZE,
+        "BVH_WIDTH": bvh_width,
+        "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
+        "COUNT_PRIM_TESTS": int(count_prim_tests),
+    }
 
 
 class Tracer:
-    def __init__(self, scene_or_mesh, *, use_bvh: bool = True, builder: str = "sah", device: Device | str | None = None,
-                 bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False):
+    def __init__(
+        self,
+        scene_or_mesh,
+        *,
+        use_bvh: bool = True,
+        builder: str = "sah",
+        device: Device | str | None = None,
+        bvh_width: int = DEFAULT_BVH_WIDTH,
+        count_prim_tests: bool = False,
+    ):
         from .bvh_wide import WIDTHS
 
         if builder not in BUILDERS:
@@ -158,14 +172,39 @@ class Tracer:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
         outputs = (t, prim, object, visits) buffers."""
         return self.kernel("intersect_rays")(
-            self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object,
-            np.int32(self.n_prims), np.int32(n), origins, directions, t_min, *outputs)
+            self.device.queue,
+            global_size(n),
+            (LOCAL_SIZE,),
+            self.nodes,
+            self.prims,
+            self.prim_object,
+            np.int32(self.n_prims),
+            np.int32(n),
+            origins,
+            directions,
+            t_min,
+            *outputs,
+        )
 
     def launch_occluded(self, n, origins, directions, t_min, t_max, outputs) -> cl.Event:
         """Any-hit kernel on device buffers; t_min, t_max per-ray buffers; outputs = (occluded, visits) buffers."""
         return self.kernel("occluded_rays")(
-            self.device.queue, global_size(n), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object, self.objects,
-            self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, t_max, *outputs)
+            self.device.queue,
+            global_size(n),
+            (LOCAL_SIZE,),
+            self.nodes,
+            self.prims,
+            self.prim_object,
+            self.objects,
+            self.materials,
+            np.int32(self.n_prims),
+            np.int32(n),
+            origins,
+            directions,
+            t_min,
+            t_max,
+            *outputs,
+        )
 
     def intersect(self, origins, directions, t_min=0.0):
         """Closest hits at origin + t * direction, t > t_min: (t, primitive id, object id); inf, -1, -1 on a miss.
@@ -190,8 +229,7 @@ class Tracer:
         n, o, d = self._rays(origins, directions)
         dev = self.device
         out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
-        self.launch_occluded(n, o, d, self._per_ray(n, t_min, "t_min"), self._per_ray(n, t_max, "t_max"),
-                             (out, v_buf))
+        self.launch_occluded(n, o, d, self._per_ray(n, t_min, "t_min"), self._per_ray(n, t_max, "t_max"), (out, v_buf))
         result = np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         cl.enqueue_copy(dev.queue, result, out)

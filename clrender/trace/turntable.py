@@ -6,6 +6,7 @@ through `look_at` (counter-clockwise seen from above, i.e. looking down
 fixed and frame 0 is the camera itself.  `up`, `look_at` and `fov` do not
 change.  Files are named by FRAME_PATTERN (frame_0000.png, frame_0001.png, ...).
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,7 @@ def orbit(camera: Camera, frames: int) -> list[Camera]:
     for k in range(1, frames):
         angle = 2.0 * math.pi * k / frames
         # Rodrigues: rotate the eye's offset from the centre about the up axis
-        rotated = (offset * math.cos(angle) + np.cross(axis, offset) * math.sin(angle)
-                   + axis * np.dot(axis, offset) * (1.0 - math.cos(angle)))
+        rotated = offset * math.cos(angle) + np.cross(axis, offset) * math.sin(angle) + axis * np.dot(axis, offset) * (1.0 - math.cos(angle))
         cameras.append(replace(camera, position=tuple(float(v) for v in centre + rotated)))
     return cameras
 

@@ -4,6 +4,7 @@ renderer can put its area-light samples where the renderer puts them; the
 hash is Wellons' lowbias32 finaliser chained over the four counters, and a
 value in [0, 1) keeps its top 24 bits.
 """
+
 import numpy as np
 
 MASK = np.uint64(0xFFFFFFFF)

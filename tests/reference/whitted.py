@@ -34,6 +34,7 @@ which side of the terminator, each shadow ray's transmittance).
 a pixel, so tests can leave out pixels that lie that close to a branch
 boundary: there float32 and float64 may legitimately pick different branches.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,8 +45,7 @@ import numpy as np
 
 from . import counter_rng
 
-DEFAULT_MATERIAL = dict(diffuse=(0.8, 0.8, 0.8), specular=(0.0, 0.0, 0.0), shininess=32.0,
-                        mirror=0.0, transparency=0.0, ior=1.0)
+DEFAULT_MATERIAL = dict(diffuse=(0.8, 0.8, 0.8), specular=(0.0, 0.0, 0.0), shininess=32.0, mirror=0.0, transparency=0.0, ior=1.0)
 LEAVE = 1e-9  # how far (relative to the point's magnitude) a ray leaves a surface along its face normal
 
 
@@ -155,15 +155,21 @@ def build_world(scene: dict, base_dir=".") -> World:
         tri_n.append(angle_weighted_normals(v, f)[f] if smooth else np.full((len(f), 3, 3), np.nan))
     field_of = lambda key: np.array([m[key] for m in mats], np.float64).reshape(len(mats), -1)
     return World(
-        spheres=np.array(spheres, np.float64).reshape(-1, 4), sphere_object=np.array(sphere_obj, int),
+        spheres=np.array(spheres, np.float64).reshape(-1, 4),
+        sphere_object=np.array(sphere_obj, int),
         triangles=np.concatenate(tris) if tris else np.zeros((0, 3, 3)),
         triangle_object=np.concatenate(tri_obj) if tri_obj else np.zeros(0, int),
         vertex_normals=np.concatenate(tri_n) if tri_n else np.zeros((0, 3, 3)),
-        kd=field_of("diffuse"), ks=field_of("specular"), shininess=field_of("shininess")[:, 0],
-        mirror=field_of("mirror")[:, 0], transparency=field_of("transparency")[:, 0], ior=field_of("ior")[:, 0],
+        kd=field_of("diffuse"),
+        ks=field_of("specular"),
+        shininess=field_of("shininess")[:, 0],
+        mirror=field_of("mirror")[:, 0],
+        transparency=field_of("transparency")[:, 0],
+        ior=field_of("ior")[:, 0],
         lights=list(scene.get("lights", [])),
         background=np.array(scene.get("background", (0, 0, 0)), np.float64),
-        ambient=np.array(scene.get("ambient", (0, 0, 0)), np.float64))
+        ambient=np.array(scene.get("ambient", (0, 0, 0)), np.float64),
+    )
 
 
 def camera_rays(camera: dict, width: int, height: int, offset=(0.5, 0.5)):
@@ -292,8 +298,10 @@ class _Render:
         self.signature = np.zeros(n, np.uint64)
         self.rng_dim = np.zeros(n, np.int64)  # next random dimension of each pixel's stream
         # which effects each pixel's path met, so tests can check a scene exercises what it claims
-        self.seen = {k: np.zeros(n, bool) for k in ("mirror", "refraction", "tir", "fresnel", "smooth_normal",
-                                                      "shadow", "glass_shadow", "highlight", "partial_light")}
+        self.seen = {
+            k: np.zeros(n, bool)
+            for k in ("mirror", "refraction", "tir", "fresnel", "smooth_normal", "shadow", "glass_shadow", "highlight", "partial_light")
+        }
 
     def mark(self, effect, pix, where):
         self.seen[effect][pix[where]] = True
@@ -451,8 +459,19 @@ class Rendering:
     steady: np.ndarray | None = None  # (H, W) bool, from render_steady
 
 
-def render(scene: dict, width: int, height: int, *, camera: int = 1, max_depth: int = 8, fresnel: bool = False,
-           seed: int = 0, light_samples: int = 0, base_dir=".", offset=(0.5, 0.5)) -> Rendering:
+def render(
+    scene: dict,
+    width: int,
+    height: int,
+    *,
+    camera: int = 1,
+    max_depth: int = 8,
+    fresnel: bool = False,
+    seed: int = 0,
+    light_samples: int = 0,
+    base_dir=".",
+    offset=(0.5, 0.5),
+) -> Rendering:
     """The scene dict rendered with one ray per pixel (through its centre unless `offset` says otherwise)."""
     world = build_world(scene, base_dir)
     cameras = scene.get("cameras", [{}])
@@ -460,8 +479,9 @@ def render(scene: dict, width: int, height: int, *, camera: int = 1, max_depth: 
     job = _Render(world, width, height, max_depth, fresnel, seed, light_samples)
     n = width * height
     job.trace(np.broadcast_to(eye, d.shape).copy(), d, np.ones((n, 3)), np.ones(n), 0, np.arange(n), True)
-    return Rendering(job.image.reshape(height, width, 3), job.signature.reshape(height, width),
-                     {k: v.reshape(height, width) for k, v in job.seen.items()})
+    return Rendering(
+        job.image.reshape(height, width, 3), job.signature.reshape(height, width), {k: v.reshape(height, width) for k, v in job.seen.items()}
+    )
 
 
 def render_steady(scene: dict, width: int, height: int, margin: float = 0.05, **settings) -> Rendering:
