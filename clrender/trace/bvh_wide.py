@@ -33,7 +33,6 @@ from ..layout import WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
 from .bvh import BVH, MAX_TREE_LEVELS, half_area
 
 WIDTHS = (2, 4, 8)  # 2: the binary tree as is
-ROWS = WIDE_NODE_ROWS
 
 
 def stack_size(width: int) -> int:
@@ -52,7 +51,7 @@ assert all(stack_size(w) >= (w - 1) * (MAX_TREE_LEVELS - 1) + w for w in (4, 8))
 
 @dataclass
 class WideBVH:
-    nodes: np.ndarray  # (n_nodes, ROWS, width) float32; rows 6, 7 hold int32 bits
+    nodes: np.ndarray  # (n_nodes, WIDE_NODE_ROWS, width) float32; WIDE_CHILD_ROW, WIDE_COUNT_ROW hold int32 bits
     prim_order: np.ndarray  # int32, the binary tree's slot order
     width: int
     build_seconds: float  # binary build + collapse
@@ -146,7 +145,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
 
     # wide node indices: breadth-first, in order of appearance
     n_wide = sum(len(lv) for lv in levels)
-    nodes = np.zeros((n_wide, ROWS, width), np.float32)
+    nodes = np.zeros((n_wide, WIDE_NODE_ROWS, width), np.float32)
     ints = nodes.view(np.int32)
     wide_of = np.full(n_bin, -1, np.int64)
     # assign wide indices level by level: a level's interior lanes become the next level's nodes
