@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError, library_messages
+from .errors import UsageError, first_line, library_messages
 from .layout import DEFINES as LAYOUT_DEFINES
 from .package_data import data_dir
 
@@ -65,7 +65,8 @@ class Device:
                 from .errors import RenderFailure
 
                 logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
-                raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {_first_error(str(exc))}") from exc
+                first_error = first_line(str(exc), prefer="error:") or "no build log"
+                raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {first_error}") from exc
             self.compile_seconds += time.perf_counter() - start
             self._programs[key] = prg
         return prg
@@ -116,12 +117,6 @@ def build_options(defines: dict | None = None) -> list[str]:
     if clash:
         raise ValueError(f"{sorted(clash)} are fixed in clrender/layout.py, not per build")
     return [f"-D{k}={_define_value(v)}" for k, v in sorted({**LAYOUT_DEFINES, **(defines or {})}.items())]
-
-
-def _first_error(log: str) -> str:
-    """The first compiler error of a build log (the whole log is logged at debug level)."""
-    lines = [line.strip() for line in log.splitlines() if line.strip()]
-    return next((line for line in lines if "error:" in line), lines[0] if lines else "no build log")
 
 
 def _define_value(value) -> str:

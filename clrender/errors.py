@@ -21,6 +21,13 @@ MAX_SHOWN = 200  # characters of any echoed value kept in a message
 STDERR_FD = [2]
 
 
+def first_line(*texts: str, prefer: str = "") -> str:
+    """The first non-empty line among the texts (libraries report one fault in several lines), or the
+    first that contains `prefer` when one does (a compiler log's first "error:" line)."""
+    lines = [line.strip() for text in texts for line in (text or "").splitlines() if line.strip()]
+    return next((line for line in lines if prefer and prefer in line), lines[0] if lines else "")
+
+
 class _Said:
     text = ""
 

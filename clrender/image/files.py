@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..errors import RenderFailure, UsageError, library_messages, shown
+from ..errors import RenderFailure, UsageError, first_line, library_messages, shown
 from ..outputs import check_writable, write_file
 
 # An image header may promise any size; more pixels than this are refused
@@ -52,7 +52,7 @@ def _open_input(path: Path):
     with library_messages() as said:
         inp = oiio.ImageInput.open(_library_name(path))
     if inp is None:
-        raise UsageError(f"cannot read {shown(path)} as an image ({_reason(_library_error(), said.text, 'unknown format')})")
+        raise UsageError(f"cannot read {shown(path)} as an image ({first_line(_library_error(), said.text, 'unknown format')})")
     spec = inp.spec()
     pixels = spec.width * spec.height * max(spec.depth, 1)
     if pixels > MAX_READ_PIXELS or spec.nchannels > MAX_CHANNELS or pixels < 1 or spec.nchannels < 1:
@@ -75,11 +75,11 @@ def read_image(path: str | os.PathLike) -> Image:
     except (RuntimeError, UnicodeError) as exc:  # the bindings' own errors on a damaged file
         if isinstance(exc, RenderFailure):
             raise
-        raise UsageError(f"cannot read {shown(path)}: the file is damaged ({_reason(str(exc), type(exc).__name__)})") from None
+        raise UsageError(f"cannot read {shown(path)}: the file is damaged ({first_line(str(exc), type(exc).__name__)})") from None
     finally:
         inp.close()
     if pixels is None:
-        raise UsageError(f"cannot read the pixels of {shown(path)} ({_reason(_library_error(), said.text, 'the file is truncated or damaged')})")
+        raise UsageError(f"cannot read the pixels of {shown(path)} ({first_line(_library_error(), said.text, 'the file is truncated or damaged')})")
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     return Image(pixels, str(spec.format), _channel_names(spec, path))
 
@@ -119,15 +119,6 @@ def _library_name(path) -> str:
     except UnicodeEncodeError:
         raise UsageError(f"file name {shown(name)} is not valid UTF-8; OpenImageIO cannot use it, rename the file") from None
     return name
-
-
-def _reason(*texts: str) -> str:
-    """The first non-empty line among the texts (libraries report one fault in several lines)."""
-    for text in texts:
-        for line in (text or "").splitlines():
-            if line.strip():
-                return line.strip()
-    return ""
 
 
 # Channel types each writer stores, keyed by extension (OpenImageIO's plugins).
@@ -282,13 +273,13 @@ def write_image(
     def write_pixels(temp: str) -> None:
         out = oiio.ImageOutput.create(_library_name(path))  # the writer is chosen by the final name's extension
         if out is None:
-            raise UsageError(f"no image writer for {shown(path)}: {_reason(_library_error())}")
+            raise UsageError(f"no image writer for {shown(path)}: {first_line(_library_error())}")
         with library_messages() as said:
             ok = out.open(temp, spec) and out.write_image(np.ascontiguousarray(pixels))
             ok = out.close() and ok
         if not ok:
             # the libraries do not say why (errno is lost); a full disk is the usual cause
-            reason = _reason(_library_error(), said.text, "the image writer failed (is the disk full?)")
+            reason = first_line(_library_error(), said.text, "the image writer failed (is the disk full?)")
             raise RenderFailure(f"cannot write {shown(path)}: {reason}")
 
     return write_file(path, write_pixels, overwrite=overwrite)
