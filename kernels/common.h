@@ -56,28 +56,31 @@ typedef struct {
 } Ray;
 
 /* component k (0, 1, 2) of v, with selects: OpenCL C has no dynamic vector indexing */
-inline float axis_of(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
+INLINE float axis_of(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
 /* Plain-arithmetic versions of min, max, dot and cross for the hot loops:
  * some OpenCL compilers (PoCL among them) leave the builtins as calls, which
  * cost a third of the traversal time.  max_f(a, b) returns b when a is NaN, so
  * chains written as max_f(x, acc) ignore NaN slab distances. */
-inline float min_f(float a, float b) { return a < b ? a : b; }
-inline float max_f(float a, float b) { return a > b ? a : b; }
-inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline float3 cross3(float3 a, float3 b) {
+/* |x| by clearing the sign bit: PoCL calls its fabs builtin out of line */
+INLINE float abs_f(float x) { return as_float(as_uint(x) & 0x7fffffffu); }
+INLINE float3 abs3(float3 v) { return as_float3(as_uint3(v) & (uint3)(0x7fffffffu)); }
+INLINE float min_f(float a, float b) { return a < b ? a : b; }
+INLINE float max_f(float a, float b) { return a > b ? a : b; }
+INLINE float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+INLINE float3 cross3(float3 a, float3 b) {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 
-inline float norm(float3 a) { return sqrt(dot3(a, a)); }
-inline float3 unit(float3 a) { return a / sqrt(dot3(a, a)); }
+INLINE float norm(float3 a) { return sqrt(dot3(a, a)); }
+INLINE float3 unit(float3 a) { return a / sqrt(dot3(a, a)); }
 
-inline Ray make_ray(float3 o, float3 d) {
+INLINE Ray make_ray(float3 o, float3 d) {
     Ray r;
     r.o = o;
     r.d = d;
     r.inv_d = (float3)(1.0f) / d;
-    float3 a = fabs(d);
+    float3 a = abs3(d);
     r.kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
     r.kx = r.kz == 2 ? 0 : r.kz + 1;
     r.ky = r.kx == 2 ? 0 : r.kx + 1;
@@ -95,8 +98,8 @@ inline Ray make_ray(float3 o, float3 d) {
  * offset is a few ulps of the coordinates: it scales with the scene and with
  * its distance from the origin, and never reaches a surface farther away than
  * that (a card 0.05 above a floor at 1e-3 scale still shadows it). */
-inline float3 offset_origin(float3 p, float3 p_err, float3 n) {
-    float d = fabs(n.x) * p_err.x + fabs(n.y) * p_err.y + fabs(n.z) * p_err.z;
+INLINE float3 offset_origin(float3 p, float3 p_err, float3 n) {
+    float d = abs_f(n.x) * p_err.x + abs_f(n.y) * p_err.y + abs_f(n.z) * p_err.z;
     float3 offset = d * n;
     float3 po = p + offset;
     po.x = offset.x > 0.0f ? nextafter(po.x, INFINITY) : (offset.x < 0.0f ? nextafter(po.x, -INFINITY) : po.x);

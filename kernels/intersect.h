@@ -11,7 +11,7 @@ typedef struct {
     float u, v;    /* barycentrics of v1 and v2 on a triangle */
 } Hit;
 
-inline Hit no_hit(void) {
+INLINE Hit no_hit(void) {
     Hit h;
     h.t = INF_T; h.slot = -1; h.id = -1; h.u = 0.0f; h.v = 0.0f;
     return h;
@@ -19,18 +19,18 @@ inline Hit no_hit(void) {
 
 /* A primitive slot (layout.PRIM_SLOT_DTYPE): its second row ends in 1 for a sphere, 0 for a triangle;
  * its first row ends in the primitive's id, as int bits. */
-inline bool is_sphere_row(float4 second_row) { return second_row.w != 0.0f; }
+INLINE bool is_sphere_row(float4 second_row) { return second_row.w != 0.0f; }
 
-inline bool is_sphere(__global const float4 *prims, int slot) { return is_sphere_row(prims[PRIM_ROWS * slot + 1]); }
+INLINE bool is_sphere(__global const float4 *prims, int slot) { return is_sphere_row(prims[PRIM_ROWS * slot + 1]); }
 
-inline int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
+INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
 
 /* a*b - c*d by Kahan's algorithm: relative error at most 2u (Jeannerod, Louvet
  * and Muller 2013), so its sign is exact (barring underflow).  An edge function
  * is then negative, zero or positive exactly as the true value for the sheared
  * vertices, whichever triangle computes it -- the heart of watertightness, and
  * immune to the compiler contracting a*b - c*d into an fma on its own. */
-inline float difference_of_products(float a, float b, float c, float d) {
+INLINE float difference_of_products(float a, float b, float c, float d) {
     float cd = c * d;
     float dop = fma(a, b, -cd);
     float err = fma(-c, d, cd);
@@ -49,7 +49,7 @@ inline float difference_of_products(float a, float b, float c, float d) {
  * ray passes between them.  Returns t in (t_min, t_max) or INF_T and the barycentrics u, v of
  * v1, v2.  Hits closer than the test's own error bound (pbrt's deltaT) are
  * rejected, so t > 0 holds for every hit reported. */
-inline float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
+INLINE float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
     /* translate to the ray origin, permute, shear */
     float3 q0 = v0.xyz - r.o, q1 = v1.xyz - r.o, q2 = v2.xyz - r.o;
     float p0z = axis_of(q0, r.kz), p1z = axis_of(q1, r.kz), p2z = axis_of(q2, r.kz);
@@ -71,14 +71,14 @@ inline float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, f
     float inv_det = 1.0f / det;
     float t = t_scaled * inv_det;
     /* reject t within the rounding error of the test itself (pbrt-v4's bound) */
-    float max_zt = max_f(fabs(p0z), max_f(fabs(p1z), fabs(p2z)));
-    float max_xt = max_f(fabs(p0x), max_f(fabs(p1x), fabs(p2x)));
-    float max_yt = max_f(fabs(p0y), max_f(fabs(p1y), fabs(p2y)));
+    float max_zt = max_f(abs_f(p0z), max_f(abs_f(p1z), abs_f(p2z)));
+    float max_xt = max_f(abs_f(p0x), max_f(abs_f(p1x), abs_f(p2x)));
+    float max_yt = max_f(abs_f(p0y), max_f(abs_f(p1y), abs_f(p2y)));
     float delta_z = GAMMA(3) * max_zt;
     float delta_x = GAMMA(5) * (max_xt + max_zt), delta_y = GAMMA(5) * (max_yt + max_zt);
     float delta_e = 2.0f * (GAMMA(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    float max_e = max_f(fabs(e0), max_f(fabs(e1), fabs(e2)));
-    float delta_t = 3.0f * (GAMMA(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * fabs(inv_det);
+    float max_e = max_f(abs_f(e0), max_f(abs_f(e1), abs_f(e2)));
+    float delta_t = 3.0f * (GAMMA(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * abs_f(inv_det);
     if (t <= max_f(delta_t, t_min) || !(t < t_max)) return INF_T;
     *u = e1 * inv_det;
     *v = e2 * inv_det;
@@ -88,7 +88,7 @@ inline float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, f
 /* Both roots of |o + t d - c|^2 = r^2 for unit d, in the cancellation-free
  * form (Ray Tracing Gems ch. 7): the discriminant from the ray's closest
  * approach, the small root from c/q. */
-inline int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
+INLINE int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
     float3 oc = r.o - cr.xyz;
     float b = dot3(oc, r.d);
     float3 closest = oc - b * r.d;
@@ -108,12 +108,12 @@ inline int sphere_roots(Ray r, float4 cr, float *t0, float *t1) {
  * ulps of |o - c| and the radius; o and c are exact floats, so o - c errs
  * relative to itself) and are not hits: a ray leaving the sphere's own
  * surface, offset by offset_origin, must not find it again. */
-inline float sphere_t_eps(Ray r, float4 cr) {
-    float3 oc = fabs(r.o - cr.xyz);
+INLINE float sphere_t_eps(Ray r, float4 cr) {
+    float3 oc = abs3(r.o - cr.xyz);
     return GAMMA(8) * (oc.x + oc.y + oc.z + cr.w);
 }
 
-inline float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
+INLINE float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
     float t0, t1;
     if (!sphere_roots(r, cr, &t0, &t1)) return INF_T;
     t_min = max_f(t_min, sphere_t_eps(r, cr));
@@ -124,25 +124,25 @@ inline float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
 
 /* The hit point on a triangle from its barycentrics (not o + t d, whose error
  * grows with t), and a bound on its float32 error per axis (pbrt-v4). */
-inline float3 hit_point_triangle(float4 v0, float4 v1, float4 v2, float u, float v, float3 *p_err) {
+INLINE float3 hit_point_triangle(float4 v0, float4 v1, float4 v2, float u, float v, float3 *p_err) {
     float b0 = 1.0f - u - v;
     float3 a0 = b0 * v0.xyz, a1 = u * v1.xyz, a2 = v * v2.xyz;
-    *p_err = GAMMA(7) * (fabs(a0) + fabs(a1) + fabs(a2));
+    *p_err = GAMMA(7) * (abs3(a0) + abs3(a1) + abs3(a2));
     return a0 + a1 + a2;
 }
 
 /* The hit point on a sphere, moved onto the surface along the radius
  * (pbrt-v4's reprojection), and a bound on its float32 error per axis. */
-inline float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err) {
+INLINE float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err) {
     float3 rel = p_ray - centre_radius.xyz;
     rel *= centre_radius.w / norm(rel);
     float3 p = centre_radius.xyz + rel;
-    *p_err = GAMMA(5) * fabs(rel) + GAMMA(2) * fabs(p);
+    *p_err = GAMMA(5) * abs3(rel) + GAMMA(2) * abs3(p);
     return p;
 }
 
 /* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
-inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
+INLINE float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
     float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
     if (is_sphere_row(b)) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
     return hit_triangle(r, a, b, c, t_min, t_max, u, v);
@@ -154,7 +154,7 @@ inline float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, f
  * the slab's planes; it is NaN only when 0 * inf, i.e. d is zero and o lies
  * exactly on a plane: the ray runs inside the closed slab, and the caller's
  * max_f/min_f chains drop a NaN, so that axis then bounds nothing. */
-inline void slab(float lo, float hi, float o, float inv_d, float *t_enter, float *t_exit) {
+INLINE void slab(float lo, float hi, float o, float inv_d, float *t_enter, float *t_exit) {
     float t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
     bool backwards = inv_d < 0.0f;
     float near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
@@ -166,7 +166,7 @@ inline void slab(float lo, float hi, float o, float inv_d, float *t_enter, float
  * direction, zero and negative-zero components included, and conservative:
  * the exit distance is widened by 1 + 2*gamma(3) (pbrt-v4) so rounding never
  * culls a box a hit lies in.  Scalars: float3 arithmetic costs shuffles on CPUs. */
-inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
+INLINE float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
     float t_enter = 0.0f, t_exit = t_max;
     slab(bmin.x, bmax.x, r.o.x, r.inv_d.x, &t_enter, &t_exit);
     slab(bmin.y, bmax.y, r.o.y, r.inv_d.y, &t_enter, &t_exit);
@@ -178,7 +178,7 @@ inline float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
 /* Test slots [begin, end), keeping the nearest hit.  Ties go to the lower
  * primitive id, so every traversal order (BVH on or off, either builder)
  * finds the same primitive. */
-inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, float t_min, Hit *best) {
+INLINE void test_slots(__global const float4 *prims, int begin, int end, Ray r, float t_min, Hit *best) {
     for (int s = begin; s < end; ++s) {
         float u = 0.0f, v = 0.0f;
         float t = hit_slot(prims, s, r, t_min, best->t * 1.0000002f, &u, &v);
@@ -201,82 +201,139 @@ inline void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
 #if BVH_WIDTH == 4
 typedef float4 lanes_f;
 typedef int4 lanes_i;
+typedef uint4 lanes_u;
 #define as_lanes_i as_int4
+#define as_lanes_u as_uint4
+#define LANE_IDS ((lanes_u)(0, 1, 2, 3))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
+#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3))
 #define LANE_BITS 2
 #else
 typedef float8 lanes_f;
 typedef int8 lanes_i;
+typedef uint8 lanes_u;
 #define as_lanes_i as_int8
+#define as_lanes_u as_uint8
+#define LANE_IDS ((lanes_u)(0, 1, 2, 3, 4, 5, 6, 7))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
+#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3 + (h).s4 + (h).s5 + (h).s6 + (h).s7))
 #define LANE_BITS 3
 #endif
+#define LANE_MASK ((uint)(BVH_WIDTH - 1))
 #define NODE_FLOATS (WIDE_NODE_ROWS * BVH_WIDTH) /* rows of BVH_WIDTH lanes (clrender/layout.py) */
 #define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
 #define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
 
-inline void slab_lanes(lanes_f lo, lanes_f hi, float o, float inv_d, lanes_f *t_enter, lanes_f *t_exit) {
+INLINE void slab_lanes(lanes_f lo, lanes_f hi, float o, float inv_d, lanes_f *t_enter, lanes_f *t_exit) {
     lanes_f t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
     bool backwards = inv_d < 0.0f;
     lanes_f near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
-    *t_enter = select(*t_enter, near, near > *t_enter); /* a NaN lane of `near` keeps t_enter */
-    *t_exit = select(*t_exit, far, far < *t_exit);
+    /* vector ?: rather than select(), which PoCL calls out of line; a NaN lane of `near` keeps t_enter */
+    *t_enter = near > *t_enter ? near : *t_enter;
+    *t_exit = far < *t_exit ? far : *t_exit;
 }
 
 /* Entry distances of the lanes of a node (INF_T where the box is missed or the lane is empty). */
-inline lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
+INLINE lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
     lanes_f t_enter = (lanes_f)(0.0f), t_exit = (lanes_f)(t_max);
     slab_lanes(node[0], node[1], r.o.x, r.inv_d.x, &t_enter, &t_exit);
     slab_lanes(node[2], node[3], r.o.y, r.inv_d.y, &t_enter, &t_exit);
     slab_lanes(node[4], node[5], r.o.z, r.inv_d.z, &t_enter, &t_exit);
     t_exit *= 1.0000004f;
     lanes_i hit = (t_enter <= t_exit) & (as_lanes_i(node[7]) >= 0);
-    return select((lanes_f)(INF_T), t_enter, hit);
+    return hit ? t_enter : (lanes_f)(INF_T);
 }
 
-/* Push the lanes of `node` with a finite entry distance, farthest first. */
-inline int push_lanes(int node, lanes_f t_lanes, int *stack, float *stack_t, int sp, bool *overflow) {
-    float t[BVH_WIDTH] = LANES_ARRAY(t_lanes);
-    int lane[BVH_WIDTH];
-    int n = 0;
-    for (int k = 0; k < BVH_WIDTH; ++k) { /* insertion sort by decreasing distance */
-        if (t[k] == INF_T) continue;
-        int j = n++;
-        while (j > 0 && t[lane[j - 1]] < t[k]) { lane[j] = lane[j - 1]; --j; }
-        lane[j] = k;
-    }
-    for (int j = 0; j < n; ++j) {
-        if (sp < WIDE_STACK_SIZE) { stack[sp] = (node << LANE_BITS) + lane[j]; stack_t[sp] = t[lane[j]]; ++sp; }
-        else *overflow = true;
-    }
-    return sp;
+/* Stack keys: a hit lane's entry distance with its lane number in the low LANE_BITS bits (the
+ * distance rounded down there, so a key's distance never exceeds the box's: culling by it stays
+ * conservative), plus one, so that 0 means "missed".  Non-negative floats order as their bits, so
+ * the keys order as the distances.  `farthest_first` inverts the order (any-hit queries). */
+INLINE lanes_u lane_keys(lanes_f t, bool farthest_first) {
+    lanes_u key = (as_lanes_u(t) & ~(lanes_u)(LANE_MASK)) | LANE_IDS;
+    key = farthest_first ? ~key : key + 1u;
+    return t != (lanes_f)(INF_T) ? key : (lanes_u)(0u);
+}
+INLINE uint key_lane(uint key, bool farthest_first) { return (farthest_first ? ~key : key - 1u) & LANE_MASK; }
+INLINE float key_t(uint key) { return as_float((key - 1u) & ~LANE_MASK); }
+
+/* One step of a bitonic sorting network: each lane against lane ^ j, keeping the larger where
+ * `keep_max` is set.  Swizzles and ?: only: no branches, no library calls. */
+#define SORT_STEP(v, partner, keep_max) { lanes_u p_ = (partner); \
+    lanes_u hi_ = (v) > p_ ? (v) : p_, lo_ = (v) > p_ ? p_ : (v); (v) = (keep_max) ? hi_ : lo_; }
+
+/* The keys in decreasing order (missed lanes, key 0, last). */
+INLINE lanes_u sort_keys_decreasing(lanes_u v) {
+#if BVH_WIDTH == 4
+    SORT_STEP(v, v.s1032, (lanes_i)(-1, 0, 0, -1));
+    SORT_STEP(v, v.s2301, (lanes_i)(-1, -1, 0, 0));
+    SORT_STEP(v, v.s1032, (lanes_i)(-1, 0, -1, 0));
+#else
+    SORT_STEP(v, v.s10325476, (lanes_i)(-1, 0, 0, -1, -1, 0, 0, -1));
+    SORT_STEP(v, v.s23016745, (lanes_i)(-1, -1, 0, 0, 0, 0, -1, -1));
+    SORT_STEP(v, v.s10325476, (lanes_i)(-1, 0, -1, 0, 0, -1, 0, -1));
+    SORT_STEP(v, v.s45670123, (lanes_i)(-1, -1, -1, -1, 0, 0, 0, 0));
+    SORT_STEP(v, v.s23016745, (lanes_i)(-1, -1, 0, 0, -1, -1, 0, 0));
+    SORT_STEP(v, v.s10325476, (lanes_i)(-1, 0, -1, 0, -1, 0, -1, 0));
+#endif
+    return v;
 }
 
-inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+/* Push the hit lanes of `node`: their keys sorted so that the top of the stack is the nearest
+ * (closest hit) or the farthest (any-hit: the boxes nearest a shadow ray's origin rarely block
+ * it).  All BVH_WIDTH keys are written (the arrays have that much slack), the stack grows by
+ * the number of hits.  No branch per lane: which lanes hit is unpredictable. */
+INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stack_key, int *stack_node, int sp,
+                      bool *overflow) {
+    lanes_u keys = lane_keys(t_lanes, farthest_first);
+    lanes_i hit = keys != (lanes_u)(0u);
+#if BVH_WIDTH == 4
+    uint bits = (uint)((hit.s0 & 1) | (hit.s1 & 2) | (hit.s2 & 4) | (hit.s3 & 8));
+#else
+    uint bits = (uint)((hit.s0 & 1) | (hit.s1 & 2) | (hit.s2 & 4) | (hit.s3 & 8) | (hit.s4 & 16) | (hit.s5 & 32) |
+                       (hit.s6 & 64) | (hit.s7 & 128));
+#endif
+    if (bits == 0u) return sp;
+    if ((bits & (bits - 1u)) == 0u) { /* one hit lane, the common case: no sort */
+        if (sp + 1 > WIDE_STACK_SIZE) { *overflow = true; return sp; }
+        int lane = (as_int((float)bits) >> 23) - 127; /* its index: the exponent of the power of two */
+        uint k[BVH_WIDTH] = LANES_ARRAY(keys);
+        stack_key[sp] = k[lane]; stack_node[sp] = node;
+        return sp + 1;
+    }
+    keys = sort_keys_decreasing(keys);
+    uint k[BVH_WIDTH] = LANES_ARRAY(keys);
+    int n = HIT_COUNT(hit);
+    if (sp + n > WIDE_STACK_SIZE) { *overflow = true; return sp; }
+    for (int j = 0; j < BVH_WIDTH; ++j) { stack_key[sp + j] = k[j]; stack_node[sp + j] = node; }
+    return sp + n;
+}
+
+INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                             Ray r, float t_min, Hit best, uint *visits) {
     /* trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
        node's lanes (clrender.trace.bvh_wide.stack_size); should it fill up, every primitive is tested */
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
-    int stack[WIDE_STACK_SIZE];
-    float stack_t[WIDE_STACK_SIZE];
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     bool overflow = false;
     if (n_prims > 0) {
         COUNT_NODE(visits);
-        sp = push_lanes(0, hit_boxes(r, rows, best.t), stack, stack_t, sp, &overflow);
+        sp = push_lanes(0, hit_boxes(r, rows, best.t), false, stack_key, stack_node, sp, &overflow);
     }
     while (sp > 0) {
         --sp;
-        if (stack_t[sp] > best.t * 1.0000004f) continue; /* beyond the nearest hit so far */
-        int node = stack[sp] >> LANE_BITS, lane = stack[sp] & (BVH_WIDTH - 1);
+        uint key = stack_key[sp];
+        if (key_t(key) > best.t * 1.0000004f) continue; /* beyond the nearest hit so far */
+        int node = stack_node[sp], lane = key_lane(key, false);
         int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
         COUNT_NODE(visits);
         if (count > 0) {
             COUNT_PRIMS(visits, count);
             test_slots(prims, child, child + count, r, t_min, &best);
         } else {
-            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, best.t), stack, stack_t, sp, &overflow);
+            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, best.t), false, stack_key, stack_node, sp, &overflow);
         }
     }
     if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
@@ -284,7 +341,7 @@ inline Hit closest_hit_wide(__global const float4 *nodes, __global const float4 
 }
 #endif
 
-inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                        Ray r, float t_min, float t_max, uint *visits) {
     Hit best = no_hit();
     best.t = t_max;
@@ -343,7 +400,7 @@ inline Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
  * times `transparency` for every crossing of a transparent one (the shadow
  * ray is not bent).  Stops as soon as an opaque surface is found.  With
  * opaque_only every surface blocks (a plain any-hit occlusion query). */
-inline float crossing_transmittance(__global const float4 *prims, __global const int *prim_object,
+INLINE float crossing_transmittance(__global const float4 *prims, __global const int *prim_object,
                                     __global const int2 *objects, __global const float4 *materials,
                                     int s, Ray r, float t_min, float t_max, bool opaque_only) {
     float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
@@ -367,38 +424,25 @@ inline float crossing_transmittance(__global const float4 *prims, __global const
 }
 
 #if BVH_WIDTH >= 4
-/* Push the lanes of `node` that the ray enters before t_max, in lane order (no sort: an any-hit
- * query needs no order, and nearest-first finds first the boxes around a shadow ray's origin,
- * which rarely block it). */
-inline int push_hit_lanes(int node, lanes_f t_lanes, int *stack, int sp, bool *overflow) {
-    lanes_i hit_lanes = t_lanes != (lanes_f)(INF_T);
-    int hit[BVH_WIDTH] = LANES_ARRAY(hit_lanes);
-    for (int k = 0; k < BVH_WIDTH; ++k) {
-        if (!hit[k]) continue;
-        if (sp < WIDE_STACK_SIZE) stack[sp++] = (node << LANE_BITS) + k;
-        else *overflow = true;
-    }
-    return sp;
-}
-
 /* Any-hit traversal of the wide tree: every hit lane goes on the stack. */
-inline float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+INLINE float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                                 __global const int *prim_object, __global const int2 *objects,
                                 __global const float4 *materials, Ray r, float t_min, float t_max,
                                 bool opaque_only, uint *visits) {
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
-    int stack[WIDE_STACK_SIZE];
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     bool overflow = false;
     float T = 1.0f;
     if (n_prims > 0) {
         COUNT_NODE(visits);
-        sp = push_hit_lanes(0, hit_boxes(r, rows, t_max), stack, sp, &overflow);
+        sp = push_lanes(0, hit_boxes(r, rows, t_max), true, stack_key, stack_node, sp, &overflow);
     }
     while (sp > 0 && T > 0.0f) {
         --sp;
-        int node = stack[sp] >> LANE_BITS, lane = stack[sp] & (BVH_WIDTH - 1);
+        int node = stack_node[sp], lane = key_lane(stack_key[sp], true);
         int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
         COUNT_NODE(visits);
         if (count > 0) {
@@ -406,7 +450,7 @@ inline float transmittance_wide(__global const float4 *nodes, __global const flo
             for (int s = child; s < child + count && T > 0.0f; ++s)
                 T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
         } else {
-            sp = push_hit_lanes(child, hit_boxes(r, rows + 8 * child, t_max), stack, sp, &overflow);
+            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, t_max), true, stack_key, stack_node, sp, &overflow);
         }
     }
     if (overflow && T > 0.0f) { /* a lane did not fit on the stack: test every primitive instead */
@@ -418,7 +462,7 @@ inline float transmittance_wide(__global const float4 *nodes, __global const flo
 }
 #endif
 
-inline float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+INLINE float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                            __global const int *prim_object, __global const int2 *objects,
                            __global const float4 *materials, Ray r, float t_min, float t_max, bool opaque_only,
                            uint *visits) {

@@ -77,4 +77,8 @@
 #error "STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
 #endif
 
+/* Helpers are always inlined: PoCL (LLVM 14) otherwise leaves many of them as calls, and a
+ * call in the traversal loop costs more than the box test it wraps. */
+#define INLINE inline __attribute__((always_inline))
+
 #endif

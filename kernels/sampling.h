@@ -28,13 +28,13 @@ __constant uchar REVERSED_BYTE[256] = {
     0x07, 0x87, 0x47, 0xc7, 0x27, 0xa7, 0x67, 0xe7, 0x17, 0x97, 0x57, 0xd7, 0x37, 0xb7, 0x77, 0xf7,
     0x0f, 0x8f, 0x4f, 0xcf, 0x2f, 0xaf, 0x6f, 0xef, 0x1f, 0x9f, 0x5f, 0xdf, 0x3f, 0xbf, 0x7f, 0xff};
 
-inline uint reverse_bits32(uint x) {
+INLINE uint reverse_bits32(uint x) {
     return ((uint)REVERSED_BYTE[x & 0xffU] << 24) | ((uint)REVERSED_BYTE[(x >> 8) & 0xffU] << 16) |
            ((uint)REVERSED_BYTE[(x >> 16) & 0xffU] << 8) | (uint)REVERSED_BYTE[x >> 24];
 }
 
 /* Second Sobol dimension (the first is the bit-reversed index). */
-inline uint sobol_dim1(uint i) {
+INLINE uint sobol_dim1(uint i) {
     uint r = 0;
     for (uint v = 1U << 31; i; i >>= 1, v ^= v >> 1)
         if (i & 1U) r ^= v;
@@ -43,7 +43,7 @@ inline uint sobol_dim1(uint i) {
 
 /* Owen scrambling by Laine and Karras's hash (with Burley's constants):
  * keeps the points stratified while decorrelating neighbouring pixels. */
-inline uint owen_scramble(uint x, uint seed) {
+INLINE uint owen_scramble(uint x, uint seed) {
     x = reverse_bits32(x);
     x += seed;
     x ^= x * 0x6c50b47cU;
@@ -53,7 +53,7 @@ inline uint owen_scramble(uint x, uint seed) {
     return reverse_bits32(x);
 }
 
-inline float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
+INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
         /* the seed's fixed grid: (p + 0.5) / n */
@@ -81,7 +81,7 @@ inline float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
  * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the
  * pixel centre.  Samples stay inside their own pixel. */
-inline float pixel_filter_weight(int filter, float2 off) {
+INLINE float pixel_filter_weight(int filter, float2 off) {
     float dx = off.x - 0.5f, dy = off.y - 0.5f;
     if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + 1e-6f;
     if (filter == PIXEL_FILTER_GAUSSIAN) return exp(-(dx * dx + dy * dy) / (2.0f * 0.25f * 0.25f));
@@ -91,7 +91,7 @@ inline float pixel_filter_weight(int filter, float2 off) {
 /* Point on a parallelogram light.  Stratified (the seed): corner + (p+xi)/n a
  * + (q+xi')/n b, one jittered point per cell.  Random: corner + xi a + xi' b,
  * ignoring the cells (kept to show what stratification buys). */
-inline float3 area_light_point(float3 corner, float3 a, float3 b, uint p, uint q, uint n, bool stratified, Rng *rng) {
+INLINE float3 area_light_point(float3 corner, float3 a, float3 b, uint p, uint q, uint n, bool stratified, Rng *rng) {
     float xi_a = rng_next(rng);
     float xi_b = rng_next(rng);
     if (!stratified) return corner + xi_a * a + xi_b * b;

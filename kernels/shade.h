@@ -36,11 +36,11 @@ typedef struct {
 
 #define MAX_FALLOFF 1e10f /* cap of 1/r^2 (r = 1e-5) and of an area light's A cos / r^2 */
 
-inline float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
+INLINE float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
 
 /* Snell's law for unit d and unit n facing against d, eta = n1 / n2.
  * Returns 0 when the ray cannot refract (total internal reflection). */
-inline int refract_dir(float3 d, float3 n, float eta, float3 *out) {
+INLINE int refract_dir(float3 d, float3 n, float eta, float3 *out) {
     float cos_i = -dot3(d, n);
     float sin2_t = eta * eta * max_f(0.0f, 1.0f - cos_i * cos_i);
     bool cannot_refract = sin2_t > 1.0f;
@@ -52,7 +52,7 @@ inline int refract_dir(float3 d, float3 n, float eta, float3 *out) {
 
 /* Schlick's approximation, with the cosine of the angle on the less dense side (the larger
  * angle): cos_i going into a denser medium, cos_t coming out of one. */
-inline float schlick(float cos_i, float n1, float n2, float cos_t) {
+INLINE float schlick(float cos_i, float n1, float n2, float cos_t) {
     float r0 = (n1 - n2) / (n1 + n2);
     r0 *= r0;
     float c = (n1 <= n2) ? cos_i : cos_t;
@@ -64,7 +64,7 @@ inline float schlick(float cos_i, float n1, float n2, float cos_t) {
  * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
  * The physical model (lights with inverse-square falloff): the energy-conserving
  * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
-inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
+INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
     float n_dot_l = max_f(dot3(n, l), 0.0f);
     float3 h = unit(l + v);
     float shininess = kd_shine.w;
@@ -78,7 +78,7 @@ inline float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 
 
 /* Light from every light source at p, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
-inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
+INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
                            float4 kd, float4 ks, Rng *rng, __global float *shadow, uint *visits, uint *rays) {
     float3 total = (float3)(0.0f);
     /* shadow rays start off the surface on the side they leave towards */
@@ -145,7 +145,7 @@ inline float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
  * object ids met on the way (depth-first order, -1 past the end) and then the
  * facet of the primary hit: its primitive id on a flat-shaded mesh, where the
  * shading jumps from face to face, else -1. */
-inline float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
+INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
                          uint *visits, uint *rays) {
     float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
     int sp = 0;
