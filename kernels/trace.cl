@@ -117,3 +117,10 @@ __kernel void refract_rays(int n, __global const float4 *d, __global const float
     int ok = refract_dir(unit(d[gid].xyz), unit(normals[gid].xyz), eta[gid], &t);
     out[gid] = ok ? (float4)(t, 1.0f) : (float4)(0.0f);
 }
+
+/* (n.h)^s as the shading computes it, for tests: out[i] = x[i]^s[i]. */
+__kernel void specular_power(int n, __global const float *x, __global const float *s, __global float *out) {
+    int gid = get_global_id(0);
+    if (gid >= n) return;
+    out[gid] = pow_unit(x[gid], s[gid]);
+}

@@ -56,3 +56,26 @@ def test_no_total_internal_reflection_entering_a_denser_medium(device):
     critical_inside = math.degrees(math.asin(1 / 1.5))
     refracted = math.degrees(math.asin(math.hypot(out[0, 0], out[0, 1])))
     assert refracted == pytest.approx(critical_inside, abs=0.05)
+
+
+def test_the_specular_power_matches_float64_within_float32_rounding_of_its_exponent(device):
+    """(n.h)^s is computed inline as 2^(s log2 x); float32 rounds the exponent s log2 x, so the
+    relative error grows with it: at most 2^-22 (1 + |s log2 x|) (two ulps of the exponent), as for any
+    exp2/log2 pow."""
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.random(20000), np.logspace(-30, 0, 5000), 1 - np.logspace(-8, -1, 500), [1.0]])
+    x = np.maximum(x, 1e-30).astype(np.float32)
+    s = np.concatenate([rng.uniform(0.01, 2000, len(x) - 3), [1, 150, 0.5]]).astype(np.float32)
+    n = len(x)
+    out = device.empty(4 * n)
+    knl = device.kernel("trace.cl", "specular_power", trace_defines())
+    knl(device.queue, (n,), None, np.int32(n), device.to_device(x), device.to_device(s), out)
+    got = np.empty(n, np.float32)
+    cl.enqueue_copy(device.queue, got, out)
+    exponent = s.astype(np.float64) * np.log2(x.astype(np.float64))
+    want = np.exp2(exponent)
+    normal = want > 2.0**-125  # below that the kernel flushes to 0
+    rel = np.abs(got[normal] - want[normal]) / want[normal]
+    assert (rel <= 2.0**-22 * (1 + np.abs(exponent[normal]))).all()
+    assert np.abs(got[~normal]).max() <= 2.0**-125
+    assert got[-1] == 1.0  # 1^s is exactly 1
