@@ -62,6 +62,7 @@ assert MAX_TREE_LEVELS <= STACK_SIZE
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
 PARALLEL_ABOVE = 100_000  # SAH builds of more primitives grow the root's two subtrees in two threads
+_OLD = False
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -172,9 +173,12 @@ def build_bvh(
         raise UsageError("primitive bounds with hi < lo; allowed: boxes with lo <= hi")
     if builder == "median":
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
-    else:
+        nodes = _depth_first(levels)
+    elif _OLD:
         levels, order = _sah_levels(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
-    nodes = _depth_first(levels)
+        nodes = _depth_first(levels)
+    else:
+        nodes, order = _sah_device(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
 
 
@@ -611,3 +615,114 @@ def _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale, bmin, bm
     node_area = np.where(node_area > 0, node_area, 1.0)
     cost = TRAVERSAL_COST + INTERSECT_COST * weight * best_sah / node_area
     return np.isfinite(best_sah), axis, cut, cost
+
+
+# ---------------------------------------------------------------- binned SAH on the device
+TOP_TASKS = 256  # the top levels are split one node per work-item until nodes hold about n / TOP_TASKS primitives
+TOP_MIN = 4096  # ... and at least this many; smaller nodes build their whole subtree in one work-item
+
+
+def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
+    """Binned SAH in kernels/bvh_build.cl: the top levels one launch per level (a node per work-item),
+    then every remaining subtree in one launch (a subtree per work-item).  Returns (nodes, prim_order)."""
+    import pyopencl as cl
+
+    from ..device import get_device
+
+    dev = get_device()
+    defines = dict(BINS=bins, BUILD_STACK=STACK_SIZE + 2)
+    split_level = dev.kernel("bvh_build.cl", "split_level", defines)
+    build_subtree = dev.kernel("bvh_build.cl", "build_subtree", defines)
+    n = len(lo)
+    params = [np.int32(v) for v in (max_leaf, 4 * max_leaf, samples, halving_below, MAX_TREE_LEVELS)]
+    box = np.empty((n, 8), np.float32)  # (lo, id bits), (hi, 0) per primitive
+    box[:, 0:3], box[:, 4:7], box[:, 7] = lo, hi, 0
+    box[:, 3] = np.arange(n, dtype=np.int32).view(np.float32)
+    mf = cl.mem_flags
+    box_buf = cl.Buffer(dev.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=box)
+    cen = lo + hi
+    root = np.zeros((4, 4), np.float32)
+    root[0, :3], root[1, :3], root[2, :3], root[3, :3] = lo.min(0), hi.max(0), cen.min(0), cen.max(0)
+
+    # top levels: node records (bounds, start, count, level, first child or -1), breadth-first
+    t_bounds, t_start, t_count, t_child = [root], [0], [n], [-1]
+    threshold = max(n // TOP_TASKS, TOP_MIN)
+    level, depth = [0], 1
+    subtrees = []  # top nodes whose subtrees build_subtree grows
+    while level:
+        big = [i for i in level if t_count[i] > threshold]
+        subtrees += [i for i in level if t_count[i] <= threshold]
+        if not big:
+            break
+        task = np.array([[t_start[i], t_count[i], depth, 0] for i in big], np.int32)
+        bounds = np.stack([t_bounds[i] for i in big])
+        n_first = np.empty(len(big), np.int32)
+        child_bounds = np.empty((2 * len(big), 4, 4), np.float32)
+        nf_buf, cb_buf = dev.empty(n_first.nbytes), dev.empty(child_bounds.nbytes)
+        split_level(
+            dev.queue, (len(big),), (1,), box_buf, dev.to_device(task), dev.to_device(bounds), np.int32(len(big)), *params, nf_buf, cb_buf
+        )
+        cl.enqueue_copy(dev.queue, n_first, nf_buf)
+        cl.enqueue_copy(dev.queue, child_bounds, cb_buf)
+        level, depth = [], depth + 1
+        for j, i in enumerate(big):
+            if n_first[j] == 0:  # a leaf
+                continue
+            t_child[i] = len(t_start)
+            for side, (s, c) in enumerate(((t_start[i], n_first[j]), (t_start[i] + n_first[j], t_count[i] - n_first[j]))):
+                level.append(len(t_start))
+                t_bounds.append(child_bounds[2 * j + side])
+                t_start.append(s)
+                t_count.append(int(c))
+                t_child.append(-1)
+    # node depth of each top node, for the subtree tasks
+    t_depth = [1] * len(t_start)
+    for i, c in enumerate(t_child):
+        if c >= 0:
+            t_depth[c] = t_depth[c + 1] = t_depth[i] + 1
+
+    # the subtrees, biggest first (one work-item each; node slots 2 * start .. 2 * (start + count) - 1)
+    subtrees.sort(key=lambda i: -t_count[i])
+    task = np.array([[t_start[i], t_count[i], t_depth[i], 2 * t_start[i]] for i in subtrees], np.int32).reshape(-1, 4)
+    bounds = np.stack([t_bounds[i] for i in subtrees])
+    scratch = np.empty((2 * n, 8), np.float32)
+    scratch_buf = cl.Buffer(dev.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=scratch)
+    n_nodes = np.empty(len(subtrees), np.int32)
+    nn_buf = dev.empty(n_nodes.nbytes)
+    build_subtree(
+        dev.queue, (len(subtrees),), (1,), box_buf, dev.to_device(task), dev.to_device(bounds), np.int32(len(subtrees)), *params, scratch_buf, nn_buf
+    )
+    cl.enqueue_copy(dev.queue, n_nodes, nn_buf)
+    dev.sync_to_host(scratch_buf, scratch)
+    dev.sync_to_host(box_buf, box)
+
+    # depth-first layout: sizes bottom-up, preorder positions top-down, subtrees copied in and their offsets moved
+    size = [1] * len(t_start)
+    sub_of = {i: s for s, i in enumerate(subtrees)}
+    for i in range(len(t_start) - 1, -1, -1):
+        if i in sub_of:
+            size[i] = int(n_nodes[sub_of[i]])
+        elif t_child[i] >= 0:
+            size[i] = 1 + size[t_child[i]] + size[t_child[i] + 1]
+    nodes = np.empty(size[0], NODE_DTYPE)
+    flat = nodes.view(np.float32).reshape(-1, 8)
+    words = nodes.view(np.int32).reshape(-1, 8)
+    pre = [0] * len(t_start)
+    for i in range(len(t_start)):
+        p = pre[i]
+        if i in sub_of:
+            s = sub_of[i]
+            m, base = int(n_nodes[s]), 2 * t_start[i]
+            flat[p : p + m] = scratch[base : base + m]
+            w = words[p : p + m]
+            interior = w[:, 7] == 0
+            w[interior, 3] += p - base
+            continue
+        c = t_child[i]
+        flat[p, 0:3], flat[p, 4:7] = t_bounds[i][0, :3], t_bounds[i][1, :3]
+        if c < 0:
+            words[p, 3], words[p, 7] = t_start[i], t_count[i]
+        else:
+            pre[c], pre[c + 1] = p + 1, p + 1 + size[c]
+            words[p, 3], words[p, 7] = pre[c + 1], 0
+    return nodes, box[:, 3].view(np.int32).copy()

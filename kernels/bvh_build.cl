@@ -1,0 +1,315 @@
+/* Binned-SAH BVH build (clrender/trace/bvh.py, builder "sah"): one node, or one whole subtree,
+ * per work-item.  The host splits the top levels with split_level (one launch per level, one
+ * work-item per node), then hands every remaining node to build_subtree, which builds its whole
+ * subtree depth-first with an explicit stack.  Each work-item works on its own range of
+ * primitives, sequentially, so the tree does not depend on scheduling.
+ *
+ * Buffers:
+ *   box    -- two float4 per primitive, permuted in place as ranges are partitioned:
+ *             (lo.xyz, primitive id as int bits), (hi.xyz, unused)
+ *   bounds -- four float4 per node: bmin, bmax, and cmin, cmax, the bounds of lo + hi (twice the
+ *             centroid: only comparisons and ranges of centroids matter); .w unused
+ *   nodes  -- bvh.py's NODE_DTYPE, BVH_NODE_ROWS (2) float4 per node: (bmin.xyz, offset bits),
+ *             (bmax.xyz, count bits); a leaf's offset is its first slot in box, an interior
+ *             node's the index of its far child (its near child follows it)
+ *   task   -- int4 per node: (first slot, primitives, tree level (root 1), first node of its
+ *             subtree in `nodes`)
+ *
+ * Variants: -DBINS=n bins per axis, -DBUILD_STACK=n pending nodes per work-item (more than the
+ * tree's levels).  PoCL calls min/max/fabs out of line, so they are written with ?: here. */
+
+#ifndef BINS
+#error "BINS is missing: build through clrender.trace.bvh, which passes the bin count"
+#endif
+#ifndef BUILD_STACK
+#error "BUILD_STACK is missing: build through clrender.trace.bvh, which passes the stack size"
+#endif
+
+#define TRAVERSAL_COST 1.0f /* bvh.py's TRAVERSAL_COST and INTERSECT_COST */
+#define INTERSECT_COST 1.0f
+
+typedef struct {
+    float4 bmin, bmax; /* bounds of the primitives */
+    float4 cmin, cmax; /* bounds of lo + hi */
+} Bounds;
+
+typedef struct {
+    int max_leaf;      /* nodes of at most this many primitives are leaves */
+    int leaf_cap;      /* ... and so are nodes of at most this many whose best cut costs more than the leaf */
+    int samples;       /* bigger nodes bin an evenly strided sample of this many */
+    int halving_below; /* nodes of at most this many are split in halves along their widest axis */
+    int max_levels;    /* the tree's level cap, root included */
+} Params;
+
+inline float4 min4(float4 a, float4 b) {
+    return (float4)(a.x < b.x ? a.x : b.x, a.y < b.y ? a.y : b.y, a.z < b.z ? a.z : b.z, 0.0f);
+}
+
+inline float4 max4(float4 a, float4 b) {
+    return (float4)(a.x > b.x ? a.x : b.x, a.y > b.y ? a.y : b.y, a.z > b.z ? a.z : b.z, 0.0f);
+}
+
+inline float comp(float4 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+
+inline float half_area(float4 lo, float4 hi) {
+    float4 e = hi - lo;
+    float x = e.x > 0.0f ? e.x : 0.0f, y = e.y > 0.0f ? e.y : 0.0f, z = e.z > 0.0f ? e.z : 0.0f;
+    return x * y + y * z + z * x;
+}
+
+inline void bounds_clear(Bounds *b) {
+    b->bmin = b->cmin = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+    b->bmax = b->cmax = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
+}
+
+inline void bounds_add(Bounds *b, float4 lo, float4 hi) {
+    float4 c = lo + hi;
+    b->bmin = min4(b->bmin, lo);
+    b->bmax = max4(b->bmax, hi);
+    b->cmin = min4(b->cmin, c);
+    b->cmax = max4(b->cmax, c);
+}
+
+/* The bin of a centroid coordinate; NaN (an infinite centroid times a zero scale) goes to the last
+ * bin, the same in the binning and the partition. */
+inline int bin_of(float c, float cmin, float scale) {
+    float t = (c - cmin) * scale;
+    return t < (float)(BINS - 1) ? (int)t : BINS - 1;
+}
+
+inline int ceil_log2(int n) {
+    int levels = 0;
+    while ((1 << levels) < n && levels < 31) levels++;
+    return levels;
+}
+
+inline void swap_prims(__global float4 *box, int i, int j) {
+    float4 lo = box[2 * i], hi = box[2 * i + 1];
+    box[2 * i] = box[2 * j];
+    box[2 * i + 1] = box[2 * j + 1];
+    box[2 * j] = lo;
+    box[2 * j + 1] = hi;
+}
+
+inline float key_of(__global const float4 *box, int i, int axis) { return comp(box[2 * i] + box[2 * i + 1], axis); }
+
+/* Quickselect (Hoare partitions, median-of-three pivot): afterwards slot `nth` holds the
+ * primitive of that rank along `axis`, with none greater before it and none smaller after it. */
+void select_nth(__global float4 *box, int first, int last, int nth, int axis) {
+    while (last > first) {
+        float a = key_of(box, first, axis), b = key_of(box, (first + last) / 2, axis), c = key_of(box, last, axis);
+        float pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
+        int i = first, j = last;
+        while (i <= j) {
+            while (key_of(box, i, axis) < pivot) i++;
+            while (key_of(box, j, axis) > pivot) j--;
+            if (i <= j) {
+                swap_prims(box, i, j);
+                i++;
+                j--;
+            }
+        }
+        if (nth <= j)
+            last = j;
+        else if (nth >= i)
+            first = i;
+        else
+            break;
+    }
+}
+
+inline void range_bounds(__global const float4 *box, int start, int count, Bounds *b) {
+    bounds_clear(b);
+    for (int i = start; i < start + count; i++) bounds_add(b, box[2 * i], box[2 * i + 1]);
+}
+
+/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
+ * number of primitives of its first child, moved to the front of the range, with both
+ * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
+ * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
+ * into one bin) in halves along the axis of widest centroid extent. */
+int split_node(__global float4 *box, int start, int count, int depth, const Bounds *node, Params p, Bounds *left,
+               Bounds *right) {
+    if (count <= p.max_leaf) return 0;
+    bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
+    float4 extent = node->cmax - node->cmin;
+    if (!halve) {
+        float scale[3];
+        for (int a = 0; a < 3; a++) {
+            float e = comp(extent, a);
+            float s = e > 0.0f ? (float)BINS / e : 0.0f;
+            scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
+        }
+        int n_bin[3][BINS];
+        float4 bin_lo[3][BINS], bin_hi[3][BINS];
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < BINS; b++) {
+                n_bin[a][b] = 0;
+                bin_lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+                bin_hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
+            }
+        /* all primitives of a small node, an evenly strided sample of a big one */
+        int take = count > p.samples ? p.samples : count;
+        for (int j = 0; j < take; j++) {
+            int i = start + (take == count ? j : (int)(((long)j * count) / take));
+            float4 lo = box[2 * i], hi = box[2 * i + 1], c = lo + hi;
+            for (int a = 0; a < 3; a++) {
+                int b = bin_of(comp(c, a), comp(node->cmin, a), scale[a]);
+                n_bin[a][b]++;
+                bin_lo[a][b] = min4(bin_lo[a][b], lo);
+                bin_hi[a][b] = max4(bin_hi[a][b], hi);
+            }
+        }
+        /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right */
+        float best = INFINITY;
+        int best_axis = -1, best_cut = 0;
+        for (int a = 0; a < 3; a++) {
+            float area_right[BINS];
+            int n_right[BINS];
+            float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
+            int n = 0;
+            for (int b = BINS - 1; b > 0; b--) {
+                n += n_bin[a][b];
+                lo = min4(lo, bin_lo[a][b]);
+                hi = max4(hi, bin_hi[a][b]);
+                area_right[b - 1] = half_area(lo, hi);
+                n_right[b - 1] = n;
+            }
+            lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+            hi = -lo;
+            n = 0;
+            for (int b = 0; b < BINS - 1; b++) {
+                n += n_bin[a][b];
+                lo = min4(lo, bin_lo[a][b]);
+                hi = max4(hi, bin_hi[a][b]);
+                if (n == 0 || n_right[b] == 0) continue;
+                float cost = half_area(lo, hi) * (float)n + area_right[b] * (float)n_right[b];
+                if (cost < best) { /* ties: the lower axis, then the lower cut */
+                    best = cost;
+                    best_axis = a;
+                    best_cut = b;
+                }
+            }
+        }
+        if (best_axis >= 0) {
+            float node_area = half_area(node->bmin, node->bmax);
+            node_area = node_area > 0.0f ? node_area : 1.0f;
+            float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * best / node_area;
+            if (cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap) return 0;
+            /* partition: primitives with bin <= best_cut first (two fingers, each primitive read once) */
+            float cmin = comp(node->cmin, best_axis), s = scale[best_axis];
+            bounds_clear(left);
+            bounds_clear(right);
+            int i = start, j = start + count - 1;
+            while (i <= j) {
+                float4 lo = box[2 * i], hi = box[2 * i + 1];
+                if (bin_of(comp(lo + hi, best_axis), cmin, s) <= best_cut) {
+                    bounds_add(left, lo, hi);
+                    i++;
+                } else {
+                    bounds_add(right, lo, hi);
+                    box[2 * i] = box[2 * j];
+                    box[2 * i + 1] = box[2 * j + 1];
+                    box[2 * j] = lo;
+                    box[2 * j + 1] = hi;
+                    j--;
+                }
+            }
+            return i - start;
+        }
+    }
+    /* halves along the widest centroid axis */
+    int axis = extent.x >= extent.y ? (extent.x >= extent.z ? 0 : 2) : (extent.y >= extent.z ? 1 : 2);
+    int n_first = count / 2;
+    if (comp(extent, axis) > 0.0f) select_nth(box, start, start + count - 1, start + n_first, axis);
+    range_bounds(box, start, n_first, left);
+    range_bounds(box, start + n_first, count - n_first, right);
+    return n_first;
+}
+
+inline void write_node(__global float4 *nodes, int i, const Bounds *b, int offset, int count) {
+    nodes[2 * i] = (float4)(b->bmin.xyz, as_float(offset));
+    nodes[2 * i + 1] = (float4)(b->bmax.xyz, as_float(count));
+}
+
+inline Bounds load_bounds(__global const float4 *bounds, int i) {
+    Bounds b;
+    b.bmin = bounds[4 * i];
+    b.bmax = bounds[4 * i + 1];
+    b.cmin = bounds[4 * i + 2];
+    b.cmax = bounds[4 * i + 3];
+    return b;
+}
+
+inline void store_bounds(__global float4 *bounds, int i, const Bounds *b) {
+    bounds[4 * i] = b->bmin;
+    bounds[4 * i + 1] = b->bmax;
+    bounds[4 * i + 2] = b->cmin;
+    bounds[4 * i + 3] = b->cmax;
+}
+
+/* One top-level node per work-item: split it, write how (first child's primitives, 0 for a leaf)
+ * and the children's bounds (child_bounds[2 * t], [2 * t + 1]). */
+__kernel void split_level(__global float4 *box, __global const int4 *task, __global const float4 *bounds, int n_tasks,
+                          int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
+                          __global int *n_first, __global float4 *child_bounds) {
+    int t = get_global_id(0);
+    if (t >= n_tasks) return;
+    Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
+    int4 k = task[t];
+    Bounds node = load_bounds(bounds, t), left, right;
+    int n = split_node(box, k.x, k.y, k.z, &node, p, &left, &right);
+    n_first[t] = n;
+    if (n > 0) {
+        store_bounds(child_bounds, 2 * t, &left);
+        store_bounds(child_bounds, 2 * t + 1, &right);
+    }
+}
+
+typedef struct {
+    Bounds b;
+    int start, count, depth, parent; /* parent: the node whose far child this is, -1 for a near child */
+} Pending;
+
+/* One subtree per work-item, written depth-first from node task.w on (at most 2 * count - 1
+ * nodes); writes its node count to n_nodes[t].  Far-child offsets are absolute indices in `nodes`. */
+__kernel void build_subtree(__global float4 *box, __global const int4 *task, __global const float4 *bounds, int n_tasks,
+                            int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
+                            __global float4 *nodes, __global int *n_nodes) {
+    int t = get_global_id(0);
+    if (t >= n_tasks) return;
+    Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
+    int4 k = task[t];
+    Pending stack[BUILD_STACK];
+    stack[0].b = load_bounds(bounds, t);
+    stack[0].start = k.x;
+    stack[0].count = k.y;
+    stack[0].depth = k.z;
+    stack[0].parent = -1;
+    int sp = 1, next = k.w;
+    while (sp > 0) {
+        Pending e = stack[--sp];
+        int i = next++;
+        if (e.parent >= 0) nodes[2 * e.parent] = (float4)(nodes[2 * e.parent].xyz, as_float(i)); /* the far child is here */
+        Bounds left, right;
+        int n = sp + 2 <= BUILD_STACK ? split_node(box, e.start, e.count, e.depth, &e.b, p, &left, &right) : 0;
+        if (n == 0) {
+            write_node(nodes, i, &e.b, e.start, e.count);
+            continue;
+        }
+        write_node(nodes, i, &e.b, 0, 0);
+        /* put the far child on the stack, then the near one, popped next (it is node i + 1) */
+        stack[sp].b = right;
+        stack[sp].start = e.start + n;
+        stack[sp].count = e.count - n;
+        stack[sp].depth = e.depth + 1;
+        stack[sp].parent = i;
+        stack[sp + 1].b = left;
+        stack[sp + 1].start = e.start;
+        stack[sp + 1].count = n;
+        stack[sp + 1].depth = e.depth + 1;
+        stack[sp + 1].parent = -1;
+        sp += 2;
+    }
+    n_nodes[t] = next - k.w;
+}
