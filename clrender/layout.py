@@ -31,6 +31,12 @@ BVH_NODE_ROWS = 2  # float4 rows per binary BVH node: (bmin, offset), (bmax, cou
 WIDE_NODE_ROWS = 8  # rows of BVH_WIDTH lanes per wide BVH node: lo/hi per axis (rows 0-5), then child and count
 WIDE_CHILD_ROW = 6  # a wide node's row of child indices / first slots (int32 bits)
 WIDE_COUNT_ROW = 7  # a wide node's row of slot counts (int32 bits; 0 interior, -1 empty lane)
+# Leaf blocks of the wide layouts (trace/bvh_wide.py leaf_blocks): a leaf's primitives in groups of
+# BLOCK_LANES, tested at once; rows 0-8 are float4s of v0.x, v0.y, v0.z, v1.x, ... v2.z of each lane's
+# triangle, row 9 the lanes' slots (int32 bits: a triangle's slot, -2 - slot for a sphere, -1 empty)
+BLOCK_LANES = 4
+BLOCK_ROWS = 10
+BLOCK_SLOT_ROW = 9
 
 # ---- buffer records (host view of one element; the kernels read them as float4 / int rows)
 _F4 = ("<f4", 4)
@@ -69,4 +75,7 @@ DEFINES = {
     "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
     "WIDE_CHILD_ROW": WIDE_CHILD_ROW,
     "WIDE_COUNT_ROW": WIDE_COUNT_ROW,
+    "BLOCK_LANES": BLOCK_LANES,
+    "BLOCK_ROWS": BLOCK_ROWS,
+    "BLOCK_SLOT_ROW": BLOCK_SLOT_ROW,
 }

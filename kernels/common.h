@@ -65,6 +65,7 @@ INLINE float axis_of(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.
 /* |x| by clearing the sign bit: PoCL calls its fabs builtin out of line */
 INLINE float abs_f(float x) { return as_float(as_uint(x) & 0x7fffffffu); }
 INLINE float3 abs3(float3 v) { return as_float3(as_uint3(v) & (uint3)(0x7fffffffu)); }
+INLINE float4 abs4(float4 v) { return as_float4(as_uint4(v) & (uint4)(0x7fffffffu)); }
 INLINE float min_f(float a, float b) { return a < b ? a : b; }
 INLINE float max_f(float a, float b) { return a > b ? a : b; }
 INLINE float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }

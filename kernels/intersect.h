@@ -4,6 +4,9 @@
 
 #include "common.h"
 
+/* No contraction of a*b + c into fma here: the one-triangle and the block tests must round alike. */
+#pragma OPENCL FP_CONTRACT OFF
+
 typedef struct {
     float t;       /* distance along the (unit) direction; INF_T on a miss */
     int slot;      /* index into prims; -1 on a miss */
@@ -25,64 +28,52 @@ INLINE bool is_sphere(__global const float4 *prims, int slot) { return is_sphere
 
 INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
 
-/* a*b - c*d by Kahan's algorithm: relative error at most 2u (Jeannerod, Louvet
- * and Muller 2013), so its sign is exact (barring underflow).  An edge function
- * is then negative, zero or positive exactly as the true value for the sheared
- * vertices, whichever triangle computes it -- the heart of watertightness, and
- * immune to the compiler contracting a*b - c*d into an fma on its own. */
-INLINE float difference_of_products(float a, float b, float c, float d) {
-    float cd = c * d;
-    float dop = fma(a, b, -cd);
-    float err = fma(-c, d, cd);
-    return dop + err;
-}
-
 #define GAMMA(n) ((float)(n) * 5.96046448e-8f / (1.0f - (float)(n) * 5.96046448e-8f)) /* n*u/(1-n*u), u = 2^-24 */
 
-/* Watertight ray-triangle test (Woop, Benthin and Wald, JCGT 2013, as in
- * pbrt-v4's IntersectTriangle), two-sided.  The vertices are moved to the ray
- * origin, permuted so that d's largest axis is z and sheared so that the ray
- * is +z; the 2D edge functions of the sheared vertices then decide inside or
- * outside.  Both triangles of a shared edge compute its edge function from
- * the same sheared vertices with an exact sign, so they put the ray on
- * opposite sides of it (or both on it, which counts as inside for both): no
- * ray passes between them.  Returns t in (t_min, t_max) or INF_T and the barycentrics u, v of
- * v1, v2.  Hits closer than the test's own error bound (pbrt's deltaT) are
- * rejected, so t > 0 holds for every hit reported. */
+/* The triangle test, once per lane type (kernels/triangle.h) */
+#define TRI_F float
+#define TRI_I int
+#define TRI_ANY(m) (m)
+#define TRI_ABS abs_f
+#define TRI_DOP difference_of_products
+#define TRI_TEST triangle_test
+#include "triangle.h"
+#undef TRI_F
+#undef TRI_I
+#undef TRI_ANY
+#undef TRI_ABS
+#undef TRI_DOP
+#undef TRI_TEST
+#define TRI_F float4
+#define TRI_I int4
+#define TRI_ANY(m) (((m).x | (m).y | (m).z | (m).w) != 0)
+#define TRI_ABS abs4
+#define TRI_DOP difference_of_products4
+#define TRI_TEST triangle_test4
+#include "triangle.h"
+#undef TRI_F
+#undef TRI_I
+#undef TRI_ANY
+#undef TRI_ABS
+#undef TRI_DOP
+#undef TRI_TEST
+
+/* One triangle (the records' vertices v0, v1, v2): t in (t_min, t_max) or INF_T, and u, v. */
 INLINE float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
-    /* translate to the ray origin, permute, shear */
     float3 q0 = v0.xyz - r.o, q1 = v1.xyz - r.o, q2 = v2.xyz - r.o;
-    float p0z = axis_of(q0, r.kz), p1z = axis_of(q1, r.kz), p2z = axis_of(q2, r.kz);
-    float p0x = axis_of(q0, r.kx) + r.sx * p0z, p0y = axis_of(q0, r.ky) + r.sy * p0z;
-    float p1x = axis_of(q1, r.kx) + r.sx * p1z, p1y = axis_of(q1, r.ky) + r.sy * p1z;
-    float p2x = axis_of(q2, r.kx) + r.sx * p2z, p2y = axis_of(q2, r.ky) + r.sy * p2z;
-    /* edge functions: which side of each edge the ray (the origin of the sheared plane) lies on */
-    float e0 = difference_of_products(p1x, p2y, p1y, p2x);
-    float e1 = difference_of_products(p2x, p0y, p2y, p0x);
-    float e2 = difference_of_products(p0x, p1y, p0y, p1x);
-    bool outside = (e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f);
-    float det = e0 + e1 + e2;
-    if (outside || det == 0.0f) return INF_T; /* misses, or meets the triangle edge-on */
-    /* scaled distance, compared with the range before the one division */
-    p0z *= r.sz; p1z *= r.sz; p2z *= r.sz;
-    float t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
-    if (det < 0.0f && (t_scaled >= t_min * det || t_scaled < t_max * det)) return INF_T;
-    if (det > 0.0f && (t_scaled <= t_min * det || t_scaled > t_max * det)) return INF_T;
-    float inv_det = 1.0f / det;
-    float t = t_scaled * inv_det;
-    /* reject t within the rounding error of the test itself (pbrt-v4's bound) */
-    float max_zt = max_f(abs_f(p0z), max_f(abs_f(p1z), abs_f(p2z)));
-    float max_xt = max_f(abs_f(p0x), max_f(abs_f(p1x), abs_f(p2x)));
-    float max_yt = max_f(abs_f(p0y), max_f(abs_f(p1y), abs_f(p2y)));
-    float delta_z = GAMMA(3) * max_zt;
-    float delta_x = GAMMA(5) * (max_xt + max_zt), delta_y = GAMMA(5) * (max_yt + max_zt);
-    float delta_e = 2.0f * (GAMMA(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    float max_e = max_f(abs_f(e0), max_f(abs_f(e1), abs_f(e2)));
-    float delta_t = 3.0f * (GAMMA(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * abs_f(inv_det);
-    if (t <= max_f(delta_t, t_min) || !(t < t_max)) return INF_T;
-    *u = e1 * inv_det;
-    *v = e2 * inv_det;
-    return t;
+    return triangle_test(axis_of(q0, r.kx), axis_of(q0, r.ky), axis_of(q0, r.kz), axis_of(q1, r.kx),
+                         axis_of(q1, r.ky), axis_of(q1, r.kz), axis_of(q2, r.kx), axis_of(q2, r.ky),
+                         axis_of(q2, r.kz), 1, r, t_min, t_max, u, v);
+}
+
+/* The triangles of a leaf block (layout.py BLOCK_*: rows 3v + axis hold vertex v's coordinates of
+ * every lane), in lanes where `valid` is set: the same operations as hit_triangle, lane by lane. */
+INLINE float4 hit_block(Ray r, __global const float4 *block, int4 valid, float t_min, float t_max, float4 *u,
+                        float4 *v) {
+    float ox = axis_of(r.o, r.kx), oy = axis_of(r.o, r.ky), oz = axis_of(r.o, r.kz);
+    return triangle_test4(block[r.kx] - ox, block[r.ky] - oy, block[r.kz] - oz, block[3 + r.kx] - ox,
+                          block[3 + r.ky] - oy, block[3 + r.kz] - oz, block[6 + r.kx] - ox, block[6 + r.ky] - oy,
+                          block[6 + r.kz] - oz, valid, r, t_min, t_max, u, v);
 }
 
 /* Both roots of |o + t d - c|^2 = r^2 for unit d, in the cancellation-free
@@ -308,6 +299,36 @@ INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stac
     return sp + n;
 }
 
+/* The blocks of a leaf of `count` primitives whose first block starts at row `first` of the wide
+ * tree's rows (bvh_wide.kernel_rows), keeping the nearest hit as test_slots does: the same t, and
+ * ties to the lower primitive id.  Sphere lanes (rare: a sphere is one primitive) go one by one. */
+INLINE void test_blocks(__global const float4 *rows, int first, int count, __global const float4 *prims, Ray r,
+                        float t_min, Hit *best) {
+    for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
+        __global const float4 *block = rows + first;
+        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+        float4 u, v;
+        float4 t = hit_block(r, block, slot >= 0, t_min, best->t * 1.0000002f, &u, &v);
+        float2 m2 = t.lo < t.hi ? t.lo : t.hi;
+        if (min_f(m2.x, m2.y) <= best->t) { /* some lane hit: the nearest, ties to the lower id */
+            float tl[4] = {t.x, t.y, t.z, t.w}, ul[4] = {u.x, u.y, u.z, u.w}, vl[4] = {v.x, v.y, v.z, v.w};
+            int sl[4] = {slot.x, slot.y, slot.z, slot.w};
+            for (int k = 0; k < BLOCK_LANES; ++k) {
+                if (tl[k] == INF_T) continue;
+                int id = prim_id(prims, sl[k]);
+                if (tl[k] < best->t || (tl[k] == best->t && id < best->id)) {
+                    best->t = tl[k]; best->slot = sl[k]; best->id = id; best->u = ul[k]; best->v = vl[k];
+                }
+            }
+        }
+        if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
+            int sl[4] = {slot.x, slot.y, slot.z, slot.w};
+            for (int k = 0; k < BLOCK_LANES; ++k)
+                if (sl[k] < -1) test_slots(prims, -2 - sl[k], -1 - sl[k], r, t_min, best);
+        }
+    }
+}
+
 INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                             Ray r, float t_min, Hit best, uint *visits) {
     /* trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
@@ -331,7 +352,7 @@ INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 
         COUNT_NODE(visits);
         if (count > 0) {
             COUNT_PRIMS(visits, count);
-            test_slots(prims, child, child + count, r, t_min, &best);
+            test_blocks(nodes, child, count, prims, r, t_min, &best);
         } else {
             sp = push_lanes(child, hit_boxes(r, rows + 8 * child, best.t), false, stack_key, stack_node, sp, &overflow);
         }
@@ -424,6 +445,33 @@ INLINE float crossing_transmittance(__global const float4 *prims, __global const
 }
 
 #if BVH_WIDTH >= 4
+/* Transmittance through the blocks of one leaf (see test_blocks): crossing_transmittance of each
+ * primitive, the triangles of a block tested at once. */
+INLINE float blocks_transmittance(__global const float4 *rows, int first, int count, __global const float4 *prims,
+                                  __global const int *prim_object, __global const int2 *objects,
+                                  __global const float4 *materials, Ray r, float t_min, float t_max,
+                                  bool opaque_only) {
+    float T = 1.0f;
+    for (int b = 0; b < count && T > 0.0f; b += BLOCK_LANES, first += BLOCK_ROWS) {
+        __global const float4 *block = rows + first;
+        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+        float4 u, v;
+        int4 crossed = hit_block(r, block, slot >= 0, t_min, t_max, &u, &v) != (float4)(INF_T);
+        int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
+        if (crossed.x | crossed.y | crossed.z | crossed.w) {
+            if (opaque_only) return 0.0f;
+            for (int k = 0; k < BLOCK_LANES; ++k) /* a triangle is crossed once: times its transparency */
+                if (cl[k]) T *= materials[MATERIAL_ROWS * objects[prim_object[prim_id(prims, sl[k])]].x + 2].x;
+        }
+        if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) /* spheres: -2 - slot */
+            for (int k = 0; k < BLOCK_LANES && T > 0.0f; ++k)
+                if (sl[k] < -1)
+                    T *= crossing_transmittance(prims, prim_object, objects, materials, -2 - sl[k], r, t_min, t_max,
+                                                opaque_only);
+    }
+    return T;
+}
+
 /* Any-hit traversal of the wide tree: every hit lane goes on the stack. */
 INLINE float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                                 __global const int *prim_object, __global const int2 *objects,
@@ -447,8 +495,8 @@ INLINE float transmittance_wide(__global const float4 *nodes, __global const flo
         COUNT_NODE(visits);
         if (count > 0) {
             COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
-            for (int s = child; s < child + count && T > 0.0f; ++s)
-                T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+            T *= blocks_transmittance(nodes, child, count, prims, prim_object, objects, materials, r, t_min, t_max,
+                                      opaque_only);
         } else {
             sp = push_lanes(child, hit_boxes(r, rows + 8 * child, t_max), true, stack_key, stack_node, sp, &overflow);
         }
@@ -507,5 +555,7 @@ INLINE float transmittance(__global const float4 *nodes, __global const float4 *
 #endif
     return T;
 }
+
+#pragma OPENCL FP_CONTRACT ON /* the default again, for the files that follow */
 
 #endif

@@ -73,6 +73,18 @@
 #ifndef WIDE_COUNT_ROW
 #error "WIDE_COUNT_ROW is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
 #endif
+#ifndef BLOCK_LANES
+#error "BLOCK_LANES is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#ifndef BLOCK_ROWS
+#error "BLOCK_ROWS is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#ifndef BLOCK_SLOT_ROW
+#error "BLOCK_SLOT_ROW is missing: build through clrender.device.Device.program, which passes clrender/layout.py's values"
+#endif
+#if BLOCK_LANES != 4
+#error "BLOCK_LANES must be 4: a leaf block is tested with float4 operations"
+#endif
 #if STRIP != 8
 #error "STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
 #endif

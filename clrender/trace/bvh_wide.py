@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
+from ..layout import BLOCK_LANES, BLOCK_ROWS, BLOCK_SLOT_ROW, WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
 from .bvh import BVH, MAX_TREE_LEVELS, half_area
 
 WIDTHS = (2, 4, 8)  # 2: the binary tree as is
@@ -172,3 +172,36 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
     if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
         ints[0, WIDE_COUNT_ROW] = -1
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
+
+
+def kernel_rows(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
+    """The float4 rows the kernels read for a wide tree: its nodes, then every leaf's primitives in
+    leaf blocks of BLOCK_LANES (layout.py), which the kernels test at once with float4 operations.
+
+    `slots` are the primitive records in slot order (geometry.pack_slots).  A leaf lane's child row
+    then holds the row of its first block (its count still the number of primitives, so blocks =
+    ceil(count / BLOCK_LANES)); the vertices are copied bit for bit from `slots`, so a block lane
+    computes exactly what the one-primitive test computes from the record.  WideBVH itself is not
+    changed: its lanes keep naming slots."""
+    nodes = wide.nodes.copy()
+    ints = nodes.view(np.int32)
+    child, count = ints[:, WIDE_CHILD_ROW], ints[:, WIDE_COUNT_ROW]
+    leaf = count > 0
+    first, n = child[leaf].astype(np.int64), count[leaf].astype(np.int64)
+    blocks = -(-n // BLOCK_LANES)
+    block_start = np.concatenate([[0], np.cumsum(blocks)[:-1]])
+    node_rows = nodes.size // 4
+    child[leaf] = node_rows + BLOCK_ROWS * block_start
+    # slot of every block lane: first + lane, -1 past the leaf's count
+    total = int(blocks.sum())
+    owner = np.repeat(np.arange(len(n)), blocks)  # leaf of each block
+    lane = (np.arange(total) - block_start[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
+    slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)
+    out = np.zeros((total, BLOCK_ROWS, BLOCK_LANES), np.float32)
+    real = slot >= 0
+    rec = slots[np.where(real, slot, 0)]  # (total, lanes, PRIM_ROWS, 4)
+    sphere = real & (rec[..., 1, 3] != 0)  # the record's sphere flag
+    for v in range(3):  # rows 3v .. 3v+2: vertex v's x, y, z of each lane
+        out[:, 3 * v : 3 * v + 3, :] = np.where((real & ~sphere)[..., None], rec[..., v, :3], 0).transpose(0, 2, 1)
+    out.view(np.int32)[:, BLOCK_SLOT_ROW, :] = np.where(sphere, -2 - slot, slot)
+    return np.concatenate([nodes.reshape(-1, 4), out.reshape(-1, 4)])

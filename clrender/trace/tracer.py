@@ -37,10 +37,10 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
-# Leaf size of the binary tree per traversal width: under 4-wide nodes leaves of at most 2 primitives
-# traced 3-10% faster than 4 (more nodes, but four boxes per visit; the SAH cost of the 1M-triangle
-# tree also drops from 51.1 to 49.7 at the same build time); see docs/bvh.md.
-MAX_LEAF_SIZE = {2: 4, 4: 2, 8: 2}
+# Leaf size of the binary tree per traversal width.  The wide layouts test a leaf's triangles four at
+# a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves of
+# at most 6 traced 10-20% faster than 2 (docs/bvh.md).
+MAX_LEAF_SIZE = {2: 4, 4: 6, 8: 6}
 
 
 def as_scene(scene_or_mesh) -> Scene:
@@ -104,29 +104,30 @@ class Tracer:
         n = self.primitives.count
         self.bvh = None
         self.bvh_seconds = 0.0
+        self.device.check_fits(n * 48, f"{n} primitives")
         if use_bvh and n > 0:
             from .bvh import build_bvh
 
             lo, hi = self.primitives.bounds()
             start = time.perf_counter()
             self.bvh = build_bvh(lo, hi, builder=builder, max_leaf_size=MAX_LEAF_SIZE[self.bvh_width])
+            order = np.asarray(self.bvh.prim_order, np.int64)
+            slots = pack_slots(self.primitives, order)
             if self.bvh_width == 2:
                 nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
             else:
-                from .bvh_wide import collapse
+                from .bvh_wide import collapse, kernel_rows
 
                 self.wide = collapse(self.bvh, self.bvh_width)
-                nodes = np.ascontiguousarray(self.wide.nodes).reshape(-1, 4)
+                nodes = kernel_rows(self.wide, slots)
             self.bvh_seconds = time.perf_counter() - start
-            order = np.asarray(self.bvh.prim_order, np.int64)
         else:
-            order = np.arange(n, dtype=np.int64)
+            slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
             nodes = np.zeros((8, 4), np.float32)
-        self.device.check_fits(n * 48, f"{n} primitives")
         dev = self.device
         self.n_prims = n
         self.nodes = dev.to_device(nodes)
-        self.prims = dev.to_device(pack_slots(self.primitives, order))
+        self.prims = dev.to_device(slots)
         self.prim_object = dev.to_device(self.primitives.object_of)
         normals = np.zeros((max(n, 1), NORMAL_ROWS, 4), np.float32)
         normals[: len(self.primitives.triangles), :, :3] = self.primitives.triangle_normals
