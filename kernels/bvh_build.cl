@@ -25,6 +25,7 @@
 #error "BUILD_STACK is missing: build through clrender.trace.bvh, which passes the stack size"
 #endif
 
+#define SMALL_BINS (BINS / 2 > 2 ? BINS / 2 : 2) /* bins of nodes of at most 2 * BINS primitives */
 #define TRAVERSAL_COST 1.0f /* bvh.py's TRAVERSAL_COST and INTERSECT_COST */
 #define INTERSECT_COST 1.0f
 
@@ -41,13 +42,10 @@ typedef struct {
     int max_levels;    /* the tree's level cap, root included */
 } Params;
 
-inline float4 min4(float4 a, float4 b) {
-    return (float4)(a.x < b.x ? a.x : b.x, a.y < b.y ? a.y : b.y, a.z < b.z ? a.z : b.z, 0.0f);
-}
+/* lane-wise (a vector ?: selects per lane); .w carries no meaning */
+inline float4 min4(float4 a, float4 b) { return a < b ? a : b; }
 
-inline float4 max4(float4 a, float4 b) {
-    return (float4)(a.x > b.x ? a.x : b.x, a.y > b.y ? a.y : b.y, a.z > b.z ? a.z : b.z, 0.0f);
-}
+inline float4 max4(float4 a, float4 b) { return a > b ? a : b; }
 
 inline float comp(float4 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
 
@@ -72,10 +70,9 @@ inline void bounds_add(Bounds *b, float4 lo, float4 hi) {
 
 /* The bin of a centroid coordinate; NaN (an infinite centroid times a zero scale) goes to the last
  * bin, the same in the binning and the partition. */
-inline int bin_of(float c, float cmin, float scale) {
-    float t = (c - cmin) * scale;
-    return t < (float)(BINS - 1) ? (int)t : BINS - 1;
-}
+inline int bin_index(float t, int n_bins) { return t < (float)(n_bins - 1) ? (int)t : n_bins - 1; }
+
+inline int bin_of(float c, float cmin, float scale, int n_bins) { return bin_index((c - cmin) * scale, n_bins); }
 
 inline int ceil_log2(int n) {
     int levels = 0;
@@ -134,16 +131,19 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
     bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
     float4 extent = node->cmax - node->cmin;
     if (!halve) {
+        /* small nodes use half the bins: their bin tables would outweigh their primitives */
+        int n_bins = count <= 2 * BINS ? SMALL_BINS : BINS;
         float scale[3];
         for (int a = 0; a < 3; a++) {
             float e = comp(extent, a);
-            float s = e > 0.0f ? (float)BINS / e : 0.0f;
+            float s = e > 0.0f ? (float)n_bins / e : 0.0f;
             scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
         }
+        float4 scale4 = (float4)(scale[0], scale[1], scale[2], 0.0f);
         int n_bin[3][BINS];
         float4 bin_lo[3][BINS], bin_hi[3][BINS];
         for (int a = 0; a < 3; a++)
-            for (int b = 0; b < BINS; b++) {
+            for (int b = 0; b < n_bins; b++) {
                 n_bin[a][b] = 0;
                 bin_lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
                 bin_hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
@@ -152,13 +152,18 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
         int take = count > p.samples ? p.samples : count;
         for (int j = 0; j < take; j++) {
             int i = start + (take == count ? j : (int)(((long)j * count) / take));
-            float4 lo = box[2 * i], hi = box[2 * i + 1], c = lo + hi;
-            for (int a = 0; a < 3; a++) {
-                int b = bin_of(comp(c, a), comp(node->cmin, a), scale[a]);
-                n_bin[a][b]++;
-                bin_lo[a][b] = min4(bin_lo[a][b], lo);
-                bin_hi[a][b] = max4(bin_hi[a][b], hi);
-            }
+            float4 lo = box[2 * i], hi = box[2 * i + 1];
+            float4 t = (lo + hi - node->cmin) * scale4; /* bin_of, all three axes at once */
+            int bx = bin_index(t.x, n_bins), by = bin_index(t.y, n_bins), bz = bin_index(t.z, n_bins);
+            n_bin[0][bx]++;
+            bin_lo[0][bx] = min4(bin_lo[0][bx], lo);
+            bin_hi[0][bx] = max4(bin_hi[0][bx], hi);
+            n_bin[1][by]++;
+            bin_lo[1][by] = min4(bin_lo[1][by], lo);
+            bin_hi[1][by] = max4(bin_hi[1][by], hi);
+            n_bin[2][bz]++;
+            bin_lo[2][bz] = min4(bin_lo[2][bz], lo);
+            bin_hi[2][bz] = max4(bin_hi[2][bz], hi);
         }
         /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right */
         float best = INFINITY;
@@ -168,7 +173,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             int n_right[BINS];
             float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
             int n = 0;
-            for (int b = BINS - 1; b > 0; b--) {
+            for (int b = n_bins - 1; b > 0; b--) {
                 n += n_bin[a][b];
                 lo = min4(lo, bin_lo[a][b]);
                 hi = max4(hi, bin_hi[a][b]);
@@ -178,7 +183,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
             hi = -lo;
             n = 0;
-            for (int b = 0; b < BINS - 1; b++) {
+            for (int b = 0; b < n_bins - 1; b++) {
                 n += n_bin[a][b];
                 lo = min4(lo, bin_lo[a][b]);
                 hi = max4(hi, bin_hi[a][b]);
@@ -203,7 +208,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             int i = start, j = start + count - 1;
             while (i <= j) {
                 float4 lo = box[2 * i], hi = box[2 * i + 1];
-                if (bin_of(comp(lo + hi, best_axis), cmin, s) <= best_cut) {
+                if (bin_of(comp(lo + hi, best_axis), cmin, s, n_bins) <= best_cut) {
                     bounds_add(left, lo, hi);
                     i++;
                 } else {
@@ -312,4 +317,47 @@ __kernel void build_subtree(__global float4 *box, __global const int4 *task, __g
         sp += 2;
     }
     n_nodes[t] = next - k.w;
+}
+
+/* Primitive records from the bounds arrays (n rows of 3 floats each), a chunk of primitives per
+ * work-item, and each chunk's bounds (four float4, as `bounds`; the host merges them into the
+ * root's). */
+__kernel void load_prims(__global const float *lo, __global const float *hi, int n, int chunk, __global float4 *box,
+                         __global float4 *chunk_bounds) {
+    int g = get_global_id(0);
+    int first = g * chunk, last = first + chunk < n ? first + chunk : n;
+    Bounds b;
+    bounds_clear(&b);
+    for (int i = first; i < last; i++) {
+        float4 l = (float4)(lo[3 * i], lo[3 * i + 1], lo[3 * i + 2], as_float(i));
+        float4 h = (float4)(hi[3 * i], hi[3 * i + 1], hi[3 * i + 2], 0.0f);
+        box[2 * i] = l;
+        box[2 * i + 1] = h;
+        bounds_add(&b, l, h);
+    }
+    store_bounds(chunk_bounds, g, &b);
+}
+
+/* The primitive id of every slot, a chunk per work-item. */
+__kernel void prim_order(__global const float4 *box, int n, int chunk, __global int *order) {
+    int g = get_global_id(0);
+    int first = g * chunk, last = first + chunk < n ? first + chunk : n;
+    for (int i = first; i < last; i++) order[i] = as_int(box[2 * i].w);
+}
+
+/* Each subtree's nodes from where build_subtree wrote them (from node move.x on, move.z of them)
+ * to their depth-first place (from node move.y on), interior nodes' far-child offsets moved
+ * along; a subtree per work-item. */
+__kernel void place_subtrees(__global const float4 *scratch, __global const int4 *move, int n_moves,
+                             __global float4 *nodes) {
+    int t = get_global_id(0);
+    if (t >= n_moves) return;
+    int4 m = move[t];
+    int shift = m.y - m.x;
+    for (int k = 0; k < m.z; k++) {
+        float4 a = scratch[2 * (m.x + k)], b = scratch[2 * (m.x + k) + 1];
+        if (as_int(b.w) == 0) a.w = as_float(as_int(a.w) + shift); /* interior: count 0 */
+        nodes[2 * (m.y + k)] = a;
+        nodes[2 * (m.y + k) + 1] = b;
+    }
 }

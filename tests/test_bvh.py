@@ -96,7 +96,7 @@ def test_flat_and_point_boxes(builder, rng):
 
 
 def test_sampled_and_halving_paths_keep_invariants(rng):
-    """Big nodes bin a sample, small ones are halved in Morton order: force both at small sizes."""
+    """Big nodes bin a sample, small ones can be halved along their widest axis: force both at small sizes."""
     tri = soup(rng, 5000, size=0.2)
     lo, hi = tri.min(1), tri.max(1)
     for samples, halving in ((16, 8), (64, 100), (4096, 4)):
@@ -165,6 +165,8 @@ def test_deterministic(rng):
         dict(builder="octree"),
         dict(max_leaf_size=0),
         dict(bins=1),
+        dict(bins=bvh_module.MAX_BINS + 1),
+        dict(halving_below=-1),
     ],
 )
 def test_bad_input(bad):
@@ -249,16 +251,86 @@ def test_float64_bounds_round_outward(rng):
     assert (bvh.nodes["bmax"][slot_leaf].astype(np.float64) >= hi[prims]).all()
 
 
-@pytest.mark.parametrize("halving_below", [8, 1000])
-def test_two_thread_build_matches_one_thread(rng, monkeypatch, halving_below):
-    """Big builds grow two groups of subtrees in two threads; the tree must not change
-    (clustered input: the groups end at different depths)."""
+@pytest.mark.parametrize("halving_below", [0, 1000])
+def test_top_level_launches_give_the_same_tree_as_one_subtree(rng, monkeypatch, halving_below):
+    """The SAH build splits its top levels one node per work-item and launch, then builds each
+    remaining subtree in one work-item: the tree must not depend on where that switch happens
+    (clustered input: subtrees end at different depths)."""
     tri = np.concatenate([soup(rng, 3000, size=0.1), soup(rng, 1000, size=0.001) * 0.01])
     lo, hi = tri.min(1), tri.max(1)
-    monkeypatch.setattr(bvh_module, "PARALLEL_ABOVE", 10**12)
+    monkeypatch.setattr(bvh_module, "TOP_MIN", 10**9)  # the root's whole tree in one work-item
     single = build_bvh(lo, hi, halving_below=halving_below)
-    monkeypatch.setattr(bvh_module, "PARALLEL_ABOVE", 0)
-    threaded = build_bvh(lo, hi, halving_below=halving_below)
-    check_tree(threaded, lo, hi)
-    assert threaded.nodes.tobytes() == single.nodes.tobytes()
-    assert np.array_equal(threaded.prim_order, single.prim_order)
+    monkeypatch.setattr(bvh_module, "TOP_MIN", 8)  # nodes of more than 8 primitives split by split_level
+    monkeypatch.setattr(bvh_module, "TOP_TASKS", 10**9)
+    many = build_bvh(lo, hi, halving_below=halving_below)
+    check_tree(many, lo, hi)
+    assert many.nodes.tobytes() == single.nodes.tobytes()
+    assert np.array_equal(many.prim_order, single.prim_order)
+
+
+# ------------------------------------------------------------ SAH choices against brute force
+def box_half_area(lo, hi):
+    e = np.maximum(hi.max(0).astype(np.float64) - lo.min(0).astype(np.float64), 0)
+    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+
+def binned_cuts(lo, hi, bins):
+    """Every cut between bins along every axis, tried one by one: a list of (cost, left mask) with
+    cost = area(L) N_L + area(R) N_R in float64 from the primitives' own bounds.  A primitive's bin
+    is computed as the kernel must (float32: twice the centroid, floor((c - cmin) * bins / extent),
+    the last bin taking the top), since that decides which primitives a cut can separate."""
+    n_bins = bins if len(lo) > 2 * bins else max(bins // 2, 2)
+    c = lo + hi
+    cmin, extent = c.min(0), c.max(0) - c.min(0)
+    cuts = []
+    for axis in range(3):
+        if not extent[axis] > 0:
+            continue
+        t = (c[:, axis] - cmin[axis]) * (np.float32(n_bins) / extent[axis])
+        b = np.where(t < n_bins - 1, np.floor(t), n_bins - 1)
+        for cut in range(n_bins - 1):
+            left = b <= cut
+            if left.all() or not left.any():
+                continue
+            cost = box_half_area(lo[left], hi[left]) * left.sum() + box_half_area(lo[~left], hi[~left]) * (~left).sum()
+            cuts.append((cost, left))
+    return cuts
+
+
+@pytest.mark.parametrize("max_leaf", [1, 4])
+def test_every_sah_split_is_the_cheapest_binned_cut(rng, max_leaf):
+    """Each node of the device-built tree (all primitives binned: no sampling) is split by one of
+    the cheapest cuts a brute-force search finds (equal partitions found along two axes cost the
+    same up to float32 rounding, so costs are compared, not which one), or is a leaf exactly when
+    the rule says so."""
+    tri = soup(rng, 700, size=0.08)
+    lo, hi = tri.min(1), tri.max(1)
+    bins = 8
+    bvh = build_bvh(lo, hi, max_leaf_size=max_leaf, bins=bins, sah_samples=10**6)
+    check_tree(bvh, lo, hi)
+    nodes, order = bvh.nodes, bvh.prim_order
+
+    def slots(i):  # (first slot, count) of node i's subtree
+        if nodes["count"][i] > 0:
+            return int(nodes["offset"][i]), int(nodes["count"][i])
+        (a, na), (_, nb) = slots(i + 1), slots(int(nodes["offset"][i]))
+        return a, na + nb
+
+    checked = 0
+    for i in range(len(nodes)):
+        first, count = slots(i)
+        ids = order[first : first + count]
+        cuts = binned_cuts(lo[ids], hi[ids], bins)
+        best = min((cost for cost, _ in cuts), default=np.inf)
+        node_cost = 1 + best / box_half_area(lo[ids], hi[ids])
+        if nodes["count"][i] > 0:
+            assert count <= max_leaf or (count <= 4 * max_leaf and node_cost >= count)
+            continue
+        assert count > max_leaf and not (count <= 4 * max_leaf and node_cost >= count)
+        near_first, near_count = slots(i + 1)
+        near = set(order[first : first + near_count])
+        assert near_first == first
+        cost = [cost for cost, left in cuts if set(ids[left]) == near]
+        assert cost and cost[0] <= best * (1 + 1e-5)
+        checked += 1
+    assert checked > 100

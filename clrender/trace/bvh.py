@@ -12,38 +12,38 @@ float4 each in the kernel::
 * no primitives: a single node with zero bounds, count 0 and offset 0 (the
   kernels never traverse it: they test ``n_prims == 0`` first).
 
-Builders (both vectorised: the tree grows one level at a time, every node of a
-level handled at once with segment operations, then the breadth-first tree is
-renumbered depth-first):
+Builders:
 
-* ``sah`` -- binned surface area heuristic: ``bins`` bins over the centroid
-  bounds of each node, along all three axes, best cut by SAH cost.  Nodes larger
-  than ``sah_samples`` primitives evaluate their bins on an evenly strided sample
-  of that many primitives (the cut then partitions all of them).  A node becomes
-  a leaf when it holds at most ``max_leaf_size`` primitives, or when no cut is
-  cheaper than the leaf and it holds at most ``4 * max_leaf_size``.  Nodes of
-  at most ``2 * bins`` primitives use ``bins // 2`` bins.  A node of
-  at most ``halving_below`` primitives, one whose centroids all fall in one bin
-  (e.g. they coincide), or one too deep for MAX_TREE_LEVELS is finished by halving:
-  its primitives are sorted once by Morton code and every split below cuts the
-  range in halves (count // 2 to the first child).
-* ``median`` -- the seed's rule: primitives sorted by centroid x, every node
-  split into halves (the first child gets ``count // 2``), leaves of at most
+* ``sah`` -- binned surface area heuristic, built on the OpenCL device
+  (kernels/bvh_build.cl; clrender.device.get_device(), PoCL's CPU by default):
+  ``bins`` bins over the centroid bounds of each node, along all three axes,
+  best cut by SAH cost.  Nodes larger than ``sah_samples`` primitives evaluate
+  their bins on an evenly strided sample of that many primitives (the cut then
+  partitions all of them); nodes of at most ``2 * bins`` primitives use
+  ``bins // 2`` bins.  A node becomes a leaf when it holds at most
+  ``max_leaf_size`` primitives, or when no cut is cheaper than the leaf and it
+  holds at most ``4 * max_leaf_size``.  A node of at most ``halving_below``
+  primitives (none by default), one whose centroids all fall in one bin (e.g.
+  they coincide), or one too deep to finish by SAH within MAX_TREE_LEVELS is
+  split in halves (``count // 2`` to the first child) along its widest centroid
+  axis.  The top levels split one node per work-item, one launch per level;
+  below about ``n / TOP_TASKS`` primitives each work-item builds a whole
+  subtree.  Every work-item works alone on its own range of primitives, so the
+  tree does not depend on scheduling: the same input gives the same tree.
+* ``median`` -- the seed's rule, in numpy (vectorised: the tree grows one level
+  at a time, every node of a level handled at once, then the breadth-first tree
+  is renumbered depth-first): primitives sorted by centroid x, every node split
+  into halves (the first child gets ``count // 2``), leaves of at most
   ``max_leaf_size``.
 
 Every tree is at most ``MAX_TREE_LEVELS`` levels deep (the kernels' traversal stack
-is 64 entries): SAH nodes switch to halving early enough.  SAH builds of more
-than ``PARALLEL_ABOVE`` primitives grow their subtrees in two threads
-(two groups of whole subtrees below the third level; numpy releases the GIL in
-its array loops); the tree is the same either way.
+is 64 entries): SAH nodes switch to halving early enough.
 """
 
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
-from functools import partial
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -60,9 +60,11 @@ MAX_TREE_LEVELS = 48  # levels, root included
 STACK_SIZE = 64
 assert MAX_TREE_LEVELS <= STACK_SIZE
 SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
-HALVING_BELOW = 16  # SAH nodes of at most this many primitives finish by Morton-order halving
-PARALLEL_ABOVE = 100_000  # SAH builds of more primitives grow the root's two subtrees in two threads
-_OLD = False
+HALVING_BELOW = 0  # SAH nodes of at most this many primitives are split in halves (0: none by size)
+MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin records per work-item)
+TOP_TASKS = 256  # SAH nodes of more than n / TOP_TASKS primitives split one per work-item, one launch per level ...
+TOP_MIN = 4096  # ... and of more than this many; smaller ones build their whole subtree in one work-item
+LOAD_CHUNKS = 64  # work-items that make the SAH build's primitive records
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -154,10 +156,12 @@ def build_bvh(
         raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
     if int(max_leaf_size) < 1:
         raise UsageError(f"max_leaf_size {max_leaf_size}; allowed: 1 or more")
-    if int(bins) < 2:
-        raise UsageError(f"bins {bins}; allowed: 2 or more")
-    if int(sah_samples) < 2:
+    if not 2 <= int(bins) <= MAX_BINS:
+        raise UsageError(f"bins {bins}; allowed: 2 to {MAX_BINS}")
+    if not 2 <= int(sah_samples) < 2**31:
         raise UsageError(f"sah_samples {sah_samples}; allowed: 2 or more")
+    if not 0 <= int(halving_below) < 2**31:
+        raise UsageError(f"halving_below {halving_below}; allowed: 0 or more")
     lo, hi = _as_float32(lo, -np.inf), _as_float32(hi, np.inf)
     if lo.ndim != 2 or lo.shape[1:] != (3,) or lo.shape != hi.shape:
         raise UsageError(f"primitive bounds of shapes {lo.shape} and {hi.shape}; allowed: two (N, 3) arrays")
@@ -174,11 +178,8 @@ def build_bvh(
     if builder == "median":
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
         nodes = _depth_first(levels)
-    elif _OLD:
-        levels, order = _sah_levels(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
-        nodes = _depth_first(levels)
     else:
-        nodes, order = _sah_device(lo, hi, int(max_leaf_size), int(bins), int(sah_samples), int(halving_below))
+        nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
 
 
@@ -234,13 +235,6 @@ def _depth_first(levels: list[_Level]) -> np.ndarray:
     return nodes
 
 
-def _segments(count: np.ndarray):
-    """First index of each segment and the segment of each element, for segments of these sizes."""
-    seg_start = np.zeros(len(count), np.int64)
-    np.cumsum(count[:-1], out=seg_start[1:])
-    return seg_start, np.repeat(np.arange(len(count)), count)
-
-
 def _halves(start, count):
     """Children of splitting ranges in halves (the first gets count // 2), as interleaved pairs."""
     left = count // 2
@@ -272,457 +266,108 @@ def _median_levels(lo, hi, max_leaf):
     return levels, order
 
 
-# ---------------------------------------------------------------- binned SAH
-@dataclass
-class _Frontier:
-    """The nodes one level of the SAH build works on.
-
-    Active nodes still split by SAH bins: `box` holds their primitives' bounds as (6, n) rows
-    lo.xyz, hi.xyz, node after node, `ids` the primitives in the same order.  Halving nodes
-    have their primitives at their final slots already and only split slot ranges in halves.
-    """
-
-    box: np.ndarray  # (6, n) float32 bounds of the active nodes' primitives
-    ids: np.ndarray  # (n,) int32 primitive ids, in the same order
-    start: np.ndarray  # (k,) first final slot of each active node
-    count: np.ndarray  # (k,) primitives of each active node
-    hstart: np.ndarray  # (h,) first slot of each halving node
-    hcount: np.ndarray  # (h,) primitives of each halving node
-    depth: int  # tree level of these nodes (the root is level 1)
-
-
-@dataclass
-class _Splits:
-    """What one level decided for its k active nodes (one entry per node unless said)."""
-
-    split: np.ndarray  # bool: an interior node
-    enter: np.ndarray  # bool: leaves the active set and splits slot ranges in halves from here on
-    binned: np.ndarray  # bool: splits by its best SAH bin
-    axis: np.ndarray | None  # the bin split's axis
-    cut: np.ndarray | None  # primitives with bin <= cut go left
-    bmin: np.ndarray  # (k, 3) float32 node bounds
-    bmax: np.ndarray
-    seg_start: np.ndarray | None  # first column of each node in the frontier's `box`
-    cen: np.ndarray | None  # (3, n) twice the primitives' centroids
-    cmin: np.ndarray | None  # (k, 3) lowest centroid of each node that splits
-    scale: np.ndarray | None  # (k, 3) bins per unit of centroid extent
-
-
-class _SahBuild:
-    """Binned SAH, one level at a time.
-
-    Every level splits the active nodes by their best SAH bin.  A node that is small, too deep, or
-    has no bin split leaves the active set ("enters" halving): its primitives are sorted once by
-    Morton code (of the centroid, within the node's centroid bounds) and written at their final
-    slots (`order`, and their bounds to `fixed`); its subtree then splits slot ranges in halves,
-    which only needs the bounds of those ranges.  Leaves leave the active set the same way.
-    """
-
-    def __init__(self, n_total: int, max_leaf: int, bins: int, samples: int, small: int):
-        self.max_leaf, self.bins, self.samples, self.small = max_leaf, bins, samples, small
-        self.leaf_cap = 4 * max_leaf
-        self.order = np.empty(n_total, np.int32)  # primitive id by final slot
-        self.fixed = np.zeros((6, n_total + 1), np.float32)  # bounds by final slot, for the halving nodes
-
-    def grow(self, frontier: _Frontier, max_levels: int) -> tuple[list[_Level], _Frontier]:
-        """Run the level loop on a frontier; returns its levels and the frontier left."""
-        box, ids, gstart, count = frontier.box, frontier.ids, frontier.start, frontier.count
-        hstart, hcount, depth = frontier.hstart, frontier.hcount, frontier.depth
-        max_leaf, fixed = self.max_leaf, self.fixed
-        levels = []
-        while (len(count) or len(hcount)) and len(levels) < max_levels:
-            k = len(count)
-            box, ids, sp = self._choose_splits(box, ids, count, depth)
-            hsplit = hcount > max_leaf
-            hmin, hmax = _range_bounds(fixed, hstart, hcount) if len(hcount) else (sp.bmin[:0], sp.bmin[:0])
-
-            # next level: children of binned nodes (active), then halves of entering and halving nodes
-            split, enter, binned = sp.split, sp.enter, sp.binned
-            n_binned = int(binned.sum())
-            e_start, e_count = _halves(gstart[enter], count[enter])
-            h_start, h_count = _halves(hstart[hsplit], hcount[hsplit])
-            both = np.concatenate([e_start, h_start])
-            srt = np.argsort(both, kind="stable")  # two sorted runs: keep the halving nodes sorted by slot
-            where = np.empty(len(both), np.int64)
-            where[srt] = np.arange(len(both))
-            child_active = np.zeros(k, np.int64)
-            child_active[binned] = 2 * np.arange(n_binned)
-            child_active[enter] = 2 * n_binned + where[0 : len(e_start) : 2]
-            child_h = 2 * n_binned + where[len(e_start) :: 2]
-            levels.append(
-                _Level(
-                    np.concatenate([sp.bmin, hmin]),
-                    np.concatenate([sp.bmax, hmax]),
-                    np.concatenate([gstart, hstart]),
-                    np.concatenate([count, hcount]),
-                    np.concatenate([split, hsplit]),
-                    np.concatenate([child_active[split], child_h]),
-                )
-            )
-            hstart, hcount = both[srt], np.concatenate([e_count, h_count])[srt]
-            depth += 1
-            if len(count):
-                # side of every active primitive, then the stable partition into the next level's nodes
-                box, ids, gstart, count = self._partition(box, ids, gstart, count, sp)
-        return levels, _Frontier(box, ids, gstart, count, hstart, hcount, depth)
-
-    def _choose_splits(self, box, ids, count, depth) -> tuple[np.ndarray, np.ndarray, _Splits]:
-        """How each active node splits: by its best SAH bin, or not at all (a leaf), or it enters
-        halving (its primitives Morton-sorted in `box` and `ids`, which are returned)."""
-        max_leaf, bins, samples, small, leaf_cap = self.max_leaf, self.bins, self.samples, self.small, self.leaf_cap
-        k = len(count)
-        split = count > max_leaf
-        if not k:
-            empty = np.zeros(0, bool)
-            return (
-                box,
-                ids,
-                _Splits(split, empty, empty, None, None, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32), None, None, None, None),
-            )
-        cmin = scale = None  # centroid bounds and bin scale, for nodes that split
-        seg_start, seg_of = _segments(count)
-        cen = box[0:3] + box[3:6]  # twice the centroid: only comparisons and ranges matter
-        bmin = np.minimum.reduceat(box[0:3], seg_start, axis=1).T
-        bmax = np.maximum.reduceat(box[3:6], seg_start, axis=1).T
-        # halving from here keeps depth <= MAX_TREE_LEVELS: a halved subtree adds ceil(log2(count)) levels
-        too_deep = depth + np.ceil(np.log2(np.maximum(count, 1))).astype(np.int64) + 1 >= MAX_TREE_LEVELS
-        enter = split & ((count <= small) | too_deep)
-        cand = np.flatnonzero(split & ~enter)
-        axis = np.zeros(k, np.int64)
-        cut = np.zeros(k, np.int64)  # primitives with bin <= cut go left
-        if split.any():
-            cmin = np.minimum.reduceat(cen, seg_start, axis=1).T
-            cmax = np.maximum.reduceat(cen, seg_start, axis=1).T
-            extent = cmax - cmin
-        if len(cand):
-            # small nodes use half the bins: their bin tables would outweigh their primitives
-            node_bins = np.where(count > 2 * bins, bins, max(bins // 2, 2))
-            scale = np.where(extent > 0, node_bins[:, None] / np.where(extent > 0, extent, 1), 0)
-            scale = scale.astype(np.float32)
-            for nb in np.unique(node_bins[cand]):
-                c = cand[node_bins[cand] == nb]
-                ok, axis[c], cut[c], cost = _best_splits(box, cen, seg_start, seg_of, count, c, cmin, scale, bmin, bmax, int(nb), samples)
-                make_leaf = ok & (cost >= INTERSECT_COST * count[c]) & (count[c] <= leaf_cap)
-                split[c[make_leaf]] = False
-                enter[c[~ok]] = True
-        binned = split & ~enter
-        if enter.any():
-            box, ids = _morton_sort(box, ids, cen, np.flatnonzero(np.repeat(enter, count)), seg_of, cmin, extent)
-        return box, ids, _Splits(split, enter, binned, axis, cut, bmin, bmax, seg_start, cen, cmin, scale)
-
-    def _partition(self, box, ids, gstart, count, sp: _Splits):
-        """Each binned node's primitives split into its two children (left ones first, order kept
-        within each side); the primitives of nodes leaving the active set go to their final slots."""
-        order, fixed = self.order, self.fixed
-        binned, enter, axis, cut, cmin, scale, cen, seg_start = (sp.binned, sp.enter, sp.axis, sp.cut, sp.cmin, sp.scale, sp.cen, sp.seg_start)
-        k = len(count)
-        n_binned = int(binned.sum())
-        # side of every active primitive: True = left (primitives of leaves and entering nodes
-        # count as left too, and go to the tail)
-        n = len(ids)
-        i = np.arange(n, dtype=np.int64)
-        per_prim = partial(np.repeat, repeats=count)  # a per-node value for each primitive (faster than a[seg_of])
-        done = ~per_prim(binned)
-        if n_binned:
-            rows = np.take(cen.ravel(), per_prim(axis * n) + i)  # centroid along the node's split axis
-            kk = np.arange(k)
-            rows -= per_prim(cmin[kk, axis])
-            rows *= per_prim(scale[kk, axis])
-            # the binning of _best_splits, floor(rows) <= cut, for rows >= 0 and cut < bins - 1
-            go_left = rows < per_prim((cut + 1).astype(np.float32))
-            go_left |= done
-        else:
-            go_left = np.ones(n, bool)
-
-        # stable partition within each node: left primitives, then right ones; the primitives of
-        # nodes leaving the active set, in node order, at the tail
-        left_incl = np.cumsum(go_left)
-        before = np.concatenate([[0], left_incl])[seg_start]
-        n_left = np.concatenate([[0], left_incl])[seg_start + count] - before
-        s = np.flatnonzero(binned)
-        new_count = np.stack([n_left[s], count[s] - n_left[s]], axis=1).ravel()
-        new_start, _ = _segments(new_count)
-        n_keep = int(new_count.sum())
-        leaving = ~binned
-        tail_start = n_keep + np.cumsum(count * leaving) - count * leaving
-        base_left = tail_start - before
-        base_left[s] = new_start[0::2] - before[s]
-        base_right = np.zeros(k, np.int64)
-        base_right[s] = new_start[1::2] - seg_start[s] + before[s]
-        dest = np.where(go_left, left_incl - 1 + per_prim(base_left), i - left_incl + per_prim(base_right))
-        perm = np.empty(n, np.int64)
-        perm[dest] = i
-        ids = np.take(ids, perm)
-        if n_keep < n:  # final slots of the primitives leaving the active set
-            slot = np.repeat(gstart[leaving] - (tail_start[leaving] - n_keep), count[leaving]) + np.arange(n - n_keep)
-            order[slot] = ids[n_keep:]
-            if enter.any():
-                tail = perm[n_keep:]
-                for d in range(6):
-                    fixed[d, slot] = box[d, tail]
-        box = np.take(box, perm[:n_keep], axis=1)
-        ids = ids[:n_keep]
-        gstart = np.stack([gstart[s], gstart[s] + n_left[s]], axis=1).ravel()
-        return box, ids, gstart, new_count
-
-
-def _sah_levels(lo, hi, max_leaf, bins, samples, small):
-    """The binned SAH build's levels (see _SahBuild) and the primitive order."""
-    n_total = len(lo)
-    build = _SahBuild(n_total, max_leaf, bins, samples, small)
-    root = _Frontier(
-        np.ascontiguousarray(np.concatenate([lo, hi], axis=1).T),
-        np.arange(n_total, dtype=np.int32),
-        np.zeros(1, np.int64),
-        np.array([n_total], np.int64),
-        np.zeros(0, np.int64),
-        np.zeros(0, np.int64),
-        1,
-    )
-    if n_total < PARALLEL_ABOVE:
-        return build.grow(root, max_levels=MAX_TREE_LEVELS + 1)[0], build.order
-    # the top levels here; then two groups of whole subtrees, with about half the primitives
-    # each, grow in two threads (numpy releases the GIL in its array loops)
-    levels, top = build.grow(root, max_levels=3)
-    if len(top.count) < 2 or len(top.hcount):
-        return levels + build.grow(top, max_levels=MAX_TREE_LEVELS + 1)[0], build.order
-    cum = np.cumsum(top.count)
-    g = int(np.clip(np.argmin(np.abs(cum - n_total / 2)) + 1, 1, len(top.count) - 1))  # nodes in the first group
-    half = int(cum[g - 1])
-    groups = [
-        replace(top, box=np.ascontiguousarray(top.box[:, :half]), ids=top.ids[:half], start=top.start[:g], count=top.count[:g]),
-        replace(top, box=np.ascontiguousarray(top.box[:, half:]), ids=top.ids[half:], start=top.start[g:], count=top.count[g:]),
-    ]
-    with ThreadPoolExecutor(2) as pool:
-        first, second = pool.map(lambda group: build.grow(group, MAX_TREE_LEVELS + 1)[0], groups)
-    return levels + _merge_levels(first, second), build.order
-
-
-def _merge_levels(first: list[_Level], second: list[_Level]) -> list[_Level]:
-    """Levels of two groups of subtrees side by side: the first group's nodes, then the second's."""
-    merged = []
-    for d in range(max(len(first), len(second))):
-        a = first[d] if d < len(first) else None
-        b = second[d] if d < len(second) else None
-        if a is None or b is None:  # one subtree has ended: the other's child indices stay valid
-            merged.append(a or b)
-            continue
-        below = len(first[d + 1].count) if d + 1 < len(first) else 0
-        merged.append(
-            _Level(
-                np.concatenate([a.bmin, b.bmin]),
-                np.concatenate([a.bmax, b.bmax]),
-                np.concatenate([a.start, b.start]),
-                np.concatenate([a.count, b.count]),
-                np.concatenate([a.split, b.split]),
-                np.concatenate([a.child, b.child + below]),
-            )
-        )
-    return merged
-
-
-def _morton_sort(box, ids, cen, prims, seg_of, cmin, extent):
-    """Sort the primitives at positions `prims` (whole segments) by node, then Morton code."""
-    node = seg_of[prims]
-    scale = np.where(extent > 0, 1023.0 / np.where(extent > 0, extent, 1), 0)
-    code = np.zeros(len(prims), np.int64)
-    cp = np.take(cen, prims, axis=1)
-    for a in range(3):
-        q = ((cp[a] - cmin[node, a]) * scale[node, a]).astype(np.int64)
-        code |= _spread_bits(np.clip(q, 0, 1023)) << (2 - a)
-    srt = np.argsort(node.astype(np.int64) << 30 | code, kind="stable")
-    src = prims[srt]
-    box[:, prims] = np.take(box, src, axis=1)
-    ids[prims] = ids[src]
-    return box, ids
-
-
-def _spread_bits(v):
-    """Insert two zero bits between each of the low 10 bits of v (Morton interleave)."""
-    v = (v | (v << 16)) & 0x030000FF
-    v = (v | (v << 8)) & 0x0300F00F
-    v = (v | (v << 4)) & 0x030C30C3
-    return (v | (v << 2)) & 0x09249249
-
-
-def _best_splits(box, cen, seg_start, seg_of, count, cand, cmin, scale, bmin, bmax, bins, samples):
-    """Best binned-SAH split of each candidate node, over all three axes.
-
-    Returns (ok, axis, cut, cost) per candidate; ok is False where no bin split separates the
-    centroids (they all fall into one bin on every axis).  Bin tables are laid out bin-major,
-    (bins, 3 * nc) with column 3 * node + axis, so the sweeps run over long contiguous rows.
-    """
-    nc = len(cand)
-    m = 3 * nc
-    c_count = count[cand]
-    take = np.minimum(c_count, samples)
-    # primitives to bin: all of a small node, an evenly strided sample of a big one
-    if (take == c_count).all():
-        rank = np.full(len(count), -1, np.int64)
-        rank[cand] = np.arange(nc)
-        per_prim = np.repeat(rank, count)
-        p = np.flatnonzero(per_prim >= 0)
-        which = per_prim[p]
-    else:
-        _, which = _segments(take)
-        j = np.arange(len(which)) - np.repeat(np.cumsum(take) - take, take)
-        p = seg_start[cand][which] + (j * c_count[which]) // take[which]
-    keys = np.empty((3, len(p)), np.int64)
-    cp = np.take(cen, p, axis=1)
-    cp -= np.take(cmin[cand].T, which, axis=1)
-    cp *= np.take(scale[cand].T, which, axis=1)
-    col = which * 3
-    for a in range(3):
-        b = cp[a].astype(np.int64)
-        np.minimum(b, bins - 1, out=b)
-        b *= m
-        b += col + a
-        keys[a] = b
-    n_bin = np.bincount(keys.ravel(), minlength=bins * m).reshape(bins, m).astype(np.float32)
-    # per-bin bounds: rows lo.xyz, -hi.xyz so that one ufunc (minimum) does all six
-    bb = np.full((6, bins * m), np.inf, np.float32)
-    bp = np.take(box, p, axis=1)
-    bp[3:] *= -1
-    for a in range(3):
-        for d in range(6):
-            np.minimum.at(bb[d], keys[a], bp[d])
-    bb = bb.reshape(6, bins, m)
-    # sweep: bounds of bins [0..i] (left of cut i) and [i+1..] (right); a loop over the bins is
-    # much faster than ufunc.accumulate along a middle axis
-    left = np.empty((6, bins - 1, m), np.float32)
-    right = np.empty((6, bins - 1, m), np.float32)
-    left[:, 0], right[:, -1] = bb[:, 0], bb[:, -1]
-    for i in range(1, bins - 1):
-        np.minimum(left[:, i - 1], bb[:, i], out=left[:, i])
-        np.minimum(right[:, -i], bb[:, -1 - i], out=right[:, -1 - i])
-    n_l = np.cumsum(n_bin, axis=0)[:-1]
-    n_r = n_bin.sum(axis=0) - n_l
-
-    def area(t):  # half surface area from rows lo.xyz, -hi.xyz; empty (inf) boxes give 0 * 0
-        e = np.maximum(-(t[3:6] + t[0:3]), 0)
-        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
-
-    with np.errstate(invalid="ignore", over="ignore"):  # empty bins: inf - inf; huge scenes: inf areas
-        sah = area(left) * n_l + area(right) * n_r  # (bins - 1, m)
-    sah[(n_l == 0) | (n_r == 0)] = np.inf
-    cut = np.argmin(sah, axis=0)  # best cut per (node, axis) column
-    per_axis = np.take_along_axis(sah, cut[None], axis=0).reshape(nc, 3)
-    axis = np.argmin(per_axis, axis=1)
-    best_sah = per_axis[np.arange(nc), axis].astype(np.float64)
-    cut = cut.reshape(nc, 3)[np.arange(nc), axis]
-    weight = c_count / take  # sampled counts stand for the whole node
-    node_area = half_area(bmin[cand].astype(np.float64), bmax[cand].astype(np.float64))
-    node_area = np.where(node_area > 0, node_area, 1.0)
-    cost = TRAVERSAL_COST + INTERSECT_COST * weight * best_sah / node_area
-    return np.isfinite(best_sah), axis, cut, cost
-
-
-# ---------------------------------------------------------------- binned SAH on the device
-TOP_TASKS = 256  # the top levels are split one node per work-item until nodes hold about n / TOP_TASKS primitives
-TOP_MIN = 4096  # ... and at least this many; smaller nodes build their whole subtree in one work-item
-
-
+# ---------------------------------------------------------------- binned SAH (kernels/bvh_build.cl)
 def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
-    """Binned SAH in kernels/bvh_build.cl: the top levels one launch per level (a node per work-item),
-    then every remaining subtree in one launch (a subtree per work-item).  Returns (nodes, prim_order)."""
+    """The binned SAH build on the OpenCL device: returns (nodes, prim_order).
+
+    Top levels: one split_level launch per level, a node per work-item, until every node holds at
+    most `_subtree_size(n)` primitives; then one build_subtree launch, a whole subtree per
+    work-item (biggest first), written to scratch node slots 2 * first slot onwards; then
+    place_subtrees copies them to their depth-first places.  The few top nodes are laid out here.
+    """
     import pyopencl as cl
 
     from ..device import get_device
 
     dev = get_device()
     defines = dict(BINS=bins, BUILD_STACK=STACK_SIZE + 2)
-    split_level = dev.kernel("bvh_build.cl", "split_level", defines)
-    build_subtree = dev.kernel("bvh_build.cl", "build_subtree", defines)
-    n = len(lo)
+    knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
+    queue, n = dev.queue, len(lo)
     params = [np.int32(v) for v in (max_leaf, 4 * max_leaf, samples, halving_below, MAX_TREE_LEVELS)]
-    box = np.empty((n, 8), np.float32)  # (lo, id bits), (hi, 0) per primitive
-    box[:, 0:3], box[:, 4:7], box[:, 7] = lo, hi, 0
-    box[:, 3] = np.arange(n, dtype=np.int32).view(np.float32)
-    mf = cl.mem_flags
-    box_buf = cl.Buffer(dev.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=box)
-    cen = lo + hi
-    root = np.zeros((4, 4), np.float32)
-    root[0, :3], root[1, :3], root[2, :3], root[3, :3] = lo.min(0), hi.max(0), cen.min(0), cen.max(0)
+    dev.check_fits(32 * n * 2, f"a BVH over {n} primitives")
 
-    # top levels: node records (bounds, start, count, level, first child or -1), breadth-first
-    t_bounds, t_start, t_count, t_child = [root], [0], [n], [-1]
-    threshold = max(n // TOP_TASKS, TOP_MIN)
-    level, depth = [0], 1
-    subtrees = []  # top nodes whose subtrees build_subtree grows
+    # primitive records and the root's bounds, a chunk of primitives per work-item
+    chunk = -(-n // LOAD_CHUNKS)
+    n_chunks = -(-n // chunk)
+    box_buf = dev.empty(32 * n)
+    chunk_bounds = np.empty((n_chunks, 4, 4), np.float32)
+    cb_buf = dev.empty(chunk_bounds.nbytes)
+    knl["load_prims"](queue, (n_chunks,), (1,), dev.to_device(lo), dev.to_device(hi), np.int32(n), np.int32(chunk), box_buf, cb_buf)
+    cl.enqueue_copy(queue, chunk_bounds, cb_buf)
+    root = np.concatenate([chunk_bounds[:, 0::2].min(0), chunk_bounds[:, 1::2].max(0)])[[0, 2, 1, 3]]  # bmin, bmax, cmin, cmax
+    root[:, 3] = 0  # .w: the primitive id bits of load_prims, no meaning here
+
+    # top levels, breadth-first: each top node's bounds, first slot, primitives, level, first child (-1: none)
+    top_bounds, top_start, top_count, top_level, top_child = [root], [0], [n], [1], [-1]
+    big_enough = _subtree_size(n)
+    level, subtrees = [0], []  # subtrees: top nodes whose whole subtree build_subtree grows
     while level:
-        big = [i for i in level if t_count[i] > threshold]
-        subtrees += [i for i in level if t_count[i] <= threshold]
+        subtrees += [i for i in level if top_count[i] <= big_enough]
+        big = [i for i in level if top_count[i] > big_enough]
         if not big:
             break
-        task = np.array([[t_start[i], t_count[i], depth, 0] for i in big], np.int32)
-        bounds = np.stack([t_bounds[i] for i in big])
+        task = np.array([[top_start[i], top_count[i], top_level[i], 0] for i in big], np.int32)
         n_first = np.empty(len(big), np.int32)
-        child_bounds = np.empty((2 * len(big), 4, 4), np.float32)
+        child_bounds = np.empty((len(big), 2, 4, 4), np.float32)
         nf_buf, cb_buf = dev.empty(n_first.nbytes), dev.empty(child_bounds.nbytes)
-        split_level(
-            dev.queue, (len(big),), (1,), box_buf, dev.to_device(task), dev.to_device(bounds), np.int32(len(big)), *params, nf_buf, cb_buf
-        )
-        cl.enqueue_copy(dev.queue, n_first, nf_buf)
-        cl.enqueue_copy(dev.queue, child_bounds, cb_buf)
-        level, depth = [], depth + 1
+        bounds = dev.to_device(np.stack([top_bounds[i] for i in big]))
+        knl["split_level"](queue, (len(big),), (1,), box_buf, dev.to_device(task), bounds, np.int32(len(big)), *params, nf_buf, cb_buf)
+        cl.enqueue_copy(queue, n_first, nf_buf)
+        cl.enqueue_copy(queue, child_bounds, cb_buf)
+        level = []
         for j, i in enumerate(big):
             if n_first[j] == 0:  # a leaf
                 continue
-            t_child[i] = len(t_start)
-            for side, (s, c) in enumerate(((t_start[i], n_first[j]), (t_start[i] + n_first[j], t_count[i] - n_first[j]))):
-                level.append(len(t_start))
-                t_bounds.append(child_bounds[2 * j + side])
-                t_start.append(s)
-                t_count.append(int(c))
-                t_child.append(-1)
-    # node depth of each top node, for the subtree tasks
-    t_depth = [1] * len(t_start)
-    for i, c in enumerate(t_child):
-        if c >= 0:
-            t_depth[c] = t_depth[c + 1] = t_depth[i] + 1
+            top_child[i] = len(top_start)
+            for side, (s, c) in enumerate(((top_start[i], n_first[j]), (top_start[i] + n_first[j], top_count[i] - n_first[j]))):
+                level.append(len(top_start))
+                top_bounds.append(child_bounds[j, side])
+                top_start.append(int(s))
+                top_count.append(int(c))
+                top_level.append(top_level[i] + 1)
+                top_child.append(-1)
 
-    # the subtrees, biggest first (one work-item each; node slots 2 * start .. 2 * (start + count) - 1)
-    subtrees.sort(key=lambda i: -t_count[i])
-    task = np.array([[t_start[i], t_count[i], t_depth[i], 2 * t_start[i]] for i in subtrees], np.int32).reshape(-1, 4)
-    bounds = np.stack([t_bounds[i] for i in subtrees])
-    scratch = np.empty((2 * n, 8), np.float32)
-    scratch_buf = cl.Buffer(dev.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=scratch)
+    # every subtree in one work-item, biggest first
+    subtrees.sort(key=lambda i: -top_count[i])
+    task = np.array([[top_start[i], top_count[i], top_level[i], 2 * top_start[i]] for i in subtrees], np.int32)
+    scratch_buf = dev.empty(2 * 32 * n)
     n_nodes = np.empty(len(subtrees), np.int32)
     nn_buf = dev.empty(n_nodes.nbytes)
-    build_subtree(
-        dev.queue, (len(subtrees),), (1,), box_buf, dev.to_device(task), dev.to_device(bounds), np.int32(len(subtrees)), *params, scratch_buf, nn_buf
-    )
-    cl.enqueue_copy(dev.queue, n_nodes, nn_buf)
-    dev.sync_to_host(scratch_buf, scratch)
-    dev.sync_to_host(box_buf, box)
+    bounds = dev.to_device(np.stack([top_bounds[i] for i in subtrees]))
+    knl["build_subtree"](queue, (len(subtrees),), (1,), box_buf, dev.to_device(task), bounds, np.int32(len(subtrees)), *params, scratch_buf, nn_buf)
+    cl.enqueue_copy(queue, n_nodes, nn_buf)
 
-    # depth-first layout: sizes bottom-up, preorder positions top-down, subtrees copied in and their offsets moved
-    size = [1] * len(t_start)
-    sub_of = {i: s for s, i in enumerate(subtrees)}
-    for i in range(len(t_start) - 1, -1, -1):
-        if i in sub_of:
-            size[i] = int(n_nodes[sub_of[i]])
-        elif t_child[i] >= 0:
-            size[i] = 1 + size[t_child[i]] + size[t_child[i] + 1]
+    # depth-first layout: node counts bottom-up, preorder places top-down
+    size = [1] * len(top_start)
+    for s, i in enumerate(subtrees):
+        size[i] = int(n_nodes[s])
+    for i in range(len(top_start) - 1, -1, -1):
+        if top_child[i] >= 0:
+            size[i] = 1 + size[top_child[i]] + size[top_child[i] + 1]
+    place = [0] * len(top_start)
+    for i, c in enumerate(top_child):
+        if c >= 0:
+            place[c], place[c + 1] = place[i] + 1, place[i] + 1 + size[c]
     nodes = np.empty(size[0], NODE_DTYPE)
-    flat = nodes.view(np.float32).reshape(-1, 8)
-    words = nodes.view(np.int32).reshape(-1, 8)
-    pre = [0] * len(t_start)
-    for i in range(len(t_start)):
-        p = pre[i]
-        if i in sub_of:
-            s = sub_of[i]
-            m, base = int(n_nodes[s]), 2 * t_start[i]
-            flat[p : p + m] = scratch[base : base + m]
-            w = words[p : p + m]
-            interior = w[:, 7] == 0
-            w[interior, 3] += p - base
+    nodes_buf = dev.host_buffer(nodes)
+    move = np.array([[2 * top_start[i], place[i], size[i], 0] for i in subtrees], np.int32)
+    knl["place_subtrees"](queue, (len(subtrees),), (1,), scratch_buf, dev.to_device(move), np.int32(len(subtrees)), nodes_buf)
+    order = np.empty(n, np.int32)
+    order_buf = dev.host_buffer(order)
+    knl["prim_order"](queue, (n_chunks,), (1,), box_buf, np.int32(n), np.int32(chunk), order_buf)
+    dev.sync_to_host(nodes_buf, nodes)
+    dev.sync_to_host(order_buf, order)
+    in_subtree = set(subtrees)
+    for i in range(len(top_start)):  # the top nodes above the subtrees
+        if i in in_subtree:
             continue
-        c = t_child[i]
-        flat[p, 0:3], flat[p, 4:7] = t_bounds[i][0, :3], t_bounds[i][1, :3]
-        if c < 0:
-            words[p, 3], words[p, 7] = t_start[i], t_count[i]
-        else:
-            pre[c], pre[c + 1] = p + 1, p + 1 + size[c]
-            words[p, 3], words[p, 7] = pre[c + 1], 0
-    return nodes, box[:, 3].view(np.int32).copy()
+        p, c = place[i], top_child[i]
+        nodes["bmin"][p], nodes["bmax"][p] = top_bounds[i][0, :3], top_bounds[i][1, :3]
+        nodes["offset"][p], nodes["count"][p] = (top_start[i], top_count[i]) if c < 0 else (place[c + 1], 0)
+    return nodes, order
+
+
+def _subtree_size(n: int) -> int:
+    """Nodes of at most this many primitives build their whole subtree in one work-item: about
+    n / TOP_TASKS, so that both cores stay busy to the end, and no fewer than TOP_MIN."""
+    return max(n // TOP_TASKS, TOP_MIN)
