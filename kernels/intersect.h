@@ -215,24 +215,28 @@ typedef uint8 lanes_u;
 #define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
 #define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
 
-INLINE void slab_lanes(lanes_f lo, lanes_f hi, float o, float inv_d, lanes_f *t_enter, lanes_f *t_exit) {
-    lanes_f t_lo = (lo - o) * inv_d, t_hi = (hi - o) * inv_d;
-    bool backwards = inv_d < 0.0f;
-    lanes_f near = backwards ? t_hi : t_lo, far = backwards ? t_lo : t_hi;
-    /* vector ?: rather than select(), which PoCL calls out of line; a NaN lane of `near` keeps t_enter */
+/* One axis of the box test for every lane: the near plane's row is `near` (lo, or hi for a ray
+ * going backwards along the axis: the rows are picked by index, not by selecting results), the far
+ * plane's the other.  A NaN lane of the entry distance (0 * inf: the ray runs in a box plane) keeps
+ * t_enter, as max_f does; ?: rather than select(), which PoCL calls out of line. */
+INLINE void slab_lanes(lanes_f near_plane, lanes_f far_plane, float o, float inv_d, lanes_f *t_enter,
+                       lanes_f *t_exit) {
+    lanes_f near = (near_plane - o) * inv_d, far = (far_plane - o) * inv_d;
     *t_enter = near > *t_enter ? near : *t_enter;
     *t_exit = far < *t_exit ? far : *t_exit;
 }
 
-/* Entry distances of the lanes of a node (INF_T where the box is missed or the lane is empty). */
+/* Entry distances of the lanes of a node (INF_T where the box is missed or the lane is empty).
+ * Rows 2a and 2a + 1 hold lo and hi along axis a; the sign of 1/d picks which is near. */
 INLINE lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
+    int bx = r.inv_d.x < 0.0f, by = r.inv_d.y < 0.0f, bz = r.inv_d.z < 0.0f; /* -0 counts as backwards */
     lanes_f t_enter = (lanes_f)(0.0f), t_exit = (lanes_f)(t_max);
-    slab_lanes(node[0], node[1], r.o.x, r.inv_d.x, &t_enter, &t_exit);
-    slab_lanes(node[2], node[3], r.o.y, r.inv_d.y, &t_enter, &t_exit);
-    slab_lanes(node[4], node[5], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    slab_lanes(node[bx], node[1 - bx], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab_lanes(node[2 + by], node[3 - by], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab_lanes(node[4 + bz], node[5 - bz], r.o.z, r.inv_d.z, &t_enter, &t_exit);
     t_exit *= 1.0000004f;
-    lanes_i hit = (t_enter <= t_exit) & (as_lanes_i(node[7]) >= 0);
-    return hit ? t_enter : (lanes_f)(INF_T);
+    /* empty lanes hold the box [+inf, -inf], missed by every ray (bvh_wide.py) */
+    return t_enter <= t_exit ? t_enter : (lanes_f)(INF_T);
 }
 
 /* Stack keys: a hit lane's entry distance with its lane number in the low LANE_BITS bits (the
@@ -276,6 +280,7 @@ INLINE lanes_u sort_keys_decreasing(lanes_u v) {
 INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stack_key, int *stack_node, int sp,
                       bool *overflow) {
     lanes_u keys = lane_keys(t_lanes, farthest_first);
+
     lanes_i hit = keys != (lanes_u)(0u);
 #if BVH_WIDTH == 4
     uint bits = (uint)((hit.s0 & 1) | (hit.s1 & 2) | (hit.s2 & 4) | (hit.s3 & 8));

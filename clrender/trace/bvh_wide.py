@@ -9,8 +9,9 @@ rows in the kernel; a node is 128 or 256 bytes)::
     row 6     child   (int32 bits)  interior child: its wide node index; leaf child: first slot
     row 7     count   (int32 bits)  interior child: 0; leaf child: number of slots (> 0); empty lane: -1
 
-Empty lanes also get inverted bounds (lo = 1, hi = -1), but the kernels test
-``count >= 0`` first.  Node 0 is the root; a binary tree that is a single leaf
+Empty lanes get the box lo = +inf, hi = -inf, which the slab test misses for
+every ray (each slab's entry is +inf and its exit -inf, never NaN for a finite
+origin and nonzero direction), so the kernels need not read their count.  Node 0 is the root; a binary tree that is a single leaf
 becomes a root with that leaf in lane 0.  Leaves and primitive slots are the
 binary tree's, unchanged (``prim_order`` stays valid).
 
@@ -157,8 +158,8 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         wide_of[nxt] = base + len(lv) + np.arange(len(nxt))
         base += len(lv)
     # per binary node, what a lane pointing at it holds; one extra last entry for empty lanes (-1)
-    lo_of = np.vstack([bn["bmin"], np.ones((1, 3), np.float32)])
-    hi_of = np.vstack([bn["bmax"], -np.ones((1, 3), np.float32)])
+    lo_of = np.vstack([bn["bmin"], np.full((1, 3), np.inf, np.float32)])
+    hi_of = np.vstack([bn["bmax"], np.full((1, 3), -np.inf, np.float32)])
     child_of = np.append(np.where(interior, wide_of, offset), 0)
     count_of = np.append(np.where(interior, 0, count), -1)
     base = 0
@@ -170,6 +171,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
         ints[sl, WIDE_COUNT_ROW] = count_of[lv]
         base += len(lv)
     if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
+        nodes[0, 0:6:2, 0], nodes[0, 1:6:2, 0] = np.inf, -np.inf
         ints[0, WIDE_COUNT_ROW] = -1
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
 
