@@ -139,7 +139,6 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             float s = e > 0.0f ? (float)n_bins / e : 0.0f;
             scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
         }
-        float4 scale4 = (float4)(scale[0], scale[1], scale[2], 0.0f);
         int n_bin[3][BINS];
         float4 bin_lo[3][BINS], bin_hi[3][BINS];
         for (int a = 0; a < 3; a++)
@@ -153,8 +152,10 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
         for (int j = 0; j < take; j++) {
             int i = start + (take == count ? j : (int)(((long)j * count) / take));
             float4 lo = box[2 * i], hi = box[2 * i + 1];
-            float4 t = (lo + hi - node->cmin) * scale4; /* bin_of, all three axes at once */
-            int bx = bin_index(t.x, n_bins), by = bin_index(t.y, n_bins), bz = bin_index(t.z, n_bins);
+            float4 c = lo + hi;
+            int bx = bin_of(c.x, node->cmin.x, scale[0], n_bins);
+            int by = bin_of(c.y, node->cmin.y, scale[1], n_bins);
+            int bz = bin_of(c.z, node->cmin.z, scale[2], n_bins);
             n_bin[0][bx]++;
             bin_lo[0][bx] = min4(bin_lo[0][bx], lo);
             bin_hi[0][bx] = max4(bin_hi[0][bx], hi);
@@ -232,9 +233,13 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
     return n_first;
 }
 
+/* whole float4s first, then the int fields over their .w (no vector built lane by lane: Oclgrind's
+ * uninitialised-value checker takes those for uninitialised) */
 inline void write_node(__global float4 *nodes, int i, const Bounds *b, int offset, int count) {
-    nodes[2 * i] = (float4)(b->bmin.xyz, as_float(offset));
-    nodes[2 * i + 1] = (float4)(b->bmax.xyz, as_float(count));
+    nodes[2 * i] = b->bmin;
+    nodes[2 * i + 1] = b->bmax;
+    ((__global int *)nodes)[8 * i + 3] = offset;
+    ((__global int *)nodes)[8 * i + 7] = count;
 }
 
 inline Bounds load_bounds(__global const float4 *bounds, int i) {
@@ -295,7 +300,7 @@ __kernel void build_subtree(__global float4 *box, __global const int4 *task, __g
     while (sp > 0) {
         Pending e = stack[--sp];
         int i = next++;
-        if (e.parent >= 0) nodes[2 * e.parent] = (float4)(nodes[2 * e.parent].xyz, as_float(i)); /* the far child is here */
+        if (e.parent >= 0) ((__global int *)nodes)[8 * e.parent + 3] = i; /* the far child is here */
         Bounds left, right;
         int n = sp + 2 <= BUILD_STACK ? split_node(box, e.start, e.count, e.depth, &e.b, p, &left, &right) : 0;
         if (n == 0) {
@@ -328,12 +333,16 @@ __kernel void load_prims(__global const float *lo, __global const float *hi, int
     int first = g * chunk, last = first + chunk < n ? first + chunk : n;
     Bounds b;
     bounds_clear(&b);
+    __global float *record = (__global float *)box;
     for (int i = first; i < last; i++) {
-        float4 l = (float4)(lo[3 * i], lo[3 * i + 1], lo[3 * i + 2], as_float(i));
-        float4 h = (float4)(hi[3 * i], hi[3 * i + 1], hi[3 * i + 2], 0.0f);
-        box[2 * i] = l;
-        box[2 * i + 1] = h;
-        bounds_add(&b, l, h);
+        /* stored lane by lane, then read back whole (see write_node) */
+        for (int a = 0; a < 3; a++) {
+            record[8 * i + a] = lo[3 * i + a];
+            record[8 * i + 4 + a] = hi[3 * i + a];
+        }
+        ((__global int *)box)[8 * i + 3] = i;
+        record[8 * i + 7] = 0.0f;
+        bounds_add(&b, box[2 * i], box[2 * i + 1]);
     }
     store_bounds(chunk_bounds, g, &b);
 }
@@ -353,11 +362,12 @@ __kernel void place_subtrees(__global const float4 *scratch, __global const int4
     int t = get_global_id(0);
     if (t >= n_moves) return;
     int4 m = move[t];
-    int shift = m.y - m.x;
+    __global const int *from = (__global const int *)scratch;
+    __global int *to = (__global int *)nodes;
     for (int k = 0; k < m.z; k++) {
-        float4 a = scratch[2 * (m.x + k)], b = scratch[2 * (m.x + k) + 1];
-        if (as_int(b.w) == 0) a.w = as_float(as_int(a.w) + shift); /* interior: count 0 */
-        nodes[2 * (m.y + k)] = a;
-        nodes[2 * (m.y + k) + 1] = b;
+        nodes[2 * (m.y + k)] = scratch[2 * (m.x + k)];
+        nodes[2 * (m.y + k) + 1] = scratch[2 * (m.x + k) + 1];
+        if (from[8 * (m.x + k) + 7] == 0) /* interior (count 0): the far child moves along */
+            to[8 * (m.y + k) + 3] = from[8 * (m.x + k) + 3] + (m.y - m.x);
     }
 }

@@ -59,7 +59,7 @@ MAX_TREE_LEVELS = 48  # levels, root included
 # fits (the kernels also fall back to testing every primitive should a stack ever fill up).
 STACK_SIZE = 64
 assert MAX_TREE_LEVELS <= STACK_SIZE
-SAH_SAMPLES = 256  # nodes larger than this bin a strided sample of this many primitives
+SAH_SAMPLES = 1024  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 0  # SAH nodes of at most this many primitives are split in halves (0: none by size)
 MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin records per work-item)
 TOP_TASKS = 256  # SAH nodes of more than n / TOP_TASKS primitives split one per work-item, one launch per level ...
