@@ -277,29 +277,30 @@ INLINE lanes_u sort_keys_decreasing(lanes_u v) {
  * (closest hit) or the farthest (any-hit: the boxes nearest a shadow ray's origin rarely block
  * it).  All BVH_WIDTH keys are written (the arrays have that much slack), the stack grows by
  * the number of hits.  No branch per lane: which lanes hit is unpredictable. */
+/* The largest key of a node (its only hit lane's, when one lane hit). */
+INLINE uint max_key(lanes_u k) {
+#if BVH_WIDTH == 8
+    uint4 m4 = k.lo > k.hi ? k.lo : k.hi;
+#else
+    uint4 m4 = k;
+#endif
+    uint2 m2 = m4.lo > m4.hi ? m4.lo : m4.hi;
+    return m2.x > m2.y ? m2.x : m2.y;
+}
+
 INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stack_key, int *stack_node, int sp,
                       bool *overflow) {
     lanes_u keys = lane_keys(t_lanes, farthest_first);
-
     lanes_i hit = keys != (lanes_u)(0u);
-#if BVH_WIDTH == 4
-    uint bits = (uint)((hit.s0 & 1) | (hit.s1 & 2) | (hit.s2 & 4) | (hit.s3 & 8));
-#else
-    uint bits = (uint)((hit.s0 & 1) | (hit.s1 & 2) | (hit.s2 & 4) | (hit.s3 & 8) | (hit.s4 & 16) | (hit.s5 & 32) |
-                       (hit.s6 & 64) | (hit.s7 & 128));
-#endif
-    if (bits == 0u) return sp;
-    if ((bits & (bits - 1u)) == 0u) { /* one hit lane, the common case: no sort */
-        if (sp + 1 > WIDE_STACK_SIZE) { *overflow = true; return sp; }
-        int lane = (as_int((float)bits) >> 23) - 127; /* its index: the exponent of the power of two */
-        uint k[BVH_WIDTH] = LANES_ARRAY(keys);
-        stack_key[sp] = k[lane]; stack_node[sp] = node;
+    int n = HIT_COUNT(hit);
+    if (n == 0) return sp;
+    if (sp + n > WIDE_STACK_SIZE) { *overflow = true; return sp; }
+    if (n == 1) { /* one hit lane, the common case: no sort */
+        stack_key[sp] = max_key(keys); stack_node[sp] = node;
         return sp + 1;
     }
     keys = sort_keys_decreasing(keys);
     uint k[BVH_WIDTH] = LANES_ARRAY(keys);
-    int n = HIT_COUNT(hit);
-    if (sp + n > WIDE_STACK_SIZE) { *overflow = true; return sp; }
     for (int j = 0; j < BVH_WIDTH; ++j) { stack_key[sp + j] = k[j]; stack_node[sp + j] = node; }
     return sp + n;
 }
