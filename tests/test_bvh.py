@@ -268,6 +268,32 @@ def test_top_level_launches_give_the_same_tree_as_one_subtree(rng, monkeypatch, 
     assert np.array_equal(many.prim_order, single.prim_order)
 
 
+def test_sah_tree_does_not_depend_on_the_scene_scale(rng):
+    """Scaling a scene by a power of two scales every float exactly: the SAH choices, and so the
+    tree's shape and order, must stay the same even where areas would overflow (2**100 squared)
+    or underflow (2**-90 squared) float32."""
+    tri = soup(rng, 3000)
+    lo, hi = tri.min(1), tri.max(1)
+    ref = build_bvh(lo, hi)
+    for k in (-90, 100):
+        scale = np.float32(2.0**k)
+        bvh = build_bvh(lo * scale, hi * scale)
+        check_tree(bvh, lo * scale, hi * scale)
+        assert np.array_equal(bvh.prim_order, ref.prim_order)
+        assert np.array_equal(bvh.nodes[["offset", "count"]], ref.nodes[["offset", "count"]])
+        assert np.array_equal(bvh.nodes["bmin"], ref.nodes["bmin"] * scale)
+
+
+def test_root_leaf_above_the_subtree_size(monkeypatch):
+    """A root that the top-level launch makes a leaf (more primitives than a subtree task, at most
+    max_leaf_size) is the whole tree."""
+    monkeypatch.setattr(bvh_module, "TOP_MIN", 8)
+    lo = np.random.default_rng(3).random((20, 3)).astype(np.float32)
+    bvh = build_bvh(lo, lo + 0.1, max_leaf_size=100)
+    check_tree(bvh, lo, lo + 0.1)
+    assert len(bvh.nodes) == 1 and bvh.nodes["count"][0] == 20
+
+
 # ------------------------------------------------------------ SAH choices against brute force
 def box_half_area(lo, hi):
     e = np.maximum(hi.max(0).astype(np.float64) - lo.min(0).astype(np.float64), 0)

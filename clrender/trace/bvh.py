@@ -329,6 +329,10 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
 
     # every subtree in one work-item, biggest first
     subtrees.sort(key=lambda i: -top_count[i])
+    if not subtrees:  # the root is a leaf (more than _subtree_size(n) primitives, at most max_leaf)
+        nodes = np.zeros(1, NODE_DTYPE)
+        nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root[0, :3], root[1, :3], n
+        return nodes, np.arange(n, dtype=np.int32)
     task = np.array([[top_start[i], top_count[i], top_level[i], 2 * top_start[i]] for i in subtrees], np.int32)
     scratch_buf = dev.empty(2 * 32 * n)
     n_nodes = np.empty(len(subtrees), np.int32)
