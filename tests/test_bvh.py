@@ -284,6 +284,26 @@ def test_sah_tree_does_not_depend_on_the_scene_scale(rng):
         assert np.array_equal(bvh.nodes["bmin"], ref.nodes["bmin"] * scale)
 
 
+def test_builds_from_several_threads_give_the_same_tree(rng):
+    """The device build shares its kernel objects: concurrent callers must not mix their arguments."""
+    import threading
+
+    tri = soup(rng, 5000)
+    lo, hi = tri.min(1), tri.max(1)
+    ref = build_bvh(lo, hi)
+    trees = [None] * 4
+
+    def build(i):
+        trees[i] = build_bvh(lo, hi)
+
+    threads = [threading.Thread(target=build, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert all(t.nodes.tobytes() == ref.nodes.tobytes() and np.array_equal(t.prim_order, ref.prim_order) for t in trees)
+
+
 def test_root_leaf_above_the_subtree_size(monkeypatch):
     """A root that the top-level launch makes a leaf (more primitives than a subtree task, at most
     max_leaf_size) is the whole tree."""

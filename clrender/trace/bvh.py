@@ -42,6 +42,7 @@ is 64 entries): SAH nodes switch to halving early enough.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
@@ -65,6 +66,7 @@ MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin record
 TOP_TASKS = 256  # SAH nodes of more than n / TOP_TASKS primitives split one per work-item, one launch per level ...
 TOP_MIN = 4096  # ... and of more than this many; smaller ones build their whole subtree in one work-item
 LOAD_CHUNKS = 64  # work-items that make the SAH build's primitive records
+_DEVICE_BUILD = threading.Lock()  # one SAH build on the device at a time per process
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -179,7 +181,8 @@ def build_bvh(
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
         nodes = _depth_first(levels)
     else:
-        nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
+        with _DEVICE_BUILD:  # the kernel objects and their arguments are shared by every caller
+            nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
 
 
