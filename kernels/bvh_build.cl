@@ -1,12 +1,14 @@
 /* Binned-SAH BVH build (clrender/trace/bvh.py, builder "sah"): one node, or one whole subtree,
- * per work-item.  The host splits the top levels with split_level (one launch per level, one
- * work-item per node), then hands every remaining node to build_subtree, which builds its whole
- * subtree depth-first with an explicit stack.  Each work-item works on its own range of
- * primitives, sequentially, so the tree does not depend on scheduling.
+ * per work-item.  load_prims makes the primitive records; the host splits the top levels with
+ * split_level (one launch per level, one work-item per node), then hands every remaining node to
+ * build_subtree, which builds its whole subtree depth-first with an explicit stack;
+ * place_subtrees moves each subtree to its depth-first place and prim_order reads the final
+ * primitive order.  Each work-item works on its own range of primitives, sequentially, so the
+ * tree does not depend on scheduling.
  *
  * Buffers:
  *   box    -- two float4 per primitive, permuted in place as ranges are partitioned:
- *             (lo.xyz, primitive id as int bits), (hi.xyz, unused)
+ *             (lo.xyz, primitive id as int bits), (hi.xyz, 0)
  *   bounds -- four float4 per node: bmin, bmax, and cmin, cmax, the bounds of lo + hi (twice the
  *             centroid: only comparisons and ranges of centroids matter); .w unused
  *   nodes  -- bvh.py's NODE_DTYPE, BVH_NODE_ROWS (2) float4 per node: (bmin.xyz, offset bits),
