@@ -304,6 +304,14 @@ def test_builds_from_several_threads_give_the_same_tree(rng):
     assert all(t.nodes.tobytes() == ref.nodes.tobytes() and np.array_equal(t.prim_order, ref.prim_order) for t in trees)
 
 
+def test_sah_refuses_more_primitives_than_its_int32_indices_reach(monkeypatch):
+    monkeypatch.setattr(bvh_module, "MAX_SAH_PRIMS", 10)
+    lo = np.zeros((11, 3), np.float32)
+    with pytest.raises(UsageError, match="at most 10"):
+        build_bvh(lo, lo + 1)
+    assert build_bvh(lo, lo + 1, builder="median").leaf_count > 1
+
+
 def test_root_leaf_above_the_subtree_size(monkeypatch):
     """A root that the top-level launch makes a leaf (more primitives than a subtree task, at most
     max_leaf_size) is the whole tree."""

@@ -66,6 +66,7 @@ MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin record
 TOP_TASKS = 256  # SAH nodes of more than n / TOP_TASKS primitives split one per work-item, one launch per level ...
 TOP_MIN = 4096  # ... and of more than this many; smaller ones build their whole subtree in one work-item
 LOAD_CHUNKS = 64  # work-items that make the SAH build's primitive records
+MAX_SAH_PRIMS = 2**27 - 1  # the kernels index node and record words with int32 (16 words per primitive)
 _DEVICE_BUILD = threading.Lock()  # one SAH build on the device at a time per process
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
@@ -177,6 +178,8 @@ def build_bvh(
         raise UsageError("primitive bounds with NaN or infinite values; allowed: finite numbers")
     if (hi < lo).any():
         raise UsageError("primitive bounds with hi < lo; allowed: boxes with lo <= hi")
+    if builder == "sah" and n > MAX_SAH_PRIMS:
+        raise UsageError(f"{n} primitives for the sah builder; allowed: at most {MAX_SAH_PRIMS} (or builder 'median')")
     if builder == "median":
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
         nodes = _depth_first(levels)
