@@ -197,7 +197,6 @@ typedef uint4 lanes_u;
 #define as_lanes_u as_uint4
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
-#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3))
 #define LANE_BITS 2
 #else
 typedef float8 lanes_f;
@@ -207,10 +206,22 @@ typedef uint8 lanes_u;
 #define as_lanes_u as_uint8
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3, 4, 5, 6, 7))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
-#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3 + (h).s4 + (h).s5 + (h).s6 + (h).s7))
 #define LANE_BITS 3
 #endif
 #define LANE_MASK ((uint)(BVH_WIDTH - 1))
+
+/* How many lanes of a comparison result (-1 true, 0 false) are set.  Summed pairwise in vectors:
+ * Oclgrind evaluates the flat sum s0 + s1 + ... + s7 of such lanes wrongly (255 per lane, once
+ * LLVM has turned it into a sum of i1 masks). */
+INLINE int hit_count(lanes_i h) {
+#if BVH_WIDTH == 8
+    int4 s4 = h.lo + h.hi;
+#else
+    int4 s4 = h;
+#endif
+    int2 s2 = s4.lo + s4.hi;
+    return -(s2.x + s2.y);
+}
 #define NODE_FLOATS (WIDE_NODE_ROWS * BVH_WIDTH) /* rows of BVH_WIDTH lanes (clrender/layout.py) */
 #define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
 #define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
@@ -292,7 +303,7 @@ INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stac
                       bool *overflow) {
     lanes_u keys = lane_keys(t_lanes, farthest_first);
     lanes_i hit = keys != (lanes_u)(0u);
-    int n = HIT_COUNT(hit);
+    int n = hit_count(hit);
     if (n == 0) return sp;
     if (sp + n > WIDE_STACK_SIZE) { *overflow = true; return sp; }
     if (n == 1) { /* one hit lane, the common case: no sort */
