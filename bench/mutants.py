@@ -373,8 +373,8 @@ MUTANTS = [
     M(
         "block-last-skipped",
         "kernels/intersect.h",
-        "for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {\n        __global const float4 *block = rows + first;\n        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);\n        float4 u, v;\n        float4 t",
-        "for (int b = 0; b + BLOCK_LANES < count; b += BLOCK_LANES, first += BLOCK_ROWS) {\n        __global const float4 *block = rows + first;\n        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);\n        float4 u, v;\n        float4 t",
+        "for (int b = 0; b < count; b += BLOCK_LANES",
+        "for (int b = 0; b + BLOCK_LANES < count; b += BLOCK_LANES",
         "closest hit skips the last block of a leaf",
     ),
     M(

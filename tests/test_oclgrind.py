@@ -308,11 +308,7 @@ UNINITIALIZED_REPORT = re.compile(r"^(Uninitialized|Controlflow depends on unini
 def error_reports(stderr: str) -> list[str]:
     stderr = PYOPENCL_PROBE.sub("", stderr)
     blocks = re.split(r"\n\s*\n", stderr)  # Oclgrind separates its reports by blank lines
-    kept = [
-        b
-        for b in blocks
-        if not (UNINITIALIZED_REPORT.match(b.strip()) and re.search(rf"Kernel: ({'|'.join(BVH_BUILD_KERNELS)})\b", b))
-    ]
+    kept = [b for b in blocks if not (UNINITIALIZED_REPORT.match(b.strip()) and re.search(rf"Kernel: ({'|'.join(BVH_BUILD_KERNELS)})\b", b))]
     return [line for line in "\n\n".join(kept).splitlines() if any(m.lower() in line.lower() for m in ERROR_MARKERS)]
 
 
