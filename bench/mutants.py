@@ -310,7 +310,7 @@ MUTANTS = [
         "wide-push-nearest-first",
         "kernels/intersect.h",
         "    keys = sort_keys_decreasing(keys);\n",
-        "    keys = sort_keys_decreasing(keys != (lanes_u)(0u) ? ~keys : keys);\n    keys = keys != (lanes_u)(0u) ? ~keys : keys;\n",
+        "    keys = farthest_first ? sort_keys_decreasing(keys) : ~sort_keys_decreasing(keys != (lanes_u)(0u) ? ~keys : keys);\n",
         "wide BVH visits the farthest child first (slower, same hits)",
     ),
     M(
