@@ -185,25 +185,27 @@ def kernel_rows(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
     ceil(count / BLOCK_LANES)); the vertices are copied bit for bit from `slots`, so a block lane
     computes exactly what the one-primitive test computes from the record.  WideBVH itself is not
     changed: its lanes keep naming slots."""
-    nodes = wide.nodes.copy()
-    ints = nodes.view(np.int32)
-    child, count = ints[:, WIDE_CHILD_ROW], ints[:, WIDE_COUNT_ROW]
+    count = wide.count
     leaf = count > 0
-    first, n = child[leaf].astype(np.int64), count[leaf].astype(np.int64)
+    first, n = wide.child[leaf].astype(np.int64), count[leaf].astype(np.int64)
     blocks = -(-n // BLOCK_LANES)
     block_start = np.concatenate([[0], np.cumsum(blocks)[:-1]])
-    node_rows = nodes.size // 4
-    child[leaf] = node_rows + BLOCK_ROWS * block_start
-    # slot of every block lane: first + lane, -1 past the leaf's count
     total = int(blocks.sum())
+    node_rows = wide.nodes.size // 4
+    rows = np.empty((node_rows + BLOCK_ROWS * total, 4), np.float32)  # one allocation, filled in place
+    nodes = rows[:node_rows].reshape(wide.nodes.shape)
+    nodes[...] = wide.nodes
+    nodes.view(np.int32)[:, WIDE_CHILD_ROW][leaf] = node_rows + BLOCK_ROWS * block_start
+    # slot of every block lane: first + lane, -1 past the leaf's count
     owner = np.repeat(np.arange(len(n)), blocks)  # leaf of each block
     lane = (np.arange(total) - block_start[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
     slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)
-    out = np.zeros((total, BLOCK_ROWS, BLOCK_LANES), np.float32)
-    real = slot >= 0
-    rec = slots[np.where(real, slot, 0)]  # (total, lanes, PRIM_ROWS, 4)
-    sphere = real & (rec[..., 1, 3] != 0)  # the record's sphere flag
-    for v in range(3):  # rows 3v .. 3v+2: vertex v's x, y, z of each lane
-        out[:, 3 * v : 3 * v + 3, :] = np.where((real & ~sphere)[..., None], rec[..., v, :3], 0).transpose(0, 2, 1)
+    out = rows[node_rows:].reshape(total, BLOCK_ROWS, BLOCK_LANES)
+    rec = slots[np.maximum(slot, 0)]  # (total, lanes, PRIM_ROWS, 4)
+    sphere = (slot >= 0) & (rec[..., 1, 3] != 0)  # the record's sphere flag
+    # rows 3v + axis: vertex v's coordinate of each lane; empty and sphere lanes hold zeros
+    out[:, :9, :] = rec[..., :3, :3].reshape(total, BLOCK_LANES, 9).transpose(0, 2, 1)
+    blank = (slot < 0) | sphere
+    out.transpose(0, 2, 1)[blank, :9] = 0.0
     out.view(np.int32)[:, BLOCK_SLOT_ROW, :] = np.where(sphere, -2 - slot, slot)
-    return np.concatenate([nodes.reshape(-1, 4), out.reshape(-1, 4)])
+    return rows
