@@ -418,7 +418,7 @@ typedef struct {
     Hit best;
     float T;
     int sp;
-    bool overflow, any_hit;
+    bool overflow;
     uint visits;
     uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
     int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
@@ -426,7 +426,7 @@ typedef struct {
 
 INLINE void walk_start(Walk *w, __global const float4 *nodes, int n_prims, Ray r, float t_min, float t_max,
                        bool any_hit) {
-    w->r = r; w->t_min = t_min; w->t_max = t_max; w->any_hit = any_hit;
+    w->r = r; w->t_min = t_min; w->t_max = t_max;
     w->best = no_hit(); w->best.t = t_max; w->T = 1.0f;
     w->sp = 0; w->overflow = false; w->visits = 0;
     if (n_prims > 0) {
@@ -437,21 +437,22 @@ INLINE void walk_start(Walk *w, __global const float4 *nodes, int n_prims, Ray r
 }
 
 /* Visit the lane on top of the stack: a leaf's blocks are tested, a node's boxes tested and its hit
- * lanes pushed.  Call while w->sp > 0. */
+ * lanes pushed.  Call while w->sp > 0, with the any_hit the walk started with (a constant at every
+ * call, so the compiler keeps one kind of walk per loop). */
 INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const float4 *prims,
                       __global const int *prim_object, __global const int2 *objects,
-                      __global const float4 *materials, bool opaque_only) {
+                      __global const float4 *materials, bool opaque_only, bool any_hit) {
     __global const int *ints = (__global const int *)nodes;
     int sp = --w->sp;
     uint key = w->stack_key[sp];
-    float t_max = w->any_hit ? w->t_max : w->best.t;
-    if (!w->any_hit && key_t(key) > t_max * 1.0000004f) return; /* beyond the nearest hit so far */
-    int node = w->stack_node[sp], lane = key_lane(key, w->any_hit);
+    float t_max = any_hit ? w->t_max : w->best.t;
+    if (!any_hit && key_t(key) > t_max * 1.0000004f) return; /* beyond the nearest hit so far */
+    int node = w->stack_node[sp], lane = key_lane(key, any_hit);
     int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
     COUNT_NODE(&w->visits);
     if (count > 0) {
         COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */
-        if (w->any_hit) {
+        if (any_hit) {
             w->T *= blocks_transmittance(nodes, child, count, prims, prim_object, objects, materials, w->r, w->t_min,
                                          t_max, opaque_only);
             if (w->T == 0.0f) w->sp = 0; /* blocked: done */
@@ -459,16 +460,17 @@ INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const floa
             test_blocks(nodes, child, count, prims, w->r, w->t_min, &w->best);
         }
     } else {
-        w->sp = push_lanes(child, hit_boxes(w->r, (__global const lanes_f *)nodes + 8 * child, t_max), w->any_hit,
+        w->sp = push_lanes(child, hit_boxes(w->r, (__global const lanes_f *)nodes + 8 * child, t_max), any_hit,
                            w->stack_key, w->stack_node, sp, &w->overflow);
     }
 }
 
 /* After the last step: a lane that did not fit on the stack means every primitive is tested instead. */
 INLINE void walk_finish(Walk *w, __global const float4 *prims, int n_prims, __global const int *prim_object,
-                        __global const int2 *objects, __global const float4 *materials, bool opaque_only) {
+                        __global const int2 *objects, __global const float4 *materials, bool opaque_only,
+                        bool any_hit) {
     if (!w->overflow) return;
-    if (w->any_hit) {
+    if (any_hit) {
         if (w->T == 0.0f) return;
         w->T = 1.0f;
         for (int s = 0; s < n_prims && w->T > 0.0f; ++s)
@@ -483,8 +485,8 @@ INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 
                             float t_min, float t_max, uint *visits) {
     Walk w;
     walk_start(&w, nodes, n_prims, r, t_min, t_max, false);
-    while (w.sp > 0) walk_step(&w, nodes, prims, 0, 0, 0, true);
-    walk_finish(&w, prims, n_prims, 0, 0, 0, true);
+    while (w.sp > 0) walk_step(&w, nodes, prims, 0, 0, 0, true, false);
+    walk_finish(&w, prims, n_prims, 0, 0, 0, true, false);
     *visits += w.visits;
     return w.best;
 }
@@ -495,8 +497,8 @@ INLINE float transmittance_wide(__global const float4 *nodes, __global const flo
                                 bool opaque_only, uint *visits) {
     Walk w;
     walk_start(&w, nodes, n_prims, r, t_min, t_max, true);
-    while (w.sp > 0) walk_step(&w, nodes, prims, prim_object, objects, materials, opaque_only);
-    walk_finish(&w, prims, n_prims, prim_object, objects, materials, opaque_only);
+    while (w.sp > 0) walk_step(&w, nodes, prims, prim_object, objects, materials, opaque_only, true);
+    walk_finish(&w, prims, n_prims, prim_object, objects, materials, opaque_only, true);
     *visits += w.visits;
     return w.T;
 }

@@ -100,11 +100,11 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
         walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
                    t_min[idx[k]] * length[k], INF_T, false);
     while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, 0, 0, 0, true);
-        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, 0, 0, 0, true);
+        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, 0, 0, 0, true, false);
+        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, 0, 0, 0, true, false);
     }
     for (int k = 0; k < 2; ++k) {
-        walk_finish(&w[k], prims, n_prims, 0, 0, 0, true);
+        walk_finish(&w[k], prims, n_prims, 0, 0, 0, true, false);
         h[k] = w[k].best.slot < 0 ? no_hit() : w[k].best;
         visits[k] = w[k].visits;
     }
@@ -140,11 +140,11 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
         walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
                    t_min[idx[k]] * length[k], t_max[idx[k]] * length[k], true);
     while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true);
-        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true);
+        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, true);
+        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true, true);
     }
     for (int k = 0; k < 2; ++k) {
-        walk_finish(&w[k], prims, n_prims, prim_object, objects, materials, true);
+        walk_finish(&w[k], prims, n_prims, prim_object, objects, materials, true, true);
         T[k] = w[k].T;
         visits[k] = w[k].visits;
     }
