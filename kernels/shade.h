@@ -8,6 +8,7 @@
 #include "common.h"
 #include "intersect.h"
 #include "sampling.h"
+#include "shaft.h"
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -100,7 +101,8 @@ INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 
 /* Light from every light source at p, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
 INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
-                           float4 kd, float4 ks, Rng *rng, __global float *shadow, uint *visits, uint *rays) {
+                           float4 kd, float4 ks, int own_slot, Rng *rng, __global float *shadow, uint *visits,
+                           uint *rays) {
     float3 total = (float3)(0.0f);
     /* shadow rays start off the surface on the side they leave towards */
     float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
@@ -123,6 +125,18 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
         light_normal = area > 0.0f ? light_normal / area : light_normal;
         float weight = intensity / (float)(n_side * n_side);
         float visible = 0.0f;
+#if SHAFTS_ON
+        /* an area light's rays all leave from one side: one shaft traversal finds what they may meet
+           (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree */
+        ShaftCandidates cand;
+        bool use_shaft = false;
+        if (type == LIGHT_AREA && n_side > 1) {
+            int side = light_side(p, n_geo, pos, edge_a, edge_b);
+            Shaft sh;
+            if (side != 0 && make_shaft(side > 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh))
+                use_shaft = shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, own_slot, &cand, visits);
+        }
+#endif
         for (uint sp = 0; sp < n_side; ++sp) {
             for (uint sq = 0; sq < n_side; ++sq) {
                 float3 l;
@@ -147,10 +161,22 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 float T = 1.0f;
                 if (dot3(n, l) > 0.0f) {
                     float3 origin = dot3(n_geo, l) >= 0.0f ? origin_front : origin_back;
-                    Ray sr = make_ray(origin, l);
-                    float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
-                    T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
-                                      sc->materials, sr, 0.0f, t_max, false, visits);
+#if SHAFTS_ON
+                    if (use_shaft) {
+                        if (cand.n > 0) { /* an empty shaft: nothing to cross, T = 1 */
+                            Ray sr = make_ray(origin, l);
+                            float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
+                            T = shaft_transmittance(&cand, sc->nodes, sc->prims, sc->prim_object, sc->objects,
+                                                    sc->materials, sr, t_max);
+                        }
+                    } else
+#endif
+                    {
+                        Ray sr = make_ray(origin, l);
+                        float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
+                        T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
+                                          sc->materials, sr, 0.0f, t_max, false, visits);
+                    }
                     *rays += 1;
                     /* a blocked sample adds nothing: skip the shading (its pow is a third of a render's time) */
                     if (T > 0.0f) total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks, inverse_square);
@@ -228,7 +254,7 @@ INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
             float3 surface = sc->ambient * kd.xyz +
-                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
+                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, h.slot, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;
