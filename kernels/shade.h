@@ -129,12 +129,15 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
         /* an area light's rays all leave from one side: one shaft traversal finds what they may meet
            (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree */
         ShaftCandidates cand;
-        bool use_shaft = false;
+        int shaft_side = 0; /* 1, -1: the samples whose rays leave from the front, back origin use the shaft */
         if (type == LIGHT_AREA && n_side > 1) {
+            /* the light straddles the tangent plane: a shaft for the front rays, the own surface kept */
             int side = light_side(p, n_geo, pos, edge_a, edge_b);
             Shaft sh;
-            if (side != 0 && make_shaft(side > 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh))
-                use_shaft = shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, own_slot, &cand, visits);
+            if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
+                shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects, sc->materials,
+                                 side != 0 ? own_slot : -1, &cand, visits))
+                shaft_side = side >= 0 ? 1 : -1;
         }
 #endif
         for (uint sp = 0; sp < n_side; ++sp) {
@@ -162,8 +165,9 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 if (dot3(n, l) > 0.0f) {
                     float3 origin = dot3(n_geo, l) >= 0.0f ? origin_front : origin_back;
 #if SHAFTS_ON
-                    if (use_shaft) {
-                        if (cand.n > 0) { /* an empty shaft: nothing to cross, T = 1 */
+                    if (shaft_side != 0 && (dot3(n_geo, l) >= 0.0f) == (shaft_side > 0)) {
+                        T = cand.crossed_T;
+                        if (cand.n > 0) { /* else nothing more to cross */
                             Ray sr = make_ray(origin, l);
                             float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
                             T = shaft_transmittance(&cand, sc->nodes, sc->prims, sc->prim_object, sc->objects,

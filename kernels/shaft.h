@@ -41,6 +41,7 @@
 
 typedef struct {
     float4 plane[5]; /* unit outward normal (xyz) and w = dot(n, a point on the plane): outside where dot(n, x) > w */
+    float3 apex, corner[4]; /* O, and the light's corners in order around it */
     float3 lo, hi;   /* bounds of O and the corners */
     float scale;     /* largest |coordinate| of O and the corners */
 } Shaft;
@@ -51,6 +52,7 @@ typedef struct {
     int first[SHAFT_CANDIDATES];
     int lanes[SHAFT_CANDIDATES];
     int n;
+    float crossed_T; /* transmittance of the spheres every ray crosses once (not in the list) */
 } ShaftCandidates;
 
 INLINE float max3_abs(float3 v) { float3 a = abs3(v); return max_f(a.x, max_f(a.y, a.z)); }
@@ -98,6 +100,8 @@ INLINE bool make_shaft(float3 o, float3 corner, float3 a, float3 b, Shaft *sh) {
         lo = (float3)(min_f(lo.x, c[i].x), min_f(lo.y, c[i].y), min_f(lo.z, c[i].z));
         hi = (float3)(max_f(hi.x, c[i].x), max_f(hi.y, c[i].y), max_f(hi.z, c[i].z));
     }
+    sh->apex = o;
+    for (int i = 0; i < 4; ++i) sh->corner[i] = c[i];
     sh->scale = scale;
     sh->lo = lo;
     sh->hi = hi;
@@ -136,6 +140,39 @@ INLINE lanes_i shaft_boxes(const Shaft *sh, __global const lanes_f *node) {
     return keep;
 }
 
+/* n . (x - v0) for the lanes' planes n = (v1 - v0) x (v2 - v0), and a bound on its float32 error:
+ * 2^-20 (about 16 ulps) times the same sum with every product taken in absolute value (the
+ * products' exact zeros stay exact, so an axis-aligned plane's sides come out exactly). */
+#define PLANE_SIDE(qx, qy, qz, s, err) { \
+    float4 qx_ = (qx) - x0, qy_ = (qy) - y0, qz_ = (qz) - z0; \
+    s = nx * qx_ + ny * qy_ + nz * qz_; \
+    err = 9.5367431640625e-7f * (px * abs4(qx_) + py * abs4(qy_) + pz * abs4(qz_)); }
+
+/* Lanes whose triangle's plane has the whole shaft strictly on one side: the origin O on a side
+ * that rounding cannot change, and every light corner on the same side by more than the margin
+ * `m` (a distance).  No ray from O towards the light can cross such a triangle: the ray's true
+ * crossing of the plane lies behind O or well beyond the light, outside the triangle test's own
+ * error bound on t.  This removes the triangles around the shading point on a convex surface
+ * and a plane's other triangle, which the five planes cannot: they pass just beside the apex. */
+INLINE int4 shaft_beside_planes(const Shaft *sh, float4 x0, float4 y0, float4 z0, float4 x1, float4 y1, float4 z1,
+                                float4 x2, float4 y2, float4 z2, float4 m) {
+    float4 ax = x1 - x0, ay = y1 - y0, az = z1 - z0, bx = x2 - x0, by = y2 - y0, bz = z2 - z0;
+    float4 nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
+    float4 px = abs4(ay * bz) + abs4(az * by), py = abs4(az * bx) + abs4(ax * bz), pz = abs4(ax * by) + abs4(ay * bx);
+    float4 m_n = m * (px + py + pz); /* the margin times a bound on |n| */
+    float4 s, err;
+    PLANE_SIDE(sh->apex.x, sh->apex.y, sh->apex.z, s, err);
+    int4 front = s > err, back = s < -err;
+    for (int i = 0; i < 4; ++i) {
+        float3 c = sh->corner[i];
+        PLANE_SIDE(c.x, c.y, c.z, s, err);
+        front &= s > err + m_n;
+        back &= s < -(err + m_n);
+    }
+    return front | back;
+}
+#undef PLANE_SIDE
+
 /* Triangle lanes of a leaf block that may meet the shaft (bits 0..3); `own` (the shading point's
  * slot) is left out: the caller uses shafts only when the whole light is clearly on the side the
  * rays leave towards, so no ray from the offset origin can cross the surface it starts on. */
@@ -158,29 +195,64 @@ INLINE int shaft_triangles(const Shaft *sh, __global const float4 *block, int ow
         float4 f2 = p.x * x2 + p.y * y2 + p.z * z2 - p.w;
         out |= (f0 > m0) & (f1 > m1) & (f2 > m2);
     }
+    out |= shaft_beside_planes(sh, x0, y0, z0, x1, y1, z1, x2, y2, z2, max4(m0, max4(m1, m2)));
     int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
     int4 keep = (slot >= 0) & (slot != own) & (out == 0);
     return (keep.x & 1) | (keep.y & 2) | (keep.z & 4) | (keep.w & 8);
 }
 
-/* Whether the sphere (centre, radius) may meet the shaft. */
-INLINE bool shaft_sphere(const Shaft *sh, float4 cr) {
+/* What the shaft's rays do at the sphere (centre, radius): SPHERE_MISSED, SPHERE_TESTED (each ray
+ * is tested), or SPHERE_CROSSED_ONCE.  Computed as sphere_roots computes c = |O - centre|^2 - r^2
+ * (contraction off, as there), which is the same for every ray from O:
+ * - missed: outside the shaft's planes, or O outside (c > 0) and every ray leaving it (b = (O -
+ *   centre) . d > 0 by a margin at every corner): both roots are then negative.
+ * - crossed once: O inside (c < 0), every ray heading in (b < -0.02 |O - centre| at every corner, so
+ *   the discriminant is clearly positive and the far root is a chord of at least 0.04 r, far above
+ *   sphere_t_eps) and the sphere wholly on O's side of the light's plane (the exit comes before
+ *   t_max): one root negative, the other counted.  The glass sphere seen from inside is such. */
+#define SPHERE_MISSED 0
+#define SPHERE_TESTED 1
+#define SPHERE_CROSSED_ONCE 2
+#pragma OPENCL FP_CONTRACT OFF
+INLINE int shaft_sphere(const Shaft *sh, float4 cr) {
     float m = SHAFT_MARGIN * (sh->scale + max3_abs(cr.xyz) + cr.w) + cr.w;
     bool keep = cr.x <= sh->hi.x + m && cr.y <= sh->hi.y + m && cr.z <= sh->hi.z + m && cr.x >= sh->lo.x - m &&
                 cr.y >= sh->lo.y - m && cr.z >= sh->lo.z - m;
     for (int i = 0; i < 5; ++i) keep = keep && dot3(sh->plane[i].xyz, cr.xyz) - sh->plane[i].w <= m;
-    return keep;
+    if (!keep) return SPHERE_MISSED;
+    float3 oc = sh->apex - cr.xyz;
+    float c = dot3(oc, oc) - cr.w * cr.w;
+    float3 a = abs3(oc);
+    float oc_l1 = a.x + a.y + a.z;
+    if (c > 0.0f) {
+        float margin = SHAFT_MARGIN * sh->scale * oc_l1;
+        bool leaves = true;
+        for (int i = 0; i < 4; ++i) leaves = leaves && dot3(oc, sh->corner[i] - sh->apex) > margin;
+        return leaves ? SPHERE_MISSED : SPHERE_TESTED;
+    }
+    if (c < 0.0f) {
+        bool enters = dot3(sh->plane[4].xyz, cr.xyz) - sh->plane[4].w < -m; /* m includes r */
+        for (int i = 0; i < 4; ++i) {
+            float3 to = sh->corner[i] - sh->apex, at = abs3(to);
+            enters = enters && dot3(oc, to) < -0.02f * oc_l1 * (at.x + at.y + at.z);
+        }
+        if (enters) return SPHERE_CROSSED_ONCE;
+    }
+    return SPHERE_TESTED;
 }
+#pragma OPENCL FP_CONTRACT ON
 
 /* Collect the candidates of the shaft from the wide tree.  False when there are more than
  * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
 INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __global const float4 *prims, int n_prims,
-                             int own, ShaftCandidates *cand, uint *visits) {
+                             __global const int *prim_object, __global const int2 *objects,
+                             __global const float4 *materials, int own, ShaftCandidates *cand, uint *visits) {
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     cand->n = 0;
+    cand->crossed_T = 1.0f;
     if (n_prims > 0) stack[sp++] = 0;
     while (sp > 0) {
         int node = stack[--sp];
@@ -210,7 +282,12 @@ INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __gl
                         if (sl[q] >= -1) continue;
                         int s = -2 - sl[q];
                         float4 a = prims[PRIM_ROWS * s], b1 = prims[PRIM_ROWS * s + 1];
-                        if (!shaft_sphere(sh, (float4)(a.xyz, b1.x))) continue;
+                        int what = shaft_sphere(sh, (float4)(a.xyz, b1.x));
+                        if (what == SPHERE_MISSED) continue;
+                        if (what == SPHERE_CROSSED_ONCE) {
+                            cand->crossed_T *= materials[MATERIAL_ROWS * objects[prim_object[as_int(a.w)]].x + 2].x;
+                            continue;
+                        }
                         if (cand->n >= SHAFT_CANDIDATES) return false;
                         cand->first[cand->n] = sl[q];
                         cand->lanes[cand->n++] = 0;
@@ -228,7 +305,7 @@ INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __gl
 INLINE float shaft_transmittance(ShaftCandidates *cand, __global const float4 *nodes, __global const float4 *prims,
                                  __global const int *prim_object, __global const int2 *objects,
                                  __global const float4 *materials, Ray r, float t_max) {
-    float T = 1.0f;
+    float T = cand->crossed_T;
     for (int k = 0; k < cand->n && T > 0.0f; ++k) {
         int first = cand->first[k];
         if (first < 0) {
