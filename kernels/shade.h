@@ -283,7 +283,7 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 float a_dist[LIGHT_LANES] = LIGHT_ARRAY(dist), a_fall[LIGHT_LANES] = LIGHT_ARRAY(falloff);
                 float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(n_dot);
                 float a_bx[LIGHT_LANES] = LIGHT_ARRAY(bx), a_by[LIGHT_LANES] = LIGHT_ARRAY(by), a_bz[LIGHT_LANES] = LIGHT_ARRAY(bz);
-                uint lanes = min(n2 - base, (uint)LIGHT_LANES);
+                uint lanes = n2 - base < LIGHT_LANES ? n2 - base : LIGHT_LANES;
                 for (uint j = 0; j < lanes; ++j) {
                     float T = 1.0f;
                     if (a_ndot[j] > 0.0f) {
