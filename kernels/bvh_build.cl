@@ -1,12 +1,14 @@
 /* Binned-SAH BVH build (clrender/trace/bvh.py, builder "sah"): one node, or one whole subtree,
- * per work-item.  The host splits the top levels with split_level (one launch per level, one
- * work-item per node), then hands every remaining node to build_subtree, which builds its whole
- * subtree depth-first with an explicit stack.  Each work-item works on its own range of
- * primitives, sequentially, so the tree does not depend on scheduling.
+ * per work-item.  load_prims makes the primitive records; the host splits the top levels with
+ * split_level (one launch per level, one work-item per node), then hands every remaining node to
+ * build_subtree, which builds its whole subtree depth-first with an explicit stack;
+ * place_subtrees moves each subtree to its depth-first place and prim_order reads the final
+ * primitive order.  Each work-item works on its own range of primitives, sequentially, so the
+ * tree does not depend on scheduling.
  *
  * Buffers:
  *   box    -- two float4 per primitive, permuted in place as ranges are partitioned:
- *             (lo.xyz, primitive id as int bits), (hi.xyz, unused)
+ *             (lo.xyz, primitive id as int bits), (hi.xyz, 0)
  *   bounds -- four float4 per node: bmin, bmax, and cmin, cmax, the bounds of lo + hi (twice the
  *             centroid: only comparisons and ranges of centroids matter); .w unused
  *   nodes  -- bvh.py's NODE_DTYPE, BVH_NODE_ROWS (2) float4 per node: (bmin.xyz, offset bits),
@@ -49,8 +51,9 @@ inline float4 max4(float4 a, float4 b) { return a > b ? a : b; }
 
 inline float comp(float4 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
 
-inline float half_area(float4 lo, float4 hi) {
-    float4 e = hi - lo;
+/* half the surface area of a box, its sides multiplied by `unit` */
+inline float half_area(float4 lo, float4 hi, float unit) {
+    float4 e = (hi - lo) * unit;
     float x = e.x > 0.0f ? e.x : 0.0f, y = e.y > 0.0f ? e.y : 0.0f, z = e.z > 0.0f ? e.z : 0.0f;
     return x * y + y * z + z * x;
 }
@@ -166,7 +169,13 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             bin_lo[2][bz] = min4(bin_lo[2][bz], lo);
             bin_hi[2][bz] = max4(bin_hi[2][bz], hi);
         }
-        /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right */
+        /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right, with
+         * lengths in units of the node's longest side, so that areas neither overflow nor underflow
+         * in very large or very small scenes (the cost compares ratios of areas only) */
+        float4 side = node->bmax - node->bmin;
+        float longest = side.x > side.y ? (side.x > side.z ? side.x : side.z) : (side.y > side.z ? side.y : side.z);
+        float unit = longest > 0.0f ? 1.0f / longest : 1.0f;
+        unit = unit <= FLT_MAX && unit > 0.0f ? unit : 1.0f; /* a denormal or infinite side: as is */
         float best = INFINITY;
         int best_axis = -1, best_cut = 0;
         for (int a = 0; a < 3; a++) {
@@ -178,7 +187,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
                 n += n_bin[a][b];
                 lo = min4(lo, bin_lo[a][b]);
                 hi = max4(hi, bin_hi[a][b]);
-                area_right[b - 1] = half_area(lo, hi);
+                area_right[b - 1] = half_area(lo, hi, unit);
                 n_right[b - 1] = n;
             }
             lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
@@ -189,7 +198,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
                 lo = min4(lo, bin_lo[a][b]);
                 hi = max4(hi, bin_hi[a][b]);
                 if (n == 0 || n_right[b] == 0) continue;
-                float cost = half_area(lo, hi) * (float)n + area_right[b] * (float)n_right[b];
+                float cost = half_area(lo, hi, unit) * (float)n + area_right[b] * (float)n_right[b];
                 if (cost < best) { /* ties: the lower axis, then the lower cut */
                     best = cost;
                     best_axis = a;
@@ -198,7 +207,7 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
             }
         }
         if (best_axis >= 0) {
-            float node_area = half_area(node->bmin, node->bmax);
+            float node_area = half_area(node->bmin, node->bmax, unit);
             node_area = node_area > 0.0f ? node_area : 1.0f;
             float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * best / node_area;
             if (cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap) return 0;

@@ -197,7 +197,6 @@ typedef uint4 lanes_u;
 #define as_lanes_u as_uint4
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
-#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3))
 #define LANE_BITS 2
 #else
 typedef float8 lanes_f;
@@ -207,10 +206,22 @@ typedef uint8 lanes_u;
 #define as_lanes_u as_uint8
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3, 4, 5, 6, 7))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
-#define HIT_COUNT(h) (-((h).s0 + (h).s1 + (h).s2 + (h).s3 + (h).s4 + (h).s5 + (h).s6 + (h).s7))
 #define LANE_BITS 3
 #endif
 #define LANE_MASK ((uint)(BVH_WIDTH - 1))
+
+/* How many lanes of a comparison result (-1 true, 0 false) are set.  Summed pairwise in vectors:
+ * Oclgrind evaluates the flat sum s0 + s1 + ... + s7 of such lanes wrongly (255 per lane, once
+ * LLVM has turned it into a sum of i1 masks). */
+INLINE int hit_count(lanes_i h) {
+#if BVH_WIDTH == 8
+    int4 s4 = h.lo + h.hi;
+#else
+    int4 s4 = h;
+#endif
+    int2 s2 = s4.lo + s4.hi;
+    return -(s2.x + s2.y);
+}
 #define NODE_FLOATS (WIDE_NODE_ROWS * BVH_WIDTH) /* rows of BVH_WIDTH lanes (clrender/layout.py) */
 #define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
 #define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
@@ -292,7 +303,7 @@ INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stac
                       bool *overflow) {
     lanes_u keys = lane_keys(t_lanes, farthest_first);
     lanes_i hit = keys != (lanes_u)(0u);
-    int n = HIT_COUNT(hit);
+    int n = hit_count(hit);
     if (n == 0) return sp;
     if (sp + n > WIDE_STACK_SIZE) { *overflow = true; return sp; }
     if (n == 1) { /* one hit lane, the common case: no sort */
@@ -335,93 +346,8 @@ INLINE void test_blocks(__global const float4 *rows, int first, int count, __glo
     }
 }
 
-INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
-                            Ray r, float t_min, Hit best, uint *visits) {
-    /* trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep: the stack holds at most 3 siblings per level plus one
-       node's lanes (clrender.trace.bvh_wide.stack_size); should it fill up, every primitive is tested */
-    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
-    __global const int *ints = (__global const int *)nodes;
-    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
-    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
-    int sp = 0;
-    bool overflow = false;
-    if (n_prims > 0) {
-        COUNT_NODE(visits);
-        sp = push_lanes(0, hit_boxes(r, rows, best.t), false, stack_key, stack_node, sp, &overflow);
-    }
-    while (sp > 0) {
-        --sp;
-        uint key = stack_key[sp];
-        if (key_t(key) > best.t * 1.0000004f) continue; /* beyond the nearest hit so far */
-        int node = stack_node[sp], lane = key_lane(key, false);
-        int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
-        COUNT_NODE(visits);
-        if (count > 0) {
-            COUNT_PRIMS(visits, count);
-            test_blocks(nodes, child, count, prims, r, t_min, &best);
-        } else {
-            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, best.t), false, stack_key, stack_node, sp, &overflow);
-        }
-    }
-    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
-    return best;
-}
 #endif
 
-INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
-                       Ray r, float t_min, float t_max, uint *visits) {
-    Hit best = no_hit();
-    best.t = t_max;
-#if USE_BVH && BVH_WIDTH == 2
-    /* the builder keeps trees at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
-       at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
-       primitives are then all tested (the answer is the same, only slower) */
-    int stack[STACK_SIZE];
-    float stack_t[STACK_SIZE];
-    int sp = 0;
-    bool overflow = false;
-    int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
-    while (node >= 0) {
-        COUNT_NODE(visits);
-        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
-        int count = as_int(hi.w), offset = as_int(lo.w);
-        int next = -1;
-        if (count > 0) {
-            COUNT_PRIMS(visits, count);
-            test_slots(prims, offset, offset + count, r, t_min, &best);
-        } else {
-            int near_child = node + 1, far_child = offset;
-            float t_near = hit_box(r, nodes[BVH_NODE_ROWS * near_child], nodes[BVH_NODE_ROWS * near_child + 1], best.t);
-            float t_far = hit_box(r, nodes[BVH_NODE_ROWS * far_child], nodes[BVH_NODE_ROWS * far_child + 1], best.t);
-            if (t_far < t_near) { /* visit the nearer box first */
-                int tmp = near_child; near_child = far_child; far_child = tmp;
-                float tt = t_near; t_near = t_far; t_far = tt;
-            }
-            if (t_near != INF_T) {
-                next = near_child;
-                if (t_far != INF_T) { /* put far node on the stack */
-                    if (sp < STACK_SIZE) { stack[sp] = far_child; stack_t[sp] = t_far; ++sp; }
-                    else overflow = true;
-                }
-            }
-        }
-        /* advance to the near node, else pop a far node the ray can still reach */
-        while (next < 0 && sp > 0) {
-            --sp;
-            if (stack_t[sp] <= best.t * 1.0000004f) next = stack[sp];
-        }
-        node = next;
-    }
-    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
-#elif USE_BVH
-    best = closest_hit_wide(nodes, prims, n_prims, r, t_min, best, visits);
-#else
-    test_slots(prims, 0, n_prims, r, t_min, &best);
-    *visits += (uint)n_prims;
-#endif
-    if (best.slot < 0) best = no_hit();
-    return best;
-}
 
 /* Fraction of light reaching t_max along the ray: 0 past an opaque surface,
  * times `transparency` for every crossing of a transparent one (the shadow
@@ -478,43 +404,158 @@ INLINE float blocks_transmittance(__global const float4 *rows, int first, int co
     return T;
 }
 
-/* Any-hit traversal of the wide tree: every hit lane goes on the stack. */
+/* A ray's walk through the wide tree, as a state a work-item can advance one stack entry at a time:
+ * the ray kernels step two rays in turn, whose steps do not depend on each other, so the CPU overlaps
+ * one's memory and branch latencies with the other's work (+10-15% per ray measured).  Closest hit:
+ * `best` shrinks the search as hits are found; any-hit (shadow rays): `T` is the light getting
+ * through so far, and the walk ends at an opaque hit.  Stack entries are lane keys (lane_keys) with
+ * the node they belong to; trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so the stack
+ * holds at most BVH_WIDTH - 1 siblings per level plus one node's lanes
+ * (clrender.trace.bvh_wide.stack_size); should it fill up, every primitive is tested at the end. */
+typedef struct {
+    Ray r;
+    float t_min, t_max; /* any-hit: the segment; closest hit: t_max is the nearest hit so far */
+    Hit best;
+    float T;
+    int sp;
+    bool overflow, any_hit;
+    uint visits;
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
+} Walk;
+
+INLINE void walk_start(Walk *w, __global const float4 *nodes, int n_prims, Ray r, float t_min, float t_max,
+                       bool any_hit) {
+    w->r = r; w->t_min = t_min; w->t_max = t_max; w->any_hit = any_hit;
+    w->best = no_hit(); w->best.t = t_max; w->T = 1.0f;
+    w->sp = 0; w->overflow = false; w->visits = 0;
+    if (n_prims > 0) {
+        COUNT_NODE(&w->visits);
+        w->sp = push_lanes(0, hit_boxes(r, (__global const lanes_f *)nodes, t_max), any_hit, w->stack_key,
+                           w->stack_node, 0, &w->overflow);
+    }
+}
+
+/* Visit the lane on top of the stack: a leaf's blocks are tested, a node's boxes tested and its hit
+ * lanes pushed.  Call while w->sp > 0. */
+INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const float4 *prims,
+                      __global const int *prim_object, __global const int2 *objects,
+                      __global const float4 *materials, bool opaque_only) {
+    __global const int *ints = (__global const int *)nodes;
+    int sp = --w->sp;
+    uint key = w->stack_key[sp];
+    float t_max = w->any_hit ? w->t_max : w->best.t;
+    if (!w->any_hit && key_t(key) > t_max * 1.0000004f) return; /* beyond the nearest hit so far */
+    int node = w->stack_node[sp], lane = key_lane(key, w->any_hit);
+    int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    COUNT_NODE(&w->visits);
+    if (count > 0) {
+        COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */
+        if (w->any_hit) {
+            w->T *= blocks_transmittance(nodes, child, count, prims, prim_object, objects, materials, w->r, w->t_min,
+                                         t_max, opaque_only);
+            if (w->T == 0.0f) w->sp = 0; /* blocked: done */
+        } else {
+            test_blocks(nodes, child, count, prims, w->r, w->t_min, &w->best);
+        }
+    } else {
+        w->sp = push_lanes(child, hit_boxes(w->r, (__global const lanes_f *)nodes + 8 * child, t_max), w->any_hit,
+                           w->stack_key, w->stack_node, sp, &w->overflow);
+    }
+}
+
+/* After the last step: a lane that did not fit on the stack means every primitive is tested instead. */
+INLINE void walk_finish(Walk *w, __global const float4 *prims, int n_prims, __global const int *prim_object,
+                        __global const int2 *objects, __global const float4 *materials, bool opaque_only) {
+    if (!w->overflow) return;
+    if (w->any_hit) {
+        if (w->T == 0.0f) return;
+        w->T = 1.0f;
+        for (int s = 0; s < n_prims && w->T > 0.0f; ++s)
+            w->T *= crossing_transmittance(prims, prim_object, objects, materials, s, w->r, w->t_min, w->t_max,
+                                           opaque_only);
+    } else {
+        test_slots(prims, 0, n_prims, w->r, w->t_min, &w->best);
+    }
+}
+
+INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims, Ray r,
+                            float t_min, float t_max, uint *visits) {
+    Walk w;
+    walk_start(&w, nodes, n_prims, r, t_min, t_max, false);
+    while (w.sp > 0) walk_step(&w, nodes, prims, 0, 0, 0, true);
+    walk_finish(&w, prims, n_prims, 0, 0, 0, true);
+    *visits += w.visits;
+    return w.best;
+}
+
 INLINE float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                                 __global const int *prim_object, __global const int2 *objects,
                                 __global const float4 *materials, Ray r, float t_min, float t_max,
                                 bool opaque_only, uint *visits) {
-    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
-    __global const int *ints = (__global const int *)nodes;
-    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
-    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
-    int sp = 0;
-    bool overflow = false;
-    float T = 1.0f;
-    if (n_prims > 0) {
-        COUNT_NODE(visits);
-        sp = push_lanes(0, hit_boxes(r, rows, t_max), true, stack_key, stack_node, sp, &overflow);
-    }
-    while (sp > 0 && T > 0.0f) {
-        --sp;
-        int node = stack_node[sp], lane = key_lane(stack_key[sp], true);
-        int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
-        COUNT_NODE(visits);
-        if (count > 0) {
-            COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
-            T *= blocks_transmittance(nodes, child, count, prims, prim_object, objects, materials, r, t_min, t_max,
-                                      opaque_only);
-        } else {
-            sp = push_lanes(child, hit_boxes(r, rows + 8 * child, t_max), true, stack_key, stack_node, sp, &overflow);
-        }
-    }
-    if (overflow && T > 0.0f) { /* a lane did not fit on the stack: test every primitive instead */
-        T = 1.0f;
-        for (int s = 0; s < n_prims && T > 0.0f; ++s)
-            T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
-    }
-    return T;
+    Walk w;
+    walk_start(&w, nodes, n_prims, r, t_min, t_max, true);
+    while (w.sp > 0) walk_step(&w, nodes, prims, prim_object, objects, materials, opaque_only);
+    walk_finish(&w, prims, n_prims, prim_object, objects, materials, opaque_only);
+    *visits += w.visits;
+    return w.T;
 }
 #endif
+
+INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
+                       Ray r, float t_min, float t_max, uint *visits) {
+    Hit best = no_hit();
+    best.t = t_max;
+#if USE_BVH && BVH_WIDTH == 2
+    /* the builder keeps trees at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
+       at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
+       primitives are then all tested (the answer is the same, only slower) */
+    int stack[STACK_SIZE];
+    float stack_t[STACK_SIZE];
+    int sp = 0;
+    bool overflow = false;
+    int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
+    while (node >= 0) {
+        COUNT_NODE(visits);
+        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
+        int count = as_int(hi.w), offset = as_int(lo.w);
+        int next = -1;
+        if (count > 0) {
+            COUNT_PRIMS(visits, count);
+            test_slots(prims, offset, offset + count, r, t_min, &best);
+        } else {
+            int near_child = node + 1, far_child = offset;
+            float t_near = hit_box(r, nodes[BVH_NODE_ROWS * near_child], nodes[BVH_NODE_ROWS * near_child + 1], best.t);
+            float t_far = hit_box(r, nodes[BVH_NODE_ROWS * far_child], nodes[BVH_NODE_ROWS * far_child + 1], best.t);
+            if (t_far < t_near) { /* visit the nearer box first */
+                int tmp = near_child; near_child = far_child; far_child = tmp;
+                float tt = t_near; t_near = t_far; t_far = tt;
+            }
+            if (t_near != INF_T) {
+                next = near_child;
+                if (t_far != INF_T) { /* put far node on the stack */
+                    if (sp < STACK_SIZE) { stack[sp] = far_child; stack_t[sp] = t_far; ++sp; }
+                    else overflow = true;
+                }
+            }
+        }
+        /* advance to the near node, else pop a far node the ray can still reach */
+        while (next < 0 && sp > 0) {
+            --sp;
+            if (stack_t[sp] <= best.t * 1.0000004f) next = stack[sp];
+        }
+        node = next;
+    }
+    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
+#elif USE_BVH
+    best = closest_hit_wide(nodes, prims, n_prims, r, t_min, t_max, visits);
+#else
+    test_slots(prims, 0, n_prims, r, t_min, &best);
+    *visits += (uint)n_prims;
+#endif
+    if (best.slot < 0) best = no_hit();
+    return best;
+}
 
 INLINE float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
                            __global const int *prim_object, __global const int2 *objects,

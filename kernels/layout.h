@@ -89,8 +89,14 @@
 #error "STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
 #endif
 
-/* Helpers are always inlined: PoCL (LLVM 14) otherwise leaves many of them as calls, and a
- * call in the traversal loop costs more than the box test it wraps. */
+/* Helpers are always inlined in optimised builds: PoCL (LLVM 14) otherwise leaves many of them as
+ * calls, and a call in the traversal loop costs more than the box test it wraps.  Builds without
+ * __OPTIMIZE__ (-cl-opt-disable; Oclgrind, whose interpreter lacks the intrinsics forced inlining
+ * brings) keep plain inline. */
+#ifdef __OPTIMIZE__
 #define INLINE inline __attribute__((always_inline))
+#else
+#define INLINE inline
+#endif
 
 #endif

@@ -66,27 +66,60 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
     }
 }
 
-/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  Distances are
- * in units of the direction as given (Embree's convention): a hit is o + t d, t in (t_min, INF).
- * The kernels trace the unit direction and scale t back.  Writes t (INF on a miss), primitive id,
- * object id and the nodes visited. */
+/* The ray kernels below take RAYS_PER_ITEM = 2 rays per work-item (rays 2 gid and 2 gid + 1; an odd
+ * count repeats the last): through the wide trees their walks are stepped in turn (see Walk). */
+#if RAYS_PER_ITEM != 2
+#error "RAYS_PER_ITEM must be 2: the ray kernels walk rays in pairs"
+#endif
+
+/* A query ray: the unit direction traced, its length to scale t back (distances are in units of the
+ * direction as given, Embree's convention). */
+INLINE Ray query_ray(__global const float4 *origins, __global const float4 *directions, int i, float *length) {
+    float3 d = directions[i].xyz;
+    *length = norm(d);
+    return make_ray(origins[i].xyz, d / *length);
+}
+
+/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  A hit is o + t d,
+ * t in (t_min, INF).  Writes t (INF on a miss), primitive id, object id and the nodes visited. */
 __kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
                              __global const int *prim_object, int n_prims, int n_rays,
                              __global const float4 *origins, __global const float4 *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
-    int gid = get_global_id(0);
-    if (gid >= n_rays) return;
-    uint visits = 0;
-    float3 d = directions[gid].xyz;
-    float length = norm(d);
-    Ray r = make_ray(origins[gid].xyz, d / length);
-    Hit h = closest_hit(nodes, prims, n_prims, r, t_min[gid] * length, INF_T, &visits);
-    t_out[gid] = h.t / length;
-    prim_out[gid] = h.id;
-    object_out[gid] = h.id >= 0 ? prim_object[h.id] : -1;
-    visits_out[gid] = visits;
+    int i = RAYS_PER_ITEM * get_global_id(0);
+    if (i >= n_rays) return;
+    int idx[2] = {i, min(i + 1, n_rays - 1)};
+    float length[2];
+    Hit h[2];
+    uint visits[2] = {0, 0};
+#if USE_BVH && BVH_WIDTH >= 4
+    Walk w[2];
+    for (int k = 0; k < 2; ++k)
+        walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
+                   t_min[idx[k]] * length[k], INF_T, false);
+    while (w[0].sp > 0 || w[1].sp > 0) {
+        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, 0, 0, 0, true);
+        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, 0, 0, 0, true);
+    }
+    for (int k = 0; k < 2; ++k) {
+        walk_finish(&w[k], prims, n_prims, 0, 0, 0, true);
+        h[k] = w[k].best.slot < 0 ? no_hit() : w[k].best;
+        visits[k] = w[k].visits;
+    }
+#else
+    for (int k = 0; k < 2; ++k) {
+        Ray r = query_ray(origins, directions, idx[k], &length[k]);
+        h[k] = closest_hit(nodes, prims, n_prims, r, t_min[idx[k]] * length[k], INF_T, &visits[k]);
+    }
+#endif
+    for (int k = 0; k < 2; ++k) {
+        t_out[idx[k]] = h[k].t / length[k];
+        prim_out[idx[k]] = h[k].id;
+        object_out[idx[k]] = h[k].id >= 0 ? prim_object[h[k].id] : -1;
+        visits_out[idx[k]] = visits[k];
+    }
 }
 
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
@@ -96,16 +129,36 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
                             __global const float4 *origins, __global const float4 *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
-    int gid = get_global_id(0);
-    if (gid >= n_rays) return;
-    uint visits = 0;
-    float3 d = directions[gid].xyz;
-    float length = norm(d);
-    Ray r = make_ray(origins[gid].xyz, d / length);
-    float T = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r,
-                            t_min[gid] * length, t_max[gid] * length, true, &visits);
-    occluded_out[gid] = T == 0.0f;
-    visits_out[gid] = visits;
+    int i = RAYS_PER_ITEM * get_global_id(0);
+    if (i >= n_rays) return;
+    int idx[2] = {i, min(i + 1, n_rays - 1)};
+    float length[2], T[2];
+    uint visits[2] = {0, 0};
+#if USE_BVH && BVH_WIDTH >= 4
+    Walk w[2];
+    for (int k = 0; k < 2; ++k)
+        walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
+                   t_min[idx[k]] * length[k], t_max[idx[k]] * length[k], true);
+    while (w[0].sp > 0 || w[1].sp > 0) {
+        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true);
+        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true);
+    }
+    for (int k = 0; k < 2; ++k) {
+        walk_finish(&w[k], prims, n_prims, prim_object, objects, materials, true);
+        T[k] = w[k].T;
+        visits[k] = w[k].visits;
+    }
+#else
+    for (int k = 0; k < 2; ++k) {
+        Ray r = query_ray(origins, directions, idx[k], &length[k]);
+        T[k] = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_min[idx[k]] * length[k],
+                             t_max[idx[k]] * length[k], true, &visits[k]);
+    }
+#endif
+    for (int k = 0; k < 2; ++k) {
+        occluded_out[idx[k]] = T[k] == 0.0f;
+        visits_out[idx[k]] = visits[k];
+    }
 }
 
 /* Snell's law as the renderer applies it, for tests: (direction, 1) or (0, 0) on total internal reflection. */
@@ -124,3 +177,4 @@ __kernel void specular_power(int n, __global const float *x, __global const floa
     if (gid >= n) return;
     out[gid] = pow_unit(x[gid], s[gid]);
 }
+

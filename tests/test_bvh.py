@@ -268,6 +268,60 @@ def test_top_level_launches_give_the_same_tree_as_one_subtree(rng, monkeypatch, 
     assert np.array_equal(many.prim_order, single.prim_order)
 
 
+def test_sah_tree_does_not_depend_on_the_scene_scale(rng):
+    """Scaling a scene by a power of two scales every float exactly: the SAH choices, and so the
+    tree's shape and order, must stay the same even where areas would overflow (2**100 squared)
+    or underflow (2**-90 squared) float32."""
+    tri = soup(rng, 3000)
+    lo, hi = tri.min(1), tri.max(1)
+    ref = build_bvh(lo, hi)
+    for k in (-90, 100):
+        scale = np.float32(2.0**k)
+        bvh = build_bvh(lo * scale, hi * scale)
+        check_tree(bvh, lo * scale, hi * scale)
+        assert np.array_equal(bvh.prim_order, ref.prim_order)
+        assert np.array_equal(bvh.nodes[["offset", "count"]], ref.nodes[["offset", "count"]])
+        assert np.array_equal(bvh.nodes["bmin"], ref.nodes["bmin"] * scale)
+
+
+def test_builds_from_several_threads_give_the_same_tree(rng):
+    """The device build shares its kernel objects: concurrent callers must not mix their arguments."""
+    import threading
+
+    tri = soup(rng, 5000)
+    lo, hi = tri.min(1), tri.max(1)
+    ref = build_bvh(lo, hi)
+    trees = [None] * 4
+
+    def build(i):
+        trees[i] = build_bvh(lo, hi)
+
+    threads = [threading.Thread(target=build, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert all(t.nodes.tobytes() == ref.nodes.tobytes() and np.array_equal(t.prim_order, ref.prim_order) for t in trees)
+
+
+def test_sah_refuses_more_primitives_than_its_int32_indices_reach(monkeypatch):
+    monkeypatch.setattr(bvh_module, "MAX_SAH_PRIMS", 10)
+    lo = np.zeros((11, 3), np.float32)
+    with pytest.raises(UsageError, match="at most 10"):
+        build_bvh(lo, lo + 1)
+    assert build_bvh(lo, lo + 1, builder="median").leaf_count > 1
+
+
+def test_root_leaf_above_the_subtree_size(monkeypatch):
+    """A root that the top-level launch makes a leaf (more primitives than a subtree task, at most
+    max_leaf_size) is the whole tree."""
+    monkeypatch.setattr(bvh_module, "TOP_MIN", 8)
+    lo = np.random.default_rng(3).random((20, 3)).astype(np.float32)
+    bvh = build_bvh(lo, lo + 0.1, max_leaf_size=100)
+    check_tree(bvh, lo, lo + 0.1)
+    assert len(bvh.nodes) == 1 and bvh.nodes["count"][0] == 20
+
+
 # ------------------------------------------------------------ SAH choices against brute force
 def box_half_area(lo, hi):
     e = np.maximum(hi.max(0).astype(np.float64) - lo.min(0).astype(np.float64), 0)

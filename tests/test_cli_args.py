@@ -1,6 +1,8 @@
 """The command line's wiring: seed-style positionals reach their settings, exit codes 0/1/2,
 `devices`, `render --list` and `--filter`."""
 
+import shutil
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
@@ -189,7 +191,7 @@ def test_kernel_build_failure_exits_1(tmp_path, capfd, monkeypatch):
     """A kernel that does not compile is a run-time failure (exit 1), reported in one line without a
     traceback; capfd, since the OpenCL compiler may write to the process's stderr itself."""
     broken = tmp_path / "kernels"
-    broken.mkdir()
+    shutil.copytree(clrender.device.kernel_dir(), broken)  # every kernel file as it is (the BVH build needs its own)
     (broken / "trace.cl").write_text("__kernel void render(__global float *x) { this is not C; }\n")
     monkeypatch.setattr(clrender.device, "kernel_dir", lambda: broken)
     monkeypatch.setattr(clrender.device, "_DEVICES", {})  # a fresh device: nothing built yet

@@ -82,7 +82,7 @@ def test_blocks_with_spheres_give_the_one_by_one_answers(device, seed):
     d = rng.uniform(-1.5, 1.5, (4000, 3)) - o  # towards the middle, where the spheres and the mesh are
     *trees, (t0, p0, ob0, b0) = answers(scene, o, d, 0.8, device)
     assert np.isfinite(t0).mean() > 0.3 and (p0 >= 600).any()  # spheres (ids after the triangles) are hit
-    for (t, p, ob, b), (width, use_bvh) in zip(trees, LAYOUTS):
+    for (t, p, ob, b), (width, _) in zip(trees, LAYOUTS):
         np.testing.assert_array_equal(p, p0, err_msg=f"width {width}: primitive")
         np.testing.assert_array_equal(t, t0, err_msg=f"width {width}: t")
         np.testing.assert_array_equal(ob, ob0, err_msg=f"width {width}: object")

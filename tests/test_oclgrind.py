@@ -140,13 +140,14 @@ spheres = [{"type": "sphere", "center": [0, 0, -5], "radius": 1}, {"type": "sphe
 tri = {"type": "triangle", "vertices": [[-1, -1, -8], [1, -1, -8], [0, 1, -8]]}
 from clrender.scene.scene import Scene
 # the binary and the 4-wide BVH, no BVH, and the variant that counts primitive tests
-for use_bvh, width, count in ((True, 4, False), (True, 2, False), (False, 4, False), (True, 4, True)):
+for use_bvh, width, count in ((True, 8, False), (True, 4, False), (True, 2, False), (False, 4, False), (True, 4, True)):
     tracer = Tracer(Scene.from_dict({"objects": spheres + [tri]}), use_bvh=use_bvh, bvh_width=width,
                     count_prim_tests=count, device=dev)
     o = np.zeros((4, 3)); d = np.array([[0, 0, -1], [3, 0, -5], [0, 5, -1], [0, -0.5, -8]], float)
     t, prim, obj = tracer.intersect(o, d)
     np.testing.assert_allclose(t[:2], [4.0, 1 - 0.5 / np.linalg.norm([3, 0, -5])], rtol=1e-5)  # t in units of d
     assert obj[2] == -1 and t[2] == np.inf
+    assert np.array_equal(tracer.intersect(o[:3], d[:3])[0], t[:3])  # an odd count: the last pair repeats a ray
     blocked = tracer.occluded(o, d, [3.0, 100.0, 100.0, 100.0])
     assert blocked.tolist() == [False, True, False, True]
 """,
@@ -167,6 +168,19 @@ import pyopencl as cl
 res = np.empty((4, 4), np.float32); cl.enqueue_copy(dev.queue, res, out)
 assert res[:, 3].tolist() == [1, 1, 0, 0]
 np.testing.assert_allclose(np.hypot(res[1, 0], res[1, 1]), 1.5 * math.sin(angles[1]), rtol=1e-5)  # Snell
+""",
+    ),
+    "specular_power": (
+        ("specular_power",),
+        """
+from clrender.trace.tracer import trace_defines
+knl = dev.kernel("trace.cl", "specular_power", trace_defines())
+x = np.float32([1.0, 0.5, 0.9, 1e-30, 0.25]); s = np.float32([3.0, 2.0, 150.0, 8.0, 0.5])
+out = dev.empty(20)
+knl(dev.queue, (5,), None, np.int32(5), dev.to_device(x), dev.to_device(s), out)
+import pyopencl as cl
+res = np.empty(5, np.float32); cl.enqueue_copy(dev.queue, res, out)
+np.testing.assert_allclose(res, np.power(x.astype(np.float64), s), rtol=1e-5, atol=1e-37)
 """,
     ),
     "splat_gauss": (
@@ -283,9 +297,19 @@ PYOPENCL_PROBE = re.compile(
 )
 
 
+# Every case that builds a Tracer runs the BVH build kernels too (the build is on the device); their
+# uninitialised-value reports are the false positives NO_UNINITIALIZED describes for bvh_build, whose
+# own case covers them, so they are left out of the other cases' reports (their memory and race
+# reports are kept).
+BVH_BUILD_KERNELS = ("split_level", "build_subtree", "load_prims", "prim_order", "place_subtrees")
+UNINITIALIZED_REPORT = re.compile(r"^(Uninitialized|Controlflow depends on uninitialized)", re.IGNORECASE)
+
+
 def error_reports(stderr: str) -> list[str]:
     stderr = PYOPENCL_PROBE.sub("", stderr)
-    return [line for line in stderr.splitlines() if any(m.lower() in line.lower() for m in ERROR_MARKERS)]
+    blocks = re.split(r"\n\s*\n", stderr)  # Oclgrind separates its reports by blank lines
+    kept = [b for b in blocks if not (UNINITIALIZED_REPORT.match(b.strip()) and re.search(rf"Kernel: ({'|'.join(BVH_BUILD_KERNELS)})\b", b))]
+    return [line for line in "\n\n".join(kept).splitlines() if any(m.lower() in line.lower() for m in ERROR_MARKERS)]
 
 
 @pytest.mark.parametrize("mode", sorted(MODES))

@@ -42,6 +42,7 @@ is 64 entries): SAH nodes switch to halving early enough.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
@@ -65,6 +66,8 @@ MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin record
 TOP_TASKS = 256  # SAH nodes of more than n / TOP_TASKS primitives split one per work-item, one launch per level ...
 TOP_MIN = 4096  # ... and of more than this many; smaller ones build their whole subtree in one work-item
 LOAD_CHUNKS = 64  # work-items that make the SAH build's primitive records
+MAX_SAH_PRIMS = 2**27 - 1  # the kernels index node and record words with int32 (16 words per primitive)
+_DEVICE_BUILD = threading.Lock()  # one SAH build on the device at a time per process
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
 
@@ -175,11 +178,14 @@ def build_bvh(
         raise UsageError("primitive bounds with NaN or infinite values; allowed: finite numbers")
     if (hi < lo).any():
         raise UsageError("primitive bounds with hi < lo; allowed: boxes with lo <= hi")
+    if builder == "sah" and n > MAX_SAH_PRIMS:
+        raise UsageError(f"{n} primitives for the sah builder; allowed: at most {MAX_SAH_PRIMS} (or builder 'median')")
     if builder == "median":
         levels, order = _median_levels(lo, hi, int(max_leaf_size))
         nodes = _depth_first(levels)
     else:
-        nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
+        with _DEVICE_BUILD:  # the kernel objects and their arguments are shared by every caller
+            nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
 
 
@@ -329,6 +335,10 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
 
     # every subtree in one work-item, biggest first
     subtrees.sort(key=lambda i: -top_count[i])
+    if not subtrees:  # the root is a leaf (more than _subtree_size(n) primitives, at most max_leaf)
+        nodes = np.zeros(1, NODE_DTYPE)
+        nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root[0, :3], root[1, :3], n
+        return nodes, np.arange(n, dtype=np.int32)
     task = np.array([[top_start[i], top_count[i], top_level[i], 2 * top_start[i]] for i in subtrees], np.int32)
     scratch_buf = dev.empty(2 * 32 * n)
     n_nodes = np.empty(len(subtrees), np.int32)

@@ -36,6 +36,7 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 # A fixed work-group size: PoCL builds a work-group function per local size, so
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
+RAYS_PER_ITEM = 2  # intersect_rays / occluded_rays walk rays in pairs (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 # Leaf size of the binary tree per traversal width.  The wide layouts test a leaf's triangles four at
 # a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves of
@@ -77,6 +78,7 @@ def trace_defines(
         "BVH_WIDTH": bvh_width,
         "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
+        "RAYS_PER_ITEM": RAYS_PER_ITEM,
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
         "SHAFT_CANDIDATES": SHAFT_CANDIDATES,
@@ -188,7 +190,7 @@ class Tracer:
         outputs = (t, prim, object, visits) buffers."""
         return self.kernel("intersect_rays")(
             self.device.queue,
-            global_size(n),
+            global_size(-(-n // RAYS_PER_ITEM)),
             (LOCAL_SIZE,),
             self.nodes,
             self.prims,
@@ -205,7 +207,7 @@ class Tracer:
         """Any-hit kernel on device buffers; t_min, t_max per-ray buffers; outputs = (occluded, visits) buffers."""
         return self.kernel("occluded_rays")(
             self.device.queue,
-            global_size(n),
+            global_size(-(-n // RAYS_PER_ITEM)),
             (LOCAL_SIZE,),
             self.nodes,
             self.prims,
