@@ -208,17 +208,10 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
         int shaft_side = 0; /* 1, -1: the samples whose rays leave from the front, back origin use the shaft */
 #if SHAFTS_ON
         /* an area light's rays all leave from one side: one shaft traversal finds what they may meet
-           (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree */
+           (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree.  Built at
+           the first sample that sends a ray: a surface facing away from the light needs none. */
         ShaftCandidates cand;
-        if (type == LIGHT_AREA && n_side > 1) {
-            /* the light straddles the tangent plane: a shaft for the front rays, the own surface kept */
-            int side = light_side(p, n_geo, pos, edge_a, edge_b);
-            Shaft sh;
-            if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
-                shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects, sc->materials,
-                                 side != 0 ? own_slot : -1, &cand, visits))
-                shaft_side = side >= 0 ? 1 : -1;
-        }
+        bool shaft_pending = type == LIGHT_AREA && n_side > 1;
 #endif
         if (type == LIGHT_AREA) {
             /* eight samples at a time: the light point, direction, falloff and Blinn-Phong in lanes,
@@ -287,6 +280,19 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 for (uint j = 0; j < lanes; ++j) {
                     float T = 1.0f;
                     if (a_ndot[j] > 0.0f) {
+#if SHAFTS_ON
+                        if (shaft_pending) {
+                            shaft_pending = false;
+                            /* the light straddles the tangent plane: a shaft for the front rays, the own
+                               surface kept */
+                            int side = light_side(p, n_geo, pos, edge_a, edge_b);
+                            Shaft sh;
+                            if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
+                                shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
+                                                 sc->materials, side != 0 ? own_slot : -1, &cand, visits))
+                                shaft_side = side >= 0 ? 1 : -1;
+                        }
+#endif
                         float3 l = (float3)(al_x[j], al_y[j], al_z[j]);
                         T = sample_transmittance(sc, p, l, a_dist[j], n_geo, origin_front, origin_back, SHAFT_ARGS, visits);
                         *rays += 1;
