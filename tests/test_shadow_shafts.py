@@ -42,8 +42,8 @@ def soup(rng, n, centre, spread, size):
 
 
 def stress_scene(scale=1.0, offset=(0.0, 0.0, 0.0), light_height=3.0, seed=5):
-    """Glass spheres overlapping a triangle soup over a floor, a tiny and a huge occluder, a square
-    area light, all scaled by `scale` about the origin and then moved by `offset`."""
+    """Glass spheres overlapping a triangle soup over a floor, a smooth-shaded hat, a tiny and a huge
+    occluder, a square area light, all scaled by `scale` about the origin and then moved by `offset`."""
     rng = np.random.default_rng(seed)
     s, o = scale, np.asarray(offset)
     scene = Scene.from_dict(
@@ -51,7 +51,7 @@ def stress_scene(scale=1.0, offset=(0.0, 0.0, 0.0), light_height=3.0, seed=5):
             "width": W,
             "height": H,
             "ambient": [0.05, 0.05, 0.05],
-            "cameras": [{"position": list(o + s * np.array([0.3, 2.2, 4.5])), "look_at": list(o + s * np.array([0, 0.2, 0]))}],
+            "cameras": [{"position": list(o + s * np.array([0.2, 1.3, 2.6])), "look_at": list(o + s * np.array([0, 0.2, 0]))}],
             "materials": {
                 "glass": {"transparency": 0.7, "ior": 1.5, "specular": [1, 1, 1], "shininess": 60},
                 "clear": {"transparency": 0.5, "ior": 1.2},
@@ -70,6 +70,9 @@ def stress_scene(scale=1.0, offset=(0.0, 0.0, 0.0), light_height=3.0, seed=5):
             "objects": [
                 {"type": "plane", "point": list(o + s * np.array([0, -0.5, 0])), "normal": [0, 1, 0], "size": 40 * s,
                  "material": "matte"},
+                # smooth shading: rays where the shading and the geometric normal disagree leave from the back
+                {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 7}, "smooth": True, "material": "matte",
+                 "scale": s * 0.8, "translate": list(o + s * np.array([0.9, -0.5, 0.6]))},
                 {"type": "sphere", "center": list(o + s * np.array([-0.5, 0.1, 0.2])), "radius": 0.55 * s, "material": "glass"},
                 {"type": "sphere", "center": list(o + s * np.array([0.7, 0.0, -0.3])), "radius": 0.4 * s, "material": "clear"},
                 # a huge tilted occluder, far larger than the rest, cutting off part of the light
@@ -99,6 +102,7 @@ def test_wizard_cat_renders_the_same_with_and_without_shafts(device):
 @pytest.mark.parametrize("scale, offset", [(1.0, (0, 0, 0)), (1e-3, (0, 0, 0)), (1e3, (0, 0, 0)), (1.0, (300, -50, 120))])
 def test_spheres_meshes_and_occluders_of_every_size(device, scale, offset):
     off, on = render_both(stress_scene(scale, offset))
+    assert {1, 2, 3, 5} <= set(np.unique(off.ids).tolist())  # the hat, both spheres and the soup are in view
     assert (off.shadow[..., 0] < 1).any() and (off.shadow[..., 0] > 0).any()
     assert_same_render(off, on)
 
