@@ -231,7 +231,7 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
                 light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
                 light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
-                /* area_light_point */
+                /* the light's point: sampling.h's area_light_point, lane by lane */
                 light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;
                 light_f ub = sc->light_stratified ? (fq + xi_b) / fn : xi_b;
                 light_f lx = pos.x + ua * edge_a.x + ub * edge_b.x - p.x;
@@ -240,8 +240,9 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 light_f dist = sqrt(lx * lx + ly * ly + lz * lz);
                 lx /= dist; ly /= dist; lz /= dist;
                 light_f falloff = (light_f)(1.0f);
-                if (inverse_square) {
+                if (inverse_square) { /* as for a point light, and: */
                     falloff = 1.0f / (dist * dist);
+                    /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
                     light_f cos_light = light_normal.x * lx + light_normal.y * ly + light_normal.z * lz;
                     falloff *= area * as_float8(as_uint8(cos_light) & 0x7fffffffu);
                     falloff = falloff < MAX_FALLOFF ? falloff : (light_f)(MAX_FALLOFF);
@@ -311,14 +312,12 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                     l = -unit(pos);
                     dist = INF_T;
                 } else {
-                    float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, sc->light_stratified, rng) : pos;
+                    float3 target = pos; /* a point light (area lights take the lanes above) */
                     l = target - p;
                     dist = norm(l);
                     l /= dist;
                     if (inverse_square) {
                         falloff = 1.0f / (dist * dist);
-                        /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
-                        if (type == LIGHT_AREA) falloff *= area * fabs(dot3(light_normal, l));
                         /* a light within 1e-5 of the point overflowed float32 to inf (issue 14): the falloff
                            is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
                         falloff = min_f(falloff, MAX_FALLOFF);
