@@ -68,16 +68,25 @@ def stress_scene(scale=1.0, offset=(0.0, 0.0, 0.0), light_height=3.0, seed=5):
                 {"type": "directional", "direction": [0.3, -1, -0.2], "intensity": 0.4},
             ],
             "objects": [
-                {"type": "plane", "point": list(o + s * np.array([0, -0.5, 0])), "normal": [0, 1, 0], "size": 40 * s,
-                 "material": "matte"},
+                {"type": "plane", "point": list(o + s * np.array([0, -0.5, 0])), "normal": [0, 1, 0], "size": 40 * s, "material": "matte"},
                 # smooth shading: rays where the shading and the geometric normal disagree leave from the back
-                {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 7}, "smooth": True, "material": "matte",
-                 "scale": s * 0.8, "translate": list(o + s * np.array([0.9, -0.5, 0.6]))},
+                {
+                    "type": "mesh",
+                    "generator": "wizard_hat",
+                    "params": {"segments": 7},
+                    "smooth": True,
+                    "material": "matte",
+                    "scale": s * 0.8,
+                    "translate": list(o + s * np.array([0.9, -0.5, 0.6])),
+                },
                 {"type": "sphere", "center": list(o + s * np.array([-0.5, 0.1, 0.2])), "radius": 0.55 * s, "material": "glass"},
                 {"type": "sphere", "center": list(o + s * np.array([0.7, 0.0, -0.3])), "radius": 0.4 * s, "material": "clear"},
                 # a huge tilted occluder, far larger than the rest, cutting off part of the light
-                {"type": "triangle", "material": "matte",
-                 "vertices": [list(o + s * np.array(v)) for v in ([1.0, 2.0, -500.0], [1.0, 2.0, 500.0], [600.0, 2.6, 0.0])]},
+                {
+                    "type": "triangle",
+                    "material": "matte",
+                    "vertices": [list(o + s * np.array(v)) for v in ([1.0, 2.0, -500.0], [1.0, 2.0, 500.0], [600.0, 2.6, 0.0])],
+                },
             ],
         }
     )
