@@ -37,11 +37,13 @@ def main(argv=None):
     ap.add_argument("--out", default="bench/out")
     ap.add_argument("--no-reference", action="store_true", help="skip the reference render (and the RMSE column)")
     ap.add_argument("--bvh-width", type=int, default=None, help="BVH width (2 or 4; default: the Tracer's)")
+    ap.add_argument("--no-shadow-shafts", action="store_true", help="trace every area-light shadow ray through the tree (kernels/shaft.h off)")
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.samples, args.reference_samples = 100, 3, 6
     scene = Scene.load(args.scene)
-    tracer = Tracer(scene) if args.bvh_width is None else Tracer(scene, bvh_width=args.bvh_width)
+    width = {} if args.bvh_width is None else {"bvh_width": args.bvh_width}
+    tracer = Tracer(scene, shadow_shafts=not args.no_shadow_shafts, **width)
     common = dict(tracer=tracer, width=args.size, height=args.size, camera=args.camera, sampler="stratified")
     runs = {}
     modes = {
@@ -81,6 +83,7 @@ def main(argv=None):
     title = (
         f"{args.scene} camera {args.camera}, {args.size}x{args.size}, stratified N={args.samples}, "
         f"thickness {args.thickness}; reference N={args.reference_samples}; BVH width {tracer.bvh_width}; "
+        f"shadow shafts {'on' if tracer.shadow_shafts else 'off'}; "
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
     )
     print(write_table(out, "aa", rows, title))

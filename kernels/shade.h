@@ -8,6 +8,7 @@
 #include "common.h"
 #include "intersect.h"
 #include "sampling.h"
+#include "shaft.h"
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -97,10 +98,91 @@ INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 
     return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
 }
 
+/* ---- an area light's samples eight at a time (float8 lanes), the same operations in the same order
+ * as the one-sample code above and in sampling.h / rng.h, so every lane's value is bit for bit the
+ * one-sample value: integer to float conversions by exact bit tricks instead of convert_float8
+ * (out of line on PoCL), selects by ?:. */
+#define LIGHT_LANES 8
+typedef float8 light_f;
+typedef int8 light_i;
+typedef uint8 light_u;
+#define LIGHT_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
+
+/* rng_next for dimensions dim (per lane) of one (seed, pixel, sample) stream: hash4's first three
+ * rounds are the same for every lane */
+INLINE light_f rng_lanes(const Rng *r, light_u dim) {
+    uint h = mix32(r->seed + 0x9e3779b9U);
+    h = mix32(h ^ (r->pixel + 0x85ebca6bU));
+    h = mix32(h ^ (r->sample + 0xc2b2ae35U));
+    light_u x = (light_u)(h) ^ (dim + 0x27d4eb2fU);
+    x ^= x >> 16; x *= 0x7feb352dU;
+    x ^= x >> 15; x *= 0x846ca68bU;
+    x ^= x >> 16;
+    /* u01: (x >> 8) * 2^-24, the 24-bit integer converted exactly: 2 floor(x / 2^9) + bit 8 */
+    light_u q = x >> 8;
+    light_f halves = as_float8((q >> 1) | 0x4b000000u) - 8388608.0f; /* q >> 1 < 2^23: exact */
+    light_f odd = (q & 1u) != (light_u)(0u) ? (light_f)(1.0f) : (light_f)(0.0f);
+    return (halves * 2.0f + odd) * (1.0f / 16777216.0f);
+}
+
+/* small integers (|i| < 2^22) to float, exactly */
+INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + 0x4b400000) - 12582912.0f; }
+
+/* pow_unit lane by lane (see there) */
+INLINE light_f pow_unit_lanes(light_f x, float s) {
+    light_i e = ((as_int8(x) >> 23) & 0xff) - 127;
+    light_f m = as_float8((as_int8(x) & 0x007fffff) | 0x3f800000);
+    light_i big = m > 1.41421356f;
+    m = big ? m * 0.5f : m;
+    e = big ? e + 1 : e;
+    light_f a = (m - 1.0f) / (m + 1.0f), a2 = a * a;
+    light_f ln_m = 2.0f * a * (1.0f + a2 * (1.0f / 3.0f + a2 * (0.2f + a2 * (1.0f / 7.0f + a2 * (1.0f / 9.0f)))));
+    light_f y = s * (int_to_float_lanes(e) + ln_m * 1.44269504f);
+    /* n = -(int)(0.5 - y): 0.5 - y >= 0.5 here, truncated by rounding to an integer and stepping down */
+    light_f v = 0.5f - y;
+    light_f rounded = (v + 12582912.0f) - 12582912.0f;
+    light_f t = rounded > v ? rounded - 1.0f : rounded;
+    light_i n = -(as_int8(t + 12582912.0f) - 0x4b400000);
+    light_f f = (y - int_to_float_lanes(n)) * 0.693147181f;
+    light_f ef = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6.0f + f * (1.0f / 24.0f + f * (1.0f / 120.0f + f * (1.0f / 720.0f + f * (1.0f / 5040.0f)))))));
+    light_f r = ef * as_float8((n + 127) << 23);
+    return y < -126.0f ? (light_f)(0.0f) : r;
+}
+
+#if SHAFTS_ON
+#define SHAFT_PARAMS int shaft_side, ShaftCandidates *cand
+#define SHAFT_ARGS shaft_side, &cand
+#else
+#define SHAFT_PARAMS int shaft_side
+#define SHAFT_ARGS 0
+#endif
+
+/* Fraction of the light reaching p + l dist (l unit) along a shadow ray leaving from the side of
+ * the surface it goes towards: through the shaft's candidates when the shaft serves that side
+ * (shaft_side 1: front, -1: back), else by traversing the tree. */
+INLINE float sample_transmittance(const Scene *sc, float3 p, float3 l, float dist, float3 n_geo, float3 origin_front,
+                                  float3 origin_back, SHAFT_PARAMS, uint *visits) {
+    bool front = dot3(n_geo, l) >= 0.0f;
+    float3 origin = front ? origin_front : origin_back;
+#if SHAFTS_ON
+    if (shaft_side != 0 && front == (shaft_side > 0)) {
+        if (cand->n == 0) return cand->crossed_T; /* nothing more to cross */
+        Ray sr = make_ray(origin, l);
+        float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
+        return shaft_transmittance(cand, sc->nodes, sc->prims, sc->prim_object, sc->objects, sc->materials, sr, t_max);
+    }
+#endif
+    Ray sr = make_ray(origin, l);
+    float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
+    return transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects, sc->materials, sr, 0.0f,
+                         t_max, false, visits);
+}
+
 /* Light from every light source at p, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
 INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
-                           float4 kd, float4 ks, Rng *rng, __global float *shadow, uint *visits, uint *rays) {
+                           float4 kd, float4 ks, int own_slot, Rng *rng, __global float *shadow, uint *visits,
+                           uint *rays) {
     float3 total = (float3)(0.0f);
     /* shadow rays start off the surface on the side they leave towards */
     float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
@@ -123,6 +205,105 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
         light_normal = area > 0.0f ? light_normal / area : light_normal;
         float weight = intensity / (float)(n_side * n_side);
         float visible = 0.0f;
+        int shaft_side = 0; /* 1, -1: the samples whose rays leave from the front, back origin use the shaft */
+#if SHAFTS_ON
+        /* an area light's rays all leave from one side: one shaft traversal finds what they may meet
+           (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree.  Built at
+           the first sample that sends a ray: a surface facing away from the light needs none. */
+        ShaftCandidates cand;
+        bool shaft_pending = type == LIGHT_AREA && n_side > 1;
+#endif
+        if (type == LIGHT_AREA) {
+            /* eight samples at a time: the light point, direction, falloff and Blinn-Phong in lanes,
+               the shadow rays one by one; sums in sample order */
+            uint n2 = n_side * n_side;
+            float fn = (float)n_side;
+            float shininess = kd.w;
+            bool has_specular = ks.x > 0.0f || ks.y > 0.0f || ks.z > 0.0f;
+            uint sp = 0, sq = 0;
+            for (uint base = 0; base < n2; base += LIGHT_LANES) {
+                float cell_p[LIGHT_LANES], cell_q[LIGHT_LANES];
+                for (int j = 0; j < LIGHT_LANES; ++j) {
+                    cell_p[j] = (float)sp; cell_q[j] = (float)sq;
+                    if (++sq == n_side) { sq = 0; ++sp; }
+                }
+                light_f fp = (light_f)(cell_p[0], cell_p[1], cell_p[2], cell_p[3], cell_p[4], cell_p[5], cell_p[6], cell_p[7]);
+                light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
+                light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
+                light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
+                /* the light's point: sampling.h's area_light_point, lane by lane */
+                light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;
+                light_f ub = sc->light_stratified ? (fq + xi_b) / fn : xi_b;
+                light_f lx = pos.x + ua * edge_a.x + ub * edge_b.x - p.x;
+                light_f ly = pos.y + ua * edge_a.y + ub * edge_b.y - p.y;
+                light_f lz = pos.z + ua * edge_a.z + ub * edge_b.z - p.z;
+                light_f dist = sqrt(lx * lx + ly * ly + lz * lz);
+                lx /= dist; ly /= dist; lz /= dist;
+                light_f falloff = (light_f)(1.0f);
+                if (inverse_square) { /* as for a point light, and: */
+                    falloff = 1.0f / (dist * dist);
+                    /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
+                    light_f cos_light = light_normal.x * lx + light_normal.y * ly + light_normal.z * lz;
+                    falloff *= area * as_float8(as_uint8(cos_light) & 0x7fffffffu);
+                    falloff = falloff < MAX_FALLOFF ? falloff : (light_f)(MAX_FALLOFF);
+                }
+                light_f n_dot = n.x * lx + n.y * ly + n.z * lz;
+                /* blinn_phong */
+                light_f n_dot_l = n_dot > 0.0f ? n_dot : (light_f)(0.0f);
+                light_f hx = lx + v.x, hy = ly + v.y, hz = lz + v.z;
+                light_f h_len = sqrt(hx * hx + hy * hy + hz * hz);
+                hx /= h_len; hy /= h_len; hz /= h_len;
+                light_f spec = (light_f)(0.0f);
+                if (has_specular) {
+                    light_f n_dot_h = n.x * hx + n.y * hy + n.z * hz;
+                    spec = shininess > 0.0f ? pow_unit_lanes(n_dot_h > 1e-30f ? n_dot_h : (light_f)(1e-30f), shininess)
+                                            : (light_f)(1.0f);
+                    spec = n_dot_l > 0.0f ? spec : (light_f)(0.0f);
+                }
+                light_f bx, by, bz;
+                if (inverse_square) {
+                    const float INV_PI = 0.318309886f;
+                    light_f ks_w = (shininess + 8.0f) * 0.125f * INV_PI * spec;
+                    bx = (kd.x * INV_PI + ks.x * ks_w) * n_dot_l;
+                    by = (kd.y * INV_PI + ks.y * ks_w) * n_dot_l;
+                    bz = (kd.z * INV_PI + ks.z * ks_w) * n_dot_l;
+                } else {
+                    light_f spec_lit = n_dot_l > 0.0f ? spec : (light_f)(0.0f);
+                    bx = kd.x * n_dot_l + ks.x * spec_lit;
+                    by = kd.y * n_dot_l + ks.y * spec_lit;
+                    bz = kd.z * n_dot_l + ks.z * spec_lit;
+                }
+                float al_x[LIGHT_LANES] = LIGHT_ARRAY(lx), al_y[LIGHT_LANES] = LIGHT_ARRAY(ly), al_z[LIGHT_LANES] = LIGHT_ARRAY(lz);
+                float a_dist[LIGHT_LANES] = LIGHT_ARRAY(dist), a_fall[LIGHT_LANES] = LIGHT_ARRAY(falloff);
+                float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(n_dot);
+                float a_bx[LIGHT_LANES] = LIGHT_ARRAY(bx), a_by[LIGHT_LANES] = LIGHT_ARRAY(by), a_bz[LIGHT_LANES] = LIGHT_ARRAY(bz);
+                uint lanes = n2 - base < LIGHT_LANES ? n2 - base : LIGHT_LANES;
+                for (uint j = 0; j < lanes; ++j) {
+                    float T = 1.0f;
+                    if (a_ndot[j] > 0.0f) {
+#if SHAFTS_ON
+                        if (shaft_pending) {
+                            shaft_pending = false;
+                            /* the light straddles the tangent plane: a shaft for the front rays, the own
+                               surface kept */
+                            int side = light_side(p, n_geo, pos, edge_a, edge_b);
+                            Shaft sh;
+                            if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
+                                shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
+                                                 sc->materials, side != 0 ? own_slot : -1, &cand, visits))
+                                shaft_side = side >= 0 ? 1 : -1;
+                        }
+#endif
+                        float3 l = (float3)(al_x[j], al_y[j], al_z[j]);
+                        T = sample_transmittance(sc, p, l, a_dist[j], n_geo, origin_front, origin_back, SHAFT_ARGS, visits);
+                        *rays += 1;
+                        if (T > 0.0f) total += (T * weight * a_fall[j]) * colour * (float3)(a_bx[j], a_by[j], a_bz[j]);
+                    }
+                    visible += T;
+                }
+            }
+            rng->dim += 2u * n2;
+        } else
         for (uint sp = 0; sp < n_side; ++sp) {
             for (uint sq = 0; sq < n_side; ++sq) {
                 float3 l;
@@ -131,14 +312,12 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                     l = -unit(pos);
                     dist = INF_T;
                 } else {
-                    float3 target = (type == LIGHT_AREA) ? area_light_point(pos, edge_a, edge_b, sp, sq, n_side, sc->light_stratified, rng) : pos;
+                    float3 target = pos; /* a point light (area lights take the lanes above) */
                     l = target - p;
                     dist = norm(l);
                     l /= dist;
                     if (inverse_square) {
                         falloff = 1.0f / (dist * dist);
-                        /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
-                        if (type == LIGHT_AREA) falloff *= area * fabs(dot3(light_normal, l));
                         /* a light within 1e-5 of the point overflowed float32 to inf (issue 14): the falloff
                            is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
                         falloff = min_f(falloff, MAX_FALLOFF);
@@ -146,11 +325,7 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 }
                 float T = 1.0f;
                 if (dot3(n, l) > 0.0f) {
-                    float3 origin = dot3(n_geo, l) >= 0.0f ? origin_front : origin_back;
-                    Ray sr = make_ray(origin, l);
-                    float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
-                    T = transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
-                                      sc->materials, sr, 0.0f, t_max, false, visits);
+                    T = sample_transmittance(sc, p, l, dist, n_geo, origin_front, origin_back, SHAFT_ARGS, visits);
                     *rays += 1;
                     /* a blocked sample adds nothing: skip the shading (its pow is a third of a render's time) */
                     if (T > 0.0f) total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks, inverse_square);
@@ -228,7 +403,7 @@ INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
             float3 surface = sc->ambient * kd.xyz +
-                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, rng, shadow_here, visits, rays);
+                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, h.slot, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;

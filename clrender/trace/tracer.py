@@ -42,6 +42,8 @@ DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest 
 # a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves of
 # at most 6 traced 10-20% faster than 2 (docs/bvh.md).
 MAX_LEAF_SIZE = {2: 4, 4: 6, 8: 6}
+# Leaf blocks a shadow shaft may collect before its rays fall back to traversing the tree one by one.
+SHAFT_CANDIDATES = 16
 
 
 def as_scene(scene_or_mesh) -> Scene:
@@ -61,7 +63,7 @@ def global_size(n: int) -> tuple:
     return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
 
 
-def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False) -> dict:
+def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
     from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
@@ -75,6 +77,9 @@ def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, c
         "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
         "RAYS_PER_ITEM": RAYS_PER_ITEM,
+        # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
+        "SHADOW_SHAFTS": int(shadow_shafts),
+        "SHAFT_CANDIDATES": SHAFT_CANDIDATES,
     }
 
 
@@ -88,6 +93,7 @@ class Tracer:
         device: Device | str | None = None,
         bvh_width: int = DEFAULT_BVH_WIDTH,
         count_prim_tests: bool = False,
+        shadow_shafts: bool = True,
     ):
         from .bvh_wide import WIDTHS
 
@@ -97,6 +103,7 @@ class Tracer:
             raise UsageError(f"BVH width {bvh_width!r}; allowed: {', '.join(map(str, WIDTHS))}")
         self.bvh_width = int(bvh_width)
         self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
+        self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
@@ -139,7 +146,12 @@ class Tracer:
 
     @property
     def defines(self) -> dict:
-        return trace_defines(use_bvh=self.use_bvh, bvh_width=self.bvh_width, count_prim_tests=self.count_prim_tests)
+        return trace_defines(
+            use_bvh=self.use_bvh,
+            bvh_width=self.bvh_width,
+            count_prim_tests=self.count_prim_tests,
+            shadow_shafts=self.shadow_shafts,
+        )
 
     def kernel(self, name: str) -> cl.Kernel:
         return self.device.kernel("trace.cl", name, self.defines)

@@ -1,0 +1,342 @@
+/* Shadow rays toward an area light through one shaft (Haines and Wallace, "Shaft culling for
+ * efficient ray-cast radiosity", 1994).  Every shadow ray of a shading point toward a parallelogram
+ * light starts at the same origin O and ends on (a hair off) the light, so all of them lie in the
+ * shaft: the convex hull of O and the light's four corners, the intersection of five half-spaces
+ * (four side planes through O and two adjacent corners, and the light's own plane).  One traversal
+ * of the wide BVH with the shaft collects the triangles and spheres that may meet it (the
+ * candidates); each ray is then tested only against those, with the per-ray traversal's own tests
+ * (hit_block, crossing_transmittance), so it finds the same crossings and the same transmittance.
+ *
+ * Conservative: a box or primitive is left out only when it lies beyond one plane (or outside the
+ * shaft's bounds) by more than SHAFT_MARGIN times the size of the coordinates involved, far above
+ * float32 rounding (about 6e-8 per operation) and above how far a shadow ray strays from the exact
+ * shaft (its origin is offset a few ulps off the surface, its direction is rounded).  The caller
+ * falls back to the per-ray traversal when the shaft is flat, when the light is not clearly on one
+ * side of the surface (rays would start from both sides), or when there are more than
+ * SHAFT_CANDIDATES candidate blocks.  Needs the wide tree (BVH_WIDTH 4 or 8): blocks are its leaf
+ * blocks (layout.py BLOCK_*). */
+#ifndef CLRENDER_SHAFT_H
+#define CLRENDER_SHAFT_H
+
+#include "common.h"
+#include "intersect.h"
+
+#ifndef SHADOW_SHAFTS
+#error "SHADOW_SHAFTS is missing: build trace.cl with clrender.trace.tracer.trace_defines()"
+#endif
+#define SHAFTS_ON (SHADOW_SHAFTS && USE_BVH && BVH_WIDTH >= 4) /* the binary tree and BVH-off keep per-ray rays */
+
+#if SHAFTS_ON
+#ifndef SHAFT_CANDIDATES
+#error "SHAFT_CANDIDATES is missing: build trace.cl with clrender.trace.tracer.trace_defines()"
+#endif
+
+#define SHAFT_MARGIN 1e-5f /* relative to the coordinates: float32 rounding is ~6e-8 per operation */
+
+#if BVH_WIDTH == 4
+#define as_lanes_f as_float4
+#else
+#define as_lanes_f as_float8
+#endif
+
+typedef struct {
+    float4 plane[5]; /* outward normal (xyz, |n|_1 = 1) and w = dot(n, a point on the plane): outside where dot(n, x) > w */
+    float3 apex, corner[4]; /* O, and the light's corners in order around it */
+    float3 lo, hi;   /* bounds of O and the corners */
+    float scale;     /* largest |coordinate| of O and the corners */
+} Shaft;
+
+/* Candidates: leaf blocks with the lanes (bits 0..3) that may meet the shaft, or a sphere,
+ * stored as first = -2 - slot, lanes = 0. */
+typedef struct {
+    int first[SHAFT_CANDIDATES];
+    int lanes[SHAFT_CANDIDATES];
+    int n;
+    float crossed_T; /* transmittance of the spheres every ray crosses once (not in the list) */
+} ShaftCandidates;
+
+INLINE float max3_abs(float3 v) { float3 a = abs3(v); return max_f(a.x, max_f(a.y, a.z)); }
+INLINE float4 max4(float4 a, float4 b) { return a > b ? a : b; } /* ?: rather than max(), a call on PoCL */
+
+/* Which side of the surface (unit normal n_geo at p) the whole light is on: 1 in front, -1 behind,
+ * 0 when a corner is within the margin of the tangent plane (rays might start on either side). */
+INLINE int light_side(float3 p, float3 n_geo, float3 corner, float3 a, float3 b) {
+    float3 c[4] = {corner, corner + a, corner + a + b, corner + b};
+    float scale = max3_abs(p);
+    float lo = INFINITY, hi = -INFINITY;
+    for (int i = 0; i < 4; ++i) {
+        scale = max_f(scale, max3_abs(c[i]));
+        float s = dot3(n_geo, c[i] - p);
+        lo = min_f(lo, s);
+        hi = max_f(hi, s);
+    }
+    float margin = SHAFT_MARGIN * scale;
+    return lo > margin ? 1 : (hi < -margin ? -1 : 0);
+}
+
+/* n / |n|_1 (NaN when n is zero or not finite): 1/sqrt(3) <= |result| <= 1, so n.x - w is at most
+ * the distance from the plane, never more: every margin test below stays conservative, and no
+ * sqrt (a call on PoCL) is needed. */
+INLINE float3 unit_l1(float3 n) {
+    float3 a = abs3(n);
+    float len = a.x + a.y + a.z;
+    bool ok = len > 0.0f && len < INFINITY;
+    return ok ? n * (1.0f / len) : (float3)(NAN);
+}
+
+/* Side plane through o, c and d, oriented so that `inside` (the light's centre) is inside.  False
+ * when the plane is ill-defined or `inside` is not clearly inside it (o on the light's plane). */
+INLINE bool side_plane(float3 o, float3 c, float3 d, float3 inside, float margin, float4 *plane) {
+    float3 n = unit_l1(cross3(c - o, d - o));
+    if (!(n.x == n.x)) return false; /* NaN: degenerate */
+    float w = dot3(n, o);
+    float f = dot3(n, inside) - w;
+    if (f > 0.0f) { n = -n; w = -w; f = -f; }
+    *plane = (float4)(n, w);
+    return f < -margin;
+}
+
+/* The shaft from o to the parallelogram corner + [0,1] a + [0,1] b.  False when it is too flat to
+ * trust (the caller then traces each ray). */
+INLINE bool make_shaft(float3 o, float3 corner, float3 a, float3 b, Shaft *sh) {
+    float3 c[4] = {corner, corner + a, corner + a + b, corner + b};
+    float3 centre = corner + 0.5f * a + 0.5f * b;
+    float scale = max3_abs(o);
+    float3 lo = o, hi = o;
+    for (int i = 0; i < 4; ++i) {
+        scale = max_f(scale, max3_abs(c[i]));
+        lo = (float3)(min_f(lo.x, c[i].x), min_f(lo.y, c[i].y), min_f(lo.z, c[i].z));
+        hi = (float3)(max_f(hi.x, c[i].x), max_f(hi.y, c[i].y), max_f(hi.z, c[i].z));
+    }
+    sh->apex = o;
+    for (int i = 0; i < 4; ++i) sh->corner[i] = c[i];
+    sh->scale = scale;
+    sh->lo = lo;
+    sh->hi = hi;
+    float margin = 4.0f * SHAFT_MARGIN * scale;
+    bool ok = true;
+    for (int i = 0; i < 4; ++i) ok &= side_plane(o, c[i], c[(i + 1) & 3], centre, margin, &sh->plane[i]);
+    /* the light's plane, with o inside */
+    float3 n = unit_l1(cross3(a, b));
+    if (!(n.x == n.x)) return false;
+    float w = dot3(n, corner);
+    float f = dot3(n, o) - w;
+    if (f > 0.0f) { n = -n; w = -w; f = -f; }
+    sh->plane[4] = (float4)(n, w);
+    return ok && f < -margin;
+}
+
+/* Lanes of a wide node whose boxes may meet the shaft (and are not empty). */
+INLINE lanes_i shaft_boxes(const Shaft *sh, __global const lanes_f *node) {
+    lanes_f ext = as_lanes_f(as_lanes_u(node[0]) & 0x7fffffffu);
+    for (int r = 1; r < 6; ++r) {
+        lanes_f e = as_lanes_f(as_lanes_u(node[r]) & 0x7fffffffu);
+        ext = e > ext ? e : ext;
+    }
+    lanes_f m = SHAFT_MARGIN * (sh->scale + ext);
+    lanes_i keep = (as_lanes_i(node[WIDE_COUNT_ROW]) >= 0) & (node[0] <= sh->hi.x + m) & (node[1] >= sh->lo.x - m) &
+                   (node[2] <= sh->hi.y + m) & (node[3] >= sh->lo.y - m) & (node[4] <= sh->hi.z + m) &
+                   (node[5] >= sh->lo.z - m);
+    for (int i = 0; i < 5; ++i) {
+        float4 p = sh->plane[i];
+        /* the box corner deepest inside the plane: lo where n > 0, hi where n < 0 */
+        lanes_f f = p.x * node[p.x > 0.0f ? 0 : 1] + p.y * node[p.y > 0.0f ? 2 : 3] + p.z * node[p.z > 0.0f ? 4 : 5] - p.w;
+        keep &= f <= m;
+    }
+    return keep;
+}
+
+/* n . (x - v0) for the lanes' planes n = (v1 - v0) x (v2 - v0), and a bound on its float32 error:
+ * 2^-20 (about 16 ulps) times the same sum with every product taken in absolute value (the
+ * products' exact zeros stay exact, so an axis-aligned plane's sides come out exactly). */
+#define PLANE_SIDE(qx, qy, qz, s, err) { \
+    float4 qx_ = (qx) - x0, qy_ = (qy) - y0, qz_ = (qz) - z0; \
+    s = nx * qx_ + ny * qy_ + nz * qz_; \
+    err = 9.5367431640625e-7f * (px * abs4(qx_) + py * abs4(qy_) + pz * abs4(qz_)); }
+
+/* Lanes whose triangle's plane has the whole shaft strictly on one side: the origin O on a side
+ * that rounding cannot change, and every light corner on the same side by more than the margin
+ * `m` (a distance).  No ray from O towards the light can cross such a triangle: the ray's true
+ * crossing of the plane lies behind O or well beyond the light, outside the triangle test's own
+ * error bound on t.  This removes the triangles around the shading point on a convex surface
+ * and a plane's other triangle, which the five planes cannot: they pass just beside the apex. */
+INLINE int4 shaft_beside_planes(const Shaft *sh, float4 x0, float4 y0, float4 z0, float4 x1, float4 y1, float4 z1,
+                                float4 x2, float4 y2, float4 z2, float4 m) {
+    float4 ax = x1 - x0, ay = y1 - y0, az = z1 - z0, bx = x2 - x0, by = y2 - y0, bz = z2 - z0;
+    float4 nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
+    float4 px = abs4(ay * bz) + abs4(az * by), py = abs4(az * bx) + abs4(ax * bz), pz = abs4(ax * by) + abs4(ay * bx);
+    float4 m_n = m * (px + py + pz); /* the margin times a bound on |n| */
+    float4 s, err;
+    PLANE_SIDE(sh->apex.x, sh->apex.y, sh->apex.z, s, err);
+    int4 front = s > err, back = s < -err;
+    for (int i = 0; i < 4; ++i) {
+        float3 c = sh->corner[i];
+        PLANE_SIDE(c.x, c.y, c.z, s, err);
+        front &= s > err + m_n;
+        back &= s < -(err + m_n);
+    }
+    return front | back;
+}
+#undef PLANE_SIDE
+
+/* Triangle lanes of a leaf block that may meet the shaft (bits 0..3); `own` (the shading point's
+ * slot) is left out: the caller uses shafts only when the whole light is clearly on the side the
+ * rays leave towards, so no ray from the offset origin can cross the surface it starts on. */
+INLINE int shaft_triangles(const Shaft *sh, __global const float4 *block, int own) {
+    float4 x0 = block[0], y0 = block[1], z0 = block[2], x1 = block[3], y1 = block[4], z1 = block[5];
+    float4 x2 = block[6], y2 = block[7], z2 = block[8];
+    float4 e0 = max4(abs4(x0), max4(abs4(y0), abs4(z0))), e1 = max4(abs4(x1), max4(abs4(y1), abs4(z1)));
+    float4 e2 = max4(abs4(x2), max4(abs4(y2), abs4(z2)));
+    float4 m0 = SHAFT_MARGIN * (sh->scale + e0), m1 = SHAFT_MARGIN * (sh->scale + e1), m2 = SHAFT_MARGIN * (sh->scale + e2);
+    int4 out = ((x0 > sh->hi.x + m0) & (x1 > sh->hi.x + m1) & (x2 > sh->hi.x + m2)) |
+               ((x0 < sh->lo.x - m0) & (x1 < sh->lo.x - m1) & (x2 < sh->lo.x - m2)) |
+               ((y0 > sh->hi.y + m0) & (y1 > sh->hi.y + m1) & (y2 > sh->hi.y + m2)) |
+               ((y0 < sh->lo.y - m0) & (y1 < sh->lo.y - m1) & (y2 < sh->lo.y - m2)) |
+               ((z0 > sh->hi.z + m0) & (z1 > sh->hi.z + m1) & (z2 > sh->hi.z + m2)) |
+               ((z0 < sh->lo.z - m0) & (z1 < sh->lo.z - m1) & (z2 < sh->lo.z - m2));
+    for (int i = 0; i < 5; ++i) {
+        float4 p = sh->plane[i];
+        float4 f0 = p.x * x0 + p.y * y0 + p.z * z0 - p.w;
+        float4 f1 = p.x * x1 + p.y * y1 + p.z * z1 - p.w;
+        float4 f2 = p.x * x2 + p.y * y2 + p.z * z2 - p.w;
+        out |= (f0 > m0) & (f1 > m1) & (f2 > m2);
+    }
+    int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+    int4 keep = (slot >= 0) & (slot != own) & (out == 0);
+    if (!(keep.x | keep.y | keep.z | keep.w)) return 0; /* far blocks: the planes suffice */
+    keep &= shaft_beside_planes(sh, x0, y0, z0, x1, y1, z1, x2, y2, z2, max4(m0, max4(m1, m2))) == (int4)(0);
+    return (keep.x & 1) | (keep.y & 2) | (keep.z & 4) | (keep.w & 8);
+}
+
+/* What the shaft's rays do at the sphere (centre, radius): SPHERE_MISSED, SPHERE_TESTED (each ray
+ * is tested), or SPHERE_CROSSED_ONCE.  Computed as sphere_roots computes c = |O - centre|^2 - r^2
+ * (contraction off, as there), which is the same for every ray from O:
+ * - missed: outside the shaft's bounds, or O outside (c > 0) and every ray leaving it (b = (O -
+ *   centre) . d > 0 by a margin at every corner): both roots are then negative.
+ * - crossed once: O inside (c < 0), every ray heading in (b < -0.02 |O - centre| at every corner, so
+ *   the discriminant is clearly positive and the far root is a chord of at least 0.04 r, far above
+ *   sphere_t_eps) and the sphere wholly on O's side of the light's plane (the exit comes before
+ *   t_max): one root negative, the other counted.  The glass sphere seen from inside is such. */
+#define SPHERE_MISSED 0
+#define SPHERE_TESTED 1
+#define SPHERE_CROSSED_ONCE 2
+#pragma OPENCL FP_CONTRACT OFF
+INLINE int shaft_sphere(const Shaft *sh, float4 cr) {
+    float m = SHAFT_MARGIN * (sh->scale + max3_abs(cr.xyz) + cr.w) + cr.w;
+    bool keep = cr.x <= sh->hi.x + m && cr.y <= sh->hi.y + m && cr.z <= sh->hi.z + m && cr.x >= sh->lo.x - m &&
+                cr.y >= sh->lo.y - m && cr.z >= sh->lo.z - m;
+    /* (the five planes too cost more than the few sphere tests they saved: -5% on wizard_cat) */
+    if (!keep) return SPHERE_MISSED;
+    float3 oc = sh->apex - cr.xyz;
+    float c = dot3(oc, oc) - cr.w * cr.w;
+    float3 a = abs3(oc);
+    float oc_l1 = a.x + a.y + a.z;
+    if (c > 0.0f) {
+        float margin = SHAFT_MARGIN * sh->scale * oc_l1;
+        bool leaves = true;
+        for (int i = 0; i < 4; ++i) leaves = leaves && dot3(oc, sh->corner[i] - sh->apex) > margin;
+        return leaves ? SPHERE_MISSED : SPHERE_TESTED;
+    }
+    if (c < 0.0f) {
+        bool enters = dot3(sh->plane[4].xyz, cr.xyz) - sh->plane[4].w < -m; /* m includes r */
+        for (int i = 0; i < 4; ++i) {
+            float3 to = sh->corner[i] - sh->apex, at = abs3(to);
+            enters = enters && dot3(oc, to) < -0.02f * oc_l1 * (at.x + at.y + at.z);
+        }
+        if (enters) return SPHERE_CROSSED_ONCE;
+    }
+    return SPHERE_TESTED;
+}
+#pragma OPENCL FP_CONTRACT ON
+
+/* Collect the candidates of the shaft from the wide tree.  False when there are more than
+ * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
+INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __global const float4 *prims, int n_prims,
+                             __global const int *prim_object, __global const int2 *objects,
+                             __global const float4 *materials, int own, ShaftCandidates *cand, uint *visits) {
+    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
+    __global const int *ints = (__global const int *)nodes;
+    int stack[WIDE_STACK_SIZE + BVH_WIDTH];
+    int sp = 0;
+    cand->n = 0;
+    cand->crossed_T = 1.0f;
+    if (n_prims > 0) stack[sp++] = 0;
+    while (sp > 0) {
+        int node = stack[--sp];
+        COUNT_NODE(visits);
+        lanes_i keep = shaft_boxes(sh, rows + 8 * node);
+        int k[BVH_WIDTH] = LANES_ARRAY(keep);
+        for (int j = 0; j < BVH_WIDTH; ++j) {
+            if (!k[j]) continue;
+            int child = ints[NODE_FLOATS * node + CHILD_ROW + j], count = ints[NODE_FLOATS * node + COUNT_ROW + j];
+            if (count == 0) { /* interior: visit it later */
+                if (sp >= WIDE_STACK_SIZE + BVH_WIDTH) return false;
+                stack[sp++] = child;
+                continue;
+            }
+            for (int b = 0; b < count; b += BLOCK_LANES, child += BLOCK_ROWS) {
+                __global const float4 *block = nodes + child;
+                int lanes = shaft_triangles(sh, block, own);
+                if (lanes) {
+                    if (cand->n >= SHAFT_CANDIDATES) return false;
+                    cand->first[cand->n] = child;
+                    cand->lanes[cand->n++] = lanes;
+                }
+                int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+                if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
+                    int sl[4] = {slot.x, slot.y, slot.z, slot.w};
+                    for (int q = 0; q < BLOCK_LANES; ++q) {
+                        if (sl[q] >= -1) continue;
+                        int s = -2 - sl[q];
+                        float4 a = prims[PRIM_ROWS * s], b1 = prims[PRIM_ROWS * s + 1];
+                        int what = shaft_sphere(sh, (float4)(a.xyz, b1.x));
+                        if (what == SPHERE_MISSED) continue;
+                        if (what == SPHERE_CROSSED_ONCE) {
+                            cand->crossed_T *= materials[MATERIAL_ROWS * objects[prim_object[as_int(a.w)]].x + 2].x;
+                            continue;
+                        }
+                        if (cand->n >= SHAFT_CANDIDATES) return false;
+                        cand->first[cand->n] = sl[q];
+                        cand->lanes[cand->n++] = 0;
+                    }
+                }
+            }
+        }
+    }
+    return true;
+}
+
+/* Transmittance of one shadow ray (t in (0, t_max)) through the candidates: the crossings and
+ * factors of blocks_transmittance / crossing_transmittance.  The candidate that blocked a ray
+ * moves to the front, where the next ray (a neighbour) tries it first. */
+INLINE float shaft_transmittance(ShaftCandidates *cand, __global const float4 *nodes, __global const float4 *prims,
+                                 __global const int *prim_object, __global const int2 *objects,
+                                 __global const float4 *materials, Ray r, float t_max) {
+    float T = cand->crossed_T;
+    for (int k = 0; k < cand->n && T > 0.0f; ++k) {
+        int first = cand->first[k];
+        if (first < 0) {
+            T *= crossing_transmittance(prims, prim_object, objects, materials, -2 - first, r, 0.0f, t_max, false);
+        } else {
+            __global const float4 *block = nodes + first;
+            int4 valid = ((int4)(cand->lanes[k]) & (int4)(1, 2, 4, 8)) != (int4)(0);
+            float4 u, v;
+            int4 crossed = hit_block(r, block, valid, 0.0f, t_max, &u, &v) != (float4)(INF_T);
+            if (crossed.x | crossed.y | crossed.z | crossed.w) {
+                int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+                int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
+                for (int q = 0; q < BLOCK_LANES; ++q) /* a triangle is crossed once: times its transparency */
+                    if (cl[q]) T *= materials[MATERIAL_ROWS * objects[prim_object[prim_id(prims, sl[q])]].x + 2].x;
+            }
+        }
+        if (T == 0.0f && k > 0) { /* move to front */
+            int f = cand->first[k], l = cand->lanes[k];
+            cand->first[k] = cand->first[0]; cand->lanes[k] = cand->lanes[0];
+            cand->first[0] = f; cand->lanes[0] = l;
+        }
+    }
+    return T;
+}
+
+#endif /* SHAFTS_ON */
+#endif
