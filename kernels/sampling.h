@@ -88,15 +88,4 @@ INLINE float pixel_filter_weight(int filter, float2 off) {
     return 1.0f;
 }
 
-/* Point on a parallelogram light.  Stratified (the seed): corner + (p+xi)/n a
- * + (q+xi')/n b, one jittered point per cell.  Random: corner + xi a + xi' b,
- * ignoring the cells (kept to show what stratification buys). */
-INLINE float3 area_light_point(float3 corner, float3 a, float3 b, uint p, uint q, uint n, bool stratified, Rng *rng) {
-    float xi_a = rng_next(rng);
-    float xi_b = rng_next(rng);
-    if (!stratified) return corner + xi_a * a + xi_b * b;
-    float fn = (float)n;
-    return corner + ((float)p + xi_a) / fn * a + ((float)q + xi_b) / fn * b;
-}
-
 #endif

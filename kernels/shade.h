@@ -231,7 +231,8 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                 light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
                 light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
                 light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
-                /* the light's point: sampling.h's area_light_point, lane by lane */
+                /* the light's point: stratified (the seed), corner + (p + xi)/n a + (q + xi')/n b, one jittered
+                   point per cell; random: corner + xi a + xi' b, ignoring the cells (to show what strata buy) */
                 light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;
                 light_f ub = sc->light_stratified ? (fq + xi_b) / fn : xi_b;
                 light_f lx = pos.x + ua * edge_a.x + ub * edge_b.x - p.x;
