@@ -1,7 +1,13 @@
 """Dispatch `python -m bench NAME ...` to bench/NAME.py's main(argv)."""
 
 import importlib
+import os
 import sys
+
+# OpenBLAS's worker threads spin for a while after any numpy/scipy BLAS call, on the same two cores
+# as PoCL's kernel threads (perf showed them at ~7% of a ray benchmark): one BLAS thread, set before
+# numpy is imported.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "mutants", "distributed")
 
