@@ -30,7 +30,7 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 
 #define GAMMA(n) ((float)(n) * 5.96046448e-8f / (1.0f - (float)(n) * 5.96046448e-8f)) /* n*u/(1-n*u), u = 2^-24 */
 
-/* The triangle test, once per lane type (kernels/triangle.h) */
+/* The triangle test, once per lane type (kernels/triangle.h, which undefines the TRI_ names after use) */
 #define TRI_F float
 #define TRI_I int
 #define TRI_ANY(m) (m)
@@ -38,12 +38,6 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 #define TRI_DOP difference_of_products
 #define TRI_TEST triangle_test
 #include "triangle.h"
-#undef TRI_F
-#undef TRI_I
-#undef TRI_ANY
-#undef TRI_ABS
-#undef TRI_DOP
-#undef TRI_TEST
 #define TRI_F float4
 #define TRI_I int4
 #define TRI_ANY(m) (((m).x | (m).y | (m).z | (m).w) != 0)
@@ -51,12 +45,6 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 #define TRI_DOP difference_of_products4
 #define TRI_TEST triangle_test4
 #include "triangle.h"
-#undef TRI_F
-#undef TRI_I
-#undef TRI_ANY
-#undef TRI_ABS
-#undef TRI_DOP
-#undef TRI_TEST
 
 /* One triangle (the records' vertices v0, v1, v2): t in (t_min, t_max) or INF_T, and u, v. */
 INLINE float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {

@@ -5,7 +5,8 @@
  * Both are the same float operations in the same order (and intersect.h turns FP_CONTRACT off), so a
  * block lane's t, u, v are bit for bit the one-triangle test's: the wide tree, the binary tree and
  * the BVH-off path agree exactly.  Comparisons are combined with & and |, and negated with == 0, so
- * the code reads the same for 0/1 scalar and 0/-1 vector truth values. */
+ * the code reads the same for 0/1 scalar and 0/-1 vector truth values.  The TRI_ names are undefined at
+ * the end, ready for the next inclusion. */
 
 /* a*b - c*d with the sign of the exact value (barring underflow).  The plain difference has that
  * sign unless it is within its own rounding error, u (|ab| + |cd|); only then is it recomputed by
@@ -70,3 +71,10 @@ INLINE TRI_F TRI_TEST(TRI_F p0x, TRI_F p0y, TRI_F p0z, TRI_F p1x, TRI_F p1y, TRI
     *v = e2 * inv_det;
     return live ? t : (TRI_F)(INF_T);
 }
+
+#undef TRI_F
+#undef TRI_I
+#undef TRI_ANY
+#undef TRI_ABS
+#undef TRI_DOP
+#undef TRI_TEST
