@@ -171,30 +171,25 @@ INLINE void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
 /* ---------------------------------------------------------------- wide BVH (clrender/trace/bvh_wide.py)
  * BVH_WIDTH 4 or 8.  A node is 8 rows of BVH_WIDTH floats (float4 or float8 rows, read as typed
  * vectors: vloadN here was 17% slower on PoCL): lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its
- * children, then the children's int32 index (wide node, or first slot of a leaf) and count
- * (0 interior, > 0 leaf slots, -1 empty lane).  The slab test is hit_box's, lane by lane: the
- * same float operations, so each lane's answer is bit for bit the binary test's for that box.
- * Stack entries name a lane ((node << LANE_BITS) + lane); a node pushes its hit lanes farthest
- * first, so the nearest pops first. */
+ * children, then the children's int32 index (wide node, or the row of a leaf's first block) and
+ * count (0 interior, > 0 leaf primitives, -1 empty lane).  The slab test is hit_box's, lane by
+ * lane: the same float operations, so each lane's answer is bit for bit the binary test's for that
+ * box.  Stack entries are lane keys (lane_keys) with their node; see Walk. */
 #if BVH_WIDTH >= 4
 #if BVH_WIDTH == 4
 typedef float4 lanes_f;
 typedef int4 lanes_i;
 typedef uint4 lanes_u;
-#define as_lanes_i as_int4
 #define as_lanes_u as_uint4
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
-#define LANE_BITS 2
 #else
 typedef float8 lanes_f;
 typedef int8 lanes_i;
 typedef uint8 lanes_u;
-#define as_lanes_i as_int8
 #define as_lanes_u as_uint8
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3, 4, 5, 6, 7))
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
-#define LANE_BITS 3
 #endif
 #define LANE_MASK ((uint)(BVH_WIDTH - 1))
 
@@ -238,7 +233,7 @@ INLINE lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
     return t_enter <= t_exit ? t_enter : (lanes_f)(INF_T);
 }
 
-/* Stack keys: a hit lane's entry distance with its lane number in the low LANE_BITS bits (the
+/* Stack keys: a hit lane's entry distance with its lane number in the low log2(BVH_WIDTH) bits (the
  * distance rounded down there, so a key's distance never exceeds the box's: culling by it stays
  * conservative), plus one, so that 0 means "missed".  Non-negative floats order as their bits, so
  * the keys order as the distances.  `farthest_first` inverts the order (any-hit queries). */
