@@ -179,6 +179,7 @@ INLINE void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
 #if BVH_WIDTH == 4
 typedef float4 lanes_f;
 typedef int4 lanes_i;
+#define as_lanes_i as_int4
 typedef uint4 lanes_u;
 #define as_lanes_u as_uint4
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3))
@@ -186,6 +187,7 @@ typedef uint4 lanes_u;
 #else
 typedef float8 lanes_f;
 typedef int8 lanes_i;
+#define as_lanes_i as_int8
 typedef uint8 lanes_u;
 #define as_lanes_u as_uint8
 #define LANE_IDS ((lanes_u)(0, 1, 2, 3, 4, 5, 6, 7))
