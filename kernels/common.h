@@ -76,19 +76,33 @@ INLINE float3 cross3(float3 a, float3 b) {
 INLINE float norm(float3 a) { return sqrt(dot3(a, a)); }
 INLINE float3 unit(float3 a) { return a / sqrt(dot3(a, a)); }
 
-INLINE Ray make_ray(float3 o, float3 d) {
+/* The watertight triangle test's permutation and shear of a ray (see Ray). */
+INLINE void shear_ray(Ray *r) {
+    float3 d = r->d;
+    float3 a = abs3(d);
+    r->kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    r->kx = r->kz == 2 ? 0 : r->kz + 1;
+    r->ky = r->kx == 2 ? 0 : r->kx + 1;
+    float dz = axis_of(d, r->kz);
+    r->sx = -axis_of(d, r->kx) / dz;
+    r->sy = -axis_of(d, r->ky) / dz;
+    r->sz = 1.0f / dz;
+}
+
+/* A ray for the box tests only (origin, direction, 1/d); shear_ray before any triangle test. */
+INLINE Ray make_box_ray(float3 o, float3 d) {
     Ray r;
     r.o = o;
     r.d = d;
     r.inv_d = (float3)(1.0f) / d;
-    float3 a = abs3(d);
-    r.kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
-    r.kx = r.kz == 2 ? 0 : r.kz + 1;
-    r.ky = r.kx == 2 ? 0 : r.kx + 1;
-    float dz = axis_of(d, r.kz);
-    r.sx = -axis_of(d, r.kx) / dz;
-    r.sy = -axis_of(d, r.ky) / dz;
-    r.sz = 1.0f / dz;
+    r.kx = r.ky = r.kz = 0;
+    r.sx = r.sy = r.sz = 0.0f;
+    return r;
+}
+
+INLINE Ray make_ray(float3 o, float3 d) {
+    Ray r = make_box_ray(o, d);
+    shear_ray(&r);
     return r;
 }
 

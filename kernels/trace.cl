@@ -80,6 +80,20 @@ INLINE Ray query_ray(__global const float4 *origins, __global const float4 *dire
     return make_ray(origins[i].xyz, d / *length);
 }
 
+#if USE_BVH && BVH_WIDTH >= 4
+/* The same ray for a wide walk, its shear (six divisions) computed only once the root has a hit:
+ * most rays of a small mesh's batch miss it. */
+INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float4 *origins,
+                             __global const float4 *directions, int i, float *length, float t_min, float t_max,
+                             bool any_hit) {
+    float3 d = directions[i].xyz;
+    *length = norm(d);
+    walk_start(w, nodes, n_prims, make_box_ray(origins[i].xyz, d / *length), t_min * *length, t_max * *length,
+               any_hit);
+    if (w->sp > 0) shear_ray(&w->r);
+}
+#endif
+
 /* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  A hit is o + t d,
  * t in (t_min, INF).  Writes t (INF on a miss), primitive id, object id and the nodes visited. */
 __kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
@@ -97,8 +111,7 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
 #if USE_BVH && BVH_WIDTH >= 4
     Walk w[2];
     for (int k = 0; k < 2; ++k)
-        walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
-                   t_min[idx[k]] * length[k], INF_T, false);
+        start_query_walk(&w[k], nodes, n_prims, origins, directions, idx[k], &length[k], t_min[idx[k]], INF_T, false);
     while (w[0].sp > 0 || w[1].sp > 0) {
         if (w[0].sp > 0) walk_step(&w[0], nodes, prims, 0, 0, 0, true, false);
         if (w[1].sp > 0) walk_step(&w[1], nodes, prims, 0, 0, 0, true, false);
@@ -137,8 +150,8 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
 #if USE_BVH && BVH_WIDTH >= 4
     Walk w[2];
     for (int k = 0; k < 2; ++k)
-        walk_start(&w[k], nodes, n_prims, query_ray(origins, directions, idx[k], &length[k]),
-                   t_min[idx[k]] * length[k], t_max[idx[k]] * length[k], true);
+        start_query_walk(&w[k], nodes, n_prims, origins, directions, idx[k], &length[k], t_min[idx[k]], t_max[idx[k]],
+                         true);
     while (w[0].sp > 0 || w[1].sp > 0) {
         if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, true);
         if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true, true);
