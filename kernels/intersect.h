@@ -178,6 +178,7 @@ INLINE void test_slots(__global const float4 *prims, int begin, int end, Ray r, 
 #if BVH_WIDTH >= 4
 #if BVH_WIDTH == 4
 typedef float4 lanes_f;
+#define as_lanes_f as_float4
 typedef int4 lanes_i;
 #define as_lanes_i as_int4
 typedef uint4 lanes_u;
@@ -186,6 +187,7 @@ typedef uint4 lanes_u;
 #define LANES_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3}
 #else
 typedef float8 lanes_f;
+#define as_lanes_f as_float8
 typedef int8 lanes_i;
 #define as_lanes_i as_int8
 typedef uint8 lanes_u;

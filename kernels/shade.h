@@ -61,45 +61,8 @@ INLINE float schlick(float cos_i, float n1, float n2, float cos_t) {
     return r0 + (1.0f - r0) * m * m * m * m * m;
 }
 
-/* x^s for x in (0, 1], s > 0, as 2^(s log2 x), inline: PoCL's native_exp2 and native_log2 are
- * out-of-line library calls that took a fifth of a render's time.  log2 from the atanh series of
- * the mantissa in [sqrt(1/2), sqrt(2)), 2^f for |f| <= 1/2 from its Taylor series to degree 7:
- * each within 1e-8 relative before float32 rounding; results below 2^-126 flush to 0. */
-INLINE float pow_unit(float x, float s) {
-    int e = ((as_int(x) >> 23) & 0xff) - 127;
-    float m = as_float((as_int(x) & 0x007fffff) | 0x3f800000); /* x = m 2^e, m in [1, 2) */
-    if (m > 1.41421356f) { m *= 0.5f; e += 1; }
-    float a = (m - 1.0f) / (m + 1.0f), a2 = a * a;
-    float ln_m = 2.0f * a * (1.0f + a2 * (1.0f / 3.0f + a2 * (0.2f + a2 * (1.0f / 7.0f + a2 * (1.0f / 9.0f)))));
-    float y = s * ((float)e + ln_m * 1.44269504f); /* s log2 x, <= 0 */
-    if (y < -126.0f) return 0.0f;
-    int n = -(int)(0.5f - y);              /* y rounded to an integer (y <= ~0; truncation, not floor(), a call) */
-    float f = (y - (float)n) * 0.693147181f; /* 2^y = 2^n e^f, |f| <= ln(2)/2 */
-    float ef = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6.0f + f * (1.0f / 24.0f + f * (1.0f / 120.0f + f * (1.0f / 720.0f + f * (1.0f / 5040.0f)))))));
-    return ef * as_float((n + 127) << 23);
-}
-
-/* Lambert + Blinn-Phong, per unit of the light's value at the surface.
- * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
- * The physical model (lights with inverse-square falloff): the energy-conserving
- * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
-INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
-    float n_dot_l = max_f(dot3(n, l), 0.0f);
-    float3 h = unit(l + v);
-    float shininess = kd_shine.w;
-    /* (n.h)^s only where it is used: lit side, specular colour present (the pow is the costly part) */
-    bool specular = n_dot_l > 0.0f && (ks_mirror.x > 0.0f || ks_mirror.y > 0.0f || ks_mirror.z > 0.0f);
-    float spec = !specular ? 0.0f
-                 : (shininess > 0.0f) ? pow_unit(max_f(dot3(n, h), 1e-30f), shininess) : 1.0f;
-    if (physical) {
-        const float INV_PI = 0.318309886f;
-        return (kd_shine.xyz * INV_PI + ks_mirror.xyz * ((shininess + 8.0f) * 0.125f * INV_PI * spec)) * n_dot_l;
-    }
-    return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
-}
-
 /* ---- an area light's samples eight at a time (float8 lanes), the same operations in the same order
- * as the one-sample code above and in sampling.h / rng.h, so every lane's value is bit for bit the
+ * as the one-sample code (direct_light's other lights, rng.h), so every lane's value is bit for bit the
  * one-sample value: integer to float conversions by exact bit tricks instead of convert_float8
  * (out of line on PoCL), selects by ?:. */
 #define LIGHT_LANES 8
@@ -128,7 +91,10 @@ INLINE light_f rng_lanes(const Rng *r, light_u dim) {
 /* small integers (|i| < 2^22) to float, exactly */
 INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + 0x4b400000) - 12582912.0f; }
 
-/* pow_unit lane by lane (see there) */
+/* x^s for x in (0, 1], s > 0, lane by lane, as 2^(s log2 x), inline: PoCL's native_exp2 and native_log2 are
+ * out-of-line library calls that took a fifth of a render's time.  log2 from the atanh series of
+ * the mantissa in [sqrt(1/2), sqrt(2)), 2^f for |f| <= 1/2 from its Taylor series to degree 7:
+ * each within 1e-8 relative before float32 rounding; results below 2^-126 flush to 0. */
 INLINE light_f pow_unit_lanes(light_f x, float s) {
     light_i e = ((as_int8(x) >> 23) & 0xff) - 127;
     light_f m = as_float8((as_int8(x) & 0x007fffff) | 0x3f800000);
@@ -147,6 +113,28 @@ INLINE light_f pow_unit_lanes(light_f x, float s) {
     light_f ef = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6.0f + f * (1.0f / 24.0f + f * (1.0f / 120.0f + f * (1.0f / 720.0f + f * (1.0f / 5040.0f)))))));
     light_f r = ef * as_float8((n + 127) << 23);
     return y < -126.0f ? (light_f)(0.0f) : r;
+}
+
+/* One x^s: lane 0 of pow_unit_lanes, so a point light's highlight and an area light's lanes round alike. */
+INLINE float pow_unit(float x, float s) { return pow_unit_lanes((light_f)(x), s).s0; }
+
+/* Lambert + Blinn-Phong, per unit of the light's value at the surface.
+ * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
+ * The physical model (lights with inverse-square falloff): the energy-conserving
+ * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
+INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
+    float n_dot_l = max_f(dot3(n, l), 0.0f);
+    float3 h = unit(l + v);
+    float shininess = kd_shine.w;
+    /* (n.h)^s only where it is used: lit side, specular colour present (the pow is the costly part) */
+    bool specular = n_dot_l > 0.0f && (ks_mirror.x > 0.0f || ks_mirror.y > 0.0f || ks_mirror.z > 0.0f);
+    float spec = !specular ? 0.0f
+                 : (shininess > 0.0f) ? pow_unit(max_f(dot3(n, h), 1e-30f), shininess) : 1.0f;
+    if (physical) {
+        const float INV_PI = 0.318309886f;
+        return (kd_shine.xyz * INV_PI + ks_mirror.xyz * ((shininess + 8.0f) * 0.125f * INV_PI * spec)) * n_dot_l;
+    }
+    return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
 }
 
 #if SHAFTS_ON

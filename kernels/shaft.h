@@ -33,12 +33,6 @@
 
 #define SHAFT_MARGIN 1e-5f /* relative to the coordinates: float32 rounding is ~6e-8 per operation */
 
-#if BVH_WIDTH == 4
-#define as_lanes_f as_float4
-#else
-#define as_lanes_f as_float8
-#endif
-
 typedef struct {
     float4 plane[5]; /* outward normal (xyz, |n|_1 = 1) and w = dot(n, a point on the plane): outside where dot(n, x) > w */
     float3 apex, corner[4]; /* O, and the light's corners in order around it */
