@@ -74,10 +74,14 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 
 /* A query ray: the unit direction traced, its length to scale t back (distances are in units of the
  * direction as given, Embree's convention). */
-INLINE Ray query_ray(__global const float4 *origins, __global const float4 *directions, int i, float *length) {
+INLINE float3 query_direction(__global const float4 *directions, int i, float *length) {
     float3 d = directions[i].xyz;
     *length = norm(d);
-    return make_ray(origins[i].xyz, d / *length);
+    return d / *length;
+}
+
+INLINE Ray query_ray(__global const float4 *origins, __global const float4 *directions, int i, float *length) {
+    return make_ray(origins[i].xyz, query_direction(directions, i, length));
 }
 
 #if USE_BVH && BVH_WIDTH >= 4
@@ -86,10 +90,8 @@ INLINE Ray query_ray(__global const float4 *origins, __global const float4 *dire
 INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float4 *origins,
                              __global const float4 *directions, int i, float *length, float t_min, float t_max,
                              bool any_hit) {
-    float3 d = directions[i].xyz;
-    *length = norm(d);
-    walk_start(w, nodes, n_prims, make_box_ray(origins[i].xyz, d / *length), t_min * *length, t_max * *length,
-               any_hit);
+    Ray r = make_box_ray(origins[i].xyz, query_direction(directions, i, length));
+    walk_start(w, nodes, n_prims, r, t_min * *length, t_max * *length, any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
 #endif

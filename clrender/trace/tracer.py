@@ -183,42 +183,22 @@ class Tracer:
             raise UsageError(f"{name} must be a number or one per ray ({n}), not NaN")
         return self.device.to_device(np.broadcast_to(a, (n,)).copy())
 
+    def _launch(self, name: str, n: int, *args) -> cl.Event:
+        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's buffers
+        first, as every ray kernel takes them."""
+        return self.kernel(name)(
+            self.device.queue, global_size(-(-n // RAYS_PER_ITEM)), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object, *args
+        )
+
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
         outputs = (t, prim, object, visits) buffers."""
-        return self.kernel("intersect_rays")(
-            self.device.queue,
-            global_size(-(-n // RAYS_PER_ITEM)),
-            (LOCAL_SIZE,),
-            self.nodes,
-            self.prims,
-            self.prim_object,
-            np.int32(self.n_prims),
-            np.int32(n),
-            origins,
-            directions,
-            t_min,
-            *outputs,
-        )
+        return self._launch("intersect_rays", n, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, *outputs)
 
     def launch_occluded(self, n, origins, directions, t_min, t_max, outputs) -> cl.Event:
         """Any-hit kernel on device buffers; t_min, t_max per-ray buffers; outputs = (occluded, visits) buffers."""
-        return self.kernel("occluded_rays")(
-            self.device.queue,
-            global_size(-(-n // RAYS_PER_ITEM)),
-            (LOCAL_SIZE,),
-            self.nodes,
-            self.prims,
-            self.prim_object,
-            self.objects,
-            self.materials,
-            np.int32(self.n_prims),
-            np.int32(n),
-            origins,
-            directions,
-            t_min,
-            t_max,
-            *outputs,
+        return self._launch(
+            "occluded_rays", n, self.objects, self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, t_max, *outputs
         )
 
     def intersect(self, origins, directions, t_min=0.0):
