@@ -37,6 +37,7 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 #define TRI_ABS abs_f
 #define TRI_DOP difference_of_products
 #define TRI_TEST triangle_test
+#define TRI_R float
 #include "triangle.h"
 #define TRI_F float4
 #define TRI_I int4
@@ -44,6 +45,7 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 #define TRI_ABS abs4
 #define TRI_DOP difference_of_products4
 #define TRI_TEST triangle_test4
+#define TRI_R float
 #include "triangle.h"
 
 /* One triangle (the records' vertices v0, v1, v2): t in (t_min, t_max) or INF_T, and u, v. */
@@ -51,7 +53,7 @@ INLINE float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, f
     float3 q0 = v0.xyz - r.o, q1 = v1.xyz - r.o, q2 = v2.xyz - r.o;
     return triangle_test(axis_of(q0, r.kx), axis_of(q0, r.ky), axis_of(q0, r.kz), axis_of(q1, r.kx),
                          axis_of(q1, r.ky), axis_of(q1, r.kz), axis_of(q2, r.kx), axis_of(q2, r.ky),
-                         axis_of(q2, r.kz), 1, r, t_min, t_max, u, v);
+                         axis_of(q2, r.kz), 1, r.sx, r.sy, r.sz, t_min, t_max, u, v);
 }
 
 /* The triangles of a leaf block (layout.py BLOCK_*: rows 3v + axis hold vertex v's coordinates of
@@ -61,7 +63,7 @@ INLINE float4 hit_block(Ray r, __global const float4 *block, int4 valid, float t
     float ox = axis_of(r.o, r.kx), oy = axis_of(r.o, r.ky), oz = axis_of(r.o, r.kz);
     return triangle_test4(block[r.kx] - ox, block[r.ky] - oy, block[r.kz] - oz, block[3 + r.kx] - ox,
                           block[3 + r.ky] - oy, block[3 + r.kz] - oz, block[6 + r.kx] - ox, block[6 + r.ky] - oy,
-                          block[6 + r.kz] - oz, valid, r, t_min, t_max, u, v);
+                          block[6 + r.kz] - oz, valid, r.sx, r.sy, r.sz, t_min, t_max, u, v);
 }
 
 /* Both roots of |o + t d - c|^2 = r^2 for unit d, in the cancellation-free

@@ -5,6 +5,7 @@
 #include "sampling.h"
 #include "intersect.h"
 #include "shade.h"
+#include "packet.h"
 
 /* frame: camera origin, forward, right * half-width, up * half-height
  *        (all at unit distance), background colour, ambient light.
@@ -66,10 +67,11 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
     }
 }
 
-/* The ray kernels below take RAYS_PER_ITEM = 2 rays per work-item (rays 2 gid and 2 gid + 1; an odd
- * count repeats the last): through the wide trees their walks are stepped in turn (see Walk). */
-#if RAYS_PER_ITEM != 2
-#error "RAYS_PER_ITEM must be 2: the ray kernels walk rays in pairs"
+/* The ray kernels below take RAYS_PER_ITEM = 8 consecutive rays per work-item (an incomplete last
+ * group repeats the last ray).  Through the wide trees they go as one packet when they go the same
+ * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (see Walk). */
+#if RAYS_PER_ITEM != 8
+#error "RAYS_PER_ITEM must be 8: the ray kernels take a packet's worth of rays"
 #endif
 
 /* A query ray: the unit direction traced, its length to scale t back (distances are in units of the
@@ -94,6 +96,68 @@ INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims,
     walk_start(w, nodes, n_prims, r, t_min * *length, t_max * *length, any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
+
+/* Rays idx[k], idx[k + 1] walked in turn, closest hit or any-hit; h (closest hit) or T (any-hit) and
+ * visits written at k and k + 1. */
+INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __global const float4 *prims,
+                      __global const int *prim_object, __global const int2 *objects,
+                      __global const float4 *materials, int n_prims, __global const float4 *origins,
+                      __global const float4 *directions, __global const float *t_min, __global const float *t_max,
+                      float *length, Hit *h, float *T, uint *visits, bool any_hit) {
+    Walk w[2];
+    for (int j = 0; j < 2; ++j)
+        start_query_walk(&w[j], nodes, n_prims, origins, directions, idx[k + j], &length[k + j], t_min[idx[k + j]],
+                         any_hit ? t_max[idx[k + j]] : INF_T, any_hit);
+    while (w[0].sp > 0 || w[1].sp > 0) {
+        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, any_hit);
+        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true, any_hit);
+    }
+    for (int j = 0; j < 2; ++j) {
+        walk_finish(&w[j], prims, n_prims, prim_object, objects, materials, true, any_hit);
+        if (any_hit) T[k + j] = w[j].T;
+        else h[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
+        visits[k + j] = w[j].visits;
+    }
+}
+
+/* The eight rays idx[] as one packet: false (nothing written) when they do not go the same way or
+ * the packet cannot finish, and the caller walks them alone. */
+INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global const float4 *prims, int n_prims,
+                        __global const float4 *origins, __global const float4 *directions,
+                        __global const float *t_min, __global const float *t_max, float *length, Hit *h, float *T,
+                        uint *visits, bool any_hit) {
+#if RAY_PACKETS
+    /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
+    uint4 signs = as_uint4(directions[idx[0]]) >> 31;
+    for (int k = 1; k < PACKET_RAYS; ++k) {
+        uint4 s = as_uint4(directions[idx[k]]) >> 31;
+        if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
+    }
+    Ray r[PACKET_RAYS];
+    float t0[PACKET_RAYS], t1[PACKET_RAYS];
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        r[k] = query_ray(origins, directions, idx[k], &length[k]);
+        t0[k] = t_min[idx[k]] * length[k];
+        t1[k] = any_hit ? t_max[idx[k]] * length[k] : INF_T;
+    }
+    Packet p;
+    if (!packet_start(&p, nodes, n_prims, r, t0, t1, any_hit)) return false;
+    while (p.sp > 0) packet_step(&p, nodes, prims, any_hit);
+    if (p.fallback) return false;
+    float t[PACKET_RAYS] = {p.t_max.s0, p.t_max.s1, p.t_max.s2, p.t_max.s3, p.t_max.s4, p.t_max.s5, p.t_max.s6, p.t_max.s7};
+    int id[PACKET_RAYS] = {p.id.s0, p.id.s1, p.id.s2, p.id.s3, p.id.s4, p.id.s5, p.id.s6, p.id.s7};
+    uint v[PACKET_RAYS] = {p.visits.s0, p.visits.s1, p.visits.s2, p.visits.s3,
+                           p.visits.s4, p.visits.s5, p.visits.s6, p.visits.s7};
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        if (any_hit) T[k] = (p.live >> k) & 1u ? 1.0f : 0.0f;
+        else { h[k] = no_hit(); if (id[k] >= 0) { h[k].t = t[k]; h[k].id = id[k]; } }
+        visits[k] = v[k];
+    }
+    return true;
+#else
+    return false;
+#endif
+}
 #endif
 
 /* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  A hit is o + t d,
@@ -104,32 +168,25 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
-    int i = RAYS_PER_ITEM * get_global_id(0);
-    if (i >= n_rays) return;
-    int idx[2] = {i, min(i + 1, n_rays - 1)};
-    float length[2];
-    Hit h[2];
-    uint visits[2] = {0, 0};
+    int first = RAYS_PER_ITEM * get_global_id(0);
+    if (first >= n_rays) return;
+    int idx[RAYS_PER_ITEM];
+    float length[RAYS_PER_ITEM];
+    Hit h[RAYS_PER_ITEM];
+    uint visits[RAYS_PER_ITEM];
+    for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    Walk w[2];
-    for (int k = 0; k < 2; ++k)
-        start_query_walk(&w[k], nodes, n_prims, origins, directions, idx[k], &length[k], t_min[idx[k]], INF_T, false);
-    while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, 0, 0, 0, true, false);
-        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, 0, 0, 0, true, false);
-    }
-    for (int k = 0; k < 2; ++k) {
-        walk_finish(&w[k], prims, n_prims, 0, 0, 0, true, false);
-        h[k] = w[k].best.slot < 0 ? no_hit() : w[k].best;
-        visits[k] = w[k].visits;
-    }
+    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, 0, length, h, 0, visits, false))
+        for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
+            walk_pair(k, idx, nodes, prims, 0, 0, 0, n_prims, origins, directions, t_min, 0, length, h, 0, visits,
+                      false);
 #else
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         Ray r = query_ray(origins, directions, idx[k], &length[k]);
         h[k] = closest_hit(nodes, prims, n_prims, r, t_min[idx[k]] * length[k], INF_T, &visits[k]);
     }
 #endif
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         t_out[idx[k]] = h[k].t / length[k];
         prim_out[idx[k]] = h[k].id;
         object_out[idx[k]] = h[k].id >= 0 ? prim_object[h[k].id] : -1;
@@ -144,33 +201,25 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
                             __global const float4 *origins, __global const float4 *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
-    int i = RAYS_PER_ITEM * get_global_id(0);
-    if (i >= n_rays) return;
-    int idx[2] = {i, min(i + 1, n_rays - 1)};
-    float length[2], T[2];
-    uint visits[2] = {0, 0};
+    int first = RAYS_PER_ITEM * get_global_id(0);
+    if (first >= n_rays) return;
+    int idx[RAYS_PER_ITEM];
+    float length[RAYS_PER_ITEM], T[RAYS_PER_ITEM];
+    uint visits[RAYS_PER_ITEM];
+    for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    Walk w[2];
-    for (int k = 0; k < 2; ++k)
-        start_query_walk(&w[k], nodes, n_prims, origins, directions, idx[k], &length[k], t_min[idx[k]], t_max[idx[k]],
-                         true);
-    while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, true);
-        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true, true);
-    }
-    for (int k = 0; k < 2; ++k) {
-        walk_finish(&w[k], prims, n_prims, prim_object, objects, materials, true, true);
-        T[k] = w[k].T;
-        visits[k] = w[k].visits;
-    }
+    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, t_max, length, 0, T, visits, true))
+        for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
+            walk_pair(k, idx, nodes, prims, prim_object, objects, materials, n_prims, origins, directions, t_min,
+                      t_max, length, 0, T, visits, true);
 #else
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         Ray r = query_ray(origins, directions, idx[k], &length[k]);
         T[k] = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_min[idx[k]] * length[k],
                              t_max[idx[k]] * length[k], true, &visits[k]);
     }
 #endif
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         occluded_out[idx[k]] = T[k] == 0.0f;
         visits_out[idx[k]] = visits[k];
     }

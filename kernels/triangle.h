@@ -2,7 +2,9 @@
  * BLOCK_LANES triangles (float4): kernels/intersect.h includes this file twice, with
  *   TRI_F   float or float4          TRI_I   int or int4 (what a comparison of TRI_F gives)
  *   TRI_ANY(m)  any lane of m set    TRI_ABS(x)  |x|     TRI_DOP, TRI_TEST  the functions' names
- * Both are the same float operations in the same order (and intersect.h turns FP_CONTRACT off), so a
+ *   TRI_R   the type of the ray's shear and t range: float, or float8 for a packet of rays in lanes
+ *           (kernels/packet.h, where the lanes are rays and the triangle is the same in all of them)
+ * All are the same float operations in the same order (and intersect.h turns FP_CONTRACT off), so a
  * block lane's t, u, v are bit for bit the one-triangle test's: the wide tree, the binary tree and
  * the BVH-off path agree exactly.  Comparisons are combined with & and |, and negated with == 0, so
  * the code reads the same for 0/1 scalar and 0/-1 vector truth values.  The TRI_ names are undefined at
@@ -31,10 +33,11 @@ INLINE TRI_F TRI_DOP(TRI_F a, TRI_F b, TRI_F c, TRI_F d) {
  * (and in lanes not `valid`), and the barycentrics u, v of v1, v2.  Hits closer than the test's own
  * error bound (pbrt's deltaT) are rejected, so t > 0 holds for every hit reported. */
 INLINE TRI_F TRI_TEST(TRI_F p0x, TRI_F p0y, TRI_F p0z, TRI_F p1x, TRI_F p1y, TRI_F p1z, TRI_F p2x, TRI_F p2y,
-                      TRI_F p2z, TRI_I valid, Ray r, float t_min, float t_max, TRI_F *u, TRI_F *v) {
-    p0x += r.sx * p0z; p0y += r.sy * p0z;
-    p1x += r.sx * p1z; p1y += r.sy * p1z;
-    p2x += r.sx * p2z; p2y += r.sy * p2z;
+                      TRI_F p2z, TRI_I valid, TRI_R sx, TRI_R sy, TRI_R sz, TRI_R t_min, TRI_R t_max, TRI_F *u,
+                      TRI_F *v) {
+    p0x += sx * p0z; p0y += sy * p0z;
+    p1x += sx * p1z; p1y += sy * p1z;
+    p2x += sx * p2z; p2y += sy * p2z;
     /* edge functions: which side of each edge the ray (the origin of the sheared plane) lies on */
     TRI_F e0 = TRI_DOP(p1x, p2y, p1y, p2x);
     TRI_F e1 = TRI_DOP(p2x, p0y, p2y, p0x);
@@ -44,7 +47,7 @@ INLINE TRI_F TRI_TEST(TRI_F p0x, TRI_F p0y, TRI_F p0z, TRI_F p1x, TRI_F p1y, TRI
     TRI_I live = valid & (outside == 0) & (det != 0.0f); /* a miss, or the triangle met edge-on */
     if (!TRI_ANY(live)) return (TRI_F)(INF_T);
     /* scaled distance, compared with the range before the one division */
-    p0z *= r.sz; p1z *= r.sz; p2z *= r.sz;
+    p0z *= sz; p1z *= sz; p2z *= sz;
     TRI_F t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
     TRI_I beyond = ((det < 0.0f) & ((t_scaled >= t_min * det) | (t_scaled < t_max * det))) |
                    ((det > 0.0f) & ((t_scaled <= t_min * det) | (t_scaled > t_max * det)));
@@ -78,3 +81,4 @@ INLINE TRI_F TRI_TEST(TRI_F p0x, TRI_F p0y, TRI_F p0z, TRI_F p1x, TRI_F p1y, TRI
 #undef TRI_ABS
 #undef TRI_DOP
 #undef TRI_TEST
+#undef TRI_R

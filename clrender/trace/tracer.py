@@ -36,7 +36,7 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 # A fixed work-group size: PoCL builds a work-group function per local size, so
 # letting it choose (with a global size that changes per call) recompiles.
 LOCAL_SIZE = 64
-RAYS_PER_ITEM = 2  # intersect_rays / occluded_rays walk rays in pairs (kernels/trace.cl)
+RAYS_PER_ITEM = 8  # intersect_rays / occluded_rays take a packet's worth of rays per work-item (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 # Leaf size of the binary tree per traversal width.  The wide layouts test a leaf's triangles four at
 # a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves of
@@ -63,7 +63,7 @@ def global_size(n: int) -> tuple:
     return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
 
 
-def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True) -> dict:
+def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True, ray_packets: bool = True) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
     from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
@@ -80,6 +80,8 @@ def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, c
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
         "SHAFT_CANDIDATES": SHAFT_CANDIDATES,
+        # ray queries walk eight rays that go the same way as one packet (kernels/packet.h; wide trees only)
+        "RAY_PACKETS": int(ray_packets),
     }
 
 
@@ -94,6 +96,7 @@ class Tracer:
         bvh_width: int = DEFAULT_BVH_WIDTH,
         count_prim_tests: bool = False,
         shadow_shafts: bool = True,
+        ray_packets: bool = True,
     ):
         from .bvh_wide import WIDTHS
 
@@ -104,6 +107,7 @@ class Tracer:
         self.bvh_width = int(bvh_width)
         self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
         self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
+        self.ray_packets = bool(ray_packets)  # False: every query ray walks the tree alone (the reference)
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
@@ -151,6 +155,7 @@ class Tracer:
             bvh_width=self.bvh_width,
             count_prim_tests=self.count_prim_tests,
             shadow_shafts=self.shadow_shafts,
+            ray_packets=self.ray_packets,
         )
 
     def kernel(self, name: str) -> cl.Kernel:

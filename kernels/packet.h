@@ -1,0 +1,227 @@
+/* Ray packets: eight rays that go the same way walk the wide tree together (Wald, Slusallek, Benthin
+ * and Wagner 2001; Embree's packet kernels).  A packet pops a node once for all its rays, sorts that
+ * node's children once, and tests a leaf's triangles one at a time against all eight rays in float8
+ * lanes (rays in the lanes, the triangle the same in each), where a single ray tests four triangles
+ * of a block per float4.  The answers are the single-ray walk's bit for bit:
+ * - each ray's box tests are hit_boxes' float operations with its own t range, so a ray meets every
+ *   box it would meet alone (it may be carried into more: a packet descends where any ray hits);
+ * - the triangle test is triangle.h's, lane by lane, and a hit is kept as test_blocks keeps it (the
+ *   nearest, ties to the lower primitive id), so the order boxes are visited in changes nothing.
+ * A packet needs its rays to share the signs of their directions (the near plane of every box is the
+ * same for all) and the axis of the largest component (the triangle test's permutation); rays that do
+ * not, and packets that meet a sphere or fill their stack, are walked one by one (Walk) instead. */
+#ifndef CLRENDER_PACKET_H
+#define CLRENDER_PACKET_H
+
+#include "intersect.h"
+
+#if USE_BVH && BVH_WIDTH >= 4
+
+#pragma OPENCL FP_CONTRACT OFF /* as in intersect.h: the lanes must round as the one-ray test does */
+
+#define PACKET_RAYS 8
+#define RAY_BITS ((uint8)(1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u)) /* ray k of a packet is bit k of a mask */
+#define ALL_RAYS 0xffu
+#define FOR_EACH_RAY(X) X(0) X(1) X(2) X(3) X(4) X(5) X(6) X(7)
+
+INLINE float8 abs8(float8 v) { return as_float8(as_uint8(v) & (uint8)(0x7fffffffu)); }
+INLINE int any8(int8 m) {
+    int4 m4 = m.lo | m.hi;
+    return (m4.x | m4.y | m4.z | m4.w) != 0;
+}
+
+/* Rays in lanes (mask bits -> lanes set to -1) and back. */
+INLINE int8 ray_lanes(uint bits) { return ((uint8)(bits) & RAY_BITS) != (uint8)(0u); }
+INLINE uint ray_bits(int8 lanes) {
+    uint8 b = as_uint8(lanes) & RAY_BITS;
+    uint4 b4 = b.lo | b.hi;
+    uint2 b2 = b4.lo | b4.hi;
+    return b2.x | b2.y;
+}
+
+/* The triangle test with the packet's rays in the lanes (kernels/triangle.h) */
+#define TRI_F float8
+#define TRI_I int8
+#define TRI_ANY any8
+#define TRI_ABS abs8
+#define TRI_DOP difference_of_products8
+#define TRI_TEST triangle_test8
+#define TRI_R float8
+#include "triangle.h"
+
+typedef struct {
+    float8 ox, oy, oz;          /* origins */
+    float8 ix, iy, iz;          /* 1/d */
+    float8 okx, oky, okz;       /* origins with their axes permuted as the triangle test wants */
+    float8 sx, sy, sz;          /* the shear (shear_ray) */
+    int kx, ky, kz;             /* the shared permutation */
+    int bx, by, bz;             /* the shared octant: 1 where the rays go backwards along the axis */
+    float8 t_min, t_max;        /* the segment; closest hit: t_max is each ray's nearest hit so far */
+    float8 u, v;                /* closest hit: barycentrics of the nearest hit */
+    int8 slot, id;              /* closest hit: its slot and primitive id, -1 before any */
+    uint live;                  /* any-hit: the rays not yet blocked */
+    uint8 visits;               /* nodes (or primitives, COUNT_PRIM_TESTS) each ray was carried through */
+    int sp;
+    bool fallback;              /* the packet cannot finish (a sphere, a full stack): walk the rays alone */
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
+    uchar stack_rays[WIDE_STACK_SIZE + BVH_WIDTH]; /* which rays hit the entry's box */
+} Packet;
+
+INLINE void count_visit(Packet *p, uint rays, int count) {
+#if COUNT_PRIM_TESTS
+    p->visits += as_uint8(ray_lanes(rays)) & (uint8)((uint)(count > 0 ? count : 0));
+#else
+    p->visits -= as_uint8(ray_lanes(rays)); /* lanes are -1 where set */
+#endif
+}
+
+/* A node's boxes against the packet's rays in `rays`: the nearest entry distance over those rays per
+ * lane (INF_T where none hits) and, per lane, the mask of rays that hit.  Ray k's test is hit_boxes'
+ * for that ray, operation for operation; each ray's own t_max culls. */
+INLINE lanes_f packet_boxes(const Packet *p, __global const lanes_f *node, float8 t_max, uint rays,
+                            lanes_u *hit_rays) {
+    lanes_f nx = node[p->bx], fx = node[1 - p->bx], ny = node[2 + p->by], fy = node[3 - p->by];
+    lanes_f nz = node[4 + p->bz], fz = node[5 - p->bz];
+    lanes_f nearest = (lanes_f)(INF_T);
+    lanes_u hits = (lanes_u)(0u);
+#define PACKET_BOX(k)                                                                                                 \
+    if (rays & (1u << k)) {                                                                                           \
+        lanes_f t_enter = (lanes_f)(0.0f), t_exit = (lanes_f)(t_max.s##k);                                            \
+        slab_lanes(nx, fx, p->ox.s##k, p->ix.s##k, &t_enter, &t_exit);                                                \
+        slab_lanes(ny, fy, p->oy.s##k, p->iy.s##k, &t_enter, &t_exit);                                                \
+        slab_lanes(nz, fz, p->oz.s##k, p->iz.s##k, &t_enter, &t_exit);                                                \
+        t_exit *= 1.0000004f;                                                                                         \
+        lanes_i hit = t_enter <= t_exit;                                                                              \
+        nearest = (hit & (t_enter < nearest)) ? t_enter : nearest;                                                    \
+        hits |= as_lanes_u(hit) & (lanes_u)(1u << k);                                                                 \
+    }
+    FOR_EACH_RAY(PACKET_BOX)
+#undef PACKET_BOX
+    *hit_rays = hits;
+    return nearest;
+}
+
+/* Push a node's hit lanes as push_lanes does (sorted by their nearest ray's entry distance), each
+ * with the rays that hit it. */
+INLINE void packet_push(Packet *p, int node, lanes_f nearest, lanes_u hit_rays, bool farthest_first) {
+    lanes_u keys = lane_keys(nearest, farthest_first);
+    int n = hit_count(keys != (lanes_u)(0u));
+    if (n == 0) return;
+    if (p->sp + n > WIDE_STACK_SIZE) { p->fallback = true; return; }
+    uint r[BVH_WIDTH] = LANES_ARRAY(hit_rays);
+    int sp = p->sp;
+    if (n == 1) {
+        uint key = max_key(keys);
+        p->stack_key[sp] = key; p->stack_node[sp] = node; p->stack_rays[sp] = (uchar)r[key_lane(key, farthest_first)];
+    } else {
+        keys = sort_keys_decreasing(keys);
+        uint k[BVH_WIDTH] = LANES_ARRAY(keys);
+        for (int j = 0; j < BVH_WIDTH; ++j) {
+            p->stack_key[sp + j] = k[j]; p->stack_node[sp + j] = node;
+            p->stack_rays[sp + j] = (uchar)r[key_lane(k[j], farthest_first)];
+        }
+    }
+    p->sp = sp + n;
+}
+
+/* Eight query rays (as query_ray makes them) as a packet, or false if they do not go the same way. */
+INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, const Ray *r, const float *t_min,
+                         const float *t_max, bool any_hit) {
+    for (int k = 1; k < PACKET_RAYS; ++k)
+        if ((r[k].inv_d.x < 0.0f) != (r[0].inv_d.x < 0.0f) || (r[k].inv_d.y < 0.0f) != (r[0].inv_d.y < 0.0f) ||
+            (r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f) || r[k].kz != r[0].kz)
+            return false;
+#define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
+    p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
+    p->ix = LANES(inv_d.x); p->iy = LANES(inv_d.y); p->iz = LANES(inv_d.z);
+    p->sx = LANES(sx); p->sy = LANES(sy); p->sz = LANES(sz);
+#undef LANES
+    p->kx = r[0].kx; p->ky = r[0].ky; p->kz = r[0].kz;
+    p->bx = r[0].inv_d.x < 0.0f; p->by = r[0].inv_d.y < 0.0f; p->bz = r[0].inv_d.z < 0.0f;
+    float8 o[3] = {p->ox, p->oy, p->oz};
+    p->okx = o[p->kx]; p->oky = o[p->ky]; p->okz = o[p->kz];
+    p->t_min = (float8)(t_min[0], t_min[1], t_min[2], t_min[3], t_min[4], t_min[5], t_min[6], t_min[7]);
+    p->t_max = (float8)(t_max[0], t_max[1], t_max[2], t_max[3], t_max[4], t_max[5], t_max[6], t_max[7]);
+    p->u = p->v = (float8)(0.0f);
+    p->slot = p->id = (int8)(-1);
+    p->live = ALL_RAYS;
+    p->visits = (uint8)(0u);
+    p->sp = 0;
+    p->fallback = false;
+    if (n_prims > 0) {
+        count_visit(p, ALL_RAYS, 0);
+        lanes_u hit_rays;
+        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes, p->t_max, ALL_RAYS, &hit_rays);
+        packet_push(p, 0, nearest, hit_rays, any_hit);
+    }
+    return true;
+}
+
+/* The triangles of a leaf's blocks against the packet's `rays`, one triangle at a time: closest hit
+ * keeps each ray's nearest (ties to the lower id, as test_blocks), any-hit (opaque) drops the rays
+ * that are blocked from p->live.  A sphere ends the packet (fallback). */
+INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int count, __global const float4 *prims,
+                        uint rays, bool any_hit) {
+    for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
+        __global const float *block = (__global const float *)(rows + first);
+        int slots[BLOCK_LANES] = {as_int(block[4 * BLOCK_SLOT_ROW]), as_int(block[4 * BLOCK_SLOT_ROW + 1]),
+                                  as_int(block[4 * BLOCK_SLOT_ROW + 2]), as_int(block[4 * BLOCK_SLOT_ROW + 3])};
+        for (int k = 0; k < BLOCK_LANES; ++k) {
+            int slot = slots[k];
+            if (slot == -1) continue; /* an empty lane */
+            if (slot < -1) { p->fallback = true; return; }
+            /* row 3v + axis, lane k: vertex v's coordinate on that axis */
+#define VERTEX(v, axis) (block[4 * (3 * (v) + (axis)) + k])
+            float8 t_range = any_hit ? p->t_max : p->t_max * 1.0000002f, u, v;
+            float8 t = triangle_test8(VERTEX(0, p->kx) - p->okx, VERTEX(0, p->ky) - p->oky, VERTEX(0, p->kz) - p->okz,
+                                      VERTEX(1, p->kx) - p->okx, VERTEX(1, p->ky) - p->oky, VERTEX(1, p->kz) - p->okz,
+                                      VERTEX(2, p->kx) - p->okx, VERTEX(2, p->ky) - p->oky, VERTEX(2, p->kz) - p->okz,
+                                      ray_lanes(rays), p->sx, p->sy, p->sz, p->t_min, t_range, &u, &v);
+#undef VERTEX
+            int8 hit = t != (float8)(INF_T);
+            if (!any8(hit)) continue;
+            if (any_hit) {
+                p->live &= ~ray_bits(hit);
+                rays &= p->live;
+                if (rays == 0) return;
+            } else {
+                int8 id = (int8)(prim_id(prims, slot));
+                int8 nearer = hit & ((t < p->t_max) | ((t == p->t_max) & (id < p->id)));
+                p->t_max = nearer ? t : p->t_max;
+                p->u = nearer ? u : p->u;
+                p->v = nearer ? v : p->v;
+                p->slot = nearer ? (int8)(slot) : p->slot;
+                p->id = nearer ? id : p->id;
+            }
+        }
+    }
+}
+
+/* Visit the entry on top of the stack with the rays that hit its box and may still need it. */
+INLINE void packet_step(Packet *p, __global const float4 *nodes, __global const float4 *prims, bool any_hit) {
+    __global const int *ints = (__global const int *)nodes;
+    int sp = --p->sp;
+    uint key = p->stack_key[sp];
+    uint rays = p->stack_rays[sp];
+    /* closest hit: a ray whose nearest hit is nearer than every ray's entry into the box is done with it */
+    rays &= any_hit ? p->live : ray_bits((float8)(key_t(key)) <= p->t_max * 1.0000004f);
+    if (rays == 0) return;
+    int node = p->stack_node[sp], lane = key_lane(key, any_hit);
+    int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    count_visit(p, rays, count);
+    if (count > 0) {
+        packet_leaf(p, nodes, child, count, prims, rays, any_hit);
+        if (p->fallback || (any_hit && p->live == 0)) p->sp = 0;
+    } else {
+        lanes_u hit_rays;
+        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes + 8 * child, p->t_max, rays, &hit_rays);
+        packet_push(p, child, nearest, hit_rays, any_hit);
+        if (p->fallback) p->sp = 0;
+    }
+}
+
+#pragma OPENCL FP_CONTRACT ON
+
+#endif
+#endif
