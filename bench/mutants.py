@@ -73,6 +73,7 @@ TRACE = (
     "tests/test_aov.py",
     "tests/test_edges.py",
 )
+PACKET = ("tests/test_ray_packets.py",) + TRACE
 SAMPLING = ("tests/test_sampling.py", "tests/test_outputs.py") + TRACE
 OUTPUT = (
     "tests/test_outputs.py",
@@ -393,9 +394,82 @@ MUTANTS = [
     M(
         "pair-answers-first-ray",
         "kernels/trace.cl",
-        "h[k] = w[k].best.slot < 0 ? no_hit() : w[k].best;",
-        "h[k] = w[0].best.slot < 0 ? no_hit() : w[0].best;",
+        "else h[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;",
+        "else h[k + j] = w[0].best.slot < 0 ? no_hit() : w[0].best;",
         "both rays of a work-item's pair get the first ray's hit",
+    ),
+    # ---- kernels/packet.h: eight rays walked as one packet
+    M(
+        "packet-shared-t-max",
+        "kernels/packet.h",
+        "t_exit = (lanes_f)(t_max.s##k);",
+        "t_exit = (lanes_f)(t_max.s0);",
+        "every ray of a packet culls boxes by the first ray's nearest hit",
+        PACKET,
+    ),
+    M(
+        "packet-ties-to-higher-id",
+        "kernels/packet.h",
+        "((t == p->t_max) & (id < p->id))",
+        "((t == p->t_max) & (id > p->id))",
+        "a packet's ties at equal t go to the higher primitive id",
+        PACKET,
+    ),
+    M(
+        "packet-one-blocked-blocks-all",
+        "kernels/packet.h",
+        "p->live &= ~ray_bits(hit);",
+        "p->live = 0;",
+        "one blocked shadow ray of a packet blocks all eight",
+        PACKET,
+    ),
+    M(
+        "packet-culls-too-near",
+        "kernels/packet.h",
+        "ray_bits((float8)(key_t(key)) <= p->t_max * 1.0000004f)",
+        "ray_bits((float8)(key_t(key)) <= p->t_max * 0.5f)",
+        "a packet drops boxes nearer than a ray's nearest hit",
+        PACKET,
+    ),
+    M(
+        "packet-mixed-axes",
+        "kernels/packet.h",
+        "(r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f) || r[k].kz != r[0].kz)",
+        "(r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f))",
+        "rays whose directions' largest axes differ share one triangle-test permutation",
+        PACKET,
+    ),
+    M(
+        "packet-last-lane-skipped",
+        "kernels/packet.h",
+        "for (int k = 0; k < BLOCK_LANES; ++k) {",
+        "for (int k = 0; k < BLOCK_LANES - 1; ++k) {",
+        "a packet skips the last triangle of every leaf block",
+        PACKET,
+    ),
+    M(
+        "packet-pushes-lane-0-rays",
+        "kernels/packet.h",
+        "p->stack_rays[sp + j] = (uchar)r[key_lane(k[j], farthest_first)];",
+        "p->stack_rays[sp + j] = (uchar)r[0];",
+        "a packet's sorted lanes carry the rays that hit lane 0",
+        PACKET,
+    ),
+    M(
+        "packet-sphere-skipped",
+        "kernels/packet.h",
+        "if (slot < -1) { p->fallback = true; return; }",
+        "if (slot < -1) continue;",
+        "a packet ignores spheres in a leaf block",
+        PACKET,
+    ),
+    M(
+        "packet-answers-first-ray",
+        "kernels/trace.cl",
+        "h[k].t = t[k]; h[k].id = id[k];",
+        "h[k].t = t[0]; h[k].id = id[k];",
+        "every ray of a packet gets the first ray's distance",
+        PACKET,
     ),
     M(
         "key-distance-rounded-up",

@@ -5,7 +5,8 @@ from each primary hit towards a point light; incoherent rays: from each primary
 hit in a random direction of the hit face's hemisphere.  Kernel time only (rays
 already on the device, compile and warm-up excluded), median of K runs, also per
 CPU-second of this process (steadier than wall time on a shared CPU), with nodes
-and primitives tested per ray, for each layout (builder, BVH width).  --peer
+and primitives tested per ray, for each layout (builder, BVH width, eight coherent
+rays walked as one packet or each ray alone).  --peer
 embree traces the same rays with Embree in the same run (embreex, which calls
 rtcIntersect1 / rtcOccluded1 once per ray on one thread) and reports the ratios.
 Also the BVH build time for a 1,000,000-triangle mesh and the SAH cost of both builders.
@@ -50,8 +51,10 @@ def median_cpu_seconds(fn, runs: int) -> float:
     return float(np.median(times))
 
 
-LAYOUTS = (("sah", 8), ("sah", 4), ("sah", 2))  # (builder, BVH width); the first is the default. The median tree
-# traces 20-50x slower (457 nodes per primary ray on the generated mesh): only its build is timed.
+# (builder, BVH width, ray packets); the first is the default, the second the same tree walked one ray
+# at a time (the single-ray walk packets fall back to).  The median tree traces 20-50x slower (457
+# nodes per primary ray on the generated mesh): only its build is timed.
+LAYOUTS = (("sah", 8, True), ("sah", 8, False), ("sah", 4, True), ("sah", 2, False))
 
 
 def ray_sets(mesh, size: int, seed: int = 0):
@@ -86,12 +89,12 @@ def ray_sets(mesh, size: int, seed: int = 0):
     return {"primary": (o, d, np.full(len(o), np.inf, np.float32)), "shadow": f32(shadow), "incoherent": f32(bounce)}, float(hit.mean())
 
 
-def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int):
+def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int, packets: bool = True):
     """Mrays/s (wall) and Mrays per CPU-second of this process for each ray kind, with nodes and
     primitives tested per ray; kernel time only (rays on the device, compile and warm-up excluded)."""
     dev = get_device()
-    tracer = Tracer(mesh, builder=builder, bvh_width=width, device=dev)
-    counter = Tracer(mesh, builder=builder, bvh_width=width, device=dev, count_prim_tests=True)
+    tracer = Tracer(mesh, builder=builder, bvh_width=width, device=dev, ray_packets=packets)
+    counter = Tracer(mesh, builder=builder, bvh_width=width, device=dev, ray_packets=packets, count_prim_tests=True)
     row = dict(bvh_build_s=tracer.bvh_seconds)
     for kind, (o, d, t_max) in rays.items():
         n, o_buf, d_buf = tracer._rays(o, d)
@@ -175,6 +178,11 @@ def build_times(n_triangles: int, runs: int):
 KINDS = ("primary", "shadow", "incoherent")
 
 
+def layout_name(r: dict) -> str:
+    walk = "packets" if r["packets"] and r["width"] >= 4 else "one ray"
+    return f"{r['builder']}, width {r['width']}, {walk}"
+
+
 def summary(rows: list[dict]) -> str:
     """One line per layout and ray kind: Mrays/s, per CPU-second, ratios to Embree, work per ray."""
     lines = [
@@ -182,7 +190,7 @@ def summary(rows: list[dict]) -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        layout = "embree (1 thread)" if r["builder"] == "embree" else f"{r['builder']}, width {r['width']}"
+        layout = "embree (1 thread)" if r["builder"] == "embree" else layout_name(r)
         for k in KINDS:
             g = lambda key: r.get(f"{k}_{key}", float("nan"))
             lines.append(
@@ -196,7 +204,7 @@ def chart(path: Path, rows: list[dict], title: str) -> None:
     """Bars of Mrays/s (wall) and Mrays per CPU-second for each ray kind, one series per layout."""
     from clrender.image.plot import bar_chart
 
-    name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {r['builder']} width {r['width']}"
+    name = lambda r: "Embree, 1 thread" if r["builder"] == "embree" else f"clrender {layout_name(r)}"
     labels = [f"{k}\n{unit}" for k in KINDS for unit in ("Mrays/s", "per CPU-s")]
     series = {name(r): [r[f"{k}_{m}"] for k in KINDS for m in ("mrays", "mrays_per_cpu_s")] for r in rows}
     bar_chart(path, labels, series, title=title, ylabel="million rays")
@@ -227,16 +235,16 @@ def main(argv=None):
     rays, hit_fraction = ray_sets(mesh, args.size)
     peer = embree_rates(mesh, rays, args.runs) if args.peer == "embree" else None
     rows = []
-    for builder, width in LAYOUTS:
-        r = clrender_rates(mesh, rays, args.runs, builder, width)
-        row = dict(mesh=label, triangles=len(mesh.faces), builder=builder, width=width, hit_fraction=hit_fraction, **r)
+    for builder, width, packets in LAYOUTS:
+        r = clrender_rates(mesh, rays, args.runs, builder, width, packets)
+        row = dict(mesh=label, triangles=len(mesh.faces), builder=builder, width=width, packets=packets, hit_fraction=hit_fraction, **r)
         if peer:
             for kind in KINDS:
                 row[f"{kind}_vs_embree"] = r[f"{kind}_mrays"] / peer[f"{kind}_mrays"]
                 row[f"{kind}_vs_embree_per_cpu_s"] = r[f"{kind}_mrays_per_cpu_s"] / peer[f"{kind}_mrays_per_cpu_s"]
         rows.append(row)
     if peer:
-        base = dict(mesh=label, triangles=len(mesh.faces), builder="embree", width=0, hit_fraction=hit_fraction, **peer)
+        base = dict(mesh=label, triangles=len(mesh.faces), builder="embree", width=0, packets=False, hit_fraction=hit_fraction, **peer)
         rows.append({k: base.get(k, float("nan")) for k in rows[0]})
     out = Path(args.out)
     write_table(out, "rays", rows, f"Ray throughput at {args.size}x{args.size} (median of {args.runs})")

@@ -63,7 +63,9 @@ def global_size(n: int) -> tuple:
     return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
 
 
-def trace_defines(*, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True, ray_packets: bool = True) -> dict:
+def trace_defines(
+    *, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True, ray_packets: bool = True
+) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
     from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
