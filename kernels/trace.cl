@@ -74,25 +74,28 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 #error "RAYS_PER_ITEM must be 8: the ray kernels take a packet's worth of rays"
 #endif
 
+/* Ray i of packed (x, y, z) triples: the caller's own float32 arrays, read in place. */
+INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
+
 /* A query ray: the unit direction traced, its length to scale t back (distances are in units of the
  * direction as given, Embree's convention). */
-INLINE float3 query_direction(__global const float4 *directions, int i, float *length) {
-    float3 d = directions[i].xyz;
+INLINE float3 query_direction(__global const float *directions, int i, float *length) {
+    float3 d = load_xyz(directions, i);
     *length = norm(d);
     return d / *length;
 }
 
-INLINE Ray query_ray(__global const float4 *origins, __global const float4 *directions, int i, float *length) {
-    return make_ray(origins[i].xyz, query_direction(directions, i, length));
+INLINE Ray query_ray(__global const float *origins, __global const float *directions, int i, float *length) {
+    return make_ray(load_xyz(origins, i), query_direction(directions, i, length));
 }
 
 #if USE_BVH && BVH_WIDTH >= 4
 /* The same ray for a wide walk, its shear (six divisions) computed only once the root has a hit:
  * most rays of a small mesh's batch miss it. */
-INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float4 *origins,
-                             __global const float4 *directions, int i, float *length, float t_min, float t_max,
+INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float *origins,
+                             __global const float *directions, int i, float *length, float t_min, float t_max,
                              bool any_hit) {
-    Ray r = make_box_ray(origins[i].xyz, query_direction(directions, i, length));
+    Ray r = make_box_ray(load_xyz(origins, i), query_direction(directions, i, length));
     walk_start(w, nodes, n_prims, r, t_min * *length, t_max * *length, any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
@@ -101,8 +104,8 @@ INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims,
  * visits written at k and k + 1. */
 INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __global const float4 *prims,
                       __global const int *prim_object, __global const int2 *objects,
-                      __global const float4 *materials, int n_prims, __global const float4 *origins,
-                      __global const float4 *directions, __global const float *t_min, __global const float *t_max,
+                      __global const float4 *materials, int n_prims, __global const float *origins,
+                      __global const float *directions, __global const float *t_min, __global const float *t_max,
                       float *length, Hit *h, float *T, uint *visits, bool any_hit) {
     Walk w[2];
     for (int j = 0; j < 2; ++j)
@@ -123,14 +126,14 @@ INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __glo
 /* The eight rays idx[] as one packet: false (nothing written) when they do not go the same way or
  * the packet cannot finish, and the caller walks them alone. */
 INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global const float4 *prims, int n_prims,
-                        __global const float4 *origins, __global const float4 *directions,
+                        __global const float *origins, __global const float *directions,
                         __global const float *t_min, __global const float *t_max, float *length, Hit *h, float *T,
                         uint *visits, bool any_hit) {
 #if RAY_PACKETS
     /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
-    uint4 signs = as_uint4(directions[idx[0]]) >> 31;
+    uint3 signs = as_uint3(load_xyz(directions, idx[0])) >> 31;
     for (int k = 1; k < PACKET_RAYS; ++k) {
-        uint4 s = as_uint4(directions[idx[k]]) >> 31;
+        uint3 s = as_uint3(load_xyz(directions, idx[k])) >> 31;
         if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
     }
     Ray r[PACKET_RAYS];
@@ -160,11 +163,11 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
 }
 #endif
 
-/* Closest hit of arbitrary rays: origins (xyz), directions (xyz, any nonzero length).  A hit is o + t d,
+/* Closest hit of arbitrary rays: origins and directions as (x, y, z) triples, directions of any nonzero length.  A hit is o + t d,
  * t in (t_min, INF).  Writes t (INF on a miss), primitive id, object id and the nodes visited. */
 __kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
                              __global const int *prim_object, int n_prims, int n_rays,
-                             __global const float4 *origins, __global const float4 *directions,
+                             __global const float *origins, __global const float *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
@@ -198,7 +201,7 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
 __kernel void occluded_rays(__global const float4 *nodes, __global const float4 *prims,
                             __global const int *prim_object, __global const int2 *objects,
                             __global const float4 *materials, int n_prims, int n_rays,
-                            __global const float4 *origins, __global const float4 *directions,
+                            __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0);

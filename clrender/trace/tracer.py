@@ -165,23 +165,19 @@ class Tracer:
 
     # ------------------------------------------------------------ ray queries
     def _rays(self, origins, directions):
-        o = np.asarray(origins, np.float32).reshape(-1, 3)
-        d = np.asarray(directions, np.float32).reshape(-1, 3)
+        """n and the rays as device buffers of packed (x, y, z) float32 triples, checked; float32
+        C-ordered arrays are used as they are (no copy on a CPU device)."""
+        o = np.ascontiguousarray(np.asarray(origins, np.float32).reshape(-1, 3))
+        d = np.ascontiguousarray(np.asarray(directions, np.float32).reshape(-1, 3))
         if o.shape != d.shape:
             raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-        d64 = d.astype(np.float64)
-        length_sq = np.einsum("ij,ij->i", d64, d64)  # float64: exact enough, never overflows for float32 input
-        if not (np.isfinite(o).all() and np.isfinite(length_sq).all() and (length_sq > 0).all()):
+        # a float32 direction has a nonzero length exactly when some component is nonzero (its square
+        # is then at least 2^-298 > 0 in float64)
+        if not (np.isfinite(o).all() and np.isfinite(d).all() and ((d[:, 0] != 0) | (d[:, 1] != 0) | (d[:, 2] != 0)).all()):
             raise UsageError("ray origins and directions must be finite, and directions nonzero")
         n = len(o)
-        self.device.check_fits(n * 16, f"{n} rays")
-
-        def pad(a):  # float4 per ray, as the kernels read them
-            a4 = np.empty((n, 4), np.float32)
-            a4[:, :3], a4[:, 3] = a, 0.0
-            return a4
-
-        return n, self.device.to_device(pad(o)), self.device.to_device(pad(d))
+        self.device.check_fits(n * 12, f"{n} rays")
+        return n, self.device.host_input(o), self.device.host_input(d)
 
     def _per_ray(self, n, value, name):
         """A per-ray float32 buffer from a scalar or an (n,) array."""
