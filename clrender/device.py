@@ -88,13 +88,6 @@ class Device:
             array = np.zeros(1, dtype=array.dtype if array.dtype.itemsize else np.uint8)
         return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR, hostbuf=array)
 
-    def host_input(self, array: np.ndarray) -> cl.Buffer:
-        """A read-only buffer backed by `array`'s own memory (USE_HOST_PTR: on a CPU device kernels
-        read it in place); `array` must stay alive and unchanged while kernels use it."""
-        if array.nbytes == 0:
-            return self.to_device(array)
-        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=np.ascontiguousarray(array))
-
     def empty(self, nbytes: int) -> cl.Buffer:
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))

@@ -165,8 +165,8 @@ class Tracer:
 
     # ------------------------------------------------------------ ray queries
     def _rays(self, origins, directions):
-        """n and the rays as device buffers of packed (x, y, z) float32 triples, checked; float32
-        C-ordered arrays are used as they are (no copy on a CPU device)."""
+        """n and the rays as device buffers of packed (x, y, z) float32 triples, checked (float32
+        C-ordered arrays are uploaded as they are, without an intermediate copy)."""
         o = np.ascontiguousarray(np.asarray(origins, np.float32).reshape(-1, 3))
         d = np.ascontiguousarray(np.asarray(directions, np.float32).reshape(-1, 3))
         if o.shape != d.shape:
@@ -177,7 +177,7 @@ class Tracer:
             raise UsageError("ray origins and directions must be finite, and directions nonzero")
         n = len(o)
         self.device.check_fits(n * 12, f"{n} rays")
-        return n, self.device.host_input(o), self.device.host_input(d)
+        return n, self.device.to_device(o), self.device.to_device(d)
 
     def _per_ray(self, n, value, name):
         """A per-ray float32 buffer from a scalar or an (n,) array."""
