@@ -30,8 +30,9 @@ INLINE TRI_F TRI_DOP(TRI_F a, TRI_F b, TRI_F c, TRI_F d) {
  * vertices minus the ray origin with their axes already permuted (x = the ray's kx, y = ky, z = kz:
  * the direction's largest axis); they are sheared so that the ray is +z, and the 2D edge functions
  * of the sheared vertices decide inside or outside.  Returns t in (t_min, t_max), INF_T on a miss
- * (and in lanes not `valid`), and the barycentrics u, v of v1, v2.  Hits closer than the test's own
- * error bound (pbrt's deltaT) are rejected, so t > 0 holds for every hit reported. */
+ * (and in lanes not `valid`), and the barycentrics u, v of v1, v2.  Hits whose t is within the test's
+ * own error bound (pbrt's deltaT) are rejected, so t > 0 holds for every hit reported; for a grazing
+ * ray (tiny det) that bound can exceed a real hit's t, which is then missed, as in pbrt-v4. */
 INLINE TRI_F TRI_TEST(TRI_F p0x, TRI_F p0y, TRI_F p0z, TRI_F p1x, TRI_F p1y, TRI_F p1z, TRI_F p2x, TRI_F p2y,
                       TRI_F p2z, TRI_I valid, TRI_R sx, TRI_R sy, TRI_R sz, TRI_R t_min, TRI_R t_max, TRI_F *u,
                       TRI_F *v) {
