@@ -125,22 +125,18 @@ INLINE void packet_push(Packet *p, int node, lanes_f nearest, lanes_u hit_rays, 
     p->sp = sp + n;
 }
 
-/* Eight query rays (as query_ray makes them) as a packet, or false if they do not go the same way. */
-INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, const Ray *r, const float *t_min,
+/* Eight rays (make_box_ray's: not yet sheared) as a packet, or false if they do not go the same way.
+ * They are sheared (shear_ray) only once the root has a hit: most packets of a small mesh miss it. */
+INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, Ray *r, const float *t_min,
                          const float *t_max, bool any_hit) {
     for (int k = 1; k < PACKET_RAYS; ++k)
         if ((r[k].inv_d.x < 0.0f) != (r[0].inv_d.x < 0.0f) || (r[k].inv_d.y < 0.0f) != (r[0].inv_d.y < 0.0f) ||
-            (r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f) || r[k].kz != r[0].kz)
+            (r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f))
             return false;
 #define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
     p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
     p->ix = LANES(inv_d.x); p->iy = LANES(inv_d.y); p->iz = LANES(inv_d.z);
-    p->sx = LANES(sx); p->sy = LANES(sy); p->sz = LANES(sz);
-#undef LANES
-    p->kx = r[0].kx; p->ky = r[0].ky; p->kz = r[0].kz;
     p->bx = r[0].inv_d.x < 0.0f; p->by = r[0].inv_d.y < 0.0f; p->bz = r[0].inv_d.z < 0.0f;
-    float8 o[3] = {p->ox, p->oy, p->oz};
-    p->okx = o[p->kx]; p->oky = o[p->ky]; p->okz = o[p->kz];
     p->t_min = (float8)(t_min[0], t_min[1], t_min[2], t_min[3], t_min[4], t_min[5], t_min[6], t_min[7]);
     p->t_max = (float8)(t_max[0], t_max[1], t_max[2], t_max[3], t_max[4], t_max[5], t_max[6], t_max[7]);
     p->u = p->v = (float8)(0.0f);
@@ -155,6 +151,16 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, c
         lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes, p->t_max, ALL_RAYS, &hit_rays);
         packet_push(p, 0, nearest, hit_rays, any_hit);
     }
+    if (p->sp == 0) return true; /* every ray misses the root: no triangle test, no shear */
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        shear_ray(&r[k]);
+        if (r[k].kz != r[0].kz) return false;
+    }
+    p->sx = LANES(sx); p->sy = LANES(sy); p->sz = LANES(sz);
+#undef LANES
+    p->kx = r[0].kx; p->ky = r[0].ky; p->kz = r[0].kz;
+    float8 o[3] = {p->ox, p->oy, p->oz};
+    p->okx = o[p->kx]; p->oky = o[p->ky]; p->okz = o[p->kz];
     return true;
 }
 

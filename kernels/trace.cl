@@ -85,8 +85,15 @@ INLINE float3 query_direction(__global const float *directions, int i, float *le
     return d / *length;
 }
 
+/* The ray for box tests only (shear_ray before a triangle test: rays that miss every box never need it) */
+INLINE Ray query_box_ray(__global const float *origins, __global const float *directions, int i, float *length) {
+    return make_box_ray(load_xyz(origins, i), query_direction(directions, i, length));
+}
+
 INLINE Ray query_ray(__global const float *origins, __global const float *directions, int i, float *length) {
-    return make_ray(load_xyz(origins, i), query_direction(directions, i, length));
+    Ray r = query_box_ray(origins, directions, i, length);
+    shear_ray(&r);
+    return r;
 }
 
 #if USE_BVH && BVH_WIDTH >= 4
@@ -95,7 +102,7 @@ INLINE Ray query_ray(__global const float *origins, __global const float *direct
 INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float *origins,
                              __global const float *directions, int i, float *length, float t_min, float t_max,
                              bool any_hit) {
-    Ray r = make_box_ray(load_xyz(origins, i), query_direction(directions, i, length));
+    Ray r = query_box_ray(origins, directions, i, length);
     walk_start(w, nodes, n_prims, r, t_min * *length, t_max * *length, any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
@@ -139,7 +146,7 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
     Ray r[PACKET_RAYS];
     float t0[PACKET_RAYS], t1[PACKET_RAYS];
     for (int k = 0; k < PACKET_RAYS; ++k) {
-        r[k] = query_ray(origins, directions, idx[k], &length[k]);
+        r[k] = query_box_ray(origins, directions, idx[k], &length[k]);
         t0[k] = t_min[idx[k]] * length[k];
         t1[k] = any_hit ? t_max[idx[k]] * length[k] : INF_T;
     }
