@@ -54,6 +54,17 @@ def median_cpu_seconds(fn, runs: int) -> float:
 # (builder, BVH width, ray packets); the first is the default, the second the same tree walked one ray
 # at a time (the single-ray walk packets fall back to).  The median tree traces 20-50x slower (457
 # nodes per primary ray on the generated mesh): only its build is timed.
+def warm_up(launch, calls: int = 5, seconds: float = 0.2) -> None:
+    """Calls before timing: the first finishes PoCL's compile, and the next few launches on this VM
+    often run on one core (second worker not yet busy; measured: cpu/wall 1.0-1.7 for up to four
+    launches after the first, 2.0 after), for the peer alike."""
+    start = time.perf_counter()
+    for i in range(1000):
+        if i >= calls and time.perf_counter() - start >= seconds:
+            break
+        launch()
+
+
 LAYOUTS = (("sah", 8, True), ("sah", 8, False), ("sah", 4, True), ("sah", 2, False))
 
 
@@ -107,7 +118,7 @@ def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int, packet
             outs = tuple(dev.empty(4 * n) for _ in range(4))
             launch = lambda: tracer.launch_intersect(n, o_buf, d_buf, zeros, outs).wait()
             query = lambda tr: tr.intersect(o, d)
-        launch()  # warm-up: PoCL finishes compiling here
+        warm_up(launch)
         row[f"{kind}_mrays"] = n / median_seconds(launch, runs) / 1e6
         row[f"{kind}_mrays_per_cpu_s"] = n / median_cpu_seconds(launch, runs) / 1e6
         query(tracer)
@@ -131,7 +142,7 @@ def embree_rates(mesh, rays: dict, runs: int):
             launch = lambda: scene.run(o, d, dists=t_max.copy(), query="OCCLUDED")
         else:
             launch = lambda: scene.run(o, d)
-        launch()
+        warm_up(launch)
         row[f"{kind}_mrays"] = len(o) / median_seconds(launch, runs) / 1e6
         row[f"{kind}_mrays_per_cpu_s"] = len(o) / median_cpu_seconds(launch, runs) / 1e6
     return row
