@@ -438,6 +438,7 @@ INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const floa
     if (!any_hit && key_t(key) > t_max * 1.0000004f) return; /* beyond the nearest hit so far */
     int node = w->stack_node[sp], lane = key_lane(key, any_hit);
     int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    if (count < 0) return; /* an empty lane: only a NaN ray meets its [+inf, -inf] box; never descend */
     COUNT_NODE(&w->visits);
     if (count > 0) {
         COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */

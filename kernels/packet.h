@@ -215,6 +215,7 @@ INLINE void packet_step(Packet *p, __global const float4 *nodes, __global const 
     if (rays == 0) return;
     int node = p->stack_node[sp], lane = key_lane(key, any_hit);
     int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    if (count < 0) return; /* an empty lane (see walk_step) */
     count_visit(p, rays, count);
     if (count > 0) {
         packet_leaf(p, nodes, child, count, prims, rays, any_hit);

@@ -77,21 +77,35 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 /* Ray i of packed (x, y, z) triples: the caller's own float32 arrays, read in place. */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
 
-/* A query ray: the unit direction traced, its length to scale t back (distances are in units of the
- * direction as given, Embree's convention). */
-INLINE float3 query_direction(__global const float *directions, int i, float *length) {
-    float3 d = load_xyz(directions, i);
-    *length = norm(d);
-    return d / *length;
+/* A query ray's units.  Distances are in units of the direction as given (Embree's convention);
+ * the kernels trace the unit direction.  |d| = length / scale, where scale is the power of two that
+ * brings d's largest component into [1, 2) (or as near as a normal float allows): scaling by it is
+ * exact, so for every d whose squared length float32 holds, the unit direction and the converted
+ * distances are bit for bit d / |d| and t * |d|, and for the others (components beyond ~1e19 or
+ * below ~1e-19) they are still right instead of inf or NaN. */
+typedef struct { float scale, length; } QueryUnits;
+
+INLINE float to_unit_t(float t, QueryUnits u) { return t / u.scale * u.length; }  /* t * |d| */
+INLINE float to_query_t(float t, QueryUnits u) { return t / u.length * u.scale; } /* t / |d| */
+
+INLINE float3 query_direction(__global const float *directions, int i, QueryUnits *units) {
+    float3 d = load_xyz(directions, i), a = abs3(d);
+    float largest = max_f(a.x, max_f(a.y, a.z)); /* > 0: the host refuses zero directions */
+    int exponent = (int)((as_uint(largest) >> 23) & 0xffu) - 127;
+    int power = -exponent < -126 ? -126 : (-exponent > 127 ? 127 : -exponent);
+    units->scale = as_float((uint)(power + 127) << 23); /* 2^power */
+    d *= units->scale;
+    units->length = norm(d);
+    return d / units->length;
 }
 
 /* The ray for box tests only (shear_ray before a triangle test: rays that miss every box never need it) */
-INLINE Ray query_box_ray(__global const float *origins, __global const float *directions, int i, float *length) {
-    return make_box_ray(load_xyz(origins, i), query_direction(directions, i, length));
+INLINE Ray query_box_ray(__global const float *origins, __global const float *directions, int i, QueryUnits *units) {
+    return make_box_ray(load_xyz(origins, i), query_direction(directions, i, units));
 }
 
-INLINE Ray query_ray(__global const float *origins, __global const float *directions, int i, float *length) {
-    Ray r = query_box_ray(origins, directions, i, length);
+INLINE Ray query_ray(__global const float *origins, __global const float *directions, int i, QueryUnits *units) {
+    Ray r = query_box_ray(origins, directions, i, units);
     shear_ray(&r);
     return r;
 }
@@ -100,10 +114,10 @@ INLINE Ray query_ray(__global const float *origins, __global const float *direct
 /* The same ray for a wide walk, its shear (six divisions) computed only once the root has a hit:
  * most rays of a small mesh's batch miss it. */
 INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float *origins,
-                             __global const float *directions, int i, float *length, float t_min, float t_max,
+                             __global const float *directions, int i, QueryUnits *units, float t_min, float t_max,
                              bool any_hit) {
-    Ray r = query_box_ray(origins, directions, i, length);
-    walk_start(w, nodes, n_prims, r, t_min * *length, t_max * *length, any_hit);
+    Ray r = query_box_ray(origins, directions, i, units);
+    walk_start(w, nodes, n_prims, r, to_unit_t(t_min, *units), to_unit_t(t_max, *units), any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
 
@@ -113,10 +127,10 @@ INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __glo
                       __global const int *prim_object, __global const int2 *objects,
                       __global const float4 *materials, int n_prims, __global const float *origins,
                       __global const float *directions, __global const float *t_min, __global const float *t_max,
-                      float *length, Hit *h, float *T, uint *visits, bool any_hit) {
+                      QueryUnits *units, Hit *h, float *T, uint *visits, bool any_hit) {
     Walk w[2];
     for (int j = 0; j < 2; ++j)
-        start_query_walk(&w[j], nodes, n_prims, origins, directions, idx[k + j], &length[k + j], t_min[idx[k + j]],
+        start_query_walk(&w[j], nodes, n_prims, origins, directions, idx[k + j], &units[k + j], t_min[idx[k + j]],
                          any_hit ? t_max[idx[k + j]] : INF_T, any_hit);
     while (w[0].sp > 0 || w[1].sp > 0) {
         if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, any_hit);
@@ -134,7 +148,7 @@ INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __glo
  * the packet cannot finish, and the caller walks them alone. */
 INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global const float4 *prims, int n_prims,
                         __global const float *origins, __global const float *directions,
-                        __global const float *t_min, __global const float *t_max, float *length, Hit *h, float *T,
+                        __global const float *t_min, __global const float *t_max, QueryUnits *units, Hit *h, float *T,
                         uint *visits, bool any_hit) {
 #if RAY_PACKETS
     /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
@@ -146,9 +160,9 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
     Ray r[PACKET_RAYS];
     float t0[PACKET_RAYS], t1[PACKET_RAYS];
     for (int k = 0; k < PACKET_RAYS; ++k) {
-        r[k] = query_box_ray(origins, directions, idx[k], &length[k]);
-        t0[k] = t_min[idx[k]] * length[k];
-        t1[k] = any_hit ? t_max[idx[k]] * length[k] : INF_T;
+        r[k] = query_box_ray(origins, directions, idx[k], &units[k]);
+        t0[k] = to_unit_t(t_min[idx[k]], units[k]);
+        t1[k] = any_hit ? to_unit_t(t_max[idx[k]], units[k]) : INF_T;
     }
     Packet p;
     if (!packet_start(&p, nodes, n_prims, r, t0, t1, any_hit)) return false;
@@ -181,23 +195,23 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     int idx[RAYS_PER_ITEM];
-    float length[RAYS_PER_ITEM];
+    QueryUnits units[RAYS_PER_ITEM];
     Hit h[RAYS_PER_ITEM];
     uint visits[RAYS_PER_ITEM];
     for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, 0, length, h, 0, visits, false))
+    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, 0, units, h, 0, visits, false))
         for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
-            walk_pair(k, idx, nodes, prims, 0, 0, 0, n_prims, origins, directions, t_min, 0, length, h, 0, visits,
+            walk_pair(k, idx, nodes, prims, 0, 0, 0, n_prims, origins, directions, t_min, 0, units, h, 0, visits,
                       false);
 #else
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        Ray r = query_ray(origins, directions, idx[k], &length[k]);
-        h[k] = closest_hit(nodes, prims, n_prims, r, t_min[idx[k]] * length[k], INF_T, &visits[k]);
+        Ray r = query_ray(origins, directions, idx[k], &units[k]);
+        h[k] = closest_hit(nodes, prims, n_prims, r, to_unit_t(t_min[idx[k]], units[k]), INF_T, &visits[k]);
     }
 #endif
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        t_out[idx[k]] = h[k].t / length[k];
+        t_out[idx[k]] = to_query_t(h[k].t, units[k]);
         prim_out[idx[k]] = h[k].id;
         object_out[idx[k]] = h[k].id >= 0 ? prim_object[h[k].id] : -1;
         visits_out[idx[k]] = visits[k];
@@ -214,19 +228,20 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     int idx[RAYS_PER_ITEM];
-    float length[RAYS_PER_ITEM], T[RAYS_PER_ITEM];
+    QueryUnits units[RAYS_PER_ITEM];
+    float T[RAYS_PER_ITEM];
     uint visits[RAYS_PER_ITEM];
     for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, t_max, length, 0, T, visits, true))
+    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, t_max, units, 0, T, visits, true))
         for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
             walk_pair(k, idx, nodes, prims, prim_object, objects, materials, n_prims, origins, directions, t_min,
-                      t_max, length, 0, T, visits, true);
+                      t_max, units, 0, T, visits, true);
 #else
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        Ray r = query_ray(origins, directions, idx[k], &length[k]);
-        T[k] = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, t_min[idx[k]] * length[k],
-                             t_max[idx[k]] * length[k], true, &visits[k]);
+        Ray r = query_ray(origins, directions, idx[k], &units[k]);
+        T[k] = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, to_unit_t(t_min[idx[k]], units[k]),
+                             to_unit_t(t_max[idx[k]], units[k]), true, &visits[k]);
     }
 #endif
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {

@@ -352,6 +352,24 @@ def test_t_is_in_units_of_the_direction_as_given(device, use_bvh):
     assert tracer.occluded(o, d, t_max=[1.9, 8.1, 0.49]).tolist() == [False, True, False]
 
 
+@pytest.mark.parametrize("layout", [dict(use_bvh=False), dict(bvh_width=2), dict(bvh_width=8, ray_packets=False), dict(bvh_width=8)])
+def test_directions_of_any_magnitude_give_t_in_their_units(device, layout):
+    """|d| from 1e-37 to 3e38 (t up to 4e37: within float32): its square over- or underflows float32 beyond about 1e19 and 1e-19,
+    but t * |d| is still the distance to the triangle 4 ahead, and t_max (in the same units) still
+    decides occlusion; eight rays per scale, so they also go as one packet."""
+    triangle = (np.array([[-1.0, -1.0, -4.0], [1.0, -1.0, -4.0], [0.0, 1.0, -4.0]]), np.array([[0, 1, 2]]))
+    tracer = Tracer(triangle, device=device, **layout)
+    for scale in (1e-37, 1e-30, 2.0**-70, 1e-19, 1.0, 1e19, 2.0**70, 1e30, 3e38):
+        d = np.tile([0.0, 0.0, -scale], (8, 1)) + np.linspace(0, 0.01 * scale, 8)[:, None] * [1, 0, 0]
+        o = np.zeros((8, 3))
+        t, prim, _ = tracer.intersect(o, d)
+        distance = 4.0 * np.linalg.norm(d / scale, axis=1)  # the hit is at z = -4
+        np.testing.assert_allclose(t * np.linalg.norm(d, axis=1), distance, rtol=1e-6, err_msg=f"|d| = {scale}")
+        assert (prim == 0).all()
+        assert tracer.occluded(o, d, t_max=1.01 * t.astype(np.float64)).all()
+        assert not tracer.occluded(o, d, t_max=0.99 * t.astype(np.float64)).any()
+
+
 def grid_mesh(n):
     """An n x n grid of unit squares in the plane z = 0, two triangles each, ids in row order."""
     x, y = np.meshgrid(np.arange(n + 1, dtype=float), np.arange(n + 1, dtype=float))
