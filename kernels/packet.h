@@ -57,8 +57,8 @@ typedef struct {
     int kx, ky, kz;             /* the shared permutation */
     int bx, by, bz;             /* the shared octant: 1 where the rays go backwards along the axis */
     float8 t_min, t_max;        /* the segment; closest hit: t_max is each ray's nearest hit so far */
-    float8 u, v;                /* closest hit: barycentrics of the nearest hit */
-    int8 slot, id;              /* closest hit: its slot and primitive id, -1 before any */
+    int8 id;                    /* closest hit: the nearest hit's primitive id, -1 before any (the
+                                   query kernels report t and id only) */
     uint live;                  /* any-hit: the rays not yet blocked */
     uint8 visits;               /* nodes (or primitives, COUNT_PRIM_TESTS) each ray was carried through */
     int sp;
@@ -139,8 +139,7 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
     p->bx = r[0].inv_d.x < 0.0f; p->by = r[0].inv_d.y < 0.0f; p->bz = r[0].inv_d.z < 0.0f;
     p->t_min = (float8)(t_min[0], t_min[1], t_min[2], t_min[3], t_min[4], t_min[5], t_min[6], t_min[7]);
     p->t_max = (float8)(t_max[0], t_max[1], t_max[2], t_max[3], t_max[4], t_max[5], t_max[6], t_max[7]);
-    p->u = p->v = (float8)(0.0f);
-    p->slot = p->id = (int8)(-1);
+    p->id = (int8)(-1);
     p->live = ALL_RAYS;
     p->visits = (uint8)(0u);
     p->sp = 0;
@@ -195,9 +194,6 @@ INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int c
                 int8 id = (int8)(prim_id(prims, slot));
                 int8 nearer = hit & ((t < p->t_max) | ((t == p->t_max) & (id < p->id)));
                 p->t_max = nearer ? t : p->t_max;
-                p->u = nearer ? u : p->u;
-                p->v = nearer ? v : p->v;
-                p->slot = nearer ? (int8)(slot) : p->slot;
                 p->id = nearer ? id : p->id;
             }
         }
