@@ -5,6 +5,8 @@ Every answer is checked against an independent one: the analytic distance, the s
 BVH off, or a float64 reference computed here with numpy.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 import trimesh
@@ -408,6 +410,19 @@ def test_bad_rays_are_refused(device):
         tracer.intersect([[0, 0, 0]], [[0, 0, 0]])
     with pytest.raises(UsageError, match="t_min"):
         tracer.intersect([[0, 0, 0]], [[0, 0, 1]], t_min=[0, 1])
+    with pytest.raises(UsageError, match="finite"):  # beyond float32: refused, not a numpy warning
+        tracer.intersect([[1e39, 0, 0]], [[0, 0, -1]])
+
+
+def test_distances_beyond_float32_count_as_infinite(device):
+    """t_min or t_max past float32's range is infinity to a float32 tracer: no hit beyond it, every
+    surface before it; and no numpy overflow warning on the way."""
+    tracer = Tracer(two_planes(), device=device)
+    o, d = np.tile([0.3, -0.2, 0.0], (8, 1)), np.tile([0.0, 0.0, -1.0], (8, 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isinf(tracer.intersect(o, d, t_min=3.5e38)[0]).all()
+        assert tracer.occluded(o, d, t_max=1e39).all()
 
 
 # ------------------------------------------------------------------ 6. physical light units

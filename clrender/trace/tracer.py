@@ -167,8 +167,9 @@ class Tracer:
     def _rays(self, origins, directions):
         """n and the rays as device buffers of packed (x, y, z) float32 triples, checked (float32
         C-ordered arrays are uploaded as they are, without an intermediate copy)."""
-        o = np.ascontiguousarray(np.asarray(origins, np.float32).reshape(-1, 3))
-        d = np.ascontiguousarray(np.asarray(directions, np.float32).reshape(-1, 3))
+        with np.errstate(over="ignore"):  # beyond float32: inf, refused below with the message
+            o = np.ascontiguousarray(np.asarray(origins, np.float32).reshape(-1, 3))
+            d = np.ascontiguousarray(np.asarray(directions, np.float32).reshape(-1, 3))
         if o.shape != d.shape:
             raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
         # a float32 direction has a nonzero length exactly when some component is nonzero (its square
@@ -181,7 +182,8 @@ class Tracer:
 
     def _per_ray(self, n, value, name):
         """A per-ray float32 buffer from a scalar or an (n,) array."""
-        a = np.asarray(value, np.float32)
+        with np.errstate(over="ignore"):  # a distance beyond float32 is inf, as the kernels see it
+            a = np.asarray(value, np.float32)
         if a.ndim > 1 or (a.ndim == 1 and len(a) != n) or np.isnan(a).any():
             raise UsageError(f"{name} must be a number or one per ray ({n}), not NaN")
         return self.device.to_device(np.broadcast_to(a, (n,)).copy())
