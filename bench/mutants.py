@@ -458,9 +458,17 @@ MUTANTS = [
     M(
         "packet-sphere-skipped",
         "kernels/packet.h",
-        "if (slot < -1) { p->fallback = true; return; }",
-        "if (slot < -1) continue;",
-        "a packet ignores spheres in a leaf block",
+        "packet_sphere(p, prims, -2 - slot, rays, any_hit);",
+        "packet_sphere(p, prims, -1 - slot, rays, any_hit);",
+        "a packet tests the slot after a leaf block's sphere instead of the sphere",
+        PACKET,
+    ),
+    M(
+        "packet-sphere-blocks-ray-0",
+        "kernels/packet.h",
+        "== 0.0f) p->live &= ~(1u << k);",
+        "== 0.0f) p->live &= ~1u;",
+        "a sphere blocking any shadow ray of a packet blocks its first ray instead",
         PACKET,
     ),
     M(

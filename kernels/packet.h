@@ -9,7 +9,8 @@
  *   nearest, ties to the lower primitive id), so the order boxes are visited in changes nothing.
  * A packet needs its rays to share the signs of their directions (the near plane of every box is the
  * same for all) and the axis of the largest component (the triangle test's permutation); rays that do
- * not, and packets that meet a sphere or fill their stack, are walked one by one (Walk) instead. */
+ * not, and packets that fill their stack, are walked one by one (Walk) instead.  Spheres in a leaf
+ * are tested ray by ray with the lone walk's test. */
 #ifndef CLRENDER_PACKET_H
 #define CLRENDER_PACKET_H
 
@@ -51,6 +52,7 @@ INLINE uint ray_bits(int8 lanes) {
 
 typedef struct {
     float8 ox, oy, oz;          /* origins */
+    float8 dx, dy, dz;          /* unit directions */
     float8 ix, iy, iz;          /* 1/d */
     float8 okx, oky, okz;       /* origins with their axes permuted as the triangle test wants */
     float8 sx, sy, sz;          /* the shear (shear_ray) */
@@ -62,7 +64,7 @@ typedef struct {
     uint live;                  /* any-hit: the rays not yet blocked */
     uint8 visits;               /* nodes (or primitives, COUNT_PRIM_TESTS) each ray was carried through */
     int sp;
-    bool fallback;              /* the packet cannot finish (a sphere, a full stack): walk the rays alone */
+    bool fallback;              /* the packet cannot finish (a full stack): walk the rays alone */
     uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
     int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
     uchar stack_rays[WIDE_STACK_SIZE + BVH_WIDTH]; /* which rays hit the entry's box */
@@ -135,6 +137,7 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
             return false;
 #define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
     p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
+    p->dx = LANES(d.x); p->dy = LANES(d.y); p->dz = LANES(d.z);
     p->ix = LANES(inv_d.x); p->iy = LANES(inv_d.y); p->iz = LANES(inv_d.z);
     p->bx = r[0].inv_d.x < 0.0f; p->by = r[0].inv_d.y < 0.0f; p->bz = r[0].inv_d.z < 0.0f;
     p->t_min = (float8)(t_min[0], t_min[1], t_min[2], t_min[3], t_min[4], t_min[5], t_min[6], t_min[7]);
@@ -163,9 +166,35 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
     return true;
 }
 
+#define RAY_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
+
+/* Sphere slot s against the packet's `rays`, one ray at a time (a sphere is a whole leaf lane, and
+ * rare): the lone walk's tests, test_slots' (closest hit) or crossing_transmittance's (any-hit). */
+INLINE void packet_sphere(Packet *p, __global const float4 *prims, int s, uint rays, bool any_hit) {
+    float ox[PACKET_RAYS] = RAY_ARRAY(p->ox), oy[PACKET_RAYS] = RAY_ARRAY(p->oy), oz[PACKET_RAYS] = RAY_ARRAY(p->oz);
+    float dx[PACKET_RAYS] = RAY_ARRAY(p->dx), dy[PACKET_RAYS] = RAY_ARRAY(p->dy), dz[PACKET_RAYS] = RAY_ARRAY(p->dz);
+    float t_min[PACKET_RAYS] = RAY_ARRAY(p->t_min), t_max[PACKET_RAYS] = RAY_ARRAY(p->t_max);
+    int best_id[PACKET_RAYS] = RAY_ARRAY(p->id);
+    int id = prim_id(prims, s);
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        if (((rays >> k) & 1u) == 0) continue;
+        Ray r = make_box_ray((float3)(ox[k], oy[k], oz[k]), (float3)(dx[k], dy[k], dz[k]));
+        int8 lane = ray_lanes(1u << k);
+        if (any_hit) {
+            if (crossing_transmittance(prims, 0, 0, 0, s, r, t_min[k], t_max[k], true) == 0.0f) p->live &= ~(1u << k);
+        } else {
+            float u, v, t = hit_slot(prims, s, r, t_min[k], t_max[k] * 1.0000002f, &u, &v);
+            if (t < t_max[k] || (t == t_max[k] && t != INF_T && id < best_id[k])) {
+                p->t_max = lane ? (float8)(t) : p->t_max;
+                p->id = lane ? (int8)(id) : p->id;
+            }
+        }
+    }
+}
+
 /* The triangles of a leaf's blocks against the packet's `rays`, one triangle at a time: closest hit
  * keeps each ray's nearest (ties to the lower id, as test_blocks), any-hit (opaque) drops the rays
- * that are blocked from p->live.  A sphere ends the packet (fallback). */
+ * that are blocked from p->live.  Spheres go ray by ray (packet_sphere). */
 INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int count, __global const float4 *prims,
                         uint rays, bool any_hit) {
     for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
@@ -175,7 +204,11 @@ INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int c
         for (int k = 0; k < BLOCK_LANES; ++k) {
             int slot = slots[k];
             if (slot == -1) continue; /* an empty lane */
-            if (slot < -1) { p->fallback = true; return; }
+            if (slot < -1) { /* a sphere: slot -2 - s */
+                packet_sphere(p, prims, -2 - slot, rays, any_hit);
+                if (any_hit && (rays &= p->live) == 0) return;
+                continue;
+            }
             /* row 3v + axis, lane k: vertex v's coordinate on that axis */
 #define VERTEX(v, axis) (block[4 * (3 * (v) + (axis)) + k])
             float8 t_range = any_hit ? p->t_max : p->t_max * 1.0000002f, u, v;
@@ -215,7 +248,7 @@ INLINE void packet_step(Packet *p, __global const float4 *nodes, __global const 
     count_visit(p, rays, count);
     if (count > 0) {
         packet_leaf(p, nodes, child, count, prims, rays, any_hit);
-        if (p->fallback || (any_hit && p->live == 0)) p->sp = 0;
+        if (any_hit && p->live == 0) p->sp = 0;
     } else {
         lanes_u hit_rays;
         lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes + 8 * child, p->t_max, rays, &hit_rays);

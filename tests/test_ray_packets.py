@@ -407,6 +407,22 @@ def test_spheres_among_triangles(device, width):
     np.testing.assert_array_equal(blocked, t < 4.5)
 
 
+@pytest.mark.parametrize("width", WIDTHS)
+def test_rays_from_inside_a_sphere_leave_it_at_the_radius(device, width):
+    """Packets of rays from a sphere's centre: each ray's hit is the far root, t = radius (the near
+    root is behind the origin), with packets as without; a shadow ray shorter than the radius is not
+    blocked, a longer one is."""
+    scene = Scene.from_dict({"objects": [{"type": "sphere", "center": [0.5, -0.25, 2.0], "radius": 1.5}]})
+    rng = np.random.default_rng(7)
+    d = np.abs(rng.normal(size=(64, 3))) + 0.05  # one octant, so groups of eight form packets
+    o = np.tile([0.5, -0.25, 2.0], (64, 1))
+    (t, prim, _), blocked = packets_change_nothing(scene, o, d, device, t_max=1.4 / np.linalg.norm(d, axis=1), bvh_width=width)
+    np.testing.assert_allclose(t * np.linalg.norm(d, axis=1), 1.5, rtol=1e-5)
+    assert (prim == 0).all() and not blocked.any()
+    far = packets_change_nothing(scene, o, d, device, t_max=1.6 / np.linalg.norm(d, axis=1), bvh_width=width)[1]
+    assert far.all()
+
+
 @pytest.mark.parametrize("start, count", [(0, 1), (0, 7), (0, 9), (0, 17), (0, 1003), (5, 1003)])
 def test_any_ray_count_gives_each_ray_its_answer_in_the_whole_batch(device, start, count):
     """A ray's answer does not depend on how many rays come with it or where the packets are cut (an
