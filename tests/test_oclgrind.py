@@ -150,6 +150,13 @@ for use_bvh, width, count in ((True, 8, False), (True, 4, False), (True, 2, Fals
     assert np.array_equal(tracer.intersect(o[:3], d[:3])[0], t[:3])  # an odd count: the last pair repeats a ray
     blocked = tracer.occluded(o, d, [3.0, 100.0, 100.0, 100.0])
     assert blocked.tolist() == [False, True, False, True]
+    # eight rays in one octant: a packet, whose leaves hold the spheres (tested ray by ray)
+    d8 = np.c_[np.linspace(0, 0.1, 8), np.linspace(0, 0.05, 8), -np.ones(8)]
+    u = d8 / np.linalg.norm(d8, axis=1, keepdims=True)
+    b = u @ [0, 0, -5.0]
+    t_sphere = (b - np.sqrt(b * b - 24.0)) / np.linalg.norm(d8, axis=1)  # |c|^2 - r^2 = 25 - 1
+    np.testing.assert_allclose(tracer.intersect(np.zeros((8, 3)), d8)[0], t_sphere, rtol=1e-5)
+    assert tracer.occluded(np.zeros((8, 3)), d8, t_sphere * 1.01).all()
 # rays that go the same way walk in packets of eight (kernels/packet.h); 19 rays: a partial last packet
 import trimesh
 slab = trimesh.creation.box(extents=(2.0, 2.0, 0.5))
