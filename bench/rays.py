@@ -51,9 +51,6 @@ def median_cpu_seconds(fn, runs: int) -> float:
     return float(np.median(times))
 
 
-# (builder, BVH width, ray packets); the first is the default, the second the same tree walked one ray
-# at a time (the single-ray walk packets fall back to).  The median tree traces 20-50x slower (457
-# nodes per primary ray on the generated mesh): only its build is timed.
 def warm_up(launch, calls: int = 5, seconds: float = 0.2) -> None:
     """Calls before timing: the first finishes PoCL's compile, and the next few launches on this VM
     often run on one core (second worker not yet busy; measured: cpu/wall 1.0-1.7 for up to four
@@ -65,6 +62,9 @@ def warm_up(launch, calls: int = 5, seconds: float = 0.2) -> None:
         launch()
 
 
+# (builder, BVH width, ray packets); the first is the default, the second the same tree walked one ray
+# at a time (the single-ray walk packets fall back to).  The median tree traces 20-50x slower (457
+# nodes per primary ray on the generated mesh): only its build is timed.
 LAYOUTS = (("sah", 8, True), ("sah", 8, False), ("sah", 4, True), ("sah", 2, False))
 
 
