@@ -69,12 +69,12 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 
 /* The ray kernels below take RAYS_PER_ITEM = 8 consecutive rays per work-item (an incomplete last
  * group repeats the last ray).  Through the wide trees they go as one packet when they go the same
- * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (see Walk). */
+ * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair). */
 #if RAYS_PER_ITEM != 8
 #error "RAYS_PER_ITEM must be 8: the ray kernels take a packet's worth of rays"
 #endif
 
-/* Ray i of packed (x, y, z) triples: the caller's own float32 arrays, read in place. */
+/* Ray i of packed (x, y, z) float32 triples (the caller's arrays, uploaded as they are). */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
 
 /* A query ray's units.  Distances are in units of the direction as given (Embree's convention);
@@ -184,8 +184,9 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
 }
 #endif
 
-/* Closest hit of arbitrary rays: origins and directions as (x, y, z) triples, directions of any nonzero length.  A hit is o + t d,
- * t in (t_min, INF).  Writes t (INF on a miss), primitive id, object id and the nodes visited. */
+/* Closest hit of arbitrary rays: origins and directions as (x, y, z) triples, directions of any
+ * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
+ * object id and the nodes visited. */
 __kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
                              __global const int *prim_object, int n_prims, int n_rays,
                              __global const float *origins, __global const float *directions,
