@@ -78,24 +78,30 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
 
 /* A query ray's units.  Distances are in units of the direction as given (Embree's convention);
- * the kernels trace the unit direction.  |d| = length / scale, where scale is the power of two that
- * brings d's largest component into [1, 2) (or as near as a normal float allows): scaling by it is
- * exact, so for every d whose squared length float32 holds, the unit direction and the converted
- * distances are bit for bit d / |d| and t * |d|, and for the others (components beyond ~1e19 or
- * below ~1e-19) they are still right instead of inf or NaN. */
-typedef struct { float scale, length; } QueryUnits;
+ * the kernels trace the unit direction, and |d| = length / scale.  scale is 1 unless d's squared
+ * length would over- or underflow float32 (components beyond ~1e19 or below ~1e-19); then it is the
+ * power of two that brings d's largest component into [1, 2), and scaling by it is exact, so such
+ * rays are traced as if float32 held |d| (instead of giving inf or NaN). */
+typedef struct { float scale, unscale, length; } QueryUnits; /* unscale = 1 / scale */
 
-INLINE float to_unit_t(float t, QueryUnits u) { return t / u.scale * u.length; }  /* t * |d| */
-INLINE float to_query_t(float t, QueryUnits u) { return t / u.length * u.scale; } /* t / |d| */
+INLINE float to_unit_t(float t, QueryUnits u) { return t * u.unscale * u.length; } /* t * |d| */
+INLINE float to_query_t(float t, QueryUnits u) { return t / u.length * u.scale; }  /* t / |d| */
 
 INLINE float3 query_direction(__global const float *directions, int i, QueryUnits *units) {
-    float3 d = load_xyz(directions, i), a = abs3(d);
-    float largest = max_f(a.x, max_f(a.y, a.z)); /* > 0: the host refuses zero directions */
-    int exponent = (int)((as_uint(largest) >> 23) & 0xffu) - 127;
-    int power = -exponent < -126 ? -126 : (-exponent > 127 ? 127 : -exponent);
-    units->scale = as_float((uint)(power + 127) << 23); /* 2^power */
-    d *= units->scale;
-    units->length = norm(d);
+    float3 d = load_xyz(directions, i);
+    float length_sq = dot3(d, d);
+    units->scale = units->unscale = 1.0f;
+    if (!(length_sq >= 0x1p-120f && length_sq <= 0x1p120f)) {
+        float3 a = abs3(d);
+        float largest = max_f(a.x, max_f(a.y, a.z)); /* > 0: the host refuses zero directions */
+        int exponent = (int)((as_uint(largest) >> 23) & 0xffu) - 127;
+        int power = -exponent < -126 ? -126 : (-exponent > 126 ? 126 : -exponent);
+        units->scale = as_float((uint)(power + 127) << 23);    /* 2^power */
+        units->unscale = as_float((uint)(127 - power) << 23);  /* 2^-power */
+        d *= units->scale;
+        length_sq = dot3(d, d);
+    }
+    units->length = sqrt(length_sq);
     return d / units->length;
 }
 
