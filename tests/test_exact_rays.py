@@ -372,13 +372,24 @@ def test_directions_of_any_magnitude_give_t_in_their_units(device, layout):
         assert not tracer.occluded(o, d, t_max=0.99 * t.astype(np.float64)).any()
 
 
-def grid_mesh(n):
-    """An n x n grid of unit squares in the plane z = 0, two triangles each, ids in row order."""
+def grid_mesh(n, z=0.0):
+    """An n x n grid of unit squares in the plane z, two triangles each, ids in row order."""
     x, y = np.meshgrid(np.arange(n + 1, dtype=float), np.arange(n + 1, dtype=float))
-    vertices = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    vertices = np.c_[x.ravel(), y.ravel(), np.full(x.size, z)]
     i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
     faces = np.concatenate([np.c_[i, i + 1, i + n + 2], np.c_[i, i + n + 2, i + n + 1]])
     return vertices, faces
+
+
+def triangles_containing(vertices, faces, pts):
+    """(triangles, points) booleans: whether each triangle's closed area, seen from above, contains
+    each 2D point (the reference for rays straight down; its argmax over axis 0 is the lowest id)."""
+    contains = []
+    for a, b, c in vertices[faces][:, :, :2]:
+        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])
+        s = np.stack([cross(a, b, pts), cross(b, c, pts), cross(c, a, pts)])
+        contains.append((s >= 0).all(0) | (s <= 0).all(0))
+    return np.array(contains)
 
 
 def test_ties_at_shared_edges_and_vertices_go_to_the_lowest_id(device):
@@ -388,14 +399,9 @@ def test_ties_at_shared_edges_and_vertices_go_to_the_lowest_id(device):
     o = np.c_[pts, np.full(len(pts), 5.0)]
     d = np.tile([0.0, 0.0, -1.0], (len(pts), 1))
     # reference: the lowest id among the triangles whose closed area contains the point
-    tri = vertices[faces][:, :, :2]
-    contains = []
-    for a, b, c in tri:
-        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])
-        s = np.stack([cross(a, b, pts), cross(b, c, pts), cross(c, a, pts)])
-        contains.append((s >= 0).all(0) | (s <= 0).all(0))
-    expected = np.argmax(np.array(contains), axis=0)
-    assert np.array(contains).sum(0).max() >= 6  # some points lie on six triangles
+    contains = triangles_containing(vertices, faces, pts)
+    expected = np.argmax(contains, axis=0)
+    assert contains.sum(0).max() >= 6  # some points lie on six triangles
     for use_bvh, builder in ((False, "sah"), (True, "sah"), (True, "median")):
         t, prim, _ = Tracer((vertices, faces), use_bvh=use_bvh, builder=builder, device=device).intersect(o, d)
         np.testing.assert_array_equal(t, 5.0)

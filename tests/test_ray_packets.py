@@ -14,6 +14,7 @@ import inspect
 import numpy as np
 import pytest
 import trimesh
+from test_exact_rays import grid_mesh, triangles_containing
 
 from clrender.scene.camera import Camera
 from clrender.scene.meshes import dense_mesh
@@ -71,15 +72,6 @@ def camera_rays(eye, look_at, width, height, fov=40.0):
         return a.reshape(height // 2, 2, width // 4, 4, 3).transpose(0, 2, 1, 3, 4).reshape(-1, 3)
 
     return tiles(o), tiles(d)
-
-
-def grid_mesh(n, z=0.0):
-    """An n x n grid of unit squares in the plane z, two triangles each, ids in row order."""
-    x, y = np.meshgrid(np.arange(n + 1, dtype=float), np.arange(n + 1, dtype=float))
-    vertices = np.c_[x.ravel(), y.ravel(), np.full(x.size, z)]
-    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
-    faces = np.concatenate([np.c_[i, i + 1, i + n + 2], np.c_[i, i + n + 2, i + n + 1]])
-    return vertices, faces
 
 
 def merged(*meshes):
@@ -274,13 +266,7 @@ def test_rays_at_shared_edges_and_vertices_go_to_the_lowest_id(device, width):
     o = np.c_[pts, np.full(len(pts), 5.0)]
     down = np.tile([0.0, 0.0, -1.0], (len(pts), 1))
     # reference: the lowest id among the triangles whose closed area contains the point
-    tri = vertices[faces][:, :, :2]
-    contains = []
-    for a, b, c in tri:
-        cross = lambda p, q, r: (q[0] - p[0]) * (r[:, 1] - p[1]) - (q[1] - p[1]) * (r[:, 0] - p[0])
-        s = np.stack([cross(a, b, pts), cross(b, c, pts), cross(c, a, pts)])
-        contains.append((s >= 0).all(0) | (s <= 0).all(0))
-    contains = np.array(contains)
+    contains = triangles_containing(vertices, faces, pts)
     assert contains.sum(0).max() == 6 and contains.sum(0).min() == 2  # vertices on six triangles, edges on two
     assert packet_share(down) == 1.0
     (t, prim, _), _ = packets_change_nothing((vertices, faces), o, down, device, bvh_width=width)
