@@ -24,6 +24,7 @@
 #define RAY_BITS ((uint8)(1u, 2u, 4u, 8u, 16u, 32u, 64u, 128u)) /* ray k of a packet is bit k of a mask */
 #define ALL_RAYS 0xffu
 #define FOR_EACH_RAY(X) X(0) X(1) X(2) X(3) X(4) X(5) X(6) X(7)
+#define RAY_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7} /* lanes as an array */
 
 INLINE float8 abs8(float8 v) { return as_float8(as_uint8(v) & (uint8)(0x7fffffffu)); }
 INLINE int any8(int8 m) {
@@ -165,8 +166,6 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
     p->okx = o[p->kx]; p->oky = o[p->ky]; p->okz = o[p->kz];
     return true;
 }
-
-#define RAY_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
 
 /* Sphere slot s against the packet's `rays`, one ray at a time (a sphere is a whole leaf lane, and
  * rare): the lone walk's tests, test_slots' (closest hit) or crossing_transmittance's (any-hit). */

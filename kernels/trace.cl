@@ -174,10 +174,9 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
     if (!packet_start(&p, nodes, n_prims, r, t0, t1, any_hit)) return false;
     while (p.sp > 0) packet_step(&p, nodes, prims, any_hit);
     if (p.fallback) return false;
-    float t[PACKET_RAYS] = {p.t_max.s0, p.t_max.s1, p.t_max.s2, p.t_max.s3, p.t_max.s4, p.t_max.s5, p.t_max.s6, p.t_max.s7};
-    int id[PACKET_RAYS] = {p.id.s0, p.id.s1, p.id.s2, p.id.s3, p.id.s4, p.id.s5, p.id.s6, p.id.s7};
-    uint v[PACKET_RAYS] = {p.visits.s0, p.visits.s1, p.visits.s2, p.visits.s3,
-                           p.visits.s4, p.visits.s5, p.visits.s6, p.visits.s7};
+    float t[PACKET_RAYS] = RAY_ARRAY(p.t_max);
+    int id[PACKET_RAYS] = RAY_ARRAY(p.id);
+    uint v[PACKET_RAYS] = RAY_ARRAY(p.visits);
     for (int k = 0; k < PACKET_RAYS; ++k) {
         if (any_hit) T[k] = (p.live >> k) & 1u ? 1.0f : 0.0f;
         else { h[k] = no_hit(); if (id[k] >= 0) { h[k].t = t[k]; h[k].id = id[k]; } }
