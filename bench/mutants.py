@@ -440,6 +440,14 @@ MUTANTS = [
         PACKET,
     ),
     M(
+        "packet-signs-unchecked",
+        "kernels/trace.cl",
+        "if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;",
+        "if ((s.x != signs.x) & 0) return false;",
+        "rays whose directions' signs differ walk as one packet (one near plane for all)",
+        PACKET,
+    ),
+    M(
         "packet-last-lane-skipped",
         "kernels/packet.h",
         "for (int k = 0; k < BLOCK_LANES; ++k) {",

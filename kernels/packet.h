@@ -128,14 +128,12 @@ INLINE void packet_push(Packet *p, int node, lanes_f nearest, lanes_u hit_rays, 
     p->sp = sp + n;
 }
 
-/* Eight rays (make_box_ray's: not yet sheared) as a packet, or false if they do not go the same way.
- * They are sheared (shear_ray) only once the root has a hit: most packets of a small mesh miss it. */
+/* Eight rays (make_box_ray's: not yet sheared) whose directions have the same signs (the caller checks
+ * them, walk_packet in trace.cl, before it builds the rays) as a packet, or false if their largest
+ * axes differ.  They are sheared (shear_ray) only once the root has a hit: most packets of a small
+ * mesh miss it. */
 INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, Ray *r, const float *t_min,
                          const float *t_max, bool any_hit) {
-    for (int k = 1; k < PACKET_RAYS; ++k)
-        if ((r[k].inv_d.x < 0.0f) != (r[0].inv_d.x < 0.0f) || (r[k].inv_d.y < 0.0f) != (r[0].inv_d.y < 0.0f) ||
-            (r[k].inv_d.z < 0.0f) != (r[0].inv_d.z < 0.0f))
-            return false;
 #define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
     p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
     p->dx = LANES(d.x); p->dy = LANES(d.y); p->dz = LANES(d.z);
