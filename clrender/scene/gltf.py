@@ -341,8 +341,9 @@ def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix:
         n = accessor(doc, attributes["NORMAL"])
         if n.shape != positions.shape:
             doc.fail(f"{where}: NORMAL must be VEC3 with one normal per position")
-        n = n @ np.linalg.inv(linear)  # normals transform by the inverse transpose
-        normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf normals: replaced by meshes.shading_normals
+            n = n @ np.linalg.inv(linear)  # normals transform by the inverse transpose
+            normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     if not np.isfinite(vertices).all():
         doc.fail(f"{where}: positions are not finite")
     return vertices, faces, normals

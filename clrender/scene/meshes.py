@@ -54,6 +54,56 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.where(norm > 0, summed / np.where(norm > 0, norm, 1), 0)
 
 
+WELD_CREASE_DEGREES = 60.0  # copies of one position share a normal unless their sides fold sharper than this
+
+
+def welded_vertex_normals(vertices: np.ndarray, faces: np.ndarray, crease_degrees: float = WELD_CREASE_DEGREES) -> np.ndarray:
+    """`vertex_normals` across patch borders: vertices at bit-for-bit the same position (files
+    often repeat them where patches meet, like the Utah teapot's 403) are welded, so a smooth
+    surface gets one normal there instead of a seam.  A copy whose own side's normal is more than
+    half `crease_degrees` from the welded one keeps its own, so a fold the file splits on purpose
+    (a cube's corners, a cylinder's rim) stays sharp.  A used vertex whose faces' normals cancel
+    takes one of its faces' normals rather than zero."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    own = vertex_normals(v, f)
+    positions, group = np.unique(v + 0.0, axis=0, return_inverse=True)  # + 0.0: -0.0 welds with 0.0
+    group = group.reshape(-1)
+    out = own
+    if len(positions) < len(v):
+        welded = vertex_normals(positions, group[f])[group]
+        agree = (welded * own).sum(axis=1) >= np.cos(np.radians(crease_degrees) / 2)
+        out = np.where(agree[:, None], welded, own)
+    used = np.zeros(len(v), bool)
+    used[f.ravel()] = True
+    lost = used & ~(np.linalg.norm(out, axis=1) > 0.5)
+    if lost.any():  # angle-weighted normals cancelled (a doubled sheet): any of its faces' normals
+        n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        face_n = np.where(length > 0, n / np.where(length > 0, length, 1), 0)
+        fallback = np.zeros_like(v)
+        for k in range(3):
+            fallback[f[:, k]] = face_n
+        out = np.where(lost[:, None], fallback, out)
+    return out
+
+
+def shading_normals(vertices: np.ndarray, faces: np.ndarray, given: np.ndarray | None = None) -> np.ndarray:
+    """Vertex normals for smooth shading: `given` (a file's or a generator's) where they are
+    finite and not zero, `welded_vertex_normals` elsewhere.  Zero normals are a common exporter
+    output, and a zero or NaN normal interpolated in the kernel would turn every hit into NaN.
+    `given` is returned unchanged (the same bits) when it is all usable."""
+    if given is None:
+        return welded_vertex_normals(vertices, faces)
+    given = np.asarray(given, np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        length = np.linalg.norm(given, axis=1)
+    bad = ~(np.isfinite(length) & (length > 1e-6))  # a unit normal, or what is left of a zero one
+    if not bad.any():
+        return given
+    return np.where(bad[:, None], welded_vertex_normals(vertices, faces), given)
+
+
 def with_normals(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """`mesh` with its vertex normals set from `vertex_normals` (trimesh keeps them until the
     vertices or faces change), so nobody asks trimesh, and so scipy, for them."""

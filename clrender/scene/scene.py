@@ -520,8 +520,13 @@ class _SceneReader:
         self.check_placed(vertices, path)
         normals = None
         if smooth:
+            from .meshes import shading_normals
+
+            # Given normals: a generator's, or a glTF node's from its file (trimesh drops a file's
+            # own); shading_normals computes the rest, welded across patches, and replaces zero/NaN ones.
+            given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)
             # Normals transform by the inverse transpose; renormalise afterwards.
-            n = np.asarray(tm.vertex_normals, np.float64) @ np.linalg.inv(matrix[:3, :3])
+            n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
             normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
         return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source)
 
