@@ -184,7 +184,7 @@ def run_gauss(args):
 def run_render(args):
     from ..device import get_device
     from ..image.files import check_output_path, write_image
-    from ..splat.gauss import GaussParams, render
+    from ..splat.gauss import BYTES_PER_SPLAT, RENDER_BYTES_PER_PIXEL, GaussParams, render
 
     out = check_output_path(args.output, overwrite=args.overwrite)
     params = GaussParams.load(args.params)
@@ -197,8 +197,9 @@ def run_render(args):
         raise UsageError(f"--width {width} makes the image {height} pixels high; allowed: at most 32768")
     from .. import memory
 
-    # the image, its tile buffers and the scaled splats (see clrender/memory.py)
-    memory.require(memory.BASE_BYTES + width * height * 48 + params.n * 256, f"a {width}x{height} splat render")
+    # the image, its tile buffers and the scaled splats (see clrender/memory.py); the (tile, splat)
+    # pairs are counted and checked once the splats' boxes are known (GaussRenderer._pack_and_bin)
+    memory.require(memory.BASE_BYTES + width * height * RENDER_BYTES_PER_PIXEL + params.n * BYTES_PER_SPLAT, f"a {width}x{height} splat render")
     image = render(get_device(args.device), params.scaled(factor, width, height))
     write_image(out, image, overwrite=args.overwrite)
     print(out)

@@ -200,7 +200,7 @@ class Fitter:
         config.validate(w, h)
         self.config, self.width, self.height = config, w, h
         self.rng = np.random.default_rng(config.seed)
-        self.renderer = GaussRenderer(device, w, h, config.blend)
+        self.renderer = GaussRenderer(device, w, h, config.blend, fit_loss=config.loss)  # refuses what memory cannot hold
         self.groups = LEARN_GROUPS[config.learn]
         base = (
             ADAM_LR

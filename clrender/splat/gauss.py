@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import memory
 from ..errors import UsageError, shown
 from ..layout import SPLAT_EPS, SPLAT_GRAD_DTYPE, SPLAT_NGRAD, SPLAT_TILE
 
@@ -41,6 +42,16 @@ PREPARE_GROUP = 64  # and of the packing kernel
 BLENDS = ("sum", "normalized")
 GROUPS = ("xy", "log_scale", "theta", "color", "lum", "opacity")
 MIN_LOG_SCALE = float(np.log(0.25))  # sigma below a quarter pixel only aliases
+# The kernels index the splat-tile pairs with int: more pairs than this cannot be binned.
+MAX_PAIRS = 2**31 - 1
+# Peak memory (clrender/memory.py), measured as peak RSS growth on the PoCL CPU device and rounded up:
+# a fit of 2048^2 pixels grew 118 B/pixel with the l2 loss and about 290 with l1-ssim (its SSIM maps).
+RENDER_BYTES_PER_PIXEL = 48  # padded image and weight planes, their device views and the written copy
+FIT_BYTES_PER_PIXEL = 160  # + target, loss, dL/dI and the adjoint planes (l2, l1)
+SSIM_BYTES_PER_PIXEL = 340  # the same with l1-ssim's blurred moment maps
+BYTES_PER_SPLAT = 256  # loaded and scaled parameters, packed rows, device buffers, boxes
+RENDER_BYTES_PER_PAIR = 16  # tile lists on the device and the host, each pair's tile
+FIT_BYTES_PER_PAIR = 400  # + gradient rows (device and host) and their float64 bincount keys and weights
 
 
 @dataclass
@@ -122,17 +133,28 @@ class GaussParams:
             width=_checked_size(data, "width", where),
             height=_checked_size(data, "height", where),
             blend=_checked_blend(data, where),
-            background=_checked_array(data.get("background", np.zeros(3)), "background", (3,), where),
+            background=_checked_array(data.get("background", np.zeros(3)), "background", (3,), where, (-MAX_COLOR, MAX_COLOR)),
         )
 
 
 GROUP_SHAPES = {"xy": (2,), "log_scale": (2,), "theta": (), "color": (3,), "lum": (), "opacity": ()}  # per splat
+# What a loaded file may hold (docs/splat-gauss.md).  Beyond these the kernels' float32 arithmetic
+# overflows (exp(2 log sx) in splat_prepare, a sum of 10 M colours) and images come out inf or NaN.
+MAX_COLOR = 1e6  # |colour|, |background| and luminance: HDR headroom, while 10 M sums stay finite
+GROUP_RANGES = {
+    "xy": (-(2.0**20), 2.0**20),  # pixels; far outside any image, finite after scaling by 32768
+    "log_scale": (-10.0, 10.0),  # sigma from 5e-5 to 22026 pixels; exp(4 log s) stays finite after scaling
+    "theta": (-1e6, 1e6),  # radians
+    "color": (-MAX_COLOR, MAX_COLOR),
+    "lum": (0.0, MAX_COLOR),
+    "opacity": (0.0, 1.0),
+}
 MAX_LOADED_SPLATS = 10_000_000
 MAX_SIDE = 32768
 
 
-def _checked_array(value, name: str, shape: tuple, where: str) -> np.ndarray:
-    """A finite float array of exactly `shape`; UsageError naming the file and the array otherwise."""
+def _checked_array(value, name: str, shape: tuple, where: str, bounds: tuple[float, float] | None = None) -> np.ndarray:
+    """A finite float array of exactly `shape` within `bounds`; UsageError naming the file and the array otherwise."""
     value = np.asarray(value)
     if value.dtype.kind not in "fiu":
         raise UsageError(f"{where}: {name} holds {value.dtype} values; allowed: numbers")
@@ -142,6 +164,12 @@ def _checked_array(value, name: str, shape: tuple, where: str) -> np.ndarray:
         value = value.astype(np.float32)
     if not np.isfinite(value).all():
         raise UsageError(f"{where}: {name} holds NaN or infinite values (or beyond float32); allowed: finite numbers")
+    if bounds is not None and value.size:
+        low, high = bounds
+        outside = (value < low) | (value > high)
+        if outside.any():
+            bad = value[outside].flat[0]
+            raise UsageError(f"{where}: {name} holds {bad:g} ({int(outside.sum())} values out of range); allowed: {low:g} to {high:g}")
     return value
 
 
@@ -149,7 +177,7 @@ def _checked_groups(data: dict, where: str) -> dict:
     n = np.shape(data["xy"])[0] if np.ndim(data["xy"]) >= 1 else -1
     if not 0 <= n <= MAX_LOADED_SPLATS:
         raise UsageError(f"{where}: xy has shape {np.shape(data['xy'])}; allowed: (N, 2) with N up to {MAX_LOADED_SPLATS}")
-    return {name: _checked_array(data[name], name, (n, *GROUP_SHAPES[name]), where) for name in GROUPS}
+    return {name: _checked_array(data[name], name, (n, *GROUP_SHAPES[name]), where, GROUP_RANGES[name]) for name in GROUPS}
 
 
 def _checked_size(data: dict, name: str, where: str) -> int:
@@ -202,7 +230,8 @@ class Frame:
 class GaussRenderer:
     """Renders GaussParams with the OpenCL kernels and back-propagates image gradients."""
 
-    def __init__(self, device, width: int, height: int, blend: str = "normalized", background=(0, 0, 0)):
+    def __init__(self, device, width: int, height: int, blend: str = "normalized", background=(0, 0, 0), *, fit_loss: str | None = None):
+        """`fit_loss`: the loss of the fit this renderer serves (None: rendering only); it sets the memory estimate."""
         import pyopencl as cl
 
         if blend not in BLENDS:
@@ -224,11 +253,41 @@ class GaussRenderer:
         # images are padded to whole tiles (layouts in kernels/splat_gauss.cl)
         self.pitch, self.rows = self.tiles_x * TILE, self.tiles_y * TILE
         self.plane = self.pitch * self.rows
+        if fit_loss is None:
+            self.pixel_bytes, self.pair_bytes, self.what = RENDER_BYTES_PER_PIXEL, RENDER_BYTES_PER_PAIR, "render"
+        else:
+            self.pixel_bytes = SSIM_BYTES_PER_PIXEL if fit_loss == "l1-ssim" else FIT_BYTES_PER_PIXEL
+            self.pair_bytes, self.what = FIT_BYTES_PER_PAIR, "fit"
+        memory.require(self.peak_bytes(0, 0), f"a {width}x{height} splat {self.what}")
+        self._memory_checked = False  # the splats' share is checked at the first binning (see _pack_and_bin)
         device.check_fits(self.plane * 16, f"a {width}x{height} splat image")
         self._dimg_host = np.zeros((4, self.rows, self.pitch), np.float32)  # the padding stays 0
         self._partial = None
         self._partial_bytes = 0
         self.all_tiles = np.arange(self.tiles_x * self.tiles_y, dtype=np.int32)
+
+    def peak_bytes(self, n: int, pairs: int) -> int:
+        """Estimated peak memory of this renderer's job with n splats covering `pairs` (tile, splat) pairs."""
+        return memory.BASE_BYTES + self.plane * self.pixel_bytes + n * BYTES_PER_SPLAT + pairs * self.pair_bytes
+
+    def count_pairs(self, bbox: np.ndarray) -> int:
+        """(tile, splat) pairs of these (n, 4) pixel boxes [x0, x1) x [y0, y1), in 64 bits: the kernels'
+        int32 prefix sums would wrap (box_in_tile_row's rule, vectorised)."""
+        box = bbox.astype(np.int64)
+        cols = (box[:, 2] - 1) // TILE - box[:, 0] // TILE + 1
+        rows = (box[:, 3] - 1) // TILE - box[:, 1] // TILE + 1
+        empty = (box[:, 2] <= box[:, 0]) | (box[:, 3] <= box[:, 1])
+        return int(np.where(empty, 0, cols * rows).sum(dtype=np.int64))
+
+    def _check_pairs(self, n: int, pairs: int) -> None:
+        """Refuse, before the tile lists are allocated, a binning the kernels cannot index or memory cannot hold."""
+        what = f"{n} splats covering {pairs} (tile, splat) pairs of a {self.width}x{self.height} image"
+        if not self._memory_checked:
+            # once: later checks would count this job's own memory as taken (MemAvailable already excludes it)
+            memory.require(self.peak_bytes(n, pairs), f"a splat {self.what} of {what}")
+            self._memory_checked = True
+        if pairs > MAX_PAIRS:
+            raise UsageError(f"{what}: too many; allowed: at most {MAX_PAIRS} pairs (fewer or smaller splats, or a smaller image)")
 
     def forward(self, params: GaussParams, tiles: np.ndarray | None = None) -> Frame:
         """Render all tiles (or only `tiles`, the rest left 0); returns a Frame for `backward`."""
@@ -286,11 +345,19 @@ class GaussRenderer:
                 np.int32(self.height),
                 *buffers,
             )
+            bbox = np.empty((n, 4), np.int32)
+            cl.enqueue_copy(dev.queue, bbox, buffers[2])
+            self._check_pairs(n, self.count_pairs(bbox))
+            del bbox
             count_buf = dev.empty(count.nbytes)
             self._bin_count(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x), count_buf)
             cl.enqueue_copy(dev.queue, count, count_buf)
-        tile_start = np.zeros(tiles + 1, np.int32)
-        np.cumsum(count, out=tile_start[1:])
+        # summed in 64 bits; _check_pairs has bounded the total, so the int32 starts the kernels read hold it
+        total = np.zeros(tiles + 1, np.int64)
+        np.cumsum(count, out=total[1:])
+        if total[-1] > MAX_PAIRS:  # the kernel counted what count_pairs did: this is a bug if it happens
+            raise RuntimeError(f"splat binning counted {int(total[-1])} pairs; the boxes allow at most {MAX_PAIRS}")
+        tile_start = total.astype(np.int32)
         n_entries = int(tile_start[-1])
         dev.check_fits(n_entries * 4, f"{n_entries} splat-tile entries")
         entry_splat = np.empty(n_entries, np.int32)
