@@ -41,7 +41,7 @@ import weakref
 from collections.abc import Callable
 from pathlib import Path
 
-from .errors import UsageError
+from .errors import RenderFailure, UsageError
 
 # the output set that writes join while a `with output_set(...)` block runs
 _LIVE: weakref.WeakSet[OutputSet] = weakref.WeakSet()  # sets with staged files, for discard_all
@@ -137,8 +137,12 @@ class OutputSet:
         remove_stale_temps(final.parent)
         staged = _Staged(final)
         self.staged.append(staged)
-        writer(staged.path)
-        staged.sync()
+        try:
+            writer(staged.path)
+            staged.sync()
+        except OSError as exc:
+            # the writer's error names the temp file (/proc/self/fd/N) or nothing: name the output instead
+            raise RenderFailure(write_failure(final, exc)) from exc
         return final
 
     def commit(self) -> None:
@@ -179,6 +183,14 @@ class OutputSet:
         for s in self.staged:
             s.discard()
         self.staged = []
+
+
+def write_failure(final, exc: OSError) -> str:
+    """ "cannot write 'out.png': No space left on device (is the disk full?)": the file and the reason."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        reason += " (is the disk full?)"
+    return f"cannot write {_show(final)}: {reason}"
 
 
 def check_file_output(path, *, overwrite: bool, suffixes: tuple[str, ...], option: str = "output") -> Path:

@@ -286,6 +286,75 @@ def test_params_on_a_full_disk_keep_the_good_file(tmp_path, monkeypatch, capfd):
     assert not leftovers(tmp_path)
 
 
+def fill_up(folder: Path, leave: int) -> None:
+    """Fill the filesystem of `folder` until fewer than `leave` bytes are free."""
+    with open(folder / "filler", "wb") as f:
+        try:
+            while True:
+                free = os.statvfs(folder).f_bavail * os.statvfs(folder).f_frsize
+                if free <= leave:
+                    break
+                f.write(b"\0" * min(4096, free - leave))
+                f.flush()
+        except OSError as exc:
+            assert exc.errno == errno.ENOSPC
+
+
+@pytest.mark.parametrize("name", ["t.png", "t.jpg"])
+def test_an_image_onto_a_nearly_full_disk_fails_and_keeps_the_good_file(small_disk, name):
+    """libpng wrote a 0-byte t.png into the last 1-2 KB and clrender exited 0 (with --overwrite the good
+    file was replaced by the empty one); libjpeg exited 1 without a word."""
+    good = small_disk / name
+    write_image(good, np.random.default_rng(5).uniform(0, 1, (48, 64, 3)).astype(np.float32))
+    old = good.read_bytes()
+    fill_up(small_disk, leave=1536)
+    proc = clrender(*RENDER[:2], "--width", "64", "--height", "48", "-o", name, "--overwrite", cwd=small_disk)
+    out, err = proc.communicate(timeout=300)  # a process of its own: libjpeg's exit(1) ended the caller
+    assert proc.returncode == 1, err
+    assert out == "" and err.count("\n") == 1 and err.startswith(f"clrender: cannot write {name!r}: No space left on device"), err
+    assert "disk full" in err
+    assert good.read_bytes() == old
+    assert not leftovers(small_disk)
+
+
+def test_an_encoder_that_writes_nothing_and_says_it_worked_is_a_failure(tmp_path, monkeypatch, capfd):
+    """The same fault without a small disk: an encoder whose file comes out empty while it reports success."""
+    import OpenImageIO
+
+    import clrender.image.files as image_files
+
+    class SilentEncoder:
+        def open(self, name, spec):
+            open(name, "wb").close()  # what libpng left on a full disk
+            return True
+
+        def write_image(self, pixels):
+            return True
+
+        def close(self):
+            return True
+
+        def geterror(self):
+            return ""
+
+    class Library:
+        def __getattr__(self, name):
+            return getattr(OpenImageIO, name)
+
+        class ImageOutput:
+            create = staticmethod(lambda name: SilentEncoder())
+
+    good = tmp_path / "t.png"
+    write_image(good, np.full((6, 8, 3), 0.5, np.float32))
+    old = good.read_bytes()
+    monkeypatch.setattr(image_files, "oiio", Library())
+    rc = main(["-q", *RENDER[:2], "--width", "8", "--height", "6", "-o", str(good), "--overwrite"])
+    err = capfd.readouterr().err
+    assert rc == 1 and err.count("\n") == 1 and str(good) in err, err
+    assert good.read_bytes() == old
+    assert not leftovers(tmp_path)
+
+
 # ----------------------------------------------------------------------------- a folder we may not write
 def test_read_only_folder_is_one_line_and_writes_nothing(small_disk, tmp_path, capfd):
     """A read-only filesystem (chmod does not stop root, a read-only remount does)."""

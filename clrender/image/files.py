@@ -2,9 +2,10 @@
 
 Pixels travel as float32 arrays of shape (H, W, C).  Integer files are read
 as values in [0, 1] (OpenImageIO's normalisation) and remember their stored
-format so a filter can write the same bit depth back.  Writes go to a
-temporary file beside the target and are renamed into place, so a failed
-write never leaves a half-written image.
+format so a filter can write the same bit depth back.  Writes are encoded in
+memory, copied to a temporary file beside the target (where a full disk is
+an error, which the encoders themselves do not report) and renamed into
+place, so a failed write never leaves a half-written or empty image.
 """
 
 from __future__ import annotations
@@ -136,6 +137,28 @@ WRITER_FORMATS = {
     ".webp": ("uint8",),
 }
 FLOAT_FORMATS = ("half", "float", "double")
+
+# Channel counts each writer can store, where it cannot store any (OpenImageIO refuses the others;
+# JPEG, TIFF and EXR take any count: JPEG keeps the first three).
+WRITER_CHANNELS = {
+    ".png": (1, 2, 3, 4),
+    ".hdr": (3,),
+    ".pfm": (1, 3),
+    ".bmp": (1, 3, 4),
+    ".tga": (1, 2, 3, 4),
+    ".webp": (3, 4),
+}
+
+
+def check_output_channels(path: str | os.PathLike, nchannels: int) -> None:
+    """UsageError when the writer for `path`'s extension cannot store `nchannels` channels."""
+    suffix = Path(path).suffix.lower()
+    allowed = WRITER_CHANNELS.get(suffix)
+    if allowed is not None and nchannels not in allowed:
+        counts = ", ".join(map(str, allowed[:-1])) + (" or " if len(allowed) > 1 else "") + str(allowed[-1])
+        raise UsageError(
+            f"output {shown(path)} cannot hold {nchannels} channels: {suffix[1:].upper()} allows {counts} (.exr or .tif take any number)"
+        )
 
 
 @dataclass
@@ -270,19 +293,42 @@ def write_image(
     elif nchannels == 4:
         spec.alpha_channel = 3
 
+    check_output_channels(path, nchannels)
+
     def write_pixels(temp: str) -> None:
         out = oiio.ImageOutput.create(_library_name(path))  # the writer is chosen by the final name's extension
         if out is None:
             raise UsageError(f"no image writer for {shown(path)}: {first_line(_library_error())}")
-        with library_messages() as said:
-            ok = out.open(temp, spec) and out.write_image(np.ascontiguousarray(pixels))
-            ok = out.close() and ok
-        if not ok:
-            # the libraries do not say why (errno is lost); a full disk is the usual cause
-            reason = first_line(_library_error(), said.text, "the image writer failed (is the disk full?)")
-            raise RenderFailure(f"cannot write {shown(path)}: {reason}")
+        # The encoders do not report a failed write: libpng leaves a 0-byte file and says it worked,
+        # libjpeg calls exit(1).  So they write into memory (a memfd never fills up) and Python copies
+        # the bytes into the file, where a full disk is an OSError like any other write's.
+        encoded = os.memfd_create("clrender-image")
+        try:
+            with library_messages() as said:
+                ok = out.open(f"/proc/self/fd/{encoded}", spec) and out.write_image(np.ascontiguousarray(pixels))
+                ok = out.close() and ok
+            size = os.fstat(encoded).st_size
+            if not ok or size == 0:
+                reason = first_line(out.geterror(), _library_error(), said.text, "the image writer wrote nothing")
+                raise RenderFailure(f"cannot write {shown(path)}: {reason}")
+            _copy_into(encoded, temp, size, path)
+        finally:
+            os.close(encoded)
 
     return write_file(path, write_pixels, overwrite=overwrite)
+
+
+def _copy_into(source_fd: int, temp: str, size: int, path: Path) -> None:
+    """The encoded bytes from `source_fd` into the file `temp`, all of them or a RenderFailure naming `path`."""
+    with open(temp, "wb") as target:
+        copied = 0
+        while copied < size:
+            sent = os.sendfile(target.fileno(), source_fd, copied, size - copied)
+            if sent == 0:
+                break
+            copied += sent
+    if os.stat(temp).st_size != size:
+        raise RenderFailure(f"cannot write {shown(path)}: only {os.stat(temp).st_size} of its {size} bytes were written (is the disk full?)")
 
 
 def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True) -> Path:
