@@ -151,3 +151,15 @@ def test_params_save_load_roundtrip(tmp_path):
     for name, array in params.groups().items():
         np.testing.assert_array_equal(getattr(loaded, name), array)
     np.testing.assert_array_equal(loaded.background, params.background)
+
+
+def test_log_has_one_row_per_step_and_ends_with_the_final_model(device, target):
+    # 20 steps end on a logged step (every 10th): the final row must not repeat it with another loss
+    result = Fitter(device, target, FitConfig(splats=16, epochs=20, blend="sum", loss="l2")).run(show_progress=False)
+    steps = [row["step"] for row in result.log]
+    assert steps == [1, 10, 20] and result.steps == 20
+    last = result.log[-1]
+    error = result.image.astype(np.float64) - target
+    assert last["loss"] == pytest.approx(float(np.mean(error**2)), rel=1e-5)  # the final image's l2 loss
+    clipped = np.clip(result.image, 0, 1).astype(np.float64) - target  # PSNR, as saved: clipped to [0, 1]
+    assert last["psnr"] == result.psnr == pytest.approx(-10 * np.log10(np.mean(clipped**2)), abs=1e-6)

@@ -288,16 +288,20 @@ class Fitter:
         image = r.forward(params).image
         final = psnr(image, self.target)
         seconds = time.perf_counter() - start
-        log.append(
-            {
-                "step": step,
-                "epoch": step / self.steps_per_epoch,
-                "seconds": seconds,
-                "splats": params.n,
-                "loss": loss_and_grad(cfg.loss, image, self.target)[0],
-                "psnr": final,
-            }
-        )
+        row = {
+            "step": step,
+            "epoch": step / self.steps_per_epoch,
+            "seconds": seconds,
+            "splats": params.n,
+            "loss": loss_and_grad(cfg.loss, image, self.target)[0],
+            "psnr": final,
+        }
+        # one row per step: a run ending on a logged step measured that step before its update,
+        # the final model after it; the last row is the final model's, as FitResult reports it
+        if log and log[-1]["step"] == step:
+            log[-1] = row
+        else:
+            log.append(row)
         return FitResult(params, image, final, step, seconds, log)
 
     def _project(self, params: GaussParams) -> None:
