@@ -10,7 +10,9 @@ place, so a failed write never leaves a half-written or empty image.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -302,20 +304,35 @@ def write_image(
         # The encoders do not report a failed write: libpng leaves a 0-byte file and says it worked,
         # libjpeg calls exit(1).  So they write into memory (a memfd never fills up) and Python copies
         # the bytes into the file, where a full disk is an OSError like any other write's.
-        encoded = os.memfd_create("clrender-image")
-        try:
+        with _memory_file() as (encoded, name):
             with library_messages() as said:
-                ok = out.open(f"/proc/self/fd/{encoded}", spec) and out.write_image(np.ascontiguousarray(pixels))
+                ok = out.open(name, spec) and out.write_image(np.ascontiguousarray(pixels))
                 ok = out.close() and ok
             size = os.fstat(encoded).st_size
             if not ok or size == 0:
                 reason = first_line(out.geterror(), _library_error(), said.text, "the image writer wrote nothing")
                 raise RenderFailure(f"cannot write {shown(path)}: {reason}")
             _copy_into(encoded, temp, size, path)
-        finally:
-            os.close(encoded)
 
     return write_file(path, write_pixels, overwrite=overwrite)
+
+
+@contextlib.contextmanager
+def _memory_file():
+    """(fd, name) of a file in memory for an encoder (Linux memfd); elsewhere a temp file that is removed after."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("clrender-image")
+        try:
+            yield fd, f"/proc/self/fd/{fd}"
+        finally:
+            os.close(fd)
+        return
+    fd, name = tempfile.mkstemp(prefix="clrender-image-")
+    try:
+        yield fd, name
+    finally:
+        os.close(fd)
+        os.unlink(name)
 
 
 def _copy_into(source_fd: int, temp: str, size: int, path: Path) -> None:
@@ -323,10 +340,11 @@ def _copy_into(source_fd: int, temp: str, size: int, path: Path) -> None:
     with open(temp, "wb") as target:
         copied = 0
         while copied < size:
-            sent = os.sendfile(target.fileno(), source_fd, copied, size - copied)
-            if sent == 0:
+            chunk = os.pread(source_fd, min(size - copied, 1 << 22), copied)
+            if not chunk:
                 break
-            copied += sent
+            target.write(chunk)  # a full disk raises OSError(ENOSPC) here or at the flush on close
+            copied += len(chunk)
     if os.stat(temp).st_size != size:
         raise RenderFailure(f"cannot write {shown(path)}: only {os.stat(temp).st_size} of its {size} bytes were written (is the disk full?)")
 
