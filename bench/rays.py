@@ -150,11 +150,12 @@ def embree_rates(mesh, rays: dict, runs: int):
 
 def build_times(n_triangles: int, runs: int):
     """Build time (wall and CPU) and SAH cost of each builder with its default leaves, and of the tree
-    the Tracer builds for its default width (leaves of MAX_LEAF_SIZE[width], then the collapse)."""
+    the Tracer builds for its default width (leaves of DEFAULT_KNOBS.leaf_size(width), then the collapse)."""
     from clrender.scene.meshes import dense_mesh
     from clrender.trace.bvh import build_bvh
     from clrender.trace.bvh_wide import collapse
-    from clrender.trace.tracer import DEFAULT_BVH_WIDTH, MAX_LEAF_SIZE
+    from clrender.trace.knobs import DEFAULT_KNOBS
+    from clrender.trace.tracer import DEFAULT_BVH_WIDTH
 
     mesh = dense_mesh(n_triangles, seed=1)
     tri = np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)]
@@ -162,7 +163,7 @@ def build_times(n_triangles: int, runs: int):
     build_bvh(lo[:64], hi[:64])  # the SAH build's kernels are compiled once per process: not timed
     w = DEFAULT_BVH_WIDTH
     rows = []
-    for builder, leaf in (("sah", 4), ("median", 4), ("sah", MAX_LEAF_SIZE[w])):
+    for builder, leaf in (("sah", 4), ("median", 4), ("sah", DEFAULT_KNOBS.leaf_size(w))):
         build = lambda: build_bvh(lo, hi, builder=builder, max_leaf_size=leaf)
         seconds, cpu_seconds = median_seconds(build, runs), median_cpu_seconds(build, runs)
         bvh = build()

@@ -25,7 +25,7 @@
 
 /* The traversal's build knobs come from the host (clrender.trace.tracer.trace_defines), never from defaults here:
  * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),
- * STACK_SIZE (BVH traversal stack, clrender.trace.bvh.STACK_SIZE; the builder keeps trees shallower),
+ * STACK_SIZE (BVH traversal stack, clrender.trace.knobs.TraceKnobs.stack_size; the builder keeps trees shallower),
  * BVH_WIDTH (2: binary nodes; 4 or 8: wide nodes, clrender/trace/bvh_wide.py), WIDE_STACK_SIZE. */
 #if !defined(USE_BVH) || !defined(MAX_DEPTH) || !defined(STACK_SIZE) || !defined(BVH_WIDTH) || !defined(WIDE_STACK_SIZE)
 #error "a traversal knob is missing: build trace.cl with clrender.trace.tracer.trace_defines()"

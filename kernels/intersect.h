@@ -400,7 +400,7 @@ INLINE float blocks_transmittance(__global const float4 *rows, int first, int co
  * through so far, and the walk ends at an opaque hit.  Stack entries are lane keys (lane_keys) with
  * the node they belong to; trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so the stack
  * holds at most BVH_WIDTH - 1 siblings per level plus one node's lanes
- * (clrender.trace.bvh_wide.stack_size); should it fill up, every primitive is tested at the end. */
+ * (clrender.trace.knobs.TraceKnobs.wide_stack_size); should it fill up, every primitive is tested at the end. */
 typedef struct {
     Ray r;
     float t_min, t_max; /* any-hit: the segment; closest hit: t_max is the nearest hit so far */

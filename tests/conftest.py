@@ -53,3 +53,10 @@ def rng():
     import numpy as np
 
     return np.random.default_rng(12345)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """pytest-randomly shows its seed in the header, which -q hides: say it last, where a failure is read."""
+    seed = getattr(config.option, "randomly_seed", None)
+    if config.pluginmanager.hasplugin("randomly") and isinstance(seed, int):
+        terminalreporter.write_line(f"tests in random order: replay with --randomly-seed={seed} (-p no:randomly: file order)")

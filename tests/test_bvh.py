@@ -104,16 +104,15 @@ def test_sampled_and_halving_paths_keep_invariants(rng):
         check_tree(bvh, lo, hi, max_leaf=16)
 
 
-def test_depth_is_capped(monkeypatch):
+def test_depth_is_capped():
     """Boxes at 16^i make binned SAH peel one primitive per level; with the cap lowered to 12 the
     builder switches to halving in time."""
     x = np.float32(16.0) ** np.arange(31, dtype=np.float32)
     lo = np.concatenate([np.stack([x, 0 * x, 0 * x], axis=1), np.random.default_rng(0).random((200, 3))])
     lo = lo.astype(np.float32)
     assert build_bvh(lo, lo + 1, max_leaf_size=1).depth > 16
-    monkeypatch.setattr(bvh_module, "MAX_TREE_LEVELS", 12)
     for builder in BUILDERS:
-        bvh = build_bvh(lo, lo + 1, builder=builder, max_leaf_size=1)
+        bvh = build_bvh(lo, lo + 1, builder=builder, max_leaf_size=1, max_levels=12)
         assert bvh.depth <= 12
         check_tree(bvh, lo, lo + 1)
 
@@ -252,17 +251,15 @@ def test_float64_bounds_round_outward(rng):
 
 
 @pytest.mark.parametrize("halving_below", [0, 1000])
-def test_top_level_launches_give_the_same_tree_as_one_subtree(rng, monkeypatch, halving_below):
+def test_top_level_launches_give_the_same_tree_as_one_subtree(rng, halving_below):
     """The SAH build splits its top levels one node per work-item and launch, then builds each
     remaining subtree in one work-item: the tree must not depend on where that switch happens
     (clustered input: subtrees end at different depths)."""
     tri = np.concatenate([soup(rng, 3000, size=0.1), soup(rng, 1000, size=0.001) * 0.01])
     lo, hi = tri.min(1), tri.max(1)
-    monkeypatch.setattr(bvh_module, "TOP_MIN", 10**9)  # the root's whole tree in one work-item
-    single = build_bvh(lo, hi, halving_below=halving_below)
-    monkeypatch.setattr(bvh_module, "TOP_MIN", 8)  # nodes of more than 8 primitives split by split_level
-    monkeypatch.setattr(bvh_module, "TOP_TASKS", 10**9)
-    many = build_bvh(lo, hi, halving_below=halving_below)
+    single = build_bvh(lo, hi, halving_below=halving_below, top_min=10**9)  # the root's whole tree in one work-item
+    # nodes of more than 8 primitives split by split_level
+    many = build_bvh(lo, hi, halving_below=halving_below, top_min=8, top_tasks=10**9)
     check_tree(many, lo, hi)
     assert many.nodes.tobytes() == single.nodes.tobytes()
     assert np.array_equal(many.prim_order, single.prim_order)
@@ -312,12 +309,11 @@ def test_sah_refuses_more_primitives_than_its_int32_indices_reach(monkeypatch):
     assert build_bvh(lo, lo + 1, builder="median").leaf_count > 1
 
 
-def test_root_leaf_above_the_subtree_size(monkeypatch):
+def test_root_leaf_above_the_subtree_size():
     """A root that the top-level launch makes a leaf (more primitives than a subtree task, at most
     max_leaf_size) is the whole tree."""
-    monkeypatch.setattr(bvh_module, "TOP_MIN", 8)
     lo = np.random.default_rng(3).random((20, 3)).astype(np.float32)
-    bvh = build_bvh(lo, lo + 0.1, max_leaf_size=100)
+    bvh = build_bvh(lo, lo + 0.1, max_leaf_size=100, top_min=8)
     check_tree(bvh, lo, lo + 0.1)
     assert len(bvh.nodes) == 1 and bvh.nodes["count"][0] == 20
 

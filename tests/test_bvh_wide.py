@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from test_exact_rays import degenerate_meshes, rays_at_triangles
 
-import clrender.trace.tracer
 from clrender.scene.meshes import dense_mesh
 from clrender.trace.bvh import build_bvh, half_area
 from clrender.trace.bvh_wide import collapse
+from clrender.trace.knobs import DEFAULT_KNOBS, TraceKnobs
 from clrender.trace.tracer import Tracer
 
 
@@ -155,23 +155,22 @@ def test_wide_binary_and_brute_force_agree_on_axis_aligned_and_grazing_rays(devi
 
 
 @pytest.mark.parametrize("stack_size", [None, 2])
-def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(device, stack_size, monkeypatch):
-    """With clrender.trace.bvh.STACK_SIZE = 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
+def test_wide_tree_on_degenerate_meshes_matches_brute_force_even_when_its_stack_overflows(device, stack_size):
+    """With a binary stack of 2 the wide stacks (scaled from it) hold 4 or 8 lanes: they overflow
     on purpose and the kernels' fallback must still give the brute-force answers."""
-    if stack_size is not None:
-        monkeypatch.setattr("clrender.trace.bvh.STACK_SIZE", stack_size)
+    knobs = DEFAULT_KNOBS if stack_size is None else TraceKnobs(stack_size=stack_size)
     rng = np.random.default_rng(23)
     for name, vertices in degenerate_meshes(rng):
         mesh = (vertices, np.arange(len(vertices)).reshape(-1, 3))
         o, d = rays_at_triangles(rng, vertices, 300)
-        assert_same_answers(three_ways(mesh, o, d, 40.0, device), name)
+        assert_same_answers(three_ways(mesh, o, d, 40.0, device, knobs=knobs), name)
 
 
-def test_wide_tree_counts_fewer_node_visits_for_the_same_primitive_tests(device, monkeypatch):
+def test_wide_tree_counts_fewer_node_visits_for_the_same_primitive_tests(device):
     """The BVH on/off harness stays honest: node visits and primitive tests are counted per ray, and
     the wide tree visits fewer nodes for about the same primitive tests on camera-like rays (both
     layouts over the same binary tree: leaves of at most 4)."""
-    monkeypatch.setitem(clrender.trace.tracer.MAX_LEAF_SIZE, 4, 4)
+    same_leaves = TraceKnobs(max_leaf_size=4)
     mesh = dense_mesh(5000, seed=2)
     v = np.asarray(mesh.vertices)
     centre = (v.min(0) + v.max(0)) / 2
@@ -181,7 +180,7 @@ def test_wide_tree_counts_fewer_node_visits_for_the_same_primitive_tests(device,
     visits = {}
     for width in (4, 2):
         for prims in (False, True):
-            tracer = Tracer(mesh, bvh_width=width, count_prim_tests=prims, device=device)
+            tracer = Tracer(mesh, bvh_width=width, count_prim_tests=prims, device=device, knobs=same_leaves)
             tracer.intersect(o, d)
             visits[width, prims] = tracer.last_visits.astype(np.int64)
     flat = Tracer(mesh, use_bvh=False, device=device)

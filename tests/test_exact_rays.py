@@ -12,6 +12,7 @@ import pytest
 import trimesh
 
 from clrender.scene.scene import Scene
+from clrender.trace.knobs import DEFAULT_KNOBS, TraceKnobs
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
@@ -292,11 +293,10 @@ def rays_at_triangles(rng, vertices, n):
 
 
 @pytest.mark.parametrize("stack_size", [None, 2])
-def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, stack_size, monkeypatch):
+def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, stack_size):
     """Every builder against no BVH; with stack_size=2 the kernels' stack overflows on purpose and their
     fallback must still give the brute-force answers."""
-    if stack_size is not None:
-        monkeypatch.setattr("clrender.trace.bvh.STACK_SIZE", stack_size)
+    knobs = DEFAULT_KNOBS if stack_size is None else TraceKnobs(stack_size=stack_size)
     rng = np.random.default_rng(21)
     for name, vertices in degenerate_meshes(rng):
         mesh = (vertices, np.arange(len(vertices)).reshape(-1, 3))
@@ -306,8 +306,8 @@ def test_degenerate_meshes_find_every_primitive_the_brute_force_finds(device, st
         blocked_ref = flat.occluded(o, d, 40.0)
         assert np.isfinite(t_ref).mean() > 0.9, name
         for builder in ("sah", "median"):
-            tracer = Tracer(mesh, builder=builder, device=device)
-            assert tracer.bvh.depth <= 48
+            tracer = Tracer(mesh, builder=builder, device=device, knobs=knobs)
+            assert tracer.bvh.depth <= knobs.max_tree_levels
             t, p, _ = tracer.intersect(o, d)
             np.testing.assert_array_equal(t, t_ref, err_msg=f"{name} {builder}")
             np.testing.assert_array_equal(p, p_ref, err_msg=f"{name} {builder}")

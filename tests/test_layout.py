@@ -47,6 +47,17 @@ def test_the_kernels_see_the_hosts_values_and_record_sizes(device):
     assert eps[0] == np.float32(layout.SPLAT_EPS)
 
 
+def test_every_record_is_as_long_as_the_rows_the_kernels_read():
+    from clrender.trace.bvh import NODE_DTYPE
+
+    assert layout.SPLAT_GRAD_DTYPE.itemsize == 4 * layout.SPLAT_NGRAD
+    assert layout.ID_RECORD_DTYPE.itemsize == 4 * layout.ID_RECORD
+    assert layout.PRIM_SLOT_DTYPE.itemsize == 16 * layout.PRIM_ROWS
+    assert layout.MATERIAL_DTYPE.itemsize == 16 * layout.MATERIAL_ROWS
+    assert layout.LIGHT_DTYPE.itemsize == 16 * layout.LIGHT_ROWS
+    assert NODE_DTYPE.itemsize == 16 * layout.BVH_NODE_ROWS
+
+
 def test_record_fields_are_whole_float4_rows_in_the_kernels_order():
     for dtype, rows in (
         (layout.LIGHT_DTYPE, layout.LIGHT_ROWS),

@@ -227,10 +227,8 @@ for blend in ("sum", "normalized"):
 import clrender.trace.bvh as bvh
 lo = rng.random((300, 3)).astype(np.float32)
 hi = lo + rng.random((300, 3)).astype(np.float32) * 0.05
-bvh.TOP_MIN = 10**9  # the whole tree in one build_subtree work-item
-one = bvh.build_bvh(lo, hi, max_leaf_size=2)
-bvh.TOP_MIN = 16  # nodes of more than 16 primitives split by split_level, one launch per level
-top = bvh.build_bvh(lo, hi, max_leaf_size=2)
+one = bvh.build_bvh(lo, hi, max_leaf_size=2, top_min=10**9)  # the whole tree in one build_subtree work-item
+top = bvh.build_bvh(lo, hi, max_leaf_size=2, top_min=16)  # nodes of more than 16 primitives split by split_level, one launch per level
 assert top.nodes.tobytes() == one.nodes.tobytes() and (top.prim_order == one.prim_order).all()
 nodes, leaf = top.nodes, top.nodes["count"] > 0
 slots = np.concatenate([np.arange(o, o + k) for o, k in zip(nodes["offset"][leaf], nodes["count"][leaf])])

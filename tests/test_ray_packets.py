@@ -19,6 +19,7 @@ from test_exact_rays import grid_mesh, triangles_containing
 from clrender.scene.camera import Camera
 from clrender.scene.meshes import dense_mesh
 from clrender.scene.scene import Scene
+from clrender.trace.knobs import TraceKnobs
 from clrender.trace.tracer import Tracer
 
 PACKET = 8  # rays 8k .. 8k + 7 form one packet
@@ -527,10 +528,10 @@ WIDTHS_8_FAST = [8, pytest.param(4, marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("width", WIDTHS_8_FAST)
-def test_an_overflowing_stack_still_finds_the_brute_force_answers(device, width, monkeypatch):
-    """STACK_SIZE = 2: the kernels' traversal stacks overflow on purpose; packets and their fallback
+def test_an_overflowing_stack_still_finds_the_brute_force_answers(device, width):
+    """A binary stack of 2: the kernels' traversal stacks overflow on purpose; packets and their fallback
     still answer what the every-primitive walk answers."""
-    monkeypatch.setattr("clrender.trace.bvh.STACK_SIZE", 2)
+    tiny_stacks = TraceKnobs(stack_size=2)
     mesh = stacked_triangles()
     rng = np.random.default_rng(22)
     n = 8 * 60
@@ -539,7 +540,7 @@ def test_an_overflowing_stack_still_finds_the_brute_force_answers(device, width,
     o = target - 5 * d
     t_min = np.where(np.arange(n) % 3 == 2, 5.0005, 0.0)  # every third ray skips the coincident copies
     assert packet_share(d) == 1.0
-    hits, blocked = packets_change_nothing(mesh, o, d, device, t_min=t_min, t_max=5.05, bvh_width=width)
+    hits, blocked = packets_change_nothing(mesh, o, d, device, t_min=t_min, t_max=5.05, bvh_width=width, knobs=tiny_stacks)
     prim = hits[1]
     np.testing.assert_array_equal(prim[t_min == 0], 0)  # of 300 copies at the same t, the lowest id
     assert (prim[t_min > 0] == 300).mean() > 0.9  # the nearest stacked copy below (few rays hit a scattered one first)

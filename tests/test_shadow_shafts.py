@@ -14,18 +14,18 @@ import numpy as np
 import pytest
 
 from clrender.scene.scene import Mesh, Scene
-from clrender.trace import tracer as tracer_module
+from clrender.trace.knobs import DEFAULT_KNOBS, TraceKnobs
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
 W, H = 40, 30
 
 
-def render_both(scene, **settings):
+def render_both(scene, knobs=DEFAULT_KNOBS, **settings):
     """The same render with shafts off (per-ray traversal) and on."""
     settings = {"width": W, "height": H, "aa": "full", "samples": 2, "seed": 3, **settings}
-    off = Renderer(scene, tracer=Tracer(scene, shadow_shafts=False), **settings).run()
-    on = Renderer(scene, tracer=Tracer(scene, shadow_shafts=True), **settings).run()
+    off = Renderer(scene, tracer=Tracer(scene, shadow_shafts=False, knobs=knobs), **settings).run()
+    on = Renderer(scene, tracer=Tracer(scene, shadow_shafts=True, knobs=knobs), **settings).run()
     return off, on
 
 
@@ -126,7 +126,7 @@ def test_lights_close_to_and_grazing_the_floor(device, light_height):
 
 def test_a_dense_cloud_overflows_the_candidates_and_falls_back(device):
     """Hundreds of small triangles between the floor and the light: more candidate blocks than
-    SHAFT_CANDIDATES, so most shading points trace each ray through the tree."""
+    TraceKnobs.shaft_candidates, so most shading points trace each ray through the tree."""
     rng = np.random.default_rng(11)
     scene = stress_scene()
     scene.objects.append(soup(rng, 800, np.array([0.0, 1.6, 0.0]), 1.0, 0.03))
@@ -135,10 +135,9 @@ def test_a_dense_cloud_overflows_the_candidates_and_falls_back(device):
     assert_same_render(off, on)
 
 
-def test_a_one_block_candidate_list_still_gives_the_same_render(device, monkeypatch):
-    """SHAFT_CANDIDATES = 1: almost every shaft overflows (fallback), the rest use one block."""
-    monkeypatch.setattr(tracer_module, "SHAFT_CANDIDATES", 1)
-    off, on = render_both(stress_scene())
+def test_a_one_block_candidate_list_still_gives_the_same_render(device):
+    """One candidate block: almost every shaft overflows (fallback), the rest use one block."""
+    off, on = render_both(stress_scene(), knobs=TraceKnobs(shaft_candidates=1))
     assert_same_render(off, on)
 
 

@@ -36,8 +36,8 @@ Builders:
   into halves (the first child gets ``count // 2``), leaves of at most
   ``max_leaf_size``.
 
-Every tree is at most ``MAX_TREE_LEVELS`` levels deep (the kernels' traversal stack
-is 64 entries): SAH nodes switch to halving early enough.
+Every tree is at most ``max_levels`` levels deep (``MAX_TREE_LEVELS`` by default, which the
+kernels' default traversal stacks hold: clrender.trace.knobs): SAH nodes switch to halving early enough.
 """
 
 from __future__ import annotations
@@ -49,17 +49,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
-from ..layout import BVH_NODE_ROWS
+from .knobs import BUILD_STACK, DEFAULT_KNOBS, MAX_TREE_LEVELS_LIMIT
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
-assert NODE_DTYPE.itemsize == 16 * BVH_NODE_ROWS  # the kernels read a node as BVH_NODE_ROWS float4s
+# the kernels read a node as BVH_NODE_ROWS float4s (tests/test_layout.py checks the size)
 BUILDERS = ("sah", "median")
-MAX_TREE_LEVELS = 48  # levels, root included
-# The kernels' traversal stack (-DSTACK_SIZE): near-first closest-hit traversal keeps at most
-# depth - 1 far nodes, any-hit traversal at most depth nodes, so a tree of MAX_TREE_LEVELS levels always
-# fits (the kernels also fall back to testing every primitive should a stack ever fill up).
-STACK_SIZE = 64
-assert MAX_TREE_LEVELS <= STACK_SIZE
+MAX_TREE_LEVELS = DEFAULT_KNOBS.max_tree_levels  # levels, root included (a Tracer passes its knobs' value)
 SAH_SAMPLES = 1024  # nodes larger than this bin a strided sample of this many primitives
 HALVING_BELOW = 0  # SAH nodes of at most this many primitives are split in halves (0: none by size)
 MAX_BINS = 64  # SAH bins per axis at most (the kernel keeps 3 x bins bin records per work-item)
@@ -152,8 +147,15 @@ def build_bvh(
     *,
     sah_samples: int = SAH_SAMPLES,
     halving_below: int = HALVING_BELOW,
+    max_levels: int = MAX_TREE_LEVELS,
+    top_tasks: int = TOP_TASKS,
+    top_min: int = TOP_MIN,
+    device=None,
 ) -> BVH:
-    """Build a BVH over N primitives given their bounds lo, hi (each (N, 3))."""
+    """Build a BVH over N primitives given their bounds lo, hi (each (N, 3)), at most `max_levels`
+    deep; the SAH builder runs on `device` (default: clrender's device).  `top_tasks` and `top_min`
+    choose the nodes split one per work-item, those of more than max(n // top_tasks, top_min)
+    primitives; the tree does not depend on them."""
     start = time.perf_counter()
     if builder not in BUILDERS:
         raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
@@ -165,6 +167,10 @@ def build_bvh(
         raise UsageError(f"sah_samples {sah_samples}; allowed: 2 or more")
     if not 0 <= int(halving_below) < 2**31:
         raise UsageError(f"halving_below {halving_below}; allowed: 0 or more")
+    if not 2 <= int(max_levels) <= MAX_TREE_LEVELS_LIMIT:
+        raise UsageError(f"max_levels {max_levels}; allowed: 2 to {MAX_TREE_LEVELS_LIMIT}")
+    if int(top_tasks) < 1 or int(top_min) < 1:
+        raise UsageError(f"top_tasks {top_tasks} and top_min {top_min}; allowed: 1 or more")
     lo, hi = _as_float32(lo, -np.inf), _as_float32(hi, np.inf)
     if lo.ndim != 2 or lo.shape[1:] != (3,) or lo.shape != hi.shape:
         raise UsageError(f"primitive bounds of shapes {lo.shape} and {hi.shape}; allowed: two (N, 3) arrays")
@@ -185,7 +191,8 @@ def build_bvh(
         nodes = _depth_first(levels)
     else:
         with _DEVICE_BUILD:  # the kernel objects and their arguments are shared by every caller
-            nodes, order = _sah_device(lo, hi, min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below))
+            params = (min(int(max_leaf_size), 2**28), int(bins), int(sah_samples), int(halving_below), int(max_levels))
+            nodes, order = _sah_device(lo, hi, *params, subtree_size=max(n // int(top_tasks), int(top_min)), device=device)
     return BVH(nodes, order.astype(np.int32), time.perf_counter() - start, builder)
 
 
@@ -273,11 +280,12 @@ def _median_levels(lo, hi, max_leaf):
 
 
 # ---------------------------------------------------------------- binned SAH (kernels/bvh_build.cl)
-def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
+def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, subtree_size, device):
     """The binned SAH build on the OpenCL device: returns (nodes, prim_order).
 
     Top levels: one split_level launch per level, a node per work-item, until every node holds at
-    most `_subtree_size(n)` primitives; then one build_subtree launch, a whole subtree per
+    most `subtree_size` primitives (about n / TOP_TASKS, so that both cores stay busy to the end, and
+    no fewer than TOP_MIN); then one build_subtree launch, a whole subtree per
     work-item (biggest first), written to scratch node slots 2 * first slot onwards; then
     place_subtrees copies them to their depth-first places.  The few top nodes are laid out here.
     """
@@ -285,11 +293,11 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
 
     from ..device import get_device
 
-    dev = get_device()
-    defines = dict(BINS=bins, BUILD_STACK=STACK_SIZE + 2)
+    dev = device if device is not None else get_device()
+    defines = dict(BINS=bins, BUILD_STACK=BUILD_STACK)
     knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
     queue, n = dev.queue, len(lo)
-    params = [np.int32(v) for v in (max_leaf, 4 * max_leaf, samples, halving_below, MAX_TREE_LEVELS)]
+    params = [np.int32(v) for v in (max_leaf, 4 * max_leaf, samples, halving_below, max_levels)]
     dev.check_fits(32 * n * 2, f"a BVH over {n} primitives")
 
     # primitive records and the root's bounds, a chunk of primitives per work-item
@@ -305,7 +313,7 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
 
     # top levels, breadth-first: each top node's bounds, first slot, primitives, level, first child (-1: none)
     top_bounds, top_start, top_count, top_level, top_child = [root], [0], [n], [1], [-1]
-    big_enough = _subtree_size(n)
+    big_enough = subtree_size
     level, subtrees = [0], []  # subtrees: top nodes whose whole subtree build_subtree grows
     while level:
         subtrees += [i for i in level if top_count[i] <= big_enough]
@@ -335,7 +343,7 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
 
     # every subtree in one work-item, biggest first
     subtrees.sort(key=lambda i: -top_count[i])
-    if not subtrees:  # the root is a leaf (more than _subtree_size(n) primitives, at most max_leaf)
+    if not subtrees:  # the root is a leaf (more than subtree_size primitives, at most max_leaf)
         nodes = np.zeros(1, NODE_DTYPE)
         nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root[0, :3], root[1, :3], n
         return nodes, np.arange(n, dtype=np.int32)
@@ -375,9 +383,3 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below):
         nodes["bmin"][p], nodes["bmax"][p] = top_bounds[i][0, :3], top_bounds[i][1, :3]
         nodes["offset"][p], nodes["count"][p] = (top_start[i], top_count[i]) if c < 0 else (place[c + 1], 0)
     return nodes, order
-
-
-def _subtree_size(n: int) -> int:
-    """Nodes of at most this many primitives build their whole subtree in one work-item: about
-    n / TOP_TASKS, so that both cores stay busy to the end, and no fewer than TOP_MIN."""
-    return max(n // TOP_TASKS, TOP_MIN)

@@ -20,7 +20,7 @@ with the two children of its binary node, then repeatedly replaces the
 interior child of largest surface area by its two children until it has
 WIDTH children or only leaves.  Vectorised over all nodes of a level.  A wide
 node is never deeper than the binary node it came from, so wide trees keep the
-binary depth bound (MAX_TREE_LEVELS) and the kernels' stack bound below.
+binary depth bound (MAX_TREE_LEVELS) and the kernels' stack bound (TraceKnobs.wide_stack_size).
 """
 
 from __future__ import annotations
@@ -31,23 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..layout import BLOCK_LANES, BLOCK_ROWS, BLOCK_SLOT_ROW, WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
-from .bvh import BVH, MAX_TREE_LEVELS, half_area
+from .bvh import BVH, half_area
 
 WIDTHS = (2, 4, 8)  # 2: the binary tree as is
-
-
-def stack_size(width: int) -> int:
-    """Traversal stack entries for a wide tree (-DWIDE_STACK_SIZE).  A tree of at most MAX_TREE_LEVELS
-    levels needs (width - 1) * (MAX_TREE_LEVELS - 1) + width: along the path to the current node at most
-    width - 1 pending siblings per level, plus one node's lanes.  Scaled from the binary stack
-    (clrender.trace.bvh.STACK_SIZE, read at call time) so that shrinking it, as a test does to force the
-    kernels' overflow fallback, shrinks this one too."""
-    from . import bvh
-
-    return (width - 1) * (bvh.STACK_SIZE - 1) + 1
-
-
-assert all(stack_size(w) >= (w - 1) * (MAX_TREE_LEVELS - 1) + w for w in (4, 8))
 
 
 @dataclass
