@@ -591,17 +591,32 @@ def transform_matrix(translate=(0, 0, 0), rotate_degrees=(0, 0, 0), scale=(1, 1,
 
 
 def load_mesh_file(path: Path, what: str):
-    """A trimesh.Trimesh from any format trimesh reads, checked for emptiness and NaNs."""
+    """A trimesh.Trimesh from any format trimesh reads, checked for emptiness, NaNs and face indices."""
     import trimesh
+
+    from ..errors import MAX_SHOWN, first_line, one_line, shown
 
     if not path.is_file():
         raise UsageError(f"{what}: mesh file {str(path)!r} does not exist")
     try:
         tm = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many kinds for malformed files
-        raise UsageError(f"{what}: cannot read mesh {str(path)!r} ({exc})") from None
+        # On undecodable text trimesh reaches for an optional encoding guesser (charset_normalizer):
+        # the missing module is trimesh's detail, the file is the user's problem.
+        kind = one_line(path.suffix.lstrip(".").upper() or "a mesh", 20)
+        if isinstance(exc, ImportError) and exc.name == "charset_normalizer":
+            reason = "not text in a known encoding"
+        elif isinstance(exc, ImportError):
+            reason = f"reading {kind} needs the Python module {exc.name}, which is not installed"
+        else:
+            reason = first_line(str(exc)) or type(exc).__name__
+        raise UsageError(f"{what}: cannot parse mesh {shown(path)} as {kind} ({one_line(reason, MAX_SHOWN)})") from None
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise UsageError(f"{what}: mesh {str(path)!r} has no triangles")
+    faces = np.asarray(tm.faces)
+    if not 0 <= faces.min() <= faces.max() < len(tm.vertices):  # numpy would wrap -1 silently, or raise IndexError
+        bad = faces.min() if faces.min() < 0 else faces.max()
+        raise UsageError(f"{what}: mesh {shown(path)} has face index {bad}; allowed: 0 to {len(tm.vertices) - 1} (its vertices)")
     if not np.isfinite(tm.vertices).all():
         raise UsageError(f"{what}: mesh {str(path)!r} has NaN or infinite vertices")
     return tm
