@@ -54,14 +54,14 @@ def batch_outputs(args, inputs: list[Path], refused: dict) -> list[Path]:
 
 def run_gauss_batch(args, config_of) -> int:
     """One Gaussian fit per photo; config_of(args) is the FitConfig a single fit would use."""
-    from ..image.files import read_image, write_image
+    from ..image.files import write_image
     from ..outputs import output_set
-    from ..splat.fit import as_rgb
     from .cluster import cluster_client
+    from .splat_gauss import _read_target
 
     inputs = photos(args.input)
     outs = batch_outputs(args, inputs, {"--save-params": args.save_params, "--log": args.log, "--curve": args.curve})
-    targets = [as_rgb(read_image(p).pixels) for p in inputs]
+    targets = [_read_target(p) for p in inputs]  # each checked (splat/pixels.py), naming its file
     config = config_of(args)
     for t in targets:
         config.validate(t.shape[1], t.shape[0])
@@ -89,14 +89,18 @@ def run_gauss_batch(args, config_of) -> int:
 
 def run_voronoi_batch(args, settings_of) -> int:
     """One Voronoi splatting per photo; settings_of(args) is the VoronoiSettings a single run would use."""
+    from ..errors import shown
     from ..image.files import read_image, write_image
     from ..outputs import output_set
+    from ..splat.pixels import check_pixels
     from ..splat.voronoi import cell_edges
     from .cluster import cluster_client
 
     inputs = photos(args.input)
     outs = batch_outputs(args, inputs, {"--save-sites": args.save_sites})
     images = [read_image(p) for p in inputs]
+    for path, image in zip(inputs, images):
+        check_pixels(image.pixels, shown(path))
     settings = settings_of(args)
     for img in images:
         settings.validate(img.pixels.shape[1], img.pixels.shape[0])

@@ -122,10 +122,14 @@ def _config(args, **extra):
 
 
 def _read_target(path):
+    from ..errors import shown
     from ..image.files import read_image
     from ..splat.fit import as_rgb
+    from ..splat.pixels import check_pixels
 
-    return as_rgb(read_image(path).pixels)
+    pixels = read_image(path).pixels
+    check_pixels(pixels, shown(path))  # NaN, inf or 3e38 in an EXR/HDR/PFM: refused naming the file
+    return as_rgb(pixels)
 
 
 def write_log(path, log: list[dict], overwrite: bool = True) -> None:

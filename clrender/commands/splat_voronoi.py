@@ -54,8 +54,10 @@ def add_parser(group):
 
 def run(args):
     from ..device import get_device
+    from ..errors import shown
     from ..image.files import check_distinct_outputs, check_output_path, read_image, write_image
     from ..outputs import output_set, save_npz
+    from ..splat.pixels import check_pixels
     from ..splat.voronoi import VoronoiSettings, cell_edges, splat
     from .splat_batch import is_batch, run_voronoi_batch
 
@@ -71,6 +73,7 @@ def run(args):
         sites_path = check_file_output(args.save_sites, overwrite=args.overwrite, suffixes=(".npz",), option="--save-sites")
         check_distinct_outputs(**{"IN": args.input, "-o": output, "--save-sites": sites_path})
     img = read_image(args.input)
+    check_pixels(img.pixels, shown(args.input))  # NaN, inf or 3e38 in an EXR/HDR/PFM: refused naming the file
     h, w = img.pixels.shape[:2]
     settings = VoronoiSettings(
         n=args.splats, method=args.method, init=args.init, colors=args.colors, lloyd=args.lloyd, train=args.train, seed=args.seed

@@ -26,6 +26,7 @@ from . import INITS
 from .gauss import BLENDS, MIN_LOG_SCALE, TILE, GaussParams, GaussRenderer
 from .losses import LOSSES, loss_and_grad, psnr
 from .optim import OPTIMIZERS, Optimizer
+from .pixels import check_pixels
 
 LEARN = ("seed", "all")
 MAX_LR = 1000.0  # --lr multiplier; far above any useful rate, below where float32 steps overflow
@@ -196,6 +197,7 @@ class Fitter:
 
     def __init__(self, device, target: np.ndarray, config: FitConfig):
         self.target = as_rgb(target)
+        check_pixels(self.target, "the target image")
         h, w = self.target.shape[:2]
         config.validate(w, h)
         self.config, self.width, self.height = config, w, h

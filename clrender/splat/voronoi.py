@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import UsageError, require
 from . import INITS
+from .pixels import check_pixels
 from .voronoi_cells import (
     METHODS,
     NearestSite,
@@ -202,6 +203,7 @@ def splat(device, image: np.ndarray, settings: VoronoiSettings) -> VoronoiResult
     h, w = image.shape[:2]
     settings.validate(w, h)
     image = np.ascontiguousarray(image, dtype=np.float32)
+    check_pixels(image, "the image")
     sites = init_sites(image, settings.n, settings.init, settings.seed)
     if settings.lloyd:
         sites, _, _ = lloyd(device, sites, w, h, settings.lloyd, settings.method)
