@@ -14,12 +14,17 @@ Several outputs of one command form a set (`output_set`): every file is
 written first, then all are put in place; if any step fails, the ones already
 placed are undone, so the folder holds the old set or the new one.
 
-Placing with overwrite (and keeping the old files of a set for undo) needs
-hidden *named* files for a few system calls, since Linux cannot rename an
-unnamed file over an existing one.  A SIGKILL inside that window (catchable
-signals wait for it) leaves one such `.NAME.PID.XXXXXXXX.clrender-tmp`; it
-carries the writer's pid, and the next write into that folder removes those
-whose process is gone.
+Placing with overwrite (and a set's placing) needs hidden *named* files for a
+few system calls, since Linux cannot rename an unnamed file over an existing
+one.  They are named `.NAME.PID.XXXXXXXX.clrender-tmp` after the writer's pid.
+A set is placed under a journal (`.clrender-set.PID.XXXXXXXX.clrender-tmp.journal`
+in each of its folders) that names every new file and every old one, written
+before the first rename.  Catchable signals wait until the set is placed; a
+SIGKILL among the renames leaves the journal, and the next write into that
+folder (remove_stale_temps) finishes the set forward (or back, if it was being
+undone) and removes the hidden files whose process is gone.  So between a
+`kill -9` and the next write into the folder, a set can be seen mixed; after
+it, the folder holds the old set or the new one.
 
     with output_set(overwrite=args.overwrite):
         write_image(out, pixels)            # staged, not yet visible
@@ -32,7 +37,9 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import csv
+import dataclasses
 import errno
+import json
 import os
 import re
 import signal
@@ -54,11 +61,11 @@ _TEMP_NAME = re.compile(r"^\..*\.(\d+)\.[A-Za-z0-9_]+" + re.escape(TEMP_MARK) + 
 class _Staged:
     """One finished-but-unplaced file: an O_TMPFILE descriptor or a hidden named file."""
 
-    def __init__(self, final: Path):
+    def __init__(self, final: Path, folder: Path | None = None):
         self.final = final
         self.fd = None
         self.named = None
-        folder = str(final.parent) or "."
+        folder = str(final.parent if folder is None else folder) or "."
         try:
             self.fd = os.open(folder, os.O_TMPFILE | os.O_RDWR, 0o666)  # umask applies
         except (AttributeError, OSError) as exc:
@@ -91,6 +98,16 @@ class _Staged:
                 os.close(root)
         else:
             os.link(self.named, name)
+
+    def name_it(self) -> str:
+        """A hidden name beside the final one for the contents (a journal can name it; see commit)."""
+        if self.named is None or Path(self.named).parent != self.final.parent:
+            hidden = _hidden_name(self.final)
+            self.link_to(hidden)
+            if self.named is not None:
+                os.unlink(self.named)
+            self.named = hidden
+        return self.named
 
     def place(self, overwrite: bool) -> None:
         final = str(self.final)
@@ -127,6 +144,7 @@ class OutputSet:
     def __init__(self, overwrite: bool):
         self.overwrite = overwrite
         self.staged: list[_Staged] = []
+        self.folders: list[Path] = []  # made at commit (add_folder)
         _LIVE.add(self)
 
     def write(self, final, writer: Callable[[str], None]) -> Path:
@@ -134,8 +152,9 @@ class OutputSet:
         final = Path(final)
         if final.is_dir():
             raise UsageError(f"output {_show(final)} is a folder; name a file inside it")
-        remove_stale_temps(final.parent)
-        staged = _Staged(final)
+        folder = final.parent.parent if final.parent in self.folders else final.parent
+        remove_stale_temps(folder)
+        staged = _Staged(final, folder)
         self.staged.append(staged)
         try:
             writer(staged.path)
@@ -146,43 +165,194 @@ class OutputSet:
         return final
 
     def commit(self) -> None:
-        """Place every staged file; on any failure undo the placed ones and re-raise."""
+        """Place every staged file; on any failure undo the placed ones and re-raise.
+
+        A single file is placed in one atomic step.  A set is placed under a journal (see _Journal):
+        every new file first gets a hidden name beside its target, the journal naming them all is
+        written, and only then are they renamed; a process killed among the renames leaves the
+        journal, and the next write into that folder finishes the set (or undoes it)."""
         names = [str(s.final) for s in self.staged]
         if len(set(map(os.path.abspath, names))) != len(names):
             raise UsageError(f"two outputs name the same file ({', '.join(map(_show, names))})")
-        placed: list[tuple[Path, str | None]] = []  # (final, backup of the old file)
-        keep_backups = len(self.staged) > 1  # a single file needs no undo: its placing is one atomic step
+        made: list[Path] = []
         with _signals_deferred():
             try:
-                for s in self.staged:
-                    backup = None
-                    if self.overwrite and keep_backups and s.final.exists():
-                        backup = _hidden_name(s.final)
-                        os.link(s.final, backup)
-                    try:
-                        s.place(self.overwrite)
-                    except BaseException:
-                        if backup:
-                            _unlink_quietly(backup)
-                        raise
-                    placed.append((s.final, backup))
+                for folder in self.folders:  # folders the set creates, made at the last moment
+                    os.mkdir(folder)
+                    made.append(folder)
+                if len(self.staged) == 1:
+                    self.staged[0].place(self.overwrite)
+                elif self.staged:
+                    self._commit_with_journal()
             except BaseException:
-                for final, backup in reversed(placed):
-                    if backup:
-                        os.replace(backup, final)
-                    else:
-                        _unlink_quietly(final)
+                for folder in reversed(made):
+                    with contextlib.suppress(OSError):
+                        os.rmdir(folder)
                 raise
             finally:
                 self.discard()
-            for _, backup in placed:
-                if backup:
-                    _unlink_quietly(backup)
+
+    def _commit_with_journal(self) -> None:
+        entries = []
+        journal = None
+        try:
+            for s in self.staged:
+                new = s.name_it()
+                backup = None
+                if self.overwrite and os.path.lexists(s.final):
+                    backup = _hidden_name(s.final)  # the old file, kept for an undo
+                    os.link(s.final, backup, follow_symlinks=False)
+                entries.append(_Entry(str(s.final.absolute()), os.path.abspath(new), _identity(new), backup and os.path.abspath(backup)))
+            journal = _Journal(entries, self.overwrite)
+            journal.save("forward")
+            for s in self.staged:
+                s.place(self.overwrite)
+        except BaseException:
+            if journal is not None and journal.saved:
+                with contextlib.suppress(RenderFailure):
+                    journal.save("back")  # a kill during the undo is undone by the next write, too
+            _roll_back(entries)
+            raise
+        finally:
+            _remove_names(entries)
+            if journal is not None:
+                journal.remove()
+
+    def add_folder(self, folder) -> Path:
+        """A folder the set creates when it is placed (its parent must exist); files staged for it wait
+        in that parent, so a set that is not placed leaves no empty folder behind."""
+        folder = Path(folder)
+        if folder not in self.folders:
+            self.folders.append(folder)
+        return folder
 
     def discard(self) -> None:
         for s in self.staged:
             s.discard()
         self.staged = []
+
+
+# ----------------------------------------------------------------------------- the journal of a set
+JOURNAL_SUFFIX = TEMP_MARK + ".journal"  # ".clrender-set.PID.XXXXXXXX.clrender-tmp.journal" in each folder of a set
+
+
+@dataclasses.dataclass
+class _Entry:
+    """One file of a set being placed: all paths absolute, so a journal in any folder finds them."""
+
+    final: str  # the output's name
+    new: str  # the hidden name holding the new contents until they are placed
+    identity: tuple  # (st_dev, st_ino) of the new contents: tells our placed file from anyone's
+    backup: str | None  # a hidden second name of the old file (with overwrite), for an undo
+
+    def placed(self) -> bool:
+        return _identity(self.final) == self.identity
+
+
+class _Journal:
+    """Which files a set is putting in place, and which way a crashed commit is to be finished.
+
+    Written (whole, by a rename) into every folder the set writes to, after all new files have hidden
+    names there and before the first output is renamed.  "forward": the new set is to be placed;
+    "back": it is to be undone.  remove_stale_temps finishes a journal whose process is gone."""
+
+    def __init__(self, entries: list[_Entry], overwrite: bool):
+        self.entries, self.overwrite, self.saved = entries, overwrite, False
+        token = os.urandom(4).hex()
+        folders = dict.fromkeys(os.path.dirname(e.final) for e in entries)
+        self.names = [os.path.join(f, f".clrender-set.{os.getpid()}.{token}{JOURNAL_SUFFIX}") for f in folders]
+
+    def save(self, roll: str) -> None:
+        text = json.dumps(
+            {"roll": roll, "overwrite": self.overwrite, "journals": self.names, "entries": [dataclasses.asdict(e) for e in self.entries]}
+        )
+        for name in self.names:
+            fd, temp = tempfile.mkstemp(prefix=f".clrender-set.{os.getpid()}.", suffix=TEMP_MARK, dir=os.path.dirname(name))
+            try:
+                try:
+                    with open(fd, "w", closefd=False) as f:
+                        f.write(text)
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
+                os.replace(temp, name)
+            except OSError as exc:
+                _unlink_quietly(temp)
+                raise RenderFailure(write_failure(self.entries[0].final, exc)) from exc
+            self.saved = True
+
+    def remove(self) -> None:
+        for name in self.names:
+            _unlink_quietly(name)
+
+
+def _identity(path: str) -> tuple | None:
+    try:
+        st = os.stat(path, follow_symlinks=False)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def _roll_forward(entries: list[_Entry], overwrite: bool) -> None:
+    """Place every new file that is not placed yet (recovery; raises where one cannot be)."""
+    for e in entries:
+        if e.placed():
+            continue
+        if not os.path.lexists(e.new):
+            raise FileNotFoundError(errno.ENOENT, "the new file is gone", e.new)
+        if overwrite:
+            os.replace(e.new, e.final)
+        else:
+            os.link(e.new, e.final, follow_symlinks=False)  # FileExistsError: someone else's file now
+
+
+def _roll_back(entries: list[_Entry]) -> None:
+    """Put the old files back where ours were placed (best effort: every entry is tried)."""
+    for e in reversed(entries):
+        with contextlib.suppress(OSError):
+            if e.backup and os.path.lexists(e.backup):
+                os.replace(e.backup, e.final)
+            elif e.placed():
+                os.unlink(e.final)
+
+
+def _remove_names(entries: list[_Entry]) -> None:
+    for e in entries:
+        for name in (e.new, e.backup):
+            if name:
+                with contextlib.suppress(OSError):
+                    os.unlink(name)
+
+
+def finish_crashed_sets(folder) -> None:
+    """Finish the set commits in `folder` whose process died among its renames (kill -9): forward to
+    the new set if every new file is still there, else back to the old one; then remove the journal."""
+    try:
+        names = [e.path for e in os.scandir(folder) if e.name.endswith(JOURNAL_SUFFIX)]
+    except OSError:
+        return
+    for name in names:
+        match = _TEMP_NAME.match(os.path.basename(name))
+        if not match or _process_runs(int(match.group(1))):
+            continue
+        try:
+            with open(name) as f:
+                journal = json.load(f)
+            entries = [_Entry(e["final"], e["new"], tuple(e["identity"]), e["backup"]) for e in journal["entries"]]
+            journals, overwrite, roll = list(journal["journals"]), bool(journal["overwrite"]), journal["roll"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # not a journal we wrote; remove_stale_temps removes it
+        if roll == "forward":
+            try:
+                _roll_forward(entries, overwrite)
+            except OSError:
+                _roll_back(entries)
+        else:
+            _roll_back(entries)
+        _remove_names(entries)
+        for other in journals:
+            _unlink_quietly(other)
 
 
 def write_failure(final, exc: OSError) -> str:
@@ -281,7 +451,9 @@ def _temp_prefix(final: Path) -> str:
 
 
 def remove_stale_temps(folder: Path) -> None:
-    """Remove the named temp files in `folder` whose writer no longer runs (left by a SIGKILL)."""
+    """Remove the named temp files in `folder` whose writer no longer runs (left by a SIGKILL),
+    after finishing the set commits such a writer left half done."""
+    finish_crashed_sets(folder)
     try:
         names = [e.name for e in os.scandir(folder) if TEMP_MARK in e.name]
     except OSError:
