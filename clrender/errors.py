@@ -64,6 +64,23 @@ class RenderFailure(RuntimeError):
     """A failure at run time that is not the user's input."""
 
 
+class RenderWarning(UserWarning):
+    """A request that changes nothing or a doubtful input that still renders (the CLI shows a `warning:` line)."""
+
+
+def warn(message: str) -> None:
+    """A RenderWarning pointed at the first caller outside clrender, so Python shows the user's line."""
+    import warnings
+
+    frame, level = sys._getframe(0), 1
+    while frame.f_back is not None and frame.f_code.co_filename.startswith(_PACKAGE_DIR):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(RenderWarning(message), stacklevel=level)
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
 def require(condition: bool, message: str) -> None:
     """Raise UsageError(message) unless condition holds."""
     if not condition:
@@ -102,6 +119,16 @@ def shown(value, limit: int = MAX_SHOWN) -> str:
     """A value as a message quotes it: repr-style quotes, escaped, cut to `limit` characters."""
     text = escaped(value if isinstance(value, str) else str(value))
     return "'" + cut(text, limit) + "'"
+
+
+def value_shown(value) -> str:
+    """A value as a message names it: numbers, booleans and None as written (3, 2.5, True), anything
+    else quoted like shown() (so the string '3' is told from the number 3)."""
+    if type(value).__module__ == "numpy" and getattr(value, "shape", None) == ():
+        value = value.item()  # a numpy scalar reads as the number it holds
+    if value is None or isinstance(value, (bool, int, float)):
+        return str(value)
+    return shown(value)
 
 
 def one_line(message: str, limit: int = 4 * MAX_SHOWN) -> str:

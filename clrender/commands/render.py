@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
+import warnings
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import RenderWarning, UsageError
 from ..trace.renderer import AA_MODES, SAMPLERS, RenderSettings
 from . import add_device_argument
 
@@ -153,9 +155,30 @@ def warn(message: str) -> None:
     sys.stderr.write(f"warning: {message}\n")
 
 
+@contextlib.contextmanager
+def warning_lines():
+    """The library's RenderWarnings (RenderSettings.validate) as this command's `warning:` lines, each
+    once: the settings are checked at several steps (here, by the renderer, once per turntable frame).
+    Other warnings keep Python's own display."""
+    said = set()
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", RenderWarning)
+        python_shows = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if not issubclass(category, RenderWarning):
+                return python_shows(message, category, filename, lineno, file, line)
+            if str(message) not in said:
+                said.add(str(message))
+                warn(str(message))
+
+        warnings.showwarning = show
+        yield
+
+
 def settings_from_args(args) -> RenderSettings:
-    """Named options or the seed-style positional arguments (never both for one setting), then the defaults;
-    warnings for options that have no effect with the chosen --aa."""
+    """Named options or the seed-style positional arguments (never both for one setting), then the defaults
+    (RenderSettings.validate warns about values that change nothing)."""
     d = RenderSettings()
     named = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples, thickness=args.thickness, shadow_edges=args.shadow_edges)
     values = {}
@@ -187,15 +210,6 @@ def settings_from_args(args) -> RenderSettings:
         values.setdefault(key, getattr(d, key) if value is None else value)
     if "samples" not in explicit:  # the default depends on --aa: 1 without anti-aliasing, else 4
         values["samples"] = 1 if values["aa"] == "none" else 4
-    args.warnings = []  # printed once the settings are known to be valid (run)
-    if values["aa"] == "none" and "samples" in explicit and values["samples"] != 1:
-        args.warnings.append(
-            f"{values['samples']} x {values['samples']} samples have no effect with --aa none "
-            "(one ray through each pixel centre); use --aa full or edge_detect"
-        )
-    edges_aov = args.aov is not None and "edges" in args.aov
-    if values["aa"] != "edge_detect" and "thickness" in explicit and not edges_aov:
-        args.warnings.append(f"--thickness has no effect with --aa {values['aa']} (it widens the edge mask of --aa edge_detect)")
     if args.aov is not None:
         from ..trace.aov import parse_aov_list
 
@@ -217,6 +231,11 @@ def settings_from_args(args) -> RenderSettings:
 
 
 def run(args):
+    with warning_lines():
+        return _render(args)
+
+
+def _render(args):
     from .. import memory
     from ..image.files import check_distinct_outputs, check_output_path, write_display_image
     from ..outputs import output_set
@@ -248,12 +267,8 @@ def run(args):
     start = time.perf_counter()
     scene = Scene.load(args.scene)
     load_seconds = time.perf_counter() - start
-    settings.validate(scene)  # bad values are refused before pointless ones are warned about
-    for message in args.warnings:
-        warn(message)
-    if not scene.lights:
-        warn(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
-    size = settings.validate(scene)  # the scene's own width and height where not given
+    # the scene's own width and height where not given; bad values are refused, then pointless ones warned about
+    size = settings.validate(scene)
     memory.require(
         memory.render_bytes(
             size.width,

@@ -12,13 +12,14 @@ of only the masked pixels.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyopencl as cl
 
-from ..errors import require
+from ..errors import require, value_shown, warn
 from ..layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -33,6 +34,7 @@ KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWR
 # A pixel whose primary ray escapes: depth 0 as Mitsuba's `aov` integrator writes it (renders never
 # hold inf; the id AOV, -1 there, tells a miss from a hit), zero normal and albedo.
 AOV_MISS = np.array([0, 0, 0, 0, 0, 0, 0, 0], np.float32)
+THICKNESS = 1.0  # the edge mask's default disc radius (RenderSettings.thickness): another value without edge_detect is warned about
 
 
 @dataclass
@@ -44,7 +46,7 @@ class RenderSettings:
     sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
     samples: int = 1  # N: N x N samples per pixel when anti-aliasing
     pixel_filter: str = "box"  # how a pixel's samples are averaged: "box" (plain mean), "tent" or "gaussian"
-    thickness: float = 1.0  # edge_detect: radius of the disc marked around each edge pixel
+    thickness: float = THICKNESS  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
     contrast: float = 0.03  # edge_detect: a step above this between neighbours (sRGB, any channel) is an edge too; 0: IDs only (the seed)
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
@@ -59,34 +61,96 @@ class RenderSettings:
     aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
 
     def validate(self, scene: Scene) -> RenderSettings:
-        """A copy with the image size filled in; UsageError for any value out of range."""
-        width, height = self.width, self.height
+        """A copy with the image size filled in and every number a Python int or float; UsageError for any
+        value of the wrong type or out of range (the command line's checks are these, so both say the same),
+        then a RenderWarning for each value that changes nothing (see `pointless`)."""
+        v = value_shown
+        for name in ("width", "height"):
+            value = getattr(self, name)
+            require(value is None or _whole(value), f"{name} {v(value)} must be a whole number >= 1, or None for the scene's")
+        require(_whole(self.camera), f"camera {v(self.camera)} must be a whole number (1 is the scene's first camera)")
+        # ints from here on: numpy's int32 would wrap width * height past the pixel limit
+        width, height = (None if x is None else int(x) for x in (self.width, self.height))
         # one side given: the other keeps the scene's aspect ratio (width 100 alone is not a 100x360 sliver)
         if width is not None and height is None:
             height = max(1, round(width * scene.height / scene.width))
         elif height is not None and width is None:
             width = max(1, round(height * scene.width / scene.height))
-        s = replace(self, width=scene.width if width is None else width, height=scene.height if height is None else height)
+        s = replace(self, width=scene.width if width is None else width, height=scene.height if height is None else height, camera=int(self.camera))
         require(s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1")
         require(s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels")
-        require(s.aa in AA_MODES, f"unknown anti-aliasing mode {s.aa!r}; allowed: {', '.join(AA_MODES)}")
-        require(s.sampler in SAMPLERS, f"unknown sampler {s.sampler!r}; allowed: {', '.join(SAMPLERS)}")
-        require(s.pixel_filter in PIXEL_FILTERS, f"unknown pixel filter {s.pixel_filter!r}; allowed: {', '.join(PIXEL_FILTERS)}")
-        require(1 <= s.samples <= 64, f"samples {s.samples} must be an integer from 1 to 64 (N x N per pixel)")
-        require(math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {s.thickness} must be a real number >= 0")
-        require(math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {s.contrast} must be a real number >= 0 (0: off)")
-        require(0 <= s.light_samples <= 64, f"light samples {s.light_samples} must be from 0 (each light's own) to 64")
-        require(s.light_sampler in LIGHT_SAMPLERS, f"unknown light sampler {s.light_sampler!r}; allowed: {', '.join(LIGHT_SAMPLERS)}")
-        require(0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {s.max_depth} must be from 0 to {MAX_DEPTH_LIMIT}")
-        require(s.bvh_builder in BUILDERS, f"unknown BVH builder {s.bvh_builder!r}; allowed: {', '.join(BUILDERS)}")
-        require(0 <= s.seed < 2**32, f"seed {s.seed} must be from 0 to 2**32-1")
-        require(s.tile_size >= 1, f"tile size {s.tile_size} must be >= 1")
+        require(_name_in(s.aa, AA_MODES), f"unknown anti-aliasing mode {v(s.aa)}; allowed: {', '.join(AA_MODES)}")
+        require(_name_in(s.sampler, SAMPLERS), f"unknown sampler {v(s.sampler)}; allowed: {', '.join(SAMPLERS)}")
+        require(_name_in(s.pixel_filter, PIXEL_FILTERS), f"unknown pixel filter {v(s.pixel_filter)}; allowed: {', '.join(PIXEL_FILTERS)}")
+        require(_whole(s.samples) and 1 <= s.samples <= 64, f"samples {v(s.samples)} must be an integer from 1 to 64 (N x N per pixel)")
+        require(_real(s.thickness) and math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {v(s.thickness)} must be a real number >= 0")
+        require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
+        require(_whole(s.light_samples) and 0 <= s.light_samples <= 64, f"light samples {v(s.light_samples)} must be from 0 (each light's own) to 64")
+        require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
+        require(_whole(s.max_depth) and 0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {v(s.max_depth)} must be from 0 to {MAX_DEPTH_LIMIT}")
+        require(_name_in(s.bvh_builder, BUILDERS), f"unknown BVH builder {v(s.bvh_builder)}; allowed: {', '.join(BUILDERS)}")
+        require(_whole(s.seed) and 0 <= s.seed < 2**32, f"seed {v(s.seed)} must be from 0 to 2**32-1")
+        require(_whole(s.tile_size) and s.tile_size >= 1, f"tile size {v(s.tile_size)} must be a whole number >= 1")
+        for name in ("shadow_edges", "fresnel", "bvh"):
+            require(isinstance(getattr(s, name), (bool, np.bool_)), f"{name} {v(getattr(s, name))} must be True or False")
+        require(s.device is None or isinstance(s.device, str), f"device {v(s.device)} must be a device name (a string) or None")
         require(
-            isinstance(s.aovs, (tuple, list)) and all(a in AOV_NAMES for a in s.aovs),
-            f"aovs {s.aovs!r} must be a tuple of names from: {', '.join(AOV_NAMES)}",
+            isinstance(s.aovs, (tuple, list)) and all(_name_in(a, AOV_NAMES) for a in s.aovs),
+            f"aovs {v(s.aovs)} must be a tuple of names from: {', '.join(AOV_NAMES)}",
         )
         scene.camera(s.camera)
+        s = replace(
+            s,
+            **{k: int(getattr(s, k)) for k in ("samples", "light_samples", "max_depth", "seed", "tile_size")},
+            **{k: float(getattr(s, k)) for k in ("thickness", "contrast")},
+            **{k: bool(getattr(s, k)) for k in ("shadow_edges", "fresnel", "bvh")},
+        )
+        if not _on_a_dask_worker():  # a worker re-checks the client's settings: the client has warned already
+            for message in s.pointless(scene):
+                warn(message)
         return s
+
+    def pointless(self, scene: Scene) -> list[str]:
+        """What these (valid) settings ask for that changes nothing, or that renders only darkness, in words.
+        Judged by value: `samples` other than 1 with aa "none", `thickness` other than its default
+        without aa "edge_detect" or the edges AOV, a scene without lights."""
+        said = []
+        if self.aa == "none" and self.samples != 1:
+            said.append(
+                f"{self.samples} x {self.samples} samples have no effect with --aa none "
+                "(one ray through each pixel centre); use --aa full or edge_detect"
+            )
+        if self.aa != "edge_detect" and self.thickness != THICKNESS and "edges" not in self.aovs:
+            said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
+        if not scene.lights:
+            said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
+        return said
+
+
+def _whole(value) -> bool:
+    """An integer (Python's or numpy's), never a bool nor a float that happens to be whole."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _real(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _name_in(value, names) -> bool:
+    """`value` is one of `names` (a string: a list or dict would not hash, and 0 is no name)."""
+    return isinstance(value, str) and value in names
+
+
+def _on_a_dask_worker() -> bool:
+    """Inside a task on a Dask worker (looked up only when distributed is loaded: nothing is imported for it)."""
+    distributed = sys.modules.get("distributed")
+    if distributed is None:
+        return False
+    try:
+        distributed.get_worker()
+    except ValueError:
+        return False
+    return True
 
 
 @dataclass

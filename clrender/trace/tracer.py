@@ -20,13 +20,15 @@ same float32 t the lowest primitive id wins, whatever the BVH.
 
 from __future__ import annotations
 
+import math
+import os
 import time
 
 import numpy as np
 import pyopencl as cl
 
 from ..device import Device, get_device
-from ..errors import UsageError
+from ..errors import UsageError, shown, value_shown
 from ..layout import NORMAL_ROWS
 from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
@@ -46,16 +48,61 @@ MAX_LEAF_SIZE = {2: 4, 4: 6, 8: 6}
 SHAFT_CANDIDATES = 16
 
 
+TRACER_TAKES = "a Tracer takes a Scene, a scene name, path or dict, a trimesh.Trimesh or a (vertices, faces) pair"
+
+
 def as_scene(scene_or_mesh) -> Scene:
     """A Scene from a Scene, a scene name/path/dict, a trimesh.Trimesh or a (vertices, faces) pair."""
     if isinstance(scene_or_mesh, Scene):
         return scene_or_mesh
-    if isinstance(scene_or_mesh, tuple) and len(scene_or_mesh) == 2:
-        vertices, faces = scene_or_mesh
-        return Scene(objects=[Mesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))])
+    if isinstance(scene_or_mesh, (tuple, list)) and len(scene_or_mesh) == 2:
+        return Scene(objects=[Mesh(*mesh_arrays(*scene_or_mesh))])
     if hasattr(scene_or_mesh, "vertices") and hasattr(scene_or_mesh, "faces"):
         return as_scene((scene_or_mesh.vertices, scene_or_mesh.faces))
-    return Scene.load(scene_or_mesh)
+    if isinstance(scene_or_mesh, (str, os.PathLike, dict)):
+        return Scene.load(scene_or_mesh)
+    raise UsageError(f"{TRACER_TAKES}; got {_kind(scene_or_mesh)}")
+
+
+def _kind(value) -> str:
+    """What a refused argument is, in a few words (never its whole contents)."""
+    if isinstance(value, np.ndarray):
+        return f"a numpy array of shape {value.shape}"
+    if isinstance(value, (tuple, list)):
+        return f"a {type(value).__name__} of {len(value)} items"
+    return f"{type(value).__name__} {shown(value)}"
+
+
+def real_array(value, name: str) -> np.ndarray:
+    """`value` as an array of real numbers (integers or floats, not bool, complex, text or objects), or UsageError."""
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError):  # a ragged list
+        raise UsageError(f"{name} must be an array of real numbers; got a ragged sequence") from None
+    if a.dtype.kind not in "iuf":
+        raise UsageError(f"{name} must be real numbers; got an array of {a.dtype} of shape {a.shape}")
+    return a
+
+
+def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """(V, 3) float64 vertices and (F, 3) int64 faces, checked: finite positions, every index a vertex."""
+    v = real_array(vertices, "vertices")
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise UsageError(f"vertices of shape {v.shape} are not allowed; allowed: (V, 3), one (x, y, z) per vertex")
+    with np.errstate(over="ignore"):  # beyond float32: inf, refused below
+        if not np.isfinite(v.astype(np.float32)).all():
+            raise UsageError("vertices must be finite and within float32's range")
+    f = real_array(faces, "faces")
+    if f.dtype.kind not in "iu":
+        raise UsageError(f"faces must be whole numbers (vertex indices); got an array of {f.dtype}")
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise UsageError(f"faces of shape {f.shape} are not allowed; allowed: (F, 3), three vertex indices per triangle")
+    if f.size:
+        bad = f.max() if f.max() >= len(v) else f.min()
+        if not 0 <= bad < len(v):
+            allowed = f"0 to {len(v) - 1} (the {len(v)} vertices)" if len(v) else "none (there are no vertices)"
+            raise UsageError(f"face index {int(bad)} is not a vertex; allowed: {allowed}")
+    return v.astype(np.float64), f.astype(np.int64)
 
 
 def global_size(n: int) -> tuple:
@@ -102,10 +149,16 @@ class Tracer:
     ):
         from .bvh_wide import WIDTHS
 
-        if builder not in BUILDERS:
-            raise UsageError(f"unknown BVH builder {builder!r}; allowed: {', '.join(BUILDERS)}")
-        if bvh_width not in WIDTHS:
-            raise UsageError(f"BVH width {bvh_width!r}; allowed: {', '.join(map(str, WIDTHS))}")
+        if not isinstance(builder, str) or builder not in BUILDERS:
+            raise UsageError(f"unknown BVH builder {value_shown(builder)}; allowed: {', '.join(BUILDERS)}")
+        if isinstance(bvh_width, (bool, np.bool_)) or not isinstance(bvh_width, (int, np.integer)) or bvh_width not in WIDTHS:
+            raise UsageError(f"BVH width {value_shown(bvh_width)}; allowed: {', '.join(map(str, WIDTHS))}")
+        flags = dict(use_bvh=use_bvh, count_prim_tests=count_prim_tests, shadow_shafts=shadow_shafts, ray_packets=ray_packets)
+        for name, flag in flags.items():
+            if not isinstance(flag, (bool, np.bool_)):
+                raise UsageError(f"{name} {value_shown(flag)} must be True or False")
+        if not (device is None or isinstance(device, (Device, str))):
+            raise UsageError(f"device {value_shown(device)} must be a Device, a device name (a string) or None")
         self.bvh_width = int(bvh_width)
         self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
         self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
@@ -113,7 +166,7 @@ class Tracer:
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
-        self.use_bvh = use_bvh
+        self.use_bvh = bool(use_bvh)
         self.builder = builder
         self.primitives: Primitives = flatten(self.scene)
         n = self.primitives.count
@@ -165,28 +218,51 @@ class Tracer:
 
     # ------------------------------------------------------------ ray queries
     def _rays(self, origins, directions):
-        """n and the rays as device buffers of packed (x, y, z) float32 triples, checked (float32
-        C-ordered arrays are uploaded as they are, without an intermediate copy)."""
+        """The rays' leading shape, their count n and device buffers of packed (x, y, z) float32 triples,
+        checked: (..., 3) arrays whose leading shapes broadcast together (float32 C-ordered arrays of
+        one shape are uploaded as they are, without an intermediate copy)."""
+        o, d = real_array(origins, "origins"), real_array(directions, "directions")
+        for name, a in (("origins", o), ("directions", d)):
+            if a.ndim == 0 or a.shape[-1] != 3:
+                raise UsageError(f"{name} of shape {a.shape} are not allowed; allowed: (N, 3) or (..., 3), one (x, y, z) per ray")
+        try:
+            shape = np.broadcast_shapes(o.shape[:-1], d.shape[:-1])
+        except ValueError:
+            raise UsageError(
+                f"origins {o.shape} and directions {d.shape} do not go together; allowed: the same shape, "
+                "or leading shapes that broadcast (one (3,) origin for many directions)"
+            ) from None
+        n = math.prod(shape)
+        self.device.check_fits(n * 12, f"{n} rays")  # before the float32 copies are made
         with np.errstate(over="ignore"):  # beyond float32: inf, refused below with the message
-            o = np.ascontiguousarray(np.asarray(origins, np.float32).reshape(-1, 3))
-            d = np.ascontiguousarray(np.asarray(directions, np.float32).reshape(-1, 3))
-        if o.shape != d.shape:
-            raise UsageError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+            o, d = (a.astype(np.float32, copy=False) for a in (o, d))
+        o, d = (np.ascontiguousarray(a if a.shape[:-1] == shape else np.broadcast_to(a, (*shape, 3))).reshape(n, 3) for a in (o, d))
         # a float32 direction has a nonzero length exactly when some component is nonzero (its square
         # is then at least 2^-298 > 0 in float64)
-        if not (np.isfinite(o).all() and np.isfinite(d).all() and ((d[:, 0] != 0) | (d[:, 1] != 0) | (d[:, 2] != 0)).all()):
-            raise UsageError("ray origins and directions must be finite, and directions nonzero")
-        n = len(o)
-        self.device.check_fits(n * 12, f"{n} rays")
-        return n, self.device.to_device(o), self.device.to_device(d)
+        good = np.isfinite(o).all(1) & np.isfinite(d).all(1) & ((d[:, 0] != 0) | (d[:, 1] != 0) | (d[:, 2] != 0))
+        if not good.all():
+            i = int(np.argmin(good))
+            where = tuple(int(k) for k in np.unravel_index(i, shape)) if len(shape) != 1 else i
+            raise UsageError(
+                f"ray origins and directions must be finite, and directions nonzero; ray {where} has origin "
+                f"{tuple(o[i].tolist())} and direction {tuple(d[i].tolist())}"
+            )
+        return shape, n, self.device.to_device(o), self.device.to_device(d)
 
-    def _per_ray(self, n, value, name):
-        """A per-ray float32 buffer from a scalar or an (n,) array."""
+    def _per_ray(self, shape, value, name):
+        """A per-ray float32 buffer from a number or an array that broadcasts to the rays' leading shape."""
+        a = real_array(value, name)
         with np.errstate(over="ignore"):  # a distance beyond float32 is inf, as the kernels see it
-            a = np.asarray(value, np.float32)
-        if a.ndim > 1 or (a.ndim == 1 and len(a) != n) or np.isnan(a).any():
-            raise UsageError(f"{name} must be a number or one per ray ({n}), not NaN")
-        return self.device.to_device(np.broadcast_to(a, (n,)).copy())
+            a = a.astype(np.float32)
+        try:
+            per_ray = np.broadcast_to(a, shape)
+        except ValueError:
+            raise UsageError(
+                f"{name} of shape {a.shape} does not fit rays of shape {shape}; allowed: a number or an array that broadcasts to {shape}"
+            ) from None
+        if np.isnan(a).any():
+            raise UsageError(f"{name} must not be NaN")
+        return self.device.to_device(np.array(per_ray).reshape(-1))
 
     def _launch(self, name: str, n: int, *args) -> cl.Event:
         """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's buffers
@@ -209,29 +285,34 @@ class Tracer:
     def intersect(self, origins, directions, t_min=0.0):
         """Closest hits at origin + t * direction, t > t_min: (t, primitive id, object id); inf, -1, -1 on a miss.
 
+        origins and directions are (..., 3) arrays whose leading shapes broadcast together (the same
+        shape, or one (3,) origin for many directions); t_min a number or an array that broadcasts to
+        that shape; the three results have that shape.
+
         t is in units of each direction as given (not normalised).  Of hits at the same float32 t, the
         lowest primitive id is returned, with the BVH on or off and for every builder."""
-        n, o, d = self._rays(origins, directions)
+        shape, n, o, d = self._rays(origins, directions)
         dev = self.device
         # the kernel writes straight into the result arrays (USE_HOST_PTR: no copy on a CPU device)
         t, prim, obj = np.empty(max(n, 1), np.float32), np.empty(max(n, 1), np.int32), np.empty(max(n, 1), np.int32)
         visits = np.empty(max(n, 1), np.uint32)
         bufs = [dev.host_buffer(a) for a in (t, prim, obj, visits)]
-        self.launch_intersect(n, o, d, self._per_ray(n, t_min, "t_min"), bufs)
+        self.launch_intersect(n, o, d, self._per_ray(shape, t_min, "t_min"), bufs)
         for buf, host in zip(bufs, (t, prim, obj, visits)):
             dev.sync_to_host(buf, host)
-        self.last_visits = visits[:n]
-        return t[:n], prim[:n], obj[:n]
+        self.last_visits = visits[:n]  # flat, one per ray
+        return t[:n].reshape(shape), prim[:n].reshape(shape), obj[:n].reshape(shape)
 
     def occluded(self, origins, directions, t_max, t_min=0.0):
         """True where any surface lies at origin + t * direction with t_min < t < t_max (t in units of
-        the direction as given)."""
-        n, o, d = self._rays(origins, directions)
+        the direction as given), in the rays' leading shape; shapes as for `intersect`."""
+        shape, n, o, d = self._rays(origins, directions)
         dev = self.device
+        t_min, t_max = self._per_ray(shape, t_min, "t_min"), self._per_ray(shape, t_max, "t_max")
         out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
-        self.launch_occluded(n, o, d, self._per_ray(n, t_min, "t_min"), self._per_ray(n, t_max, "t_max"), (out, v_buf))
+        self.launch_occluded(n, o, d, t_min, t_max, (out, v_buf))
         result = np.empty(n, np.int32)
         self.last_visits = np.empty(n, np.uint32)
         cl.enqueue_copy(dev.queue, result, out)
         cl.enqueue_copy(dev.queue, self.last_visits, v_buf)
-        return result.astype(bool)
+        return result.astype(bool).reshape(shape)
