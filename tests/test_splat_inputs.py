@@ -32,7 +32,7 @@ def float_photo(path, value):
 
 
 CASES = [(".exr", np.nan), (".exr", np.inf), (".exr", -np.inf), (".exr", 3e38), (".pfm", np.nan), (".pfm", 3e38), (".hdr", 1.7e38)]
-COMMANDS = [["splat", "voronoi"], ["splat", "gauss", "--epochs", "1", "--splats", "8"]]
+COMMANDS = [["splat", "voronoi", "--splats", "8"], ["splat", "gauss", "--epochs", "1", "--splats", "8"]]
 
 
 @pytest.mark.parametrize("command", COMMANDS, ids=["voronoi", "gauss"])

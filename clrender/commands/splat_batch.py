@@ -57,12 +57,14 @@ def run_gauss_batch(args, config_of) -> int:
     from ..image.files import write_image
     from ..outputs import output_set
     from .cluster import cluster_client
-    from .splat_gauss import _read_target
+    from .splat_gauss import _check_fit_memory, _read_target
 
     inputs = photos(args.input)
     outs = batch_outputs(args, inputs, {"--save-params": args.save_params, "--log": args.log, "--curve": args.curve})
-    targets = [_read_target(p) for p in inputs]  # each checked (splat/pixels.py), naming its file
     config = config_of(args)
+    for p in inputs:  # each photo's fit within memory, from its header (run locally, the fits take turns)
+        _check_fit_memory(p, config)
+    targets = [_read_target(p) for p in inputs]  # each checked (splat/pixels.py), naming its file
     for t in targets:
         config.validate(t.shape[1], t.shape[0])
     with cluster_client(args) as client:
@@ -90,20 +92,22 @@ def run_gauss_batch(args, config_of) -> int:
 def run_voronoi_batch(args, settings_of) -> int:
     """One Voronoi splatting per photo; settings_of(args) is the VoronoiSettings a single run would use."""
     from ..errors import shown
-    from ..image.files import read_image, write_image
+    from ..image.files import probe_image, read_image, write_image
     from ..outputs import output_set
     from ..splat.pixels import check_pixels
-    from ..splat.voronoi import cell_edges
+    from ..splat.voronoi import cell_edges, require_memory
     from .cluster import cluster_client
 
     inputs = photos(args.input)
     outs = batch_outputs(args, inputs, {"--save-sites": args.save_sites})
+    settings = settings_of(args)
+    for path in inputs:  # each photo's splatting within memory, from its header (run locally, they take turns)
+        info = probe_image(path)
+        settings.validate(info.width, info.height)
+        require_memory(info.width, info.height, info.nchannels, settings)
     images = [read_image(p) for p in inputs]
     for path, image in zip(inputs, images):
         check_pixels(image.pixels, shown(path))
-    settings = settings_of(args)
-    for img in images:
-        settings.validate(img.pixels.shape[1], img.pixels.shape[0])
     with cluster_client(args) as client:
         if client is None:
             from ..device import get_device

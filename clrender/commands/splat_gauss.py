@@ -121,6 +121,17 @@ def _config(args, **extra):
     )
 
 
+def _check_fit_memory(path, config) -> None:
+    """Refuse, from the image's header and before its pixels are read, a fit that memory cannot hold
+    (clrender/memory.py, --max-memory); the splats' share is checked when they are first binned."""
+    from .. import memory
+    from ..image.files import probe_image
+    from ..splat.gauss import peak_bytes
+
+    info = probe_image(path)
+    memory.require(peak_bytes(info.width, info.height, fit_loss=config.loss), f"a {info.width}x{info.height} splat fit ({config.loss} loss)")
+
+
 def _read_target(path):
     from ..errors import shown
     from ..image.files import read_image
@@ -164,8 +175,9 @@ def run_gauss(args):
     _check_side_output(args.save_params, args.overwrite, (".npz",))
     _check_side_output(args.log, args.overwrite, (".csv",))
     check_distinct_outputs(**{"-o": out, "--curve": curve, "--save-params": args.save_params, "--log": args.log, "IN": args.input})
-    target = _read_target(args.input)
     config = _config(args, lr=args.lr, time_budget=args.time_budget)
+    _check_fit_memory(args.input, config)
+    target = _read_target(args.input)
     fitter = Fitter(get_device(args.device), target, config)  # validates the settings and the image size
     result = fitter.run()
     if not np.isfinite(result.image).all():

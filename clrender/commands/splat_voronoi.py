@@ -55,10 +55,10 @@ def add_parser(group):
 def run(args):
     from ..device import get_device
     from ..errors import shown
-    from ..image.files import check_distinct_outputs, check_output_path, read_image, write_image
+    from ..image.files import check_distinct_outputs, check_output_path, probe_image, read_image, write_image
     from ..outputs import output_set, save_npz
     from ..splat.pixels import check_pixels
-    from ..splat.voronoi import VoronoiSettings, cell_edges, splat
+    from ..splat.voronoi import VoronoiSettings, cell_edges, require_memory, splat
     from .splat_batch import is_batch, run_voronoi_batch
 
     if is_batch(args.input):  # a folder or glob of photos (commands/splat_batch.py)
@@ -72,13 +72,15 @@ def run(args):
 
         sites_path = check_file_output(args.save_sites, overwrite=args.overwrite, suffixes=(".npz",), option="--save-sites")
         check_distinct_outputs(**{"IN": args.input, "-o": output, "--save-sites": sites_path})
-    img = read_image(args.input)
-    check_pixels(img.pixels, shown(args.input))  # NaN, inf or 3e38 in an EXR/HDR/PFM: refused naming the file
-    h, w = img.pixels.shape[:2]
     settings = VoronoiSettings(
         n=args.splats, method=args.method, init=args.init, colors=args.colors, lloyd=args.lloyd, train=args.train, seed=args.seed
     )
-    settings.validate(w, h)
+    info = probe_image(args.input)  # refused from the header, before the pixels are read
+    settings.validate(info.width, info.height)
+    require_memory(info.width, info.height, info.nchannels, settings)
+    img = read_image(args.input)
+    check_pixels(img.pixels, shown(args.input))  # NaN, inf or 3e38 in an EXR/HDR/PFM: refused naming the file
+    h, w = img.pixels.shape[:2]
     dev = get_device(args.device)
     start = time.perf_counter()
     result = splat(dev, img.pixels, settings)

@@ -253,11 +253,7 @@ class GaussRenderer:
         # images are padded to whole tiles (layouts in kernels/splat_gauss.cl)
         self.pitch, self.rows = self.tiles_x * TILE, self.tiles_y * TILE
         self.plane = self.pitch * self.rows
-        if fit_loss is None:
-            self.pixel_bytes, self.pair_bytes, self.what = RENDER_BYTES_PER_PIXEL, RENDER_BYTES_PER_PAIR, "render"
-        else:
-            self.pixel_bytes = SSIM_BYTES_PER_PIXEL if fit_loss == "l1-ssim" else FIT_BYTES_PER_PIXEL
-            self.pair_bytes, self.what = FIT_BYTES_PER_PAIR, "fit"
+        self.fit_loss, self.what = fit_loss, "render" if fit_loss is None else "fit"
         memory.require(self.peak_bytes(0, 0), f"a {width}x{height} splat {self.what}")
         self._memory_checked = False  # the splats' share is checked at the first binning (see _pack_and_bin)
         device.check_fits(self.plane * 16, f"a {width}x{height} splat image")
@@ -268,7 +264,7 @@ class GaussRenderer:
 
     def peak_bytes(self, n: int, pairs: int) -> int:
         """Estimated peak memory of this renderer's job with n splats covering `pairs` (tile, splat) pairs."""
-        return memory.BASE_BYTES + self.plane * self.pixel_bytes + n * BYTES_PER_SPLAT + pairs * self.pair_bytes
+        return peak_bytes(self.pitch, self.rows, n, pairs, fit_loss=self.fit_loss)
 
     def count_pairs(self, bbox: np.ndarray) -> int:
         """(tile, splat) pairs of these (n, 4) pixel boxes [x0, x1) x [y0, y1), in 64 bits: the kernels'
@@ -427,6 +423,16 @@ class GaussRenderer:
         keys = (entry_splat[:, None] * NGRAD + np.arange(NGRAD)).ravel()
         sums = np.bincount(keys, weights=partial.view(np.float32), minlength=params.n * NGRAD)
         return chain_rule(params, sums.view(_GRAD_SUMS))
+
+
+def peak_bytes(width: int, height: int, n: int = 0, pairs: int = 0, *, fit_loss: str | None = None) -> int:
+    """Estimated peak memory of a render (fit_loss None) or a fit with that loss of n splats covering
+    `pairs` (tile, splat) pairs of a width x height image (see the constants at the top)."""
+    if fit_loss is None:
+        per_pixel, per_pair = RENDER_BYTES_PER_PIXEL, RENDER_BYTES_PER_PAIR
+    else:
+        per_pixel, per_pair = (SSIM_BYTES_PER_PIXEL if fit_loss == "l1-ssim" else FIT_BYTES_PER_PIXEL), FIT_BYTES_PER_PAIR
+    return memory.BASE_BYTES + width * height * per_pixel + n * BYTES_PER_SPLAT + pairs * per_pair
 
 
 def aligned_array(shape, zero: bool) -> np.ndarray:

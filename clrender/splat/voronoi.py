@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import memory
 from ..errors import UsageError, require
 from . import INITS
 from .pixels import check_pixels
@@ -43,7 +44,7 @@ from .voronoi_cells import (
     render,
     sample_colors,
 )
-from .voronoi_soft import train
+from .voronoi_soft import TrainSettings, train
 
 # the grid, the nearest-site search and the cell colours live in voronoi_cells.py (shared with the soft model)
 __all__ = [
@@ -71,6 +72,13 @@ __all__ = [
 ]
 
 COLOR_MODES = ("sample", "mean")
+# Peak memory (clrender/memory.py), measured as peak RSS growth (PoCL CPU device) and rounded up:
+# 2048^2 RGB pixels grew 71 B/pixel, and 633 with --train (8 neighbours a pixel).
+BYTES_PER_PIXEL = 64  # index map, pixel centres and cell sums (Lloyd, mean colours), the written copy
+BYTES_PER_PIXEL_CHANNEL = 12  # the float image, the rendered one and an output conversion
+SOFT_BYTES_PER_NEIGHBOUR = 48  # --train, per pixel and neighbour: indices, weights, gradient pairs (device and host)
+SOFT_BYTES_PER_NEIGHBOUR_CHANNEL = 12  # and the per-pair colour gradient terms, in float64 while summed
+BYTES_PER_SITE = 64  # positions, colours, the grid's order, the optimiser's moments
 
 
 # ------------------------------------------------------------------- Lloyd
@@ -198,10 +206,28 @@ class VoronoiResult:
         return png_bytes(self.image, linear=False)
 
 
+def peak_bytes(width: int, height: int, channels: int, settings: VoronoiSettings) -> int:
+    """Estimated peak memory of `splat` on a width x height image with `channels` channels."""
+    per_pixel = BYTES_PER_PIXEL + BYTES_PER_PIXEL_CHANNEL * channels
+    if settings.train:
+        k = min(TrainSettings().k, settings.n)
+        per_pixel += k * (SOFT_BYTES_PER_NEIGHBOUR + SOFT_BYTES_PER_NEIGHBOUR_CHANNEL * channels)
+    return memory.BASE_BYTES + width * height * per_pixel + settings.n * BYTES_PER_SITE
+
+
+def require_memory(width: int, height: int, channels: int, settings: VoronoiSettings) -> None:
+    """UsageError with the figure when the splatting would need more memory than allowed (--max-memory)."""
+    need = peak_bytes(width, height, channels, settings)
+    memory.require(
+        need, f"a {width}x{height} Voronoi splatting of {settings.n} sites" + (f" with --train {settings.train}" if settings.train else "")
+    )
+
+
 def splat(device, image: np.ndarray, settings: VoronoiSettings) -> VoronoiResult:
     """Initialise sites, optionally relax (Lloyd) and train (soft Voronoi), colour, render."""
     h, w = image.shape[:2]
     settings.validate(w, h)
+    require_memory(w, h, image.shape[2] if image.ndim == 3 else 1, settings)
     image = np.ascontiguousarray(image, dtype=np.float32)
     check_pixels(image, "the image")
     sites = init_sites(image, settings.n, settings.init, settings.seed)
