@@ -25,6 +25,7 @@ from . import progress
 from .errors import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, STDERR_FD, RenderFailure, UsageError, one_line, shown
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
+EXIT_BROKEN_PIPE = 128 + 13  # how a shell reports a tool killed by SIGPIPE (signal.SIGPIPE: not on Windows)
 
 
 class Terminated(BaseException):
@@ -96,6 +97,9 @@ def main(argv=None) -> int:
         # default signal actions, so a Ctrl-C then would kill the finished program silently (-2).
         try:
             sys.stdout.flush()
+        except OSError:  # the reader of our stdout has gone (`| head`): quiet, as Unix tools are
+            code = _quiet_broken_pipe() if _stdout_is_closed_pipe() else code
+        try:
             sys.stderr.flush()
         except OSError:  # a closed pipe: nothing more can be said
             pass
@@ -120,6 +124,12 @@ def _main(argv) -> int:
             return _fail(str(exc), EXIT_USAGE)
         except RenderFailure as exc:
             return _fail(str(exc), EXIT_FAILURE)
+        except BrokenPipeError:
+            if not _stdout_is_closed_pipe():  # another pipe (an encoder's stdin): a failure like any
+                if debug:
+                    raise
+                return _fail(describe_os_error(BrokenPipeError(32, "Broken pipe")), EXIT_FAILURE)
+            return _quiet_broken_pipe()
         except MemoryError:
             if debug:
                 raise
@@ -139,12 +149,19 @@ def _main(argv) -> int:
             )
 
 
+_FLAGS_ANYWHERE = ("--debug", "-q", "--quiet", "-v", "--verbose")
+
+
 def _global_options_first(argv: list) -> list:
-    """--debug and --max-memory are accepted anywhere on the line (e.g. after the subcommand)."""
+    """--debug, -q, -v and --max-memory are accepted anywhere on the line (e.g. after the subcommand,
+    where no subcommand has options of those names), up to a `--` that ends the options."""
     front, rest, i = [], [], 0
     while i < len(argv):
         a = argv[i]
-        if a == "--debug" or a.startswith("--max-memory="):
+        if a == "--":
+            rest += argv[i:]
+            break
+        if a in _FLAGS_ANYWHERE or a.startswith("--max-memory="):
             front.append(a)
         elif a == "--max-memory" and i + 1 < len(argv):
             front += argv[i : i + 2]
@@ -206,6 +223,31 @@ def describe_os_error(exc: OSError) -> str:
     if isinstance(name, str) and name.startswith("/proc/self/fd/"):
         name = None  # a temp file's handle says nothing to the user
     return f"{shown(name)}: {reason}" if name else reason
+
+
+def _stdout_is_closed_pipe() -> bool:
+    """True when stdout is a pipe whose reader has gone (`clrender render --list | head -1`):
+    poll reports POLLERR on such a pipe, never on a file, terminal or open pipe."""
+    import select
+
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & select.POLLERR for _, events in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # no poll (Windows), no file descriptor (a test's capture)
+        return False
+
+
+def _quiet_broken_pipe() -> int:
+    """Exit as a Unix tool whose reader went away: no message, 141.  stdout now points at devnull
+    (Python's advice), so the flush at interpreter exit cannot fail a second time."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+    return EXIT_BROKEN_PIPE
 
 
 def _is_device_error(exc: Exception) -> bool:

@@ -11,6 +11,7 @@ import contextlib
 import os
 import sys
 import tempfile
+import unicodedata
 
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -88,23 +89,26 @@ def require(condition: bool, message: str) -> None:
 
 
 def escaped(text: str) -> str:
-    """Control characters as escapes (ESC as \\x1b, newline as \\n), so a message stays one inert line."""
+    """Control, format (bidi overrides such as U+202E, zero-width marks), line/paragraph separator and
+    lone surrogate characters as escapes (ESC as \\x1b, newline as \\n, U+202E as \\u202e), so a
+    message stays one inert line that reads in the order it is written.  The one rule for every
+    message (scene.escape is this function)."""
     out = []
     for ch in str(text):
-        code = ord(ch)
-        if ch == "\n":
-            out.append("\\n")
-        elif ch == "\r":
-            out.append("\\r")
-        elif ch == "\t":
-            out.append("\\t")
-        elif code < 0x20 or code == 0x7F or 0x80 <= code < 0xA0 or code in (0x2028, 0x2029):
-            out.append(f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}")
-        elif 0xD800 <= code < 0xE000:  # lone surrogates (undecodable bytes in a file name)
-            out.append(f"\\u{code:04x}")
+        if ch in _NAMED_ESCAPES:
+            out.append(_NAMED_ESCAPES[ch])
+        elif unicodedata.category(ch) in _ESCAPED_CATEGORIES:
+            code = ord(ch)
+            out.append(f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}")
         else:
             out.append(ch)
     return "".join(out)
+
+
+_NAMED_ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+# Cc control, Cf format (bidi controls), Zl/Zp line and paragraph separators, Cs lone surrogates
+# (undecodable bytes in a file name)
+_ESCAPED_CATEGORIES = ("Cc", "Cf", "Zl", "Zp", "Cs")
 
 
 def cut(text: str, limit: int = MAX_SHOWN) -> str:

@@ -9,14 +9,17 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     dense mesh, load + BVH + trace     ~580 B/triangle (1 M triangles: +540 MiB)
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
-memory available now (MemAvailable) or --max-memory is refused with the
-figure (exit 2) instead of dying half-way with a MemoryError.
+memory available now or --max-memory is refused with the figure (exit 2)
+instead of dying half-way with a MemoryError.  "Available now" is the
+smallest of MemAvailable, what `ulimit -v` (RLIMIT_AS) leaves of the address
+space, and what the memory cgroup (a container's limit) leaves.
 """
 
 from __future__ import annotations
 
 import os
 import re
+from pathlib import Path
 
 from .errors import UsageError, shown
 
@@ -29,6 +32,9 @@ BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 
 MAX_MEMORY: int | None = None  # the CLI's --max-memory, in bytes (None: what is available)
+MAX_SIZE = 1 << 60  # 1024 PiB: the largest memory size accepted (more digits are a typo, not a machine)
+CGROUP_ROOT = Path("/sys/fs/cgroup")  # where the cgroup files are mounted (tests point it at a fake tree)
+SELF_CGROUP = Path("/proc/self/cgroup")  # which cgroup this process is in
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(i?b?)\s*$", re.IGNORECASE)
 
@@ -38,14 +44,96 @@ def parse_size(text: str) -> int:
     match = _SIZE.match(str(text))
     if not match:
         raise UsageError(f"memory size {shown(text)} is not valid; allowed: a number with K, M, G or T, e.g. 2G")
-    number, unit = float(match.group(1)), match.group(2).upper()
-    value = int(number * 1024 ** " KMGT".index(unit or " "))
+    number, unit = float(match.group(1)), match.group(2).upper()  # 5,000 digits: inf, refused below
+    value = number * 1024 ** " KMGT".index(unit or " ")
+    if not value <= MAX_SIZE:
+        raise UsageError(f"memory size {shown(text)} is too large; allowed: 1M to {MAX_SIZE >> 40}T")
+    value = int(value)
     if value < 1 << 20:
         raise UsageError(f"memory size {shown(text)} is below 1 MiB; allowed: at least 1M")
     return value
 
 
 def available_bytes() -> int | None:
+    """Memory this process can have now: the smallest of `meminfo_bytes`, `address_space_bytes` and
+    `cgroup_bytes` (each None when it sets no bound); None when none does."""
+    bounds = [b for b in (meminfo_bytes(), address_space_bytes(), cgroup_bytes()) if b is not None]
+    return min(bounds) if bounds else None
+
+
+def address_space_bytes() -> int | None:
+    """What `ulimit -v` (RLIMIT_AS) leaves of the address space: the limit less our virtual size now."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, AttributeError, OSError, ValueError):  # Windows has no resource module
+        return None
+    if limit == resource.RLIM_INFINITY or limit < 0:
+        return None
+    used = 0
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmSize:"):
+                    used = int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return max(limit - used, 0)
+
+
+def cgroup_bytes(root: Path | None = None, self_cgroup: Path | None = None) -> int | None:
+    """What the memory cgroup still allows: the smallest limit less usage along this process's cgroup
+    and its parents (v2 memory.max and memory.current, v1 memory.limit_in_bytes and
+    memory.usage_in_bytes, each less the reclaimable inactive page cache of memory.stat, as the
+    kubelet counts it).  None without a limit.  `root` and `self_cgroup` default to CGROUP_ROOT and
+    SELF_CGROUP."""
+    root = Path(CGROUP_ROOT if root is None else root)
+    folders = []
+    try:
+        lines = Path(SELF_CGROUP if self_cgroup is None else self_cgroup).read_text().splitlines()
+    except (OSError, UnicodeDecodeError):
+        lines = []
+    for line in lines:  # "0::/path" (v2) or "4:memory:/path" (v1)
+        parts = line.split(":", 2)
+        if len(parts) == 3 and (parts[1] == "" or "memory" in parts[1].split(",")):
+            base = root if parts[1] == "" else root / "memory"
+            here = base / parts[2].lstrip("/")
+            folders += [here, *here.parents[: len(here.relative_to(base).parts)]]
+    folders += [root, root / "memory"]  # inside a container our cgroup is often mounted as the root
+    bounds = []
+    for folder in dict.fromkeys(folders):
+        for limit_name, usage_name, inactive_name in (
+            ("memory.max", "memory.current", "inactive_file"),
+            ("memory.limit_in_bytes", "memory.usage_in_bytes", "total_inactive_file"),
+        ):
+            limit = _read_int(folder / limit_name)
+            if limit is None or limit >= MAX_SIZE:  # "max", or v1's 2^63 rounded down to a page: no limit
+                continue
+            usage = (_read_int(folder / usage_name) or 0) - (_stat_value(folder / "memory.stat", inactive_name) or 0)
+            bounds.append(max(limit - max(usage, 0), 0))
+    return min(bounds) if bounds else None
+
+
+def _read_int(path: Path) -> int | None:
+    try:
+        return int(path.read_text().split()[0])
+    except (OSError, ValueError, IndexError, UnicodeDecodeError):
+        return None
+
+
+def _stat_value(path: Path, key: str) -> int | None:
+    try:
+        for line in path.read_text().splitlines():
+            name, _, value = line.partition(" ")
+            if name == key:
+                return int(value)
+    except (OSError, ValueError, UnicodeDecodeError):
+        pass
+    return None
+
+
+def meminfo_bytes() -> int | None:
     """Memory the kernel says can be had now without swapping (MemAvailable), else free pages."""
     try:
         with open("/proc/meminfo") as f:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
@@ -137,17 +136,9 @@ def _bytes(n: int) -> str:
 
 
 def _available_bytes() -> int | None:
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
+    from .. import memory
+
+    return memory.available_bytes()  # MemAvailable, ulimit -v and the cgroup's limit, the smallest
 
 
 def note(args, message: str) -> None:

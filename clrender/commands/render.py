@@ -51,9 +51,9 @@ def add_parser(sub):
         "render",
         help="ray trace a scene to an image",
         epilog=EXAMPLES,
-        description="Ray trace SCENE (a bundled scene name or a .toml file) with OpenCL.",
+        description="Ray trace SCENE (a bundled scene name, a .toml scene file or a .gltf/.glb glTF file) with OpenCL.",
     )
-    p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list) or path to a .toml scene file")
+    p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list), or a .toml scene file or a .gltf/.glb glTF 2.0 file")
     p.add_argument(
         "seed_args",
         nargs="*",
@@ -245,7 +245,7 @@ def _render(args):
         print_scene_list(bundled_scenes())
         return 0
     if args.scene is None:
-        raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list) or a .toml file")
+        raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list), a .toml scene file or a .gltf/.glb file")
     settings = settings_from_args(args)
     if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
         from .turntable import run_turntable

@@ -11,13 +11,12 @@ from __future__ import annotations
 import math
 import reprlib
 import tomllib
-import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import UsageError, escaped
 from ..package_data import data_dir
 from .camera import Camera
 from .lights import FALLOFFS, LIGHT_TYPES, Light
@@ -84,7 +83,7 @@ class Scene:
 
     @classmethod
     def load(cls, name_or_path) -> Scene:
-        """A bundled scene by name (see `bundled_scenes()`), or a scene file by path."""
+        """A bundled scene by name (see `bundled_scenes()`), or a .toml scene file or .gltf/.glb file by path."""
         if isinstance(name_or_path, Scene):
             return name_or_path
         if isinstance(name_or_path, dict):
@@ -100,7 +99,7 @@ class Scene:
             return load_scene(path)
         if path.suffix == ".toml" or path.exists():
             return cls.from_file(path)
-        raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or a path to a .toml file")
+        raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or a .toml scene file or a .gltf/.glb file")
 
     def camera(self, number: int) -> Camera:
         """Camera `number`, counting from 1 as the seed does."""
@@ -163,19 +162,7 @@ _SHOW = reprlib.Repr()
 _SHOW.maxlevel, _SHOW.maxstring, _SHOW.maxother, _SHOW.maxlist, _SHOW.maxdict = 2, 40, 40, 4, 4
 
 
-def escape(text: str) -> str:
-    """`text` with control, format and line-separator characters written as \\n, \\x1b, \\u2028."""
-    out = []
-    for ch in text:
-        if unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp", "Cs"):
-            code = ord(ch)
-            out.append(
-                {"\n": "\\n", "\r": "\\r", "\t": "\\t"}.get(ch)
-                or (f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}")
-            )
-        else:
-            out.append(ch)
-    return "".join(out)
+escape = escaped  # control, bidi and separator characters as escapes: one rule for every message (errors.py)
 
 
 def shorten(text: str, limit: int) -> str:
