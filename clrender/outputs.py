@@ -178,7 +178,12 @@ class OutputSet:
         with _signals_deferred():
             try:
                 for folder in self.folders:  # folders the set creates, made at the last moment
-                    os.mkdir(folder)
+                    try:
+                        os.mkdir(folder)
+                    except FileExistsError:
+                        if not folder.is_dir():
+                            raise
+                        continue  # made by someone else meanwhile: used, and not ours to remove
                     made.append(folder)
                 if len(self.staged) == 1:
                     self.staged[0].place(self.overwrite)

@@ -2,15 +2,20 @@
 
 Frames are named OUT/frame_0000.png, frame_0001.png, ...
 (clrender.trace.turntable.FRAME_PATTERN), or by a pattern given as -o with a
-{:04d}-style field, e.g. -o 'shots/{:03d}.exr'.  With --video the frames also
-go, in order, into an MP4 through OpenCV's VideoWriter.  On --scheduler /
---workers each frame is one task.  Frames are staged as they finish (unnamed
-temporary files, clrender/outputs.py) and all put in place at the end: an
-interrupted (Ctrl-C) or failed turntable leaves no frame and no video.
+{:04d}-style field, e.g. -o 'shots/{:03d}.exr'.  The folder -o is created
+(its parent must exist, as for any output file); a pattern's folder must exist.
+With --video the frames also go, in order, into an H.264 video (the ffmpeg
+that imageio-ffmpeg ships on PyPI: browsers play H.264, not OpenCV's mp4v);
+one turn lasts --turn-seconds (4 by default) unless --fps is given.
+On --scheduler / --workers each frame is one task.  Frames are staged as they
+finish (unnamed temporary files, clrender/outputs.py) and all put in place at
+the end, the folder with them: an interrupted (Ctrl-C) or failed turntable
+leaves no frame, no video and no empty folder.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import tempfile
@@ -18,10 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import RenderFailure, UsageError
-from ..outputs import check_file_output
+from ..errors import RenderFailure, UsageError, first_line, shown
+from ..outputs import check_file_output, check_writable
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv")
+
+
+TURN_SECONDS = 4.0  # a turn of the default video lasts this long: 36 frames play at 9 fps, 96 at 24
+MIN_FPS, MAX_FPS = 0.1, 240.0  # frame rates the video may have (a frame every 10 s to 240 a second)
+MAX_TURN_SECONDS = 3600.0
 
 
 def add_turntable_arguments(p):
@@ -38,9 +48,42 @@ def add_turntable_arguments(p):
         "--video",
         default=None,
         metavar="OUT.mp4",
-        help="with --turntable: also write the frames as a video (OpenCV VideoWriter, mp4v) (default: no video)",
+        help="with --turntable: also write the frames as an H.264 video (.mp4, .mov, .mkv or .avi; browsers play .mp4) (default: no video)",
     )
-    g.add_argument("--fps", type=float, default=24.0, help="with --video: frames per second")
+    g.add_argument(
+        "--turn-seconds",
+        type=float,
+        default=None,
+        metavar="S",
+        help=f"with --video: one turn of the video lasts S seconds, so it plays at K/S frames per second "
+        f"(default: {TURN_SECONDS:g}; e.g. --turntable 36 plays at 9 fps)",
+    )
+    g.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help=f"with --video: frames per second instead of --turn-seconds, from {MIN_FPS:g} to {MAX_FPS:g} (default: K / --turn-seconds)",
+    )
+
+
+def video_fps(frames: int, fps: float | None, turn_seconds: float | None) -> float:
+    """The video's frame rate: --fps as given, else K frames over one turn of --turn-seconds."""
+    if fps is not None and turn_seconds is not None:
+        raise UsageError("give --fps or --turn-seconds, not both (--fps sets the rate, --turn-seconds the length of a turn)")
+    if fps is not None:
+        if not MIN_FPS <= fps <= MAX_FPS:  # NaN fails too
+            raise UsageError(f"--fps {fps:g} must be from {MIN_FPS:g} to {MAX_FPS:g} frames per second")
+        return fps
+    seconds = TURN_SECONDS if turn_seconds is None else turn_seconds
+    if not 0 < seconds <= MAX_TURN_SECONDS:
+        raise UsageError(f"--turn-seconds {seconds:g} must be more than 0 and at most {MAX_TURN_SECONDS:g}")
+    rate = frames / seconds
+    if not MIN_FPS <= rate <= MAX_FPS:
+        raise UsageError(
+            f"--turntable {frames} frames in a {seconds:g} s turn is {rate:g} frames per second; "
+            f"allowed: {MIN_FPS:g} to {MAX_FPS:g} (change --turn-seconds, or give --fps)"
+        )
+    return rate
 
 
 def frame_paths(output: str | None, scene_name: str, frames: int) -> list[Path]:
@@ -51,22 +94,33 @@ def frame_paths(output: str | None, scene_name: str, frames: int) -> list[Path]:
         try:
             return [Path(output.format(k)) for k in range(frames)]
         except (IndexError, KeyError, ValueError) as exc:
-            raise UsageError(f"frame pattern {output!r} is not a valid {{:04d}}-style pattern ({exc})") from None
+            raise UsageError(f"frame pattern {shown(output)} is not a valid {{:04d}}-style pattern ({exc})") from None
     folder = Path(output or f"{scene_name}_turntable")
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"-o {shown(output)} is a file; --turntable writes a folder of frames (give a folder such as frames/)")
     if folder.suffix and not folder.is_dir():
         raise UsageError(
-            f"--turntable writes a folder of frames; -o {output!r} looks like a file "
+            f"--turntable writes a folder of frames; -o {shown(output)} looks like a file "
             "(give a folder such as frames/, or a pattern such as 'frames/{:04d}.png')"
         )
     return [folder / FRAME_PATTERN.format(k) for k in range(frames)]
 
 
-class _Video:
-    """Frames into a video in order (they may arrive out of order).
+def check_frame_folder(folder: Path) -> bool:
+    """True when the frames' folder is to be created (by the output set, when the frames are placed):
+    like any output file's folder, its parent must exist and be writable."""
+    if folder.is_dir():
+        return False
+    check_writable(folder, overwrite=False, option="-o")
+    return True
 
-    OpenCV picks the container by the file name's extension, so the video is
-    encoded into a private temporary folder and copied into the output set
-    at the end (an output set's staged files have no name yet).
+
+class _Video:
+    """Frames into an H.264 video in order (they may arrive out of order), through ffmpeg's stdin.
+
+    ffmpeg picks the container by the file name's extension and rewrites the file's start at the
+    end (faststart), so the video is encoded into a private temporary folder and copied into the
+    output set when it is done (an output set's staged files have no name yet).
     """
 
     def __init__(self, path: Path, fps: float):
@@ -74,23 +128,43 @@ class _Video:
         self.fps = fps
         self.folder = tempfile.TemporaryDirectory(prefix="clrender-video-")
         self.temp = os.path.join(self.folder.name, f"video{path.suffix}")
-        self.writer = None
+        self.log = os.path.join(self.folder.name, "ffmpeg.log")
+        self.encoder = None
         self.pending: dict = {}
         self.next = 0
 
-    def add(self, k: int, srgb8: np.ndarray):
-        import cv2
+    def _start(self, width: int, height: int):
+        import subprocess
 
+        command = [
+            ffmpeg_exe(),
+            *("-hide_banner", "-nostdin", "-loglevel", "error", "-y"),
+            *("-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}", "-framerate", f"{self.fps:.6g}", "-i", "-"),
+            *("-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"),  # 4:2:0 H.264 needs even sides
+            *("-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "18", "-threads", "2"),
+            *(("-movflags", "+faststart") if self.path.suffix.lower() in (".mp4", ".mov") else ()),
+            self.temp,
+        ]
+        with open(self.log, "wb") as log:
+            self.encoder = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log)
+
+    def add(self, k: int, srgb8: np.ndarray):
         self.pending[k] = srgb8
         while self.next in self.pending:
             frame = self.pending.pop(self.next)
-            if self.writer is None:
-                h, w = frame.shape[:2]
-                self.writer = cv2.VideoWriter(self.temp, cv2.VideoWriter_fourcc(*"mp4v"), self.fps, (w, h))
-                if not self.writer.isOpened():
-                    raise RenderFailure(f"OpenCV cannot write the video {str(self.path)!r} (no mp4v encoder?)")
-            self.writer.write(np.ascontiguousarray(frame[..., ::-1]))  # OpenCV wants BGR
+            if self.encoder is None:
+                self._start(frame.shape[1], frame.shape[0])
+            try:
+                self.encoder.stdin.write(np.ascontiguousarray(frame[..., :3]).tobytes())
+            except BrokenPipeError:
+                self._failed()
             self.next += 1
+
+    def _failed(self):
+        self.encoder.wait()
+        with open(self.log, errors="replace") as log:
+            said = first_line(log.read(4096), "no message")
+        raise RenderFailure(f"cannot write the video {shown(self.path)}: ffmpeg exited with {self.encoder.returncode} ({said})")
 
     def finish(self):
         """Stage the finished video in the current output set."""
@@ -98,14 +172,35 @@ class _Video:
 
         from ..outputs import write_file
 
-        self.writer.release()
-        self.writer = None
+        try:
+            self.encoder.stdin.close()
+        except BrokenPipeError:
+            pass
+        if self.encoder.wait() != 0:
+            self._failed()
+        self.encoder = None
         write_file(self.path, lambda staged: shutil.copyfile(self.temp, staged))
 
     def close(self):
-        if self.writer is not None:
-            self.writer.release()
+        if self.encoder is not None:
+            self.encoder.kill()
+            self.encoder.wait()
+            if self.encoder.stdin:
+                with contextlib.suppress(OSError):
+                    self.encoder.stdin.close()
         self.folder.cleanup()
+
+
+def ffmpeg_exe() -> str:
+    """The ffmpeg program imageio-ffmpeg ships (a static build with libx264), or IMAGEIO_FFMPEG_EXE."""
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        raise RenderFailure("--video needs imageio-ffmpeg (pip install imageio-ffmpeg), which ships ffmpeg") from None
+    try:
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError as exc:
+        raise RenderFailure(f"--video found no ffmpeg: {first_line(str(exc))}") from None
 
 
 def _srgb8(image: np.ndarray) -> np.ndarray:
@@ -136,22 +231,30 @@ def run_turntable(args, settings) -> int:
         for name in args.filter:
             filters.parse(name)
     scene = Scene.load(args.scene)
+    # every check before anything is created: a refused option leaves no folder behind
     paths = frame_paths(args.output, Path(args.scene).stem, k_frames)
-    for path in paths:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        check_output_path(path, overwrite=args.overwrite)
-    video_path = None
+    new_folder = paths[0].parent if args.output is None or "{" not in args.output else None
+    if new_folder is None or not check_frame_folder(new_folder):  # frames into an existing folder
+        new_folder = None
+        for path in paths:
+            check_output_path(path, overwrite=args.overwrite)
+    video_path = fps = None
+    for value, option in ((args.fps, "--fps"), (args.turn_seconds, "--turn-seconds")):
+        if value is not None and not args.video:
+            sys.stderr.write(f"warning: {option} changes nothing without --video\n")
     if args.video:
         video_path = check_file_output(args.video, overwrite=args.overwrite, suffixes=VIDEO_SUFFIXES, option="--video")
-        if not (args.fps > 0 and np.isfinite(args.fps)):
-            raise UsageError(f"--fps {args.fps} must be a positive number")
+        fps = video_fps(k_frames, args.fps, args.turn_seconds)
+        ffmpeg_exe()
     settings = settings.validate(scene)
 
-    video = _Video(video_path, args.fps) if video_path else None
+    video = _Video(video_path, fps) if video_path else None
     try:
-        # every frame is staged as it finishes and all are put in place together at the end, so an
-        # interrupted or failed turntable (even a killed process) leaves none of its files behind
-        with output_set(overwrite=args.overwrite), cluster_client(args) as client:
+        # every frame is staged as it finishes and all are put in place together at the end (the new
+        # folder with them), so an interrupted or failed turntable leaves none of its files behind
+        with output_set(overwrite=args.overwrite) as outputs, cluster_client(args) as client:
+            if new_folder is not None:
+                outputs.add_folder(new_folder)
             if client is None:
                 frames = render_turntable(scene, settings, k_frames)
             else:
