@@ -70,7 +70,7 @@ def _kind(value) -> str:
         return f"a numpy array of shape {value.shape}"
     if isinstance(value, (tuple, list)):
         return f"a {type(value).__name__} of {len(value)} items"
-    return f"{type(value).__name__} {shown(value)}"
+    return "None" if value is None else f"{type(value).__name__} {shown(value)}"
 
 
 def real_array(value, name: str) -> np.ndarray:
