@@ -33,6 +33,7 @@ from ..layout import NORMAL_ROWS
 from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
+from .knobs import DEFAULT_KNOBS, TraceKnobs
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
 # A fixed work-group size: PoCL builds a work-group function per local size, so
@@ -40,12 +41,6 @@ MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built fo
 LOCAL_SIZE = 64
 RAYS_PER_ITEM = 8  # intersect_rays / occluded_rays take a packet's worth of rays per work-item (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
-# Leaf size of the binary tree per traversal width.  The wide layouts test a leaf's triangles four at
-# a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves of
-# at most 6 traced 10-20% faster than 2 (docs/bvh.md).
-MAX_LEAF_SIZE = {2: 4, 4: 6, 8: 6}
-# Leaf blocks a shadow shaft may collect before its rays fall back to traversing the tree one by one.
-SHAFT_CANDIDATES = 16
 
 
 TRACER_TAKES = "a Tracer takes a Scene, a scene name, path or dict, a trimesh.Trimesh or a (vertices, faces) pair"
@@ -111,24 +106,27 @@ def global_size(n: int) -> tuple:
 
 
 def trace_defines(
-    *, use_bvh: bool = True, bvh_width: int = DEFAULT_BVH_WIDTH, count_prim_tests: bool = False, shadow_shafts: bool = True, ray_packets: bool = True
+    *,
+    use_bvh: bool = True,
+    bvh_width: int = DEFAULT_BVH_WIDTH,
+    count_prim_tests: bool = False,
+    shadow_shafts: bool = True,
+    ray_packets: bool = True,
+    knobs: TraceKnobs = DEFAULT_KNOBS,
 ) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
-    from .bvh import STACK_SIZE  # looked up now: tests shrink it to make the stacks overflow
-    from .bvh_wide import stack_size
-
     return {
         "USE_BVH": int(use_bvh),
         "MAX_DEPTH": MAX_DEPTH_LIMIT,
-        "STACK_SIZE": STACK_SIZE,
+        "STACK_SIZE": knobs.stack_size,
         "BVH_WIDTH": bvh_width,
-        "WIDE_STACK_SIZE": stack_size(max(bvh_width, 4)),
+        "WIDE_STACK_SIZE": knobs.wide_stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
         "RAYS_PER_ITEM": RAYS_PER_ITEM,
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
-        "SHAFT_CANDIDATES": SHAFT_CANDIDATES,
+        "SHAFT_CANDIDATES": knobs.shaft_candidates,
         # ray queries walk eight rays that go the same way as one packet (kernels/packet.h; wide trees only)
         "RAY_PACKETS": int(ray_packets),
     }
@@ -146,6 +144,7 @@ class Tracer:
         count_prim_tests: bool = False,
         shadow_shafts: bool = True,
         ray_packets: bool = True,
+        knobs: TraceKnobs = DEFAULT_KNOBS,
     ):
         from .bvh_wide import WIDTHS
 
@@ -163,6 +162,9 @@ class Tracer:
         self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
         self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
         self.ray_packets = bool(ray_packets)  # False: every query ray walks the tree alone (the reference)
+        if not isinstance(knobs, TraceKnobs):
+            raise UsageError(f"knobs {knobs!r}; allowed: a clrender.trace.knobs.TraceKnobs")
+        self.knobs = knobs  # stack and list sizes of the kernels and the build's depth cap
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
@@ -178,7 +180,9 @@ class Tracer:
 
             lo, hi = self.primitives.bounds()
             start = time.perf_counter()
-            self.bvh = build_bvh(lo, hi, builder=builder, max_leaf_size=MAX_LEAF_SIZE[self.bvh_width])
+            self.bvh = build_bvh(
+                lo, hi, builder=builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
+            )
             order = np.asarray(self.bvh.prim_order, np.int64)
             slots = pack_slots(self.primitives, order)
             if self.bvh_width == 2:
@@ -211,6 +215,7 @@ class Tracer:
             count_prim_tests=self.count_prim_tests,
             shadow_shafts=self.shadow_shafts,
             ray_packets=self.ray_packets,
+            knobs=self.knobs,
         )
 
     def kernel(self, name: str) -> cl.Kernel:
