@@ -124,11 +124,11 @@ def _main(argv) -> int:
             return _fail(str(exc), EXIT_USAGE)
         except RenderFailure as exc:
             return _fail(str(exc), EXIT_FAILURE)
-        except BrokenPipeError:
+        except BrokenPipeError as exc:
             if not _stdout_is_closed_pipe():  # another pipe (an encoder's stdin): a failure like any
                 if debug:
                     raise
-                return _fail(describe_os_error(BrokenPipeError(32, "Broken pipe")), EXIT_FAILURE)
+                return _fail(describe_os_error(exc), EXIT_FAILURE)
             return _quiet_broken_pipe()
         except MemoryError:
             if debug:

@@ -60,6 +60,17 @@ def test_a_closed_stdout_pipe_ends_quietly_with_141(tmp_path):
     assert run.returncode == 141  # 128 + SIGPIPE, as a shell reports `yes | head -1`
 
 
+def test_a_broken_pipe_that_is_not_stdout_is_a_run_time_failure(capsys, monkeypatch):
+    from clrender.commands import devices
+
+    def encoder_gone(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(devices, "run", encoder_gone)
+    code, stdout, err = run_cli(capsys, "devices")
+    assert (code, stdout, err) == (1, "", "clrender: Broken pipe\n")
+
+
 @pytest.mark.parametrize("size", ["9" * 5000, "9" * 30 + "T", "2000000T"])
 def test_a_huge_max_memory_is_refused_in_one_line(capsys, size):
     code, stdout, err = run_cli(capsys, "--max-memory", size, "devices")
