@@ -5,6 +5,8 @@
 * `dense_mesh(n, seed)` (scene name `dense`, cached like the bunny) -- a lumpy sphere of about
   n triangles, for the ray and BVH benchmarks
 * `wizard_hat()`, `tower()` (lathe profiles) and `cat()` (surface nets) -- low-poly props
+* `shading_normals(vertices, faces, given)` -- the normals a `smooth = true` mesh is shaded with:
+  a file's or generator's where usable, else computed and welded across patch borders
 
 Scene files use them with `generator = "bunny"` and keyword arguments in `params = {...}`.
 Every generated mesh carries its vertex normals, computed here with numpy (`vertex_normals`):
