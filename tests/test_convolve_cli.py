@@ -197,3 +197,41 @@ def test_image_too_large_for_memory_is_refused_before_reading(tmp_path, rng, mon
     err = capsys.readouterr().err
     assert "MiB" in err and "31x24x3" in err
     assert not (tmp_path / "out.png").exists()
+
+
+# ----------------------------------------------------------------------------- range: NaN, inf, overflow
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_pixels_are_refused_naming_the_file(tmp_path, capsys, value):
+    pixels = np.full((6, 8, 3), 0.5, np.float32)
+    pixels[3, 4, 0] = value
+    src = tmp_path / "in.exr"
+    write_image(src, pixels)
+    out = tmp_path / "out.exr"
+    assert convolve(src, out, "gauss_blur_3") == 2 and not out.exists()
+    out_text, err = capsys.readouterr()
+    assert out_text == "" and err.count("\n") == 1 and str(src) in err and "NaN or infinite" in err, err
+
+
+@pytest.mark.parametrize(("format", "value", "expected"), [("float", 3e38, float(np.finfo(np.float32).max)), ("half", 65504.0, 65504.0)])
+def test_brighten_of_the_largest_values_is_clamped_to_the_output_type(tmp_path, capsys, format, value, expected):
+    pixels = np.full((4, 5, 3), 0.25, np.float32)
+    pixels[1, 2] = value
+    src, out = tmp_path / "in.exr", tmp_path / "out.exr"
+    write_image(src, pixels, format=format)
+    assert convolve(src, out, "brighten_1.5") == 0, capsys.readouterr().err
+    result = read_image(out)
+    assert result.format == format
+    assert np.isfinite(result.pixels).all()
+    assert (result.pixels[1, 2] == np.float32(expected)).all()
+    assert (np.delete(result.pixels.reshape(-1, 3), 1 * 5 + 2, axis=0) == 0.375).all()  # the rest: exactly 1.5 times
+
+
+def test_a_size_of_5000_digits_is_one_line_naming_the_allowed_sizes(tmp_path, capsys, rng):
+    src = tmp_path / "in.png"
+    make(src, rng)
+    out = tmp_path / "out.png"
+    assert convolve(src, out, "gauss_blur_" + "1" * 5000) == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("clrender: ") and "K odd in 1..10001" in err and len(err) < 600, err

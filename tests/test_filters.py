@@ -229,3 +229,51 @@ def test_list_names_every_form():
     for form in ["brighten_", "box_blur_", "gauss_blur_", "edge_detect_1", "edge_detect_2"]:
         assert form in text
     assert len(text.splitlines()) == 5
+
+
+# ----------------------------------------------------------------------------- range: NaN, inf, overflow
+
+FLOAT_MAX = float(np.finfo(np.float32).max)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_pixels_are_refused(value):
+    pixels = np.ones((5, 6, 3), np.float32)
+    pixels[2, 3, 1] = value
+    with pytest.raises(UsageError, match="1 pixel values are NaN or infinite; allowed: finite numbers"):
+        filters.apply(pixels, "box_blur_3")
+
+
+@pytest.mark.parametrize(
+    ("value", "factor", "expected"),
+    [(3e38, 1.5, FLOAT_MAX), (-3e38, 1.5, -FLOAT_MAX), (1.0, 1e300, FLOAT_MAX), (0.0, 1e300, 0.0), (2.0, 1.5, 3.0)],
+)
+def test_brighten_clamps_to_the_float32_range(value, factor, expected):
+    pixels = np.full((2, 2, 3), value, np.float32)
+    out = filters.apply(pixels, f"brighten_{factor!r}")
+    assert out.dtype == np.float32 and (out == np.float32(expected)).all()
+
+
+@pytest.mark.parametrize("name", ["edge_detect_1", "edge_detect_2"])
+def test_edge_detect_of_a_huge_constant_is_still_zero(name):
+    # 8 * 2^127 overflows float32: without the power-of-two rescaling the sum is inf - inf = NaN
+    # (a power of two, so that every partial sum is exact and the answer is exactly 0)
+    assert (filters.apply(np.full((7, 9, 3), 2.0**127, np.float32), name) == 0).all()
+
+
+@pytest.mark.parametrize("name", ["box_blur_5", "gauss_blur_7", "gauss_blur_151", "edge_detect_2"])
+def test_huge_values_filter_as_the_same_values_scaled_by_a_power_of_two(name, rng):
+    # float arithmetic commutes with power-of-two scales, so the rescaled path is exact
+    pixels = rng.random((40, 37, 3)).astype(np.float32)
+    small = filters.apply(pixels, name)
+    huge = filters.apply(pixels * np.float32(2.0**120), name)
+    assert np.isfinite(huge).all()
+    np.testing.assert_array_equal(huge, small * np.float32(2.0**120))
+
+
+def test_sizes_of_thousands_of_digits_are_refused_in_one_line():
+    name = "gauss_blur_" + "9" * 5000
+    with pytest.raises(UsageError) as err:
+        filters.parse(name)
+    message = str(err.value)
+    assert "5000 digits long" in message and "K odd in 1..10001" in message and len(message) < 400

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from .. import progress
-from ..errors import UsageError
+from ..errors import UsageError, shown
 from ..image import files as image_files
 from ..image import filters
 
@@ -32,6 +32,10 @@ dark areas) and brighten_2 doubles the light, not the code values.
 Bit depth: the input's channel type is kept where the output format has
 it (8-bit stays 8-bit, 16-bit stays 16-bit, EXR stays float); values are
 clamped to [0, 1] only when an integer format is written.
+Range: input pixels must be finite (NaN or infinity: refused).  Results
+are clamped to the output type's finite range instead of overflowing:
++-3.4e38 for float, +-65504 for half (brighten_2 of a 65504 half pixel
+writes 65504).
 Alpha: blurs filter premultiplied colour and alpha together (transparent
 pixels do not bleed); brighten and edge_detect leave alpha as it was.
 Alpha is dropped (with a note) for formats without it (JPEG, HDR).
@@ -42,6 +46,7 @@ examples:
   clrender convolve photo.jpg soft.jpg gauss_blur_15 --space linear   # blur as a lens would
 """
 
+HALF_MAX = 65504.0  # the largest finite half float: what brighten_2 of a 65504 half EXR pixel is written as
 # working copies held at once while filtering: input, colour-space copy, blur input and output, FFT transposes
 WORKING_COPIES = 6
 
@@ -87,6 +92,7 @@ def run(args) -> int:
     start = time.perf_counter()
     image = image_files.read_image(args.input)
     pixels, names = image.pixels, image.channel_names
+    filters.check_finite(pixels, shown(args.input))  # a NaN or an infinity would spread over the kernel's width
     alpha = image.alpha_channel
     colour = [c for c in range(pixels.shape[2]) if c != alpha]
     out_format = image_files.output_format(out_path, image.format)
@@ -106,6 +112,8 @@ def run(args) -> int:
         pixels[:, :, colour] = image_files.linear_to_srgb(pixels[:, :, colour])
     elif not filter_linear and out_linear:
         pixels[:, :, colour] = image_files.srgb_to_linear(pixels[:, :, colour])
+    if out_format == "half":  # the filters clamp to float32's range; a half file holds +-65504 at most
+        np.clip(pixels, -HALF_MAX, HALF_MAX, out=pixels)
     if alpha is not None and not image_files.writer_supports_alpha(out_path):
         note(args, f"warning: {out_path.suffix} has no alpha channel: alpha dropped")
         pixels = np.ascontiguousarray(pixels[:, :, colour])

@@ -18,6 +18,11 @@ Borders are reflect-101 (OpenCV's BORDER_REFLECT_101: ... c b | a b c ... | ... 
 repeated for kernels wider than the image.  The filters work on the values
 they are given; the command line decides the colour space (see docs/filters.md).
 
+Range: pixels must be finite (NaN or infinity: UsageError).  Every filter's result is clamped to
+float32's finite range (|v| <= 3.4e38) instead of overflowing to infinity: brighten_1.5 of 3e38
+gives 3.4e38, deterministically.  Blurs and edge detectors of values beyond 2^100 filter a copy
+scaled by a power of two (exact), so their sums cannot overflow on the way.
+
 Alpha: with `alpha_channel` set (or an `Image` whose file had alpha), blurs
 treat the pixels as premultiplied (colour * alpha and alpha are blurred with
 the same weights, colour is divided back), so hidden colours of transparent
@@ -34,11 +39,15 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import UsageError, shown
 from .files import Image
 
 BORDER = cv2.BORDER_REFLECT_101
 MAX_SIZE = 10001  # widest box or Gaussian accepted
+FLOAT_MAX = float(np.finfo(np.float32).max)  # results are clamped to +-this (float32's largest finite value)
+# Blurs and edge detectors scale inputs beyond 2^SAFE_EXPONENT down first: a sum of MAX_SIZE^2 (< 2^27)
+# such values, or an edge kernel's 16 times one, stays below 2^127 < FLOAT_MAX.
+SAFE_EXPONENT = 100
 FFT_FROM_SIZE = 151  # Gaussians at least this wide go through the FFT (measured crossover, 4096^2 RGB)
 EDGE_KERNELS = {
     1: np.array([[0, -1, 0], [-1, 4, -1], [0, -1, 0]], np.float32),
@@ -83,9 +92,19 @@ class Filter:
         return np.outer(g, g)
 
     def __call__(self, pixels: np.ndarray) -> np.ndarray:
-        """Filter every channel of float32 (H, W, C) pixels alike."""
+        """Filter every channel of float32 (H, W, C) finite pixels alike; results within +-FLOAT_MAX."""
         if self.kind == "brighten":
-            return pixels * np.float32(self.value)
+            return _brighten(pixels, self.value)
+        peak = float(np.abs(pixels).max()) if pixels.size else 0.0
+        if peak <= 2.0**SAFE_EXPONENT:
+            return self._linear(pixels)
+        # a power-of-two scale is exact both ways; only the way back can overflow, and is clamped
+        shift = math.ceil(math.log2(peak)) - SAFE_EXPONENT
+        out = self._linear(pixels * np.float32(2.0**-shift)).astype(np.float64) * 2.0**shift
+        return np.clip(out, -FLOAT_MAX, FLOAT_MAX).astype(np.float32)
+
+    def _linear(self, pixels: np.ndarray) -> np.ndarray:
+        """The blur or edge detector itself (OpenCV), on values small enough not to overflow."""
         if self.kind == "edge_detect":
             return _per_planes(lambda x: cv2.filter2D(x, cv2.CV_32F, EDGE_KERNELS[int(self.value)], borderType=BORDER), pixels)
         size = int(self.value)
@@ -97,6 +116,14 @@ class Filter:
         if size >= FFT_FROM_SIZE:
             return separable_fft(pixels, g)
         return _per_planes(lambda x: cv2.sepFilter2D(x, cv2.CV_32F, g, g, borderType=BORDER), pixels)
+
+
+def _brighten(pixels: np.ndarray, factor: float) -> np.ndarray:
+    """pixels * factor, clamped to +-FLOAT_MAX where it would overflow (float32 as before where it does not)."""
+    peak = float(np.abs(pixels).max()) if pixels.size else 0.0
+    if factor <= FLOAT_MAX and peak * factor <= FLOAT_MAX:  # (float32(factor) would be inf beyond)
+        return pixels * np.float32(factor)
+    return np.clip(pixels.astype(np.float64) * factor, -FLOAT_MAX, FLOAT_MAX).astype(np.float32)
 
 
 def gaussian_sigma(size: int) -> float:
@@ -117,26 +144,33 @@ def parse(name: str) -> Filter:
     m = re.fullmatch(r"brighten_(.*)", text)
     if m:
         if not re.fullmatch(_NUMBER, m.group(1)):
-            raise UsageError(f"filter {text!r}: {m.group(1)!r} is not a number; use brighten_F with F >= 0, e.g. brighten_1.5")
+            raise UsageError(f"filter {shown(text)}: {shown(m.group(1))} is not a number; use brighten_F with F >= 0, e.g. brighten_1.5")
         factor = float(m.group(1))
         if not math.isfinite(factor) or factor < 0:
-            raise UsageError(f"filter {text!r}: the factor must be a finite number >= 0, e.g. brighten_1.5")
+            raise UsageError(f"filter {shown(text)}: the factor must be a finite number >= 0, e.g. brighten_1.5")
         return Filter(text, "brighten", factor)
     m = re.fullmatch(r"(box_blur|gauss_blur)_(.*)", text)
     if m:
         kind, size = m.groups()
         if not re.fullmatch(r"[+-]?\d+", size):
-            raise UsageError(f"filter {text!r}: size {size!r} is not a whole number; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_5")
+            raise UsageError(
+                f"filter {shown(text)}: size {shown(size)} is not a whole number; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_5"
+            )
+        digits = size.lstrip("+-").lstrip("0")
+        if len(digits) > len(str(MAX_SIZE)):  # int() refuses over 4300 digits; no such size is allowed anyway
+            raise UsageError(
+                f"filter {shown(text)}: size is {len(digits)} digits long; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_{MAX_SIZE}"
+            )
         size = int(size)
         if size < 1 or size % 2 == 0 or size > MAX_SIZE:
             raise UsageError(
-                f"filter {text!r}: size {size} is not allowed; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_{_nearest_allowed(size)}"
+                f"filter {shown(text)}: size {size} is not allowed; use {kind}_K with K odd in 1..{MAX_SIZE}, e.g. {kind}_{_nearest_allowed(size)}"
             )
         return Filter(text, kind, size)
     m = re.fullmatch(r"edge_detect_([12])", text)
     if m:
         return Filter(text, "edge_detect", int(m.group(1)))
-    raise UsageError(f"unknown filter {text!r}; allowed: {ALLOWED}")
+    raise UsageError(f"unknown filter {shown(text)}; allowed: {ALLOWED}")
 
 
 def _nearest_allowed(size: int) -> int:
@@ -174,9 +208,17 @@ def apply(image, *names, alpha_channel: int | None = None):
         raise UsageError(f"pixels of shape {pixels.shape} cannot be filtered; expected (H, W) or (H, W, C)")
     if alpha_channel is not None and not 0 <= alpha_channel < pixels.shape[2]:
         raise UsageError(f"alpha channel {alpha_channel} is not one of the {pixels.shape[2]} channels")
+    check_finite(pixels, "the pixels")
     for f in filters:
         pixels = f(pixels) if alpha_channel is None else _with_alpha(f, pixels, alpha_channel)
     return pixels[:, :, 0] if flat else pixels
+
+
+def check_finite(pixels: np.ndarray, where: str) -> None:
+    """UsageError naming `where` when a pixel value is NaN or infinite: filters would spread it."""
+    bad = np.count_nonzero(~np.isfinite(pixels))
+    if bad:
+        raise UsageError(f"{where}: {bad} pixel values are NaN or infinite; allowed: finite numbers")
 
 
 def _with_alpha(f: Filter, pixels: np.ndarray, a: int) -> np.ndarray:
@@ -187,10 +229,13 @@ def _with_alpha(f: Filter, pixels: np.ndarray, a: int) -> np.ndarray:
         out[:, :, colour] = f(np.ascontiguousarray(pixels[:, :, colour]))
         return out
     alpha = pixels[:, :, a : a + 1]
-    blurred = f(np.concatenate([pixels[:, :, colour] * alpha, alpha], axis=2))
-    new_alpha = blurred[:, :, -1:]
-    covered = new_alpha > 1e-6  # elsewhere nothing is left to see: colour 0
-    out[:, :, colour] = np.where(covered, blurred[:, :, :-1] / np.where(covered, new_alpha, 1), 0)
+    with np.errstate(over="ignore"):  # huge colour times alpha, or divided by a small alpha: clamped
+        premultiplied = np.clip(pixels[:, :, colour] * alpha, -FLOAT_MAX, FLOAT_MAX)
+        blurred = f(np.concatenate([premultiplied, alpha], axis=2))
+        new_alpha = blurred[:, :, -1:]
+        covered = new_alpha > 1e-6  # elsewhere nothing is left to see: colour 0
+        colour_out = np.where(covered, blurred[:, :, :-1] / np.where(covered, new_alpha, 1), 0)
+    out[:, :, colour] = np.clip(colour_out, -FLOAT_MAX, FLOAT_MAX)
     out[:, :, a] = new_alpha[:, :, 0]
     return out
 
