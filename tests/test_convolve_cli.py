@@ -187,11 +187,12 @@ def test_console_script_runs_the_seed_example(tmp_path, rng):
 
 
 def test_image_too_large_for_memory_is_refused_before_reading(tmp_path, rng, monkeypatch, capsys):
+    from clrender import memory
     from clrender.commands import convolve as command
 
     src = tmp_path / "in.png"
     make(src, rng)
-    monkeypatch.setattr(command, "_available_bytes", lambda: 1000)
+    monkeypatch.setattr(memory, "available_bytes", lambda: 1000)
     monkeypatch.setattr(command.image_files, "read_image", lambda path: pytest.fail("read before the memory check"))
     assert convolve(src, tmp_path / "out.png", "box_blur_3") == 2
     err = capsys.readouterr().err
@@ -235,3 +236,13 @@ def test_a_size_of_5000_digits_is_one_line_naming_the_allowed_sizes(tmp_path, ca
     assert convolve(src, out, "gauss_blur_" + "1" * 5000) == 2 and not out.exists()
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("clrender: ") and "K odd in 1..10001" in err and len(err) < 600, err
+
+
+def test_clrender_max_memory_in_the_environment_applies_to_convolve(tmp_path, rng, monkeypatch, capsys):
+    src = tmp_path / "in.png"
+    make(src, rng, shape=(256, 256, 3))  # 6 working copies of 256x256x3 floats: 4.5 MiB
+    monkeypatch.setenv("CLRENDER_MAX_MEMORY", "1M")
+    assert convolve(src, tmp_path / "out.png", "box_blur_3") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "256x256x3" in err and "--max-memory is 1 MiB" in err, err
+    assert not (tmp_path / "out.png").exists()

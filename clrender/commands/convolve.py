@@ -125,28 +125,11 @@ def run(args) -> int:
 
 
 def check_memory(info: image_files.ImageInfo) -> None:
-    """Refuse an image whose working copies would not fit in the memory available now."""
+    """Refuse an image whose working copies would not fit (clrender/memory.py: what is available now,
+    --max-memory or CLRENDER_MAX_MEMORY), before its pixels are read."""
     from .. import memory
 
-    need = info.nbytes * WORKING_COPIES
-    available = _available_bytes()
-    if memory.MAX_MEMORY is not None:  # clrender --max-memory
-        available = min(available, memory.MAX_MEMORY) if available is not None else memory.MAX_MEMORY
-    if available is not None and need > available:
-        raise UsageError(
-            f"image of {info.width}x{info.height}x{info.nchannels} needs about {_bytes(need)} "
-            f"to filter but {_bytes(available)} is available; use a smaller image"
-        )
-
-
-def _bytes(n: int) -> str:
-    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
-
-
-def _available_bytes() -> int | None:
-    from .. import memory
-
-    return memory.available_bytes()  # MemAvailable, ulimit -v and the cgroup's limit, the smallest
+    memory.require(info.nbytes * WORKING_COPIES, f"filtering the {info.width}x{info.height}x{info.nchannels} image")
 
 
 def note(args, message: str) -> None:
