@@ -112,3 +112,47 @@ def test_every_bundled_scene_loads_with_five_cameras():
         scene = Scene.load(name)
         assert len(scene.cameras) == 5, name
         assert scene.objects, name
+
+
+# ------------------------------------------------------------ bounds checked before tomllib parses
+def test_a_long_dotted_key_is_refused_before_parsing(tmp_path, capsys):
+    """tomllib keeps every prefix of a dotted key: 60 KB of `a.a.a...` took 3.6 GB and 11 s.  No scene
+    nests deeper than 8, so a key of more parts is refused before the parser runs (here: in < 16 MB)."""
+    import tracemalloc
+
+    from clitools import run_cli
+
+    path = tmp_path / "dots.toml"
+    path.write_text("width = 8\n" + "a" + ".a" * 30_000 + " = 1\n")
+    tracemalloc.start()
+    try:
+        with pytest.raises(UsageError, match="line 2: a dotted key of more than 8 parts; allowed: at most 8"):
+            Scene.from_file(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 16e6
+    code, out, err = run_cli(capsys, "render", str(path), "-o", str(tmp_path / "x.png"))
+    assert code == 2 and err.count("\n") == 1 and err.startswith("clrender: ") and "dotted key" in err, err
+    assert out == "" and not (tmp_path / "x.png").exists()
+
+
+def test_dotted_keys_up_to_the_nesting_limit_and_dots_in_strings_are_read(tmp_path):
+    path = tmp_path / "ok.toml"
+    path.write_text(
+        '# a comment, a.b.c.d.e.f.g.h.i.j\nmaterials.glass . "diffuse" = [0.5, 0.5, 0.5]\n'
+        'description = "v, 1.2.3.4.5.6.7.8.9.10"\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3.5]\nradius = 1.5\n'
+    )
+    scene = Scene.from_file(path)
+    assert scene.materials["glass"].diffuse == (0.5, 0.5, 0.5)
+    assert scene.description == "v, 1.2.3.4.5.6.7.8.9.10"
+
+
+def test_a_scene_file_over_16_mib_is_refused_before_it_is_read(tmp_path):
+    from clrender.scene.toml_text import MAX_SCENE_BYTES
+
+    path = tmp_path / "huge.toml"
+    with open(path, "wb") as f:  # sparse: comments would read as well, but need writing
+        f.truncate(MAX_SCENE_BYTES + 1)
+    with pytest.raises(UsageError, match=r"larger than 16 MiB; allowed: at most 16777216 bytes"):
+        Scene.from_file(path)

@@ -40,12 +40,14 @@ import functools
 import json
 import math
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import UsageError
+from .confine import scene_file
+from .scene import MAX_SIDE, MAX_TRIANGLES, show
 
 GLB_MAGIC = b"glTF"
 CHUNK_JSON, CHUNK_BIN = 0x4E4F534A, 0x004E4942
@@ -62,6 +64,10 @@ UNDERSTOOD_EXTENSIONS = {
     "KHR_materials_unlit",
 }
 IMAGE_WIDTH = 640  # default image width; the height follows the first camera's aspect ratio
+# Elements of one accessor, checked before any is read or allocated (a 468-byte file can ask for 3e8
+# zeros): the triangle limit's three vertices (or indices) a triangle.
+MAX_ACCESSOR_COUNT = 3 * MAX_TRIANGLES
+INDEX_TYPES = (5121, 5123, 5125)  # unsigned byte, short, int: the only component types glTF allows for indices
 SUFFIXES = (".gltf", ".glb")
 
 
@@ -74,6 +80,9 @@ class Document:
     path: Path
     json: dict
     buffers: list  # bytes of each buffer
+    root: Path | None = None  # a confined scene's folder: every file the document reads must lie inside it
+    parents: dict | None = None  # node -> its parent, built once (see node_world_matrix)
+    worlds: dict = field(default_factory=dict)  # node -> 4x4 world transform, each computed once
 
     def fail(self, message: str):
         raise UsageError(f"{self.path}: {message}")
@@ -104,17 +113,18 @@ def _malformed_is_usage_error(function):
     return wrapper
 
 
-def read_document(path) -> Document:
-    """The parsed JSON and buffers of a .gltf or .glb file (cached while the file is unchanged)."""
+def read_document(path, root=None) -> Document:
+    """The parsed JSON and buffers of a .gltf or .glb file (cached while the file is unchanged).
+    With a `root` (a confined scene's folder) every buffer file must lie inside it (see confine.py)."""
     path = Path(path)
     if not path.is_file():
         raise UsageError(f"glTF file {str(path)!r} does not exist")
     stat = path.stat()
-    return _read_document(path.resolve(), stat.st_mtime_ns, stat.st_size)
+    return _read_document(path.resolve(), stat.st_mtime_ns, stat.st_size, None if root is None else Path(root).resolve())
 
 
 @functools.lru_cache(maxsize=4)
-def _read_document(path: Path, mtime_ns: int, size: int) -> Document:
+def _read_document(path: Path, mtime_ns: int, size: int, root: Path | None) -> Document:
     data = path.read_bytes()
     binary = None
     if data[:4] == GLB_MAGIC:
@@ -125,6 +135,8 @@ def _read_document(path: Path, mtime_ns: int, size: int) -> Document:
         gltf = json.loads(text)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise UsageError(f"{path}: not a glTF file (neither GLB nor JSON: {exc})") from None
+    except RecursionError:  # json recurses once per nested array or object; no glTF needs more than a few
+        raise UsageError(f"{path}: not a glTF file clrender reads (its JSON is nested too deeply)") from None
     if not isinstance(gltf, dict):
         raise UsageError(f"{path}: not a glTF file (the JSON is not an object)")
     version = str(gltf.get("asset", {}).get("version", "")) if isinstance(gltf.get("asset"), dict) else ""
@@ -133,7 +145,7 @@ def _read_document(path: Path, mtime_ns: int, size: int) -> Document:
     unknown = sorted(set(gltf.get("extensionsRequired", [])) - UNDERSTOOD_EXTENSIONS)
     if unknown:
         raise UsageError(f"{path}: requires extension {unknown[0]}, which clrender does not read")
-    doc = Document(path, gltf, [])
+    doc = Document(path, gltf, [], root)
     doc.buffers = [_buffer(doc, i, b, binary) for i, b in enumerate(gltf.get("buffers", []))]
     return doc
 
@@ -178,7 +190,7 @@ def _buffer(doc: Document, index: int, buf, binary) -> bytes:
     else:
         from urllib.parse import unquote
 
-        file = doc.path.parent / unquote(uri)
+        file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: buffers[{index}].uri")
         if not file.is_file():
             doc.fail(f"buffers[{index}].uri: file {str(file)!r} does not exist")
         data = file.read_bytes()
@@ -188,15 +200,22 @@ def _buffer(doc: Document, index: int, buf, binary) -> bytes:
     return data[:length]
 
 
-def accessor(doc: Document, index: int) -> np.ndarray:
-    """Accessor `index` as an array (count, width): float64 for floats and normalized integers, else int64."""
+def accessor(doc: Document, index: int, what: str, kind: str, component_types=None) -> np.ndarray:
+    """Accessor `index` (the `what` of a primitive) as an array (count, width): float64 for floats and normalized
+    integers, else int64.  Its type must be `kind` ("VEC3", "SCALAR") and its component type one of
+    `component_types` (any when None); those and the count are checked before any element is read."""
     acc = doc.item("accessors", index)
     where = f"accessors[{index}]"
     dtype = COMPONENT_TYPES.get(acc.get("componentType"))
     width = TYPE_WIDTH.get(acc.get("type"))
     count = acc.get("count")
     if dtype is None or width is None or isinstance(count, bool) or not isinstance(count, int) or count < 0:
-        doc.fail(f"{where}: componentType {acc.get('componentType')!r}, type {acc.get('type')!r} or count {count!r} is not valid glTF")
+        doc.fail(f"{where}: componentType {show(acc.get('componentType'))}, type {show(acc.get('type'))} or count {show(count)} is not valid glTF")
+    if acc.get("type") != kind or (component_types is not None and acc.get("componentType") not in component_types):
+        allowed = f" with componentType {', '.join(map(str, component_types))}" if component_types is not None else ""
+        doc.fail(f"{what} ({where}) is {acc.get('type')} of componentType {acc.get('componentType')}; allowed: {kind}{allowed}")
+    if count > MAX_ACCESSOR_COUNT:  # before anything is allocated
+        doc.fail(f"{where}: count {count}; allowed: at most {MAX_ACCESSOR_COUNT} (three per triangle of the {MAX_TRIANGLES}-triangle limit)")
     if "sparse" in acc:
         doc.fail(f"{where}: sparse accessors are not supported")
     if "bufferView" not in acc:
@@ -225,6 +244,7 @@ def accessor(doc: Document, index: int) -> np.ndarray:
 
 # ------------------------------------------------------------ the node tree
 def _quaternion_matrix(q) -> np.ndarray:
+    q = q / max(np.abs(q).max(), 1e-300)  # first to at most 1, so that the norm of a huge one cannot overflow
     x, y, z, w = q / max(np.linalg.norm(q), 1e-300)
     return np.array(
         [
@@ -237,10 +257,10 @@ def _quaternion_matrix(q) -> np.ndarray:
 
 def _numbers(doc, value, n, where):
     if not isinstance(value, list) or len(value) != n or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
-        doc.fail(f"{where} must be a list of {n} numbers, got {value!r}")
+        doc.fail(f"{where} must be a list of {n} numbers, got {show(value)}")
     out = np.array(value, np.float64)
     if not np.isfinite(out).all():
-        doc.fail(f"{where} must be finite, got {value!r}")
+        doc.fail(f"{where} must be finite, got {show(value)}")
     return out
 
 
@@ -260,40 +280,80 @@ def local_matrix(doc: Document, index: int) -> np.ndarray:
 
 def world_matrices(doc: Document) -> dict:
     """Node index -> 4x4 world transform, for every node of the default scene (or of all root nodes)."""
-    nodes = doc.json.get("nodes", [])
-    if not isinstance(nodes, list):
-        doc.fail("nodes must be a list")
+    nodes = _nodes(doc)
     scenes = doc.json.get("scenes")
     if scenes:
         roots = doc.item("scenes", doc.json.get("scene", 0)).get("nodes", [])
     else:  # no scenes: every node that is nobody's child is a root
-        children = {c for n in nodes if isinstance(n, dict) for c in n.get("children", [])}
-        roots = [i for i in range(len(nodes)) if i not in children]
+        roots = [i for i in range(len(nodes)) if i not in _parents(doc)]
+    if not isinstance(roots, list):
+        doc.fail("scenes[].nodes must be a list of node indices")
     out = {}
     stack = [(r, np.eye(4)) for r in reversed(roots)]
     while stack:
         index, parent = stack.pop()
         if index in out:
             doc.fail(f"nodes[{index}] is reached twice (the node hierarchy must be a tree)")
-        out[index] = parent @ local_matrix(doc, index)
-        stack.extend((c, out[index]) for c in reversed(doc.item("nodes", index).get("children", [])))
+        out[index] = doc.worlds[index] = _times(doc, index, parent)
+        stack.extend((c, out[index]) for c in reversed(_children(doc, index)))
     return out
 
 
+def _times(doc: Document, index: int, parent: np.ndarray) -> np.ndarray:
+    """parent @ the node's local matrix, refused when it overflows (a chain of large scales)."""
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        m = parent @ local_matrix(doc, index)
+    if not np.isfinite(m).all():
+        doc.fail(f"nodes[{index}]: its world transform (its own times its parents') overflows float64; allowed: finite products")
+    return m
+
+
+def _nodes(doc: Document) -> list:
+    nodes = doc.json.get("nodes", [])
+    if not isinstance(nodes, list):
+        doc.fail("nodes must be a list")
+    return nodes
+
+
+def _children(doc: Document, index: int) -> list:
+    children = doc.item("nodes", index).get("children", [])
+    if not isinstance(children, list):
+        doc.fail(f"nodes[{index}].children must be a list of node indices, got {show(children)}")
+    return children
+
+
+def _parents(doc: Document) -> dict:
+    """Child -> parent over all nodes, built once per document (rebuilding it for every node made loading quadratic)."""
+    if doc.parents is None:
+        parents = {}
+        for i, n in enumerate(_nodes(doc)):
+            for c in _children(doc, i) if isinstance(n, dict) else []:
+                if not isinstance(c, int) or isinstance(c, bool):
+                    doc.fail(f"nodes[{i}].children holds {show(c)}; allowed: node indices")
+                if c in parents:
+                    doc.fail(f"nodes[{c}] is a child of both nodes[{parents[c]}] and nodes[{i}] (the node hierarchy must be a tree)")
+                parents[c] = i
+        doc.parents = parents
+    return doc.parents
+
+
 def node_world_matrix(doc: Document, index: int) -> np.ndarray:
-    """World transform of any node, through its chain of parents."""
+    """World transform of any node, through its chain of parents.  Each node's is computed once per
+    document (doc.worlds), so loading every node of a file is linear in its size, however deep its chains."""
     doc.item("nodes", index)
-    parent_of = {}
-    for i, n in enumerate(doc.json["nodes"]):
-        for c in n.get("children", []) if isinstance(n, dict) else []:
-            parent_of[c] = i
-    m, seen, i = np.eye(4), set(), index
-    while i is not None:
-        if i in seen:
+    parents = _parents(doc)  # first, so that a file whose nodes are not a tree is refused every time
+    if index in doc.worlds:
+        return doc.worlds[index]
+    chain, on_chain, i = [], set(), index  # up to the first node already known, or the root
+    while i is not None and i not in doc.worlds:
+        if i in on_chain:
             doc.fail(f"nodes[{index}]: its parents form a cycle")
-        seen.add(i)
-        m = local_matrix(doc, i) @ m
-        i = parent_of.get(i)
+        on_chain.add(i)
+        chain.append(i)
+        i = parents.get(i)
+    m = np.eye(4) if i is None else doc.worlds[i]
+    for i in reversed(chain):
+        m = doc.worlds[i] = _times(doc, i, m)
     return m
 
 
@@ -303,9 +363,15 @@ def _faces(doc: Document, prim: dict, n_vertices: int, where: str):
     mode = prim.get("mode", TRIANGLES)
     if mode not in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN):
         return None
-    idx = accessor(doc, prim["indices"]).ravel() if "indices" in prim else np.arange(n_vertices)
-    if len(idx) and (idx.min() < 0 or idx.max() >= n_vertices):
+    if "indices" in prim:
+        idx = accessor(doc, prim["indices"], f"{where}.indices", "SCALAR", INDEX_TYPES).ravel()
+    else:
+        idx = np.arange(n_vertices)
+    if len(idx) and idx.max() >= n_vertices:
         doc.fail(f"{where}.indices refer to vertex {int(idx.max())}, but POSITION has {n_vertices}")
+    triangles = len(idx) // 3 if mode == TRIANGLES else max(len(idx) - 2, 0)
+    if triangles > MAX_TRIANGLES:  # before a strip or fan is unrolled
+        doc.fail(f"{where}: {triangles} triangles; allowed: at most {MAX_TRIANGLES}")
     if mode == TRIANGLES:
         if len(idx) % 3:
             doc.fail(f"{where}: {len(idx)} indices is not a whole number of triangles")
@@ -328,25 +394,37 @@ def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix:
     attributes = prim.get("attributes")
     if not isinstance(attributes, dict) or "POSITION" not in attributes:
         doc.fail(f"{where} has no POSITION attribute")
-    positions = accessor(doc, attributes["POSITION"])
-    if positions.shape[1] != 3:
-        doc.fail(f"{where}: POSITION must be VEC3")
-    faces = _faces(doc, prim, len(positions), where)
-    if faces is None:
+    if prim.get("mode", TRIANGLES) not in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN):
         return None
+    positions = accessor(doc, attributes["POSITION"], f"{where}.attributes.POSITION", "VEC3")
+    if not np.isfinite(positions).all():  # before any arithmetic: inf x 0 would warn and give NaN
+        doc.fail(f"{where}: POSITION holds NaN or infinite values; allowed: finite numbers")
+    faces = _faces(doc, prim, len(positions), where)
     linear, shift = matrix[:3, :3], matrix[:3, 3]
-    vertices = positions @ linear.T + shift
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        vertices = positions @ linear.T + shift
+    if not np.isfinite(vertices).all():
+        doc.fail(f"{where}: positions times the node's transform overflow float64; allowed: finite products")
     normals = None
     if "NORMAL" in attributes:
-        n = accessor(doc, attributes["NORMAL"])
+        n = accessor(doc, attributes["NORMAL"], f"{where}.attributes.NORMAL", "VEC3")
         if n.shape != positions.shape:
             doc.fail(f"{where}: NORMAL must be VEC3 with one normal per position")
         with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf normals: replaced by meshes.shading_normals
-            n = n @ np.linalg.inv(linear)  # normals transform by the inverse transpose
+            n = n @ _normal_matrix(linear).T
             normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    if not np.isfinite(vertices).all():
-        doc.fail(f"{where}: positions are not finite")
     return vertices, faces, normals
+
+
+def _normal_matrix(linear: np.ndarray) -> np.ndarray:
+    """The inverse transpose of `linear` up to a positive factor: its cofactor matrix, signed by its determinant.
+    Unlike the inverse it exists for a singular transform (a node scaled to zero along an axis flattens its
+    mesh; the flat mesh's normals are still defined), and scaled to entries <= 1 first it cannot overflow."""
+    top = np.abs(linear).max()
+    a = linear / top if top > 0 else linear
+    cofactor = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])], axis=1)
+    # columns of `a` are a0, a1, a2: det = a0 . (a1 x a2), and cofactor[:, j] pairs the other two columns
+    return cofactor if np.linalg.det(a) >= 0 else -cofactor
 
 
 @dataclass
@@ -377,18 +455,25 @@ class NodeMesh:
 
 
 @_malformed_is_usage_error
-def node_mesh(path, node: int, primitive: int | None = None) -> NodeMesh:
-    """Node `node`'s mesh (one primitive, or all its triangle primitives) in world space."""
-    doc = read_document(path)
+def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeMesh:
+    """Node `node`'s mesh (one primitive, or all its triangle primitives) in world space.  With a `root`
+    (a confined scene's folder) every file it reads must lie inside it."""
+    doc = read_document(path, root)
     mesh_index = doc.item("nodes", node).get("mesh")
     if mesh_index is None:
         doc.fail(f"nodes[{node}] has no mesh")
     matrix = node_world_matrix(doc, node)
     count = len(doc.item("meshes", mesh_index).get("primitives", []))
-    parts = [primitive_triangles(doc, mesh_index, p, matrix) for p in ([primitive] if primitive is not None else range(count))]
+    chosen = [primitive] if primitive is not None else range(count)
+    triangles = sum(_triangle_count(doc, mesh_index, p) for p in chosen)
+    if triangles > MAX_TRIANGLES:  # before any is read
+        doc.fail(f"nodes[{node}]: its mesh has {triangles} triangles; allowed: at most {MAX_TRIANGLES}")
+    parts = [primitive_triangles(doc, mesh_index, p, matrix) for p in chosen]
     parts = [p for p in parts if p is not None]
     if not parts or not sum(len(f) for _, f, _ in parts):
         doc.fail(f"nodes[{node}]: its mesh has no triangles")
+    if not any(_has_area(v, f) for v, f, _ in parts):
+        doc.fail(f"nodes[{node}]: all its triangles have zero area (its world transform is scaled to zero); allowed: a node that is drawn")
     offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
     vertices = np.concatenate([v for v, _, _ in parts])
     faces = np.concatenate([f + o for (_, f, _), o in zip(parts, offsets)])
@@ -396,6 +481,28 @@ def node_mesh(path, node: int, primitive: int | None = None) -> NodeMesh:
     if all(n is not None for _, _, n in parts):
         normals = np.concatenate([n for _, _, n in parts])
     return NodeMesh(vertices, faces, normals)
+
+
+def _has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether any triangle has an area: a node scaled to zero (as files hide nodes) draws nothing."""
+    tri = vertices[faces]
+    return bool(np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])))
+
+
+def _triangle_count(doc: Document, mesh_index: int, prim_index: int) -> int:
+    """Triangles a primitive will give, from its accessors' counts alone (nothing is read); 0 for points and lines."""
+    prims = doc.item("meshes", mesh_index).get("primitives")
+    prim = prims[prim_index] if isinstance(prims, list) and 0 <= prim_index < len(prims) else None
+    if not isinstance(prim, dict) or not isinstance(prim.get("attributes"), dict):
+        return 0  # primitive_triangles says what is wrong with it
+    mode = prim.get("mode", TRIANGLES)
+    if mode not in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN):
+        return 0
+    source = prim["indices"] if "indices" in prim else prim["attributes"].get("POSITION")
+    count = doc.item("accessors", source).get("count") if source is not None else 0
+    if isinstance(count, bool) or not isinstance(count, int):
+        return 0  # accessor() says what is wrong with it
+    return count // 3 if mode == TRIANGLES else max(count - 2, 0)
 
 
 # ------------------------------------------------------------ the scene dict
@@ -416,8 +523,8 @@ def _material(doc: Document, index: int) -> dict:
     return {"diffuse": [float(c) for c in factor[:3]]}
 
 
-def _camera(doc: Document, index: int, matrix: np.ndarray):
-    """A scene-dict camera looking down the node's -z, and its aspect ratio (or None); None for orthographic."""
+def _camera(doc: Document, index: int, matrix: np.ndarray, node: int):
+    """A scene-dict camera looking down node `node`'s -z, and its aspect ratio (or None); None for orthographic."""
     cam = doc.item("cameras", index)
     if cam.get("type") != "perspective":
         return None
@@ -426,20 +533,33 @@ def _camera(doc: Document, index: int, matrix: np.ndarray):
         doc.fail(f"cameras[{index}].perspective is missing")
     yfov = persp.get("yfov")
     if isinstance(yfov, bool) or not isinstance(yfov, (int, float)) or not 0 < yfov < math.pi:
-        doc.fail(f"cameras[{index}].perspective.yfov must be an angle in radians in (0, pi), got {yfov!r}")
+        doc.fail(f"cameras[{index}].perspective.yfov must be an angle in radians in (0, pi), got {show(yfov)}")
     aspect = persp.get("aspectRatio")
-    if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not aspect > 0):
-        doc.fail(f"cameras[{index}].perspective.aspectRatio must be > 0, got {aspect!r}")
+    # the default image is IMAGE_WIDTH wide and IMAGE_WIDTH / aspect high, at most MAX_SIDE
+    if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not aspect >= IMAGE_WIDTH / MAX_SIDE):
+        lowest = IMAGE_WIDTH / MAX_SIDE
+        doc.fail(f"cameras[{index}].perspective.aspectRatio {show(aspect)}; allowed: >= {lowest:g} (a default image <= {MAX_SIDE} high)")
     eye = matrix[:3, 3]
-    forward = matrix[:3, :3] @ [0.0, 0.0, -1.0]
-    up = matrix[:3, :3] @ [0.0, 1.0, 0.0]
+    forward = _unit(matrix[:3, :3] @ [0.0, 0.0, -1.0])
+    up = _unit(matrix[:3, :3] @ [0.0, 1.0, 0.0])
+    if forward is None or up is None:
+        doc.fail(f"nodes[{node}]: the transform of its camera is scaled to zero, so it looks nowhere; allowed: a transform that keeps -z and +y")
     camera = {
         "position": eye.tolist(),
-        "look_at": (eye + forward / np.linalg.norm(forward)).tolist(),
+        "look_at": (eye + forward).tolist(),
         "up": up.tolist(),
         "fov": min(math.degrees(yfov), 179.0),
     }
     return camera, aspect
+
+
+def _unit(v: np.ndarray):
+    """v / |v|, or None for a zero vector; scaled to at most 1 first, so that the norm cannot overflow or underflow."""
+    top = np.abs(v).max()
+    if not top > 0:
+        return None
+    v = v / top
+    return v / np.linalg.norm(v)
 
 
 def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
@@ -482,14 +602,18 @@ def scene_dict(path) -> dict:
     objects, cameras, lights = [], [], []
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     aspect = None
+    triangles = 0
     for index, matrix in world_matrices(doc).items():
         node = doc.item("nodes", index)
         if "mesh" in node:
             mesh = doc.item("meshes", node["mesh"])
             for p in range(len(mesh.get("primitives", []))):
+                triangles += _triangle_count(doc, node["mesh"], p)
+                if triangles > MAX_TRIANGLES:  # before the primitive is read
+                    doc.fail(f"nodes[{index}]: the scene has more than {MAX_TRIANGLES} triangles up to this node; allowed: at most {MAX_TRIANGLES}")
                 tri = primitive_triangles(doc, node["mesh"], p, matrix)
-                if tri is None or not len(tri[1]):
-                    continue
+                if tri is None or not len(tri[1]) or not _has_area(tri[0], tri[1]):
+                    continue  # points and lines; a node scaled to zero (files hide nodes that way) draws nothing
                 lo, hi = np.minimum(lo, tri[0].min(axis=0)), np.maximum(hi, tri[0].max(axis=0))
                 material = mesh["primitives"][p].get("material")
                 if material is not None:
@@ -505,7 +629,7 @@ def scene_dict(path) -> dict:
                     }
                 )
         if "camera" in node:
-            found = _camera(doc, node["camera"], matrix)
+            found = _camera(doc, node["camera"], matrix, index)
             if found is not None:
                 cameras.append(found[0])
                 aspect = found[1] if len(cameras) == 1 else aspect

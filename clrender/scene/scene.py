@@ -21,6 +21,7 @@ from ..package_data import data_dir
 from .camera import Camera
 from .lights import FALLOFFS, LIGHT_TYPES, Light
 from .materials import DEFAULT_MATERIAL, Material
+from .toml_text import read_toml
 
 
 @dataclass
@@ -65,7 +66,7 @@ class Scene:
         if not path.is_file():
             raise UsageError(f"scene file {shorten(where, 200)!r} does not exist")
         try:
-            data = tomllib.loads(path.read_text())
+            data = read_toml(path, where, MAX_NESTING)  # its size and dotted keys bounded before tomllib parses it
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise UsageError(shorten(escape(f"{where}: not valid TOML ({exc})"), MAX_MESSAGE)) from None
         except RecursionError:  # tomllib recurses once per nested array or inline table
@@ -192,6 +193,7 @@ class _SceneReader:
         self.base_dir = base_dir
         self.where = where
         self.allow_outside = allow_outside
+        self.root = None if allow_outside else base_dir  # a confined scene reads only files inside it (confine.py)
 
     def fail(self, key: str, message: str):
         # the key is cut on its own so that what is allowed still fits on the line
@@ -490,10 +492,10 @@ class _SceneReader:
         if gltf_node is not None:  # one node's mesh of a glTF file, in its world space
             from .gltf import node_mesh
 
-            tm = node_mesh(file, *gltf_node)
+            tm = node_mesh(file, *gltf_node, root=self.root)
             source = f"{o['file']} node {gltf_node[0]}"
         elif "file" in o:
-            tm = load_mesh_file(file, f"{self.where}: {path}.file")
+            tm = load_mesh_file(file, f"{self.where}: {path}.file", root=self.root)
             source = o["file"]
         else:
             from . import meshes
@@ -503,7 +505,8 @@ class _SceneReader:
         if len(tm.faces) > MAX_TRIANGLES:
             self.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
         matrix = transform_matrix(translate, rotate, scale)
-        vertices = np.asarray(tm.vertices, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+        with np.errstate(over="ignore", invalid="ignore"):  # a huge file coordinate times scale: check_placed refuses it
+            vertices = np.asarray(tm.vertices, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
         self.check_placed(vertices, path)
         normals = None
         if smooth:
@@ -546,12 +549,9 @@ class _SceneReader:
         """The mesh file's path: relative to the scene's folder; absolute or ../ paths only when allow_outside."""
         if not isinstance(file, str) or not file or "\x00" in file:
             self.fail(key, f"expected a path, got {show(file)}")
-        path = self.base_dir / file
-        if not self.allow_outside:
-            base = self.base_dir.resolve()
-            if not path.resolve().is_relative_to(base):
-                self.fail(key, f"{show(file)} is outside the scene folder {show(str(base))}; allowed: paths inside it")
-        return path
+        from .confine import scene_file
+
+        return scene_file(self.base_dir, file, self.root, f"{self.where}: {key}")
 
     def generator(self, o, path):
         """(name, params) of a built-in mesh: `generator` names a function of clrender.scene.meshes, `params` its keyword arguments."""
@@ -577,7 +577,7 @@ def transform_matrix(translate=(0, 0, 0), rotate_degrees=(0, 0, 0), scale=(1, 1,
     return m
 
 
-def load_mesh_file(path: Path, what: str):
+def load_mesh_file(path: Path, what: str, root=None):
     """A trimesh.Trimesh from any format trimesh reads, checked for emptiness, NaNs and face indices."""
     import trimesh
 
@@ -586,7 +586,11 @@ def load_mesh_file(path: Path, what: str):
     if not path.is_file():
         raise UsageError(f"{what}: mesh file {str(path)!r} does not exist")
     try:
-        tm = trimesh.load(str(path), force="mesh", process=False)
+        from .confine import trimesh_resolver
+
+        # a confined scene's mesh reads its materials, images and buffers through confine.py too
+        resolver = None if root is None else trimesh_resolver(path, root)
+        tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
     except Exception as exc:  # trimesh raises many kinds for malformed files
         # On undecodable text trimesh reaches for an optional encoding guesser (charset_normalizer):
         # the missing module is trimesh's detail, the file is the user's problem.
