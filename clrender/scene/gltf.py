@@ -411,20 +411,28 @@ def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix:
         if n.shape != positions.shape:
             doc.fail(f"{where}: NORMAL must be VEC3 with one normal per position")
         with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf normals: replaced by meshes.shading_normals
-            n = n @ _normal_matrix(linear).T
+            n = n @ _normal_matrix(linear)
             normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     return vertices, faces, normals
 
 
 def _normal_matrix(linear: np.ndarray) -> np.ndarray:
-    """The inverse transpose of `linear` up to a positive factor: its cofactor matrix, signed by its determinant.
-    Unlike the inverse it exists for a singular transform (a node scaled to zero along an axis flattens its
-    mesh; the flat mesh's normals are still defined), and scaled to entries <= 1 first it cannot overflow."""
+    """R with normals = n @ R: the inverse of `linear` (normals transform by the inverse transpose), or,
+    where that does not exist or overflows, the same up to a positive factor: the transposed cofactor matrix,
+    signed by the determinant.  That exists for a singular transform too (a node scaled to zero along one axis
+    flattens its mesh, whose normals are still defined), and from entries scaled to <= 1 it cannot overflow.
+    The inverse comes first so that every file that loaded before gives the same normals, bit for bit."""
+    try:
+        inverse = np.linalg.inv(linear)
+        if np.isfinite(inverse).all():
+            return inverse
+    except np.linalg.LinAlgError:  # singular
+        pass
     top = np.abs(linear).max()
     a = linear / top if top > 0 else linear
-    cofactor = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])], axis=1)
-    # columns of `a` are a0, a1, a2: det = a0 . (a1 x a2), and cofactor[:, j] pairs the other two columns
-    return cofactor if np.linalg.det(a) >= 0 else -cofactor
+    # columns a0, a1, a2 of `a`: the inverse's rows are (a1 x a2, a2 x a0, a0 x a1) / det
+    cofactor_t = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])])
+    return cofactor_t if np.linalg.det(a) >= 0 else -cofactor_t
 
 
 @dataclass
