@@ -263,3 +263,23 @@ def test_a_node_flattened_along_its_normal_keeps_its_normals(tmp_path):
     assert mesh.smooth
     np.testing.assert_allclose(mesh.vertex_normals, np.broadcast_to([0, 0, 1], (4, 3)), atol=1e-12)
     np.testing.assert_allclose(np.ptp(mesh.vertices, axis=0), [4, 2, 0])
+
+
+def test_many_instances_of_a_huge_accessor_are_refused_before_they_are_read(tmp_path, capsys, monkeypatch):
+    """Every node reads its mesh's POSITION again: 100 nodes naming one accessor of 100 vertices read
+    10,000.  With the budget lowered to 1,000 the file is refused at the tenth node, before it reads more
+    (at the real budget, 3e8, a 1 KB file of nodes naming a 3e7-vertex accessor would otherwise take hours)."""
+    monkeypatch.setattr(gltf, "MAX_VERTICES_READ", 1000)
+    doc = {
+        "asset": {"version": "2.0"},
+        "nodes": [{"mesh": 0, "translation": [i, 0, 0]} for i in range(100)],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"componentType": 5126, "count": 102, "type": "VEC3"}],  # zeros: no bufferView
+    }
+    path = tmp_path / "instances.gltf"
+    path.write_text(json.dumps(doc))
+    reads = []
+    original = gltf.primitive_triangles
+    monkeypatch.setattr(gltf, "primitive_triangles", lambda *args: reads.append(args[1]) or original(*args))
+    err = refused(capsys, tmp_path, path, "nodes[9]: the nodes up to this one read more than 1000 vertices")
+    assert len(reads) == 9, err

@@ -67,6 +67,10 @@ IMAGE_WIDTH = 640  # default image width; the height follows the first camera's 
 # Elements of one accessor, checked before any is read or allocated (a 468-byte file can ask for 3e8
 # zeros): the triangle limit's three vertices (or indices) a triangle.
 MAX_ACCESSOR_COUNT = 3 * MAX_TRIANGLES
+# Vertices a whole file's nodes read together (a node reads its mesh's POSITION again for each instance):
+# generous for instancing and shared accessors, and it keeps a small file of many nodes that each name one
+# huge accessor from taking hours.
+MAX_VERTICES_READ = 10 * MAX_ACCESSOR_COUNT
 INDEX_TYPES = (5121, 5123, 5125)  # unsigned byte, short, int: the only component types glTF allows for indices
 SUFFIXES = (".gltf", ".glb")
 
@@ -499,18 +503,32 @@ def _has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
 
 def _triangle_count(doc: Document, mesh_index: int, prim_index: int) -> int:
     """Triangles a primitive will give, from its accessors' counts alone (nothing is read); 0 for points and lines."""
+    prim = _triangle_primitive(doc, mesh_index, prim_index)
+    if prim is None:
+        return 0
+    count = _count(doc, prim["indices"] if "indices" in prim else prim["attributes"].get("POSITION"))
+    return count // 3 if prim.get("mode", TRIANGLES) == TRIANGLES else max(count - 2, 0)
+
+
+def _vertex_count(doc: Document, mesh_index: int, prim_index: int) -> int:
+    """Vertices a triangle primitive will read (its POSITION count), nothing read; 0 for points and lines."""
+    prim = _triangle_primitive(doc, mesh_index, prim_index)
+    return 0 if prim is None else _count(doc, prim["attributes"].get("POSITION"))
+
+
+def _triangle_primitive(doc: Document, mesh_index: int, prim_index: int):
+    """The primitive, when it draws triangles and has attributes; else None (primitive_triangles says what is wrong)."""
     prims = doc.item("meshes", mesh_index).get("primitives")
     prim = prims[prim_index] if isinstance(prims, list) and 0 <= prim_index < len(prims) else None
     if not isinstance(prim, dict) or not isinstance(prim.get("attributes"), dict):
-        return 0  # primitive_triangles says what is wrong with it
-    mode = prim.get("mode", TRIANGLES)
-    if mode not in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN):
-        return 0
-    source = prim["indices"] if "indices" in prim else prim["attributes"].get("POSITION")
-    count = doc.item("accessors", source).get("count") if source is not None else 0
-    if isinstance(count, bool) or not isinstance(count, int):
-        return 0  # accessor() says what is wrong with it
-    return count // 3 if mode == TRIANGLES else max(count - 2, 0)
+        return None
+    return prim if prim.get("mode", TRIANGLES) in (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN) else None
+
+
+def _count(doc: Document, index) -> int:
+    """An accessor's count as the file states it (0 when absent or not a whole number: accessor() refuses those)."""
+    count = doc.item("accessors", index).get("count") if index is not None else 0
+    return count if isinstance(count, int) and not isinstance(count, bool) else 0
 
 
 # ------------------------------------------------------------ the scene dict
@@ -610,15 +628,21 @@ def scene_dict(path) -> dict:
     objects, cameras, lights = [], [], []
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     aspect = None
-    triangles = 0
+    triangles = vertices = 0
     for index, matrix in world_matrices(doc).items():
         node = doc.item("nodes", index)
         if "mesh" in node:
             mesh = doc.item("meshes", node["mesh"])
             for p in range(len(mesh.get("primitives", []))):
                 triangles += _triangle_count(doc, node["mesh"], p)
+                vertices += _vertex_count(doc, node["mesh"], p)
                 if triangles > MAX_TRIANGLES:  # before the primitive is read
                     doc.fail(f"nodes[{index}]: the scene has more than {MAX_TRIANGLES} triangles up to this node; allowed: at most {MAX_TRIANGLES}")
+                if vertices > MAX_VERTICES_READ:
+                    doc.fail(
+                        f"nodes[{index}]: the nodes up to this one read more than {MAX_VERTICES_READ} vertices "
+                        f"(each instance reads its mesh again); allowed: at most {MAX_VERTICES_READ}"
+                    )
                 tri = primitive_triangles(doc, node["mesh"], p, matrix)
                 if tri is None or not len(tri[1]) or not _has_area(tri[0], tri[1]):
                     continue  # points and lines; a node scaled to zero (files hide nodes that way) draws nothing
