@@ -99,6 +99,15 @@ def test_a_confined_scene_reads_no_gltf_buffer_outside_its_folder(confined, kind
         np.testing.assert_array_equal(placed.vertices, TRIANGLE)
 
 
+@pytest.mark.parametrize("kind", ["climbing", "absolute", "symlink"])
+def test_a_confined_gltf_scene_reads_no_buffer_outside_its_folder(confined, kind):
+    path, _ = write_gltf(confined / "inside.gltf", uri=secret_uri(kind, confined))
+    with pytest.raises(UsageError, match="outside the scene folder"):
+        Scene.from_file(path, allow_outside=False)
+    (mesh,) = Scene.from_file(path).objects  # for local files: read
+    np.testing.assert_array_equal(mesh.vertices, TRIANGLE)
+
+
 def test_a_confined_scene_reads_gltf_buffers_inside_its_folder(confined):
     (confined / "data").mkdir()
     _, blob = write_gltf(confined / "inside.gltf", uri="data/tri.bin")

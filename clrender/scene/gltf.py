@@ -619,10 +619,11 @@ def _framing_camera(bounds_lo, bounds_hi, fov=60.0) -> dict:
 
 
 @_malformed_is_usage_error
-def scene_dict(path) -> dict:
-    """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder."""
+def scene_dict(path, root=None) -> dict:
+    """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder.
+    With a `root` every file it reads must lie inside that folder."""
     path = Path(path)
-    doc = read_document(path)
+    doc = read_document(path, root)
     names = _material_names(doc)
     materials = {names[i]: _material(doc, i) for i in range(len(names))}
     objects, cameras, lights = [], [], []
@@ -687,9 +688,11 @@ def scene_dict(path) -> dict:
     }
 
 
-def load_scene(path):
-    """A Scene of the glTF file, checked as any scene file is."""
+def load_scene(path, allow_outside: bool = True):
+    """A Scene of the glTF file, checked as any scene file is; allow_outside=False reads only files (its
+    buffers) inside the file's folder, as `Scene.from_file` does for a TOML scene's meshes."""
     from .scene import Scene
 
     path = Path(path)
-    return Scene.from_dict(scene_dict(path), base_dir=path.parent, where=str(path), name=path.stem)
+    root = None if allow_outside else path.parent
+    return Scene.from_dict(scene_dict(path, root), base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)

@@ -60,8 +60,12 @@ class Scene:
     # ------------------------------------------------------------------ loading
     @classmethod
     def from_file(cls, path, allow_outside: bool = True) -> Scene:
-        """Read a TOML scene file; mesh paths are relative to its folder (see `from_dict` for allow_outside)."""
+        """Read a TOML scene file (or a glTF file); mesh paths are relative to its folder (see `from_dict` for allow_outside)."""
         path = Path(path)
+        if path.suffix.lower() in (".gltf", ".glb"):
+            from .gltf import load_scene
+
+            return load_scene(path, allow_outside=allow_outside)
         where = escape(str(path))
         if not path.is_file():
             raise UsageError(f"scene file {shorten(where, 200)!r} does not exist")
