@@ -48,13 +48,13 @@ def main(argv=None):
     runs = {}
     modes = {
         "none": dict(aa="none"),
-        "full": dict(aa="full"),
-        "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0),
-        "edge_detect": dict(aa="edge_detect"),
+        "full": dict(aa="full", samples=args.samples),
+        "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0, samples=args.samples, thickness=args.thickness),
+        "edge_detect": dict(aa="edge_detect", samples=args.samples, thickness=args.thickness),
     }
     cpu = {}
     for mode, settings in modes.items():
-        renderer = Renderer(scene, samples=args.samples, thickness=args.thickness, seed=1, **settings, **common)
+        renderer = Renderer(scene, seed=1, **settings, **common)  # samples and thickness only where they act
         start = time.process_time()
         runs[mode] = renderer.run()
         cpu[mode] = time.process_time() - start  # this process, PoCL's threads included (the host is shared)
