@@ -284,7 +284,7 @@ def test_scene_errors_read_the_same_with_a_scheduler(client, tmp_path, capsys):
 
 
 def test_unreachable_scheduler_is_exit_2_naming_it_quickly(monkeypatch, tmp_path, capsys):
-    monkeypatch.setattr("clrender.distributed.cluster.CONNECT_TIMEOUT", 1.0)
+    monkeypatch.setenv("CLRENDER_CONNECT_TIMEOUT", "1")
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         address = f"tcp://127.0.0.1:{s.getsockname()[1]}"
@@ -297,7 +297,7 @@ def test_unreachable_scheduler_is_exit_2_naming_it_quickly(monkeypatch, tmp_path
 
 
 def test_scheduler_address_from_the_environment(monkeypatch, tmp_path, capsys):
-    monkeypatch.setattr("clrender.distributed.cluster.CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setenv("CLRENDER_CONNECT_TIMEOUT", "0.5")
     monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://127.0.0.1:9")
     assert main(["render", "refract1", "-o", str(tmp_path / "x.png")]) == 2
     assert "tcp://127.0.0.1:9" in capsys.readouterr().err
@@ -491,3 +491,192 @@ def test_a_worker_with_other_code_refuses_with_one_line(client):
     renderer.payload.code = "0" * 16  # as if the client ran another version
     with pytest.raises(RenderFailure, match="runs different clrender code .* the client's 0000000000000000"):
         renderer.run()
+
+
+# ------------------------------------------------------------------ waiting: the hang, the watchdog, deadlines
+def test_a_render_finishes_while_another_clients_loop_is_blocked(client):
+    """The cause of the old hang: Dask's as_completed tracked our futures on the *current* client's event
+    loop (here a second client, as the CLI's client beside a test's fixture), so their completion events
+    were set on one thread and awaited on another.  With that loop blocked, the old code could not finish;
+    ours never touches another client's loop."""
+    other = distributed.Client(client.scheduler.address, set_as_default=False)
+    gate = threading.Event()
+    release_later = threading.Timer(30, gate.set)  # lets the old code finish (and fail) instead of hanging
+    try:
+        other.loop.add_callback(gate.wait)  # the other client's loop thread now waits on the gate
+        release_later.start()
+        with other.as_current():
+            image = crd.render("refract1", client=client, **TINY, aa="edge_detect", samples=2)
+        finished_while_blocked = not gate.is_set()
+    finally:
+        gate.set()
+        release_later.cancel()
+        other.close()
+    assert finished_while_blocked
+    assert image.tobytes() == clrender.render("refract1", **TINY, aa="edge_detect", samples=2).tobytes()
+
+
+@pytest.fixture
+def scheduler_never_hears_of_our_tasks(monkeypatch):
+    """Drop the client's task submissions for clrender's keys: futures wait for tasks the scheduler never got."""
+    real = distributed.Client._send_to_scheduler
+
+    def dropping(self, msg):
+        if msg.get("op") == "update-graph" and all(str(k).startswith("clrender-") for k in msg["keys"]):
+            return None
+        return real(self, msg)
+
+    monkeypatch.setattr(distributed.Client, "_send_to_scheduler", dropping)
+
+
+def test_the_watchdog_stops_a_render_whose_tasks_the_scheduler_does_not_know(client, scheduler_never_hears_of_our_tasks):
+    from clrender.errors import RenderFailure
+
+    with pytest.raises(RenderFailure, match=r"no trace task finished for 0\.5 s and the Dask scheduler at .* does not know 6 of the 6"):
+        crd.render("refract1", client=client, deadlines=crd.Deadlines(stall=0.5), **TINY)
+    with pytest.raises(RenderFailure, match=r"no frame task finished for 0\.5 s .* does not know 2 of the 2"):
+        crd.turntable("refract1", frames=2, client=client, deadlines=crd.Deadlines(stall=0.5), width=16, height=12)
+    from clrender.distributed.fits import fit_gauss
+    from clrender.splat.fit import FitConfig
+
+    with pytest.raises(RenderFailure, match=r"no gauss task finished .* does not know 2 of the 2"):
+        fit_gauss(small_photos(), FitConfig(splats=8, epochs=2), client=client, deadlines=crd.Deadlines(stall=0.5))
+    assert wait_for(lambda: scheduler_tasks(client) == 0)  # the scattered scene and images were let go
+
+
+def test_the_watchdog_is_one_line_and_exit_1_on_the_command_line(client, tmp_path, capsys, scheduler_never_hears_of_our_tasks):
+    args = ["-q", "render", "refract1", "--width", "16", "--height", "12", "-o", str(tmp_path / "x.png")]
+    assert main(args + ["--scheduler", client.scheduler.address, "--stall-timeout", "0.5"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not know 1 of the 1" in err[0] and "released, forgotten or never received" in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_slow_task_is_not_a_stall(client):
+    """The watchdog asks before it fails: tasks the scheduler knows keep the render going."""
+    from clrender.distributed.waiting import collect
+
+    futures = [client.submit(time.sleep, 1.0, key=f"clrender-slow-{k}-{time.monotonic_ns()}") for k in range(2)]
+    done = sorted(i for i, _ in collect(client, futures, "slow", crd.Deadlines(stall=0.2)))
+    assert done == [0, 1]
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "soon"])
+def test_stall_timeout_values_are_checked(tmp_path, capsys, value, client):
+    args = ["render", "refract1", "-o", str(tmp_path / "x.png"), "--scheduler", client.scheduler.address, "--stall-timeout", value]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"clrender: --stall-timeout '{value}' is not valid; allowed: seconds above 0, at most 604800"]
+
+
+class FakeServer:
+    """A TCP server on 127.0.0.1 that sends `reply` (None: nothing) to each connection; it stops by
+    itself after `lifetime` seconds, or when the `with` block ends."""
+
+    def __init__(self, reply: bytes | None, lifetime: float = 30.0):
+        self.reply, self.lifetime = reply, lifetime
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.sock.settimeout(0.1)
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self.serve, daemon=True)
+
+    def serve(self):
+        deadline, conns = time.monotonic() + self.lifetime, []
+        while not self.stop.is_set() and time.monotonic() < deadline:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                continue
+            conns.append(conn)
+            if self.reply is not None:
+                conn.sendall(self.reply)
+        for conn in conns:
+            conn.close()
+        self.sock.close()
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stop.set()
+        self.thread.join(5)
+
+
+def test_a_scheduler_that_accepts_and_never_answers_is_one_line_exit_1(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("CLRENDER_CONNECT_TIMEOUT", "1")
+    with FakeServer(reply=None) as server:
+        assert main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--scheduler", server.address]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"clrender: the Dask scheduler at '{server.address}' accepted the connection but did not answer within 1 s"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_malformed_frame_from_a_fake_scheduler_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("CLRENDER_CONNECT_TIMEOUT", "5")
+    frame = (2).to_bytes(8, "little") + b"\xff" * 6  # says two frames follow, then too few bytes for their lengths
+    with FakeServer(reply=frame) as server:
+        assert main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--scheduler", server.address]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"clrender: '{server.address}' did not answer as a Dask scheduler does (")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("address", ["tls://127.0.0.1:8786", "ucx://127.0.0.1:8786", "tcp://", "tcp://host:99999"])
+def test_unsupported_scheduler_addresses_are_refused_in_one_line(tmp_path, capsys, address):
+    assert main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--scheduler", address]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"scheduler address '{address}'" in err[0] and "allowed: tcp://HOST:PORT or HOST:PORT" in err[0]
+
+
+@pytest.mark.parametrize("workers", ["1_000", "64", "0"])
+def test_workers_beyond_what_the_machine_holds_are_refused_before_starting_any(tmp_path, capsys, workers, monkeypatch):
+    monkeypatch.setattr("clrender.distributed.cluster.cores", lambda: 2)
+    started = []
+    monkeypatch.setattr(distributed, "LocalCluster", lambda *a, **k: started.append(k))
+    assert main(["render", "refract1", "-o", str(tmp_path / "x.png"), "--workers", workers]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"clrender: --workers {int(workers)} is not possible here; allowed: 1 to ")
+    assert "2 CPU core(s)" in err[0] and started == [] and list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ under load
+@pytest.fixture
+def busy_cores():
+    """One busy-loop process per core for the test's duration (always killed)."""
+    import subprocess
+
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 1)]
+    try:
+        yield procs
+    finally:
+        for proc in procs:
+            proc.kill()
+        for proc in procs:
+            proc.wait()
+
+
+@pytest.mark.slow
+def test_scheduler_renders_turntables_and_fits_under_cpu_load_30_times(client, tmp_path, busy_cores):
+    from clrender.distributed.fits import fit_gauss
+    from clrender.splat.fit import FitConfig
+
+    args = ["-q", "render", "refract1", "--width", "24", "--height", "16", "--aa", "edge_detect", "--samples", "2"]
+    assert main(args + ["-o", str(tmp_path / "local.png")]) == 0
+    local = (tmp_path / "local.png").read_bytes()
+    frames_here = [img.tobytes() for _, img in render_turntable(Scene.load("refract1"), clrender.RenderSettings(width=16, height=12), 2)]
+    photo = small_photos()[0]
+    config = FitConfig(splats=8, epochs=2, seed=1)
+    fit_here = fit_gauss([photo], config, client=client)[0].image.tobytes()
+    deadlines = crd.Deadlines(stall=20.0)  # a hang fails within seconds instead of holding the suite
+    for i in range(30):
+        out = tmp_path / f"d{i}.png"
+        rc = main(args + ["-o", str(out), "--scheduler", client.scheduler.address, "--stall-timeout", "20"])
+        assert rc == 0 and out.read_bytes() == local, i
+        frames = crd.turntable("refract1", frames=2, client=client, deadlines=deadlines, width=16, height=12)
+        assert [f.tobytes() for f in frames] == frames_here, i
+        assert fit_gauss([photo], config, client=client, deadlines=deadlines)[0].image.tobytes() == fit_here, i
+    assert wait_for(lambda: scheduler_tasks(client) == 0)

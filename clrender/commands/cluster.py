@@ -1,4 +1,4 @@
-"""Command-line options for running on a Dask cluster (--scheduler, --workers, --pocl-threads).
+"""Command-line options for running on a Dask cluster (--scheduler, --workers, --pocl-threads, --stall-timeout).
 
 Commands add these with `add_cluster_arguments(parser)` and get a client (or
 None, for this process) from `cluster_client(args)`.  Needs the extra
@@ -26,6 +26,13 @@ def add_cluster_arguments(p, tiles: bool = True):
         help="start a Dask LocalCluster of N single-thread worker processes on this machine (default: no local cluster)",
     )
     g.add_argument("--pocl-threads", type=int, default=None, metavar="T", help="PoCL threads per --workers process (default: CPU cores / N)")
+    g.add_argument(
+        "--stall-timeout",
+        default=None,
+        metavar="SECONDS",
+        help="when no task has finished for SECONDS, ask the scheduler whether it still knows ours and stop "
+        "with one line if not (default: $CLRENDER_STALL_TIMEOUT, else 60)",
+    )
     if not tiles:
         return
     g.add_argument(
@@ -47,11 +54,21 @@ def cluster_requested(args) -> bool:
 def cluster_client(args):
     """A dask Client for --scheduler / --workers, or None when neither was asked for."""
     if not cluster_requested(args):
+        if getattr(args, "stall_timeout", None) is not None:
+            import sys
+
+            sys.stderr.write("warning: --stall-timeout changes nothing without --workers or --scheduler\n")
         yield None
         return
-    from ..distributed.cluster import connect
+    from dataclasses import replace
 
-    with connect(args.scheduler, args.workers, args.pocl_threads, announce=not args.quiet) as client:
+    from ..distributed.cluster import connect
+    from ..distributed.deadlines import Deadlines, seconds, using
+
+    deadlines = Deadlines.from_env()
+    if getattr(args, "stall_timeout", None) is not None:
+        deadlines = replace(deadlines, stall=seconds(args.stall_timeout, "--stall-timeout"))
+    with using(deadlines), connect(args.scheduler, args.workers, args.pocl_threads, announce=not args.quiet) as client:
         yield client
 
 

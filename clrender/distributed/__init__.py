@@ -29,9 +29,23 @@ from ..scene.scene import Scene
 from ..trace.renderer import Renderer, RenderResult, RenderSettings
 from . import worker
 from .cluster import INSTALL_HINT, connect, require_dask
+from .deadlines import Deadlines
 from .payload import ScenePayload, join, split
+from .waiting import collect, release, scatter
 
-__all__ = ["DistributedRenderer", "render", "run", "turntable", "iter_turntable", "connect", "split", "join", "ScenePayload", "INSTALL_HINT"]
+__all__ = [
+    "DistributedRenderer",
+    "render",
+    "run",
+    "turntable",
+    "iter_turntable",
+    "connect",
+    "split",
+    "join",
+    "ScenePayload",
+    "Deadlines",
+    "INSTALL_HINT",
+]
 
 
 @dataclass
@@ -62,8 +76,9 @@ class DistributedRenderer(Renderer):
     the same code and the same bytes.  The client builds nothing on a device.
     """
 
-    def __init__(self, scene, settings: RenderSettings | None = None, client=None, **overrides):
+    def __init__(self, scene, settings: RenderSettings | None = None, client=None, deadlines: Deadlines | None = None, **overrides):
         self.scene = Scene.load(scene)
+        self.deadlines = deadlines  # None: the defaults (clrender.distributed.deadlines.current)
         self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
         self.client = _client(client)
         self.n_lights = len(self.scene.lights)
@@ -77,12 +92,10 @@ class DistributedRenderer(Renderer):
 
     def _scene_future(self):
         if self._scattered is None:  # sent once to every worker, shared by every task
-            self._scattered = self.client.scatter(self.payload, hash=False, broadcast=True)
+            self._scattered = scatter(self.client, self.payload, broadcast=True, deadlines=self.deadlines)
         return self._scattered
 
     def _pass(self, pixel_lists, sampler, n, record, desc):
-        from distributed import as_completed
-
         payload = self._scene_future()
         token = uuid.uuid4().hex[:12]
         futures = [
@@ -91,12 +104,10 @@ class DistributedRenderer(Renderer):
             )
             for i, p in enumerate(pixel_lists)
         ]
-        index = {f.key: i for i, f in enumerate(futures)}
         parts = [None] * len(futures)
         try:
             with progress(total=len(futures), desc=desc, unit="task") as bar:
-                for future, (out, info) in as_completed(futures, with_results=True):
-                    i = index[future.key]
+                for i, (out, info) in collect(self.client, futures, desc, self.deadlines):
                     parts[i] = out
                     info.update(index=i, task=desc, received=time.perf_counter())
                     self.task_log.append(info)
@@ -104,7 +115,7 @@ class DistributedRenderer(Renderer):
                         self.first_result_seconds = info["received"] - self._started
                     bar.update()
         except BaseException:  # Ctrl-C or a failed task: nothing else should keep running for us
-            self.client.cancel(futures)
+            release(futures)
             raise
         # as Renderer._pass: outputs a pass does not produce (AOVs off) stay None
         return [np.concatenate(x) if x[0] is not None else None for x in zip(*parts)]
@@ -115,7 +126,7 @@ class DistributedRenderer(Renderer):
             result = super().run()
         finally:
             if self._scattered is not None:
-                self.client.cancel([self._scattered])
+                release([self._scattered])
                 self._scattered = None
         built = [t for t in self.task_log if t["setup"] > 0]
         result.timings["bvh"] = max((t["bvh"] for t in built), default=0.0)
@@ -124,42 +135,39 @@ class DistributedRenderer(Renderer):
         return result
 
 
-def run(scene, settings: RenderSettings | None = None, client=None, **overrides) -> RenderResult:
+def run(scene, settings: RenderSettings | None = None, client=None, deadlines: Deadlines | None = None, **overrides) -> RenderResult:
     """`Renderer(scene, settings).run()` on a Dask cluster: the same RenderResult."""
-    return DistributedRenderer(scene, settings, client, **overrides).run()
+    return DistributedRenderer(scene, settings, client, deadlines, **overrides).run()
 
 
-def render(scene, settings: RenderSettings | None = None, client=None, **overrides) -> np.ndarray:
+def render(scene, settings: RenderSettings | None = None, client=None, deadlines: Deadlines | None = None, **overrides) -> np.ndarray:
     """`clrender.render` on a Dask cluster: the same linear float32 (H, W, 3) image, bit for bit."""
-    return run(scene, settings, client, **overrides).image
+    return run(scene, settings, client, deadlines, **overrides).image
 
 
-def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 36, client=None, **overrides):
+def iter_turntable(scene, settings: RenderSettings | None = None, frames: int = 36, client=None, deadlines: Deadlines | None = None, **overrides):
     """Yield (k, image) for each turntable frame as it finishes (any order); one task per frame."""
-    from distributed import as_completed
-
     from ..trace.turntable import orbit
 
     client = _client(client)
     scene = Scene.load(scene)
     settings = replace(settings or RenderSettings(), **overrides).validate(scene)
     cameras = orbit(scene.camera(settings.camera), frames)
-    payload = client.scatter(split(scene), hash=False, broadcast=True)
+    payload = scatter(client, split(scene), broadcast=True, deadlines=deadlines)
     token = uuid.uuid4().hex[:12]
     futures = [client.submit(worker.render_frame, payload, settings, camera, key=f"clrender-frame-{token}-{k}") for k, camera in enumerate(cameras)]
-    index = {f.key: k for k, f in enumerate(futures)}
     try:
-        for future, (image, _info) in as_completed(futures, with_results=True):
-            yield index[future.key], image
+        for k, (image, _info) in collect(client, futures, "frame", deadlines):
+            yield k, image
     finally:  # also on Ctrl-C, an error, or the caller stopping early
-        client.cancel(futures + [payload])
+        release(futures + [payload])
 
 
-def turntable(scene, settings: RenderSettings | None = None, frames: int = 36, client=None, **overrides) -> list:
+def turntable(scene, settings: RenderSettings | None = None, frames: int = 36, client=None, deadlines: Deadlines | None = None, **overrides) -> list:
     """The turntable's frames in order, as `clrender.trace.turntable.render_turntable` gives them locally."""
     images = [None] * frames
     with progress(total=frames, desc="frames", unit="frame") as bar:
-        for k, image in iter_turntable(scene, settings, frames, client, **overrides):
+        for k, image in iter_turntable(scene, settings, frames, client, deadlines, **overrides):
             images[k] = image
             bar.update()
     return images

@@ -16,6 +16,8 @@ import uuid
 
 from . import worker
 from .cluster import require_dask
+from .deadlines import Deadlines
+from .waiting import collect, release, scatter
 
 
 def _client(client):
@@ -24,51 +26,48 @@ def _client(client):
     return default_client(client)
 
 
-def _map(client, function, images, settings: list, device, desc: str) -> list:
+def _map(client, function, images, settings: list, device, desc: str, deadlines: Deadlines | None = None) -> list:
     """function(image, setting, device) on the cluster for each pair; results in order."""
-    from distributed import as_completed
-
     from ..progress import progress
 
     require_dask()
     client = _client(client)
-    scattered = client.scatter(list(images), hash=False)
+    scattered = scatter(client, list(images), deadlines=deadlines)
     token = uuid.uuid4().hex[:12]
     futures = [
         client.submit(function, image, setting, device, key=f"clrender-{desc}-{token}-{i}")
         for i, (image, setting) in enumerate(zip(scattered, settings))
     ]
-    index = {f.key: i for i, f in enumerate(futures)}
     results = [None] * len(futures)
     try:
         with progress(total=len(futures), desc=desc, unit="fit") as bar:
-            for future, result in as_completed(futures, with_results=True):
-                results[index[future.key]] = result
+            for i, result in collect(client, futures, desc, deadlines):
+                results[i] = result
                 bar.update()
-    finally:  # Ctrl-C or a failed fit: cancel what is left, drop the images
-        client.cancel(futures + scattered)
+    finally:  # Ctrl-C or a failed fit: drop what is left and the images
+        release(futures + scattered)
     return results
 
 
-def fit_gauss(targets, config=None, client=None, device=None) -> list:
+def fit_gauss(targets, config=None, client=None, device=None, deadlines: Deadlines | None = None) -> list:
     """Fit Gaussian splats to each (H, W, 3) float32 target: a FitResult each, as `fit(device, target, config)`."""
     from ..splat.fit import FitConfig
 
     targets = list(targets)
     config = config or FitConfig()
-    return _map(client, worker.fit_gauss, targets, [config] * len(targets), device, "gauss")
+    return _map(client, worker.fit_gauss, targets, [config] * len(targets), device, "gauss", deadlines)
 
 
-def sweep_gauss(target, configs, client=None, device=None) -> list:
+def sweep_gauss(target, configs, client=None, device=None, deadlines: Deadlines | None = None) -> list:
     """One fit of `target` per FitConfig (a hyper-parameter sweep): a FitResult each, in order."""
     configs = list(configs)
-    return _map(client, worker.fit_gauss, [target] * len(configs), configs, device, "sweep")
+    return _map(client, worker.fit_gauss, [target] * len(configs), configs, device, "sweep", deadlines)
 
 
-def splat_voronoi(images, settings=None, client=None, device=None) -> list:
+def splat_voronoi(images, settings=None, client=None, device=None, deadlines: Deadlines | None = None) -> list:
     """Voronoi splatting of each image: a VoronoiResult each, as `splat(device, image, settings)`."""
     from ..splat.voronoi import VoronoiSettings
 
     images = list(images)
     settings = settings or VoronoiSettings()
-    return _map(client, worker.splat_voronoi, images, [settings] * len(images), device, "voronoi")
+    return _map(client, worker.splat_voronoi, images, [settings] * len(images), device, "voronoi", deadlines)
