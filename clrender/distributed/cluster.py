@@ -217,6 +217,7 @@ def connect(
     """
     if workers is not None and scheduler:
         raise UsageError(f"give either --scheduler ({shown(scheduler)}) or --workers ({workers}), not both")
+    distributed = require_dask()  # first: without the extra, the install line is the answer
     if workers is not None:
         check_workers(workers)
     if pocl_threads is not None and not 1 <= pocl_threads <= 1024:
@@ -228,8 +229,7 @@ def connect(
         d = replace(d, connect=timeout)
     address = None if workers is not None else scheduler_address(scheduler)
     if address is not None:
-        host_port(address)  # a bad address is refused before Dask is imported
-    distributed = require_dask()
+        host_port(address)  # a bad address is refused before anything is started
     cluster = None
     if workers is not None:
         threads = pocl_threads or max(1, cores() // workers)
