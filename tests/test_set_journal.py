@@ -133,3 +133,34 @@ def test_a_set_spread_over_two_folders_is_finished_from_either(tmp_path):
     next_write(tmp_path / "sub")
     assert all((tmp_path / n).exists() for n in ("o.npz", "sub/o.aov.npz", "o.edges.npz"))
     assert hidden(tmp_path) == [] and hidden(tmp_path / "sub") == []
+
+
+@pytest.mark.parametrize("fail_at", [1, 2])
+def test_an_overwriting_set_refused_between_its_renames_puts_every_old_file_back(tmp_path, monkeypatch, fail_at):
+    """In-process, no kill: the rename onto the second or third name fails after the first ones have
+    replaced their old files.  The commit is undone from the old files' backups: every old file is back,
+    byte for byte, and no hidden name (new file, backup or journal) is left."""
+    from clrender import outputs
+
+    for i, name in enumerate(NAMES):
+        np.savez(tmp_path / name, x=np.full(3, 1.0), which=np.int64(i))
+    old = {name: (tmp_path / name).read_bytes() for name in NAMES}
+    real_replace, renames = os.replace, []
+
+    def replace(src, dst, *args, **kwargs):
+        if not os.path.basename(str(dst)).startswith("."):  # onto a final name
+            renames.append(os.path.basename(str(dst)))
+            if len(renames) == fail_at + 1:  # this one only: the undo's renames go through
+                raise OSError(28, "No space left on device", str(dst))
+        return real_replace(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(OSError, match="No space left"):
+        with outputs.output_set(overwrite=True):
+            for name in NAMES:
+                outputs.save_npz(tmp_path / name, x=np.full(3, 2.0))
+    # the first fail_at outputs were replaced before the failure, then restored (not just removed)
+    assert renames[: fail_at + 1] == list(NAMES[: fail_at + 1])
+    assert {name: (tmp_path / name).read_bytes() for name in NAMES} == old
+    assert contents(tmp_path) == [1.0, 1.0, 1.0]
+    assert hidden(tmp_path) == []
