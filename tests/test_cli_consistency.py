@@ -154,7 +154,7 @@ def test_list_shows_descriptions_and_cameras_with_the_seeds_marked(capsys):
         assert len(marked) == 1 and f"--camera {data.get('seed_camera', 1)} " in marked[0]
         for number, (line, camera) in enumerate(zip(cameras, data["cameras"]), start=1):
             assert f"--camera {number}  {camera['name']}" in line
-    # the seed's edge-AA run of wizard_cat used camera 3 (README, bench aa)
+    # the seed's edge-AA run of wizard_cat used camera 3 (docs/benchmarks.md, bench aa)
     assert "* --camera 3" in listed["wizard_cat"]
 
 

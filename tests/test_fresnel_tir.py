@@ -6,7 +6,7 @@ A clear sheet (transparency 1, IOR 1.5) stands tilted in front of a red wall lit
 ambient light, under a blue sky: a reflected or refracted ray sees red if it heads for the
 wall and blue otherwise, so each pixel is F * (what the reflection sees) + (1 - F) * (what the
 refraction sees), worked out here in float64.  A ray that meets the sheet from behind (its
-normal pointing away) is leaving glass, as the README's medium rule says.
+normal pointing away) is leaving glass, as the medium rule of docs/shading.md says.
 """
 
 import numpy as np

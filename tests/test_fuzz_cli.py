@@ -1,4 +1,4 @@
-"""The command line under hostile input: the README's promise, checked on reproducers and by hypothesis.
+"""The command line under hostile input: docs/errors-and-writes.md's promise, checked on reproducers and by hypothesis.
 
 The promise: any argument list ends with exit 0, 1 (run-time failure) or 2 (bad input); an error is
 exactly one `clrender: ...` line on stderr with control characters escaped; never a traceback; and

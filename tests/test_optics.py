@@ -2,7 +2,7 @@
 
 Every test renders a tiny scene through the public API (Scene.from_dict +
 Renderer, aa="none") and compares with geometry computed here in float64:
-the camera rays come from the README's camera definition
+the camera rays come from the camera definition in docs/scene-format.md
 (tests/reference/whitted.camera_rays, not clrender's Camera), and the answers
 from the physics (mirror images, Snell's law, Schlick's formula, Lambert's
 cosine law, the Blinn-Phong half-vector, projections of shadows).  Pixels
@@ -478,7 +478,7 @@ def test_a_mesh_casts_the_shadow_of_its_projection_along_a_directional_light(tmp
 
 @pytest.mark.parametrize("fresnel", [False, True])
 def test_a_glass_sphere_passes_its_transparency_squared_into_its_shadow(fresnel):
-    """Shadow rays are not bent; each of the two crossings passes `transparency` (README, Shading)."""
+    """Shadow rays are not bent; each of the two crossings passes `transparency` (docs/shading.md, Shading)."""
     W, H, tau, kd, ambient = 48, 36, 0.6, 0.8, 0.05
     centre, radius, light = np.array([0.2, 1.0, -3.0]), 0.5, np.array([0.0, 4.0, -3.2])
     data = {

@@ -134,7 +134,7 @@ FILTERS = {"box": 0, "tent": 1, "gaussian": 2}
 
 
 def formula_weight(name, dx, dy):
-    """Weights about the pixel centre, as README and sampling.h state them (sigma 0.25 px)."""
+    """Weights about the pixel centre, as docs/shading.md and sampling.h state them (sigma 0.25 px)."""
     if name == "box":
         return np.ones_like(dx)
     if name == "tent":

@@ -1,6 +1,6 @@
 """clrender's renderer against an independent float64 Whitted tracer (tests/reference/whitted.py).
 
-Each small scene switches on some of the README's rules; together they cover
+Each small scene switches on some of docs/shading.md's rules; together they cover
 spheres, triangles, quads and OBJ meshes (flat and smooth), point,
 directional and area lights (both falloff models), ambient, Lambert and
 Blinn-Phong, mirrors, refraction through spheres and meshes with total
@@ -77,7 +77,7 @@ def scene(objects, lights, **extra):
 
 
 def scenes(tmp_path):
-    """name -> (scene dict, render settings); every README rule is switched on somewhere."""
+    """name -> (scene dict, render settings); every rule of docs/shading.md is switched on somewhere."""
     ico, coarse, tri_prism = icosphere(tmp_path, 2), icosphere(tmp_path, 1), prism(tmp_path)
     mesh = lambda file, **kw: {"type": "mesh", "file": file, **kw}
     return {

@@ -2,7 +2,7 @@
 
 A scene file is exactly the dict `Scene.from_dict` takes, so anything a user
 can write in TOML they can build in Python.  Every key and its default is
-listed in the README's scene-format table.  Errors name the file, the key
+listed in docs/scene-format.md's key table.  Errors name the file, the key
 and what is allowed.
 """
 

@@ -13,7 +13,7 @@ Distances are in units of the directions as given (a hit is origin + t * directi
 as in Embree); t_min (default 0) excludes hits at t <= t_min.  A ray that starts
 on a surface may find that surface again at a tiny t: offset its origin off the
 surface (the renderer moves it just past the hit point's float32 error bound) or
-pass a t_min.  Exact answers (see the README, "Exact ray queries"): the slab test
+pass a t_min.  Exact answers (docs/bvh.md, "Exact ray queries"): the slab test
 holds for every direction, the triangle test is watertight, and of hits at the
 same float32 t the lowest primitive id wins, whatever the BVH.
 """

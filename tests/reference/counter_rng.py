@@ -1,4 +1,4 @@
-"""The counter-based random numbers the README documents: a value is a hash of
+"""The counter-based random numbers docs/shading.md documents: a value is a hash of
 (seed, pixel, sample, dimension).  Reproduced here only so that the reference
 renderer can put its area-light samples where the renderer puts them; the
 hash is Wellons' lowbias32 finaliser chained over the four counters, and a

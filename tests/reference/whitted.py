@@ -1,8 +1,8 @@
-"""A Whitted ray tracer in float64 numpy, written from the README's rules, as a test oracle.
+"""A Whitted ray tracer in float64 numpy, written from docs/shading.md's rules, as a test oracle.
 
 It shares no code with clrender: it reads the same scene dict (spheres,
-triangles, quads, OBJ meshes), builds the camera from the README's definition
-and shades by the README's rules:
+triangles, quads, OBJ meshes), builds the camera from its definition in docs/scene-format.md
+and shades by the rules of docs/shading.md:
 
 * pinhole camera: forward = look_at - position, right = forward x up,
   vertical field of view `fov`, one ray through each pixel centre, row 0 at
@@ -97,7 +97,7 @@ def read_obj(path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rotation(degrees) -> np.ndarray:
-    """Rotation about x, then y, then z (README: rotate = degrees about x, y, z)."""
+    """Rotation about x, then y, then z (docs/scene-format.md: rotate = degrees about x, y, z)."""
     ax, ay, az = np.radians(degrees)
 
     def about(axis, a):
