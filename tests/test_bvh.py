@@ -384,3 +384,21 @@ def test_every_sah_split_is_the_cheapest_binned_cut(rng, max_leaf):
         assert cost and cost[0] <= best * (1 + 1e-5)
         checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize("n", [16, 31])
+def test_sah_trees_that_must_be_capped_stop_at_every_cap(n):
+    """Boxes at 16^i: binned SAH peels one box per level, so uncapped the tree is n levels deep.  Under
+    any cap from the least that can hold n leaves (ceil(log2 n) + 1 levels) up to n - 1 the builder must
+    switch to halving in time: never deeper than the cap, and no shallower than one level above it (the
+    cap binds; the builder keeps at most one level spare)."""
+    x = np.float32(16.0) ** np.arange(n, dtype=np.float32)
+    lo = np.stack([x, 0 * x, 0 * x], axis=1)
+    assert build_bvh(lo, lo + 1, max_leaf_size=1).depth == n
+    least = int(np.ceil(np.log2(n))) + 1
+    for cap in range(least, n):
+        # whole subtrees per work-item (the default here), and every level split by the host's launches
+        for top_tasks, top_min in ((bvh_module.TOP_TASKS, bvh_module.TOP_MIN), (n, 1)):
+            bvh = build_bvh(lo, lo + 1, max_leaf_size=1, max_levels=cap, top_tasks=top_tasks, top_min=top_min)
+            assert cap - 1 <= bvh.depth <= cap, (cap, top_tasks, bvh.depth)
+            check_tree(bvh, lo, lo + 1)
