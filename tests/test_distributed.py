@@ -26,6 +26,8 @@ from clrender.scene.camera import Camera
 from clrender.scene.scene import Scene
 from clrender.trace.turntable import frame_scene, orbit, render_turntable
 
+from clitools import default_sigint
+
 distributed = pytest.importorskip("distributed")
 crd = pytest.importorskip("clrender.distributed")
 from clrender.distributed.cluster import pocl_env  # noqa: E402
@@ -475,6 +477,7 @@ def test_ctrl_c_on_the_program_leaves_no_output_and_no_tasks(client, tmp_path):
         ],
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=default_sigint,
     )
     assert wait_for(lambda: scheduler_tasks(client) > 10, 60)  # tiles are on the cluster
     proc.send_signal(signal.SIGINT)

@@ -24,6 +24,8 @@ from clrender.cli import main
 from clrender.image.files import write_image
 from clrender.outputs import TEMP_MARK, OutputSet, output_set, save_npz
 
+from clitools import default_sigint
+
 REPO = Path(__file__).resolve().parents[1]
 RENDER = ["render", "refract1", "--width", "96", "--height", "72", "--aa", "edge_detect", "--samples", "2"]
 
@@ -38,6 +40,7 @@ def clrender(*argv, cwd, **kwargs):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=default_sigint,
         **kwargs,
     )
 
