@@ -102,3 +102,17 @@ def test_the_video_is_h264_one_turn_long_and_shows_the_frames(tmp_path, capfd):
     decoded = first[:, :33, ::-1].astype(np.float64)  # BGR to RGB, without the padding column
     assert np.abs(decoded - expected).mean() < 4.0  # 8-bit levels; a wrong or shifted frame is far more
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_an_encoder_that_never_finishes_is_one_line_within_the_deadline(tmp_path, capfd, monkeypatch):
+    """An ffmpeg that reads every frame and then hangs: the wait for it has a deadline, after which it is
+    killed and the command fails in one line, leaving neither frames nor video."""
+    hang = tmp_path / "ffmpeg"
+    hang.write_text("#!/bin/sh\ncat > /dev/null\nexec sleep 600\n")
+    hang.chmod(0o755)
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", str(hang))
+    monkeypatch.setattr("clrender.commands.turntable.ENCODER_FINISH_SECONDS", 0.5)
+    frames, video = tmp_path / "frames", tmp_path / "v.mp4"
+    assert main([*TINY, "--turntable", "2", "-o", str(frames), "--video", str(video)]) == 1
+    assert "ffmpeg did not finish within 0.5 s" in one_line(capfd)
+    assert not frames.exists() and not video.exists()

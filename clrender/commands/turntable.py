@@ -32,6 +32,8 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv")
 TURN_SECONDS = 4.0  # a turn of the default video lasts this long: 36 frames play at 9 fps, 96 at 24
 MIN_FPS, MAX_FPS = 0.1, 240.0  # frame rates the video may have (a frame every 10 s to 240 a second)
 MAX_TURN_SECONDS = 3600.0
+# ffmpeg, its input closed, has at most a few frames left to encode: a wait this long means it hangs
+ENCODER_FINISH_SECONDS = 120.0
 
 
 def add_turntable_arguments(p):
@@ -160,8 +162,19 @@ class _Video:
                 self._failed()
             self.next += 1
 
+    def _wait(self) -> int:
+        """ffmpeg's exit status, within ENCODER_FINISH_SECONDS (then it is killed: a RenderFailure)."""
+        import subprocess
+
+        try:
+            return self.encoder.wait(timeout=ENCODER_FINISH_SECONDS)
+        except subprocess.TimeoutExpired:
+            self.encoder.kill()
+            self.encoder.wait()
+            raise RenderFailure(f"cannot write the video {shown(self.path)}: ffmpeg did not finish within {ENCODER_FINISH_SECONDS:g} s") from None
+
     def _failed(self):
-        self.encoder.wait()
+        self._wait()
         with open(self.log, errors="replace") as log:
             said = first_line(log.read(4096), "no message")
         raise RenderFailure(f"cannot write the video {shown(self.path)}: ffmpeg exited with {self.encoder.returncode} ({said})")
@@ -176,7 +189,7 @@ class _Video:
             self.encoder.stdin.close()
         except BrokenPipeError:
             pass
-        if self.encoder.wait() != 0:
+        if self._wait() != 0:
             self._failed()
         self.encoder = None
         write_file(self.path, lambda staged: shutil.copyfile(self.temp, staged))
