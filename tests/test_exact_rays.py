@@ -178,6 +178,49 @@ def test_watertight_hits_agree_with_embree(device):
     np.testing.assert_allclose(t, t_embree, rtol=1e-5)
 
 
+def exact_side(p, q):
+    """Sign of the 2D cross product p x q = px qy - py qx of float32 points, in exact rational arithmetic."""
+    from fractions import Fraction
+
+    px, py, qx, qy = (Fraction(float(c)) for c in (*p, *q))
+    return (px * qy - py * qx > 0) - (px * qy - py * qx < 0)
+
+
+@pytest.mark.parametrize(("scale", "offset"), [(1.0, (0.0, 0.0)), (2.0**20, (0.0, 0.0)), (2.0**-20, (0.0, 0.0)), (1.0, (1024.0, -512.0))])
+def test_edge_functions_within_their_rounding_error_take_the_exact_sign(device, scale, offset):
+    """Two triangles share the edge v1 v2 = (1 + 2^-12, 1 + 2^-11) to (-1, -1 - 2^-12), whose line
+    misses a +z ray through the origin by 2^-24 / |v1 - v2|: the edge function v1x v2y - v1y v2x is
+    exactly -2^-24 (times scale^2), but both products round to 1 + 2^-11, so the plain float32 difference
+    is 0, "on the edge".  Only the exactly recomputed value puts the ray on one side: it meets triangle
+    1 and passes triangle 0 by, where with a plain 0 it would meet both (and the tie would give it 0)."""
+    v1, v2 = np.array([1 + 2.0**-12, 1 + 2.0**-11]), np.array([-1.0, -(1 + 2.0**-12)])
+    apex = np.array([[1.0, -1.0], [-1.0, 1.0]])  # triangle 0 on the ray's far side of the edge, 1 on its side
+    shift = np.array(offset)
+    xy = np.concatenate([apex[:1], [v1, v2], apex[1:]]) * scale + shift
+    vertices = np.column_stack([xy, np.zeros(4)])
+    assert (vertices.astype(np.float32) == vertices).all()
+    faces = np.array([[0, 1, 2], [3, 1, 2]])
+    origin, direction = np.array([[*shift, -1.0]]), np.array([[0.0, 0.0, 1.0]])
+    # what the kernel sees: vertices minus the ray origin (exact here) in float32
+    q = (vertices[:, :2] - shift).astype(np.float32)
+    assert (q.astype(np.float64) == xy - shift).all()
+    a, b = q[1, 0] * q[2, 1], q[1, 1] * q[2, 0]  # numpy rounds each float32 product, no fma
+    assert a - b == 0 and exact_side(q[1], q[2]) == -1  # the plain difference is 0, the exact one negative
+    # the reference: inside where the exact edge functions (v1 v2, v2 apex, apex v1) agree in sign
+    sides = [[exact_side(q[f[1]], q[f[2]]), exact_side(q[f[2]], q[f[0]]), exact_side(q[f[0]], q[f[1]])] for f in faces]
+    inside = [min(s) >= 0 or max(s) <= 0 for s in sides]
+    assert inside == [False, True]
+    for use_bvh in (False, True):
+        tracer = Tracer((vertices, faces), use_bvh=use_bvh, device=device)
+        t, prim, _ = tracer.intersect(origin, direction)
+        assert (t[0], prim[0]) == (1.0, 1), use_bvh
+        alone = Tracer((vertices, faces[:1]), use_bvh=use_bvh, device=device)  # triangle 0 alone: missed
+        t, prim, _ = alone.intersect(origin, direction)
+        assert (t[0], prim[0]) == (np.inf, -1), use_bvh
+        assert not alone.occluded(origin, direction, [2.0])[0], use_bvh
+        assert tracer.occluded(origin, direction, [2.0])[0], use_bvh
+
+
 # ------------------------------------------------------------------ 3. offsets at every scale and position
 CARD_Y, SPHERE_GAP = 0.05, 0.002  # a card 0.05 above the floor; a sphere 0.002 above it
 SPHERES = [((2.2, 0.5 + SPHERE_GAP, -1.0), 0.5), ((-2.2, 0.6, 1.5), 0.6)]  # the second rests on the floor
