@@ -511,7 +511,7 @@ SENSIBLE = {
     "--aov": ["depth", "normal,id", "edges"],
     "--space": ["linear", "stored"],
     "--init": ["uniform", "random", "gradient"],
-    "--learn": ["seed", "all"],
+    "--learn": ["scale-lum", "all", "seed"],  # seed: the old name of scale-lum
     "--blend": ["sum", "normalized"],
     "--optimizer": ["adam", "sgd"],
     "--loss": ["l2", "l1"],

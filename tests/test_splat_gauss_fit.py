@@ -52,7 +52,7 @@ def test_same_seed_same_parameters(device, target):
 @pytest.mark.parametrize(
     "settings",
     [
-        dict(learn="seed", blend="sum", optimizer="sgd", init="uniform"),
+        dict(learn="scale-lum", blend="sum", optimizer="sgd", init="uniform"),
         dict(optimizer="momentum", loss="l1"),
         dict(loss="l1-ssim", batch=1024, init="random"),
         dict(blend="normalized", batch=256),
@@ -65,7 +65,7 @@ def test_loss_decreases(device, target, settings):
     result = fitter.run(start.copy(), show_progress=False)
     first_psnr = result.log[0]["psnr"]
     assert result.psnr > first_psnr + 1.0
-    if settings.get("learn") == "seed":  # only log-scales and luminance move
+    if settings.get("learn") == "scale-lum":  # only log-scales and luminance move
         np.testing.assert_array_equal(result.params.xy, start.xy)
         np.testing.assert_array_equal(result.params.color, start.color)
         assert not np.array_equal(result.params.log_scale, start.log_scale)

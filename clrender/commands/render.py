@@ -17,7 +17,7 @@ EXAMPLES = """examples:
   clrender render refract1 -o refract1.png
   clrender render bunny --aa edge_detect --sampler stratified --samples 4 --edges-out edges.png -o bunny.png
   clrender render my_scene.toml --camera 2 --width 800 --height 600 --no-bvh -o out.exr
-  clrender render wizard_cat 3 edge_detect stratified 6 1.0 true -o cat.png   # the seed's argument order
+  clrender render wizard_cat 3 edge_detect stratified 6 1.0 true -o cat.png   # the same settings as positionals
 """
 
 
@@ -31,18 +31,18 @@ def _bool(text: str) -> bool:
 
 
 def print_scene_list(scenes: dict) -> None:
-    """Each bundled scene's description and cameras, the seed's camera marked '*' (read from the
+    """Each bundled scene's description and cameras, its featured camera marked '*' (read from the
     TOML alone: no mesh is built)."""
     import tomllib
 
     for name, path in scenes.items():
         data = tomllib.loads(path.read_text())
         print(f"{name}: {data.get('description', '')}".rstrip(": "))
-        seed_camera = data.get("seed_camera", 1)
+        featured = data.get("featured_camera", data.get("seed_camera", 1))  # seed_camera: its old name
         for number, camera in enumerate(data.get("cameras", [{}]), start=1):
-            mark = "*" if number == seed_camera else " "
+            mark = "*" if number == featured else " "
             print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
-    print("(* the camera the seed rendered the scene from)")
+    print("(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)")
 
 
 def add_parser(sub):
@@ -55,19 +55,19 @@ def add_parser(sub):
     )
     p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list), or a .toml scene file or a .gltf/.glb glTF 2.0 file")
     p.add_argument(
-        "seed_args",
+        "positional_args",
         nargs="*",
         metavar="ARG",
-        help="the seed's order: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], instead of the options of the same meaning",
+        help="the short form: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], instead of the options of the same meaning",
     )
-    # Options the seed's positionals can also set default to None, so giving both is caught; their
+    # Options the positionals can also set default to None, so giving both is caught; their
     # help states the real default in words.
     p.add_argument(
         "-o", "--output", default=None, help="output image (.png/.jpg sRGB 8-bit, .exr linear float) (default: SCENE.png in the current folder)"
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument(
-        "--camera", type=int, default=None, help=f"camera number, 1 = canonical; --list marks the seed's camera of each scene (default: {d.camera})"
+        "--camera", type=int, default=None, help=f"camera number, 1 = canonical; --list marks each scene's featured view with * (default: {d.camera})"
     )
     p.add_argument(
         "--width", type=positive_int, default=None, help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)"
@@ -95,7 +95,7 @@ def add_parser(sub):
         "--contrast",
         type=float,
         default=d.contrast,
-        help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only, as the seed",
+        help="edge_detect: a colour step above this between neighbours (sRGB) is an edge too; 0: object IDs only",
     )
     p.add_argument("--edges-out", default=None, metavar="PATH", help="also write the render with edge pixels in green (default: not written)")
     p.add_argument(
@@ -139,8 +139,8 @@ def positive_int(text: str) -> int:
     return value
 
 
-# the seed's positional arguments, in order, and the setting each one gives
-SEED_NAMES = {
+# the positional arguments after SCENE, in order, and the setting each one gives
+POSITIONAL_NAMES = {
     "camera": "CAMERA",
     "aa": "AA_TYPE",
     "sampler": "SAMPLE_TYPE",
@@ -177,16 +177,16 @@ def warning_lines():
 
 
 def settings_from_args(args) -> RenderSettings:
-    """Named options or the seed-style positional arguments (never both for one setting), then the defaults
+    """Named options or the positional arguments after SCENE (never both for one setting), then the defaults
     (RenderSettings.validate warns about values that change nothing)."""
     d = RenderSettings()
     named = dict(camera=args.camera, aa=args.aa, sampler=args.sampler, samples=args.samples, thickness=args.thickness, shadow_edges=args.shadow_edges)
     values = {}
-    extra = list(args.seed_args)
+    extra = list(args.positional_args)
     if len(extra) > 6:
-        raise UsageError(f"too many arguments {extra!r}; the seed's order is CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
+        raise UsageError(f"too many arguments {extra!r}; the order is CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS]")
     if extra and len(extra) < 3:
-        raise UsageError("the seed's order needs at least CAMERA AA_TYPE SAMPLE_TYPE, e.g. 'wizard_cat 3 edge_detect stratified 6'")
+        raise UsageError("the positional order needs at least CAMERA AA_TYPE SAMPLE_TYPE, e.g. 'wizard_cat 3 edge_detect stratified 6'")
     converters = [
         ("camera", int, "an integer from 1 to 5"),
         ("aa", str, "|".join(AA_MODES)),
@@ -198,8 +198,7 @@ def settings_from_args(args) -> RenderSettings:
     for text, (key, convert, allowed) in zip(extra, converters):
         if named[key] is not None:
             raise UsageError(
-                f"--{key.replace('_', '-')} {named[key]} and the seed-style positional {SEED_NAMES[key]} "
-                f"{text!r} set the same thing; give one of them"
+                f"--{key.replace('_', '-')} {named[key]} and the positional {POSITIONAL_NAMES[key]} {text!r} set the same thing; give one of them"
             )
         try:
             values[key] = convert(text)

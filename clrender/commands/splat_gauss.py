@@ -15,7 +15,8 @@ GAUSS_EXAMPLE = """example:
   clrender splat gauss photo.jpg -o splats.png --splats 5000 --time-budget 120 \\
       --save-params splats.npz --log fit.csv
   (writes splats.png, splats.npz, fit.csv and the loss/PSNR curve splats.curve.png)
-  clrender splat gauss photo.jpg -o seed.png --learn seed --blend sum --optimizer sgd --init uniform"""
+  clrender splat gauss photo.jpg -o plain.png --learn scale-lum --blend sum --optimizer sgd --init uniform
+  (the simplest fit: a uniform grid, only scales and luminance learned, added up, plain SGD)"""
 
 RENDER_EXAMPLE = """example:
   clrender splat render splats.npz -o big.png --width 2048"""
@@ -25,7 +26,7 @@ SWEEP_EXAMPLE = """example:
 
 
 def add_parser(group):
-    from ..splat.fit import INITS, LEARN, FitConfig
+    from ..splat.fit import INITS, LEARN, LEARN_ALIASES, FitConfig
     from ..splat.gauss import BLENDS
     from ..splat.losses import LOSSES
     from ..splat.optim import OPTIMIZERS
@@ -36,19 +37,25 @@ def add_parser(group):
         p.add_argument("--splats", type=int, default=d.splats, metavar="N", help="number of splats to start with")
         p.add_argument("--epochs", type=int, default=None, metavar="E", help="passes over the image (default: 1000, or unlimited with --time-budget)")
         p.add_argument("--init", choices=INITS, default=d.init, help="initial centres")
-        p.add_argument("--learn", choices=LEARN, default=d.learn, help="seed: log-scales and luminance (the seed's); all: every parameter")
+        p.add_argument(
+            "--learn",
+            choices=LEARN,
+            type=lambda text: LEARN_ALIASES.get(text, text),
+            default=d.learn,
+            help="scale-lum: log-scales and a per-splat luminance factor only (old name: seed); all: every parameter",
+        )
         p.add_argument("--blend", choices=BLENDS, default=d.blend, help="sum: background + sum of w c; normalized: sum of w c / sum of w")
         p.add_argument(
             "--optimizer",
             choices=OPTIMIZERS,
             default=d.optimizer,
-            help="host-side update rule; sgd with --learn seed --blend sum is the seed's setting",
+            help="host-side update rule; sgd with --learn scale-lum --blend sum --init uniform is the simplest fit",
         )
         p.add_argument(
             "--loss",
             choices=LOSSES,
             default=d.loss,
-            help="l2: mean squared error (the seed's); l1: mean absolute error; l1-ssim: l1 + 0.2 (1 - SSIM)",
+            help="l2: mean squared error; l1: mean absolute error; l1-ssim: l1 + 0.2 (1 - SSIM)",
         )
         p.add_argument("--seed", type=int, default=d.seed, help="seed of every random choice")
         p.add_argument("--max-splats", type=int, default=None, metavar="M", help="densification keeps N <= M (default: the same as --splats)")

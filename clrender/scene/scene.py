@@ -55,7 +55,16 @@ class Scene:
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
-    seed_camera: int = 1  # the camera the seed rendered this scene from (marked in --list)
+    featured_camera: int = 1  # the view the scene is made for, marked * by `render --list` (not a default: --camera is 1 unless given)
+
+    @property
+    def seed_camera(self) -> int:
+        """The old name of `featured_camera`, still accepted."""
+        return self.featured_camera
+
+    @seed_camera.setter
+    def seed_camera(self, value: int) -> None:
+        self.featured_camera = value
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -319,8 +328,14 @@ class _SceneReader:
     # sections ----------------------------------------------------------------
     def read(self, data: dict, name: str) -> Scene:
         self.check_shape(data)
+        if "seed_camera" in data:  # the old name of featured_camera, still accepted
+            if "featured_camera" in data:
+                self.fail("seed_camera", "is the old name of featured_camera; give only featured_camera")
+            data = {("featured_camera" if k == "seed_camera" else k): v for k, v in data.items()}
         self.check_keys(
-            data, "", ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name", "description", "seed_camera")
+            data,
+            "",
+            ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name", "description", "featured_camera"),
         )
         scene = Scene(name=self.name(data.get("name", name), "name"))
         scene.width = self.integer(data, "width", "", 640, low=1, high=MAX_SIDE)
@@ -333,7 +348,7 @@ class _SceneReader:
         cameras = self.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
         scene.cameras = [self.camera(c, f"cameras[{i}]") for i, c in enumerate(cameras)]
         scene.description = self.name(data["description"], "description") if "description" in data else ""
-        scene.seed_camera = self.integer(data, "seed_camera", "", 1, low=1, high=len(scene.cameras))
+        scene.featured_camera = self.integer(data, "featured_camera", "", 1, low=1, high=len(scene.cameras))
         materials = self.table(data.get("materials", {}), "materials")
         if len(materials) > MAX_MATERIALS:
             self.fail("materials", f"{len(materials)} materials; allowed: at most {MAX_MATERIALS}")

@@ -28,9 +28,10 @@ from .losses import LOSSES, loss_and_grad, psnr
 from .optim import OPTIMIZERS, Optimizer
 from .pixels import check_pixels
 
-LEARN = ("seed", "all")
+LEARN = ("scale-lum", "all")
+LEARN_ALIASES = {"seed": "scale-lum"}  # old spellings, still accepted (FitConfig and --learn turn them into the new)
 MAX_LR = 1000.0  # --lr multiplier; far above any useful rate, below where float32 steps overflow
-LEARN_GROUPS = {"seed": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
+LEARN_GROUPS = {"scale-lum": ("log_scale", "lum"), "all": ("xy", "log_scale", "theta", "color", "opacity")}
 # Adam step sizes per group (in the group's own units: pixels, log-sigma, radians, colour values)
 ADAM_LR = {"xy": 0.4, "log_scale": 0.04, "theta": 0.06, "color": 0.02, "lum": 0.02, "opacity": 0.04}
 # SGD/momentum rates per group, multiplied by 3 N (N splats): a mean loss's gradient for one
@@ -45,7 +46,7 @@ class FitConfig:
     splats: int = 5000  # initial number of splats
     epochs: int | None = None  # passes over the image; None: 1000, or until the time budget
     init: str = "gradient"  # uniform | random | gradient (more splats where the image has detail)
-    learn: str = "all"  # seed: log-scales and luminance only; all: every parameter
+    learn: str = "all"  # scale-lum: log-scales and a per-splat luminance factor only ("seed" is its old name); all: every parameter
     blend: str = "normalized"  # sum | normalized
     optimizer: str = "adam"  # sgd | momentum | adam
     lr: float = 1.0  # multiplier of every group's default learning rate
@@ -58,6 +59,10 @@ class FitConfig:
     densify_every: int = 100  # steps between densification rounds; 0 turns it off
     densify_until: float = 0.6  # fraction of the run after which N stays fixed
     log_every: int = 10  # steps between full-image PSNR measurements in the log
+
+    def __post_init__(self):
+        if isinstance(self.learn, str) and self.learn in LEARN_ALIASES:  # an old spelling: the same setting
+            object.__setattr__(self, "learn", LEARN_ALIASES[self.learn])
 
     def validate(self, width: int, height: int) -> None:
         """UsageError naming the first setting that is out of range for a width x height target."""
