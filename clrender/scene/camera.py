@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import FOV_RANGE, MIN_LENGTH, Checks, TypeReader
+
 
 @dataclass(frozen=True)
 class Camera:
@@ -37,3 +39,31 @@ class Camera:
         d = f + sx[..., None] * r + sy[..., None] * u
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         return np.broadcast_to(o, d.shape).copy(), d
+
+
+# ------------------------------------------------------------------ reading
+def _build_camera(checks: Checks, c: dict, path: str) -> Camera:
+    if "name" in c:
+        checks.name(c["name"], f"{path}.name")
+    d = Camera()
+    cam = Camera(
+        position=checks.vec3(c, "position", path, d.position),
+        look_at=checks.vec3(c, "look_at", path, d.look_at),
+        up=checks.vec3(c, "up", path, d.up, kind="vector"),
+        fov=checks.number(c, "fov", path, d.fov, low=FOV_RANGE[0], high=FOV_RANGE[1]),
+    )
+    forward = np.subtract(cam.look_at, cam.position)
+    if np.linalg.norm(forward) < MIN_LENGTH:
+        checks.fail(f"{path}.look_at", f"must differ from position by at least {MIN_LENGTH:g}")
+    if np.linalg.norm(np.cross(forward, cam.up)) < 1e-6 * np.linalg.norm(forward) * np.linalg.norm(cam.up):
+        checks.fail(f"{path}.up", "must not be parallel to the viewing direction")
+    return cam
+
+
+# A `[[cameras]]` table: its keys, with the defaults of Camera's fields; `name` is only shown by --list.
+CAMERA_READER = TypeReader(("position", "look_at", "up", "fov", "name"), _build_camera)
+
+
+def read_camera(checks: Checks, c, path: str) -> Camera:
+    checks.table(c, path)
+    return CAMERA_READER.read(checks, c, path)

@@ -1,7 +1,7 @@
 """glTF 2.0 scenes: meshes with their node transforms, cameras, punctual lights and base colours.
 
 `scene_dict(path)` reads a .gltf or .glb file into the dict `Scene.from_dict`
-takes, so `clrender render model.glb` renders the file with its own cameras,
+takes (plain data: this module imports nothing from scene.py, which imports it), so `clrender render model.glb` renders the file with its own cameras,
 lights and materials; `node_mesh(path, node, primitive)` gives the triangles
 one mesh object of that dict refers to (`{"type": "mesh", "file": "model.glb",
 "node": 2, "primitive": 0}`), in world space.  The reader is written from the
@@ -50,8 +50,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from .checks import MAX_SIDE, MAX_TRIANGLES, show
 from .confine import scene_file
-from .scene import MAX_SIDE, MAX_TRIANGLES, show
 
 GLB_MAGIC = b"glTF"
 CHUNK_JSON, CHUNK_BIN = 0x4E4F534A, 0x004E4942
@@ -690,13 +690,3 @@ def scene_dict(path, root=None) -> dict:
         "lights": lights,
         "objects": objects,
     }
-
-
-def load_scene(path, allow_outside: bool = True):
-    """A Scene of the glTF file, checked as any scene file is; allow_outside=False reads only files (its
-    buffers) inside the file's folder, as `Scene.from_file` does for a TOML scene's meshes."""
-    from .scene import Scene
-
-    path = Path(path)
-    root = None if allow_outside else path.parent
-    return Scene.from_dict(scene_dict(path, root), base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..layout import LIGHT_DTYPE, LIGHT_TYPES
+from .checks import MAX_AREA_SAMPLES, RADIANCE_LIMIT, Checks, TypeReader
 
-__all__ = ["FALLOFFS", "LIGHT_TYPES", "Light"]
+__all__ = ["FALLOFFS", "LIGHT_READERS", "LIGHT_TYPES", "Light", "read_light"]
 FALLOFFS = {"none": 0, "inverse_square": 1}
 
 
@@ -48,3 +49,50 @@ class Light:
         record["edge_a"][:3] = self.edge_a
         record["edge_b"][:3] = self.edge_b
         return record
+
+
+# ------------------------------------------------------------------ reading
+# Keys every light type reads (`type`, and colour, intensity and falloff with Light's defaults).
+COMMON_KEYS = ("type", "color", "intensity", "falloff")
+
+
+def _point(checks: Checks, l: dict, path: str) -> dict:
+    return {"position": checks.vec3(l, "position", path)}
+
+
+def _directional(checks: Checks, l: dict, path: str) -> dict:
+    return {"direction": checks.vec3(l, "direction", path, kind="vector")}
+
+
+def _area(checks: Checks, l: dict, path: str) -> dict:
+    args = {"position": checks.vec3(l, "corner", path)}
+    args["edge_a"] = checks.vec3(l, "edge_a", path, kind="vector")
+    args["edge_b"] = checks.vec3(l, "edge_b", path, kind="vector")
+    checks.not_parallel(args["edge_a"], args["edge_b"], f"{path}.edge_b")
+    args["samples"] = checks.integer(l, "samples", path, Light.samples, low=1, high=MAX_AREA_SAMPLES)
+    return args
+
+
+# Each light type: its keys (the common ones and its own) and what it reads of its own.
+LIGHT_READERS = {
+    "point": TypeReader((*COMMON_KEYS, "position"), _point),
+    "directional": TypeReader((*COMMON_KEYS, "direction"), _directional),
+    "area": TypeReader((*COMMON_KEYS, "corner", "edge_a", "edge_b", "samples"), _area),
+}
+
+
+def read_light(checks: Checks, l, path: str) -> Light:
+    """A `[[lights]]` table: its type first, then the keys that type accepts."""
+    checks.table(l, path)
+    kind = checks.choice(l, "type", path, "point", tuple(LIGHT_TYPES))
+    reader = LIGHT_READERS[kind]
+    checks.check_keys(l, path, reader.keys)
+    d = Light()
+    args = dict(
+        type=kind,
+        color=checks.vec3(l, "color", path, d.color, kind="colour"),
+        intensity=checks.number(l, "intensity", path, d.intensity, low=0.0, high=RADIANCE_LIMIT),
+        falloff=checks.choice(l, "falloff", path, d.falloff, tuple(FALLOFFS)),
+    )
+    args.update(reader.build(checks, l, path))
+    return Light(**args)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..layout import MATERIAL_DTYPE
+from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
 
 
 @dataclass(frozen=True)
@@ -28,3 +29,25 @@ class Material:
 
 
 DEFAULT_MATERIAL = Material()
+
+
+# ------------------------------------------------------------------ reading
+def _build_material(checks: Checks, m: dict, path: str) -> Material:
+    d = DEFAULT_MATERIAL
+    return Material(
+        diffuse=checks.vec3(m, "diffuse", path, d.diffuse, kind="colour"),
+        specular=checks.vec3(m, "specular", path, d.specular, kind="colour"),
+        shininess=checks.number(m, "shininess", path, d.shininess, low=0.0, high=SHININESS_LIMIT),
+        mirror=checks.number(m, "mirror", path, d.mirror, low=0.0, high=1.0),
+        transparency=checks.number(m, "transparency", path, d.transparency, low=0.0, high=1.0),
+        ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
+    )
+
+
+# A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
+MATERIAL_READER = TypeReader(("diffuse", "specular", "shininess", "mirror", "transparency", "ior"), _build_material)
+
+
+def read_material(checks: Checks, m, path: str) -> Material:
+    checks.table(m, path)
+    return MATERIAL_READER.read(checks, m, path)
