@@ -9,10 +9,14 @@ import sys
 # numpy is imported.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "mutants", "distributed")
+NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "distributed")
+MOVED = {"mutants": "python -m tools.mutants", "render_hashes": "python tools/render_hashes.py"}  # tools, not benchmarks
 
 
 def main(argv):
+    if argv and argv[0] in MOVED:
+        sys.stderr.write(f"{argv[0]} is a tool, not a benchmark: {MOVED[argv[0]]} (docs/testing.md)\n")
+        return 2
     if not argv or argv[0] not in NAMES:
         sys.stderr.write(f"usage: python -m bench {{{'|'.join(NAMES)}}} [options]\n")
         return 2

@@ -1,0 +1,1 @@
+"""Developer tools, apart from the benchmarks: mutation testing (mutants.py, mutants.toml) and render hashes."""
