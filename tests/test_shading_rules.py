@@ -1,4 +1,4 @@
-"""Small shading rules the bigger scenes do not reach (found by `python -m bench mutants`)."""
+"""Small shading rules the bigger scenes do not reach (found by `python -m tools.mutants`)."""
 
 import numpy as np
 
