@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..errors import UsageError
+from ..errors import UsageError, value_shown
 
 # Primitives per binary leaf for each traversal width.  The wide layouts test a leaf's triangles four
 # at a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves
@@ -49,7 +49,7 @@ class TraceKnobs:
             if value is None and name == "max_leaf_size":
                 continue
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-                raise UsageError(f"trace knob {name} = {value!r}; allowed: an integer from {low} to {high}")
+                raise UsageError(f"trace knob {name} = {value_shown(value)}; allowed: an integer from {low} to {high}")
 
     def leaf_size(self, width: int) -> int:
         return self.max_leaf_size if self.max_leaf_size is not None else BEST_LEAF_SIZE[width]

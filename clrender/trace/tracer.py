@@ -163,7 +163,7 @@ class Tracer:
         self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
         self.ray_packets = bool(ray_packets)  # False: every query ray walks the tree alone (the reference)
         if not isinstance(knobs, TraceKnobs):
-            raise UsageError(f"knobs {knobs!r}; allowed: a clrender.trace.knobs.TraceKnobs")
+            raise UsageError(f"knobs {value_shown(knobs)}; allowed: a clrender.trace.knobs.TraceKnobs")
         self.knobs = knobs  # stack and list sizes of the kernels and the build's depth cap
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
