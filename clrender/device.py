@@ -22,7 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import UsageError, first_line, library_messages
+from .launch import Kernel, kernel_signatures
 from .layout import DEFINES as LAYOUT_DEFINES
+from .layout import c_header, c_value
 from .package_data import data_dir
 
 try:
@@ -50,34 +52,40 @@ class Device:
         return f"{self.device.platform.name.strip()}: {self.device.name.strip()}"
 
     def program(self, filename: str, defines: dict | None = None) -> cl.Program:
-        """The built program for kernels/<filename> with -D<k>=<v> options (cached), clrender/layout.py's
-        shared values included."""
+        """The built program for kernels/<filename> with -D<k>=<v> options (cached), after clrender/layout.py's
+        generated header (the shared values and the records' structs)."""
         key = (filename, tuple(sorted((defines or {}).items())))
         prg = self._programs.get(key)
         if prg is None:
-            source = (kernel_dir() / filename).read_text()
-            options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
-            start = time.perf_counter()
-            try:
-                with library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
-                    prg = cl.Program(self.context, source).build(options=options)
-            except cl.RuntimeError as exc:
-                from .errors import RenderFailure
-
-                logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
-                first_error = first_line(str(exc), prefer="error:") or "no build log"
-                raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {first_error}") from exc
-            self.compile_seconds += time.perf_counter() - start
-            self._programs[key] = prg
+            prg = self._programs[key] = self.build(kernel_source(filename), filename, defines)
         return prg
 
-    def kernel(self, filename: str, name: str, defines: dict | None = None) -> cl.Kernel:
-        """Kernel `name` of kernels/<filename>, fetched once and kept."""
+    def build(self, source: str, filename: str, defines: dict | None = None) -> cl.Program:
+        """Build `source` (not cached) as Device.program builds a kernel file: the layout header first,
+        kernels/ on the include path, -D<k>=<v> for `defines`."""
+        # `#line` keeps the compiler's messages pointing at the file's own lines
+        source = f'{c_header()}#line 1 "{filename}"\n{source}'
+        options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
+        start = time.perf_counter()
+        try:
+            with library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
+                prg = cl.Program(self.context, source).build(options=options)
+        except cl.RuntimeError as exc:
+            from .errors import RenderFailure
+
+            logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
+            first_error = first_line(str(exc), prefer="error:") or "no build log"
+            raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {first_error}") from exc
+        self.compile_seconds += time.perf_counter() - start
+        return prg
+
+    def kernel(self, filename: str, name: str, defines: dict | None = None) -> Kernel:
+        """Kernel `name` of kernels/<filename>, fetched once and kept, called with its parameters by name."""
         key = (filename, name, tuple(sorted((defines or {}).items())))
         knl = self._kernels.get(key)
         if knl is None:
-            knl = getattr(self.program(filename, defines), name)
-            self._kernels[key] = knl
+            signature = kernel_signatures(kernel_source(filename))[name]
+            knl = self._kernels[key] = Kernel(getattr(self.program(filename, defines), name), signature)
         return knl
 
     def to_device(self, array: np.ndarray, writable: bool = False) -> cl.Buffer:
@@ -112,19 +120,15 @@ class Device:
 
 
 def build_options(defines: dict | None = None) -> list[str]:
-    """-D options for a build: the shared values of clrender/layout.py, then `defines` (a variant)."""
+    """-D options for a build variant; the shared values come in clrender/layout.py's header, not here."""
     clash = set(defines or {}) & set(LAYOUT_DEFINES)
     if clash:
         raise ValueError(f"{sorted(clash)} are fixed in clrender/layout.py, not per build")
-    return [f"-D{k}={_define_value(v)}" for k, v in sorted({**LAYOUT_DEFINES, **(defines or {})}.items())]
+    return [f"-D{k}={c_value(v)}" for k, v in sorted((defines or {}).items())]
 
 
-def _define_value(value) -> str:
-    if isinstance(value, bool):
-        return "1" if value else "0"
-    if isinstance(value, float):
-        return repr(value) + "f"
-    return str(value)
+def kernel_source(filename: str) -> str:
+    return (kernel_dir() / filename).read_text()
 
 
 def kernel_dir() -> Path:

@@ -1,12 +1,22 @@
-"""Every value and buffer record shared by the host and the kernels, defined once, here.
+"""Every value and buffer record shared by the host and the kernels, declared once, here.
 
-Device.program passes `DEFINES` to every program build as -D options; the kernels have no copies
-(kernels/layout.h stops a build with #error when one is missing), so a change here reaches both
-sides.  The record dtypes below say what each buffer element holds; tests/test_layout.py checks
-them against what the kernels see (sizeof, the codes, the strides).
+Values (codes, sizes) become `#define`s and records (numpy structured dtypes) become C structs in one
+generated header, `c_header()`, that Device.program puts before every kernel file it builds.  The
+kernels read records by field name (`materials[m].ior`) and the host packs them by field name
+(`record["ior"]`), so a field added to a dtype here reaches both sides; tests/test_layout.py has a
+kernel report sizeof and every field's offset of each struct and compares them with the dtypes.
+
+How a dtype becomes a struct (`c_struct`): float32, int32 and uint32 fields become float, int and
+uint; a field of shape (n,) becomes an array `name[n]`, or an OpenCL vector `floatN name` when the
+record lists it in `vectors` (N = 2, 4, 8 or 16; its offset must be a multiple of its size, as
+OpenCL aligns vectors); gaps between fields become `_pad` members.  A struct whose C alignment
+would add padding numpy does not have is refused when the header is generated.
 """
 
 from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,21 +48,75 @@ BLOCK_LANES = 4
 BLOCK_ROWS = 10
 BLOCK_SLOT_ROW = 9
 
-# ---- buffer records (host view of one element; the kernels read them as float4 / int rows)
+
+# ---------------------------------------------------------------- records as C structs
+@dataclass(frozen=True)
+class Record:
+    """A buffer record the kernels read as the C struct `c_name`, generated from `dtype`."""
+
+    c_name: str
+    dtype: np.dtype
+    vectors: tuple = ()  # fields the kernels read as OpenCL vectors (floatN / intN / uintN), not arrays
+
+
+_C_TYPES = {np.dtype("<f4"): "float", np.dtype("<i4"): "int", np.dtype("<u4"): "uint"}
+
+
+def c_struct(record: Record) -> str:
+    """`typedef struct { ... } c_name;` with the dtype's fields at the dtype's offsets."""
+    dtype = record.dtype
+    lines, at, align = [], 0, 4
+    for name, (field_dtype, offset) in sorted(dtype.fields.items(), key=lambda item: item[1][1]):
+        base, shape = field_dtype.base, field_dtype.shape
+        if base not in _C_TYPES:
+            raise TypeError(f"{record.c_name}.{name}: {base} has no C type here (float32, int32, uint32)")
+        if offset > at:
+            lines.append(f"    char _pad{at}[{offset - at}];")
+        if name in record.vectors:
+            width = shape[-1] if shape else 1
+            if width not in (2, 4, 8, 16) or offset % (4 * width):
+                raise TypeError(f"{record.c_name}.{name}: a vector needs 2, 4, 8 or 16 lanes at a multiple of its size")
+            decl, dims, align = f"{_C_TYPES[base]}{width} {name}", shape[:-1], max(align, 4 * width)
+        else:
+            decl, dims = f"{_C_TYPES[base]} {name}", shape
+        lines.append("    " + decl + "".join(f"[{n}]" for n in dims) + ";")
+        at = offset + field_dtype.itemsize
+    if dtype.itemsize > at:
+        lines.append(f"    char _pad{at}[{dtype.itemsize - at}];")
+    if dtype.itemsize % align:
+        raise TypeError(f"{record.c_name}: {dtype.itemsize} bytes is not a multiple of its alignment {align}")
+    return "typedef struct {\n" + "\n".join(lines) + f"\n}} {record.c_name};"
+
+
+# ---------------------------------------------------------------- records
+# Each section is one part of the kernels; a record is a dtype plus its Record (the C struct's name).
+
+# ---- geometry and traversal (kernels/intersect.h, packet.h, shaft.h; packed by trace/geometry.py, bvh*.py)
 _F4 = ("<f4", 4)
-ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])  # -1 past the path's end / no facet
 # triangle: (v0, id bits) (v1, 0) (v2, 0); sphere: (centre, id bits) (radius, 0, 0, 1) (0)
 PRIM_SLOT_DTYPE = np.dtype([("a", *_F4), ("b", *_F4), ("c", *_F4)])
-# (kd.rgb, shininess) (ks.rgb, mirror) (transparency, ior, 0, 0)
-MATERIAL_DTYPE = np.dtype([("kd_shininess", *_F4), ("ks_mirror", *_F4), ("transparency_ior", *_F4)])
+
+# ---- shading and the render kernel (kernels/shade.h, trace.cl; packed by scene/*.py, trace/renderer.py)
+# a material: the seed's Blinn-Phong colours and exponent, mirror and transparency fractions, index of refraction
+MATERIAL_DTYPE = np.dtype(
+    {
+        "names": ["kd", "shininess", "ks", "mirror", "transparency", "ior"],
+        "formats": [("<f4", 3), "<f4", ("<f4", 3), "<f4", "<f4", "<f4"],
+        "offsets": [0, 12, 16, 28, 32, 36],
+        "itemsize": 48,
+    }
+)
+MATERIAL = Record("Material", MATERIAL_DTYPE)
 # (type, samples per side, intensity, falloff) (position | direction of travel | corner, 0) (colour, 0) (edge a, 0) (edge b, 0)
 LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edge_a", *_F4), ("edge_b", *_F4)])
+ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])  # -1 past the path's end / no facet
+
+# ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # one splat-tile entry of the backward kernel: d/d(mean x, y), d/d(A, B2, C) of the inverse covariance,
 # d/d(colour), d/d(opacity), and the splat's summed weight over the tile
 SPLAT_GRAD_DTYPE = np.dtype(
     [("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3), ("opacity", "<f4"), ("weight", "<f4")]
 )
-# each record's size matches its row count: tests/test_layout.py
 
 DEFINES = {
     "PATH_LEN": PATH_LEN,
@@ -76,3 +140,24 @@ DEFINES = {
     "BLOCK_ROWS": BLOCK_ROWS,
     "BLOCK_SLOT_ROW": BLOCK_SLOT_ROW,
 }
+
+
+def records() -> list[Record]:
+    """Every record declared in this module, in declaration order."""
+    return [value for value in globals().values() if isinstance(value, Record)]
+
+
+@functools.cache
+def c_header() -> str:
+    """The header every kernel build starts with: the shared values, then the records' structs."""
+    defines = [f"#define {name} {c_value(value)}" for name, value in DEFINES.items()]
+    structs = [c_struct(record) for record in records()]
+    return "\n".join(["/* generated from clrender/layout.py: do not edit */", "#define CLRENDER_LAYOUT 1", *defines, *structs, ""])
+
+
+def c_value(value) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        return repr(value) + "f"
+    return str(value)

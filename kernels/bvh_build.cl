@@ -20,6 +20,8 @@
  * Variants: -DBINS=n bins per axis, -DBUILD_STACK=n pending nodes per work-item (more than the
  * tree's levels).  PoCL calls min/max/fabs out of line, so they are written with ?: here. */
 
+#include "layout.h"
+
 #ifndef BINS
 #error "BINS is missing: build through clrender.trace.bvh, which passes the bin count"
 #endif

@@ -8,7 +8,6 @@ import pytest
 from scipy.stats import qmc
 
 from clrender.cli import main
-from clrender.device import build_options, kernel_dir
 from clrender.image.files import linear_to_srgb, srgb_to_linear, write_display_image
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import render
@@ -99,8 +98,7 @@ __kernel void filter_weights(int filter, int n, __global const float2 *offsets, 
 
 @pytest.fixture(scope="module")
 def helpers(device):
-    options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(trace_defines())]
-    program = cl.Program(device.context, HELPERS).build(options=options)
+    program = device.build(HELPERS, "sampling helpers", trace_defines())
     return {name: cl.Kernel(program, name) for name in ("sobol_points", "filter_weights")}
 
 

@@ -20,11 +20,10 @@ class Material:
     ior: float = 1.0  # index of refraction (> 0); air is 1.0, glass 1.5, water 1.333
 
     def pack(self) -> np.ndarray:
-        """The material's record (layout.MATERIAL_DTYPE): (kd, shininess) (ks, mirror) (transparency, ior, 0, 0)."""
+        """The material's record (layout.MATERIAL_DTYPE)."""
         record = np.zeros((), MATERIAL_DTYPE)
-        record["kd_shininess"] = [*self.diffuse, self.shininess]
-        record["ks_mirror"] = [*self.specular, self.mirror]
-        record["transparency_ior"] = [self.transparency, self.ior, 0, 0]
+        record["kd"], record["shininess"], record["ks"], record["mirror"] = self.diffuse, self.shininess, self.specular, self.mirror
+        record["transparency"], record["ior"] = self.transparency, self.ior
         return record
 
 
