@@ -107,6 +107,8 @@ MATERIAL_DTYPE = np.dtype(
     }
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
+OBJECT_DTYPE = np.dtype([("material", "<i4"), ("smooth", "<i4")])  # an object's material index; 1: smooth-shaded mesh
+OBJECT = Record("ObjectRecord", OBJECT_DTYPE)
 # (type, samples per side, intensity, falloff) (position | direction of travel | corner, 0) (colour, 0) (edge a, 0) (edge b, 0)
 LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edge_a", *_F4), ("edge_b", *_F4)])
 ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])  # -1 past the path's end / no facet

@@ -14,6 +14,27 @@ typedef struct {
     float u, v;    /* barycentrics of v1 and v2 on a triangle */
 } Hit;
 
+/* The scene's geometry as every traversal reads it (packed by clrender/trace/tracer.py). */
+typedef struct {
+    __global const float4 *nodes;      /* the BVH: binary nodes, or wide nodes and leaf blocks (clrender/trace/bvh*.py) */
+    __global const float4 *prims;      /* primitive slots, in the tree's leaf order */
+    __global const int *prim_object;   /* object id of each primitive id */
+    __global const ObjectRecord *objects;
+    __global const Material *materials;
+    int n_prims;
+} Geometry;
+
+INLINE Geometry geometry(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+                         __global const ObjectRecord *objects, __global const Material *materials, int n_prims) {
+    Geometry g;
+    g.nodes = nodes; g.prims = prims; g.prim_object = prim_object; g.objects = objects; g.materials = materials;
+    g.n_prims = n_prims;
+    return g;
+}
+
+/* What a shadow ray keeps crossing primitive `id` (its material's transparency). */
+INLINE float transparency_of(const Geometry *g, int id) { return g->materials[g->objects[g->prim_object[id]].material].transparency; }
+
 INLINE Hit no_hit(void) {
     Hit h;
     h.t = INF_T; h.slot = -1; h.id = -1; h.u = 0.0f; h.v = 0.0f;
@@ -342,9 +363,8 @@ INLINE void test_blocks(__global const float4 *rows, int first, int count, __glo
  * times `transparency` for every crossing of a transparent one (the shadow
  * ray is not bent).  Stops as soon as an opaque surface is found.  With
  * opaque_only every surface blocks (a plain any-hit occlusion query). */
-INLINE float crossing_transmittance(__global const float4 *prims, __global const int *prim_object,
-                                    __global const int2 *objects, __global const float4 *materials,
-                                    int s, Ray r, float t_min, float t_max, bool opaque_only) {
+INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min, float t_max, bool opaque_only) {
+    __global const float4 *prims = g->prims;
     float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
     int crossings = 0;
     if (is_sphere_row(b)) {
@@ -360,18 +380,16 @@ INLINE float crossing_transmittance(__global const float4 *prims, __global const
     }
     if (crossings == 0) return 1.0f;
     if (opaque_only) return 0.0f;
-    int material = objects[prim_object[as_int(a.w)]].x;
-    float transparency = materials[MATERIAL_ROWS * material + 2].x;
+    float transparency = transparency_of(g, as_int(a.w));
     return crossings == 2 ? transparency * transparency : transparency;
 }
 
 #if BVH_WIDTH >= 4
 /* Transmittance through the blocks of one leaf (see test_blocks): crossing_transmittance of each
  * primitive, the triangles of a block tested at once. */
-INLINE float blocks_transmittance(__global const float4 *rows, int first, int count, __global const float4 *prims,
-                                  __global const int *prim_object, __global const int2 *objects,
-                                  __global const float4 *materials, Ray r, float t_min, float t_max,
+INLINE float blocks_transmittance(const Geometry *g, int first, int count, Ray r, float t_min, float t_max,
                                   bool opaque_only) {
+    __global const float4 *rows = g->nodes;
     float T = 1.0f;
     for (int b = 0; b < count && T > 0.0f; b += BLOCK_LANES, first += BLOCK_ROWS) {
         __global const float4 *block = rows + first;
@@ -382,13 +400,12 @@ INLINE float blocks_transmittance(__global const float4 *rows, int first, int co
         if (crossed.x | crossed.y | crossed.z | crossed.w) {
             if (opaque_only) return 0.0f;
             for (int k = 0; k < BLOCK_LANES; ++k) /* a triangle is crossed once: times its transparency */
-                if (cl[k]) T *= materials[MATERIAL_ROWS * objects[prim_object[prim_id(prims, sl[k])]].x + 2].x;
+                if (cl[k]) T *= transparency_of(g, prim_id(g->prims, sl[k]));
         }
         if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) /* spheres: -2 - slot */
             for (int k = 0; k < BLOCK_LANES && T > 0.0f; ++k)
                 if (sl[k] < -1)
-                    T *= crossing_transmittance(prims, prim_object, objects, materials, -2 - sl[k], r, t_min, t_max,
-                                                opaque_only);
+                    T *= crossing_transmittance(g, -2 - sl[k], r, t_min, t_max, opaque_only);
     }
     return T;
 }
@@ -413,14 +430,13 @@ typedef struct {
     int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
 } Walk;
 
-INLINE void walk_start(Walk *w, __global const float4 *nodes, int n_prims, Ray r, float t_min, float t_max,
-                       bool any_hit) {
+INLINE void walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_max, bool any_hit) {
     w->r = r; w->t_min = t_min; w->t_max = t_max;
     w->best = no_hit(); w->best.t = t_max; w->T = 1.0f;
     w->sp = 0; w->overflow = false; w->visits = 0;
-    if (n_prims > 0) {
+    if (g->n_prims > 0) {
         COUNT_NODE(&w->visits);
-        w->sp = push_lanes(0, hit_boxes(r, (__global const lanes_f *)nodes, t_max), any_hit, w->stack_key,
+        w->sp = push_lanes(0, hit_boxes(r, (__global const lanes_f *)g->nodes, t_max), any_hit, w->stack_key,
                            w->stack_node, 0, &w->overflow);
     }
 }
@@ -428,9 +444,8 @@ INLINE void walk_start(Walk *w, __global const float4 *nodes, int n_prims, Ray r
 /* Visit the lane on top of the stack: a leaf's blocks are tested, a node's boxes tested and its hit
  * lanes pushed.  Call while w->sp > 0, with the any_hit the walk started with (a constant at every
  * call, so the compiler keeps one kind of walk per loop). */
-INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const float4 *prims,
-                      __global const int *prim_object, __global const int2 *objects,
-                      __global const float4 *materials, bool opaque_only, bool any_hit) {
+INLINE void walk_step(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
+    __global const float4 *nodes = g->nodes;
     __global const int *ints = (__global const int *)nodes;
     int sp = --w->sp;
     uint key = w->stack_key[sp];
@@ -443,11 +458,10 @@ INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const floa
     if (count > 0) {
         COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */
         if (any_hit) {
-            w->T *= blocks_transmittance(nodes, child, count, prims, prim_object, objects, materials, w->r, w->t_min,
-                                         t_max, opaque_only);
+            w->T *= blocks_transmittance(g, child, count, w->r, w->t_min, t_max, opaque_only);
             if (w->T == 0.0f) w->sp = 0; /* blocked: done */
         } else {
-            test_blocks(nodes, child, count, prims, w->r, w->t_min, &w->best);
+            test_blocks(nodes, child, count, g->prims, w->r, w->t_min, &w->best);
         }
     } else {
         w->sp = push_lanes(child, hit_boxes(w->r, (__global const lanes_f *)nodes + 8 * child, t_max), any_hit,
@@ -456,46 +470,40 @@ INLINE void walk_step(Walk *w, __global const float4 *nodes, __global const floa
 }
 
 /* After the last step: a lane that did not fit on the stack means every primitive is tested instead. */
-INLINE void walk_finish(Walk *w, __global const float4 *prims, int n_prims, __global const int *prim_object,
-                        __global const int2 *objects, __global const float4 *materials, bool opaque_only,
-                        bool any_hit) {
+INLINE void walk_finish(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
     if (!w->overflow) return;
     if (any_hit) {
         if (w->T == 0.0f) return;
         w->T = 1.0f;
-        for (int s = 0; s < n_prims && w->T > 0.0f; ++s)
-            w->T *= crossing_transmittance(prims, prim_object, objects, materials, s, w->r, w->t_min, w->t_max,
-                                           opaque_only);
+        for (int s = 0; s < g->n_prims && w->T > 0.0f; ++s)
+            w->T *= crossing_transmittance(g, s, w->r, w->t_min, w->t_max, opaque_only);
     } else {
-        test_slots(prims, 0, n_prims, w->r, w->t_min, &w->best);
+        test_slots(g->prims, 0, g->n_prims, w->r, w->t_min, &w->best);
     }
 }
 
-INLINE Hit closest_hit_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims, Ray r,
-                            float t_min, float t_max, uint *visits) {
+INLINE Hit closest_hit_wide(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
     Walk w;
-    walk_start(&w, nodes, n_prims, r, t_min, t_max, false);
-    while (w.sp > 0) walk_step(&w, nodes, prims, 0, 0, 0, true, false);
-    walk_finish(&w, prims, n_prims, 0, 0, 0, true, false);
+    walk_start(&w, g, r, t_min, t_max, false);
+    while (w.sp > 0) walk_step(&w, g, true, false);
+    walk_finish(&w, g, true, false);
     *visits += w.visits;
     return w.best;
 }
 
-INLINE float transmittance_wide(__global const float4 *nodes, __global const float4 *prims, int n_prims,
-                                __global const int *prim_object, __global const int2 *objects,
-                                __global const float4 *materials, Ray r, float t_min, float t_max,
-                                bool opaque_only, uint *visits) {
+INLINE float transmittance_wide(const Geometry *g, Ray r, float t_min, float t_max, bool opaque_only, uint *visits) {
     Walk w;
-    walk_start(&w, nodes, n_prims, r, t_min, t_max, true);
-    while (w.sp > 0) walk_step(&w, nodes, prims, prim_object, objects, materials, opaque_only, true);
-    walk_finish(&w, prims, n_prims, prim_object, objects, materials, opaque_only, true);
+    walk_start(&w, g, r, t_min, t_max, true);
+    while (w.sp > 0) walk_step(&w, g, opaque_only, true);
+    walk_finish(&w, g, opaque_only, true);
     *visits += w.visits;
     return w.T;
 }
 #endif
 
-INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prims, int n_prims,
-                       Ray r, float t_min, float t_max, uint *visits) {
+INLINE Hit closest_hit(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
+    __global const float4 *nodes = g->nodes, *prims = g->prims;
+    int n_prims = g->n_prims;
     Hit best = no_hit();
     best.t = t_max;
 #if USE_BVH && BVH_WIDTH == 2
@@ -540,7 +548,7 @@ INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     }
     if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
 #elif USE_BVH
-    best = closest_hit_wide(nodes, prims, n_prims, r, t_min, t_max, visits);
+    best = closest_hit_wide(g, r, t_min, t_max, visits);
 #else
     test_slots(prims, 0, n_prims, r, t_min, &best);
     *visits += (uint)n_prims;
@@ -549,14 +557,12 @@ INLINE Hit closest_hit(__global const float4 *nodes, __global const float4 *prim
     return best;
 }
 
-INLINE float transmittance(__global const float4 *nodes, __global const float4 *prims, int n_prims,
-                           __global const int *prim_object, __global const int2 *objects,
-                           __global const float4 *materials, Ray r, float t_min, float t_max, bool opaque_only,
-                           uint *visits) {
+INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, bool opaque_only, uint *visits) {
+    __global const float4 *nodes = g->nodes;
+    int n_prims = g->n_prims;
     float T = 1.0f;
 #if USE_BVH && BVH_WIDTH >= 4
-    T = transmittance_wide(nodes, prims, n_prims, prim_object, objects, materials, r, t_min, t_max, opaque_only,
-                           visits);
+    T = transmittance_wide(g, r, t_min, t_max, opaque_only, visits);
 #elif USE_BVH
     int stack[STACK_SIZE]; /* holds at most the tree's depth; on overflow see below */
     int sp = 0;
@@ -570,7 +576,7 @@ INLINE float transmittance(__global const float4 *nodes, __global const float4 *
         if (count > 0) {
             COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
             for (int s = offset; s < offset + count && T > 0.0f; ++s)
-                T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+                T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
         } else {
             int children[2] = {node + 1, offset};
             for (int k = 0; k < 2; ++k) {
@@ -585,11 +591,11 @@ INLINE float transmittance(__global const float4 *nodes, __global const float4 *
     if (overflow && T > 0.0f) { /* a node did not fit on the stack: test every primitive instead */
         T = 1.0f;
         for (int s = 0; s < n_prims && T > 0.0f; ++s)
-            T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+            T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
     }
 #else
     for (int s = 0; s < n_prims && T > 0.0f; ++s)
-        T *= crossing_transmittance(prims, prim_object, objects, materials, s, r, t_min, t_max, opaque_only);
+        T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
     *visits += (uint)n_prims;
 #endif
     return T;

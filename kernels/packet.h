@@ -132,8 +132,7 @@ INLINE void packet_push(Packet *p, int node, lanes_f nearest, lanes_u hit_rays, 
  * them, walk_packet in trace.cl, before it builds the rays) as a packet, or false if their largest
  * axes differ.  They are sheared (shear_ray) only once the root has a hit: most packets of a small
  * mesh miss it. */
-INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, Ray *r, const float *t_min,
-                         const float *t_max, bool any_hit) {
+INLINE bool packet_start(Packet *p, const Geometry *g, Ray *r, const float *t_min, const float *t_max, bool any_hit) {
 #define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
     p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
     p->dx = LANES(d.x); p->dy = LANES(d.y); p->dz = LANES(d.z);
@@ -146,10 +145,10 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
     p->visits = (uint8)(0u);
     p->sp = 0;
     p->fallback = false;
-    if (n_prims > 0) {
+    if (g->n_prims > 0) {
         count_visit(p, ALL_RAYS, 0);
         lanes_u hit_rays;
-        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes, p->t_max, ALL_RAYS, &hit_rays);
+        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)g->nodes, p->t_max, ALL_RAYS, &hit_rays);
         packet_push(p, 0, nearest, hit_rays, any_hit);
     }
     if (p->sp == 0) return true; /* every ray misses the root: no triangle test, no shear */
@@ -167,7 +166,8 @@ INLINE bool packet_start(Packet *p, __global const float4 *nodes, int n_prims, R
 
 /* Sphere slot s against the packet's `rays`, one ray at a time (a sphere is a whole leaf lane, and
  * rare): the lone walk's tests, test_slots' (closest hit) or crossing_transmittance's (any-hit). */
-INLINE void packet_sphere(Packet *p, __global const float4 *prims, int s, uint rays, bool any_hit) {
+INLINE void packet_sphere(Packet *p, const Geometry *g, int s, uint rays, bool any_hit) {
+    __global const float4 *prims = g->prims;
     float ox[PACKET_RAYS] = RAY_ARRAY(p->ox), oy[PACKET_RAYS] = RAY_ARRAY(p->oy), oz[PACKET_RAYS] = RAY_ARRAY(p->oz);
     float dx[PACKET_RAYS] = RAY_ARRAY(p->dx), dy[PACKET_RAYS] = RAY_ARRAY(p->dy), dz[PACKET_RAYS] = RAY_ARRAY(p->dz);
     float t_min[PACKET_RAYS] = RAY_ARRAY(p->t_min), t_max[PACKET_RAYS] = RAY_ARRAY(p->t_max);
@@ -178,7 +178,7 @@ INLINE void packet_sphere(Packet *p, __global const float4 *prims, int s, uint r
         Ray r = make_box_ray((float3)(ox[k], oy[k], oz[k]), (float3)(dx[k], dy[k], dz[k]));
         int8 lane = ray_lanes(1u << k);
         if (any_hit) {
-            if (crossing_transmittance(prims, 0, 0, 0, s, r, t_min[k], t_max[k], true) == 0.0f) p->live &= ~(1u << k);
+            if (crossing_transmittance(g, s, r, t_min[k], t_max[k], true) == 0.0f) p->live &= ~(1u << k);
         } else {
             float u, v, t = hit_slot(prims, s, r, t_min[k], t_max[k] * 1.0000002f, &u, &v);
             if (t < t_max[k] || (t == t_max[k] && t != INF_T && id < best_id[k])) {
@@ -192,8 +192,8 @@ INLINE void packet_sphere(Packet *p, __global const float4 *prims, int s, uint r
 /* The triangles of a leaf's blocks against the packet's `rays`, one triangle at a time: closest hit
  * keeps each ray's nearest (ties to the lower id, as test_blocks), any-hit (opaque) drops the rays
  * that are blocked from p->live.  Spheres go ray by ray (packet_sphere). */
-INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int count, __global const float4 *prims,
-                        uint rays, bool any_hit) {
+INLINE void packet_leaf(Packet *p, const Geometry *g, int first, int count, uint rays, bool any_hit) {
+    __global const float4 *rows = g->nodes, *prims = g->prims;
     for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
         __global const float *block = (__global const float *)(rows + first);
         int slots[BLOCK_LANES] = {as_int(block[4 * BLOCK_SLOT_ROW]), as_int(block[4 * BLOCK_SLOT_ROW + 1]),
@@ -202,7 +202,7 @@ INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int c
             int slot = slots[k];
             if (slot == -1) continue; /* an empty lane */
             if (slot < -1) { /* a sphere: slot -2 - s */
-                packet_sphere(p, prims, -2 - slot, rays, any_hit);
+                packet_sphere(p, g, -2 - slot, rays, any_hit);
                 if (any_hit && (rays &= p->live) == 0) return;
                 continue;
             }
@@ -231,7 +231,8 @@ INLINE void packet_leaf(Packet *p, __global const float4 *rows, int first, int c
 }
 
 /* Visit the entry on top of the stack with the rays that hit its box and may still need it. */
-INLINE void packet_step(Packet *p, __global const float4 *nodes, __global const float4 *prims, bool any_hit) {
+INLINE void packet_step(Packet *p, const Geometry *g, bool any_hit) {
+    __global const float4 *nodes = g->nodes;
     __global const int *ints = (__global const int *)nodes;
     int sp = --p->sp;
     uint key = p->stack_key[sp];
@@ -244,7 +245,7 @@ INLINE void packet_step(Packet *p, __global const float4 *nodes, __global const 
     if (count < 0) return; /* an empty lane (see walk_step) */
     count_visit(p, rays, count);
     if (count > 0) {
-        packet_leaf(p, nodes, child, count, prims, rays, any_hit);
+        packet_leaf(p, g, child, count, rays, any_hit);
         if (any_hit && p->live == 0) p->sp = 0;
     } else {
         lanes_u hit_rays;

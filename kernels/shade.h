@@ -14,15 +14,11 @@
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
 #endif
 
+/* What the render kernel shades with (the Python side's clrender.scene.Scene, packed). */
 typedef struct {
-    __global const float4 *nodes;
-    __global const float4 *prims;
-    __global const int *prim_object;
+    Geometry geo;
     __global const float4 *normals;
-    __global const int2 *objects;
-    __global const float4 *materials;
     __global const float4 *lights;
-    int n_prims;
     int n_lights;
     int light_samples;   /* > 0 overrides every area light's samples per side */
     int max_depth;       /* bounces after the primary hit */
@@ -33,7 +29,7 @@ typedef struct {
 #if WRITE_AOV
     __global float4 *aov; /* null, or this pixel's primary-hit record: (shading normal, t), (kd, 0) */
 #endif
-} Scene;
+} SceneView;
 
 #define MAX_FALLOFF 1e10f /* cap of 1/r^2 (r = 1e-5) and of an area light's A cos / r^2 */
 
@@ -148,7 +144,7 @@ INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 
 /* Fraction of the light reaching p + l dist (l unit) along a shadow ray leaving from the side of
  * the surface it goes towards: through the shaft's candidates when the shaft serves that side
  * (shaft_side 1: front, -1: back), else by traversing the tree. */
-INLINE float sample_transmittance(const Scene *sc, float3 p, float3 l, float dist, float3 n_geo, float3 origin_front,
+INLINE float sample_transmittance(const SceneView *sc, float3 p, float3 l, float dist, float3 n_geo, float3 origin_front,
                                   float3 origin_back, SHAFT_PARAMS, uint *visits) {
     bool front = dot3(n_geo, l) >= 0.0f;
     float3 origin = front ? origin_front : origin_back;
@@ -157,18 +153,17 @@ INLINE float sample_transmittance(const Scene *sc, float3 p, float3 l, float dis
         if (cand->n == 0) return cand->crossed_T; /* nothing more to cross */
         Ray sr = make_ray(origin, l);
         float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
-        return shaft_transmittance(cand, sc->nodes, sc->prims, sc->prim_object, sc->objects, sc->materials, sr, t_max);
+        return shaft_transmittance(cand, &sc->geo, sr, t_max);
     }
 #endif
     Ray sr = make_ray(origin, l);
     float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
-    return transmittance(sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects, sc->materials, sr, 0.0f,
-                         t_max, false, visits);
+    return transmittance(&sc->geo, sr, 0.0f, t_max, false, visits);
 }
 
 /* Light from every light source at p, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
-INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
+INLINE float3 direct_light(const SceneView *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
                            float4 kd, float4 ks, int own_slot, Rng *rng, __global float *shadow, uint *visits,
                            uint *rays) {
     float3 total = (float3)(0.0f);
@@ -278,8 +273,7 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
                             int side = light_side(p, n_geo, pos, edge_a, edge_b);
                             Shaft sh;
                             if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
-                                shaft_candidates(&sh, sc->nodes, sc->prims, sc->n_prims, sc->prim_object, sc->objects,
-                                                 sc->materials, side != 0 ? own_slot : -1, &cand, visits))
+                                shaft_candidates(&sh, &sc->geo, side != 0 ? own_slot : -1, &cand, visits))
                                 shaft_side = side >= 0 ? 1 : -1;
                         }
 #endif
@@ -331,7 +325,7 @@ INLINE float3 direct_light(const Scene *sc, float3 p, float3 p_err, float3 n, fl
  * object ids met on the way (depth-first order, -1 past the end) and then the
  * facet of the primary hit: its primitive id on a flat-shaded mesh, where the
  * shading jumps from face to face, else -1. */
-INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
+INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
                          uint *visits, uint *rays) {
     float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
     int sp = 0;
@@ -349,21 +343,22 @@ INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
         float medium = stack_o[sp].w;
         int depth = (int)stack_d[sp].w;
         Ray r = make_ray(o, d);
-        Hit h = closest_hit(sc->nodes, sc->prims, sc->n_prims, r, 0.0f, INF_T, visits);
+        Hit h = closest_hit(&sc->geo, r, 0.0f, INF_T, visits);
         *rays += 1;
-        int object = h.id >= 0 ? sc->prim_object[h.id] : -1;
+        int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
         if (ids && n_ids < PATH_LEN) ids[n_ids++] = object;
         if (h.id < 0) {
             colour += w * sc->background;
             first_hit = false;
             continue;
         }
-        int2 obj = sc->objects[object];
-        if (ids && first_hit && !obj.y && !is_sphere(sc->prims, h.slot)) ids[PATH_LEN] = h.id;
-        float4 kd = sc->materials[MATERIAL_ROWS * obj.x], ks = sc->materials[MATERIAL_ROWS * obj.x + 1], tr = sc->materials[MATERIAL_ROWS * obj.x + 2];
-        float transparency = tr.x, ior = tr.y, mirror = ks.w;
+        ObjectRecord obj = sc->geo.objects[object];
+        if (ids && first_hit && !obj.smooth && !is_sphere(sc->geo.prims, h.slot)) ids[PATH_LEN] = h.id;
+        __global const Material *m = sc->geo.materials + obj.material;
+        float4 kd = (float4)(vload3(0, m->kd), m->shininess), ks = (float4)(vload3(0, m->ks), m->mirror);
+        float transparency = m->transparency, ior = m->ior, mirror = m->mirror;
 
-        float4 a = sc->prims[PRIM_ROWS * h.slot], b = sc->prims[PRIM_ROWS * h.slot + 1], c = sc->prims[PRIM_ROWS * h.slot + 2];
+        float4 a = sc->geo.prims[PRIM_ROWS * h.slot], b = sc->geo.prims[PRIM_ROWS * h.slot + 1], c = sc->geo.prims[PRIM_ROWS * h.slot + 2];
         float3 p, p_err; /* the hit point from the primitive, and its float32 error per axis */
         float3 n_geo, n_shade;
         if (is_sphere_row(b)) {
@@ -374,7 +369,7 @@ INLINE float3 trace_path(const Scene *sc, Ray primary, Rng *rng, __global int *i
             p = hit_point_triangle(a, b, c, h.u, h.v, &p_err);
             n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
             n_shade = n_geo;
-            if (obj.y) {
+            if (obj.smooth) {
                 __global const float4 *vn = sc->normals + NORMAL_ROWS * h.id;
                 n_shade = unit((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
             }

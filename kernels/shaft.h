@@ -245,16 +245,15 @@ INLINE int shaft_sphere(const Shaft *sh, float4 cr) {
 
 /* Collect the candidates of the shaft from the wide tree.  False when there are more than
  * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
-INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __global const float4 *prims, int n_prims,
-                             __global const int *prim_object, __global const int2 *objects,
-                             __global const float4 *materials, int own, ShaftCandidates *cand, uint *visits) {
+INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftCandidates *cand, uint *visits) {
+    __global const float4 *nodes = g->nodes, *prims = g->prims;
     __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
     __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     cand->n = 0;
     cand->crossed_T = 1.0f;
-    if (n_prims > 0) stack[sp++] = 0;
+    if (g->n_prims > 0) stack[sp++] = 0;
     while (sp > 0) {
         int node = stack[--sp];
         COUNT_NODE(visits);
@@ -286,7 +285,7 @@ INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __gl
                         int what = shaft_sphere(sh, (float4)(a.xyz, b1.x));
                         if (what == SPHERE_MISSED) continue;
                         if (what == SPHERE_CROSSED_ONCE) {
-                            cand->crossed_T *= materials[MATERIAL_ROWS * objects[prim_object[as_int(a.w)]].x + 2].x;
+                            cand->crossed_T *= transparency_of(g, as_int(a.w));
                             continue;
                         }
                         if (cand->n >= SHAFT_CANDIDATES) return false;
@@ -303,14 +302,13 @@ INLINE bool shaft_candidates(const Shaft *sh, __global const float4 *nodes, __gl
 /* Transmittance of one shadow ray (t in (0, t_max)) through the candidates: the crossings and
  * factors of blocks_transmittance / crossing_transmittance.  The candidate that blocked a ray
  * moves to the front, where the next ray (a neighbour) tries it first. */
-INLINE float shaft_transmittance(ShaftCandidates *cand, __global const float4 *nodes, __global const float4 *prims,
-                                 __global const int *prim_object, __global const int2 *objects,
-                                 __global const float4 *materials, Ray r, float t_max) {
+INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Ray r, float t_max) {
+    __global const float4 *nodes = g->nodes;
     float T = cand->crossed_T;
     for (int k = 0; k < cand->n && T > 0.0f; ++k) {
         int first = cand->first[k];
         if (first < 0) {
-            T *= crossing_transmittance(prims, prim_object, objects, materials, -2 - first, r, 0.0f, t_max, false);
+            T *= crossing_transmittance(g, -2 - first, r, 0.0f, t_max, false);
         } else {
             __global const float4 *block = nodes + first;
             int4 valid = ((int4)(cand->lanes[k]) & (int4)(1, 2, 4, 8)) != (int4)(0);
@@ -320,7 +318,7 @@ INLINE float shaft_transmittance(ShaftCandidates *cand, __global const float4 *n
                 int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
                 int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
                 for (int q = 0; q < BLOCK_LANES; ++q) /* a triangle is crossed once: times its transparency */
-                    if (cl[q]) T *= materials[MATERIAL_ROWS * objects[prim_object[prim_id(prims, sl[q])]].x + 2].x;
+                    if (cl[q]) T *= transparency_of(g, prim_id(g->prims, sl[q]));
             }
         }
         if (T == 0.0f && k > 0) { /* move to front */

@@ -9,10 +9,10 @@
 
 /* frame: camera origin, forward, right * half-width, up * half-height
  *        (all at unit distance), background colour, ambient light.
- * aov_out: with -DWRITE_AOV=1, two float4s per pixel (see Scene.aov); unused otherwise. */
+ * aov_out: with -DWRITE_AOV=1, two float4s per pixel (see SceneView.aov); unused otherwise. */
 __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      __global const int *prim_object, __global const float4 *normals,
-                     __global const int2 *objects, __global const float4 *materials,
+                     __global const ObjectRecord *objects, __global const Material *materials,
                      __global const float4 *lights, __global const float4 *frame,
                      __global const int *pixels,
                      int n_work, int n_prims, int n_lights, int width, int height,
@@ -22,10 +22,10 @@ __kernel void render(__global const float4 *nodes, __global const float4 *prims,
                      __global uint2 *stats_out, __global float4 *aov_out) {
     int gid = get_global_id(0);
     if (gid >= n_work) return;
-    Scene sc;
-    sc.nodes = nodes; sc.prims = prims; sc.prim_object = prim_object; sc.normals = normals;
-    sc.objects = objects; sc.materials = materials; sc.lights = lights;
-    sc.n_prims = n_prims; sc.n_lights = n_lights; sc.light_samples = light_samples;
+    SceneView sc;
+    sc.geo = geometry(nodes, prims, prim_object, objects, materials, n_prims);
+    sc.normals = normals; sc.lights = lights;
+    sc.n_lights = n_lights; sc.light_samples = light_samples;
     sc.max_depth = max_depth; sc.fresnel = fresnel; sc.light_stratified = light_stratified;
     sc.background = frame[4].xyz; sc.ambient = frame[5].xyz;
 
@@ -119,31 +119,28 @@ INLINE Ray query_ray(__global const float *origins, __global const float *direct
 #if USE_BVH && BVH_WIDTH >= 4
 /* The same ray for a wide walk, its shear (six divisions) computed only once the root has a hit:
  * most rays of a small mesh's batch miss it. */
-INLINE void start_query_walk(Walk *w, __global const float4 *nodes, int n_prims, __global const float *origins,
-                             __global const float *directions, int i, QueryUnits *units, float t_min, float t_max,
-                             bool any_hit) {
+INLINE void start_query_walk(Walk *w, const Geometry *g, __global const float *origins, __global const float *directions,
+                             int i, QueryUnits *units, float t_min, float t_max, bool any_hit) {
     Ray r = query_box_ray(origins, directions, i, units);
-    walk_start(w, nodes, n_prims, r, to_unit_t(t_min, *units), to_unit_t(t_max, *units), any_hit);
+    walk_start(w, g, r, to_unit_t(t_min, *units), to_unit_t(t_max, *units), any_hit);
     if (w->sp > 0) shear_ray(&w->r);
 }
 
 /* Rays idx[k], idx[k + 1] walked in turn, closest hit or any-hit; h (closest hit) or T (any-hit) and
  * visits written at k and k + 1. */
-INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __global const float4 *prims,
-                      __global const int *prim_object, __global const int2 *objects,
-                      __global const float4 *materials, int n_prims, __global const float *origins,
+INLINE void walk_pair(int k, const int *idx, const Geometry *g, __global const float *origins,
                       __global const float *directions, __global const float *t_min, __global const float *t_max,
                       QueryUnits *units, Hit *h, float *T, uint *visits, bool any_hit) {
     Walk w[2];
     for (int j = 0; j < 2; ++j)
-        start_query_walk(&w[j], nodes, n_prims, origins, directions, idx[k + j], &units[k + j], t_min[idx[k + j]],
+        start_query_walk(&w[j], g, origins, directions, idx[k + j], &units[k + j], t_min[idx[k + j]],
                          any_hit ? t_max[idx[k + j]] : INF_T, any_hit);
     while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], nodes, prims, prim_object, objects, materials, true, any_hit);
-        if (w[1].sp > 0) walk_step(&w[1], nodes, prims, prim_object, objects, materials, true, any_hit);
+        if (w[0].sp > 0) walk_step(&w[0], g, true, any_hit);
+        if (w[1].sp > 0) walk_step(&w[1], g, true, any_hit);
     }
     for (int j = 0; j < 2; ++j) {
-        walk_finish(&w[j], prims, n_prims, prim_object, objects, materials, true, any_hit);
+        walk_finish(&w[j], g, true, any_hit);
         if (any_hit) T[k + j] = w[j].T;
         else h[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
         visits[k + j] = w[j].visits;
@@ -152,8 +149,7 @@ INLINE void walk_pair(int k, const int *idx, __global const float4 *nodes, __glo
 
 /* The eight rays idx[] as one packet: false (nothing written) when they do not go the same way or
  * the packet cannot finish, and the caller walks them alone. */
-INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global const float4 *prims, int n_prims,
-                        __global const float *origins, __global const float *directions,
+INLINE bool walk_packet(const int *idx, const Geometry *g, __global const float *origins, __global const float *directions,
                         __global const float *t_min, __global const float *t_max, QueryUnits *units, Hit *h, float *T,
                         uint *visits, bool any_hit) {
 #if RAY_PACKETS
@@ -171,8 +167,8 @@ INLINE bool walk_packet(const int *idx, __global const float4 *nodes, __global c
         t1[k] = any_hit ? to_unit_t(t_max[idx[k]], units[k]) : INF_T;
     }
     Packet p;
-    if (!packet_start(&p, nodes, n_prims, r, t0, t1, any_hit)) return false;
-    while (p.sp > 0) packet_step(&p, nodes, prims, any_hit);
+    if (!packet_start(&p, g, r, t0, t1, any_hit)) return false;
+    while (p.sp > 0) packet_step(&p, g, any_hit);
     if (p.fallback) return false;
     float t[PACKET_RAYS] = RAY_ARRAY(p.t_max);
     int id[PACKET_RAYS] = RAY_ARRAY(p.id);
@@ -200,20 +196,20 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
                              __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
+    Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
     int idx[RAYS_PER_ITEM];
     QueryUnits units[RAYS_PER_ITEM];
     Hit h[RAYS_PER_ITEM];
     uint visits[RAYS_PER_ITEM];
     for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, 0, units, h, 0, visits, false))
+    if (!walk_packet(idx, &g, origins, directions, t_min, 0, units, h, 0, visits, false))
         for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
-            walk_pair(k, idx, nodes, prims, 0, 0, 0, n_prims, origins, directions, t_min, 0, units, h, 0, visits,
-                      false);
+            walk_pair(k, idx, &g, origins, directions, t_min, 0, units, h, 0, visits, false);
 #else
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         Ray r = query_ray(origins, directions, idx[k], &units[k]);
-        h[k] = closest_hit(nodes, prims, n_prims, r, to_unit_t(t_min[idx[k]], units[k]), INF_T, &visits[k]);
+        h[k] = closest_hit(&g, r, to_unit_t(t_min[idx[k]], units[k]), INF_T, &visits[k]);
     }
 #endif
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
@@ -226,27 +222,27 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
 
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
 __kernel void occluded_rays(__global const float4 *nodes, __global const float4 *prims,
-                            __global const int *prim_object, __global const int2 *objects,
-                            __global const float4 *materials, int n_prims, int n_rays,
+                            __global const int *prim_object, __global const ObjectRecord *objects,
+                            __global const Material *materials, int n_prims, int n_rays,
                             __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
+    Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
     int idx[RAYS_PER_ITEM];
     QueryUnits units[RAYS_PER_ITEM];
     float T[RAYS_PER_ITEM];
     uint visits[RAYS_PER_ITEM];
     for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
 #if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, nodes, prims, n_prims, origins, directions, t_min, t_max, units, 0, T, visits, true))
+    if (!walk_packet(idx, &g, origins, directions, t_min, t_max, units, 0, T, visits, true))
         for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
-            walk_pair(k, idx, nodes, prims, prim_object, objects, materials, n_prims, origins, directions, t_min,
-                      t_max, units, 0, T, visits, true);
+            walk_pair(k, idx, &g, origins, directions, t_min, t_max, units, 0, T, visits, true);
 #else
     for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
         Ray r = query_ray(origins, directions, idx[k], &units[k]);
-        T[k] = transmittance(nodes, prims, n_prims, prim_object, objects, materials, r, to_unit_t(t_min[idx[k]], units[k]),
+        T[k] = transmittance(&g, r, to_unit_t(t_min[idx[k]], units[k]),
                              to_unit_t(t_max[idx[k]], units[k]), true, &visits[k]);
     }
 #endif

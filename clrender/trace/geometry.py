@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, PRIM_ROWS
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_ROWS
 from ..scene.scene import Mesh, Scene, Sphere
 
 
@@ -20,7 +20,7 @@ class Primitives:
     triangle_normals: np.ndarray  # (T, 3, 3) float32 vertex normals (zeros when flat)
     spheres: np.ndarray  # (S, 4) float64 centre and radius
     object_of: np.ndarray  # (T + S,) int32 object id per primitive id
-    objects: np.ndarray  # (O, 2) int32 material index and smooth flag per object
+    objects: np.ndarray  # (O,) layout.OBJECT_DTYPE records: material index and smooth flag
     materials: np.ndarray  # (M,) layout.MATERIAL_DTYPE records
     material_names: list
 
@@ -42,18 +42,18 @@ def flatten(scene: Scene) -> Primitives:
     names = list(scene.materials)
     index = {n: i for i, n in enumerate(names)}
     materials = np.array([scene.materials[n].pack() for n in names], MATERIAL_DTYPE)
-    objects = np.zeros((max(len(scene.objects), 1), 2), np.int32)
+    objects = np.zeros(max(len(scene.objects), 1), OBJECT_DTYPE)
     tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
     for oid, obj in enumerate(scene.objects):
-        objects[oid, 0] = index[obj.material]
+        objects[oid]["material"] = index[obj.material]
         if isinstance(obj, Sphere):
             spheres.append([*obj.center, obj.radius])
             sphere_obj.append(oid)
             continue
         assert isinstance(obj, Mesh)
-        objects[oid, 1] = int(obj.smooth and obj.vertex_normals is not None)
+        objects[oid]["smooth"] = int(obj.smooth and obj.vertex_normals is not None)
         tris.append(obj.vertices[obj.faces])
-        if objects[oid, 1]:
+        if objects[oid]["smooth"]:
             tri_normals.append(obj.vertex_normals[obj.faces].astype(np.float32))
         else:
             tri_normals.append(np.zeros((len(obj.faces), 3, 3), np.float32))
