@@ -95,6 +95,10 @@ def c_struct(record: Record) -> str:
 _F4 = ("<f4", 4)
 # triangle: (v0, id bits) (v1, 0) (v2, 0); sphere: (centre, id bits) (radius, 0, 0, 1) (0)
 PRIM_SLOT_DTYPE = np.dtype([("a", *_F4), ("b", *_F4), ("c", *_F4)])
+# a binary BVH node (trace/bvh.py builds them): its box, and a leaf's first slot and count (> 0), or an
+# interior node's far child (its near child follows it) and count 0
+BVH_NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
+BVH_NODE = Record("BvhNode", BVH_NODE_DTYPE)
 
 # ---- shading and the render kernel (kernels/shade.h, trace.cl; packed by scene/*.py, trace/renderer.py)
 # a material: the seed's Blinn-Phong colours and exponent, mirror and transparency fractions, index of refraction
