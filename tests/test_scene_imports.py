@@ -1,6 +1,6 @@
-"""The scene package's imports go one way (issue 24): gltf.py is a reader that returns plain data and
-imports nothing from scene.py, and no module of clrender/scene imports another that imports it back,
-at the top of a file or inside a function."""
+"""clrender's imports go one way (issue 24): no module imports another that imports it back, at the top of
+a file or inside a function; in the scene package gltf.py is a reader that returns plain data and imports
+nothing from scene.py."""
 
 import ast
 import subprocess
@@ -9,30 +9,35 @@ from pathlib import Path
 
 import pytest
 
-import clrender.scene
+import clrender
 
-PACKAGE = Path(clrender.scene.__file__).parent
-MODULES = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__")
+ROOT = Path(clrender.__file__).parent
+MODULES = {".".join(("clrender", *p.relative_to(ROOT).with_suffix("").parts)).removesuffix(".__init__"): p for p in sorted(ROOT.rglob("*.py"))}
+SCENE_MODULES = sorted(m.rsplit(".", 1)[1] for m in MODULES if m.startswith("clrender.scene.") and m.count(".") == 2)
 
 
 def imports(module: str) -> set:
-    """The modules of clrender/scene that `module` imports anywhere in its source (relative or absolute)."""
-    tree = ast.parse((PACKAGE / f"{module}.py").read_text(encoding="utf-8"))
+    """The clrender modules that `module` imports anywhere in its source; `from package import name` counts
+    as the submodule when `name` is one, else as the package (whose __init__ runs either way)."""
+    path = MODULES[module]
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
     found = set()
-    for node in ast.walk(tree):
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom):
-            if node.level == 1 or node.module and node.module.startswith("clrender.scene"):
-                base = (node.module or "") if node.level == 1 else node.module.removeprefix("clrender.scene").lstrip(".")
-                if base:
-                    found.add(base.split(".")[0])
-                else:  # from . import gltf
-                    found.update(alias.name for alias in node.names)
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
+            for alias in node.names:
+                found.add(f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base)
         elif isinstance(node, ast.Import):
-            found.update(a.name.split(".")[2] for a in node.names if a.name.startswith("clrender.scene."))
-    return found & set(MODULES)
+            found.update(a.name for a in node.names)
+    return (found & set(MODULES)) - {module}
 
 
-def test_the_scene_package_import_graph_is_acyclic():
+def test_the_package_import_graph_is_acyclic():
+    # a package's __init__ may gather its submodules' names; an edge from a submodule to its own package's
+    # __init__ ("from . import helper" defined there) is still an edge
     graph = {m: imports(m) for m in MODULES}
     done, on_path = set(), []
 
@@ -53,12 +58,14 @@ def test_the_scene_package_import_graph_is_acyclic():
 
 
 def test_gltf_reads_files_without_scene_and_scene_imports_gltf():
-    assert "scene" not in imports("gltf")
-    assert "gltf" in imports("scene")
-    assert "scene" not in set().union(*(imports(m) for m in ("checks", "camera", "lights", "materials", "gltf", "confine")))
+    scene = "clrender.scene."
+    assert scene + "scene" not in imports(scene + "gltf")
+    assert scene + "gltf" in imports(scene + "scene")
+    for reader in ("checks", "camera", "lights", "materials", "gltf", "confine"):
+        assert scene + "scene" not in imports(scene + reader)
 
 
-@pytest.mark.parametrize("module", MODULES)
+@pytest.mark.parametrize("module", SCENE_MODULES)
 def test_each_module_imports_first_in_a_fresh_interpreter(module):
     done = subprocess.run([sys.executable, "-c", f"import clrender.scene.{module}"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]

@@ -57,14 +57,14 @@ def run_gauss_batch(args, config_of) -> int:
     from ..image.files import write_image
     from ..outputs import output_set
     from .cluster import cluster_client
-    from .splat_gauss import _check_fit_memory, _read_target
+    from .splat_target import check_fit_memory, read_target
 
     inputs = photos(args.input)
     outs = batch_outputs(args, inputs, {"--save-params": args.save_params, "--log": args.log, "--curve": args.curve})
     config = config_of(args)
     for p in inputs:  # each photo's fit within memory, from its header (run locally, the fits take turns)
-        _check_fit_memory(p, config)
-    targets = [_read_target(p) for p in inputs]  # each checked (splat/pixels.py), naming its file
+        check_fit_memory(p, config)
+    targets = [read_target(p) for p in inputs]  # each checked (splat/pixels.py), naming its file
     for t in targets:
         config.validate(t.shape[1], t.shape[0])
     with cluster_client(args) as client:

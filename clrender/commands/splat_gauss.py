@@ -10,6 +10,7 @@ import numpy as np
 
 from ..errors import UsageError
 from . import add_device_argument
+from .splat_target import check_fit_memory, read_target
 
 GAUSS_EXAMPLE = """example:
   clrender splat gauss photo.jpg -o splats.png --splats 5000 --time-budget 120 \\
@@ -128,28 +129,6 @@ def _config(args, **extra):
     )
 
 
-def _check_fit_memory(path, config) -> None:
-    """Refuse, from the image's header and before its pixels are read, a fit that memory cannot hold
-    (clrender/memory.py, --max-memory); the splats' share is checked when they are first binned."""
-    from .. import memory
-    from ..image.files import probe_image
-    from ..splat.gauss import peak_bytes
-
-    info = probe_image(path)
-    memory.require(peak_bytes(info.width, info.height, fit_loss=config.loss), f"a {info.width}x{info.height} splat fit ({config.loss} loss)")
-
-
-def _read_target(path):
-    from ..errors import shown
-    from ..image.files import read_image
-    from ..splat.fit import as_rgb
-    from ..splat.pixels import check_pixels
-
-    pixels = read_image(path).pixels
-    check_pixels(pixels, shown(path))  # NaN, inf or 3e38 in an EXR/HDR/PFM: refused naming the file
-    return as_rgb(pixels)
-
-
 def write_log(path, log: list[dict], overwrite: bool = True) -> None:
     """The rows as CSV, through a temp file (or as part of the current output set)."""
     from ..outputs import write_csv
@@ -183,8 +162,8 @@ def run_gauss(args):
     _check_side_output(args.log, args.overwrite, (".csv",))
     check_distinct_outputs(**{"-o": out, "--curve": curve, "--save-params": args.save_params, "--log": args.log, "IN": args.input})
     config = _config(args, lr=args.lr, time_budget=args.time_budget)
-    _check_fit_memory(args.input, config)
-    target = _read_target(args.input)
+    check_fit_memory(args.input, config)
+    target = read_target(args.input)
     fitter = Fitter(get_device(args.device), target, config)  # validates the settings and the image size
     result = fitter.run()
     if not np.isfinite(result.image).all():
@@ -238,7 +217,7 @@ def run_sweep(args):
     for lr in args.lrs:
         if not 0 < lr < float("inf"):
             raise UsageError(f"--lrs value {lr} must be a number > 0")
-    target = _read_target(args.input)
+    target = read_target(args.input)
     rows = []
     combos = list(itertools.product(args.lrs, args.batches))
     configs = []
