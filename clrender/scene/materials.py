@@ -20,13 +20,15 @@ class Material:
     ior: float = 1.0  # index of refraction (> 0); air is 1.0, glass 1.5, water 1.333
 
     def pack(self) -> np.ndarray:
-        """The material's record (layout.MATERIAL_DTYPE)."""
+        """The material's record (layout.MATERIAL_DTYPE): each field from the attribute of the same name, so a
+        field added to both reaches the kernels with no other change."""
         record = np.zeros((), MATERIAL_DTYPE)
-        record["kd"], record["shininess"], record["ks"], record["mirror"] = self.diffuse, self.shininess, self.specular, self.mirror
-        record["transparency"], record["ior"] = self.transparency, self.ior
+        for name in MATERIAL_DTYPE.names:
+            record[name] = getattr(self, RECORD_NAMES.get(name, name))
         return record
 
 
+RECORD_NAMES = {"kd": "diffuse", "ks": "specular"}  # the record's fields named as the kernels' shading formulas name them
 DEFAULT_MATERIAL = Material()
 
 
