@@ -2,7 +2,7 @@
 
 Device.program passes `DEFINES` to every program build as -D options; the kernels have no copies
 (kernels/layout.h stops a build with #error when one is missing), so a change here reaches both
-sides.  The record dtypes below say what each buffer element holds; tests/test_layout.py checks
+sides.  The record dtypes below say what each buffer element holds; tests/kernels/test_layout.py checks
 them against what the kernels see (sizeof, the codes, the strides).
 """
 
@@ -52,7 +52,7 @@ LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edg
 SPLAT_GRAD_DTYPE = np.dtype(
     [("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3), ("opacity", "<f4"), ("weight", "<f4")]
 )
-# each record's size matches its row count: tests/test_layout.py
+# each record's size matches its row count: tests/kernels/test_layout.py
 
 DEFINES = {
     "PATH_LEN": PATH_LEN,

@@ -52,7 +52,7 @@ from ..errors import UsageError
 from .knobs import BUILD_STACK, DEFAULT_KNOBS, MAX_TREE_LEVELS_LIMIT
 
 NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
-# the kernels read a node as BVH_NODE_ROWS float4s (tests/test_layout.py checks the size)
+# the kernels read a node as BVH_NODE_ROWS float4s (tests/kernels/test_layout.py checks the size)
 BUILDERS = ("sah", "median")
 MAX_TREE_LEVELS = DEFAULT_KNOBS.max_tree_levels  # levels, root included (a Tracer passes its knobs' value)
 SAH_SAMPLES = 1024  # nodes larger than this bin a strided sample of this many primitives
