@@ -3,7 +3,7 @@
 Values (codes, sizes) become `#define`s and records (numpy structured dtypes) become C structs in one
 generated header, `c_header()`, that Device.program puts before every kernel file it builds.  The
 kernels read records by field name (`materials[m].ior`) and the host packs them by field name
-(`record["ior"]`), so a field added to a dtype here reaches both sides; tests/test_layout.py has a
+(`record["ior"]`), so a field added to a dtype here reaches both sides; tests/kernels/test_layout.py has a
 kernel report sizeof and every field's offset of each struct and compares them with the dtypes.
 
 How a dtype becomes a struct (`c_struct`): float32, int32 and uint32 fields become float, int and

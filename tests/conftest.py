@@ -7,7 +7,7 @@ reach a device implicitly (Renderer() without a device, `python -m clrender` in 
 $CLRENDER_DEVICE; when exactly one test device is listed and $CLRENDER_DEVICE is unset, it is set to that one,
 so the whole suite runs there.
 
-Hypothesis profiles for the fuzz tests (tests/test_fuzz_*.py):
+Hypothesis profiles for the fuzz tests (tests/*/test_fuzz_*.py):
     ci    (default) a few hundred examples across all fuzz tests, no per-example deadline
     long  pytest --hypothesis-profile=long: at least 10,000 examples per scene fuzzer, 2,000+ CLI cases
 A fuzz test that wants fewer examples than the profile gives under ci asks for

@@ -17,7 +17,7 @@ and the test files that should catch it.  The anchor resolves in two steps:
 
 The function must exist exactly once and the pattern occur in exactly one of its lines, and `old`
 exactly once in that line (it defaults to the whole pattern); otherwise the mutant is *stale*: it is
-never run, `--list` says why, and tests/test_tools.py fails, so a refactor that moves a mutant's
+never run, `--list` says why, and tests/tools/test_tools.py fails, so a refactor that moves a mutant's
 code out from under it fails the suite instead of silently dropping the mutant.  Test files are
 named by file name and found anywhere under tests/, so moving them into subfolders keeps them.
 

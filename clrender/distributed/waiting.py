@@ -8,7 +8,7 @@
   process), the futures' completion events are set on one loop thread and
   waited on from another, and asyncio's events are not thread-safe: the
   wake-up can be lost and the render waits forever with its tasks done.
-  That was the hang in tests/test_distributed.py (docs/distributed.md).
+  That was the hang in tests/distributed/test_distributed.py (docs/distributed.md).
 - A watchdog: after `Deadlines.stall` seconds without a finished task it asks
   the scheduler for our tasks' states, and fails in one line when the
   scheduler does not know them, has no worker to run them, has finished them

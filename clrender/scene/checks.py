@@ -2,7 +2,7 @@
 
 Each section's reader lives next to what it builds (camera.py, lights.py, materials.py, and the
 objects in scene.py) and declares the keys it accepts once, as a `TypeReader`; docs/scene-format.md's
-key table is tested against those declarations (tests/test_scene_keys.py).  This module imports
+key table is tested against those declarations (tests/scene/test_scene_keys.py).  This module imports
 nothing from the rest of the scene package, so every reader may import it.
 """
 
@@ -225,7 +225,7 @@ class Checks:
 @dataclass(frozen=True)
 class TypeReader:
     """One type of a section (a light type, an object type, the camera, ...): the keys its table may hold,
-    declared once (checked here, and against docs/scene-format.md by tests/test_scene_keys.py), and
+    declared once (checked here, and against docs/scene-format.md by tests/scene/test_scene_keys.py), and
     `build(checks, table, path, *context)`, which reads them, with their defaults, into what it makes."""
 
     keys: tuple

@@ -1,0 +1,61 @@
+"""The benchmark harnesses: `python -m bench` lists them and nothing else, and smoke tests of their --quick modes."""
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.slow
+def test_bvh_harness_runs_all_six_scenes_and_writes_its_outputs(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "bvh", "--quick", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(tmp_path / "bvh.csv")))
+    assert [r["scene"] for r in rows] == ["refract1", "bunny", "refract2", "wizard_tower", "wizard_hat", "wizard_cat"]
+    heavy = [r for r in rows if int(r["primitives"]) >= 50_000]
+    assert len(heavy) >= 2
+    for r in heavy:  # the kernels' own counts, not timings: the BVH tests a tiny share of the primitives
+        assert float(r["on_visits_per_ray"]) < 0.01 * float(r["off_visits_per_ray"])
+    assert (tmp_path / "bvh.png").stat().st_size > 1000
+    assert (tmp_path / "bvh.md").read_text().count("\n") >= 8
+
+
+def bench_modules():
+    """bench/NAME.py files that define main(argv): the benchmarks."""
+    import ast
+
+    names = []
+    for path in sorted((ROOT / "bench").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        if path.stem != "__main__" and any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body):
+            names.append(path.stem)
+    return names
+
+
+def test_bench_lists_exactly_its_benchmarks_and_holds_nothing_else():
+    proc = subprocess.run([sys.executable, "-m", "bench"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    listed = proc.stderr.split("{", 1)[1].split("}", 1)[0].split("|")
+    assert sorted(listed) == bench_modules()
+    # besides the benchmarks: the package, its dispatcher and their shared helpers, nothing else (tools/ holds the tools)
+    others = {p.name for p in (ROOT / "bench").glob("*.py")} - {f"{n}.py" for n in listed}
+    assert others == {"__init__.py", "__main__.py", "common.py"}
+
+
+def test_every_listed_benchmark_imports_and_has_a_main():
+    names = bench_modules()
+    code = f"import importlib; [callable(importlib.import_module('bench.' + n).main) or exit(1) for n in {names!r}]"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("name, command", [("mutants", "python -m tools.mutants"), ("render_hashes", "python tools/render_hashes.py")])
+def test_the_tools_that_moved_out_of_bench_say_where_they_went(name, command):
+    proc = subprocess.run([sys.executable, "-m", "bench", name, "--list"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and command in proc.stderr, proc.stderr
