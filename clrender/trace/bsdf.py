@@ -1,0 +1,145 @@
+"""The BSDF lobes of kernels/bsdf.h, evaluated and sampled on the device in batches (kernels/bsdf_probe.cl).
+
+For tests, the path tracer's tests among them.  Directions are in the local shading frame (normal +z) and
+both point away from the surface: wo to the viewer, wi to the light.  As in the kernels:
+  eval(wo, wi)   f(wo, wi) * |cos theta_i|, RGB
+  pdf(wo, wi)    solid-angle density of sample's wi (0 where the sampler cannot go)
+  sample(wo, u)  wi, weight = eval / pdf (0 for a failed sample), pdf, delta (a delta lobe's branch:
+                 pdf is then that branch's probability)
+Lobes and their parameters (`params`):
+  lambert           colour = albedo
+  conductor         colour = Schlick F0, alpha = GGX width
+  dielectric        eta = IOR inside (-z) / outside (+z); smooth: delta lobes, eval and pdf are 0
+  rough_dielectric  eta, alpha
+  gltf              colour = base colour, metallic, alpha = roughness^2 (gltf_params converts)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+
+from ..device import Device
+from .tracer import LOCAL_SIZE, global_size, trace_defines
+
+LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric": 3, "gltf": 4}  # kernel codes, BSDF_<NAME>
+PARAM_ROWS = 2  # float4 rows per parameter record: (colour.rgb, alpha) (eta, metallic, 0, 0)
+PARAM_FLOATS = 4 * PARAM_ROWS
+PROBE = "bsdf_probe.cl"
+
+
+def bsdf_defines() -> dict:
+    """The -D variant of kernels/bsdf_probe.cl: common.h's traversal knobs, the lobe codes, the record size."""
+    return {**trace_defines(), **{f"BSDF_{name.upper()}": code for name, code in LOBES.items()}, "BSDF_PARAM_ROWS": PARAM_ROWS}
+
+
+def params(colour=(1.0, 1.0, 1.0), alpha=0.5, eta=1.5, metallic=0.0) -> np.ndarray:
+    """Parameter records, (n, PARAM_FLOATS) float32, broadcast over any array arguments (colour: (..., 3))."""
+    colour = np.asarray(colour, np.float64)
+    alpha, eta, metallic = (np.asarray(v, np.float64) for v in (alpha, eta, metallic))
+    shape = np.broadcast_shapes(colour.shape[:-1], alpha.shape, eta.shape, metallic.shape)
+    out = np.zeros((*shape, PARAM_FLOATS), np.float32)
+    out[..., 0:3] = colour
+    out[..., 3] = alpha
+    out[..., 4] = eta
+    out[..., 5] = metallic
+    return out.reshape(-1, PARAM_FLOATS)
+
+
+def gltf_params(base_colour=(1.0, 1.0, 1.0), metallic=0.0, roughness=0.5) -> np.ndarray:
+    """A glTF metallic-roughness record: alpha = roughness^2 (the glTF / Disney convention)."""
+    return params(colour=base_colour, alpha=np.square(np.asarray(roughness, np.float64)), metallic=metallic)
+
+
+def _rows(v) -> np.ndarray:
+    """(k, 4) float32 rows of (k, 3) or (3,) vectors."""
+    v = np.asarray(v, np.float32).reshape(-1, 3)
+    out = np.zeros((len(v), 4), np.float32)
+    out[:, :3] = v
+    return out
+
+
+class BsdfProbe:
+    """The probe kernels of one program: the device's cached build of kernels/bsdf_probe.cl, or `program`
+    (a build of a modified copy, as the tests' planted bugs use)."""
+
+    def __init__(self, device: Device, program: cl.Program | None = None):
+        self.device = device
+        if program is None:  # the device's cached kernels
+            fetch = lambda name: device.kernel(PROBE, name, bsdf_defines())
+        else:
+            fetch = lambda name: cl.Kernel(program, name)
+        self._eval, self._pdf, self._sample = fetch("bsdf_eval_probe"), fetch("bsdf_pdf_probe"), fetch("bsdf_sample_probe")
+        self._frame = fetch("frame_probe")
+
+    def _common(self, lobe: str, records, wo, n: int):
+        records = np.asarray(records, np.float32).reshape(-1, PARAM_FLOATS)
+        wo_rows = _rows(wo)
+        for name, k in (("params", len(records)), ("wo", len(wo_rows))):
+            if k not in (1, n):
+                raise ValueError(f"{name} has {k} rows; expected 1 or {n}")
+        dev = self.device
+        return (
+            np.int32(n),
+            np.int32(LOBES[lobe]),
+            dev.to_device(records),
+            np.int32(len(records) > 1 or n == 1),
+            dev.to_device(wo_rows),
+            np.int32(len(wo_rows) > 1 or n == 1),
+        )
+
+    def _run(self, knl, n: int, args, *out_shapes):
+        dev = self.device
+        outs = [dev.empty(4 * int(np.prod(s))) for s in out_shapes]
+        knl(dev.queue, global_size(n), (LOCAL_SIZE,), *args, *outs)
+        results = []
+        for buf, shape in zip(outs, out_shapes):
+            host = np.empty(shape, np.float32)
+            cl.enqueue_copy(dev.queue, host, buf)
+            results.append(host)
+        return results
+
+    def eval(self, lobe: str, records, wo, wi) -> np.ndarray:
+        """(n, 3) f * |cos theta_i| for wi (n, 3), wo (n, 3) or (3,), records (n or 1, PARAM_FLOATS)."""
+        wi_rows = _rows(wi)
+        n = len(wi_rows)
+        (out,) = self._run(self._eval, n, (*self._common(lobe, records, wo, n), self.device.to_device(wi_rows)), (n, 4))
+        return out[:, :3]
+
+    def pdf(self, lobe: str, records, wo, wi) -> np.ndarray:
+        """(n,) solid-angle pdf of wi given wo."""
+        wi_rows = _rows(wi)
+        n = len(wi_rows)
+        (out,) = self._run(self._pdf, n, (*self._common(lobe, records, wo, n), self.device.to_device(wi_rows)), (n,))
+        return out
+
+    def sample(self, lobe: str, records, wo, u):
+        """wi (n, 3), weight (n, 3), pdf (n,), delta (n,) bool for u (n, 3) in [0, 1): (u1, u2.x, u2.y)."""
+        u = np.asarray(u, np.float32).reshape(-1, 3)
+        n = len(u)
+        wi, wp = self._run(self._sample, n, (*self._common(lobe, records, wo, n), self.device.to_device(_rows(u))), (n, 4), (n, 4))
+        return wi[:, :3], wp[:, :3], wp[:, 3], wi[:, 3] != 0
+
+    def frame(self, normals, v):
+        """The kernel's shading frame of each unit normal: (n, 3, 3) rows t, b, n; v in it; and back in the world."""
+        normals, v = _rows(normals), _rows(v)
+        n = len(normals)
+        dev = self.device
+        args = (np.int32(n), dev.to_device(normals), dev.to_device(v))
+        frames, local, back = self._run(self._frame, n, args, (n, 3, 4), (n, 4), (n, 4))
+        return frames[..., :3], local[:, :3], back[:, :3]
+
+
+def eval(device: Device, lobe: str, records, wo, wi) -> np.ndarray:
+    """BsdfProbe(device).eval: (n, 3) f * |cos theta_i|."""
+    return BsdfProbe(device).eval(lobe, records, wo, wi)
+
+
+def pdf(device: Device, lobe: str, records, wo, wi) -> np.ndarray:
+    """BsdfProbe(device).pdf: (n,) solid-angle density."""
+    return BsdfProbe(device).pdf(lobe, records, wo, wi)
+
+
+def sample(device: Device, lobe: str, records, wo, u):
+    """BsdfProbe(device).sample: wi, weight, pdf, delta."""
+    return BsdfProbe(device).sample(lobe, records, wo, u)

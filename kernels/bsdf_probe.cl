@@ -1,0 +1,54 @@
+/* Test-only kernels: the BSDF lobes of bsdf.h over batches, for tests/test_bsdf*.py through
+ * clrender/trace/bsdf.py.
+ *   params  BSDF_PARAM_ROWS float4 rows per record (bsdf.h, BsdfParams); record i * params_stride
+ *   wo, wi  float4 per item (xyz, unused); wo read at i * wo_stride (stride 0: one shared by all)
+ *   u       float4 per item: (u1, u2.x, u2.y, unused)
+ * Build with clrender.trace.bsdf.bsdf_defines() (common.h's traversal knobs and the lobe codes). */
+#include "common.h"
+#include "rng.h"
+#include "bsdf.h"
+
+/* out[i] = (eval(wo, wi), 0) of lobe `lobe`: f * |cos theta_i| */
+__kernel void bsdf_eval_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+                              int wo_stride, __global const float4 *wi, __global float4 *out) {
+    int i = get_global_id(0);
+    if (i >= n) return;
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    out[i] = (float4)(bsdf_eval(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz), 0.0f);
+}
+
+/* out[i] = pdf(wo, wi), solid angle */
+__kernel void bsdf_pdf_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+                             int wo_stride, __global const float4 *wi, __global float *out) {
+    int i = get_global_id(0);
+    if (i >= n) return;
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    out[i] = bsdf_pdf(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz);
+}
+
+/* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */
+__kernel void bsdf_sample_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+                                int wo_stride, __global const float4 *u, __global float4 *wi_out, __global float4 *weight_out) {
+    int i = get_global_id(0);
+    if (i >= n) return;
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    float4 ui = u[i];
+    BsdfSample s = bsdf_sample(lobe, p, wo[(size_t)i * wo_stride].xyz, ui.x, (float2)(ui.y, ui.z));
+    wi_out[i] = (float4)(s.wi, (float)s.delta);
+    weight_out[i] = (float4)(s.weight, s.pdf);
+}
+
+/* The shading frame of normals[i]: out rows 3i..3i+2 = t, b, n; in_frame[i] = to_local(frame, v[i]),
+ * back[i] = to_world(frame, in_frame[i]). */
+__kernel void frame_probe(int n, __global const float4 *normals, __global const float4 *v, __global float4 *out,
+                          __global float4 *in_frame, __global float4 *back) {
+    int i = get_global_id(0);
+    if (i >= n) return;
+    Frame f = make_frame(normals[i].xyz);
+    out[3 * i] = (float4)(f.t, 0.0f);
+    out[3 * i + 1] = (float4)(f.b, 0.0f);
+    out[3 * i + 2] = (float4)(f.n, 0.0f);
+    float3 l = to_local(f, v[i].xyz);
+    in_frame[i] = (float4)(l, 0.0f);
+    back[i] = (float4)(to_world(f, l), 0.0f);
+}
