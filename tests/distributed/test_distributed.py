@@ -112,6 +112,11 @@ def test_workers_build_each_scene_once(client):
 def test_workers_run_pocl_with_the_thread_count_they_were_given(client):
     from clrender.device import get_device
 
+    names = client.run(lambda: get_device().name)
+    if not all(name.startswith("Portable Computing Language") for name in names.values()):
+        # pocl_env's variables are PoCL's; another runtime (Intel's reports every core whatever its
+        # CL_CONFIG_CPU_TBB_NUM_WORKERS) has no such device query to check
+        pytest.skip(f"pocl_env limits PoCL's threads; the workers run on {sorted(set(names.values()))}")
     units = client.run(lambda: get_device().device.max_compute_units)
     assert set(units.values()) == {1}
 

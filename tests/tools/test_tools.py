@@ -194,3 +194,36 @@ def test_render_hashes_prints_one_hash_line_per_item_the_same_each_run():
     assert {r[0] for r in rows} == {"render:refract1", "aov:refract1", "edges:refract1", "splat-gauss", "voronoi"}
     assert {r[1] for r in rows if r[0] == "render:refract1"} == {"none", "full", "edge_detect"}
     assert len({r[2] for r in rows if r[0] == "splat-gauss"}) == 4  # both blends' images and gradients differ
+
+
+# ---------------------------------------------------------------- intel_opencl.py
+
+
+def test_intel_opencl_keeps_the_icd_files_read_before_and_drops_stale_ones(tmp_path, monkeypatch):
+    from tools import intel_opencl
+
+    before, fake_lib = tmp_path / "before", tmp_path / "libother.so"
+    before.mkdir()
+    fake_lib.write_bytes(b"")
+    (before / "other.icd").write_text(f"{fake_lib}\n")
+    (before / "by-name.icd").write_text("libOpenCL-vendor.so.1\n")  # a bare name: found on the loader's path
+    (before / "gone.icd").write_text(f"{tmp_path / 'missing.so'}\n")
+    (before / "intel-cpu.icd").write_text("/opt/build/lib/libintelocl.so\n")  # the package's own, a build machine's path
+    monkeypatch.setenv("OCL_ICD_VENDORS", str(before))
+    folder, intel = tmp_path / "vendors", tmp_path / "libintelocl.so"
+    folder.mkdir()
+    (folder / "old.icd").write_text("left from an earlier run\n")
+    intel_opencl.write_vendors(folder, intel)
+    lines = sorted(p.read_text().strip() for p in folder.glob("*.icd"))
+    assert lines == sorted([str(intel), str(fake_lib), "libOpenCL-vendor.so.1"])
+
+
+def test_intel_opencl_prints_an_export_line_or_the_pip_line(tmp_path):
+    proc = subprocess.run([sys.executable, "tools/intel_opencl.py", "--dir", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    if proc.returncode == 1:  # the runtime is not installed in this environment
+        assert "pip install intel-opencl-rt intel-cmplr-lib-rt" in proc.stderr and not proc.stdout
+        return
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[-1] == f"export OCL_ICD_VENDORS={tmp_path}"
+    library = Path((tmp_path / "intel.icd").read_text().strip())
+    assert library.name == "libintelocl.so" and library.is_file()
