@@ -29,6 +29,7 @@ LIGHT_ROWS = 5  # float4 rows per light
 NORMAL_ROWS = 3  # float4 rows per smooth triangle: its vertex normals
 
 LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # the light record's head.x
+MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or glTF's metallic-roughness ones
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 
@@ -101,14 +102,23 @@ BVH_NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4"
 BVH_NODE = Record("BvhNode", BVH_NODE_DTYPE)
 
 # ---- shading and the render kernel (kernels/shade.h, trace.cl; packed by scene/*.py, trace/renderer.py)
-# a material: the seed's Blinn-Phong colours and exponent, mirror and transparency fractions, index of refraction
+# a material (scene/materials.py): the seed's Blinn-Phong colours and exponent, mirror and transparency
+# fractions, index of refraction; the glTF metallic-roughness parameters and emission the path tracer reads
 MATERIAL_DTYPE = np.dtype(
-    {
-        "names": ["kd", "shininess", "ks", "mirror", "transparency", "ior"],
-        "formats": [("<f4", 3), "<f4", ("<f4", 3), "<f4", "<f4", "<f4"],
-        "offsets": [0, 12, 16, 28, 32, 36],
-        "itemsize": 48,
-    }
+    [
+        ("kd", "<f4", 3),
+        ("shininess", "<f4"),
+        ("ks", "<f4", 3),
+        ("mirror", "<f4"),
+        ("transparency", "<f4"),
+        ("ior", "<f4"),
+        ("base_color", "<f4", 3),  # the seed model: kd
+        ("metallic", "<f4"),
+        ("roughness", "<f4"),  # perceptual: GGX alpha = roughness^2
+        ("transmission", "<f4"),
+        ("emission", "<f4", 3),  # radiance of the front faces
+        ("model", "<i4"),  # MATERIAL_MODELS code
+    ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
 OBJECT_DTYPE = np.dtype([("material", "<i4"), ("smooth", "<i4")])  # an object's material index; 1: smooth-shaded mesh
@@ -132,6 +142,7 @@ DEFINES = {
     "LIGHT_ROWS": LIGHT_ROWS,
     "NORMAL_ROWS": NORMAL_ROWS,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
+    **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
     "TILE": SPLAT_TILE,

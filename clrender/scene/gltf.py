@@ -25,10 +25,12 @@ nothing in the file is dropped without being listed here:
   specification defines.
   A file without lights gets a headlight: a directional light of intensity
   1 along the first camera's view, as glTF viewers do;
-- materials: pbrMetallicRoughness.baseColorFactor becomes the diffuse
-  colour (linear RGB, as glTF stores it); textures, metallic, roughness,
-  emission and alpha are not modelled.  Primitives without a material get
-  clrender's default grey.
+- materials: the metallic-roughness model as the file gives it: baseColorFactor
+  (linear RGB, as glTF stores it), metallicFactor, roughnessFactor,
+  emissiveFactor times KHR_materials_emissive_strength, KHR_materials_ior and
+  KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
+  draws the base colour as its diffuse colour); textures and alpha are not
+  modelled.  Primitives without a material get clrender's default grey.
 
 Anything malformed is a UsageError naming the file and what was wrong.  Counts
 (accessor elements, triangles, vertices read) are checked against the limits
@@ -548,9 +550,32 @@ def _material_names(doc: Document) -> list:
 
 
 def _material(doc: Document, index: int) -> dict:
-    pbr = doc.item("materials", index).get("pbrMetallicRoughness", {})
-    factor = _numbers(doc, pbr.get("baseColorFactor", [1, 1, 1, 1]), 4, f"materials[{index}].pbrMetallicRoughness.baseColorFactor")
-    return {"diffuse": [float(c) for c in factor[:3]]}
+    item = doc.item("materials", index)
+    where = f"materials[{index}]"
+    pbr = item.get("pbrMetallicRoughness", {})
+    factor = _numbers(doc, pbr.get("baseColorFactor", [1, 1, 1, 1]), 4, f"{where}.pbrMetallicRoughness.baseColorFactor")
+    metallic = _numbers(doc, [pbr.get("metallicFactor", 1.0)], 1, f"{where}.pbrMetallicRoughness.metallicFactor")
+    roughness = _numbers(doc, [pbr.get("roughnessFactor", 1.0)], 1, f"{where}.pbrMetallicRoughness.roughnessFactor")
+    emissive = _numbers(doc, item.get("emissiveFactor", [0, 0, 0]), 3, f"{where}.emissiveFactor")
+
+    def extension(name: str, key: str, default: float) -> float:
+        table = item.get("extensions", {})
+        table = table.get(name, {}) if isinstance(table, dict) else None
+        if not isinstance(table, dict):
+            doc.fail(f"{where}.extensions.{name} must be an object, got {show(table)}")
+        return float(_numbers(doc, [table.get(key, default)], 1, f"{where}.extensions.{name}.{key}")[0])
+
+    strength = extension("KHR_materials_emissive_strength", "emissiveStrength", 1.0)
+    ior = extension("KHR_materials_ior", "ior", 1.5)
+    transmission = extension("KHR_materials_transmission", "transmissionFactor", 0.0)
+    return {
+        "base_color": [float(c) for c in factor[:3]],
+        "metallic": float(metallic[0]),
+        "roughness": float(roughness[0]),
+        "emission": [float(c) * strength for c in emissive],
+        "ior": ior,
+        "transmission": transmission,
+    }
 
 
 def _camera(doc: Document, index: int, matrix: np.ndarray, node: int):

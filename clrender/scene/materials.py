@@ -1,4 +1,11 @@
-"""Surface materials: the seed's Whitted model (Lambert + Blinn-Phong, mirror, transparency + IOR)."""
+"""Surface materials: the seed's Whitted model (Lambert + Blinn-Phong, mirror, transparency + IOR), and the
+glTF 2.0 metallic-roughness model with emission and transmission that the path tracer renders.
+
+A material given with `base_color`, `metallic`, `roughness` or `transmission` is a metallic-roughness
+material (MATERIAL_MODELS["gltf"]); any other is a seed material, which the path tracer maps onto its lobes
+by one rule (docs/materials.md).  `emission` and `ior` belong to both.  The Whitted integrator draws a
+metallic-roughness material as Lambert with kd = base colour (what it drew of glTF materials before the path
+tracer), and nothing else of it."""
 
 from __future__ import annotations
 
@@ -6,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE
+from ..layout import MATERIAL_DTYPE, MATERIAL_MODELS
 from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
 
 
@@ -18,6 +25,24 @@ class Material:
     mirror: float = 0.0  # fraction reflected as a perfect mirror, in [0, 1]
     transparency: float = 0.0  # fraction passed on to the refracted ray, in [0, 1]
     ior: float = 1.0  # index of refraction (> 0); air is 1.0, glass 1.5, water 1.333
+    base_color: tuple | None = None  # glTF base colour (linear RGB); None: a seed material, the keys above
+    metallic: float = 0.0  # glTF metalness, 0 (dielectric) to 1 (metal)
+    roughness: float = 0.5  # glTF perceptual roughness r, 0 to 1; GGX alpha = r^2
+    transmission: float = 0.0  # fraction of the dielectric part that is transmitted (KHR_materials_transmission)
+    emission: tuple = (0.0, 0.0, 0.0)  # emitted radiance of the front faces, W/(m^2 sr) per channel (path tracer)
+
+    @property
+    def base_color_or_kd(self) -> tuple:
+        return self.kd if self.base_color is None else self.base_color
+
+    @property
+    def model(self) -> str:
+        return "seed" if self.base_color is None else "gltf"
+
+    @property
+    def kd(self) -> tuple:
+        """The Whitted integrator's diffuse colour."""
+        return self.diffuse if self.base_color is None else self.base_color
 
     def pack(self) -> np.ndarray:
         """The material's record (layout.MATERIAL_DTYPE): each field from the attribute of the same name, so a
@@ -27,26 +52,51 @@ class Material:
             record[name] = getattr(self, RECORD_NAMES.get(name, name))
         return record
 
+    @property
+    def model_code(self) -> int:
+        return MATERIAL_MODELS[self.model]
 
-RECORD_NAMES = {"kd": "diffuse", "ks": "specular"}  # the record's fields named as the kernels' shading formulas name them
+
+# record fields whose Material attribute has another name (the kernels' shading formulas name them)
+RECORD_NAMES = {"ks": "specular", "model": "model_code", "base_color": "base_color_or_kd"}
 DEFAULT_MATERIAL = Material()
 
 
 # ------------------------------------------------------------------ reading
+SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency")
+GLTF_KEYS = ("base_color", "metallic", "roughness", "transmission")
+
+
 def _build_material(checks: Checks, m: dict, path: str) -> Material:
     d = DEFAULT_MATERIAL
+    seed, gltf = [k for k in SEED_KEYS if k in m], [k for k in GLTF_KEYS if k in m]
+    if seed and gltf:
+        sets = f"{', '.join(SEED_KEYS)} or {', '.join(GLTF_KEYS)}"
+        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key beside the Whitted key {seed[0]!r}; a material uses one set: {sets}")
+    common = dict(
+        ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
+        emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
+    )
+    if gltf:
+        return Material(
+            base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="colour"),
+            metallic=checks.number(m, "metallic", path, d.metallic, low=0.0, high=1.0),
+            roughness=checks.number(m, "roughness", path, d.roughness, low=0.0, high=1.0),
+            transmission=checks.number(m, "transmission", path, d.transmission, low=0.0, high=1.0),
+            **common,
+        )
     return Material(
         diffuse=checks.vec3(m, "diffuse", path, d.diffuse, kind="colour"),
         specular=checks.vec3(m, "specular", path, d.specular, kind="colour"),
         shininess=checks.number(m, "shininess", path, d.shininess, low=0.0, high=SHININESS_LIMIT),
         mirror=checks.number(m, "mirror", path, d.mirror, low=0.0, high=1.0),
         transparency=checks.number(m, "transparency", path, d.transparency, low=0.0, high=1.0),
-        ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
+        **common,
     )
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
-MATERIAL_READER = TypeReader(("diffuse", "specular", "shininess", "mirror", "transparency", "ior"), _build_material)
+MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission"), _build_material)
 
 
 def read_material(checks: Checks, m, path: str) -> Material:

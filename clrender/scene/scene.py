@@ -86,6 +86,7 @@ class Scene:
     height: int = 480  # default image height in pixels
     background: tuple = (0.0, 0.0, 0.0)  # colour of rays that hit nothing (linear RGB)
     ambient: tuple = (0.0, 0.0, 0.0)  # ambient light, multiplied by each material's diffuse colour
+    environment: tuple = (0.0, 0.0, 0.0)  # path tracer: radiance arriving from every direction that meets nothing (linear RGB)
     materials: dict = field(default_factory=lambda: {"default": DEFAULT_MATERIAL})
     lights: list = field(default_factory=list)
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
@@ -171,7 +172,22 @@ def bundled_scenes() -> dict:
 # ---------------------------------------------------------------------- reading
 # The top level's keys; each section's tables are read by the readers of camera.py, materials.py,
 # lights.py and OBJECT_READERS below, each declaring its own keys (tested against docs/scene-format.md).
-TOP_KEYS = ("width", "height", "background", "ambient", "cameras", "materials", "lights", "objects", "name", "description", "featured_camera")
+TOP_KEYS = (
+    "width",
+    "height",
+    "background",
+    "ambient",
+    "environment",
+    "cameras",
+    "materials",
+    "lights",
+    "objects",
+    "name",
+    "description",
+    "featured_camera",
+)
+# `[environment]`: what the path tracer sees in every direction that meets nothing (image maps come later)
+ENVIRONMENT_READER = TypeReader(("color",), lambda checks, e, path: checks.vec3(e, "color", path, (0.0, 0.0, 0.0), kind="colour"))
 
 
 def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
@@ -186,6 +202,8 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.height = checks.integer(data, "height", "", 480, low=1, high=MAX_SIDE)
     scene.background = checks.vec3(data, "background", "", (0.0, 0.0, 0.0), kind="colour")
     scene.ambient = checks.vec3(data, "ambient", "", (0.0, 0.0, 0.0), kind="colour")
+    if "environment" in data:
+        scene.environment = ENVIRONMENT_READER.read(checks, checks.table(data["environment"], "environment"), "environment")
     cameras = data.get("cameras", [{}])
     if not isinstance(cameras, list) or not cameras:
         checks.fail("cameras", "expected a non-empty list of camera tables")

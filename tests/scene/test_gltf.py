@@ -77,10 +77,13 @@ def test_a_whole_gltf_file_as_one_mesh_keeps_its_node_transforms(box_glb, tmp_pa
 
 
 def test_base_colour_becomes_the_diffuse_colour(box_glb):
+    """The Whitted integrator draws a glTF material's base colour as its diffuse colour; the path tracer gets the
+    metallic-roughness model as the file gives it (factors default to 1, as the specification says)."""
     path, _, _ = box_glb
     scene = Scene.load(path)
     (material,) = [scene.materials[o.material] for o in scene.objects]
-    np.testing.assert_allclose(material.diffuse, [0.2, 0.4, 0.8], atol=1e-6)
+    np.testing.assert_allclose(material.kd, [0.2, 0.4, 0.8], atol=1e-6)
+    assert (material.model, material.metallic, material.roughness, material.emission) == ("gltf", 1.0, 1.0, (0.0, 0.0, 0.0))
 
 
 # ------------------------------------------------------- cameras and lights

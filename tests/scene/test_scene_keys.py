@@ -13,10 +13,17 @@ from clrender.errors import UsageError
 from clrender.scene.camera import CAMERA_READER
 from clrender.scene.lights import LIGHT_READERS
 from clrender.scene.materials import MATERIAL_READER
-from clrender.scene.scene import OBJECT_READERS, TOP_KEYS, Scene
+from clrender.scene.scene import ENVIRONMENT_READER, OBJECT_READERS, TOP_KEYS, Scene
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene-format.md"
-SECTIONS = {"top level": "", "`[[cameras]]`": "cameras", "`[materials.NAME]`": "materials", "`[[lights]]`": "lights", "`[[objects]]`": "objects"}
+SECTIONS = {
+    "top level": "",
+    "`[environment]`": "environment",
+    "`[[cameras]]`": "cameras",
+    "`[materials.NAME]`": "materials",
+    "`[[lights]]`": "lights",
+    "`[[objects]]`": "objects",
+}
 
 
 def documented_keys() -> dict:
@@ -43,7 +50,12 @@ def documented_keys() -> dict:
 
 def declared_keys() -> dict:
     """The same structure from the code: each type's keys are the section's common ones plus its own."""
-    keys = {("", ""): set(TOP_KEYS), ("cameras", ""): set(CAMERA_READER.keys), ("materials", ""): set(MATERIAL_READER.keys)}
+    keys = {
+        ("", ""): set(TOP_KEYS),
+        ("environment", ""): set(ENVIRONMENT_READER.keys),
+        ("cameras", ""): set(CAMERA_READER.keys),
+        ("materials", ""): set(MATERIAL_READER.keys),
+    }
     for section, readers in (("lights", LIGHT_READERS), ("objects", OBJECT_READERS)):
         common = set.intersection(*(set(r.keys) for r in readers.values()))
         keys[(section, "")] = common
@@ -72,7 +84,8 @@ def refused_keys(data) -> list:
 
 @pytest.mark.parametrize(
     "data, reader_keys",
-    [({"zz": 1}, TOP_KEYS), ({"cameras": [{"zz": 1}]}, CAMERA_READER.keys), ({"materials": {"m": {"zz": 1}}}, MATERIAL_READER.keys)]
+    [({"zz": 1}, TOP_KEYS), ({"environment": {"zz": 1}}, ENVIRONMENT_READER.keys), ({"cameras": [{"zz": 1}]}, CAMERA_READER.keys)]
+    + [({"materials": {"m": {"zz": 1}}}, MATERIAL_READER.keys)]
     + [({"lights": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in LIGHT_READERS.items()]
     + [({"objects": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in OBJECT_READERS.items()],
     ids=lambda value: value if isinstance(value, str) else None,

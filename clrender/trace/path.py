@@ -1,0 +1,54 @@
+"""The path tracer's host side (kernels/path.cl): emissive triangles as a power distribution, and one
+launch of `render_path` over a list of pixels.
+
+Renderer (renderer.py) owns the settings, tiles and passes; this module knows what the path kernel
+takes beyond the Whitted kernel's buffers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE
+from .geometry import Primitives
+
+
+def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
+    """The emissive triangles (layout.EMITTER_DTYPE records, their power's running sum normalised in `cdf` and
+    each one's share in `prob`) and every primitive id's index among them (-1: none).  A triangle's power is
+    its area times its material's mean emitted radiance (times pi for the hemisphere: a constant factor)."""
+    n_tri = len(primitives.triangles)
+    emission = primitives.materials["emission"].astype(np.float64)  # (M, 3)
+    material_of = primitives.objects["material"][primitives.object_of[:n_tri]]
+    radiance = emission[material_of].mean(axis=1) if n_tri else np.zeros(0)
+    tri = primitives.triangles
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) if n_tri else np.zeros(0)
+    power = area * radiance
+    ids = np.flatnonzero(power > 0)
+    index_of = np.full(max(primitives.count, 1), -1, np.int32)
+    index_of[ids] = np.arange(len(ids), dtype=np.int32)
+    records = np.zeros(max(len(ids), 1), EMITTER_DTYPE)
+    if len(ids):
+        share = power[ids] / power[ids].sum()
+        records["v0"], records["v1"], records["v2"] = tri[ids, 0], tri[ids, 1], tri[ids, 2]
+        records["area"] = area[ids]
+        records["prob"] = share
+        records["cdf"] = np.cumsum(share)
+        records["cdf"][-1] = 1.0  # the search never runs past the end
+        records["prim"] = ids
+    return records[: len(ids)] if len(ids) else records[:0], index_of
+
+
+def path_params(renderer, k: int, first_sample: int, spp: int, record: bool, n_emitters: int) -> np.ndarray:
+    """The launch's PathParams record (renderer: a Renderer with integrator "path")."""
+    s, scene = renderer.settings, renderer.scene
+    cam = scene.camera(s.camera).frame(s.width, s.height)
+    p = np.zeros((), PATH_PARAMS_DTYPE)
+    p["origin"], p["forward"], p["right"], p["up"] = (cam[i, :3] for i in range(4))
+    p["environment"] = scene.environment
+    p["n_work"], p["n_prims"], p["n_lights"], p["n_emitters"] = k, renderer.tracer.n_prims, len(scene.lights), n_emitters
+    p["width"], p["height"] = s.width, s.height
+    p["spp"], p["first_sample"], p["seed"], p["max_depth"] = spp, first_sample, s.seed, s.max_depth
+    p["sampler"], p["samples_per_side"], p["pixel_filter"] = renderer.sampler_code, s.samples, renderer.filter_code
+    p["record"] = int(record)
+    return p
