@@ -33,7 +33,7 @@ SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel sam
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
-SPLAT_TILE = 16  # Gaussian splats are binned into TILE x TILE pixel tiles
+SPLAT_TILE = 16  # Gaussian splats are binned into SPLAT_TILE x SPLAT_TILE pixel tiles
 SPLAT_NGRAD = 10  # floats per gradient entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of weights
 SPLAT_EPS = 1e-3  # normalized blend: weight of the background colour
 VORONOI_STRIP = 8  # pixels per work-item of the grid kernel (one float8)
@@ -134,10 +134,10 @@ DEFINES = {
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
-    "TILE": SPLAT_TILE,
-    "NGRAD": SPLAT_NGRAD,
-    "EPS": SPLAT_EPS,
-    "STRIP": VORONOI_STRIP,
+    "SPLAT_TILE": SPLAT_TILE,
+    "SPLAT_NGRAD": SPLAT_NGRAD,
+    "SPLAT_EPS": SPLAT_EPS,
+    "VORONOI_STRIP": VORONOI_STRIP,
     "BVH_NODE_ROWS": BVH_NODE_ROWS,
     "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
     "WIDE_CHILD_ROW": WIDE_CHILD_ROW,

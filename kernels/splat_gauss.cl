@@ -20,13 +20,13 @@
  *
  * Weight of splat i at a pixel: w_i = o_i exp(-q_i / 2) where q_i < 9, else 0.
  * BLEND_NORMALIZED 0 ("sum"):       I = bg + sum_i w_i c_i
- * BLEND_NORMALIZED 1 ("normalized"): I = (sum_i w_i c_i + EPS bg) / (sum_i w_i + EPS)
+ * BLEND_NORMALIZED 1 ("normalized"): I = (sum_i w_i c_i + SPLAT_EPS bg) / (sum_i w_i + SPLAT_EPS)
  * so where no splat reaches, a normalized pixel fades to the background colour.
  *
  * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
  * CPU), so PoCL runs 8 SIMD lanes per splat.
  */
-#include "layout.h" /* TILE, NGRAD (floats per gradient entry), EPS (the background's weight) */
+#include "layout.h" /* SPLAT_TILE, SPLAT_NGRAD (floats per gradient entry), SPLAT_EPS (the background's weight) */
 
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0
@@ -102,9 +102,9 @@ __kernel void splat_prepare(__global const float *params, const int n, const int
 inline bool box_in_tile_row(const int4 box, const int ty, int *tx0, int *tx1)
 {
     const bool empty = box.z <= box.x || box.w <= box.y;
-    if (empty || box.y >= (ty + 1) * TILE || box.w <= ty * TILE) return false;
-    *tx0 = box.x / TILE;
-    *tx1 = (box.z - 1) / TILE;
+    if (empty || box.y >= (ty + 1) * SPLAT_TILE || box.w <= ty * SPLAT_TILE) return false;
+    *tx0 = box.x / SPLAT_TILE;
+    *tx1 = (box.z - 1) / SPLAT_TILE;
     return true;
 }
 
@@ -162,19 +162,19 @@ __kernel void splat_forward(__global const float8 *splats, __global const float4
                             __global float *image, __global float *weight)
 {
     const int t = tiles[get_global_id(0)];
-    const int pitch = tiles_x * TILE;
-    const int x0 = (t % tiles_x) * TILE, y0 = (t / tiles_x) * TILE;
+    const int pitch = tiles_x * SPLAT_TILE;
+    const int x0 = (t % tiles_x) * SPLAT_TILE, y0 = (t / tiles_x) * SPLAT_TILE;
     const float8 fx_lo = (float)x0 + 0.5f + LANES, fx_hi = fx_lo + 8.0f;
     /* per tile row r, halves 2r and 2r + 1 */
-    float8 sum_r[2 * TILE], sum_g[2 * TILE], sum_b[2 * TILE], sum_w[2 * TILE];
-    for (int j = 0; j < 2 * TILE; ++j) sum_r[j] = sum_g[j] = sum_b[j] = sum_w[j] = 0.0f;
+    float8 sum_r[2 * SPLAT_TILE], sum_g[2 * SPLAT_TILE], sum_b[2 * SPLAT_TILE], sum_w[2 * SPLAT_TILE];
+    for (int j = 0; j < 2 * SPLAT_TILE; ++j) sum_r[j] = sum_g[j] = sum_b[j] = sum_w[j] = 0.0f;
     const int end = tile_start[t + 1];
     for (int k = tile_start[t]; k < end; ++k) {
         const int i = tile_splats[k];
         const float8 s = splats[i];
         const float4 c = colors[i];
         const int4 box = bbox[i];
-        const int r0 = max(box.y, y0) - y0, r1 = min(box.w, y0 + TILE) - y0;
+        const int r0 = max(box.y, y0) - y0, r1 = min(box.w, y0 + SPLAT_TILE) - y0;
         const bool lo = box.x < x0 + VW, hi = box.z > x0 + VW;
         const float a = NEG_HALF_LOG2E * s.s2, k_dy2 = NEG_HALF_LOG2E * s.s7;
         const float log2_o = s.s5 > 0x1p-100f ? log2(s.s5) : -100.0f;  /* keeps 2^y normal */
@@ -187,14 +187,14 @@ __kernel void splat_forward(__global const float8 *splats, __global const float4
             if (hi) BLEND_INTO(fx_hi, 1)
         }
     }
-    for (int j = 0; j < 2 * TILE; ++j) {
+    for (int j = 0; j < 2 * SPLAT_TILE; ++j) {
         const int pixel = (y0 + j / 2) * pitch + x0 + (j % 2) * VW;
         float8 R = sum_r[j], G = sum_g[j], B = sum_b[j];
 #if BLEND_NORMALIZED
-        const float8 n = 1.0f / (sum_w[j] + EPS);
-        R = (R + EPS * background.x) * n;
-        G = (G + EPS * background.y) * n;
-        B = (B + EPS * background.z) * n;
+        const float8 n = 1.0f / (sum_w[j] + SPLAT_EPS);
+        R = (R + SPLAT_EPS * background.x) * n;
+        G = (G + SPLAT_EPS * background.y) * n;
+        B = (B + SPLAT_EPS * background.z) * n;
 #else
         R += background.x; G += background.y; B += background.z;
 #endif
@@ -212,7 +212,7 @@ __kernel void splat_forward(__global const float8 *splats, __global const float4
  * row, so there are no races; the host sums rows per splat.
  * dimg: 4 planes (g.rgb, k) such that dL/dc_i = g w_i and dL/dw_i = g . c_i - k
  * at each pixel (see gauss.py: pixel_adjoint); zero in the padding.
- * partial: NGRAD floats per entry. */
+ * partial: SPLAT_NGRAD floats per entry. */
 __kernel void splat_backward(__global const float8 *splats, __global const float4 *colors,
                              __global const int4 *bbox, __global const int *entry_splat,
                              __global const int *entry_tile, const int n_entries,
@@ -222,15 +222,15 @@ __kernel void splat_backward(__global const float8 *splats, __global const float
     const int e = get_global_id(0);
     if (e >= n_entries) return;
     const int i = entry_splat[e], t = entry_tile[e];
-    const int pitch = tiles_x * TILE;
+    const int pitch = tiles_x * SPLAT_TILE;
     const float8 s = splats[i];
     const float3 c = colors[i].xyz;
     const int4 box = bbox[i];
-    const int tx = (t % tiles_x) * TILE, ty = (t / tiles_x) * TILE;
-    const int y0 = max(box.y, ty), y1 = min(box.w, ty + TILE);
+    const int tx = (t % tiles_x) * SPLAT_TILE, ty = (t / tiles_x) * SPLAT_TILE;
+    const int y0 = max(box.y, ty), y1 = min(box.w, ty + SPLAT_TILE);
     float8 gmx = (float8)(0.0f), gmy = gmx, gA = gmx, gB = gmx, gC = gmx;
     float8 gr = gmx, gg = gmx, gb = gmx, go = gmx, wsum = gmx;
-    for (int x0 = tx; x0 < tx + TILE; x0 += VW) {
+    for (int x0 = tx; x0 < tx + SPLAT_TILE; x0 += VW) {
         const bool outside_box = x0 + VW <= box.x || x0 >= box.z;
         if (outside_box) continue;
         /* columns inside the splat's box, as a lane mask */
@@ -261,7 +261,7 @@ __kernel void splat_backward(__global const float8 *splats, __global const float
             wsum += w;
         }
     }
-    __global float *out = partial + (size_t)e * NGRAD;
+    __global float *out = partial + (size_t)e * SPLAT_NGRAD;
     out[0] = hsum8(gmx); out[1] = hsum8(gmy);
     out[2] = hsum8(gA); out[3] = hsum8(gB); out[4] = hsum8(gC);
     out[5] = hsum8(gr); out[6] = hsum8(gg); out[7] = hsum8(gb);
