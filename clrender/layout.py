@@ -141,6 +141,24 @@ SPLAT_GRAD = Record("SplatGrad", SPLAT_GRAD_DTYPE)
 # (x, y) in pixels, and so is each (pixel, neighbour) gradient of a site's position; a soft model's colour,
 # each pixel's blend and dL/dblend are float4s of up to 4 channels, the unused ones 0.
 
+# ---- BVH build (kernels/bvh_build.cl; packed by trace/bvh.py)
+# The builder bounds boxes with lane-wise float4 min and max, so its boxes are float4 vectors: lanes x, y,
+# z, and a w lane that means nothing unless said here.
+# a primitive slot: the primitive's box, its id in lo's w lane (int32 bits), hi.w 0
+BUILD_PRIM_DTYPE = np.dtype([("lo", "<f4", 4), ("hi", "<f4", 4)])
+BUILD_PRIM = Record("BuildPrim", BUILD_PRIM_DTYPE, ("lo", "hi"))
+# a node's bounds: of its primitives' boxes (bmin, bmax) and of their lo + hi, twice their centroids
+# (cmin, cmax: only comparisons and ranges of centroids matter)
+BUILD_BOUNDS_DTYPE = np.dtype([(name, "<f4", 4) for name in ("bmin", "bmax", "cmin", "cmax")])
+BUILD_BOUNDS = Record("BuildBounds", BUILD_BOUNDS_DTYPE, ("bmin", "bmax", "cmin", "cmax"))
+# a node to split, or whose subtree to build: its primitives' first slot and count, its tree level (the
+# root's 1), and the node its subtree starts at (build_subtree; split_level ignores it)
+BUILD_TASK_DTYPE = np.dtype([("first", "<i4"), ("count", "<i4"), ("level", "<i4"), ("first_node", "<i4")])
+BUILD_TASK = Record("BuildTask", BUILD_TASK_DTYPE)
+# a built subtree's move to its depth-first place: `nodes` nodes from scratch node `source` to node `target`
+SUBTREE_MOVE_DTYPE = np.dtype([("source", "<i4"), ("target", "<i4"), ("nodes", "<i4")])
+SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)
+
 DEFINES = {
     "PATH_LEN": PATH_LEN,
     "ID_RECORD": ID_RECORD,
