@@ -121,122 +121,175 @@ inline void range_bounds(__global const BuildPrim *box, int start, int count, Bu
     for (int i = start; i < start + count; i++) bounds_add(b, box[i].lo, box[i].hi);
 }
 
-/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
- * number of primitives of its first child, moved to the front of the range, with both
- * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
- * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
- * into one bin) in halves along the axis of widest centroid extent. */
-int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, Params p, BuildBounds *left,
-               BuildBounds *right) {
-    if (count <= p.max_leaf) return 0;
-    bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
+/* ---- binned SAH: bin the node's centroids along each axis, sweep the cuts between bins, and
+ * partition the node's range at the cheapest one */
+
+typedef struct {
+    int n_bins;                     /* bins per axis: BINS, or SMALL_BINS for a small node */
+    float scale[3];                 /* bins per unit of centroid along each axis; 0: no bins along it */
+    int count[3][BINS];             /* primitives per bin */
+    float4 lo[3][BINS], hi[3][BINS]; /* their bounds */
+} Bins;
+
+typedef struct {
+    float cost; /* the SAH cost of the cut, in the sweep's units (see cheapest_cut) */
+    int axis;   /* -1: no cut leaves primitives on both sides */
+    int bin;    /* bins 0 .. bin go to the first child */
+} Cut;
+
+INLINE void bins_clear(Bins *bins, int count, const BuildBounds *node) {
+    /* small nodes use half the bins: their bin tables would outweigh their primitives */
+    int n_bins = count <= 2 * BINS ? SMALL_BINS : BINS;
     float4 extent = node->cmax - node->cmin;
-    if (!halve) {
-        /* small nodes use half the bins: their bin tables would outweigh their primitives */
-        int n_bins = count <= 2 * BINS ? SMALL_BINS : BINS;
-        float scale[3];
-        for (int a = 0; a < 3; a++) {
-            float e = comp(extent, a);
-            float s = e > 0.0f ? (float)n_bins / e : 0.0f;
-            scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
+    bins->n_bins = n_bins;
+    for (int a = 0; a < 3; a++) {
+        float e = comp(extent, a);
+        float s = e > 0.0f ? (float)n_bins / e : 0.0f;
+        bins->scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
+    }
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < n_bins; b++) {
+            bins->count[a][b] = 0;
+            bins->lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+            bins->hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
         }
-        int n_bin[3][BINS];
-        float4 bin_lo[3][BINS], bin_hi[3][BINS];
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < n_bins; b++) {
-                n_bin[a][b] = 0;
-                bin_lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
-                bin_hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
-            }
-        /* all primitives of a small node, an evenly strided sample of a big one */
-        int take = count > p.samples ? p.samples : count;
-        for (int j = 0; j < take; j++) {
-            int i = start + (take == count ? j : (int)(((long)j * count) / take));
-            float4 lo = box[i].lo, hi = box[i].hi;
-            float4 c = lo + hi;
-            int bx = bin_of(c.x, node->cmin.x, scale[0], n_bins);
-            int by = bin_of(c.y, node->cmin.y, scale[1], n_bins);
-            int bz = bin_of(c.z, node->cmin.z, scale[2], n_bins);
-            n_bin[0][bx]++;
-            bin_lo[0][bx] = min4(bin_lo[0][bx], lo);
-            bin_hi[0][bx] = max4(bin_hi[0][bx], hi);
-            n_bin[1][by]++;
-            bin_lo[1][by] = min4(bin_lo[1][by], lo);
-            bin_hi[1][by] = max4(bin_hi[1][by], hi);
-            n_bin[2][bz]++;
-            bin_lo[2][bz] = min4(bin_lo[2][bz], lo);
-            bin_hi[2][bz] = max4(bin_hi[2][bz], hi);
+}
+
+INLINE void bin_add(Bins *bins, int axis, int b, float4 lo, float4 hi) {
+    bins->count[axis][b]++;
+    bins->lo[axis][b] = min4(bins->lo[axis][b], lo);
+    bins->hi[axis][b] = max4(bins->hi[axis][b], hi);
+}
+
+/* every primitive of [start, start + count) when take == count, else an evenly strided sample of `take` */
+INLINE void bins_fill(Bins *bins, __global const BuildPrim *box, int start, int count, int take, const BuildBounds *node) {
+    int n_bins = bins->n_bins;
+    float sx = bins->scale[0], sy = bins->scale[1], sz = bins->scale[2];
+    for (int j = 0; j < take; j++) {
+        int i = start + (take == count ? j : (int)(((long)j * count) / take));
+        float4 lo = box[i].lo, hi = box[i].hi;
+        float4 c = lo + hi;
+        int bx = bin_of(c.x, node->cmin.x, sx, n_bins);
+        int by = bin_of(c.y, node->cmin.y, sy, n_bins);
+        int bz = bin_of(c.z, node->cmin.z, sz, n_bins);
+        bin_add(bins, 0, bx, lo, hi);
+        bin_add(bins, 1, by, lo, hi);
+        bin_add(bins, 2, bz, lo, hi);
+    }
+}
+
+/* Lengths in units of the node's longest side, so that areas neither overflow nor underflow in very
+ * large or very small scenes (the cost compares ratios of areas only). */
+INLINE float area_unit(const BuildBounds *node) {
+    float4 side = node->bmax - node->bmin;
+    float longest = side.x > side.y ? (side.x > side.z ? side.x : side.z) : (side.y > side.z ? side.y : side.z);
+    float unit = longest > 0.0f ? 1.0f / longest : 1.0f;
+    return unit <= FLT_MAX && unit > 0.0f ? unit : 1.0f; /* a denormal or infinite side: as is */
+}
+
+/* The sweep: cost of cut b (bins 0..b left) = area(left) * n_left + area(right) * n_right; ties go to
+ * the lower axis, then the lower cut. */
+INLINE Cut cheapest_cut(const Bins *bins, float unit) {
+    int n_bins = bins->n_bins;
+    Cut best = {INFINITY, -1, 0};
+    for (int a = 0; a < 3; a++) {
+        float area_right[BINS];
+        int n_right[BINS];
+        float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
+        int n = 0;
+        for (int b = n_bins - 1; b > 0; b--) {
+            n += bins->count[a][b];
+            lo = min4(lo, bins->lo[a][b]);
+            hi = max4(hi, bins->hi[a][b]);
+            area_right[b - 1] = half_area(lo, hi, unit);
+            n_right[b - 1] = n;
         }
-        /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right, with
-         * lengths in units of the node's longest side, so that areas neither overflow nor underflow
-         * in very large or very small scenes (the cost compares ratios of areas only) */
-        float4 side = node->bmax - node->bmin;
-        float longest = side.x > side.y ? (side.x > side.z ? side.x : side.z) : (side.y > side.z ? side.y : side.z);
-        float unit = longest > 0.0f ? 1.0f / longest : 1.0f;
-        unit = unit <= FLT_MAX && unit > 0.0f ? unit : 1.0f; /* a denormal or infinite side: as is */
-        float best = INFINITY;
-        int best_axis = -1, best_cut = 0;
-        for (int a = 0; a < 3; a++) {
-            float area_right[BINS];
-            int n_right[BINS];
-            float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
-            int n = 0;
-            for (int b = n_bins - 1; b > 0; b--) {
-                n += n_bin[a][b];
-                lo = min4(lo, bin_lo[a][b]);
-                hi = max4(hi, bin_hi[a][b]);
-                area_right[b - 1] = half_area(lo, hi, unit);
-                n_right[b - 1] = n;
+        lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+        hi = -lo;
+        n = 0;
+        for (int b = 0; b < n_bins - 1; b++) {
+            n += bins->count[a][b];
+            lo = min4(lo, bins->lo[a][b]);
+            hi = max4(hi, bins->hi[a][b]);
+            if (n == 0 || n_right[b] == 0) continue;
+            float cost = half_area(lo, hi, unit) * (float)n + area_right[b] * (float)n_right[b];
+            if (cost < best.cost) {
+                best.cost = cost;
+                best.axis = a;
+                best.bin = b;
             }
-            lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
-            hi = -lo;
-            n = 0;
-            for (int b = 0; b < n_bins - 1; b++) {
-                n += n_bin[a][b];
-                lo = min4(lo, bin_lo[a][b]);
-                hi = max4(hi, bin_hi[a][b]);
-                if (n == 0 || n_right[b] == 0) continue;
-                float cost = half_area(lo, hi, unit) * (float)n + area_right[b] * (float)n_right[b];
-                if (cost < best) { /* ties: the lower axis, then the lower cut */
-                    best = cost;
-                    best_axis = a;
-                    best_cut = b;
-                }
-            }
-        }
-        if (best_axis >= 0) {
-            float node_area = half_area(node->bmin, node->bmax, unit);
-            node_area = node_area > 0.0f ? node_area : 1.0f;
-            float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * best / node_area;
-            if (cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap) return 0;
-            /* partition: primitives with bin <= best_cut first (two fingers, each primitive read once) */
-            float cmin = comp(node->cmin, best_axis), s = scale[best_axis];
-            bounds_clear(left);
-            bounds_clear(right);
-            int i = start, j = start + count - 1;
-            while (i <= j) {
-                float4 lo = box[i].lo, hi = box[i].hi;
-                if (bin_of(comp(lo + hi, best_axis), cmin, s, n_bins) <= best_cut) {
-                    bounds_add(left, lo, hi);
-                    i++;
-                } else {
-                    bounds_add(right, lo, hi);
-                    box[i] = box[j];
-                    box[j].lo = lo;
-                    box[j].hi = hi;
-                    j--;
-                }
-            }
-            return i - start;
         }
     }
-    /* halves along the widest centroid axis */
+    return best;
+}
+
+/* Whether a node of `count` primitives (`take` of them binned) is better left a leaf than cut. */
+INLINE bool leaf_is_cheaper(const BuildBounds *node, Cut cut, int count, int take, float unit, Params p) {
+    float node_area = half_area(node->bmin, node->bmax, unit);
+    node_area = node_area > 0.0f ? node_area : 1.0f;
+    float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * cut.cost / node_area;
+    return cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap;
+}
+
+/* Primitives whose bin along the cut's axis is <= cut.bin first (two fingers, each primitive read
+ * once), the children's bounds on the way; returns the first child's primitives. */
+INLINE int partition_at(__global BuildPrim *box, int start, int count, const BuildBounds *node, const Bins *bins, Cut cut,
+                        BuildBounds *left, BuildBounds *right) {
+    float cmin = comp(node->cmin, cut.axis), s = bins->scale[cut.axis];
+    int n_bins = bins->n_bins;
+    bounds_clear(left);
+    bounds_clear(right);
+    int i = start, j = start + count - 1;
+    while (i <= j) {
+        BuildPrim prim = box[i];
+        if (bin_of(comp(prim.lo + prim.hi, cut.axis), cmin, s, n_bins) <= cut.bin) {
+            bounds_add(left, prim.lo, prim.hi);
+            i++;
+        } else {
+            bounds_add(right, prim.lo, prim.hi);
+            box[i] = box[j];
+            box[j] = prim;
+            j--;
+        }
+    }
+    return i - start;
+}
+
+/* Halves along the widest centroid axis: the first child gets count / 2 primitives. */
+INLINE int split_in_halves(__global BuildPrim *box, int start, int count, const BuildBounds *node, BuildBounds *left,
+                           BuildBounds *right) {
+    float4 extent = node->cmax - node->cmin;
     int axis = extent.x >= extent.y ? (extent.x >= extent.z ? 0 : 2) : (extent.y >= extent.z ? 1 : 2);
     int n_first = count / 2;
     if (comp(extent, axis) > 0.0f) select_nth(box, start, start + count - 1, start + n_first, axis);
     range_bounds(box, start, n_first, left);
     range_bounds(box, start + n_first, count - n_first, right);
     return n_first;
+}
+
+/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
+ * number of primitives of its first child, moved to the front of the range, with both
+ * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
+ * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
+ * into one bin) in halves along the axis of widest centroid extent. */
+int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, Params p,
+               BuildBounds *left, BuildBounds *right) {
+    if (count <= p.max_leaf) return 0;
+    bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
+    if (!halve) {
+        Bins bins;
+        bins_clear(&bins, count, node);
+        /* all primitives of a small node, an evenly strided sample of a big one */
+        int take = count > p.samples ? p.samples : count;
+        bins_fill(&bins, box, start, count, take, node);
+        float unit = area_unit(node);
+        Cut cut = cheapest_cut(&bins, unit);
+        if (cut.axis >= 0) {
+            if (leaf_is_cheaper(node, cut, count, take, unit, p)) return 0;
+            return partition_at(box, start, count, node, &bins, cut, left, right);
+        }
+    }
+    return split_in_halves(box, start, count, node, left, right);
 }
 
 /* A node's box, then its offset and count (see the buffers above). */
