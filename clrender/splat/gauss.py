@@ -16,9 +16,9 @@ luminance * colour.  Blend modes (see kernels/splat_gauss.cl):
 The forward kernel renders 16x16 tiles, each pixel visiting only the splats
 binned to its tile by their 3-sigma boxes (packed and binned by kernels too, in
 splat order, so the sums are deterministic; the host only adds up tile counts).  The
-backward kernel writes one row of partial gradients per (tile, splat) entry;
-`np.bincount` sums the rows per splat, so the result has no races and is
-deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
+backward kernel writes one SplatGrad record per (tile, splat) entry;
+`np.bincount` sums each field per splat in entry order, so the result has no
+races and is deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
 (log sx, log sy, theta) is done here, vectorised.
 """
 
@@ -58,7 +58,8 @@ FIT_BYTES_PER_PIXEL = 160  # + target, loss, dL/dI and the adjoint planes (l2, l
 SSIM_BYTES_PER_PIXEL = 340  # the same with l1-ssim's blurred moment maps
 BYTES_PER_SPLAT = 256  # loaded and scaled parameters, packed rows, device buffers, boxes
 RENDER_BYTES_PER_PAIR = 16  # tile lists on the device and the host, each pair's tile
-FIT_BYTES_PER_PAIR = 400  # + gradient rows (device and host) and their float64 bincount keys and weights
+# + gradient rows (device and host) and their float64 bincount weights; measured when one bincount also took int64 keys
+FIT_BYTES_PER_PAIR = 400
 
 
 @dataclass
