@@ -34,8 +34,7 @@ SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel sam
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
-SPLAT_TILE = 16  # Gaussian splats are binned into TILE x TILE pixel tiles
-SPLAT_NGRAD = 10  # floats per gradient entry: d/d(mx, my, A, B2, C, r, g, b, opacity), sum of weights
+SPLAT_TILE = 16  # Gaussian splats are binned into SPLAT_TILE x SPLAT_TILE pixel tiles
 SPLAT_EPS = 1e-3  # normalized blend: weight of the background colour
 VORONOI_STRIP = 8  # pixels per work-item of the grid kernel (one float8)
 BVH_NODE_ROWS = 2  # float4 rows per binary BVH node: (bmin, offset), (bmax, count) -- trace/bvh.py's NODE_DTYPE
@@ -128,11 +127,47 @@ LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edg
 ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])  # -1 past the path's end / no facet
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
+# A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...
+SPLAT_PARAMS_DTYPE = np.dtype([("xy", "<f4", 2), ("log_scale", "<f4", 2), ("theta", "<f4"), ("color", "<f4", 3), ("lum", "<f4"), ("opacity", "<f4")])
+SPLAT_PARAMS = Record("SplatParams", SPLAT_PARAMS_DTYPE)
+# ... and the three records splat_prepare makes of it.  The splat: its centre (mx, my); the quadratic form
+# q = A dx^2 + B2 dx dy + C dy^2 of its inverse covariance S^-1 (B2 twice the off-diagonal); its opacity; and
+# q along pixel row dy as a parabola in x, A (x - xc)^2 + row_q dy^2 with xc = mx + row_shift dy
+# (row_shift = Sxy / Syy, row_q = 1 / Syy; splat_forward)
+GAUSS_SPLAT_DTYPE = np.dtype([(name, "<f4") for name in ("mx", "my", "A", "B2", "C", "opacity", "row_shift", "row_q")])
+GAUSS_SPLAT = Record("GaussSplat", GAUSS_SPLAT_DTYPE)
+SPLAT_COLOR_DTYPE = np.dtype({"names": ["r", "g", "b"], "formats": ["<f4"] * 3, "offsets": [0, 4, 8], "itemsize": 16})  # luminance * colour
+SPLAT_COLOR = Record("SplatColor", SPLAT_COLOR_DTYPE)
+# the pixels [x0, x1) x [y0, y1) whose centres may lie in the 3-sigma ellipse (q < 9), clipped to the image
+SPLAT_BOX_DTYPE = np.dtype([("x0", "<i4"), ("y0", "<i4"), ("x1", "<i4"), ("y1", "<i4")])
+SPLAT_BOX = Record("SplatBox", SPLAT_BOX_DTYPE)
 # one splat-tile entry of the backward kernel: d/d(mean x, y), d/d(A, B2, C) of the inverse covariance,
 # d/d(colour), d/d(opacity), and the splat's summed weight over the tile
 SPLAT_GRAD_DTYPE = np.dtype(
     [("mean", "<f4", 2), ("A", "<f4"), ("B2", "<f4"), ("C", "<f4"), ("color", "<f4", 3), ("opacity", "<f4"), ("weight", "<f4")]
 )
+SPLAT_GRAD = Record("SplatGrad", SPLAT_GRAD_DTYPE)
+# splat_voronoi.cl keeps OpenCL vectors where it does vector math on the whole value: a site is a float2
+# (x, y) in pixels, and so is each (pixel, neighbour) gradient of a site's position; a soft model's colour,
+# each pixel's blend and dL/dblend are float4s of up to 4 channels, the unused ones 0.
+
+# ---- BVH build (kernels/bvh_build.cl; packed by trace/bvh.py)
+# The builder bounds boxes with lane-wise float4 min and max, so its boxes are float4 vectors: lanes x, y,
+# z, and a w lane that means nothing unless said here.
+# a primitive slot: the primitive's box, its id in lo's w lane (int32 bits), hi.w 0
+BUILD_PRIM_DTYPE = np.dtype([("lo", "<f4", 4), ("hi", "<f4", 4)])
+BUILD_PRIM = Record("BuildPrim", BUILD_PRIM_DTYPE, ("lo", "hi"))
+# a node's bounds: of its primitives' boxes (bmin, bmax) and of their lo + hi, twice their centroids
+# (cmin, cmax: only comparisons and ranges of centroids matter)
+BUILD_BOUNDS_DTYPE = np.dtype([(name, "<f4", 4) for name in ("bmin", "bmax", "cmin", "cmax")])
+BUILD_BOUNDS = Record("BuildBounds", BUILD_BOUNDS_DTYPE, ("bmin", "bmax", "cmin", "cmax"))
+# a node to split, or whose subtree to build: its primitives' first slot and count, its tree level (the
+# root's 1), and the node its subtree starts at (build_subtree; split_level ignores it)
+BUILD_TASK_DTYPE = np.dtype([("first", "<i4"), ("count", "<i4"), ("level", "<i4"), ("first_node", "<i4")])
+BUILD_TASK = Record("BuildTask", BUILD_TASK_DTYPE)
+# a built subtree's move to its depth-first place: `nodes` nodes from scratch node `source` to node `target`
+SUBTREE_MOVE_DTYPE = np.dtype([("source", "<i4"), ("target", "<i4"), ("nodes", "<i4")])
+SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)
 
 DEFINES = {
     "PATH_LEN": PATH_LEN,
@@ -145,10 +180,9 @@ DEFINES = {
     **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
-    "TILE": SPLAT_TILE,
-    "NGRAD": SPLAT_NGRAD,
-    "EPS": SPLAT_EPS,
-    "STRIP": VORONOI_STRIP,
+    "SPLAT_TILE": SPLAT_TILE,
+    "SPLAT_EPS": SPLAT_EPS,
+    "VORONOI_STRIP": VORONOI_STRIP,
     "BVH_NODE_ROWS": BVH_NODE_ROWS,
     "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
     "WIDE_CHILD_ROW": WIDE_CHILD_ROW,

@@ -6,16 +6,16 @@
  * primitive order.  Each work-item works on its own range of primitives, sequentially, so the
  * tree does not depend on scheduling.
  *
- * Buffers:
- *   box    -- two float4 per primitive, permuted in place as ranges are partitioned:
- *             (lo.xyz, primitive id as int bits), (hi.xyz, 0)
- *   bounds -- four float4 per node: bmin, bmax, and cmin, cmax, the bounds of lo + hi (twice the
+ * Buffers (records declared in clrender/layout.py):
+ *   box    -- a BuildPrim per primitive slot (lo, hi; the primitive id in lo.w), permuted in place
+ *             as ranges are partitioned
+ *   bounds -- a BuildBounds per node: bmin, bmax, and cmin, cmax, the bounds of lo + hi (twice the
  *             centroid: only comparisons and ranges of centroids matter); .w unused
- *   nodes  -- bvh.py's NODE_DTYPE, BVH_NODE_ROWS (2) float4 per node: (bmin.xyz, offset bits),
- *             (bmax.xyz, count bits); a leaf's offset is its first slot in box, an interior
- *             node's the index of its far child (its near child follows it)
- *   task   -- int4 per node: (first slot, primitives, tree level (root 1), first node of its
- *             subtree in `nodes`)
+ *   nodes  -- a BvhNode per node (bvh.py's NODE_DTYPE): a leaf's offset is its first slot in box, an
+ *             interior node's the index of its far child (its near child follows it)
+ *   task   -- a BuildTask per node: first slot, primitives, tree level (root 1), first node of its
+ *             subtree in `nodes`
+ *   move   -- a SubtreeMove per subtree (place_subtrees)
  *
  * Variants: -DBINS=n bins per axis, -DBUILD_STACK=n pending nodes per work-item (more than the
  * tree's levels).  PoCL calls min/max/fabs out of line, so they are written with ?: here. */
@@ -34,11 +34,6 @@
 #define INTERSECT_COST 1.0f
 
 typedef struct {
-    float4 bmin, bmax; /* bounds of the primitives */
-    float4 cmin, cmax; /* bounds of lo + hi */
-} Bounds;
-
-typedef struct {
     int max_leaf;      /* nodes of at most this many primitives are leaves */
     int leaf_cap;      /* ... and so are nodes of at most this many whose best cut costs more than the leaf */
     int samples;       /* bigger nodes bin an evenly strided sample of this many */
@@ -53,6 +48,9 @@ inline float4 max4(float4 a, float4 b) { return a > b ? a : b; }
 
 inline float comp(float4 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
 
+/* the primitive in a slot: its id, kept in lo's w lane as int32 bits (clrender/layout.py's BuildPrim) */
+inline int prim_id(BuildPrim p) { return as_int(p.lo.w); }
+
 /* half the surface area of a box, its sides multiplied by `unit` */
 inline float half_area(float4 lo, float4 hi, float unit) {
     float4 e = (hi - lo) * unit;
@@ -60,12 +58,12 @@ inline float half_area(float4 lo, float4 hi, float unit) {
     return x * y + y * z + z * x;
 }
 
-inline void bounds_clear(Bounds *b) {
+inline void bounds_clear(BuildBounds *b) {
     b->bmin = b->cmin = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
     b->bmax = b->cmax = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
 }
 
-inline void bounds_add(Bounds *b, float4 lo, float4 hi) {
+inline void bounds_add(BuildBounds *b, float4 lo, float4 hi) {
     float4 c = lo + hi;
     b->bmin = min4(b->bmin, lo);
     b->bmax = max4(b->bmax, hi);
@@ -85,19 +83,17 @@ inline int ceil_log2(int n) {
     return levels;
 }
 
-inline void swap_prims(__global float4 *box, int i, int j) {
-    float4 lo = box[2 * i], hi = box[2 * i + 1];
-    box[2 * i] = box[2 * j];
-    box[2 * i + 1] = box[2 * j + 1];
-    box[2 * j] = lo;
-    box[2 * j + 1] = hi;
+inline void swap_prims(__global BuildPrim *box, int i, int j) {
+    BuildPrim p = box[i];
+    box[i] = box[j];
+    box[j] = p;
 }
 
-inline float key_of(__global const float4 *box, int i, int axis) { return comp(box[2 * i] + box[2 * i + 1], axis); }
+inline float key_of(__global const BuildPrim *box, int i, int axis) { return comp(box[i].lo + box[i].hi, axis); }
 
 /* Quickselect (Hoare partitions, median-of-three pivot): afterwards slot `nth` holds the
  * primitive of that rank along `axis`, with none greater before it and none smaller after it. */
-void select_nth(__global float4 *box, int first, int last, int nth, int axis) {
+void select_nth(__global BuildPrim *box, int first, int last, int nth, int axis) {
     while (last > first) {
         float a = key_of(box, first, axis), b = key_of(box, (first + last) / 2, axis), c = key_of(box, last, axis);
         float pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
@@ -120,122 +116,149 @@ void select_nth(__global float4 *box, int first, int last, int nth, int axis) {
     }
 }
 
-inline void range_bounds(__global const float4 *box, int start, int count, Bounds *b) {
+inline void range_bounds(__global const BuildPrim *box, int start, int count, BuildBounds *b) {
     bounds_clear(b);
-    for (int i = start; i < start + count; i++) bounds_add(b, box[2 * i], box[2 * i + 1]);
+    for (int i = start; i < start + count; i++) bounds_add(b, box[i].lo, box[i].hi);
 }
 
-/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
- * number of primitives of its first child, moved to the front of the range, with both
- * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
- * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
- * into one bin) in halves along the axis of widest centroid extent. */
-int split_node(__global float4 *box, int start, int count, int depth, const Bounds *node, Params p, Bounds *left,
-               Bounds *right) {
-    if (count <= p.max_leaf) return 0;
-    bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
+/* ---- binned SAH: bin the node's centroids along each axis, sweep the cuts between bins, and
+ * partition the node's range at the cheapest one */
+
+typedef struct {
+    int n_bins;                     /* bins per axis: BINS, or SMALL_BINS for a small node */
+    float scale[3];                 /* bins per unit of centroid along each axis; 0: no bins along it */
+    int count[3][BINS];             /* primitives per bin */
+    float4 lo[3][BINS], hi[3][BINS]; /* their bounds */
+} Bins;
+
+typedef struct {
+    float cost; /* the SAH cost of the cut, in the sweep's units (see cheapest_cut) */
+    int axis;   /* -1: no cut leaves primitives on both sides */
+    int bin;    /* bins 0 .. bin go to the first child */
+} Cut;
+
+INLINE void bins_clear(Bins *bins, int count, const BuildBounds *node) {
+    /* small nodes use half the bins: their bin tables would outweigh their primitives */
+    int n_bins = count <= 2 * BINS ? SMALL_BINS : BINS;
     float4 extent = node->cmax - node->cmin;
-    if (!halve) {
-        /* small nodes use half the bins: their bin tables would outweigh their primitives */
-        int n_bins = count <= 2 * BINS ? SMALL_BINS : BINS;
-        float scale[3];
-        for (int a = 0; a < 3; a++) {
-            float e = comp(extent, a);
-            float s = e > 0.0f ? (float)n_bins / e : 0.0f;
-            scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
+    bins->n_bins = n_bins;
+    for (int a = 0; a < 3; a++) {
+        float e = comp(extent, a);
+        float s = e > 0.0f ? (float)n_bins / e : 0.0f;
+        bins->scale[a] = s <= FLT_MAX ? s : 0.0f; /* a tiny extent: no bins along this axis */
+    }
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < n_bins; b++) {
+            bins->count[a][b] = 0;
+            bins->lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+            bins->hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
         }
-        int n_bin[3][BINS];
-        float4 bin_lo[3][BINS], bin_hi[3][BINS];
-        for (int a = 0; a < 3; a++)
-            for (int b = 0; b < n_bins; b++) {
-                n_bin[a][b] = 0;
-                bin_lo[a][b] = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
-                bin_hi[a][b] = (float4)(-INFINITY, -INFINITY, -INFINITY, 0.0f);
-            }
-        /* all primitives of a small node, an evenly strided sample of a big one */
-        int take = count > p.samples ? p.samples : count;
-        for (int j = 0; j < take; j++) {
-            int i = start + (take == count ? j : (int)(((long)j * count) / take));
-            float4 lo = box[2 * i], hi = box[2 * i + 1];
-            float4 c = lo + hi;
-            int bx = bin_of(c.x, node->cmin.x, scale[0], n_bins);
-            int by = bin_of(c.y, node->cmin.y, scale[1], n_bins);
-            int bz = bin_of(c.z, node->cmin.z, scale[2], n_bins);
-            n_bin[0][bx]++;
-            bin_lo[0][bx] = min4(bin_lo[0][bx], lo);
-            bin_hi[0][bx] = max4(bin_hi[0][bx], hi);
-            n_bin[1][by]++;
-            bin_lo[1][by] = min4(bin_lo[1][by], lo);
-            bin_hi[1][by] = max4(bin_hi[1][by], hi);
-            n_bin[2][bz]++;
-            bin_lo[2][bz] = min4(bin_lo[2][bz], lo);
-            bin_hi[2][bz] = max4(bin_hi[2][bz], hi);
+}
+
+INLINE void bin_add(Bins *bins, int axis, int b, float4 lo, float4 hi) {
+    bins->count[axis][b]++;
+    bins->lo[axis][b] = min4(bins->lo[axis][b], lo);
+    bins->hi[axis][b] = max4(bins->hi[axis][b], hi);
+}
+
+/* every primitive of [start, start + count) when take == count, else an evenly strided sample of `take` */
+INLINE void bins_fill(Bins *bins, __global const BuildPrim *box, int start, int count, int take, const BuildBounds *node) {
+    int n_bins = bins->n_bins;
+    float sx = bins->scale[0], sy = bins->scale[1], sz = bins->scale[2];
+    for (int j = 0; j < take; j++) {
+        int i = start + (take == count ? j : (int)(((long)j * count) / take));
+        float4 lo = box[i].lo, hi = box[i].hi;
+        float4 c = lo + hi;
+        int bx = bin_of(c.x, node->cmin.x, sx, n_bins);
+        int by = bin_of(c.y, node->cmin.y, sy, n_bins);
+        int bz = bin_of(c.z, node->cmin.z, sz, n_bins);
+        bin_add(bins, 0, bx, lo, hi);
+        bin_add(bins, 1, by, lo, hi);
+        bin_add(bins, 2, bz, lo, hi);
+    }
+}
+
+/* Lengths in units of the node's longest side, so that areas neither overflow nor underflow in very
+ * large or very small scenes (the cost compares ratios of areas only). */
+INLINE float area_unit(const BuildBounds *node) {
+    float4 side = node->bmax - node->bmin;
+    float longest = side.x > side.y ? (side.x > side.z ? side.x : side.z) : (side.y > side.z ? side.y : side.z);
+    float unit = longest > 0.0f ? 1.0f / longest : 1.0f;
+    return unit <= FLT_MAX && unit > 0.0f ? unit : 1.0f; /* a denormal or infinite side: as is */
+}
+
+/* The sweep: cost of cut b (bins 0..b left) = area(left) * n_left + area(right) * n_right; ties go to
+ * the lower axis, then the lower cut. */
+INLINE Cut cheapest_cut(const Bins *bins, float unit) {
+    int n_bins = bins->n_bins;
+    Cut best = {INFINITY, -1, 0};
+    for (int a = 0; a < 3; a++) {
+        float area_right[BINS];
+        int n_right[BINS];
+        float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
+        int n = 0;
+        for (int b = n_bins - 1; b > 0; b--) {
+            n += bins->count[a][b];
+            lo = min4(lo, bins->lo[a][b]);
+            hi = max4(hi, bins->hi[a][b]);
+            area_right[b - 1] = half_area(lo, hi, unit);
+            n_right[b - 1] = n;
         }
-        /* sweep: cost of cut i (bins 0..i left) = area(left) * n_left + area(right) * n_right, with
-         * lengths in units of the node's longest side, so that areas neither overflow nor underflow
-         * in very large or very small scenes (the cost compares ratios of areas only) */
-        float4 side = node->bmax - node->bmin;
-        float longest = side.x > side.y ? (side.x > side.z ? side.x : side.z) : (side.y > side.z ? side.y : side.z);
-        float unit = longest > 0.0f ? 1.0f / longest : 1.0f;
-        unit = unit <= FLT_MAX && unit > 0.0f ? unit : 1.0f; /* a denormal or infinite side: as is */
-        float best = INFINITY;
-        int best_axis = -1, best_cut = 0;
-        for (int a = 0; a < 3; a++) {
-            float area_right[BINS];
-            int n_right[BINS];
-            float4 lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f), hi = -lo;
-            int n = 0;
-            for (int b = n_bins - 1; b > 0; b--) {
-                n += n_bin[a][b];
-                lo = min4(lo, bin_lo[a][b]);
-                hi = max4(hi, bin_hi[a][b]);
-                area_right[b - 1] = half_area(lo, hi, unit);
-                n_right[b - 1] = n;
+        lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
+        hi = -lo;
+        n = 0;
+        for (int b = 0; b < n_bins - 1; b++) {
+            n += bins->count[a][b];
+            lo = min4(lo, bins->lo[a][b]);
+            hi = max4(hi, bins->hi[a][b]);
+            if (n == 0 || n_right[b] == 0) continue;
+            float cost = half_area(lo, hi, unit) * (float)n + area_right[b] * (float)n_right[b];
+            if (cost < best.cost) {
+                best.cost = cost;
+                best.axis = a;
+                best.bin = b;
             }
-            lo = (float4)(INFINITY, INFINITY, INFINITY, 0.0f);
-            hi = -lo;
-            n = 0;
-            for (int b = 0; b < n_bins - 1; b++) {
-                n += n_bin[a][b];
-                lo = min4(lo, bin_lo[a][b]);
-                hi = max4(hi, bin_hi[a][b]);
-                if (n == 0 || n_right[b] == 0) continue;
-                float cost = half_area(lo, hi, unit) * (float)n + area_right[b] * (float)n_right[b];
-                if (cost < best) { /* ties: the lower axis, then the lower cut */
-                    best = cost;
-                    best_axis = a;
-                    best_cut = b;
-                }
-            }
-        }
-        if (best_axis >= 0) {
-            float node_area = half_area(node->bmin, node->bmax, unit);
-            node_area = node_area > 0.0f ? node_area : 1.0f;
-            float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * best / node_area;
-            if (cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap) return 0;
-            /* partition: primitives with bin <= best_cut first (two fingers, each primitive read once) */
-            float cmin = comp(node->cmin, best_axis), s = scale[best_axis];
-            bounds_clear(left);
-            bounds_clear(right);
-            int i = start, j = start + count - 1;
-            while (i <= j) {
-                float4 lo = box[2 * i], hi = box[2 * i + 1];
-                if (bin_of(comp(lo + hi, best_axis), cmin, s, n_bins) <= best_cut) {
-                    bounds_add(left, lo, hi);
-                    i++;
-                } else {
-                    bounds_add(right, lo, hi);
-                    box[2 * i] = box[2 * j];
-                    box[2 * i + 1] = box[2 * j + 1];
-                    box[2 * j] = lo;
-                    box[2 * j + 1] = hi;
-                    j--;
-                }
-            }
-            return i - start;
         }
     }
-    /* halves along the widest centroid axis */
+    return best;
+}
+
+/* Whether a node of `count` primitives (`take` of them binned) is better left a leaf than cut. */
+INLINE bool leaf_is_cheaper(const BuildBounds *node, Cut cut, int count, int take, float unit, Params p) {
+    float node_area = half_area(node->bmin, node->bmax, unit);
+    node_area = node_area > 0.0f ? node_area : 1.0f;
+    float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * cut.cost / node_area;
+    return cost >= INTERSECT_COST * (float)count && count <= p.leaf_cap;
+}
+
+/* Primitives whose bin along the cut's axis is <= cut.bin first (two fingers, each primitive read
+ * once), the children's bounds on the way; returns the first child's primitives. */
+INLINE int partition_at(__global BuildPrim *box, int start, int count, const BuildBounds *node, const Bins *bins, Cut cut,
+                        BuildBounds *left, BuildBounds *right) {
+    float cmin = comp(node->cmin, cut.axis), s = bins->scale[cut.axis];
+    int n_bins = bins->n_bins;
+    bounds_clear(left);
+    bounds_clear(right);
+    int i = start, j = start + count - 1;
+    while (i <= j) {
+        BuildPrim prim = box[i];
+        if (bin_of(comp(prim.lo + prim.hi, cut.axis), cmin, s, n_bins) <= cut.bin) {
+            bounds_add(left, prim.lo, prim.hi);
+            i++;
+        } else {
+            bounds_add(right, prim.lo, prim.hi);
+            box[i] = box[j];
+            box[j] = prim;
+            j--;
+        }
+    }
+    return i - start;
+}
+
+/* Halves along the widest centroid axis: the first child gets count / 2 primitives. */
+INLINE int split_in_halves(__global BuildPrim *box, int start, int count, const BuildBounds *node, BuildBounds *left,
+                           BuildBounds *right) {
+    float4 extent = node->cmax - node->cmin;
     int axis = extent.x >= extent.y ? (extent.x >= extent.z ? 0 : 2) : (extent.y >= extent.z ? 1 : 2);
     int n_first = count / 2;
     if (comp(extent, axis) > 0.0f) select_nth(box, start, start + count - 1, start + n_first, axis);
@@ -244,81 +267,89 @@ int split_node(__global float4 *box, int start, int count, int depth, const Boun
     return n_first;
 }
 
-/* whole float4s first, then the int fields over their .w (no vector built lane by lane: Oclgrind's
- * uninitialised-value checker takes those for uninitialised) */
-inline void write_node(__global float4 *nodes, int i, const Bounds *b, int offset, int count) {
-    nodes[2 * i] = b->bmin;
-    nodes[2 * i + 1] = b->bmax;
-    ((__global int *)nodes)[8 * i + 3] = offset;
-    ((__global int *)nodes)[8 * i + 7] = count;
+/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
+ * number of primitives of its first child, moved to the front of the range, with both
+ * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
+ * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
+ * into one bin) in halves along the axis of widest centroid extent. */
+int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, Params p,
+               BuildBounds *left, BuildBounds *right) {
+    if (count <= p.max_leaf) return 0;
+    bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
+    if (!halve) {
+        Bins bins;
+        bins_clear(&bins, count, node);
+        /* all primitives of a small node, an evenly strided sample of a big one */
+        int take = count > p.samples ? p.samples : count;
+        bins_fill(&bins, box, start, count, take, node);
+        float unit = area_unit(node);
+        Cut cut = cheapest_cut(&bins, unit);
+        if (cut.axis >= 0) {
+            if (leaf_is_cheaper(node, cut, count, take, unit, p)) return 0;
+            return partition_at(box, start, count, node, &bins, cut, left, right);
+        }
+    }
+    return split_in_halves(box, start, count, node, left, right);
 }
 
-inline Bounds load_bounds(__global const float4 *bounds, int i) {
-    Bounds b;
-    b.bmin = bounds[4 * i];
-    b.bmax = bounds[4 * i + 1];
-    b.cmin = bounds[4 * i + 2];
-    b.cmax = bounds[4 * i + 3];
-    return b;
-}
-
-inline void store_bounds(__global float4 *bounds, int i, const Bounds *b) {
-    bounds[4 * i] = b->bmin;
-    bounds[4 * i + 1] = b->bmax;
-    bounds[4 * i + 2] = b->cmin;
-    bounds[4 * i + 3] = b->cmax;
+/* A node's box, then its offset and count (see the buffers above). */
+inline void write_node(__global BvhNode *node, const BuildBounds *b, int offset, int count) {
+    vstore3(b->bmin.xyz, 0, node->bmin);
+    node->offset = offset;
+    vstore3(b->bmax.xyz, 0, node->bmax);
+    node->count = count;
 }
 
 /* One top-level node per work-item: split it, write how (first child's primitives, 0 for a leaf)
- * and the children's bounds (child_bounds[2 * t], [2 * t + 1]). */
-__kernel void split_level(__global float4 *box, __global const int4 *task, __global const float4 *bounds, int n_tasks,
-                          int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
-                          __global int *n_first, __global float4 *child_bounds) {
+ * and the children's bounds (left_bounds[t], right_bounds[t]). */
+__kernel void split_level(__global BuildPrim *box, __global const BuildTask *task, __global const BuildBounds *bounds,
+                          int n_tasks, int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
+                          __global int *n_first, __global BuildBounds *left_bounds, __global BuildBounds *right_bounds) {
     int t = get_global_id(0);
     if (t >= n_tasks) return;
     Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
-    int4 k = task[t];
-    Bounds node = load_bounds(bounds, t), left, right;
-    int n = split_node(box, k.x, k.y, k.z, &node, p, &left, &right);
+    BuildTask k = task[t];
+    BuildBounds node = bounds[t], left, right;
+    int n = split_node(box, k.first, k.count, k.level, &node, p, &left, &right);
     n_first[t] = n;
     if (n > 0) {
-        store_bounds(child_bounds, 2 * t, &left);
-        store_bounds(child_bounds, 2 * t + 1, &right);
+        left_bounds[t] = left;
+        right_bounds[t] = right;
     }
 }
 
 typedef struct {
-    Bounds b;
+    BuildBounds b;
     int start, count, depth, parent; /* parent: the node whose far child this is, -1 for a near child */
 } Pending;
 
-/* One subtree per work-item, written depth-first from node task.w on (at most 2 * count - 1
+/* One subtree per work-item, written depth-first from node task.first_node on (at most 2 * count - 1
  * nodes); writes its node count to n_nodes[t].  Far-child offsets are absolute indices in `nodes`. */
-__kernel void build_subtree(__global float4 *box, __global const int4 *task, __global const float4 *bounds, int n_tasks,
-                            int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
-                            __global float4 *nodes, __global int *n_nodes) {
+__kernel void build_subtree(__global BuildPrim *box, __global const BuildTask *task, __global const BuildBounds *bounds,
+                            int n_tasks, int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
+                            __global BvhNode *nodes, __global int *n_nodes) {
     int t = get_global_id(0);
     if (t >= n_tasks) return;
     Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
-    int4 k = task[t];
+    BuildTask k = task[t];
     Pending stack[BUILD_STACK];
-    stack[0].b = load_bounds(bounds, t);
-    stack[0].start = k.x;
-    stack[0].count = k.y;
-    stack[0].depth = k.z;
+    stack[0].b = bounds[t];
+    stack[0].start = k.first;
+    stack[0].count = k.count;
+    stack[0].depth = k.level;
     stack[0].parent = -1;
-    int sp = 1, next = k.w;
+    int sp = 1, next = k.first_node;
     while (sp > 0) {
         Pending e = stack[--sp];
         int i = next++;
-        if (e.parent >= 0) ((__global int *)nodes)[8 * e.parent + 3] = i; /* the far child is here */
-        Bounds left, right;
+        if (e.parent >= 0) nodes[e.parent].offset = i; /* the far child is here */
+        BuildBounds left, right;
         int n = sp + 2 <= BUILD_STACK ? split_node(box, e.start, e.count, e.depth, &e.b, p, &left, &right) : 0;
         if (n == 0) {
-            write_node(nodes, i, &e.b, e.start, e.count);
+            write_node(nodes + i, &e.b, e.start, e.count);
             continue;
         }
-        write_node(nodes, i, &e.b, 0, 0);
+        write_node(nodes + i, &e.b, 0, 0);
         /* put the far child on the stack, then the near one, popped next (it is node i + 1) */
         stack[sp].b = right;
         stack[sp].start = e.start + n;
@@ -332,53 +363,42 @@ __kernel void build_subtree(__global float4 *box, __global const int4 *task, __g
         stack[sp + 1].parent = -1;
         sp += 2;
     }
-    n_nodes[t] = next - k.w;
+    n_nodes[t] = next - k.first_node;
 }
 
 /* Primitive records from the bounds arrays (n rows of 3 floats each), a chunk of primitives per
- * work-item, and each chunk's bounds (four float4, as `bounds`; the host merges them into the
- * root's). */
-__kernel void load_prims(__global const float *lo, __global const float *hi, int n, int chunk, __global float4 *box,
-                         __global float4 *chunk_bounds) {
+ * work-item, and each chunk's bounds (the host merges them into the root's). */
+__kernel void load_prims(__global const float *lo, __global const float *hi, int n, int chunk, __global BuildPrim *box,
+                         __global BuildBounds *chunk_bounds) {
     int g = get_global_id(0);
     int first = g * chunk, last = first + chunk < n ? first + chunk : n;
-    Bounds b;
+    BuildBounds b;
     bounds_clear(&b);
-    __global float *record = (__global float *)box;
     for (int i = first; i < last; i++) {
-        /* stored lane by lane, then read back whole (see write_node) */
-        for (int a = 0; a < 3; a++) {
-            record[8 * i + a] = lo[3 * i + a];
-            record[8 * i + 4 + a] = hi[3 * i + a];
-        }
-        ((__global int *)box)[8 * i + 3] = i;
-        record[8 * i + 7] = 0.0f;
-        bounds_add(&b, box[2 * i], box[2 * i + 1]);
+        BuildPrim prim = {(float4)(vload3(i, lo), as_float(i)), (float4)(vload3(i, hi), 0.0f)};
+        box[i] = prim;
+        bounds_add(&b, prim.lo, prim.hi);
     }
-    store_bounds(chunk_bounds, g, &b);
+    chunk_bounds[g] = b;
 }
 
 /* The primitive id of every slot, a chunk per work-item. */
-__kernel void prim_order(__global const float4 *box, int n, int chunk, __global int *order) {
+__kernel void prim_order(__global const BuildPrim *box, int n, int chunk, __global int *order) {
     int g = get_global_id(0);
     int first = g * chunk, last = first + chunk < n ? first + chunk : n;
-    for (int i = first; i < last; i++) order[i] = as_int(box[2 * i].w);
+    for (int i = first; i < last; i++) order[i] = prim_id(box[i]);
 }
 
-/* Each subtree's nodes from where build_subtree wrote them (from node move.x on, move.z of them)
- * to their depth-first place (from node move.y on), interior nodes' far-child offsets moved
- * along; a subtree per work-item. */
-__kernel void place_subtrees(__global const float4 *scratch, __global const int4 *move, int n_moves,
-                             __global float4 *nodes) {
+/* Each subtree's nodes from where build_subtree wrote them to their depth-first place, interior
+ * nodes' far-child offsets moved along; a subtree per work-item. */
+__kernel void place_subtrees(__global const BvhNode *scratch, __global const SubtreeMove *move, int n_moves,
+                             __global BvhNode *nodes) {
     int t = get_global_id(0);
     if (t >= n_moves) return;
-    int4 m = move[t];
-    __global const int *from = (__global const int *)scratch;
-    __global int *to = (__global int *)nodes;
-    for (int k = 0; k < m.z; k++) {
-        nodes[2 * (m.y + k)] = scratch[2 * (m.x + k)];
-        nodes[2 * (m.y + k) + 1] = scratch[2 * (m.x + k) + 1];
-        if (from[8 * (m.x + k) + 7] == 0) /* interior (count 0): the far child moves along */
-            to[8 * (m.y + k) + 3] = from[8 * (m.x + k) + 3] + (m.y - m.x);
+    SubtreeMove m = move[t];
+    for (int k = 0; k < m.nodes; k++) {
+        BvhNode node = scratch[m.source + k];
+        if (node.count == 0) node.offset += m.target - m.source; /* interior: the far child moves along */
+        nodes[m.target + k] = node;
     }
 }

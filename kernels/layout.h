@@ -11,8 +11,8 @@
 #if BLOCK_LANES != 4
 #error "BLOCK_LANES must be 4: a leaf block is tested with float4 operations"
 #endif
-#if STRIP != 8
-#error "STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
+#if VORONOI_STRIP != 8
+#error "VORONOI_STRIP must be 8: the Voronoi grid kernel keeps a strip of pixels in one float8"
 #endif
 
 /* Helpers are always inlined in optimised builds: PoCL (LLVM 14) otherwise leaves many of them as

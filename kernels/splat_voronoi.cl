@@ -17,7 +17,7 @@
  */
 #pragma OPENCL FP_CONTRACT OFF
 
-#include "layout.h" /* STRIP: pixels per work-item of the grid kernel */
+#include "layout.h" /* VORONOI_STRIP: pixels per work-item of the grid kernel */
 
 #ifndef K
 #define K 8                  /* soft model: sites blended per pixel */
@@ -78,7 +78,7 @@ __kernel void nearest_grid(__global const float2 *sorted_pos, __global const int
                            __global const int *cell_start, int gw, int gh, float cell, int width, int height,
                            __global int *nearest)
 {
-    int x0 = get_global_id(0) * STRIP, y = get_global_id(1);
+    int x0 = get_global_id(0) * VORONOI_STRIP, y = get_global_id(1);
     if (x0 >= width || y >= height)
         return;
     /* lanes past the right edge repeat the last pixel; they are not stored */
@@ -128,7 +128,7 @@ __kernel void nearest_grid(__global const float2 *sorted_pos, __global const int
             }
         }
     }
-    if (x0 + 8 <= width) {
+    if (x0 + VORONOI_STRIP <= width) {
         vstore8(best_i, 0, nearest + y * width + x0);
     } else {
         int out[8];

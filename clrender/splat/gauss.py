@@ -16,9 +16,9 @@ luminance * colour.  Blend modes (see kernels/splat_gauss.cl):
 The forward kernel renders 16x16 tiles, each pixel visiting only the splats
 binned to its tile by their 3-sigma boxes (packed and binned by kernels too, in
 splat order, so the sums are deterministic; the host only adds up tile counts).  The
-backward kernel writes one row of partial gradients per (tile, splat) entry;
-`np.bincount` sums the rows per splat, so the result has no races and is
-deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
+backward kernel writes one SplatGrad record per (tile, splat) entry;
+`np.bincount` sums each field per splat in entry order, so the result has no
+races and is deterministic.  The chain rule from the kernel's (A, B2, C) quadratic form to
 (log sx, log sy, theta) is done here, vectorised.
 """
 
@@ -30,10 +30,17 @@ import numpy as np
 
 from .. import memory
 from ..errors import UsageError, shown
-from ..layout import SPLAT_EPS, SPLAT_GRAD_DTYPE, SPLAT_NGRAD, SPLAT_TILE
+from ..layout import (
+    GAUSS_SPLAT_DTYPE,
+    SPLAT_BOX_DTYPE,
+    SPLAT_COLOR_DTYPE,
+    SPLAT_EPS,
+    SPLAT_GRAD_DTYPE,
+    SPLAT_PARAMS_DTYPE,
+    SPLAT_TILE,
+)
 
 TILE = SPLAT_TILE  # pixels per tile side (shared with the kernels: clrender/layout.py)
-NGRAD = SPLAT_NGRAD  # floats per kernel gradient entry (layout.SPLAT_GRAD_DTYPE)
 # the per-splat sums of the entries, in float64 (np.bincount's), with the entries' field names
 _GRAD_SUMS = np.dtype([(name, "<f8", SPLAT_GRAD_DTYPE[name].shape) for name in SPLAT_GRAD_DTYPE.names])
 EPS = SPLAT_EPS  # normalized blend: weight of the background colour
@@ -51,7 +58,8 @@ FIT_BYTES_PER_PIXEL = 160  # + target, loss, dL/dI and the adjoint planes (l2, l
 SSIM_BYTES_PER_PIXEL = 340  # the same with l1-ssim's blurred moment maps
 BYTES_PER_SPLAT = 256  # loaded and scaled parameters, packed rows, device buffers, boxes
 RENDER_BYTES_PER_PAIR = 16  # tile lists on the device and the host, each pair's tile
-FIT_BYTES_PER_PAIR = 400  # + gradient rows (device and host) and their float64 bincount keys and weights
+# + gradient rows (device and host) and their float64 bincount weights; measured when one bincount also took int64 keys
+FIT_BYTES_PER_PAIR = 400
 
 
 @dataclass
@@ -216,6 +224,15 @@ class Binning:
 
 
 @dataclass
+class PreparedSplats:
+    """The device buffers splat_prepare fills, one record per splat (clrender/layout.py)."""
+
+    splats: object  # GAUSS_SPLAT_DTYPE: centre, inverse covariance, opacity, row parabolas
+    colors: object  # SPLAT_COLOR_DTYPE: luminance * colour
+    boxes: object  # SPLAT_BOX_DTYPE: pixel range of the 3-sigma ellipse
+
+
+@dataclass
 class Frame:
     """What one forward pass leaves for the backward pass."""
 
@@ -223,7 +240,7 @@ class Frame:
     weight: np.ndarray  # (H, W) sum of splat weights
     tiles: np.ndarray  # int32 tiles rendered
     binning: Binning
-    packed: tuple
+    packed: PreparedSplats
     params: GaussParams
 
 
@@ -266,13 +283,13 @@ class GaussRenderer:
         """Estimated peak memory of this renderer's job with n splats covering `pairs` (tile, splat) pairs."""
         return peak_bytes(self.pitch, self.rows, n, pairs, fit_loss=self.fit_loss)
 
-    def count_pairs(self, bbox: np.ndarray) -> int:
-        """(tile, splat) pairs of these (n, 4) pixel boxes [x0, x1) x [y0, y1), in 64 bits: the kernels'
-        int32 prefix sums would wrap (box_in_tile_row's rule, vectorised)."""
-        box = bbox.astype(np.int64)
-        cols = (box[:, 2] - 1) // TILE - box[:, 0] // TILE + 1
-        rows = (box[:, 3] - 1) // TILE - box[:, 1] // TILE + 1
-        empty = (box[:, 2] <= box[:, 0]) | (box[:, 3] <= box[:, 1])
+    def count_pairs(self, boxes: np.ndarray) -> int:
+        """(tile, splat) pairs of these pixel boxes [x0, x1) x [y0, y1) (SPLAT_BOX_DTYPE), in 64 bits: the
+        kernels' int32 prefix sums would wrap (box_in_tile_row's rule, vectorised)."""
+        x0, y0, x1, y1 = (boxes[name].astype(np.int64) for name in ("x0", "y0", "x1", "y1"))
+        cols = (x1 - 1) // TILE - x0 // TILE + 1
+        rows = (y1 - 1) // TILE - y0 // TILE + 1
+        empty = (x1 <= x0) | (y1 <= y0)
         return int(np.where(empty, 0, cols * rows).sum(dtype=np.int64))
 
     def _check_pairs(self, n: int, pairs: int) -> None:
@@ -302,14 +319,16 @@ class GaussRenderer:
                 dev.queue,
                 (len(tiles),),
                 (1,),
-                *buffers,
-                dev.to_device(binning.tile_start),
-                tile_splats,
-                dev.to_device(tiles),
-                np.int32(self.tiles_x),
-                self.background,
-                image_buf,
-                weight_buf,
+                splats=buffers.splats,
+                colors=buffers.colors,
+                bbox=buffers.boxes,
+                tile_start=dev.to_device(binning.tile_start),
+                tile_splats=tile_splats,
+                tiles=dev.to_device(tiles),
+                tiles_x=self.tiles_x,
+                background=self.background,
+                image=image_buf,
+                weight=weight_buf,
             )
         dev.sync_to_host(image_buf, image)
         dev.sync_to_host(weight_buf, weight)
@@ -318,16 +337,18 @@ class GaussRenderer:
     def _pack_and_bin(self, params: GaussParams):
         """Pack the splats and bin them into tiles on the device.
 
-        Returns the (splats, colors, bbox) buffers, the tile lists' buffer and the
+        Returns the PreparedSplats buffers, the tile lists' buffer and the
         Binning, whose entry_splat is filled by a copy still queued (the in-order
         queue finishes it before anything read back later).
         """
         cl, dev = self._cl, self.dev
         n, tiles = params.n, len(self.all_tiles)
-        packed = np.concatenate(
-            [params.xy, params.log_scale, params.theta[:, None], params.color, params.lum[:, None], params.opacity[:, None]], axis=1
+        packed = np.empty(n, SPLAT_PARAMS_DTYPE)
+        for name in GROUPS:
+            packed[name] = getattr(params, name)
+        buffers = PreparedSplats(
+            dev.empty(n * GAUSS_SPLAT_DTYPE.itemsize), dev.empty(n * SPLAT_COLOR_DTYPE.itemsize), dev.empty(n * SPLAT_BOX_DTYPE.itemsize)
         )
-        buffers = (dev.empty(n * 32), dev.empty(n * 16), dev.empty(n * 16))
         count = np.zeros(tiles, np.int32)
         if n:
             # fixed local sizes: PoCL builds a kernel binary per local size
@@ -335,18 +356,20 @@ class GaussRenderer:
                 dev.queue,
                 (-(-n // PREPARE_GROUP) * PREPARE_GROUP,),
                 (PREPARE_GROUP,),
-                dev.to_device(packed),
-                np.int32(n),
-                np.int32(self.width),
-                np.int32(self.height),
-                *buffers,
+                params=dev.to_device(packed),
+                n=n,
+                width=self.width,
+                height=self.height,
+                splats=buffers.splats,
+                colors=buffers.colors,
+                bbox=buffers.boxes,
             )
-            bbox = np.empty((n, 4), np.int32)
-            cl.enqueue_copy(dev.queue, bbox, buffers[2])
-            self._check_pairs(n, self.count_pairs(bbox))
-            del bbox
+            boxes = np.empty(n, SPLAT_BOX_DTYPE)
+            cl.enqueue_copy(dev.queue, boxes, buffers.boxes)
+            self._check_pairs(n, self.count_pairs(boxes))
+            del boxes
             count_buf = dev.empty(count.nbytes)
-            self._bin_count(dev.queue, (self.tiles_y,), (1,), buffers[2], np.int32(n), np.int32(self.tiles_x), count_buf)
+            self._bin_count(dev.queue, (self.tiles_y,), (1,), bbox=buffers.boxes, n=n, tiles_x=self.tiles_x, count=count_buf)
             cl.enqueue_copy(dev.queue, count, count_buf)
         # summed in 64 bits; _check_pairs has bounded the total, so the int32 starts the kernels read hold it
         total = np.zeros(tiles + 1, np.int64)
@@ -363,11 +386,11 @@ class GaussRenderer:
                 dev.queue,
                 (self.tiles_y,),
                 (1,),
-                buffers[2],
-                np.int32(n),
-                np.int32(self.tiles_x),
-                dev.to_device(tile_start[:-1], writable=True),
-                tile_splats,
+                bbox=buffers.boxes,
+                n=n,
+                tiles_x=self.tiles_x,
+                cursor=dev.to_device(tile_start[:-1], writable=True),
+                tile_splats=tile_splats,
             )
             cl.enqueue_copy(dev.queue, entry_splat, tile_splats, is_blocking=False)
         entry_tile = np.repeat(self.all_tiles, count)
@@ -399,7 +422,6 @@ class GaussRenderer:
             self._partial = dev.empty(self._partial_bytes)
         partial = np.empty(n_entries, SPLAT_GRAD_DTYPE)
         if n_entries:
-            b_splats, b_colors, b_box = frame.packed
             # a fixed work-group size: PoCL builds a kernel binary per local size, so letting the
             # driver choose one from the (changing) entry count would rebuild it every few steps
             groups = -(-n_entries // BACKWARD_GROUP)
@@ -407,22 +429,32 @@ class GaussRenderer:
                 dev.queue,
                 (groups * BACKWARD_GROUP,),
                 (BACKWARD_GROUP,),
-                b_splats,
-                b_colors,
-                b_box,
-                dev.to_device(entry_splat),
-                dev.to_device(entry_tile),
-                np.int32(n_entries),
-                np.int32(self.tiles_x),
-                np.int32(self.plane),
-                dev.to_device(dimg),
-                self._partial,
+                splats=frame.packed.splats,
+                colors=frame.packed.colors,
+                bbox=frame.packed.boxes,
+                entry_splat=dev.to_device(entry_splat),
+                entry_tile=dev.to_device(entry_tile),
+                n_entries=n_entries,
+                tiles_x=self.tiles_x,
+                plane=self.plane,
+                dimg=dev.to_device(dimg),
+                partial=self._partial,
             )
             cl.enqueue_copy(dev.queue, partial, self._partial)
-        # sum the rows of each splat: one bincount over (splat, column) pairs, in entry order
-        keys = (entry_splat[:, None] * NGRAD + np.arange(NGRAD)).ravel()
-        sums = np.bincount(keys, weights=partial.view(np.float32), minlength=params.n * NGRAD)
-        return chain_rule(params, sums.view(_GRAD_SUMS))
+        return chain_rule(params, sum_per_splat(partial, entry_splat, params.n))
+
+
+def sum_per_splat(partial: np.ndarray, entry_splat: np.ndarray, n: int) -> np.ndarray:
+    """Each splat's sum of its entries' gradients (SPLAT_GRAD_DTYPE rows, entry order), field by field, in float64."""
+    sums = np.zeros(n, _GRAD_SUMS)
+    for name in SPLAT_GRAD_DTYPE.names:
+        values, total = partial[name], sums[name]
+        if values.ndim == 1:
+            total[:] = np.bincount(entry_splat, weights=values, minlength=n)
+        else:
+            for k in range(values.shape[1]):
+                total[:, k] = np.bincount(entry_splat, weights=values[:, k], minlength=n)
+    return sums
 
 
 def peak_bytes(width: int, height: int, n: int = 0, pairs: int = 0, *, fit_loss: str | None = None) -> int:

@@ -89,20 +89,20 @@ class NearestSite:
         self.out = device.empty(npix * 4)
         if method == "naive":
             self.knl = device.kernel("splat_voronoi.cl", "nearest_naive")
-            self.args = (device.to_device(self.sites), np.int32(len(self.sites)), np.int32(width), np.int32(height), self.out)
+            self.args = dict(sites=device.to_device(self.sites), n=len(self.sites), width=width, height=height, nearest=self.out)
         else:
             self.grid = grid = build_grid(self.sites, width, height)
             self.knl = device.kernel("splat_voronoi.cl", "nearest_grid")
-            self.args = (
-                device.to_device(self.sites[grid.order]),
-                device.to_device(grid.order),
-                device.to_device(grid.cell_start),
-                np.int32(grid.gw),
-                np.int32(grid.gh),
-                np.float32(grid.cell),
-                np.int32(width),
-                np.int32(height),
-                self.out,
+            self.args = dict(
+                sorted_pos=device.to_device(self.sites[grid.order]),
+                sorted_idx=device.to_device(grid.order),
+                cell_start=device.to_device(grid.cell_start),
+                gw=grid.gw,
+                gh=grid.gh,
+                cell=grid.cell,
+                width=width,
+                height=height,
+                nearest=self.out,
             )
         self._cl = cl
 
@@ -112,7 +112,7 @@ class NearestSite:
         if self.local_size is not None:
             lx, ly = self.local_size
             gsize = (-(-gsize[0] // lx) * lx, -(-gsize[1] // ly) * ly)
-        return self.knl(self.dev.queue, gsize, self.local_size, *self.args)
+        return self.knl(self.dev.queue, gsize, self.local_size, **self.args)
 
     def read(self) -> np.ndarray:
         index = np.empty((self.height, self.width), dtype=np.int32)

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
-from ..layout import BVH_NODE_DTYPE
+from ..layout import BUILD_BOUNDS_DTYPE, BUILD_PRIM_DTYPE, BUILD_TASK_DTYPE, BVH_NODE_DTYPE, SUBTREE_MOVE_DTYPE
 from .knobs import BUILD_STACK, DEFAULT_KNOBS, MAX_TREE_LEVELS_LIMIT
 
 NODE_DTYPE = BVH_NODE_DTYPE  # the kernels' BvhNode (clrender/layout.py)
@@ -297,19 +297,20 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
     defines = dict(BINS=bins, BUILD_STACK=BUILD_STACK)
     knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
     queue, n = dev.queue, len(lo)
-    params = [np.int32(v) for v in (max_leaf, 4 * max_leaf, samples, halving_below, max_levels)]
-    dev.check_fits(32 * n * 2, f"a BVH over {n} primitives")
+    rules = dict(max_leaf=max_leaf, leaf_cap=4 * max_leaf, samples=samples, halving_below=halving_below, max_levels=max_levels)
+    dev.check_fits(2 * n * NODE_DTYPE.itemsize, f"a BVH over {n} primitives")  # the scratch nodes, the biggest buffer
 
     # primitive records and the root's bounds, a chunk of primitives per work-item
     chunk = -(-n // LOAD_CHUNKS)
     n_chunks = -(-n // chunk)
-    box_buf = dev.empty(32 * n)
-    chunk_bounds = np.empty((n_chunks, 4, 4), np.float32)
+    box_buf = dev.empty(n * BUILD_PRIM_DTYPE.itemsize)
+    chunk_bounds = np.empty(n_chunks, BUILD_BOUNDS_DTYPE)
     cb_buf = dev.empty(chunk_bounds.nbytes)
-    knl["load_prims"](queue, (n_chunks,), (1,), dev.to_device(lo), dev.to_device(hi), np.int32(n), np.int32(chunk), box_buf, cb_buf)
+    knl["load_prims"](queue, (n_chunks,), (1,), lo=dev.to_device(lo), hi=dev.to_device(hi), n=n, chunk=chunk, box=box_buf, chunk_bounds=cb_buf)
     cl.enqueue_copy(queue, chunk_bounds, cb_buf)
-    root = np.concatenate([chunk_bounds[:, 0::2].min(0), chunk_bounds[:, 1::2].max(0)])[[0, 2, 1, 3]]  # bmin, bmax, cmin, cmax
-    root[:, 3] = 0  # .w: the primitive id bits of load_prims, no meaning here
+    root = np.zeros(1, BUILD_BOUNDS_DTYPE)[0]  # the w lanes 0: load_prims' primitive id bits have no meaning here
+    for name, merge in (("bmin", np.min), ("bmax", np.max), ("cmin", np.min), ("cmax", np.max)):
+        root[name][:3] = merge(chunk_bounds[name][:, :3], axis=0)
 
     # top levels, breadth-first: each top node's bounds, first slot, primitives, level, first child (-1: none)
     top_bounds, top_start, top_count, top_level, top_child = [root], [0], [n], [1], [-1]
@@ -320,22 +321,34 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
         big = [i for i in level if top_count[i] > big_enough]
         if not big:
             break
-        task = np.array([[top_start[i], top_count[i], top_level[i], 0] for i in big], np.int32)
+        task = _tasks(big, top_start, top_count, top_level)
         n_first = np.empty(len(big), np.int32)
-        child_bounds = np.empty((len(big), 2, 4, 4), np.float32)
-        nf_buf, cb_buf = dev.empty(n_first.nbytes), dev.empty(child_bounds.nbytes)
-        bounds = dev.to_device(np.stack([top_bounds[i] for i in big]))
-        knl["split_level"](queue, (len(big),), (1,), box_buf, dev.to_device(task), bounds, np.int32(len(big)), *params, nf_buf, cb_buf)
+        left, right = np.empty(len(big), BUILD_BOUNDS_DTYPE), np.empty(len(big), BUILD_BOUNDS_DTYPE)
+        nf_buf, left_buf, right_buf = dev.empty(n_first.nbytes), dev.empty(left.nbytes), dev.empty(right.nbytes)
+        knl["split_level"](
+            queue,
+            (len(big),),
+            (1,),
+            box=box_buf,
+            task=dev.to_device(task),
+            bounds=dev.to_device(np.array([top_bounds[i] for i in big], BUILD_BOUNDS_DTYPE)),
+            n_tasks=len(big),
+            **rules,
+            n_first=nf_buf,
+            left_bounds=left_buf,
+            right_bounds=right_buf,
+        )
         cl.enqueue_copy(queue, n_first, nf_buf)
-        cl.enqueue_copy(queue, child_bounds, cb_buf)
+        cl.enqueue_copy(queue, left, left_buf)
+        cl.enqueue_copy(queue, right, right_buf)
         level = []
         for j, i in enumerate(big):
             if n_first[j] == 0:  # a leaf
                 continue
             top_child[i] = len(top_start)
-            for side, (s, c) in enumerate(((top_start[i], n_first[j]), (top_start[i] + n_first[j], top_count[i] - n_first[j]))):
+            for bounds, s, c in ((left[j], top_start[i], n_first[j]), (right[j], top_start[i] + n_first[j], top_count[i] - n_first[j])):
                 level.append(len(top_start))
-                top_bounds.append(child_bounds[j, side])
+                top_bounds.append(bounds)
                 top_start.append(int(s))
                 top_count.append(int(c))
                 top_level.append(top_level[i] + 1)
@@ -345,14 +358,25 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
     subtrees.sort(key=lambda i: -top_count[i])
     if not subtrees:  # the root is a leaf (more than subtree_size primitives, at most max_leaf)
         nodes = np.zeros(1, NODE_DTYPE)
-        nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root[0, :3], root[1, :3], n
+        nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root["bmin"][:3], root["bmax"][:3], n
         return nodes, np.arange(n, dtype=np.int32)
-    task = np.array([[top_start[i], top_count[i], top_level[i], 2 * top_start[i]] for i in subtrees], np.int32)
-    scratch_buf = dev.empty(2 * 32 * n)
+    task = _tasks(subtrees, top_start, top_count, top_level)
+    task["first_node"] = 2 * task["first"]  # scratch nodes: a subtree of c primitives has at most 2c - 1
+    scratch_buf = dev.empty(2 * n * NODE_DTYPE.itemsize)
     n_nodes = np.empty(len(subtrees), np.int32)
     nn_buf = dev.empty(n_nodes.nbytes)
-    bounds = dev.to_device(np.stack([top_bounds[i] for i in subtrees]))
-    knl["build_subtree"](queue, (len(subtrees),), (1,), box_buf, dev.to_device(task), bounds, np.int32(len(subtrees)), *params, scratch_buf, nn_buf)
+    knl["build_subtree"](
+        queue,
+        (len(subtrees),),
+        (1,),
+        box=box_buf,
+        task=dev.to_device(task),
+        bounds=dev.to_device(np.array([top_bounds[i] for i in subtrees], BUILD_BOUNDS_DTYPE)),
+        n_tasks=len(subtrees),
+        **rules,
+        nodes=scratch_buf,
+        n_nodes=nn_buf,
+    )
     cl.enqueue_copy(queue, n_nodes, nn_buf)
 
     # depth-first layout: node counts bottom-up, preorder places top-down
@@ -368,11 +392,12 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
             place[c], place[c + 1] = place[i] + 1, place[i] + 1 + size[c]
     nodes = np.empty(size[0], NODE_DTYPE)
     nodes_buf = dev.host_buffer(nodes)
-    move = np.array([[2 * top_start[i], place[i], size[i], 0] for i in subtrees], np.int32)
-    knl["place_subtrees"](queue, (len(subtrees),), (1,), scratch_buf, dev.to_device(move), np.int32(len(subtrees)), nodes_buf)
+    move = np.empty(len(subtrees), SUBTREE_MOVE_DTYPE)
+    move["source"], move["target"], move["nodes"] = task["first_node"], [place[i] for i in subtrees], [size[i] for i in subtrees]
+    knl["place_subtrees"](queue, (len(subtrees),), (1,), scratch=scratch_buf, move=dev.to_device(move), n_moves=len(subtrees), nodes=nodes_buf)
     order = np.empty(n, np.int32)
     order_buf = dev.host_buffer(order)
-    knl["prim_order"](queue, (n_chunks,), (1,), box_buf, np.int32(n), np.int32(chunk), order_buf)
+    knl["prim_order"](queue, (n_chunks,), (1,), box=box_buf, n=n, chunk=chunk, order=order_buf)
     dev.sync_to_host(nodes_buf, nodes)
     dev.sync_to_host(order_buf, order)
     in_subtree = set(subtrees)
@@ -380,6 +405,13 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
         if i in in_subtree:
             continue
         p, c = place[i], top_child[i]
-        nodes["bmin"][p], nodes["bmax"][p] = top_bounds[i][0, :3], top_bounds[i][1, :3]
+        nodes["bmin"][p], nodes["bmax"][p] = top_bounds[i]["bmin"][:3], top_bounds[i]["bmax"][:3]
         nodes["offset"][p], nodes["count"][p] = (top_start[i], top_count[i]) if c < 0 else (place[c + 1], 0)
     return nodes, order
+
+
+def _tasks(which, start, count, level) -> np.ndarray:
+    """The BuildTask records of the top nodes `which` (first_node 0)."""
+    task = np.zeros(len(which), BUILD_TASK_DTYPE)
+    task["first"], task["count"], task["level"] = [start[i] for i in which], [count[i] for i in which], [level[i] for i in which]
+    return task

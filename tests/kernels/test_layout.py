@@ -34,7 +34,7 @@ def _probe_source() -> str:
     return (
         '#include "common.h"\n__kernel void probe(__global int *out, __global int *ints, __global float *eps) {\n'
         + "\n".join(lines)
-        + f"\n const int values[] = {{{values}}};\n for (int i = 0; i < {len(INT_NAMES)}; i++) ints[i] = values[i];\n eps[0] = EPS;\n}}\n"
+        + f"\n const int values[] = {{{values}}};\n for (int i = 0; i < {len(INT_NAMES)}; i++) ints[i] = values[i];\n eps[0] = SPLAT_EPS;\n}}\n"
     )
 
 

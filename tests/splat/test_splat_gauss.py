@@ -5,6 +5,7 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
+from clrender.layout import SPLAT_BOX_DTYPE
 from clrender.splat.gauss import GROUPS, GaussParams, GaussRenderer
 from clrender.splat.losses import loss_and_grad, psnr, ssim
 
@@ -79,21 +80,15 @@ def test_binning_covers_every_touching_tile(device, rng):
     params = GaussParams(xy, log_scale, theta, np.ones((n, 3)), np.ones(n), np.ones(n), width=100, height=70)
     renderer = GaussRenderer(device, 100, 70)
     frame = renderer.forward(params)
-    b, box = frame.binning, np.empty((n, 4), np.int32)
-    cl.enqueue_copy(device.queue, box, frame.packed[2])  # the pixel boxes splat_prepare computed
+    b, boxes = frame.binning, np.empty(n, SPLAT_BOX_DTYPE)
+    cl.enqueue_copy(device.queue, boxes, frame.packed.boxes)  # the pixel boxes splat_prepare computed
+    x0, y0, x1, y1 = (boxes[name] for name in ("x0", "y0", "x1", "y1"))
     assert b.tiles_x == 7 and b.tiles_y == 5
     assert np.all(np.diff(b.entry_tile) >= 0)
     # brute force: splat i belongs to tile t iff their pixel rectangles intersect, listed in splat order
     for t in range(b.tiles_x * b.tiles_y):
         tx, ty = t % b.tiles_x, t // b.tiles_x
-        hit = (
-            (box[:, 0] < tx * 16 + 16)
-            & (box[:, 2] > tx * 16)
-            & (box[:, 1] < ty * 16 + 16)
-            & (box[:, 3] > ty * 16)
-            & (box[:, 2] > box[:, 0])
-            & (box[:, 3] > box[:, 1])
-        )
+        hit = (x0 < tx * 16 + 16) & (x1 > tx * 16) & (y0 < ty * 16 + 16) & (y1 > ty * 16) & (x1 > x0) & (y1 > y0)
         listed = b.entry_splat[b.tile_start[t] : b.tile_start[t + 1]]
         np.testing.assert_array_equal(listed, np.nonzero(hit)[0])
         np.testing.assert_array_equal(b.entry_tile[b.tile_start[t] : b.tile_start[t + 1]], t)
@@ -104,13 +99,14 @@ def test_binning_covers_every_touching_tile(device, rng):
         dx, dy = xs - xy[i, 0], ys - xy[i, 1]
         u, v = (c * dx + s * dy) / np.exp(log_scale[i, 0]), (-s * dx + c * dy) / np.exp(log_scale[i, 1])
         yy, xx = np.nonzero(u * u + v * v < 9)
-        assert np.all((xx >= box[i, 0]) & (xx < box[i, 2]) & (yy >= box[i, 1]) & (yy < box[i, 3]))
+        assert np.all((xx >= x0[i]) & (xx < x1[i]) & (yy >= y0[i]) & (yy < y1[i]))
     # ... and is the float64 box around the ellipse's extents x +- 3 sqrt(Sxx), y +- 3 sqrt(Syy)
     sx2, sy2 = np.exp(2 * log_scale[:, 0]), np.exp(2 * log_scale[:, 1])
     c2, s2 = np.cos(theta) ** 2, np.sin(theta) ** 2
     rx, ry = 3 * np.sqrt(c2 * sx2 + s2 * sy2), 3 * np.sqrt(s2 * sx2 + c2 * sy2)
     ref = np.stack([np.ceil(xy[:, 0] - rx - 0.5), np.ceil(xy[:, 1] - ry - 0.5), np.floor(xy[:, 0] + rx + 0.5), np.floor(xy[:, 1] + ry + 0.5)], 1)
     ref = np.clip(ref, 0, [100, 70, 100, 70])
+    box = np.stack([x0, y0, x1, y1], 1)
     assert np.abs(box - ref).max() <= 1 and np.mean(box == ref) > 0.99
 
 

@@ -11,6 +11,7 @@ import sys
 import numpy as np
 import pytest
 
+from clrender.layout import SPLAT_BOX_DTYPE
 from clrender.splat import gauss
 from clrender.splat.gauss import GaussParams, GaussRenderer
 
@@ -86,10 +87,10 @@ def test_count_pairs_agrees_with_the_binning_kernel(device):
     # the kernels' own count, independent of count_pairs: the per-tile list lengths
     assert frame.binning.n_entries == int(np.diff(frame.binning.tile_start.astype(np.int64)).sum()) > n
     pairs_per_splat = np.bincount(frame.binning.entry_splat, minlength=n)
-    boxes = np.zeros((n, 4), np.int32)
+    boxes = np.zeros(n, SPLAT_BOX_DTYPE)
     import pyopencl as cl
 
-    cl.enqueue_copy(device.queue, boxes, frame.packed[2])
+    cl.enqueue_copy(device.queue, boxes, frame.packed.boxes)
     assert renderer.count_pairs(boxes) == pairs_per_splat.sum()
 
 
