@@ -59,3 +59,29 @@ def test_every_listed_benchmark_imports_and_has_a_main():
 def test_the_tools_that_moved_out_of_bench_say_where_they_went(name, command):
     proc = subprocess.run([sys.executable, "-m", "bench", name, "--list"], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and command in proc.stderr, proc.stderr
+
+
+@pytest.mark.slow
+def test_path_harness_quick_run_measures_mitsuba_and_says_when_clrender_cannot_path_trace(tmp_path):
+    """`bench path --peer mitsuba --quick`: Mitsuba's two variants on both scenes; clrender's row once its path
+    integrator exists (issue 25), a one-line note until then.  Skips without Mitsuba."""
+    from tests.reference.mitsuba_scenes import unavailable
+
+    reason = unavailable("llvm_ad_rgb")
+    if reason:
+        pytest.skip(reason)
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "path", "--peer", "mitsuba", "--quick", "--out", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(tmp_path / "path.csv")))
+    renderers = {r["renderer"] for r in rows}
+    assert {"mitsuba llvm_ad_rgb", "mitsuba scalar_rgb"} <= renderers
+    assert {r["scene"] for r in rows} == {"cornell_box", "wizard_cat"}
+    assert all(float(r["msamples_per_s"]) > 0 for r in rows)
+    assert ("clrender" in renderers) != ("path integrator is not available" in proc.stdout)
+    assert (tmp_path / "path.png").stat().st_size > 1000

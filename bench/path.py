@@ -1,0 +1,213 @@
+"""Path tracing speed, against Mitsuba 3: `python -m bench path [--peer mitsuba] [--quick] [--runs K] [--out DIR]`.
+
+Two scenes at 512x512, 64 samples per pixel, max depth 8 (bounces after the primary hit; Mitsuba's
+max_depth 10): the Cornell box of tests/reference/path_scenes.py (Lambert walls and block, a rough metal
+sphere, a glass sphere, an emissive quad) and the bundled wizard_cat from camera 3.
+
+clrender: `Renderer(scene, integrator="path", spp=64, max_depth=8)`; the first image (BVH build, kernel
+compile, PoCL's first launches) is reported apart from the median of K later ones, with the kernel compile
+time the renderer measures (RenderResult.timings["compile"]).  --peer mitsuba renders
+the same scenes, converted by tests/reference/mitsuba_scenes.py, in the same run:
+  llvm_ad_rgb   the first render (Dr.Jit tracing and LLVM compiling its kernels, or reading them from its
+                disk cache, said in the table) apart from the median of K later renders;
+  scalar_rgb    --scalar-spp samples per pixel (default 16: a 64 spp render takes minutes on two cores),
+                the time scaled by 64 / spp (the independent sampler's cost is linear in spp), one run.
+Both use every core (Mitsuba's thread pool, PoCL's device).  Samples per second are camera paths (pixels x
+spp) per wall second; the ratios are wall times against Mitsuba llvm.  `--quick`: 128x128, 16 spp, one run.
+
+wizard_cat is a Whitted scene, converted by this rule (the path tracer reads seed materials the same way):
+`diffuse` kd -> Lambert; `specular` ks with `shininess` s -> ks times a GGX conductor of reflectance 1 with
+alpha = sqrt(2 / (s + 2)), added to the Lambert lobe; `mirror` -> a smooth conductor of that weight;
+`transparency` with `ior` -> a smooth dielectric of that weight.  Lights (docs/shading.md's units): an area
+light's colour x intensity is a radiance (falloff inverse_square) -> a one-sided rectangle emitter; a point
+light's is a radiant intensity (W/sr) -> a point emitter; wizard_cat's lights use the classic falloff "none"
+(no 1/pi, no 1/r^2), mapped to the physical light that is as bright on a Lambert surface at unit distance
+(pi c I; an area light's radiance divided by its area).  `background` and `ambient` are Whitted's and not
+drawn.  The metal of the Cornell box is Mitsuba's native `principled` here (metallic 1: the same D, F and
+alpha, separable Smith G instead of the height-correlated G2: the same cost, not the same function; the
+reference tests use the exact lobe).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+from .common import write_table
+from tests.reference import mitsuba_scenes, path_scenes
+
+SCENES = ("cornell_box", "wizard_cat")
+
+
+def wizard_cat_dict(camera: int = 3) -> dict:
+    """The bundled wizard_cat as the scene dict mitsuba_scenes reads: meshes as world-space triangles."""
+    from dataclasses import asdict
+
+    from clrender.scene.scene import Scene
+
+    scene = Scene.load("wizard_cat")
+    cam = scene.camera(camera)
+    lights = []
+    for light in scene.lights:
+        entry = {"type": light.type, "color": light.color, "intensity": light.intensity, "falloff": light.falloff}
+        if light.type == "area":
+            entry.update(corner=light.position, edge_a=light.edge_a, edge_b=light.edge_b)
+        elif light.type == "point":
+            entry["position"] = light.position
+        else:
+            entry["direction"] = light.direction
+        lights.append(entry)
+    objects = []
+    for obj in scene.objects:
+        if hasattr(obj, "radius"):
+            objects.append({"type": "sphere", "center": obj.center, "radius": obj.radius, "material": obj.material})
+        else:
+            normals = obj.vertex_normals if obj.smooth else None
+            objects.append({"type": "mesh", "vertices": obj.vertices, "faces": obj.faces, "normals": normals, "material": obj.material})
+    return {
+        "cameras": [{"position": cam.position, "look_at": cam.look_at, "up": cam.up, "fov": cam.fov}],
+        "materials": {name: asdict(m) for name, m in scene.materials.items()},
+        "lights": lights,
+        "objects": objects,
+    }
+
+
+def clrender_has_path_tracer() -> bool:
+    from clrender.trace.renderer import RenderSettings
+
+    return "integrator" in RenderSettings.__dataclass_fields__
+
+
+def time_clrender(name: str, size: int, spp: int, depth: int, runs: int):
+    """(first image s, its kernel compile s, median s, median CPU s, image) of clrender's path tracer."""
+    from clrender.trace.renderer import Renderer
+
+    scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else ("wizard_cat", 3)
+    settings = dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
+    start = time.perf_counter()
+    renderer = Renderer(scene, seed=0, **settings)
+    result = renderer.run()
+    first, image = time.perf_counter() - start, result.image
+    compile_s = result.timings.get("compile", float("nan"))
+    walls, cpus = [], []
+    for run in range(runs):
+        renderer = Renderer(scene, seed=run + 1, tracer=renderer.tracer, **settings)
+        wall, cpu = time.perf_counter(), time.process_time()
+        renderer.run()
+        walls.append(time.perf_counter() - wall)
+        cpus.append(time.process_time() - cpu)
+    return first, compile_s, statistics.median(walls), statistics.median(cpus), image
+
+
+def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, runs: int):
+    """(load s, first render s, JIT s, kernels from the disk cache, median s, median CPU s, image)."""
+    import drjit as dr
+
+    start = time.perf_counter()
+    mi, loaded = mitsuba_scenes.load(scene, variant=variant, spp=spp, max_depth=depth, width=size, height=size, exact=False)
+    load_s = time.perf_counter() - start
+    jit = variant.startswith("llvm")
+    if jit:
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+    start = time.perf_counter()
+    image = mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=0)
+    first = time.perf_counter() - start
+    compile_s, cached = float("nan"), ""
+    if jit:
+        kernels = [k for k in dr.kernel_history() if k.get("cache_hit") is not None]
+        compile_s = sum(k.get("codegen_time", 0.0) + k.get("backend_time", 0.0) for k in kernels) / 1000.0  # ms -> s
+        cached = "yes" if kernels and all(k.get("cache_hit") for k in kernels) else "no"
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+    walls, cpus = [], []
+    for run in range(runs):
+        wall, cpu = time.perf_counter(), time.process_time()
+        mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=run + 1)
+        walls.append(time.perf_counter() - wall)
+        cpus.append(time.process_time() - cpu)
+    return load_s, first, compile_s, cached, statistics.median(walls), statistics.median(cpus), image
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m bench path", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--size", type=int, default=512, help="image side in pixels")
+    ap.add_argument("--spp", type=int, default=64, help="samples per pixel")
+    ap.add_argument("--max-depth", type=int, default=8, help="bounces after the primary hit (Mitsuba's max_depth is this + 2)")
+    ap.add_argument("--runs", type=int, default=3, help="timed renders after the first; the median is reported")
+    ap.add_argument("--scalar-spp", type=int, default=16, help="spp of Mitsuba's scalar_rgb render (its time is scaled to --spp); 0 skips it")
+    ap.add_argument("--scenes", nargs="+", choices=SCENES, default=list(SCENES))
+    ap.add_argument("--peer", choices=("mitsuba",), help="also render with Mitsuba 3 (llvm_ad_rgb and scalar_rgb) in the same run")
+    ap.add_argument("--quick", action="store_true", help="128x128, 16 spp, one timed run, scalar at 4 spp")
+    ap.add_argument("--out", default="bench/out", help="folder for path.csv / path.md / path.png and the images")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.size, args.spp, args.runs, args.scalar_spp = 128, 16, 1, min(args.scalar_spp, 4)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    have_clrender = clrender_has_path_tracer()
+    if not have_clrender:
+        print("clrender's path integrator is not available yet (RenderSettings has no `integrator`, issue 25): clrender not measured")
+        if not args.peer:
+            return 1
+    from clrender.image.files import write_display_image
+
+    pixels = args.size * args.size
+    rows = []
+    for name in args.scenes:
+        scene = path_scenes.cornell_box(args.size) if name == "cornell_box" else wizard_cat_dict(3)
+        measured = {}
+        if have_clrender:
+            first, compile_s, wall, cpu, image = time_clrender(name, args.size, args.spp, args.max_depth, args.runs)
+            measured["clrender"] = dict(spp_run=args.spp, load_s=float("nan"), first_s=first, compile_s=compile_s, cached="", seconds=wall, cpu_s=cpu)
+            write_display_image(out / f"path_{name}_clrender.png", image)
+        if args.peer == "mitsuba":
+            variants = [("mitsuba llvm_ad_rgb", "llvm_ad_rgb", args.spp, args.runs)]
+            if args.scalar_spp > 0:
+                variants.append(("mitsuba scalar_rgb", "scalar_rgb", args.scalar_spp, 1))
+            for label, variant, spp, runs in variants:
+                reason = mitsuba_scenes.unavailable(variant)
+                if reason:
+                    print(f"{label}: not measured: {reason}")
+                    continue
+                load_s, first, compile_s, cached, wall, cpu, image = time_mitsuba(scene, variant, args.size, spp, args.max_depth, runs)
+                scale = args.spp / spp  # the scalar render's time at --spp
+                measured[label] = dict(
+                    spp_run=spp, load_s=load_s, first_s=first, compile_s=compile_s, cached=cached, seconds=wall * scale, cpu_s=cpu * scale
+                )
+                write_display_image(out / f"path_{name}_{variant}.png", image)
+        llvm = measured.get("mitsuba llvm_ad_rgb", {}).get("seconds", float("nan"))
+        for renderer, m in measured.items():
+            rows.append(
+                dict(
+                    scene=name,
+                    renderer=renderer,
+                    size=args.size,
+                    spp=args.spp,
+                    max_depth=args.max_depth,
+                    **m,
+                    msamples_per_s=pixels * args.spp / m["seconds"] / 1e6,
+                    time_vs_mitsuba_llvm=m["seconds"] / llvm,
+                )
+            )
+    if not rows:
+        print("nothing measured")
+        return 1
+    title = f"Path tracing, {args.size}x{args.size}, {args.spp} spp, max depth {args.max_depth} (median of {args.runs})"
+    table = write_table(out, "path", rows, title)
+    from clrender.image.plot import bar_chart
+
+    renderers = list(dict.fromkeys(r["renderer"] for r in rows))
+    series = {
+        who: [next((r["msamples_per_s"] for r in rows if r["scene"] == s and r["renderer"] == who), 0.0) for s in args.scenes] for who in renderers
+    }
+    bar_chart(out / "path.png", args.scenes, series, title=title, ylabel="million samples (camera paths) per second")
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs; seconds: median per image at {args.spp} spp")
+    print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
