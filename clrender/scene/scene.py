@@ -301,15 +301,18 @@ def _parallelogram(checks: Checks, o, path, materials, corner, a, b) -> Mesh:
 
 
 def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
-    """A triangle mesh from a file (any format trimesh reads, or one node of a glTF file) or a built-in
-    generator, scaled, rotated and translated; with build=False only checked (None)."""
-    if ("file" in o) == ("generator" in o):
-        checks.fail(path, "a mesh needs exactly one of 'file' or 'generator'")
+    """A triangle mesh from a file (any format trimesh reads, or one node of a glTF file), a built-in
+    generator or inline `vertices` and `faces`, scaled, rotated and translated; with build=False only
+    checked (None)."""
+    if sum(k in o for k in ("file", "generator", "vertices")) != 1 or ("vertices" in o) != ("faces" in o):
+        checks.fail(path, "a mesh needs exactly one of 'file', 'generator' or 'vertices' with 'faces'")
     gltf_node = _gltf_node(checks, o, path)
     if "file" in o:
         file = _mesh_path(checks, o.get("file"), f"{path}.file")
-    else:
+    elif "generator" in o:
         gen, params = _generator(checks, o, path)
+    else:
+        inline = _inline_mesh(checks, o, path)
     scale = o.get("scale", 1.0)
     if is_number(scale):
         scale = checks.number(o, "scale", path, 1.0, low=-COORD_LIMIT, high=COORD_LIMIT)
@@ -330,6 +333,8 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     elif "file" in o:
         tm = load_mesh_file(file, f"{checks.where}: {path}.file", root=checks.root)
         source = o["file"]
+    elif "vertices" in o:
+        tm, source = inline, path
     else:
         from . import meshes
 
@@ -347,11 +352,32 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
 
         # Given normals: a generator's, or a glTF node's from its file (trimesh drops a file's
         # own); shading_normals computes the rest, welded across patches, and replaces zero/NaN ones.
-        given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)
+        given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)  # inline: None
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source)
+
+
+@dataclass
+class _InlineMesh:
+    vertices: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int64
+    normals = None  # computed (shading_normals) when smooth
+
+
+def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
+    """`vertices` (points) and `faces` (triples of vertex indices) given in the scene itself."""
+    vertices, faces = o.get("vertices"), o.get("faces")
+    if not isinstance(vertices, list) or not vertices or len(vertices) > 3 * MAX_TRIANGLES:
+        checks.fail(f"{path}.vertices", f"expected a non-empty list of at most {3 * MAX_TRIANGLES} points")
+    if not isinstance(faces, list) or not faces or len(faces) > MAX_TRIANGLES:
+        checks.fail(f"{path}.faces", f"expected a non-empty list of at most {MAX_TRIANGLES} triples of vertex indices")
+    points = np.array([checks.vec3({"v": v}, "v", f"{path}.vertices[{i}]") for i, v in enumerate(vertices)], np.float64)
+    for i, f in enumerate(faces):
+        if not (isinstance(f, list) and len(f) == 3 and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(points) for k in f)):
+            checks.fail(f"{path}.faces[{i}]", f"{show(f)}: expected 3 vertex indices from 0 to {len(points) - 1}")
+    return _InlineMesh(points, np.array(faces, np.int64))
 
 
 def _check_placed(checks: Checks, vertices, path):
@@ -408,7 +434,9 @@ OBJECT_READERS = {
     "triangle": TypeReader(("type", "vertices", "material"), _triangle),
     "quad": TypeReader(("type", "corner", "edge_a", "edge_b", "material"), _quad),
     "plane": TypeReader(("type", "point", "normal", "size", "material"), _plane),
-    "mesh": TypeReader(("type", "file", "generator", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive"), _mesh),
+    "mesh": TypeReader(
+        ("type", "file", "generator", "vertices", "faces", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive"), _mesh
+    ),
 }
 
 
