@@ -58,31 +58,14 @@ INLINE float schlick(float cos_i, float n1, float n2, float cos_t) {
 }
 
 /* ---- an area light's samples eight at a time (float8 lanes), the same operations in the same order
- * as the one-sample code (direct_light's other lights, rng.h), so every lane's value is bit for bit the
- * one-sample value: integer to float conversions by exact bit tricks instead of convert_float8
- * (out of line on PoCL), selects by ?:. */
+ * as the one-sample code (direct_light's other lights; rng.h's rng_lanes), so every lane's value is bit
+ * for bit the one-sample value: integer to float conversions by exact bit tricks instead of
+ * convert_float8 (out of line on PoCL), selects by ?:. */
 #define LIGHT_LANES 8
 typedef float8 light_f;
 typedef int8 light_i;
 typedef uint8 light_u;
 #define LIGHT_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
-
-/* rng_next for dimensions dim (per lane) of one (seed, pixel, sample) stream: hash4's first three
- * rounds are the same for every lane */
-INLINE light_f rng_lanes(const Rng *r, light_u dim) {
-    uint h = mix32(r->seed + 0x9e3779b9U);
-    h = mix32(h ^ (r->pixel + 0x85ebca6bU));
-    h = mix32(h ^ (r->sample + 0xc2b2ae35U));
-    light_u x = (light_u)(h) ^ (dim + 0x27d4eb2fU);
-    x ^= x >> 16; x *= 0x7feb352dU;
-    x ^= x >> 15; x *= 0x846ca68bU;
-    x ^= x >> 16;
-    /* u01: (x >> 8) * 2^-24, the 24-bit integer converted exactly: 2 floor(x / 2^9) + bit 8 */
-    light_u q = x >> 8;
-    light_f halves = as_float8((q >> 1) | 0x4b000000u) - 8388608.0f; /* q >> 1 < 2^23: exact */
-    light_f odd = (q & 1u) != (light_u)(0u) ? (light_f)(1.0f) : (light_f)(0.0f);
-    return (halves * 2.0f + odd) * (1.0f / 16777216.0f);
-}
 
 /* small integers (|i| < 2^22) to float, exactly */
 INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + 0x4b400000) - 12582912.0f; }
