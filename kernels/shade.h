@@ -17,8 +17,8 @@
 /* What the render kernel shades with (the Python side's clrender.scene.Scene, packed). */
 typedef struct {
     Geometry geo;
-    __global const float4 *normals;
-    __global const float4 *lights;
+    __global const VertexNormals *normals; /* per primitive id */
+    __global const Light *lights;
     int n_lights;
     int light_samples;   /* > 0 overrides every area light's samples per side */
     int max_depth;       /* bounces after the primary hit */
@@ -27,7 +27,7 @@ typedef struct {
     float3 background;
     float3 ambient;
 #if WRITE_AOV
-    __global float4 *aov; /* null, or this pixel's primary-hit record: (shading normal, t), (kd, 0) */
+    __global AovRecord *aov; /* null, or this pixel's primary-hit record */
 #endif
 } SceneView;
 
@@ -153,18 +153,18 @@ INLINE float3 direct_light(const SceneView *sc, float3 p, float3 p_err, float3 n
     /* shadow rays start off the surface on the side they leave towards */
     float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
     for (int li = 0; li < sc->n_lights; ++li) {
-        float4 head = sc->lights[LIGHT_ROWS * li];
-        int type = (int)head.x;
-        float intensity = head.z;
-        bool inverse_square = head.w != 0.0f;
-        float3 pos = sc->lights[LIGHT_ROWS * li + 1].xyz;
-        float3 colour = sc->lights[LIGHT_ROWS * li + 2].xyz;
+        __global const Light *light = sc->lights + li;
+        int type = light->type;
+        float intensity = light->intensity;
+        bool inverse_square = light->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+        float3 pos = vload3(0, light->position);
+        float3 colour = vload3(0, light->colour);
         uint n_side = 1;
         float3 edge_a = (float3)(0.0f), edge_b = (float3)(0.0f);
         if (type == LIGHT_AREA) {
-            n_side = sc->light_samples > 0 ? (uint)sc->light_samples : (uint)head.y;
-            edge_a = sc->lights[LIGHT_ROWS * li + 3].xyz;
-            edge_b = sc->lights[LIGHT_ROWS * li + 4].xyz;
+            n_side = sc->light_samples > 0 ? (uint)sc->light_samples : (uint)light->samples;
+            edge_a = vload3(0, light->edge_a);
+            edge_b = vload3(0, light->edge_b);
         }
         float3 light_normal = cross3(edge_a, edge_b);
         float area = norm(light_normal);
@@ -275,7 +275,7 @@ INLINE float3 direct_light(const SceneView *sc, float3 p, float3 p_err, float3 n
                 float3 l;
                 float dist, falloff = 1.0f;
                 if (type == LIGHT_DIRECTIONAL) {
-                    l = -unit(pos);
+                    l = -unit(vload3(0, light->direction));
                     dist = INF_T;
                 } else {
                     float3 target = pos; /* a point light (area lights take the lanes above) */
@@ -304,11 +304,9 @@ INLINE float3 direct_light(const SceneView *sc, float3 p, float3 p_err, float3 n
     return total;
 }
 
-/* Colour seen along one camera ray.  When `ids` is not null it receives the
- * object ids met on the way (depth-first order, -1 past the end) and then the
- * facet of the primary hit: its primitive id on a flat-shaded mesh, where the
- * shading jumps from face to face, else -1. */
-INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
+/* Colour seen along one camera ray.  When `ids` is not null it receives the object ids met on the way
+ * and the primary hit's facet (layout.ID_RECORD_DTYPE). */
+INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global IdRecord *ids, __global float *shadow,
                          uint *visits, uint *rays) {
     float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
     int sp = 0;
@@ -319,7 +317,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global in
     float3 colour = (float3)(0.0f);
     int n_ids = 0;
     bool first_hit = true;
-    if (ids) ids[PATH_LEN] = -1;
+    if (ids) ids->facet = -1;
     while (sp > 0) {
         --sp;
         float3 o = stack_o[sp].xyz, d = stack_d[sp].xyz, w = stack_w[sp].xyz;
@@ -329,14 +327,14 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global in
         Hit h = closest_hit(&sc->geo, r, 0.0f, INF_T, visits);
         *rays += 1;
         int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
-        if (ids && n_ids < PATH_LEN) ids[n_ids++] = object;
+        if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
         if (h.id < 0) {
             colour += w * sc->background;
             first_hit = false;
             continue;
         }
         ObjectRecord obj = sc->geo.objects[object];
-        if (ids && first_hit && !obj.smooth && !is_sphere(sc->geo.prims, h.slot)) ids[PATH_LEN] = h.id;
+        if (ids && first_hit && !obj.smooth && !is_sphere(sc->geo.prims, h.slot)) ids->facet = h.id;
         __global const Material *m = sc->geo.materials + obj.material;
         float4 kd = (float4)(vload3(0, m->kd), m->shininess), ks = (float4)(vload3(0, m->ks), m->mirror);
         float transparency = m->transparency, ior = m->ior, mirror = m->mirror;
@@ -353,15 +351,20 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global in
             n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
             n_shade = n_geo;
             if (obj.smooth) {
-                __global const float4 *vn = sc->normals + NORMAL_ROWS * h.id;
-                n_shade = unit((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
+                __global const VertexNormals *vn = sc->normals + h.id;
+                float3 n0 = vload3(0, vn->normal[0]), n1 = vload3(0, vn->normal[1]), n2 = vload3(0, vn->normal[2]);
+                n_shade = unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
             }
         }
         bool front_face = dot3(d, n_geo) < 0.0f;
         if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
         if (dot3(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
 #if WRITE_AOV
-        if (first_hit && sc->aov) { sc->aov[0] = (float4)(n_shade, h.t); sc->aov[1] = (float4)(kd.xyz, 0.0f); }
+        if (first_hit && sc->aov) {
+            vstore3(n_shade, 0, sc->aov->normal);
+            sc->aov->depth = h.t;
+            vstore3(kd.xyz, 0, sc->aov->albedo);
+        }
 #endif
 
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
@@ -407,7 +410,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global in
         }
     }
     if (ids)
-        for (int k = n_ids; k < PATH_LEN; ++k) ids[k] = -1;
+        for (int k = n_ids; k < PATH_LEN; ++k) ids->path[k] = -1;
     return colour;
 }
 
