@@ -21,14 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 
 # ---- tracing (kernels/common.h, shade.h, sampling.h, trace.cl)
-PATH_LEN = 8  # object ids recorded along each pixel's path (edge detection)
-ID_RECORD = PATH_LEN + 1  # int32 per pixel: the path's object ids, then the primary hit's facet
+PATH_LEN = 8  # object ids recorded along each pixel's path (edge detection): IdRecord.path
 PRIM_ROWS = 3  # float4 rows per primitive slot
-MATERIAL_ROWS = 3  # float4 rows per material
-LIGHT_ROWS = 5  # float4 rows per light
-NORMAL_ROWS = 3  # float4 rows per smooth triangle: its vertex normals
 
-LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # the light record's head.x
+LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # Light.type
+LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: the seed's model, or physical (scene/lights.py)
 MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or glTF's metallic-roughness ones
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
@@ -122,9 +119,65 @@ MATERIAL_DTYPE = np.dtype(
 MATERIAL = Record("Material", MATERIAL_DTYPE)
 OBJECT_DTYPE = np.dtype([("material", "<i4"), ("smooth", "<i4")])  # an object's material index; 1: smooth-shaded mesh
 OBJECT = Record("ObjectRecord", OBJECT_DTYPE)
-# (type, samples per side, intensity, falloff) (position | direction of travel | corner, 0) (colour, 0) (edge a, 0) (edge b, 0)
-LIGHT_DTYPE = np.dtype([("head", *_F4), ("where", *_F4), ("colour", *_F4), ("edge_a", *_F4), ("edge_b", *_F4)])
-ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])  # -1 past the path's end / no facet
+# a light (scene/lights.py packs it; its units are in that module's docstring)
+LIGHT_DTYPE = np.dtype(
+    [
+        ("type", "<i4"),  # LIGHT_TYPES code
+        ("samples", "<i4"),  # area light: samples per side (n x n); RenderParams.light_samples > 0 overrides it
+        ("intensity", "<f4"),
+        ("falloff", "<i4"),  # LIGHT_FALLOFFS code
+        ("position", "<f4", 3),  # point light: its position; area light: the corner its edges leave from
+        ("direction", "<f4", 3),  # directional light: the direction light travels
+        ("colour", "<f4", 3),  # linear RGB
+        ("edge_a", "<f4", 3),  # area light: the parallelogram's edges from the corner
+        ("edge_b", "<f4", 3),
+    ]
+)
+LIGHT = Record("Light", LIGHT_DTYPE)
+# per primitive id: a smooth triangle's unit normals at its vertices v0, v1, v2 (zeros for other primitives)
+VERTEX_NORMALS_DTYPE = np.dtype([("normal", "<f4", (3, 3))])
+VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
+# the pinhole camera (scene/camera.py, Camera.frame), at unit distance: a pixel's ray leaves `origin` towards
+# forward + sx right + sy up, sx and sy going from -1 to 1 across the image
+CAMERA_DTYPE = np.dtype(
+    [
+        ("origin", "<f4", 3),  # the eye
+        ("forward", "<f4", 3),  # unit view direction
+        ("right", "<f4", 3),  # unit right times the half-width of the image plane
+        ("up", "<f4", 3),  # unit up times its half-height
+    ]
+)
+CAMERA = Record("Camera", CAMERA_DTYPE)
+# the render kernel's values for one launch (trace/renderer.py, Renderer.launch), passed by value
+RENDER_PARAMS_DTYPE = np.dtype(
+    [
+        ("background", "<f4", 3),  # linear RGB of a ray that meets nothing
+        ("ambient", "<f4", 3),  # ambient light, times each surface's kd
+        ("n_work", "<i4"),  # pixels in this launch (work-items past it return at once)
+        ("width", "<i4"),  # the image's size in pixels
+        ("height", "<i4"),
+        ("sampler", "<i4"),  # SAMPLERS code
+        ("samples_per_side", "<i4"),  # N: N x N samples per pixel
+        ("pixel_filter", "<i4"),  # PIXEL_FILTERS code
+        ("seed", "<u4"),  # seeds every random number (kernels/rng.h)
+        ("max_depth", "<i4"),  # bounces after the primary hit
+        ("fresnel", "<i4"),  # 0: transparency splits as the seed; 1: Schlick
+        ("light_samples", "<i4"),  # > 0: every area light's samples per side; 0: each light's own
+        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light (the seed); 0: uniform random
+        ("record", "<i4"),  # 1: write the first sample's ids, shadows and AOVs
+        ("n_lights", "<i4"),
+        ("n_prims", "<i4"),
+    ]
+)
+RENDER_PARAMS = Record("RenderParams", RENDER_PARAMS_DTYPE)
+# per pixel: the object ids met along the path (depth-first order, -1 past its end), and the primary hit's facet
+# (its primitive id on a flat-shaded mesh, where the shading jumps from face to face, else -1)
+ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])
+ID_RECORD = Record("IdRecord", ID_RECORD_DTYPE)
+# per pixel, with -DWRITE_AOV=1: the primary hit's facts (trace/aov.py): the unit shading normal facing the camera,
+# the distance along the ray, the material's kd; all 0 on a miss.  32 bytes: a fill pattern clears it.
+AOV_DTYPE = np.dtype({"names": ["normal", "depth", "albedo"], "formats": [("<f4", 3), "<f4", ("<f4", 3)], "offsets": [0, 12, 16], "itemsize": 32})
+AOV = Record("AovRecord", AOV_DTYPE)
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...
@@ -171,13 +224,10 @@ SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)
 
 DEFINES = {
     "PATH_LEN": PATH_LEN,
-    "ID_RECORD": ID_RECORD,
     "PRIM_ROWS": PRIM_ROWS,
-    "MATERIAL_ROWS": MATERIAL_ROWS,
-    "LIGHT_ROWS": LIGHT_ROWS,
-    "NORMAL_ROWS": NORMAL_ROWS,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
     **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
+    **{f"LIGHT_FALLOFF_{name.upper()}": code for name, code in LIGHT_FALLOFFS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
     "SPLAT_TILE": SPLAT_TILE,

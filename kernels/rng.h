@@ -1,25 +1,45 @@
 /* Counter-based random numbers: a value depends only on (seed, pixel,
- * sample, dimension), never on work-group size, device or launch order. */
+ * sample, dimension), never on work-group size, device or launch order.
+ * Each step is written once and used for one value and for eight lanes
+ * (uint8, float8: eight dimensions of one stream at once, for an area
+ * light's samples in kernels/shade.h); integer steps are exact, so every
+ * lane is bit for bit the one-value result. */
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
 
-/* The lowbias32 integer finaliser (Wellons): strong avalanche, cheap. */
-INLINE uint mix32(uint x) {
-    x ^= x >> 16; x *= 0x7feb352dU;
-    x ^= x >> 15; x *= 0x846ca68bU;
-    x ^= x >> 16;
-    return x;
-}
+/* The lowbias32 integer finaliser (Wellons): strong avalanche, cheap.  x: a uint or uint8 variable. */
+#define MIX32_STEPS(x)                  \
+    x ^= x >> 16; x *= 0x7feb352dU; \
+    x ^= x >> 15; x *= 0x846ca68bU; \
+    x ^= x >> 16
 
-INLINE uint hash4(uint a, uint b, uint c, uint d) {
+INLINE uint mix32(uint x) { MIX32_STEPS(x); return x; }
+INLINE uint8 mix32_lanes(uint8 x) { MIX32_STEPS(x); return x; }
+
+/* hash4's first three rounds: what every dimension d of one (a, b, c) stream shares */
+INLINE uint hash3(uint a, uint b, uint c) {
     uint h = mix32(a + 0x9e3779b9U);
     h = mix32(h ^ (b + 0x85ebca6bU));
-    h = mix32(h ^ (c + 0xc2b2ae35U));
-    return mix32(h ^ (d + 0x27d4eb2fU));
+    return mix32(h ^ (c + 0xc2b2ae35U));
 }
 
-/* Uniform float in [0, 1) with 24 random bits. */
-INLINE float u01(uint h) { return (float)(h >> 8) * (1.0f / 16777216.0f); }
+#define HASH_KEY_D 0x27d4eb2fU /* the last round's key, of hash4 and hash4_lanes alike */
+INLINE uint hash4(uint a, uint b, uint c, uint d) { return mix32(hash3(a, b, c) ^ (d + HASH_KEY_D)); }
+INLINE uint8 hash4_lanes(uint a, uint b, uint c, uint8 d) { return mix32_lanes((uint8)(hash3(a, b, c)) ^ (d + HASH_KEY_D)); }
+
+/* Uniform float in [0, 1) with 24 random bits: the top 24 bits of h, times 2^-24. */
+#define U01_SCALE (1.0f / 16777216.0f)
+INLINE float u01(uint h) { return (float)(h >> 8) * U01_SCALE; }
+
+/* u01 lane by lane: the same 24-bit integer, converted to float exactly as (float) does, by bit tricks
+ * instead of convert_float8 (out of line on PoCL): q = 2 floor(q / 2) + (q & 1), and q >> 1 < 2^23 is the
+ * mantissa of 2^23 + (q >> 1). */
+INLINE float8 u01_lanes(uint8 h) {
+    uint8 q = h >> 8;
+    float8 halves = as_float8((q >> 1) | 0x4b000000u) - 8388608.0f; /* 0x4b000000: 2^23 = 8388608.0f */
+    float8 odd = (q & 1u) != (uint8)(0u) ? (float8)(1.0f) : (float8)(0.0f);
+    return (halves * 2.0f + odd) * U01_SCALE;
+}
 
 typedef struct {
     uint seed, pixel, sample, dim;
@@ -37,5 +57,8 @@ INLINE float rng_next(Rng *r) {
     r->dim += 1;
     return x;
 }
+
+/* Dimensions `dim` (one per lane) of this stream, as rng_next gives them; r->dim is left as it is. */
+INLINE float8 rng_lanes(const Rng *r, uint8 dim) { return u01_lanes(hash4_lanes(r->seed, r->pixel, r->sample, dim)); }
 
 #endif

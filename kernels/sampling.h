@@ -53,6 +53,12 @@ INLINE uint owen_scramble(uint x, uint seed) {
     return reverse_bits32(x);
 }
 
+/* A pixel's Owen scramble keys: hash4 of (seed, pixel, SOBOL_KEY_SAMPLE, 0), where the sample index would go a
+ * value beyond any (at most 64 x 64 samples), so the key is no sample's random number; the y dimension's key is
+ * that key mixed with SOBOL_KEY_Y. */
+#define SOBOL_KEY_SAMPLE 0x50B01U
+#define SOBOL_KEY_Y 0x68bc21ebU
+
 INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
@@ -71,9 +77,9 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
         return (float2)((q + x) / fn, (p + y) / fn);
     }
     /* scrambled Sobol: the first n*n points of a (0,2)-sequence, per-pixel Owen scramble */
-    uint key = hash4(rng->seed, rng->pixel, 0x50B01U, 0U);
+    uint key = hash4(rng->seed, rng->pixel, SOBOL_KEY_SAMPLE, 0U);
     uint x = owen_scramble(reverse_bits32(s), key);
-    uint y = owen_scramble(sobol_dim1(s), mix32(key ^ 0x68bc21ebU));
+    uint y = owen_scramble(sobol_dim1(s), mix32(key ^ SOBOL_KEY_Y));
     rng->dim += 2; /* keep later dimensions aligned with the other samplers */
     return (float2)(u01(x), u01(y));
 }
@@ -81,10 +87,13 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
  * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the
  * pixel centre.  Samples stay inside their own pixel. */
+#define TENT_FLOOR 1e-6f            /* added to every tent weight: a pixel whose samples all lie on its border keeps weight */
+#define GAUSSIAN_FILTER_SIGMA 0.25f /* px, as docs/shading.md states it */
 INLINE float pixel_filter_weight(int filter, float2 off) {
     float dx = off.x - 0.5f, dy = off.y - 0.5f;
-    if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + 1e-6f;
-    if (filter == PIXEL_FILTER_GAUSSIAN) return exp(-(dx * dx + dy * dy) / (2.0f * 0.25f * 0.25f));
+    if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + TENT_FLOOR;
+    if (filter == PIXEL_FILTER_GAUSSIAN)
+        return exp(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
     return 1.0f;
 }
 

@@ -1,7 +1,15 @@
 /* Whitted shading: ambient + Lambert + Blinn-Phong from point, directional
  * and parallelogram area lights with shadow rays, then mirror reflection and
  * refraction (Snell's law, total internal reflection, optional Schlick
- * Fresnel) on an explicit ray stack instead of recursion. */
+ * Fresnel) on an explicit ray stack instead of recursion.
+ *
+ * Records (clrender/layout.py): Light, VertexNormals, Material, ObjectRecord,
+ * IdRecord and AovRecord, read and written by field name.
+ *
+ * FP_CONTRACT is on here (intersect.h and shaft.h turn it back on after their
+ * own code), so a*b + c may become one fma: an expression must keep its shape
+ * for its value to keep its bits, and each lane function below is written with
+ * the same expressions as its one-value form. */
 #ifndef CLRENDER_SHADE_H
 #define CLRENDER_SHADE_H
 
@@ -17,8 +25,8 @@
 /* What the render kernel shades with (the Python side's clrender.scene.Scene, packed). */
 typedef struct {
     Geometry geo;
-    __global const float4 *normals;
-    __global const float4 *lights;
+    __global const VertexNormals *normals; /* per primitive id */
+    __global const Light *lights;
     int n_lights;
     int light_samples;   /* > 0 overrides every area light's samples per side */
     int max_depth;       /* bounces after the primary hit */
@@ -27,11 +35,24 @@ typedef struct {
     float3 background;
     float3 ambient;
 #if WRITE_AOV
-    __global float4 *aov; /* null, or this pixel's primary-hit record: (shading normal, t), (kd, 0) */
+    __global AovRecord *aov; /* null, or this pixel's primary-hit record */
 #endif
 } SceneView;
 
+/* A point being shaded: where it is, which way it faces, what it is made of. */
+typedef struct {
+    float3 p, p_err;  /* the hit point from the primitive, and its float32 error per axis */
+    float3 n, n_geo;  /* unit shading and geometric normals, both on the side the ray came from */
+    float3 v;         /* unit direction towards the viewer */
+    float3 kd, ks;    /* the material's diffuse and specular colours */
+    float shininess;  /* its Blinn-Phong exponent */
+    int slot;         /* the primitive's slot: a shadow shaft leaves its own surface out */
+    float3 origin_front, origin_back; /* where shadow rays leave, off the surface on the side they go (direct_light) */
+} ShadingPoint;
+
 #define MAX_FALLOFF 1e10f /* cap of 1/r^2 (r = 1e-5) and of an area light's A cos / r^2 */
+#define INV_PI 0.318309886f /* 1/pi, of the physical BRDF */
+#define MIN_N_DOT_H 1e-30f /* (n.h)^s is taken of n.h clamped to this: pow_unit needs x in (0, 1] */
 
 INLINE float3 reflect_dir(float3 d, float3 n) { return d - 2.0f * dot3(d, n) * n; }
 
@@ -57,35 +78,24 @@ INLINE float schlick(float cos_i, float n1, float n2, float cos_t) {
     return r0 + (1.0f - r0) * m * m * m * m * m;
 }
 
-/* ---- an area light's samples eight at a time (float8 lanes), the same operations in the same order
- * as the one-sample code (direct_light's other lights, rng.h), so every lane's value is bit for bit the
- * one-sample value: integer to float conversions by exact bit tricks instead of convert_float8
- * (out of line on PoCL), selects by ?:. */
+/* ---- eight values at a time (float8 lanes): an area light's samples.  A function with a lane form
+ * has one definition, the lane one, and its one-value form calls it with the value in every lane, so
+ * both round alike bit for bit; integer to float conversions by exact bit tricks instead of
+ * convert_float8 (out of line on PoCL), selects by ?:. */
 #define LIGHT_LANES 8
 typedef float8 light_f;
 typedef int8 light_i;
 typedef uint8 light_u;
+typedef struct { light_f x, y, z; } light_f3; /* eight float3s, one lane each */
 #define LIGHT_ARRAY(v) {(v).s0, (v).s1, (v).s2, (v).s3, (v).s4, (v).s5, (v).s6, (v).s7}
 
-/* rng_next for dimensions dim (per lane) of one (seed, pixel, sample) stream: hash4's first three
- * rounds are the same for every lane */
-INLINE light_f rng_lanes(const Rng *r, light_u dim) {
-    uint h = mix32(r->seed + 0x9e3779b9U);
-    h = mix32(h ^ (r->pixel + 0x85ebca6bU));
-    h = mix32(h ^ (r->sample + 0xc2b2ae35U));
-    light_u x = (light_u)(h) ^ (dim + 0x27d4eb2fU);
-    x ^= x >> 16; x *= 0x7feb352dU;
-    x ^= x >> 15; x *= 0x846ca68bU;
-    x ^= x >> 16;
-    /* u01: (x >> 8) * 2^-24, the 24-bit integer converted exactly: 2 floor(x / 2^9) + bit 8 */
-    light_u q = x >> 8;
-    light_f halves = as_float8((q >> 1) | 0x4b000000u) - 8388608.0f; /* q >> 1 < 2^23: exact */
-    light_f odd = (q & 1u) != (light_u)(0u) ? (light_f)(1.0f) : (light_f)(0.0f);
-    return (halves * 2.0f + odd) * (1.0f / 16777216.0f);
-}
+/* A float of magnitude below 2^22 plus ROUND_BIAS (1.5 * 2^23, whose bits are ROUND_BIAS_BITS) holds its
+ * rounded integer part in the low mantissa bits; subtracting it again leaves that integer. */
+#define ROUND_BIAS 12582912.0f
+#define ROUND_BIAS_BITS 0x4b400000
 
 /* small integers (|i| < 2^22) to float, exactly */
-INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + 0x4b400000) - 12582912.0f; }
+INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + ROUND_BIAS_BITS) - ROUND_BIAS; }
 
 /* x^s for x in (0, 1], s > 0, lane by lane, as 2^(s log2 x), inline: PoCL's native_exp2 and native_log2 are
  * out-of-line library calls that took a fifth of a render's time.  log2 from the atanh series of
@@ -94,18 +104,18 @@ INLINE light_f int_to_float_lanes(light_i i) { return as_float8(i + 0x4b400000) 
 INLINE light_f pow_unit_lanes(light_f x, float s) {
     light_i e = ((as_int8(x) >> 23) & 0xff) - 127;
     light_f m = as_float8((as_int8(x) & 0x007fffff) | 0x3f800000);
-    light_i big = m > 1.41421356f;
+    light_i big = m > 1.41421356f; /* sqrt(2) */
     m = big ? m * 0.5f : m;
     e = big ? e + 1 : e;
     light_f a = (m - 1.0f) / (m + 1.0f), a2 = a * a;
     light_f ln_m = 2.0f * a * (1.0f + a2 * (1.0f / 3.0f + a2 * (0.2f + a2 * (1.0f / 7.0f + a2 * (1.0f / 9.0f)))));
-    light_f y = s * (int_to_float_lanes(e) + ln_m * 1.44269504f);
+    light_f y = s * (int_to_float_lanes(e) + ln_m * 1.44269504f); /* log2(e) */
     /* n = -(int)(0.5 - y): 0.5 - y >= 0.5 here, truncated by rounding to an integer and stepping down */
     light_f v = 0.5f - y;
-    light_f rounded = (v + 12582912.0f) - 12582912.0f;
+    light_f rounded = (v + ROUND_BIAS) - ROUND_BIAS;
     light_f t = rounded > v ? rounded - 1.0f : rounded;
-    light_i n = -(as_int8(t + 12582912.0f) - 0x4b400000);
-    light_f f = (y - int_to_float_lanes(n)) * 0.693147181f;
+    light_i n = -(as_int8(t + ROUND_BIAS) - ROUND_BIAS_BITS);
+    light_f f = (y - int_to_float_lanes(n)) * 0.693147181f; /* ln(2) */
     light_f ef = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6.0f + f * (1.0f / 24.0f + f * (1.0f / 120.0f + f * (1.0f / 720.0f + f * (1.0f / 5040.0f)))))));
     light_f r = ef * as_float8((n + 127) << 23);
     return y < -126.0f ? (light_f)(0.0f) : r;
@@ -114,317 +124,402 @@ INLINE light_f pow_unit_lanes(light_f x, float s) {
 /* One x^s: lane 0 of pow_unit_lanes, so a point light's highlight and an area light's lanes round alike. */
 INLINE float pow_unit(float x, float s) { return pow_unit_lanes((light_f)(x), s).s0; }
 
-/* Lambert + Blinn-Phong, per unit of the light's value at the surface.
+/* Lambert + Blinn-Phong at pt, per unit of the light's value at the surface, for eight unit directions
+ * l towards the light (blinn_phong: for one).
  * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
  * The physical model (lights with inverse-square falloff): the energy-conserving
  * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
-INLINE float3 blinn_phong(float3 n, float3 l, float3 v, float4 kd_shine, float4 ks_mirror, bool physical) {
-    float n_dot_l = max_f(dot3(n, l), 0.0f);
-    float3 h = unit(l + v);
-    float shininess = kd_shine.w;
+INLINE light_f3 blinn_phong_lanes(const ShadingPoint *pt, light_f3 l, bool physical) {
+    float3 n = pt->n, v = pt->v, kd = pt->kd, ks = pt->ks;
+    float shininess = pt->shininess;
+    light_f n_dot = n.x * l.x + n.y * l.y + n.z * l.z;
+    light_f n_dot_l = n_dot > 0.0f ? n_dot : (light_f)(0.0f);
+    light_f3 h = {l.x + v.x, l.y + v.y, l.z + v.z};
+    light_f h_len = sqrt(h.x * h.x + h.y * h.y + h.z * h.z);
+    h.x /= h_len; h.y /= h_len; h.z /= h_len;
     /* (n.h)^s only where it is used: lit side, specular colour present (the pow is the costly part) */
-    bool specular = n_dot_l > 0.0f && (ks_mirror.x > 0.0f || ks_mirror.y > 0.0f || ks_mirror.z > 0.0f);
-    float spec = !specular ? 0.0f
-                 : (shininess > 0.0f) ? pow_unit(max_f(dot3(n, h), 1e-30f), shininess) : 1.0f;
-    if (physical) {
-        const float INV_PI = 0.318309886f;
-        return (kd_shine.xyz * INV_PI + ks_mirror.xyz * ((shininess + 8.0f) * 0.125f * INV_PI * spec)) * n_dot_l;
+    light_f spec = (light_f)(0.0f);
+    if (ks.x > 0.0f || ks.y > 0.0f || ks.z > 0.0f) {
+        light_f n_dot_h = n.x * h.x + n.y * h.y + n.z * h.z;
+        light_f x = n_dot_h > MIN_N_DOT_H ? n_dot_h : (light_f)(MIN_N_DOT_H);
+        spec = shininess > 0.0f ? pow_unit_lanes(x, shininess) : (light_f)(1.0f);
+        spec = n_dot_l > 0.0f ? spec : (light_f)(0.0f);
     }
-    return kd_shine.xyz * n_dot_l + ks_mirror.xyz * (n_dot_l > 0.0f ? spec : 0.0f);
+    light_f3 out;
+    if (physical) {
+        /* kd in lanes before the product: kd/pi + ks w contracts to fma(kd, 1/pi, ks w) (kd.x * INV_PI of two
+           floats would be splat, and the fma would take ks w instead) */
+        light_f ks_w = (shininess + 8.0f) * 0.125f * INV_PI * spec;
+        out.x = ((light_f)(kd.x) * INV_PI + ks.x * ks_w) * n_dot_l;
+        out.y = ((light_f)(kd.y) * INV_PI + ks.y * ks_w) * n_dot_l;
+        out.z = ((light_f)(kd.z) * INV_PI + ks.z * ks_w) * n_dot_l;
+    } else {
+        out.x = kd.x * n_dot_l + ks.x * spec;
+        out.y = kd.y * n_dot_l + ks.y * spec;
+        out.z = kd.z * n_dot_l + ks.z * spec;
+    }
+    return out;
+}
+
+/* blinn_phong_lanes for one direction l: lane 0 of l in every lane */
+INLINE float3 blinn_phong(const ShadingPoint *pt, float3 l, bool physical) {
+    light_f3 lanes = {(light_f)(l.x), (light_f)(l.y), (light_f)(l.z)};
+    light_f3 b = blinn_phong_lanes(pt, lanes, physical);
+    return (float3)(b.x.s0, b.y.s0, b.z.s0);
 }
 
 #if SHAFTS_ON
 #define SHAFT_PARAMS int shaft_side, ShaftCandidates *cand
 #define SHAFT_ARGS shaft_side, &cand
+#define NO_SHAFT 0, 0
 #else
 #define SHAFT_PARAMS int shaft_side
 #define SHAFT_ARGS 0
+#define NO_SHAFT 0
 #endif
 
-/* Fraction of the light reaching p + l dist (l unit) along a shadow ray leaving from the side of
+/* Fraction of the light reaching pt->p + l dist (l unit) along a shadow ray leaving from the side of
  * the surface it goes towards: through the shaft's candidates when the shaft serves that side
  * (shaft_side 1: front, -1: back), else by traversing the tree. */
-INLINE float sample_transmittance(const SceneView *sc, float3 p, float3 l, float dist, float3 n_geo, float3 origin_front,
-                                  float3 origin_back, SHAFT_PARAMS, uint *visits) {
-    bool front = dot3(n_geo, l) >= 0.0f;
-    float3 origin = front ? origin_front : origin_back;
+INLINE float sample_transmittance(const SceneView *sc, const ShadingPoint *pt, float3 l, float dist, SHAFT_PARAMS,
+                                  uint *visits) {
+    bool front = dot3(pt->n_geo, l) >= 0.0f;
+    float3 origin = front ? pt->origin_front : pt->origin_back;
 #if SHAFTS_ON
-    if (shaft_side != 0 && front == (shaft_side > 0)) {
-        if (cand->n == 0) return cand->crossed_T; /* nothing more to cross */
-        Ray sr = make_ray(origin, l);
-        float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
-        return shaft_transmittance(cand, &sc->geo, sr, t_max);
-    }
+    bool by_shaft = shaft_side != 0 && front == (shaft_side > 0);
+    if (by_shaft && cand->n == 0) return cand->crossed_T; /* nothing more to cross */
 #endif
     Ray sr = make_ray(origin, l);
-    float t_max = (dist == INF_T) ? INF_T : norm(p + l * dist - origin);
+    float t_max = (dist == INF_T) ? INF_T : norm(pt->p + l * dist - origin);
+#if SHAFTS_ON
+    if (by_shaft) return shaft_transmittance(cand, &sc->geo, sr, t_max);
+#endif
     return transmittance(&sc->geo, sr, 0.0f, t_max, false, visits);
 }
 
-/* Light from every light source at p, and (when `shadow` is not null) the
+/* A point or directional light's one sample at pt: its light added to *total; returns the fraction
+ * of the light that reached pt. */
+INLINE float point_light(const SceneView *sc, const ShadingPoint *pt, __global const Light *light, float3 *total,
+                         uint *visits, uint *rays) {
+    bool inverse_square = light->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+    float3 l;
+    float dist, falloff = 1.0f;
+    if (light->type == LIGHT_DIRECTIONAL) {
+        l = -unit(vload3(0, light->direction));
+        dist = INF_T;
+    } else {
+        l = vload3(0, light->position) - pt->p;
+        dist = norm(l);
+        l /= dist;
+        if (inverse_square) {
+            falloff = 1.0f / (dist * dist);
+            /* a light within 1e-5 of the point overflowed float32 to inf (issue 14): the falloff
+               is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
+            falloff = min_f(falloff, MAX_FALLOFF);
+        }
+    }
+    float T = 1.0f;
+    if (dot3(pt->n, l) > 0.0f) {
+        T = sample_transmittance(sc, pt, l, dist, NO_SHAFT, visits);
+        *rays += 1;
+        /* a blocked sample adds nothing: skip the shading (its pow is a third of a render's time);
+           one sample: the light's whole intensity */
+        if (T > 0.0f)
+            *total += (T * light->intensity * falloff) * vload3(0, light->colour) * blinn_phong(pt, l, inverse_square);
+    }
+    return T;
+}
+
+/* An area light: a parallelogram from `corner` along its edges a and b, and its unit normal and area. */
+typedef struct {
+    float3 corner, edge_a, edge_b;
+    float3 normal;
+    float area;
+} Parallelogram;
+
+INLINE Parallelogram parallelogram(__global const Light *light) {
+    Parallelogram pg;
+    pg.corner = vload3(0, light->position);
+    pg.edge_a = vload3(0, light->edge_a);
+    pg.edge_b = vload3(0, light->edge_b);
+    float3 normal = cross3(pg.edge_a, pg.edge_b);
+    pg.area = norm(normal);
+    pg.normal = pg.area > 0.0f ? normal / pg.area : normal;
+    return pg;
+}
+
+/* Samples per side of a light: n x n for an area light, 1 for the others. */
+INLINE uint samples_per_side(const SceneView *sc, __global const Light *light) {
+    if (light->type != LIGHT_AREA) return 1;
+    return sc->light_samples > 0 ? (uint)sc->light_samples : (uint)light->samples;
+}
+
+/* Eight samples of an area light, in lanes. */
+typedef struct {
+    light_f3 l;      /* unit direction from the shading point towards the sample's point on the light */
+    light_f dist;    /* distance to that point */
+    light_f falloff; /* 1, or with inverse-square falloff A cos(theta_light) / r^2, capped */
+    light_f n_dot;   /* n.l: the sample lights the surface where > 0 */
+    light_f3 brdf;   /* blinn_phong per unit of the light's value */
+} AreaLanes;
+
+/* Samples base .. base + LIGHT_LANES - 1 of an area light of n_side x n_side at pt; (*row, *col) is the
+ * cell of sample `base` and is moved past the eight.  Their random numbers are dimensions
+ * rng->dim + 2 (sample index) and the next one. */
+INLINE AreaLanes area_lanes(const SceneView *sc, const ShadingPoint *pt, const Parallelogram *pg, bool inverse_square,
+                            uint n_side, const Rng *rng, uint base, uint *row, uint *col) {
+    float cell_p[LIGHT_LANES], cell_q[LIGHT_LANES];
+    for (int j = 0; j < LIGHT_LANES; ++j) {
+        cell_p[j] = (float)*row; cell_q[j] = (float)*col;
+        if (++*col == n_side) { *col = 0; ++*row; }
+    }
+    light_f fp = (light_f)(cell_p[0], cell_p[1], cell_p[2], cell_p[3], cell_p[4], cell_p[5], cell_p[6], cell_p[7]);
+    light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
+    light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
+    light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
+    /* the light's point: stratified (the seed), corner + (p + xi)/n a + (q + xi')/n b, one jittered
+       point per cell; random: corner + xi a + xi' b, ignoring the cells (to show what strata buy) */
+    float fn = (float)n_side;
+    light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;
+    light_f ub = sc->light_stratified ? (fq + xi_b) / fn : xi_b;
+    float3 c = pg->corner, a = pg->edge_a, b = pg->edge_b, p = pt->p;
+    AreaLanes s;
+    s.l.x = c.x + ua * a.x + ub * b.x - p.x;
+    s.l.y = c.y + ua * a.y + ub * b.y - p.y;
+    s.l.z = c.z + ua * a.z + ub * b.z - p.z;
+    s.dist = sqrt(s.l.x * s.l.x + s.l.y * s.l.y + s.l.z * s.l.z);
+    s.l.x /= s.dist; s.l.y /= s.dist; s.l.z /= s.dist;
+    s.falloff = (light_f)(1.0f);
+    if (inverse_square) { /* as for a point light, and: */
+        s.falloff = 1.0f / (s.dist * s.dist);
+        /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
+        light_f cos_light = pg->normal.x * s.l.x + pg->normal.y * s.l.y + pg->normal.z * s.l.z;
+        s.falloff *= pg->area * as_float8(as_uint8(cos_light) & 0x7fffffffu);
+        s.falloff = s.falloff < MAX_FALLOFF ? s.falloff : (light_f)(MAX_FALLOFF);
+    }
+    float3 n = pt->n;
+    s.n_dot = n.x * s.l.x + n.y * s.l.y + n.z * s.l.z;
+    s.brdf = blinn_phong_lanes(pt, s.l, inverse_square);
+    return s;
+}
+
+#if SHAFTS_ON
+/* The shaft from pt's shadow-ray origin to the light (kernels/shaft.h): its candidates in *cand, and the
+ * side whose rays it serves (1: front, -1: back), or 0: the rays traverse the tree (no shaft could be
+ * built, or it met too many candidates). */
+INLINE int start_shaft(const SceneView *sc, const ShadingPoint *pt, const Parallelogram *pg, ShaftCandidates *cand,
+                       uint *visits) {
+    /* the light straddles the tangent plane: a shaft for the front rays, the own surface kept */
+    int side = light_side(pt->p, pt->n_geo, pg->corner, pg->edge_a, pg->edge_b);
+    Shaft sh;
+    if (make_shaft(side >= 0 ? pt->origin_front : pt->origin_back, pg->corner, pg->edge_a, pg->edge_b, &sh) &&
+        shaft_candidates(&sh, &sc->geo, side != 0 ? pt->slot : -1, cand, visits))
+        return side >= 0 ? 1 : -1;
+    return 0;
+}
+#endif
+
+/* An area light's n x n samples at pt, eight at a time in lanes (area_lanes), the shadow rays one by
+ * one; each sample's light added to *total in sample order.  Returns the sum of the samples'
+ * transmittances; takes 2 n^2 dimensions of rng. */
+INLINE float area_light(const SceneView *sc, const ShadingPoint *pt, __global const Light *light, Rng *rng,
+                        float3 *total, uint *visits, uint *rays) {
+    Parallelogram pg = parallelogram(light);
+    bool inverse_square = light->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+    uint n_side = samples_per_side(sc, light), n2 = n_side * n_side;
+    float weight = light->intensity / (float)(n_side * n_side);
+    float3 colour = vload3(0, light->colour);
+    float visible = 0.0f;
+#if SHAFTS_ON
+    /* the rays all leave from one side: one shaft traversal finds what they may meet; else (or with too
+       many candidates) each ray traverses the tree.  Built at the first sample that sends a ray: a
+       surface facing away from the light needs none. */
+    int shaft_side = 0; /* 1, -1: the samples whose rays leave from the front, back origin use the shaft */
+    ShaftCandidates cand;
+    bool shaft_pending = n_side > 1;
+#endif
+    uint row = 0, col = 0;
+    for (uint base = 0; base < n2; base += LIGHT_LANES) {
+        AreaLanes s = area_lanes(sc, pt, &pg, inverse_square, n_side, rng, base, &row, &col);
+        float al_x[LIGHT_LANES] = LIGHT_ARRAY(s.l.x), al_y[LIGHT_LANES] = LIGHT_ARRAY(s.l.y), al_z[LIGHT_LANES] = LIGHT_ARRAY(s.l.z);
+        float a_dist[LIGHT_LANES] = LIGHT_ARRAY(s.dist), a_fall[LIGHT_LANES] = LIGHT_ARRAY(s.falloff);
+        float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(s.n_dot);
+        float a_bx[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.x), a_by[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.y), a_bz[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.z);
+        uint lanes = n2 - base < LIGHT_LANES ? n2 - base : LIGHT_LANES;
+        for (uint j = 0; j < lanes; ++j) {
+            float T = 1.0f;
+            if (a_ndot[j] > 0.0f) {
+#if SHAFTS_ON
+                if (shaft_pending) {
+                    shaft_pending = false;
+                    shaft_side = start_shaft(sc, pt, &pg, &cand, visits);
+                }
+#endif
+                float3 l = (float3)(al_x[j], al_y[j], al_z[j]);
+                T = sample_transmittance(sc, pt, l, a_dist[j], SHAFT_ARGS, visits);
+                *rays += 1;
+                if (T > 0.0f) *total += (T * weight * a_fall[j]) * colour * (float3)(a_bx[j], a_by[j], a_bz[j]);
+            }
+            visible += T;
+        }
+    }
+    rng->dim += 2u * n2;
+    return visible;
+}
+
+/* Light from every light source at pt, and (when `shadow` is not null) the
  * fraction of each light that shadow rays found unblocked. */
-INLINE float3 direct_light(const SceneView *sc, float3 p, float3 p_err, float3 n, float3 n_geo, float3 v,
-                           float4 kd, float4 ks, int own_slot, Rng *rng, __global float *shadow, uint *visits,
+INLINE float3 direct_light(const SceneView *sc, ShadingPoint pt, Rng *rng, __global float *shadow, uint *visits,
                            uint *rays) {
     float3 total = (float3)(0.0f);
     /* shadow rays start off the surface on the side they leave towards */
-    float3 origin_front = offset_origin(p, p_err, n_geo), origin_back = offset_origin(p, p_err, -n_geo);
+    pt.origin_front = offset_origin(pt.p, pt.p_err, pt.n_geo);
+    pt.origin_back = offset_origin(pt.p, pt.p_err, -pt.n_geo);
     for (int li = 0; li < sc->n_lights; ++li) {
-        float4 head = sc->lights[LIGHT_ROWS * li];
-        int type = (int)head.x;
-        float intensity = head.z;
-        bool inverse_square = head.w != 0.0f;
-        float3 pos = sc->lights[LIGHT_ROWS * li + 1].xyz;
-        float3 colour = sc->lights[LIGHT_ROWS * li + 2].xyz;
-        uint n_side = 1;
-        float3 edge_a = (float3)(0.0f), edge_b = (float3)(0.0f);
-        if (type == LIGHT_AREA) {
-            n_side = sc->light_samples > 0 ? (uint)sc->light_samples : (uint)head.y;
-            edge_a = sc->lights[LIGHT_ROWS * li + 3].xyz;
-            edge_b = sc->lights[LIGHT_ROWS * li + 4].xyz;
-        }
-        float3 light_normal = cross3(edge_a, edge_b);
-        float area = norm(light_normal);
-        light_normal = area > 0.0f ? light_normal / area : light_normal;
-        float weight = intensity / (float)(n_side * n_side);
-        float visible = 0.0f;
-        int shaft_side = 0; /* 1, -1: the samples whose rays leave from the front, back origin use the shaft */
-#if SHAFTS_ON
-        /* an area light's rays all leave from one side: one shaft traversal finds what they may meet
-           (kernels/shaft.h); else (or with too many candidates) each ray traverses the tree.  Built at
-           the first sample that sends a ray: a surface facing away from the light needs none. */
-        ShaftCandidates cand;
-        bool shaft_pending = type == LIGHT_AREA && n_side > 1;
-#endif
-        if (type == LIGHT_AREA) {
-            /* eight samples at a time: the light point, direction, falloff and Blinn-Phong in lanes,
-               the shadow rays one by one; sums in sample order */
-            uint n2 = n_side * n_side;
-            float fn = (float)n_side;
-            float shininess = kd.w;
-            bool has_specular = ks.x > 0.0f || ks.y > 0.0f || ks.z > 0.0f;
-            uint sp = 0, sq = 0;
-            for (uint base = 0; base < n2; base += LIGHT_LANES) {
-                float cell_p[LIGHT_LANES], cell_q[LIGHT_LANES];
-                for (int j = 0; j < LIGHT_LANES; ++j) {
-                    cell_p[j] = (float)sp; cell_q[j] = (float)sq;
-                    if (++sq == n_side) { sq = 0; ++sp; }
-                }
-                light_f fp = (light_f)(cell_p[0], cell_p[1], cell_p[2], cell_p[3], cell_p[4], cell_p[5], cell_p[6], cell_p[7]);
-                light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
-                light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
-                light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
-                /* the light's point: stratified (the seed), corner + (p + xi)/n a + (q + xi')/n b, one jittered
-                   point per cell; random: corner + xi a + xi' b, ignoring the cells (to show what strata buy) */
-                light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;
-                light_f ub = sc->light_stratified ? (fq + xi_b) / fn : xi_b;
-                light_f lx = pos.x + ua * edge_a.x + ub * edge_b.x - p.x;
-                light_f ly = pos.y + ua * edge_a.y + ub * edge_b.y - p.y;
-                light_f lz = pos.z + ua * edge_a.z + ub * edge_b.z - p.z;
-                light_f dist = sqrt(lx * lx + ly * ly + lz * lz);
-                lx /= dist; ly /= dist; lz /= dist;
-                light_f falloff = (light_f)(1.0f);
-                if (inverse_square) { /* as for a point light, and: */
-                    falloff = 1.0f / (dist * dist);
-                    /* an area light's I is radiance: E = I * A cos(theta_light) / r^2 per unit of solid angle */
-                    light_f cos_light = light_normal.x * lx + light_normal.y * ly + light_normal.z * lz;
-                    falloff *= area * as_float8(as_uint8(cos_light) & 0x7fffffffu);
-                    falloff = falloff < MAX_FALLOFF ? falloff : (light_f)(MAX_FALLOFF);
-                }
-                light_f n_dot = n.x * lx + n.y * ly + n.z * lz;
-                /* blinn_phong */
-                light_f n_dot_l = n_dot > 0.0f ? n_dot : (light_f)(0.0f);
-                light_f hx = lx + v.x, hy = ly + v.y, hz = lz + v.z;
-                light_f h_len = sqrt(hx * hx + hy * hy + hz * hz);
-                hx /= h_len; hy /= h_len; hz /= h_len;
-                light_f spec = (light_f)(0.0f);
-                if (has_specular) {
-                    light_f n_dot_h = n.x * hx + n.y * hy + n.z * hz;
-                    spec = shininess > 0.0f ? pow_unit_lanes(n_dot_h > 1e-30f ? n_dot_h : (light_f)(1e-30f), shininess)
-                                            : (light_f)(1.0f);
-                    spec = n_dot_l > 0.0f ? spec : (light_f)(0.0f);
-                }
-                light_f bx, by, bz;
-                if (inverse_square) {
-                    const float INV_PI = 0.318309886f;
-                    light_f ks_w = (shininess + 8.0f) * 0.125f * INV_PI * spec;
-                    bx = (kd.x * INV_PI + ks.x * ks_w) * n_dot_l;
-                    by = (kd.y * INV_PI + ks.y * ks_w) * n_dot_l;
-                    bz = (kd.z * INV_PI + ks.z * ks_w) * n_dot_l;
-                } else {
-                    light_f spec_lit = n_dot_l > 0.0f ? spec : (light_f)(0.0f);
-                    bx = kd.x * n_dot_l + ks.x * spec_lit;
-                    by = kd.y * n_dot_l + ks.y * spec_lit;
-                    bz = kd.z * n_dot_l + ks.z * spec_lit;
-                }
-                float al_x[LIGHT_LANES] = LIGHT_ARRAY(lx), al_y[LIGHT_LANES] = LIGHT_ARRAY(ly), al_z[LIGHT_LANES] = LIGHT_ARRAY(lz);
-                float a_dist[LIGHT_LANES] = LIGHT_ARRAY(dist), a_fall[LIGHT_LANES] = LIGHT_ARRAY(falloff);
-                float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(n_dot);
-                float a_bx[LIGHT_LANES] = LIGHT_ARRAY(bx), a_by[LIGHT_LANES] = LIGHT_ARRAY(by), a_bz[LIGHT_LANES] = LIGHT_ARRAY(bz);
-                uint lanes = n2 - base < LIGHT_LANES ? n2 - base : LIGHT_LANES;
-                for (uint j = 0; j < lanes; ++j) {
-                    float T = 1.0f;
-                    if (a_ndot[j] > 0.0f) {
-#if SHAFTS_ON
-                        if (shaft_pending) {
-                            shaft_pending = false;
-                            /* the light straddles the tangent plane: a shaft for the front rays, the own
-                               surface kept */
-                            int side = light_side(p, n_geo, pos, edge_a, edge_b);
-                            Shaft sh;
-                            if (make_shaft(side >= 0 ? origin_front : origin_back, pos, edge_a, edge_b, &sh) &&
-                                shaft_candidates(&sh, &sc->geo, side != 0 ? own_slot : -1, &cand, visits))
-                                shaft_side = side >= 0 ? 1 : -1;
-                        }
-#endif
-                        float3 l = (float3)(al_x[j], al_y[j], al_z[j]);
-                        T = sample_transmittance(sc, p, l, a_dist[j], n_geo, origin_front, origin_back, SHAFT_ARGS, visits);
-                        *rays += 1;
-                        if (T > 0.0f) total += (T * weight * a_fall[j]) * colour * (float3)(a_bx[j], a_by[j], a_bz[j]);
-                    }
-                    visible += T;
-                }
-            }
-            rng->dim += 2u * n2;
-        } else
-        for (uint sp = 0; sp < n_side; ++sp) {
-            for (uint sq = 0; sq < n_side; ++sq) {
-                float3 l;
-                float dist, falloff = 1.0f;
-                if (type == LIGHT_DIRECTIONAL) {
-                    l = -unit(pos);
-                    dist = INF_T;
-                } else {
-                    float3 target = pos; /* a point light (area lights take the lanes above) */
-                    l = target - p;
-                    dist = norm(l);
-                    l /= dist;
-                    if (inverse_square) {
-                        falloff = 1.0f / (dist * dist);
-                        /* a light within 1e-5 of the point overflowed float32 to inf (issue 14): the falloff
-                           is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
-                        falloff = min_f(falloff, MAX_FALLOFF);
-                    }
-                }
-                float T = 1.0f;
-                if (dot3(n, l) > 0.0f) {
-                    T = sample_transmittance(sc, p, l, dist, n_geo, origin_front, origin_back, SHAFT_ARGS, visits);
-                    *rays += 1;
-                    /* a blocked sample adds nothing: skip the shading (its pow is a third of a render's time) */
-                    if (T > 0.0f) total += (T * weight * falloff) * colour * blinn_phong(n, l, v, kd, ks, inverse_square);
-                }
-                visible += T;
-            }
-        }
+        __global const Light *light = sc->lights + li;
+        float visible = light->type == LIGHT_AREA ? area_light(sc, &pt, light, rng, &total, visits, rays)
+                                                  : point_light(sc, &pt, light, &total, visits, rays);
+        uint n_side = samples_per_side(sc, light);
         if (shadow) shadow[li] = visible / (float)(n_side * n_side);
     }
     return total;
 }
 
-/* Colour seen along one camera ray.  When `ids` is not null it receives the
- * object ids met on the way (depth-first order, -1 past the end) and then the
- * facet of the primary hit: its primitive id on a flat-shaded mesh, where the
- * shading jumps from face to face, else -1. */
-INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global int *ids, __global float *shadow,
+/* ---- following a camera ray */
+
+/* The rays still to follow, last in first out. */
+typedef struct {
+    float4 o[RAY_STACK], d[RAY_STACK], w[RAY_STACK]; /* (origin, medium IOR) (direction, depth) (weight, 0) */
+    int n;
+} RayStack;
+
+INLINE void push_ray(RayStack *s, float3 o, float medium, float3 d, int depth, float3 w) {
+    if (s->n == RAY_STACK) return; /* cannot happen: a path holds at most max_depth + 1 rays */
+    s->o[s->n] = (float4)(o, medium);
+    s->d[s->n] = (float4)(d, (float)depth);
+    s->w[s->n] = (float4)(w, 0.0f);
+    ++s->n;
+}
+
+/* Where ray (o, d) met primitive slot h.slot: the hit point and its float32 error, the primitive's unit
+ * normal (not yet turned to face the ray), and whether it is a sphere.  The one place shading reads a
+ * primitive slot. */
+INLINE float3 hit_record(const SceneView *sc, Hit h, float3 o, float3 d, float3 *p_err, float3 *n_geo, bool *sphere) {
+    float4 a = sc->geo.prims[PRIM_ROWS * h.slot], b = sc->geo.prims[PRIM_ROWS * h.slot + 1], c = sc->geo.prims[PRIM_ROWS * h.slot + 2];
+    *sphere = is_sphere_row(b);
+    if (*sphere) {
+        float3 p = hit_point_sphere((float4)(a.xyz, b.x), o + h.t * d, p_err);
+        *n_geo = unit(p - a.xyz);
+        return p;
+    }
+    *n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
+    return hit_point_triangle(a, b, c, h.u, h.v, p_err);
+}
+
+/* A smooth triangle's normal at hit h, interpolated from its vertex normals. */
+INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
+    __global const VertexNormals *vn = sc->normals + h.id;
+    float3 n0 = vload3(0, vn->normal[0]), n1 = vload3(0, vn->normal[1]), n2 = vload3(0, vn->normal[2]);
+    return unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
+}
+
+/* The shading point of hit h of ray (o, d) on object `obj` of material m, its normals turned to face
+ * the ray.  Returns whether the ray met the front face; *sphere: whether it met a sphere. */
+INLINE bool shading_point(const SceneView *sc, Hit h, float3 o, float3 d, ObjectRecord obj, const Material *m,
+                          ShadingPoint *pt, bool *sphere) {
+    pt->p = hit_record(sc, h, o, d, &pt->p_err, &pt->n_geo, sphere);
+    pt->n = pt->n_geo;
+    if (obj.smooth && !*sphere) pt->n = smooth_normal(sc, h);
+    bool front_face = dot3(d, pt->n_geo) < 0.0f;
+    if (!front_face) { pt->n_geo = -pt->n_geo; pt->n = -pt->n; }
+    if (dot3(pt->n, d) >= 0.0f) pt->n = pt->n_geo; /* interpolated normal points away: fall back */
+    pt->v = -d;
+    pt->kd = vload3(0, m->kd);
+    pt->ks = vload3(0, m->ks);
+    pt->shininess = m->shininess;
+    pt->slot = h.slot;
+    return front_face;
+}
+
+/* What the surface at pt passes on from a ray along d of weight w in `medium`: mirror reflection, then
+ * the transparent part, refracted or (total internal reflection) all reflected; pushed as rays of
+ * depth + 1. */
+INLINE void bounce(const SceneView *sc, RayStack *stack, const ShadingPoint *pt, const Material *m, bool front_face,
+                   float3 d, float3 w, float medium, int depth) {
+    float transparency = m->transparency, mirror = m->mirror, ior = m->ior;
+    float3 w_reflect = w * (1.0f - transparency) * mirror;
+    float3 w_refract = (float3)(0.0f);
+    float3 refracted = (float3)(0.0f);
+    float n1 = front_face ? medium : ior;
+    float n2 = front_face ? ior : 1.0f; /* leaving an object enters air: objects do not nest */
+    if (transparency > 0.0f) {
+        float cos_i = -dot3(d, pt->n);
+        if (refract_dir(d, pt->n, n1 / n2, &refracted)) {
+            float F = 0.0f;
+            if (sc->fresnel) F = schlick(cos_i, n1, n2, -dot3(refracted, pt->n));
+            w_reflect += w * transparency * F;
+            w_refract = w * transparency * (1.0f - F);
+        } else { /* total internal reflection: all of it is reflected */
+            w_reflect += w * transparency;
+        }
+    }
+    if (max_f(w_refract.x, max_f(w_refract.y, w_refract.z)) > 0.0f)
+        push_ray(stack, offset_origin(pt->p, pt->p_err, -pt->n_geo), n2, refracted, depth + 1, w_refract);
+    if (max_f(w_reflect.x, max_f(w_reflect.y, w_reflect.z)) > 0.0f)
+        push_ray(stack, offset_origin(pt->p, pt->p_err, pt->n_geo), medium, reflect_dir(d, pt->n), depth + 1, w_reflect);
+}
+
+/* Colour seen along one camera ray.  When `ids` is not null it receives the object ids met on the way
+ * and the primary hit's facet (layout.ID_RECORD_DTYPE). */
+INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global IdRecord *ids, __global float *shadow,
                          uint *visits, uint *rays) {
-    float4 stack_o[RAY_STACK], stack_d[RAY_STACK], stack_w[RAY_STACK]; /* o.w: medium IOR, d.w: depth */
-    int sp = 0;
-    stack_o[0] = (float4)(primary.o, 1.0f);
-    stack_d[0] = (float4)(primary.d, 0.0f);
-    stack_w[0] = (float4)(1.0f);
-    sp = 1;
+    RayStack stack;
+    stack.n = 0;
+    push_ray(&stack, primary.o, 1.0f, primary.d, 0, (float3)(1.0f));
     float3 colour = (float3)(0.0f);
     int n_ids = 0;
     bool first_hit = true;
-    if (ids) ids[PATH_LEN] = -1;
-    while (sp > 0) {
-        --sp;
-        float3 o = stack_o[sp].xyz, d = stack_d[sp].xyz, w = stack_w[sp].xyz;
-        float medium = stack_o[sp].w;
-        int depth = (int)stack_d[sp].w;
-        Ray r = make_ray(o, d);
-        Hit h = closest_hit(&sc->geo, r, 0.0f, INF_T, visits);
+    if (ids) ids->facet = -1;
+    while (stack.n > 0) {
+        --stack.n;
+        float3 o = stack.o[stack.n].xyz, d = stack.d[stack.n].xyz, w = stack.w[stack.n].xyz;
+        float medium = stack.o[stack.n].w;
+        int depth = (int)stack.d[stack.n].w;
+        Hit h = closest_hit(&sc->geo, make_ray(o, d), 0.0f, INF_T, visits);
         *rays += 1;
         int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
-        if (ids && n_ids < PATH_LEN) ids[n_ids++] = object;
+        if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
         if (h.id < 0) {
             colour += w * sc->background;
             first_hit = false;
             continue;
         }
         ObjectRecord obj = sc->geo.objects[object];
-        if (ids && first_hit && !obj.smooth && !is_sphere(sc->geo.prims, h.slot)) ids[PATH_LEN] = h.id;
-        __global const Material *m = sc->geo.materials + obj.material;
-        float4 kd = (float4)(vload3(0, m->kd), m->shininess), ks = (float4)(vload3(0, m->ks), m->mirror);
-        float transparency = m->transparency, ior = m->ior, mirror = m->mirror;
-
-        float4 a = sc->geo.prims[PRIM_ROWS * h.slot], b = sc->geo.prims[PRIM_ROWS * h.slot + 1], c = sc->geo.prims[PRIM_ROWS * h.slot + 2];
-        float3 p, p_err; /* the hit point from the primitive, and its float32 error per axis */
-        float3 n_geo, n_shade;
-        if (is_sphere_row(b)) {
-            p = hit_point_sphere((float4)(a.xyz, b.x), o + h.t * d, &p_err);
-            n_geo = unit(p - a.xyz);
-            n_shade = n_geo;
-        } else {
-            p = hit_point_triangle(a, b, c, h.u, h.v, &p_err);
-            n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
-            n_shade = n_geo;
-            if (obj.smooth) {
-                __global const float4 *vn = sc->normals + NORMAL_ROWS * h.id;
-                n_shade = unit((1.0f - h.u - h.v) * vn[0].xyz + h.u * vn[1].xyz + h.v * vn[2].xyz);
-            }
-        }
-        bool front_face = dot3(d, n_geo) < 0.0f;
-        if (!front_face) { n_geo = -n_geo; n_shade = -n_shade; }
-        if (dot3(n_shade, d) >= 0.0f) n_shade = n_geo; /* interpolated normal points away: fall back */
+        Material m = sc->geo.materials[obj.material];
+        ShadingPoint pt;
+        bool sphere;
+        bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
+        if (ids && first_hit && !obj.smooth && !sphere) ids->facet = h.id;
 #if WRITE_AOV
-        if (first_hit && sc->aov) { sc->aov[0] = (float4)(n_shade, h.t); sc->aov[1] = (float4)(kd.xyz, 0.0f); }
+        if (first_hit && sc->aov) {
+            vstore3(pt.n, 0, sc->aov->normal);
+            sc->aov->depth = h.t;
+            vstore3(pt.kd, 0, sc->aov->albedo);
+        }
 #endif
-
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
            unless this is the primary hit whose light visibility the edge detector needs */
-        float3 surface_weight = w * (1.0f - transparency) * (1.0f - mirror);
+        float3 surface_weight = w * (1.0f - m.transparency) * (1.0f - m.mirror);
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
-            float3 surface = sc->ambient * kd.xyz +
-                             direct_light(sc, p, p_err, n_shade, n_geo, -d, kd, ks, h.slot, rng, shadow_here, visits, rays);
+            float3 surface = sc->ambient * pt.kd + direct_light(sc, pt, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;
-        if (depth >= sc->max_depth) continue;
-
-        /* what the surface passes on: mirror reflection, then the transparent part */
-        float3 w_reflect = w * (1.0f - transparency) * mirror;
-        float3 w_refract = (float3)(0.0f);
-        float3 refracted = (float3)(0.0f);
-        float n1 = front_face ? medium : ior;
-        float n2 = front_face ? ior : 1.0f; /* leaving an object enters air: objects do not nest */
-        if (transparency > 0.0f) {
-            float cos_i = -dot3(d, n_shade);
-            if (refract_dir(d, n_shade, n1 / n2, &refracted)) {
-                float F = 0.0f;
-                if (sc->fresnel) F = schlick(cos_i, n1, n2, -dot3(refracted, n_shade));
-                w_reflect += w * transparency * F;
-                w_refract = w * transparency * (1.0f - F);
-            } else { /* total internal reflection: all of it is reflected */
-                w_reflect += w * transparency;
-            }
-        }
-        if (max_f(w_refract.x, max_f(w_refract.y, w_refract.z)) > 0.0f && sp < RAY_STACK) {
-            stack_o[sp] = (float4)(offset_origin(p, p_err, -n_geo), n2);
-            stack_d[sp] = (float4)(refracted, (float)(depth + 1));
-            stack_w[sp] = (float4)(w_refract, 0.0f);
-            ++sp;
-        }
-        if (max_f(w_reflect.x, max_f(w_reflect.y, w_reflect.z)) > 0.0f && sp < RAY_STACK) {
-            stack_o[sp] = (float4)(offset_origin(p, p_err, n_geo), medium);
-            stack_d[sp] = (float4)(reflect_dir(d, n_shade), (float)(depth + 1));
-            stack_w[sp] = (float4)(w_reflect, 0.0f);
-            ++sp;
-        }
+        if (depth < sc->max_depth) bounce(sc, &stack, &pt, &m, front_face, d, w, medium, depth);
     }
     if (ids)
-        for (int k = n_ids; k < PATH_LEN; ++k) ids[k] = -1;
+        for (int k = n_ids; k < PATH_LEN; ++k) ids->path[k] = -1;
     return colour;
 }
 

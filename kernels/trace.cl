@@ -7,48 +7,46 @@
 #include "shade.h"
 #include "packet.h"
 
-/* frame: camera origin, forward, right * half-width, up * half-height
- *        (all at unit distance), background colour, ambient light.
- * aov_out: with -DWRITE_AOV=1, two float4s per pixel (see SceneView.aov); unused otherwise. */
-__kernel void render(__global const float4 *nodes, __global const float4 *prims,
-                     __global const int *prim_object, __global const float4 *normals,
-                     __global const ObjectRecord *objects, __global const Material *materials,
-                     __global const float4 *lights, __global const float4 *frame,
-                     __global const int *pixels,
-                     int n_work, int n_prims, int n_lights, int width, int height,
-                     int sampler, int samples_per_side, int pixel_filter, uint seed, int max_depth, int fresnel,
-                     int light_samples, int light_stratified, int record,
-                     __global float4 *colour_out, __global int *ids_out, __global float *shadow_out,
-                     __global uint2 *stats_out, __global float4 *aov_out) {
+/* The pixels `pixels[0 .. params.n_work)` of one launch (RenderParams, clrender/layout.py): each pixel's
+ * samples traced and filtered into colour_out, their BVH visits and rays into stats_out; with
+ * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
+ * (aov_out is unused otherwise). */
+__kernel void render(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+                     __global const VertexNormals *normals, __global const ObjectRecord *objects,
+                     __global const Material *materials, __global const Light *lights, __global const Camera *camera,
+                     __global const int *pixels, RenderParams params,
+                     __global float4 *colour_out, __global IdRecord *ids_out, __global float *shadow_out,
+                     __global uint2 *stats_out, __global AovRecord *aov_out) {
     int gid = get_global_id(0);
-    if (gid >= n_work) return;
+    if (gid >= params.n_work) return;
     SceneView sc;
-    sc.geo = geometry(nodes, prims, prim_object, objects, materials, n_prims);
+    sc.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
     sc.normals = normals; sc.lights = lights;
-    sc.n_lights = n_lights; sc.light_samples = light_samples;
-    sc.max_depth = max_depth; sc.fresnel = fresnel; sc.light_stratified = light_stratified;
-    sc.background = frame[4].xyz; sc.ambient = frame[5].xyz;
+    sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
+    sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
+    sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
 
     int pixel = pixels[gid];
-    float px = (float)(pixel % width), py = (float)(pixel / width);
-    float3 origin = frame[0].xyz, forward = frame[1].xyz, right = frame[2].xyz, up = frame[3].xyz;
-    uint n = (uint)samples_per_side;
+    float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
+    float3 origin = vload3(0, camera->origin), forward = vload3(0, camera->forward);
+    float3 right = vload3(0, camera->right), up = vload3(0, camera->up);
+    uint n = (uint)params.samples_per_side;
     float3 sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     for (uint s = 0; s < n * n; ++s) {
-        Rng rng = make_rng(seed, (uint)pixel, s);
-        float2 off = pixel_sample_offset(sampler, s, n, &rng);
-        float sx = 2.0f * (px + off.x) / (float)width - 1.0f;
-        float sy = 1.0f - 2.0f * (py + off.y) / (float)height;
+        Rng rng = make_rng(params.seed, (uint)pixel, s);
+        float2 off = pixel_sample_offset(params.sampler, s, n, &rng);
+        float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
+        float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
         Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
-        bool keep = record && s == 0; /* ids and shadows of the first sample */
+        bool keep = params.record && s == 0; /* ids and shadows of the first sample */
 #if WRITE_AOV
-        sc.aov = keep ? aov_out + (size_t)gid * 2 : 0; /* AOVs come from the same ray as the ids */
+        sc.aov = keep ? aov_out + gid : 0; /* AOVs come from the same ray as the ids */
 #endif
-        float weight = pixel_filter_weight(pixel_filter, off);
-        sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + (size_t)gid * ID_RECORD : 0,
-                                   keep ? shadow_out + (size_t)gid * n_lights : 0, &visits, &rays);
+        float weight = pixel_filter_weight(params.pixel_filter, off);
+        sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + gid : 0,
+                                   keep ? shadow_out + (size_t)gid * params.n_lights : 0, &visits, &rays);
         weight_sum += weight;
     }
     colour_out[gid] = (float4)(sum / weight_sum, 1.0f);

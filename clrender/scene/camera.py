@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..layout import CAMERA_DTYPE
 from .checks import FOV_RANGE, MIN_LENGTH, Checks, TypeReader
 
 
@@ -18,7 +19,8 @@ class Camera:
     fov: float = 60.0  # vertical field of view in degrees
 
     def frame(self, width: int, height: int) -> np.ndarray:
-        """(origin, forward, right * half-width, up * half-height) as float4 rows, at unit distance."""
+        """The kernels' `Camera` record (layout.CAMERA_DTYPE) for a width x height image: origin, unit forward,
+        right * half-width and up * half-height of the image plane at unit distance."""
         eye = np.asarray(self.position, np.float64)
         forward = np.asarray(self.look_at, np.float64) - eye
         forward /= np.linalg.norm(forward)
@@ -27,12 +29,14 @@ class Camera:
         up = np.cross(right, forward)
         half_h = math.tan(math.radians(self.fov) / 2.0)
         half_w = half_h * width / height
-        rows = [eye, forward, right * half_w, up * half_h]
-        return np.array([[*r, 0.0] for r in rows], dtype=np.float32)
+        record = np.zeros((), CAMERA_DTYPE)
+        record["origin"], record["forward"], record["right"], record["up"] = eye, forward, right * half_w, up * half_h
+        return record
 
     def rays(self, width: int, height: int, offset=(0.5, 0.5)):
         """Origins and unit directions (H, W, 3) through each pixel at `offset` (numpy; for tests and tools)."""
-        o, f, r, u = (row[:3].astype(np.float64) for row in self.frame(width, height))
+        frame = self.frame(width, height)
+        o, f, r, u = (frame[name].astype(np.float64) for name in ("origin", "forward", "right", "up"))
         ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
         sx = 2.0 * (xs + offset[0]) / width - 1.0
         sy = 1.0 - 2.0 * (ys + offset[1]) / height

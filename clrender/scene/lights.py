@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..layout import LIGHT_DTYPE, LIGHT_TYPES
+from ..layout import LIGHT_FALLOFFS as FALLOFFS
 from .checks import MAX_AREA_SAMPLES, RADIANCE_LIMIT, Checks, TypeReader
 
 __all__ = ["FALLOFFS", "LIGHT_READERS", "LIGHT_TYPES", "Light", "read_light"]
-FALLOFFS = {"none": 0, "inverse_square": 1}
 
 
 @dataclass(frozen=True)
@@ -39,15 +39,17 @@ class Light:
     falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
 
     def pack(self) -> np.ndarray:
-        """The light's record (layout.LIGHT_DTYPE): head (type, samples, intensity, falloff), where
-        (position | direction | corner), colour, edge_a, edge_b."""
+        """The light's record (layout.LIGHT_DTYPE, the kernels' `Light`), field by field."""
         record = np.zeros((), LIGHT_DTYPE)
-        record["head"] = [LIGHT_TYPES[self.type], self.samples, self.intensity, FALLOFFS[self.falloff]]
-        where = self.direction if self.type == "directional" else self.position
-        record["where"][:3] = where
-        record["colour"][:3] = self.color
-        record["edge_a"][:3] = self.edge_a
-        record["edge_b"][:3] = self.edge_b
+        record["type"] = LIGHT_TYPES[self.type]
+        record["samples"] = self.samples
+        record["intensity"] = self.intensity
+        record["falloff"] = FALLOFFS[self.falloff]
+        record["position"] = self.position
+        record["direction"] = self.direction
+        record["colour"] = self.color
+        record["edge_a"] = self.edge_a
+        record["edge_b"] = self.edge_b
         return record
 
 

@@ -13,6 +13,9 @@ compositing and denoising tools:
 | `id`     | `id`                         | object id, as `RenderResult.ids`; -1 on a miss (float32 in EXR, exact) |
 | `edges`  | `edges`                      | 1 where edge-only AA resamples (the edge mask), else 0         |
 
+The render kernel writes depth, normal and albedo into one record per pixel (clrender/layout.py's
+AOV_DTYPE, the kernels' `AovRecord`), read back by field name; ids and edges come from the id records.
+
 Every AOV comes from the one ray the object ids come from, never averaged:
 the pixel centre with `--aa none` or `edge_detect`, the first sample with
 `--aa full`.  That is the usual choice for ids (an averaged id names no

@@ -20,7 +20,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..errors import require, value_shown, warn
-from ..layout import ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, SAMPLERS
+from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
 from .aov import AOV_NAMES
@@ -29,11 +29,11 @@ from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
 AA_MODES = ("none", "full", "edge_detect")
 LIGHT_SAMPLERS = ("stratified", "random")
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
-KERNEL_AOVS = ("depth", "normal", "albedo")  # the ones the render kernel's -DWRITE_AOV=1 variant writes
-# The kernel's AOV record per pixel before the trace: (normal, t) = (0, 0, 0, inf), albedo 0 -- what a miss leaves.
-# A pixel whose primary ray escapes: depth 0 as Mitsuba's `aov` integrator writes it (renders never
-# hold inf; the id AOV, -1 there, tells a miss from a hit), zero normal and albedo.
-AOV_MISS = np.array([0, 0, 0, 0, 0, 0, 0, 0], np.float32)
+KERNEL_AOVS = AOV_DTYPE.names  # the ones the render kernel's -DWRITE_AOV=1 variant writes: depth, normal, albedo
+# The kernel's AOV record (layout.AOV_DTYPE) per pixel before the trace, what a miss leaves: depth 0 as Mitsuba's
+# `aov` integrator writes it (renders never hold inf; the id AOV, -1 there, tells a miss from a hit), zero normal
+# and albedo.
+AOV_MISS = np.zeros(1, AOV_DTYPE)
 THICKNESS = 1.0  # the edge mask's default disc radius (RenderSettings.thickness): another value without edge_detect is warned about
 
 
@@ -188,27 +188,41 @@ class Renderer:
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device)
         dev = self.tracer.device
-        cam = self.scene.camera(s.camera)
-        self.frame = dev.to_device(
-            np.concatenate([cam.frame(s.width, s.height), np.array([[*self.scene.background, 0], [*self.scene.ambient, 0]], np.float32)])
-        )
+        self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)
+        self.params = self._params()
         lights = np.array([light.pack() for light in self.scene.lights] or [np.zeros((), LIGHT_DTYPE)], LIGHT_DTYPE)
         self.lights = dev.to_device(lights)
         start = time.perf_counter()
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
         # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
         self.kernel = dev.kernel("trace.cl", "render", {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)})
-        self._no_aov = dev.empty(32)  # the unused aov_out argument
+        self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
         self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
+    def _params(self) -> np.ndarray:
+        """The render kernel's RenderParams (layout.RENDER_PARAMS_DTYPE) with the values every launch shares."""
+        s, t = self.settings, self.tracer
+        params = np.zeros((), RENDER_PARAMS_DTYPE)
+        params["background"] = self.scene.background
+        params["ambient"] = self.scene.ambient
+        params["width"], params["height"] = s.width, s.height
+        params["pixel_filter"] = PIXEL_FILTERS[s.pixel_filter]
+        params["seed"] = s.seed
+        params["max_depth"] = s.max_depth
+        params["fresnel"] = s.fresnel
+        params["light_samples"] = s.light_samples
+        params["light_stratified"] = s.light_sampler == "stratified"
+        params["n_lights"] = self.n_lights
+        params["n_prims"] = t.n_prims
+        return params
+
     def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
         """Trace the given pixel indices: colours (k, 3), id records (k,) of layout.ID_RECORD_DTYPE, shadow (k, L), stats (k, 2),
-        and with AOVs on and `record`, the primary hits' AOV records (k, 8), else None."""
+        and with AOVs on and `record`, the primary hits' AOV records (k,) of layout.AOV_DTYPE, else None."""
         t = self.tracer
         dev = t.device
-        s = self.settings
         k = len(pixels)
         L = max(self.n_lights, 1)
         colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, ID_RECORD_DTYPE.itemsize, 4 * L, 8))
@@ -216,47 +230,36 @@ class Renderer:
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
         aov = self._no_aov
         if record and self.write_aov:
-            aov = dev.empty(k * AOV_MISS.nbytes)
-            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_MISS.nbytes)
+            aov = dev.empty(k * AOV_DTYPE.itemsize)
+            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_DTYPE.itemsize)
+        params = self.params.copy()
+        params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
         self.kernel(
             dev.queue,
             global_size(k),
             (LOCAL_SIZE,),
-            t.nodes,
-            t.prims,
-            t.prim_object,
-            t.normals,
-            t.objects,
-            t.materials,
-            self.lights,
-            self.frame,
-            dev.to_device(pixels.astype(np.int32)),
-            np.int32(k),
-            np.int32(t.n_prims),
-            np.int32(self.n_lights),
-            np.int32(s.width),
-            np.int32(s.height),
-            np.int32(SAMPLERS[sampler]),
-            np.int32(n),
-            np.int32(PIXEL_FILTERS[s.pixel_filter]),
-            np.uint32(s.seed),
-            np.int32(s.max_depth),
-            np.int32(s.fresnel),
-            np.int32(s.light_samples),
-            np.int32(s.light_sampler == "stratified"),
-            np.int32(record),
-            colour,
-            ids,
-            shadow,
-            stats,
-            aov,
+            nodes=t.nodes,
+            prims=t.prims,
+            prim_object=t.prim_object,
+            normals=t.normals,
+            objects=t.objects,
+            materials=t.materials,
+            lights=self.lights,
+            camera=self.camera,
+            pixels=dev.to_device(pixels.astype(np.int32)),
+            params=params,
+            colour_out=colour,
+            ids_out=ids,
+            shadow_out=shadow,
+            stats_out=stats,
+            aov_out=aov,
         )
         out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for host, buf in zip(out, (colour, ids, shadow, stats)):
             cl.enqueue_copy(dev.queue, host, buf)
         aov_host = None
         if aov is not self._no_aov:
-            aov_host = np.empty((k, len(AOV_MISS)), np.float32)
+            aov_host = np.empty(k, AOV_DTYPE)
             cl.enqueue_copy(dev.queue, aov_host, aov)
         return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3], aov_host
 
@@ -298,9 +301,9 @@ class Renderer:
         if s.aovs:
             records = None
             if aov is not None:
-                records = np.empty((H * W, len(AOV_MISS)), np.float32)
+                records = np.empty(H * W, AOV_DTYPE)
                 records[order] = aov
-                records = records.reshape(H, W, -1)
+                records = records.reshape(H, W)
             result.aovs = self._aovs(result, records)
         return result
 
@@ -309,12 +312,8 @@ class Renderer:
         s = self.settings
         out = {}
         for name in s.aovs:
-            if name == "depth":
-                out[name] = np.ascontiguousarray(records[..., 3])
-            elif name == "normal":
-                out[name] = np.ascontiguousarray(records[..., 0:3])
-            elif name == "albedo":
-                out[name] = np.ascontiguousarray(records[..., 4:7])
+            if name in KERNEL_AOVS:  # a field of the kernel's AOV records
+                out[name] = np.ascontiguousarray(records[name])
             elif name == "id":
                 out[name] = result.ids.copy()
             elif name == "edges":

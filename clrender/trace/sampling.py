@@ -26,7 +26,17 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     k = len(pixels)
     out = dev.empty(8 * k * n * n)
     knl = dev.kernel("trace.cl", "sample_offsets", trace_defines())  # the renderer's own build
-    knl(dev.queue, global_size(k), (LOCAL_SIZE,), dev.to_device(pixels), np.int32(k), np.int32(SAMPLERS[sampler]), np.int32(n), np.uint32(seed), out)
+    knl(
+        dev.queue,
+        global_size(k),
+        (LOCAL_SIZE,),
+        pixels=dev.to_device(pixels),
+        n_work=k,
+        sampler=SAMPLERS[sampler],
+        samples_per_side=n,
+        seed=seed,
+        out=out,
+    )
     result = np.empty((k, n * n, 2), np.float32)
     cl.enqueue_copy(dev.queue, result, out)
     return result

@@ -29,7 +29,7 @@ import pyopencl as cl
 
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
-from ..layout import NORMAL_ROWS
+from ..layout import VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
@@ -201,8 +201,8 @@ class Tracer:
         self.nodes = dev.to_device(nodes)
         self.prims = dev.to_device(slots)
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros((max(n, 1), NORMAL_ROWS, 4), np.float32)
-        normals[: len(self.primitives.triangles), :, :3] = self.primitives.triangle_normals
+        normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)
+        normals["normal"][: len(self.primitives.triangles)] = self.primitives.triangle_normals
         self.normals = dev.to_device(normals)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)

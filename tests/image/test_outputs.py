@@ -9,6 +9,8 @@ from scipy.stats import qmc
 
 from clrender.cli import main
 from clrender.image.files import linear_to_srgb, srgb_to_linear, write_display_image
+from clrender.launch import Kernel, kernel_signatures
+from clrender.layout import PIXEL_FILTERS
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import render
 from clrender.trace.sampling import sample_offsets
@@ -99,13 +101,13 @@ __kernel void filter_weights(int filter, int n, __global const float2 *offsets, 
 @pytest.fixture(scope="module")
 def helpers(device):
     program = device.build(HELPERS, "sampling helpers", trace_defines())
-    return {name: cl.Kernel(program, name) for name in ("sobol_points", "filter_weights")}
+    return {name: Kernel(getattr(program, name), params) for name, params in kernel_signatures(HELPERS).items()}
 
 
 def test_unscrambled_sobol_points_equal_scipys(device, helpers):
     n = 1024
     buf = device.empty(8 * n)
-    helpers["sobol_points"](device.queue, (n,), None, np.int32(n), buf)
+    helpers["sobol_points"](device.queue, (n,), None, n=n, out=buf)
     ours = np.empty((n, 2), np.uint32)
     cl.enqueue_copy(device.queue, ours, buf)
     reference = qmc.Sobol(d=2, scramble=False).random(n)  # 32-bit direction numbers, Joe and Kuo
@@ -128,7 +130,7 @@ def test_sobol_scrambling_differs_per_pixel_but_keeps_the_net(device):
         assert sorted(row) == list(range(16))
 
 
-FILTERS = {"box": 0, "tent": 1, "gaussian": 2}
+FILTERS = PIXEL_FILTERS
 
 
 def formula_weight(name, dx, dy):
@@ -145,7 +147,7 @@ def test_pixel_filter_weights_match_their_formulas(device, helpers, name):
     g = (np.arange(11) + 0.5) / 11
     off = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2).astype(np.float32)
     out = device.empty(4 * len(off))
-    helpers["filter_weights"](device.queue, (len(off),), None, np.int32(FILTERS[name]), np.int32(len(off)), device.to_device(off), out)
+    helpers["filter_weights"](device.queue, (len(off),), None, filter=FILTERS[name], n=len(off), offsets=device.to_device(off), out=out)
     w = np.empty(len(off), np.float32)
     cl.enqueue_copy(device.queue, w, out)
     expected = formula_weight(name, off[:, 0] - 0.5, off[:, 1] - 0.5)
