@@ -26,6 +26,7 @@ PRIM_ROWS = 3  # float4 rows per primitive slot
 
 LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # Light.type
 LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: the seed's model, or physical (scene/lights.py)
+BSDF_LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric": 3, "gltf": 4}  # kernels/bsdf.h's lobe codes
 MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or glTF's metallic-roughness ones
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
@@ -179,6 +180,44 @@ ID_RECORD = Record("IdRecord", ID_RECORD_DTYPE)
 AOV_DTYPE = np.dtype({"names": ["normal", "depth", "albedo"], "formats": [("<f4", 3), "<f4", ("<f4", 3)], "offsets": [0, 12, 16], "itemsize": 32})
 AOV = Record("AovRecord", AOV_DTYPE)
 
+# the BSDF probe kernels' lobe parameters (tests only: clrender/trace/bsdf.py, kernels/bsdf_probe.cl)
+BSDF_PROBE_DTYPE = np.dtype(
+    {
+        "names": ["colour", "alpha", "eta", "metallic"],
+        "formats": [("<f4", 3), "<f4", "<f4", "<f4"],
+        "offsets": [0, 12, 16, 20],
+        "itemsize": 32,
+    }
+)
+BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)
+
+# ---- the path tracer (kernels/path.cl; packed by trace/path.py)
+# an emissive triangle: its vertices (as the primitive slots hold them), area, share of all emitted power and the
+# running sum of the shares (NEE picks one by a binary search of `cdf`), and its primitive id
+EMITTER_DTYPE = np.dtype([("v0", "<f4", 3), ("v1", "<f4", 3), ("v2", "<f4", 3), ("area", "<f4"), ("prob", "<f4"), ("cdf", "<f4"), ("prim", "<i4")])
+EMITTER = Record("Emitter", EMITTER_DTYPE)
+# the path kernel's values for one launch (Renderer._launch_path), passed by value
+PATH_PARAMS_DTYPE = np.dtype(
+    [
+        ("environment", "<f4", 3),  # radiance from every direction that meets nothing
+        ("n_work", "<i4"),  # pixels in this launch
+        ("n_prims", "<i4"),
+        ("n_lights", "<i4"),
+        ("n_emitters", "<i4"),
+        ("width", "<i4"),
+        ("height", "<i4"),
+        ("spp", "<i4"),  # paths per pixel in this pass
+        ("first_sample", "<i4"),  # index of the pass's first path in each pixel's sequence (passes * spp)
+        ("seed", "<u4"),
+        ("max_depth", "<i4"),  # bounces after the primary hit
+        ("sampler", "<i4"),  # SAMPLERS code: pixel positions when spp is samples_per_side^2
+        ("samples_per_side", "<i4"),
+        ("pixel_filter", "<i4"),  # PIXEL_FILTERS code
+        ("record", "<i4"),  # 1: write the first path's object id and AOVs
+    ]
+)
+PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)
+
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...
 SPLAT_PARAMS_DTYPE = np.dtype([("xy", "<f4", 2), ("log_scale", "<f4", 2), ("theta", "<f4"), ("color", "<f4", 3), ("lum", "<f4"), ("opacity", "<f4")])
@@ -227,6 +266,7 @@ DEFINES = {
     "PRIM_ROWS": PRIM_ROWS,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
     **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
+    **{f"BSDF_{name.upper()}": code for name, code in BSDF_LOBES.items()},
     **{f"LIGHT_FALLOFF_{name.upper()}": code for name, code in LIGHT_FALLOFFS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},

@@ -23,20 +23,16 @@
  *     perceptual roughness r maps to alpha = r^2: ggx_alpha_from_roughness.  alpha is clamped below at
  *     GGX_ALPHA_MIN: an exact mirror is a delta lobe, not a GGX one.
  *
- * Lobe codes (BSDF_LAMBERT, ...) and BSDF_PARAM_ROWS come from the host (clrender/trace/bsdf.py). */
+ * Lobe codes (BSDF_LAMBERT, ...) come from clrender/layout.py's BSDF_LOBES. */
 #ifndef CLRENDER_BSDF_H
 #define CLRENDER_BSDF_H
 
-#if !defined(BSDF_LAMBERT) || !defined(BSDF_CONDUCTOR) || !defined(BSDF_DIELECTRIC) || !defined(BSDF_ROUGH_DIELECTRIC) || \
-    !defined(BSDF_GLTF) || !defined(BSDF_PARAM_ROWS)
-#error "a BSDF code is missing: build with clrender.trace.bsdf.bsdf_defines()"
-#endif
 
 #define GGX_ALPHA_MIN 1e-4f       /* smallest GGX alpha: D peaks at 1 / (pi alpha^2), 3.2e7, far from float overflow */
 #define GLTF_DIELECTRIC_F0 0.04f  /* glTF 2.0 Appendix B: F0 of the dielectric layer, ((1 - ior) / (1 + ior))^2, ior 1.5 */
 #define GLTF_LOBE_PROB_MIN 0.1f   /* glTF sampling: each lobe that can contribute is chosen at least this often */
 
-/* A lobe's parameters; the host packs them as BSDF_PARAM_ROWS float4 rows: (colour, alpha) (eta, metallic, 0, 0). */
+/* A lobe's parameters. */
 typedef struct {
     float3 colour;  /* Lambert: albedo; conductor: F0 (Schlick); glTF: base colour.  Linear RGB in [0, 1] */
     float alpha;    /* GGX width of the conductor, rough dielectric and glTF lobes (not the perceptual roughness) */
@@ -375,15 +371,6 @@ INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float
 }
 
 /* ---- dispatch by lobe code */
-INLINE BsdfParams bsdf_params(__global const float4 *rows) {
-    BsdfParams p;
-    p.colour = rows[0].xyz;
-    p.alpha = rows[0].w;
-    p.eta = rows[1].x;
-    p.metallic = rows[1].y;
-    return p;
-}
-
 INLINE float3 bsdf_eval(int lobe, BsdfParams p, float3 wo, float3 wi) {
     if (lobe == BSDF_LAMBERT) return lambert_eval(wo, wi, p.colour);
     if (lobe == BSDF_CONDUCTOR) return conductor_eval(wo, wi, p.colour, p.alpha);

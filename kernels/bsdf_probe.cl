@@ -1,37 +1,46 @@
 /* Test-only kernels: the BSDF lobes of bsdf.h over batches, for tests/test_bsdf*.py through
  * clrender/trace/bsdf.py.
- *   params  BSDF_PARAM_ROWS float4 rows per record (bsdf.h, BsdfParams); record i * params_stride
+ *   params  BsdfProbeParams records (clrender/layout.py); record i * params_stride
  *   wo, wi  float4 per item (xyz, unused); wo read at i * wo_stride (stride 0: one shared by all)
  *   u       float4 per item: (u1, u2.x, u2.y, unused)
- * Build with clrender.trace.bsdf.bsdf_defines() (common.h's traversal knobs and the lobe codes). */
+ * Build with clrender.trace.bsdf.bsdf_defines() (common.h's traversal knobs). */
 #include "common.h"
 #include "rng.h"
 #include "bsdf.h"
 
+INLINE BsdfParams bsdf_params(__global const BsdfProbeParams *r) {
+    BsdfParams p;
+    p.colour = vload3(0, r->colour);
+    p.alpha = r->alpha;
+    p.eta = r->eta;
+    p.metallic = r->metallic;
+    return p;
+}
+
 /* out[i] = (eval(wo, wi), 0) of lobe `lobe`: f * |cos theta_i| */
-__kernel void bsdf_eval_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+__kernel void bsdf_eval_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                               int wo_stride, __global const float4 *wi, __global float4 *out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
     out[i] = (float4)(bsdf_eval(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz), 0.0f);
 }
 
 /* out[i] = pdf(wo, wi), solid angle */
-__kernel void bsdf_pdf_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+__kernel void bsdf_pdf_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                              int wo_stride, __global const float4 *wi, __global float *out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
     out[i] = bsdf_pdf(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz);
 }
 
 /* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */
-__kernel void bsdf_sample_probe(int n, int lobe, __global const float4 *params, int params_stride, __global const float4 *wo,
+__kernel void bsdf_sample_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                                 int wo_stride, __global const float4 *u, __global float4 *wi_out, __global float4 *weight_out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride * BSDF_PARAM_ROWS);
+    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
     float4 ui = u[i];
     BsdfSample s = bsdf_sample(lobe, p, wo[(size_t)i * wo_stride].xyz, ui.x, (float2)(ui.y, ui.z));
     wi_out[i] = (float4)(s.wi, (float)s.delta);

@@ -20,17 +20,17 @@ import numpy as np
 import pyopencl as cl
 
 from ..device import Device
+from ..layout import BSDF_LOBES as LOBES
+from ..layout import BSDF_PROBE_DTYPE
 from .tracer import LOCAL_SIZE, global_size, trace_defines
 
-LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric": 3, "gltf": 4}  # kernel codes, BSDF_<NAME>
-PARAM_ROWS = 2  # float4 rows per parameter record: (colour.rgb, alpha) (eta, metallic, 0, 0)
-PARAM_FLOATS = 4 * PARAM_ROWS
+PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s: colour.rgb, alpha, eta, metallic, 0, 0
 PROBE = "bsdf_probe.cl"
 
 
 def bsdf_defines() -> dict:
-    """The -D variant of kernels/bsdf_probe.cl: common.h's traversal knobs, the lobe codes, the record size."""
-    return {**trace_defines(), **{f"BSDF_{name.upper()}": code for name, code in LOBES.items()}, "BSDF_PARAM_ROWS": PARAM_ROWS}
+    """The -D variant of kernels/bsdf_probe.cl: common.h's traversal knobs."""
+    return trace_defines()
 
 
 def params(colour=(1.0, 1.0, 1.0), alpha=0.5, eta=1.5, metallic=0.0) -> np.ndarray:

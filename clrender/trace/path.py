@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE
+from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, PIXEL_FILTERS, SAMPLERS
 from .geometry import Primitives
 
 
@@ -39,16 +39,14 @@ def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     return records[: len(ids)] if len(ids) else records[:0], index_of
 
 
-def path_params(renderer, k: int, first_sample: int, spp: int, record: bool, n_emitters: int) -> np.ndarray:
-    """The launch's PathParams record (renderer: a Renderer with integrator "path")."""
-    s, scene = renderer.settings, renderer.scene
-    cam = scene.camera(s.camera).frame(s.width, s.height)
+def path_params(renderer, k: int, first_sample: int, record: bool) -> np.ndarray:
+    """One launch's PathParams record (renderer: a Renderer with integrator "path")."""
+    s = renderer.settings
     p = np.zeros((), PATH_PARAMS_DTYPE)
-    p["origin"], p["forward"], p["right"], p["up"] = (cam[i, :3] for i in range(4))
-    p["environment"] = scene.environment
-    p["n_work"], p["n_prims"], p["n_lights"], p["n_emitters"] = k, renderer.tracer.n_prims, len(scene.lights), n_emitters
+    p["environment"] = renderer.scene.environment
+    p["n_work"], p["n_prims"], p["n_lights"], p["n_emitters"] = k, renderer.tracer.n_prims, renderer.n_lights, renderer.n_emitters
     p["width"], p["height"] = s.width, s.height
-    p["spp"], p["first_sample"], p["seed"], p["max_depth"] = spp, first_sample, s.seed, s.max_depth
-    p["sampler"], p["samples_per_side"], p["pixel_filter"] = renderer.sampler_code, s.samples, renderer.filter_code
-    p["record"] = int(record)
+    p["spp"], p["first_sample"], p["seed"], p["max_depth"] = renderer.spp, first_sample, s.seed, s.max_depth
+    p["sampler"], p["samples_per_side"], p["pixel_filter"] = SAMPLERS[s.sampler], s.samples, PIXEL_FILTERS[s.pixel_filter]
+    p["record"] = record
     return p

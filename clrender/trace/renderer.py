@@ -27,6 +27,9 @@ from .aov import AOV_NAMES
 from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
+INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
+MAX_SPP = 1 << 20  # paths per pixel in one pass
+PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much sooner)
 LIGHT_SAMPLERS = ("stratified", "random")
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
 KERNEL_AOVS = AOV_DTYPE.names  # the ones the render kernel's -DWRITE_AOV=1 variant writes: depth, normal, albedo
@@ -42,6 +45,9 @@ class RenderSettings:
     width: int | None = None  # image width in pixels; None: the scene's (or kept to its aspect ratio from height)
     height: int | None = None  # image height in pixels; None: the scene's (or kept to its aspect ratio from width)
     camera: int = 1  # camera number, counting from 1 (1 is the canonical camera)
+    integrator: str = "whitted"  # "whitted" (the seed's) or "path" (physically based: docs/materials.md)
+    spp: int = 0  # path: paths per pixel per pass; 0: samples x samples
+    time_budget: float | None = None  # path: whole-image passes of spp paths while this many seconds last; None: one pass
     aa: str = "none"  # anti-aliasing: "none", "full" or "edge_detect"
     sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
     samples: int = 1  # N: N x N samples per pixel when anti-aliasing
@@ -80,6 +86,17 @@ class RenderSettings:
         require(s.width >= 1 and s.height >= 1, f"image size {s.width}x{s.height} must be at least 1x1")
         require(s.width * s.height <= MAX_PIXELS, f"image size {s.width}x{s.height} is too large; at most {MAX_PIXELS} pixels")
         require(_name_in(s.aa, AA_MODES), f"unknown anti-aliasing mode {v(s.aa)}; allowed: {', '.join(AA_MODES)}")
+        require(_name_in(s.integrator, INTEGRATORS), f"unknown integrator {v(s.integrator)}; allowed: {', '.join(INTEGRATORS)}")
+        require(_whole(s.spp) and 0 <= s.spp <= MAX_SPP, f"spp {v(s.spp)} must be a whole number from 0 (samples x samples) to {MAX_SPP}")
+        require(
+            s.time_budget is None or (_real(s.time_budget) and math.isfinite(s.time_budget) and s.time_budget > 0),
+            f"time budget {v(s.time_budget)} must be a number of seconds > 0, or None",
+        )
+        require(
+            not (s.integrator == "path" and s.aa == "edge_detect"),
+            "--aa edge_detect is a Whitted feature: with --integrator path every pixel gets the same --spp "
+            "(more paths only at edges would bias the image)",
+        )
         require(_name_in(s.sampler, SAMPLERS), f"unknown sampler {v(s.sampler)}; allowed: {', '.join(SAMPLERS)}")
         require(_name_in(s.pixel_filter, PIXEL_FILTERS), f"unknown pixel filter {v(s.pixel_filter)}; allowed: {', '.join(PIXEL_FILTERS)}")
         require(_whole(s.samples) and 1 <= s.samples <= 64, f"samples {v(s.samples)} must be an integer from 1 to 64 (N x N per pixel)")
@@ -87,7 +104,8 @@ class RenderSettings:
         require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
         require(_whole(s.light_samples) and 0 <= s.light_samples <= 64, f"light samples {v(s.light_samples)} must be from 0 (each light's own) to 64")
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
-        require(_whole(s.max_depth) and 0 <= s.max_depth <= MAX_DEPTH_LIMIT, f"max depth {v(s.max_depth)} must be from 0 to {MAX_DEPTH_LIMIT}")
+        depth_limit = PATH_DEPTH_LIMIT if s.integrator == "path" else MAX_DEPTH_LIMIT  # the path tracer keeps no ray stack
+        require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(_name_in(s.bvh_builder, BUILDERS), f"unknown BVH builder {v(s.bvh_builder)}; allowed: {', '.join(BUILDERS)}")
         require(_whole(s.seed) and 0 <= s.seed < 2**32, f"seed {v(s.seed)} must be from 0 to 2**32-1")
         require(_whole(s.tile_size) and s.tile_size >= 1, f"tile size {v(s.tile_size)} must be a whole number >= 1")
@@ -101,7 +119,8 @@ class RenderSettings:
         scene.camera(s.camera)
         s = replace(
             s,
-            **{k: int(getattr(s, k)) for k in ("samples", "light_samples", "max_depth", "seed", "tile_size")},
+            **{k: int(getattr(s, k)) for k in ("samples", "spp", "light_samples", "max_depth", "seed", "tile_size")},
+            time_budget=None if s.time_budget is None else float(s.time_budget),
             **{k: float(getattr(s, k)) for k in ("thickness", "contrast")},
             **{k: bool(getattr(s, k)) for k in ("shadow_edges", "fresnel", "bvh")},
         )
@@ -115,6 +134,10 @@ class RenderSettings:
         Judged by value: `samples` other than 1 with aa "none", `thickness` other than its default
         without aa "edge_detect" or the edges AOV, a scene without lights."""
         said = []
+        if self.integrator == "path":
+            return self._pointless_for_paths(scene)
+        if self.spp or self.time_budget is not None:
+            said.append("--spp and --time-budget have no effect with --integrator whitted (they set the path tracer's samples)")
         if self.aa == "none" and self.samples != 1:
             said.append(
                 f"{self.samples} x {self.samples} samples have no effect with --aa none "
@@ -124,6 +147,15 @@ class RenderSettings:
             said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
         if not scene.lights:
             said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
+        return said
+
+    def _pointless_for_paths(self, scene: Scene) -> list[str]:
+        said = []
+        if self.thickness != THICKNESS and "edges" not in self.aovs:
+            said.append("--thickness has no effect with --integrator path (it widens the edge mask of --aa edge_detect)")
+        emitters = any(max(m.emission) > 0 for m in scene.materials.values()) or max(scene.environment) > 0
+        if not scene.lights and not emitters:
+            said.append(f"scene {scene.name!r} has no lights, emission or environment: the path tracer will render black")
         return said
 
 
@@ -164,6 +196,7 @@ class RenderResult:
     node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
     aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/trace/aov.py)
+    samples_per_pixel: int = 0  # path integrator: paths per pixel over all passes (0 for Whitted renders)
 
     @property
     def ids(self) -> np.ndarray:
@@ -196,7 +229,16 @@ class Renderer:
         start = time.perf_counter()
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
         # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
-        self.kernel = dev.kernel("trace.cl", "render", {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)})
+        defines = {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)}
+        if s.integrator == "path":
+            from .path import emitters
+
+            records, index_of = emitters(self.tracer.primitives)
+            self.n_emitters = len(records)
+            self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
+            self.kernel = dev.kernel("path.cl", "render_path", defines)
+        else:
+            self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
         self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
@@ -218,9 +260,13 @@ class Renderer:
         params["n_prims"] = t.n_prims
         return params
 
-    def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool):
+    def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool, first_sample: int = 0):
         """Trace the given pixel indices: colours (k, 3), id records (k,) of layout.ID_RECORD_DTYPE, shadow (k, L), stats (k, 2),
-        and with AOVs on and `record`, the primary hits' AOV records (k,) of layout.AOV_DTYPE, else None."""
+        and with AOVs on and `record`, the primary hits' AOV records (k,) of layout.AOV_DTYPE, else None.
+        The path integrator's colours are (k, 4): each pixel's filtered mean, then its filter weight; its samples
+        are first_sample ... first_sample + spp - 1 of each pixel's sequence."""
+        if self.settings.integrator == "path":
+            return self._launch_path(pixels, record, first_sample)
         t = self.tracer
         dev = t.device
         k = len(pixels)
@@ -263,9 +309,53 @@ class Renderer:
             cl.enqueue_copy(dev.queue, aov_host, aov)
         return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3], aov_host
 
-    def _pass(self, pixel_lists, sampler, n, record, desc):
+    def _launch_path(self, pixels: np.ndarray, record: bool, first_sample: int):
+        from .path import path_params
+
+        t, dev = self.tracer, self.tracer.device
+        k, L = len(pixels), max(self.n_lights, 1)
+        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, ID_RECORD_DTYPE.itemsize, 4 * L, 8))
+        if record:  # the path tracer has no shadow record: every light counts as visible (no shadow edges)
+            cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
+            cl.enqueue_fill_buffer(dev.queue, ids, np.int32(-1), 0, k * ID_RECORD_DTYPE.itemsize)
+        aov = self._no_aov
+        if record and self.write_aov:
+            aov = dev.empty(k * AOV_DTYPE.itemsize)
+            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_DTYPE.itemsize)
+        params = path_params(self, k, first_sample, record)
+        self.kernel(
+            dev.queue,
+            global_size(k),
+            (LOCAL_SIZE,),
+            nodes=t.nodes,
+            prims=t.prims,
+            prim_object=t.prim_object,
+            normals=t.normals,
+            objects=t.objects,
+            materials=t.materials,
+            lights=self.lights,
+            camera=self.camera,
+            emitters=self.emitters,
+            emitter_of_prim=self.emitter_of_prim,
+            pixels=dev.to_device(pixels.astype(np.int32)),
+            params=params,
+            colour_out=colour,
+            aov_out=aov,
+            ids_out=ids,
+            stats_out=stats,
+        )
+        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
+        for host, buf in zip(out, (colour, ids, shadow, stats)):
+            cl.enqueue_copy(dev.queue, host, buf)
+        aov_host = None
+        if aov is not self._no_aov:
+            aov_host = np.empty(k, AOV_DTYPE)
+            cl.enqueue_copy(dev.queue, aov_host, aov)
+        return out[0], out[1], out[2][:, : self.n_lights], out[3], aov_host
+
+    def _pass(self, pixel_lists, sampler, n, record, desc, first_sample=0):
         """Trace each pixel list in turn; returns the concatenated outputs."""
-        parts = [self.launch(p, sampler, n, record) for p in progress(pixel_lists, desc=desc, unit="tile")]
+        parts = [self.launch(p, sampler, n, record, first_sample) for p in progress(pixel_lists, desc=desc, unit="tile")]
         return [np.concatenate(x) if x[0] is not None else None for x in zip(*parts)]
 
     def tiles(self):
@@ -277,6 +367,29 @@ class Renderer:
                 ys, xs = np.mgrid[y0 : min(y0 + ts, s.height), x0 : min(x0 + ts, s.width)]
                 yield (ys * s.width + xs).ravel()
 
+    @property
+    def spp(self) -> int:
+        """Paths per pixel in one pass of the path integrator."""
+        return self.settings.spp or self.settings.samples**2
+
+    def _path_passes(self, tiles):
+        """The path integrator's passes, each a whole image of spp paths per pixel, while the time budget lasts
+        (one pass without one): the first pass's outputs with the passes' filtered mean in place of its colours."""
+        s = self.settings
+        start, passes, total, weight, first = time.perf_counter(), 0, None, None, None
+        while True:
+            out = self._pass(tiles, s.sampler, s.samples, passes == 0, "trace" if passes == 0 else f"pass {passes + 1}", passes * self.spp)
+            colour = out[0].astype(np.float64)
+            total = colour[:, :3] * colour[:, 3:] + (0 if total is None else total)
+            weight = colour[:, 3:] + (0 if weight is None else weight)
+            first = first or out
+            passes += 1
+            spent = time.perf_counter() - start
+            if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
+                break
+        mean = first[0][:, :3] if passes == 1 else (total / weight).astype(np.float32)
+        return [mean, *first[1:4], first[4]], passes
+
     def run(self) -> RenderResult:
         s = self.settings
         H, W = s.height, s.width
@@ -285,7 +398,11 @@ class Renderer:
         order = np.concatenate(tiles)
         first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
         start = time.perf_counter()
-        colour, ids, shadow, stats, aov = self._pass(tiles, first_sampler, first_n, True, "trace")
+        passes = 1
+        if s.integrator == "path":
+            (colour, ids, shadow, stats, aov), passes = self._path_passes(tiles)
+        else:
+            colour, ids, shadow, stats, aov = self._pass(tiles, first_sampler, first_n, True, "trace")
         timings["trace"] = time.perf_counter() - start
         image = np.empty((H * W, 3), np.float32)
         records = np.empty(H * W, ID_RECORD_DTYPE)
@@ -296,6 +413,7 @@ class Renderer:
         result = RenderResult(
             image.reshape(H, W, 3), records["path"], records["facet"], shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays)
         )
+        result.samples_per_pixel = passes * self.spp if s.integrator == "path" else 0
         if s.aa == "edge_detect":
             self._resample_edges(result)
         if s.aovs:

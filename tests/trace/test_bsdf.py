@@ -9,13 +9,10 @@ The chi-square tests of the samplers are in test_bsdf_chi2.py.
 import math
 
 import numpy as np
-import pyopencl as cl
 import pytest
 from scipy import stats
 
-from clrender.device import build_options, kernel_dir
 from clrender.trace import bsdf
-from clrender.trace.tracer import trace_defines
 
 from tests.reference import bsdf64 as ref
 from tests.reference.sphere_chi2 import cell_integrals
@@ -342,9 +339,3 @@ def test_the_shading_frame_is_orthonormal_and_maps_the_normal_to_z(probe):
     np.testing.assert_allclose(back, v, atol=1e-6)
     _, local_n, _ = probe.frame(normals, normals)
     np.testing.assert_allclose(local_n, np.tile([0, 0, 1], (len(normals), 1)), atol=1e-6)
-
-
-def test_a_build_without_the_lobe_codes_stops_with_an_error(device):
-    source = (kernel_dir() / bsdf.PROBE).read_text()
-    with pytest.raises(cl.RuntimeError, match="BSDF code is missing"):
-        cl.Program(device.context, source).build(options=[f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(trace_defines())])

@@ -14,10 +14,9 @@ import math
 import re
 
 import numpy as np
-import pyopencl as cl
 import pytest
 
-from clrender.device import build_options, kernel_dir
+from clrender.device import kernel_dir
 from clrender.trace import bsdf
 
 from tests.reference.sphere_chi2 import cell_integrals, chi2_test, histogram, sidak
@@ -138,7 +137,7 @@ def planted_program(device, old, new):
     assert header.count(old) == 1, f"the planted bug's anchor is not in bsdf.h once: {old!r}"
     source = (kernel_dir() / bsdf.PROBE).read_text()
     source = re.sub(r'#include "bsdf.h"', lambda _: header.replace(old, new), source, count=1)
-    return cl.Program(device.context, source).build(options=[f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(bsdf.bsdf_defines())])
+    return device.build(source, "bsdf_probe.cl (a bug planted)", bsdf.bsdf_defines())
 
 
 @pytest.mark.slow

@@ -1,0 +1,440 @@
+/* Unidirectional path tracing (issue 25): one work-item per pixel, `spp` paths each.
+ *
+ * At every surface vertex the material picks ONE component at random with its own weight (the
+ * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
+ * kernels/bsdf.h), then
+ *   - next-event estimation: a shadow ray to every point and directional light, to one point of every
+ *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
+ *     one direction of the constant environment (cosine-weighted about the shading normal);
+ *   - BSDF sampling for the next direction; a BSDF ray that reaches an area light, an emissive
+ *     triangle or the environment adds its emission weighted against that light's strategy by the
+ *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
+ *   - Russian roulette from RR_DEPTH bounces on.
+ * Light units are docs/shading.md's.  Lights with falloff "none" (the seed's unnormalised model) give
+ * the irradiance pi I c cos(theta) wherever they are, so a Lambert surface of albedo kd shows
+ * kd I c cos(theta), as the Whitted integrator draws it; they are not surfaces, so only NEE finds them.
+ * max_depth counts bounces after the primary hit (0: direct light only); Mitsuba's is max_depth + 2.
+ * Shadow rays see every surface as opaque: light reaches through glass by BSDF sampling (caustics). */
+#include "common.h"
+#include "rng.h"
+#include "sampling.h"
+#include "intersect.h"
+#include "bsdf.h"
+
+#define RR_DEPTH 3          /* Russian roulette from this many bounces on */
+#define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
+/* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
+ * itself (met again within float32 rounding of the sampled point) does not block them. */
+#define SHADOW_T_SHRINK 0.9999f
+
+/* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
+typedef struct {
+    Geometry geo;
+    __global const VertexNormals *normals;
+    __global const Light *lights;
+    __global const Emitter *emitters;      /* emissive triangles, their power's running sum in `cdf` */
+    __global const int *emitter_of_prim;   /* each primitive id's index in `emitters`, or -1 */
+    PathParams p;
+} PathScene;
+
+/* A surface point as the integrator needs it. */
+typedef struct {
+    float3 p, p_err;  /* the point and its float32 error bound (offset_origin) */
+    float3 n_geo;     /* unit geometric normal, on the side the ray came from */
+    float3 n_shade;   /* unit shading normal, on the same side */
+    bool front;       /* the ray met the primitive's front (its normal's side: outward, or the winding's) */
+    int material;
+} Surface;
+
+INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
+    Surface f;
+    float4 a = s->geo.prims[PRIM_ROWS * h.slot], b = s->geo.prims[PRIM_ROWS * h.slot + 1], c = s->geo.prims[PRIM_ROWS * h.slot + 2];
+    ObjectRecord obj = s->geo.objects[s->geo.prim_object[h.id]];
+    f.material = obj.material;
+    if (is_sphere_row(b)) {
+        f.p = hit_point_sphere((float4)(a.xyz, b.x), r.o + h.t * r.d, &f.p_err);
+        f.n_geo = unit(f.p - a.xyz);
+        f.n_shade = f.n_geo;
+    } else {
+        f.p = hit_point_triangle(a, b, c, h.u, h.v, &f.p_err);
+        f.n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
+        f.n_shade = f.n_geo;
+        if (obj.smooth) {
+            __global const float *vn = &s->normals[h.id].normal[0][0];
+            f.n_shade = unit((1.0f - h.u - h.v) * vload3(0, vn) + h.u * vload3(1, vn) + h.v * vload3(2, vn));
+        }
+    }
+    f.front = dot3(r.d, f.n_geo) < 0.0f;
+    if (!f.front) { f.n_geo = -f.n_geo; f.n_shade = -f.n_shade; }
+    if (dot3(f.n_shade, r.d) >= 0.0f) f.n_shade = f.n_geo; /* an interpolated normal facing away: flat */
+    return f;
+}
+
+/* ---------------------------------------------------------------- materials
+ * The component a vertex uses: a lobe of bsdf.h with its parameters, or a delta mirror. */
+#define LOBE_MIRROR (-1)
+
+typedef struct {
+    int lobe;            /* a BSDF_* code, or LOBE_MIRROR */
+    BsdfParams bsdf;
+    float3 glossy;       /* the seed model's diffuse+glossy component: the glossy lobe's colour ks */
+    float glossy_alpha;  /* and its GGX width; glossy.x < 0: no glossy lobe */
+    float glossy_prob;   /* probability of sampling the glossy lobe rather than the Lambert one */
+} Component;
+
+INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+/* The seed's Blinn-Phong exponent s as a GGX width: alpha = sqrt(2 / (s + 2)) (Walter et al. 2007's
+ * match of the two lobes' widths). */
+INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)), GGX_ALPHA_MIN); }
+
+/* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
+ * throughput is not rescaled).  docs/materials.md states the rule. */
+INLINE Component pick_component(__global const Material *m, float u) {
+    Component c;
+    c.glossy = (float3)(-1.0f);
+    c.glossy_alpha = 1.0f;
+    c.glossy_prob = 0.0f;
+    c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
+    c.bsdf.metallic = m->metallic;
+    c.bsdf.colour = vload3(0, m->kd);
+    if (m->model == MATERIAL_MODEL_GLTF) {
+        float alpha = ggx_alpha_from_roughness(m->roughness);
+        c.bsdf.alpha = alpha;
+        float transmit = m->transmission * (1.0f - m->metallic);
+        if (u < transmit) {
+            c.lobe = m->roughness > 0.0f ? BSDF_ROUGH_DIELECTRIC : BSDF_DIELECTRIC;
+            return c;
+        }
+        c.lobe = BSDF_GLTF;
+        c.bsdf.colour = vload3(0, m->base_color);
+        return c;
+    }
+    float t = m->transparency, mirror = (1.0f - t) * m->mirror;
+    if (u < t) { c.lobe = BSDF_DIELECTRIC; return c; }
+    if (u < t + mirror) { c.lobe = LOBE_MIRROR; c.bsdf.colour = (float3)(1.0f); return c; }
+    /* Lambert kd plus a glossy GGX lobe ks, scaled together where kd + ks would exceed 1 */
+    float3 kd = vload3(0, m->kd), ks = vload3(0, m->ks);
+    float3 sum = kd + ks;
+    float over = max_f(1.0f, max_f(sum.x, max_f(sum.y, sum.z)));
+    kd /= over; ks /= over;
+    c.lobe = BSDF_LAMBERT;
+    c.bsdf.colour = kd;
+    float lk = luminance(ks), ld = luminance(kd);
+    if (lk > 0.0f) {
+        c.glossy = ks;
+        c.glossy_alpha = alpha_from_shininess(m->shininess);
+        c.glossy_prob = lk / (lk + ld);
+    }
+    return c;
+}
+
+INLINE bool component_is_delta(Component c) {
+    return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC;
+}
+
+/* f * |cos| of the component, local frame (delta components: 0). */
+INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
+    if (component_is_delta(c)) return (float3)(0.0f);
+    float3 f = bsdf_eval(c.lobe, c.bsdf, wo, wi);
+    if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha);
+    return f;
+}
+
+INLINE float component_pdf(Component c, float3 wo, float3 wi) {
+    if (component_is_delta(c)) return 0.0f;
+    float pdf = bsdf_pdf(c.lobe, c.bsdf, wo, wi);
+    if (c.glossy.x >= 0.0f) pdf = (1.0f - c.glossy_prob) * pdf + c.glossy_prob * conductor_pdf(wo, wi, c.glossy_alpha);
+    return pdf;
+}
+
+INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) {
+    if (c.lobe == LOBE_MIRROR) {
+        BsdfSample s = no_sample();
+        if (wo.z <= 0.0f) return s;
+        s.wi = (float3)(-wo.x, -wo.y, wo.z);
+        s.weight = c.bsdf.colour;
+        s.pdf = 1.0f;
+        s.delta = 1;
+        return s;
+    }
+    if (c.glossy.x < 0.0f) return bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
+    /* the Lambert + glossy sum: one lobe's direction, the sum's value over the mixture pdf */
+    BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha) : lambert_sample(wo, u2, c.bsdf.colour);
+    if (!(s.pdf > 0.0f)) return no_sample();
+    s.pdf = component_pdf(c, wo, s.wi);
+    if (!(s.pdf > 0.0f)) return no_sample();
+    s.weight = component_eval(c, wo, s.wi) / s.pdf;
+    return s;
+}
+
+/* ---------------------------------------------------------------- lights */
+INLINE float power_heuristic(float a, float b) {
+    float a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+/* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */
+INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, uint *visits) {
+    float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
+    Ray sr = make_ray(origin, wi);
+    float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
+    return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
+}
+
+/* An area light's parallelogram along the ray: t in (0, t_max) or INF_T. */
+INLINE float hit_parallelogram(Ray r, float3 corner, float3 a, float3 b, float t_max) {
+    float3 n = cross3(a, b);
+    float denom = dot3(n, r.d);
+    if (denom == 0.0f) return INF_T;
+    float t = dot3(n, corner - r.o) / denom;
+    if (!(t > 0.0f && t < t_max)) return INF_T;
+    float3 q = r.o + t * r.d - corner;
+    float aa = dot3(a, a), bb = dot3(b, b), ab = dot3(a, b), qa = dot3(q, a), qb = dot3(q, b);
+    float det = aa * bb - ab * ab;
+    float u = (qa * bb - qb * ab) / det, v = (qb * aa - qa * ab) / det;
+    return (u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f) ? t : INF_T;
+}
+
+/* The emitter index of u's place in the emitters' running sum of power (binary search). */
+INLINE int pick_emitter(const PathScene *s, float u) {
+    int lo = 0, hi = s->p.n_emitters - 1;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (u < s->emitters[mid].cdf) hi = mid;
+        else lo = mid + 1;
+    }
+    return lo;
+}
+
+/* Emitted radiance of a material towards a ray that met its front (emission is one-sided). */
+INLINE float3 emission_of(const PathScene *s, int material) { return vload3(0, s->geo.materials[material].emission); }
+
+/* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
+ * the cosine at the emitter. */
+INLINE float emitter_pdf(const PathScene *s, int e, float dist, float cos_l) {
+    __global const Emitter *em = &s->emitters[e];
+    return cos_l > 0.0f ? em->prob * dist * dist / (em->area * cos_l) : 0.0f;
+}
+
+/* NEE to one light: the contribution (f cos Li / pdf, MIS-weighted where a BSDF ray could also find it). */
+INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
+                           uint *visits, uint *rays) {
+    __global const Light *L = &s->lights[li];
+    float2 u = (float2)(rng_next(rng), rng_next(rng)); /* drawn for every light: fixed dimensions */
+    float3 radiance = L->intensity * vload3(0, L->colour);
+    bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+    float3 wi;
+    float dist = INF_T, scale = physical ? 1.0f : M_PI_F, mis = 1.0f;
+    if (L->type == LIGHT_DIRECTIONAL) {
+        wi = -unit(vload3(0, L->direction));
+    } else {
+        float3 y = vload3(0, L->position);
+        float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
+        if (L->type == LIGHT_AREA) y += u.x * ea + u.y * eb;
+        float3 d = y - f->p;
+        dist = norm(d);
+        if (!(dist > 0.0f)) return (float3)(0.0f);
+        wi = d / dist;
+        if (physical && L->type == LIGHT_POINT) scale = 1.0f / (dist * dist);
+        if (physical && L->type == LIGHT_AREA) { /* a two-sided emitter of radiance I c, sampled by area */
+            float3 nl = cross3(ea, eb);
+            float area = norm(nl);
+            float cos_l = abs_f(dot3(nl, wi)) / area;
+            float light_pdf = dist * dist / (area * cos_l);
+            if (!(light_pdf < INFINITY)) return (float3)(0.0f);
+            scale = 1.0f / light_pdf;
+            mis = power_heuristic(light_pdf, component_pdf(c, wo, to_local(fr, wi)));
+        }
+    }
+    float3 fc = component_eval(c, wo, to_local(fr, wi));
+    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    *rays += 1;
+    return fc * radiance * (scale * mis * visible(s, f, wi, dist, visits));
+}
+
+/* NEE to one point of one emissive triangle, chosen in proportion to its power. */
+INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
+                             uint *visits, uint *rays) {
+    float pick = rng_next(rng);
+    float2 u = (float2)(rng_next(rng), rng_next(rng));
+    if (s->p.n_emitters == 0) return (float3)(0.0f);
+    int e = pick_emitter(s, pick);
+    __global const Emitter *em = &s->emitters[e];
+    float3 v0 = vload3(0, em->v0), v1 = vload3(0, em->v1), v2 = vload3(0, em->v2);
+    float su = sqrt(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
+    float3 y = (1.0f - su) * v0 + su * (1.0f - u.y) * v1 + su * u.y * v2;
+    float3 d = y - f->p;
+    float dist = norm(d);
+    if (!(dist > 0.0f)) return (float3)(0.0f);
+    float3 wi = d / dist;
+    float cos_l = -dot3(unit(cross3(v1 - v0, v2 - v0)), wi);
+    float light_pdf = emitter_pdf(s, e, dist, cos_l);
+    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return (float3)(0.0f);
+    float3 wl = to_local(fr, wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
+    *rays += 1;
+    return fc * emission_of(s, s->geo.objects[s->geo.prim_object[em->prim]].material) *
+           (mis / light_pdf * visible(s, f, wi, dist, visits));
+}
+
+/* NEE to the constant environment: a cosine-weighted direction about the shading normal. */
+INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
+                                 uint *visits, uint *rays) {
+    float2 u = (float2)(rng_next(rng), rng_next(rng));
+    float3 env = vload3(0, s->p.environment);
+    if (!(max_f(env.x, max_f(env.y, env.z)) > 0.0f)) return (float3)(0.0f);
+    Frame nf = make_frame(f->n_shade);
+    float3 wi = to_world(nf, cosine_hemisphere(u));
+    float env_pdf = dot3(wi, f->n_shade) * M_1_PI_F;
+    if (!(env_pdf > 0.0f)) return (float3)(0.0f);
+    float3 wl = to_local(fr, wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
+    *rays += 1;
+    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
+}
+
+/* Every NEE strategy at a vertex whose component is not a delta lobe. */
+INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
+                              uint *visits, uint *rays) {
+    float3 sum = (float3)(0.0f);
+    for (int li = 0; li < s->p.n_lights; ++li) sum += light_sample(s, li, f, c, fr, wo, rng, visits, rays);
+    sum += emitter_sample(s, f, c, fr, wo, rng, visits, rays);
+    sum += environment_sample(s, f, c, fr, wo, rng, visits, rays);
+    return sum;
+}
+
+/* What a BSDF-sampled ray (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area
+ * lights before distance t_max: their radiance, MIS-weighted against their NEE. */
+INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool prev_delta, float prev_pdf) {
+    float3 sum = (float3)(0.0f);
+    for (int li = 0; li < s->p.n_lights; ++li) {
+        __global const Light *L = &s->lights[li];
+        if (L->type != LIGHT_AREA || L->falloff != LIGHT_FALLOFF_INVERSE_SQUARE) continue;
+        float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
+        float t = hit_parallelogram(r, vload3(0, L->position), ea, eb, t_max);
+        if (t == INF_T) continue;
+        float3 nl = cross3(ea, eb); /* |nl| is the area */
+        float mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, t * t / abs_f(dot3(nl, r.d))); /* dist^2 / (A cos) */
+        sum += mis * L->intensity * vload3(0, L->colour);
+    }
+    return sum;
+}
+
+/* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
+ * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
+INLINE float3 emission_met(const PathScene *s, const Surface *f, Hit h, float3 d, bool prev_delta, float prev_pdf) {
+    float3 le = emission_of(s, f->material);
+    if (!f->front || !(max_f(le.x, max_f(le.y, le.z)) > 0.0f)) return (float3)(0.0f);
+    int e = s->emitter_of_prim[h.id];
+    if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
+    return le * power_heuristic(prev_pdf, emitter_pdf(s, e, h.t, dot3(f->n_geo, -d)));
+}
+
+/* The component's local frame: +z on the ray's side for reflection, outward for dielectrics (bsdf.h's eta). */
+INLINE Frame component_frame(Component c, const Surface *f) {
+    bool dielectric = c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC;
+    return make_frame(dielectric && !f->front ? -f->n_shade : f->n_shade);
+}
+
+/* The first hit's AOV record and object id (the `id` and `edges` AOVs). */
+INLINE void record_first_hit(const PathScene *s, const Surface *f, Hit h, __global AovRecord *aov, __global IdRecord *id) {
+    if (id) id->path[0] = h.id >= 0 ? s->geo.prim_object[h.id] : -1; /* the rest stays -1: one id per pixel */
+#if WRITE_AOV
+    if (aov && h.id >= 0) {
+        __global const Material *m = &s->geo.materials[f->material];
+        vstore3(f->n_shade, 0, aov->normal);
+        aov->depth = h.t;
+        vstore3(m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd), 0, aov->albedo);
+    }
+#endif
+}
+
+/* Radiance along one camera ray. */
+INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRecord *aov, __global IdRecord *id, uint *visits,
+                            uint *rays) {
+    float3 radiance = (float3)(0.0f), beta = (float3)(1.0f), prev_n = (float3)(0.0f);
+    float prev_pdf = 0.0f;
+    bool prev_delta = true; /* the camera ray: every light it meets counts whole */
+    for (int depth = 0;; ++depth) {
+        Hit h = closest_hit(&s->geo, r, 0.0f, INF_T, visits);
+        *rays += 1;
+        radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
+        if (h.id < 0) {
+            float env_pdf = max_f(dot3(prev_n, r.d), 0.0f) * M_1_PI_F;
+            float mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
+            radiance += beta * vload3(0, s->p.environment) * mis;
+            if (depth == 0) record_first_hit(s, 0, h, aov, id);
+            break;
+        }
+        Surface f = surface_at(s, r, h);
+        if (depth == 0) record_first_hit(s, &f, h, aov, id);
+        radiance += beta * emission_met(s, &f, h, r.d, prev_delta, prev_pdf);
+        if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
+        Component c = pick_component(&s->geo.materials[f.material], rng_next(rng));
+        Frame fr = component_frame(c, &f);
+        float3 wo = to_local(fr, -r.d);
+        if (!component_is_delta(c)) radiance += beta * direct_lighting(s, &f, c, fr, wo, rng, visits, rays);
+        float u1 = rng_next(rng);
+        float2 u2 = (float2)(rng_next(rng), rng_next(rng));
+        BsdfSample bs = component_sample(c, wo, u1, u2);
+        if (!(bs.pdf > 0.0f)) break;
+        float3 wi = to_world(fr, bs.wi);
+        beta *= bs.weight;
+        if (depth >= RR_DEPTH) { /* Russian roulette: continue with probability q, weighted by 1 / q */
+            float q = min_f(max_f(beta.x, max_f(beta.y, beta.z)), RR_SURVIVE_MAX);
+            if (!(rng_next(rng) < q)) break;
+            beta /= q;
+        }
+        if (!(max_f(beta.x, max_f(beta.y, beta.z)) > 0.0f)) break;
+        prev_delta = bs.delta != 0;
+        prev_pdf = bs.pdf;
+        prev_n = f.n_shade;
+        r = make_ray(offset_origin(f.p, f.p_err, dot3(wi, f.n_geo) >= 0.0f ? f.n_geo : -f.n_geo), wi);
+    }
+    return radiance;
+}
+
+/* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
+ * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
+__kernel void render_path(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+                          __global const VertexNormals *normals, __global const ObjectRecord *objects,
+                          __global const Material *materials, __global const Light *lights,
+                          __global const Camera *camera, __global const Emitter *emitters,
+                          __global const int *emitter_of_prim, __global const int *pixels, PathParams params,
+                          __global float4 *colour_out, __global AovRecord *aov_out, __global IdRecord *ids_out,
+                          __global uint2 *stats_out) {
+    int gid = get_global_id(0);
+    if (gid >= params.n_work) return;
+    PathScene s;
+    s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
+    s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
+    s.p = params;
+    int pixel = pixels[gid];
+    float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
+    float3 origin = vload3(0, camera->origin), forward = vload3(0, camera->forward);
+    float3 right = vload3(0, camera->right), up = vload3(0, camera->up);
+    uint n = (uint)params.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
+    float3 sum = (float3)(0.0f);
+    float weight_sum = 0.0f;
+    uint visits = 0, rays = 0;
+    for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
+        uint sample = (uint)params.first_sample + s_i;
+        Rng rng = make_rng(params.seed, (uint)pixel, sample);
+        float2 off = per_pass > 1u ? pixel_sample_offset(params.sampler, s_i, n, &rng)
+                                   : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, &rng);
+        float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
+        float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
+        Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
+        bool first = s_i == 0 && params.record;
+        float weight = pixel_filter_weight(params.pixel_filter, off);
+        sum += weight * path_radiance(&s, r, &rng, first ? aov_out + gid : 0, first ? ids_out + gid : 0, &visits, &rays);
+        weight_sum += weight;
+    }
+    colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
+    stats_out[gid] = (uint2)(visits, rays);
+}
