@@ -10,8 +10,10 @@ import warnings
 from pathlib import Path
 
 from ..errors import RenderWarning, UsageError
-from ..trace.renderer import AA_MODES, SAMPLERS, RenderSettings
+from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument
+
+PATH_DEFAULT_SPP = 64  # --integrator path without --spp or --samples
 
 EXAMPLES = """examples:
   clrender render refract1 -o refract1.png
@@ -109,7 +111,19 @@ def add_parser(sub):
         "--aov-out", default=None, metavar="PATH", help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)"
     )
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
-    p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces")
+    p.add_argument(
+        "--integrator",
+        choices=INTEGRATORS,
+        default=d.integrator,
+        help="whitted: the seed's ray tracer; path: physically based path tracing (docs/materials.md) (default: whitted)",
+    )
+    p.add_argument(
+        "--spp", type=int, default=None, help=f"path: paths per pixel per pass (default: N x N from --samples, or {PATH_DEFAULT_SPP} without it)"
+    )
+    p.add_argument(
+        "--time-budget", type=float, default=None, metavar="SECONDS", help="path: repeat whole-image passes of --spp paths while time is left"
+    )
+    p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces (path: bounces after the first hit)")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
@@ -209,6 +223,9 @@ def settings_from_args(args) -> RenderSettings:
         values.setdefault(key, getattr(d, key) if value is None else value)
     if "samples" not in explicit:  # the default depends on --aa: 1 without anti-aliasing, else 4
         values["samples"] = 1 if values["aa"] == "none" else 4
+    spp = args.spp
+    if spp is None and args.integrator == "path" and "samples" not in explicit:
+        spp = PATH_DEFAULT_SPP
     if args.aov is not None:
         from ..trace.aov import parse_aov_list
 
@@ -220,6 +237,9 @@ def settings_from_args(args) -> RenderSettings:
         pixel_filter=args.pixel_filter,
         contrast=args.contrast,
         max_depth=args.max_depth,
+        integrator=args.integrator,
+        spp=0 if spp is None else spp,
+        time_budget=args.time_budget,
         fresnel=args.fresnel,
         bvh=args.bvh,
         bvh_builder=args.bvh_builder,

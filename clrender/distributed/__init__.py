@@ -95,12 +95,20 @@ class DistributedRenderer(Renderer):
             self._scattered = scatter(self.client, self.payload, broadcast=True, deadlines=self.deadlines)
         return self._scattered
 
-    def _pass(self, pixel_lists, sampler, n, record, desc):
+    def _pass(self, pixel_lists, sampler, n, record, desc, first_sample=0):
         payload = self._scene_future()
         token = uuid.uuid4().hex[:12]
         futures = [
             self.client.submit(
-                worker.trace_pixels, payload, self.settings, p.astype(np.int32), sampler, n, record, key=f"clrender-{desc}-{token}-{i}"
+                worker.trace_pixels,
+                payload,
+                self.settings,
+                p.astype(np.int32),
+                sampler,
+                n,
+                record,
+                first_sample,
+                key=f"clrender-{desc.replace(' ', '-')}-{token}-{i}",
             )
             for i, p in enumerate(pixel_lists)
         ]

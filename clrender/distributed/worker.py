@@ -110,15 +110,15 @@ def _info(renderer: Renderer, start: float, ready: float, built: bool, cpu_ready
 
 
 @task
-def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sampler: str, n: int, record: bool):
-    """One tile (or edge-pixel chunk): what `Renderer.launch` returns, plus timing info."""
+def trace_pixels(payload: ScenePayload, settings: RenderSettings, pixels, sampler: str, n: int, record: bool, first_sample: int = 0):
+    """One tile (or edge-pixel chunk, or a path-tracing pass's tile): what `Renderer.launch` returns, plus timing info."""
     check_code(payload)
     with _LOCK:
         start = time.perf_counter()
         built = not is_built(payload, settings)
         renderer = renderer_for(payload, settings)
         ready, cpu_ready = time.perf_counter(), time.process_time()
-        out = renderer.launch(pixels, sampler, n, record)
+        out = renderer.launch(pixels, sampler, n, record, first_sample)
         return out, _info(renderer, start, ready, built, cpu_ready)
 
 
