@@ -121,7 +121,11 @@ def add_parser(sub):
         "--spp", type=int, default=None, help=f"path: paths per pixel per pass (default: N x N from --samples, or {PATH_DEFAULT_SPP} without it)"
     )
     p.add_argument(
-        "--time-budget", type=float, default=None, metavar="SECONDS", help="path: repeat whole-image passes of --spp paths while time is left"
+        "--time-budget",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="path: repeat whole-image passes of --spp paths while time is left (default: one pass)",
     )
     p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces (path: bounces after the first hit)")
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
