@@ -19,7 +19,7 @@ def refract(device, incidence_degrees, n1, n2):
     eta = np.full(k, n1 / n2, np.float32)
     out = device.empty(16 * k)
     knl = device.kernel("trace.cl", "refract_rays", trace_defines())
-    knl(device.queue, (k,), None, np.int32(k), device.to_device(d), device.to_device(normals), device.to_device(eta), out)
+    knl(device.queue, (k,), None, n=k, d=device.to_device(d), normals=device.to_device(normals), eta=device.to_device(eta), out=out)
     result = np.empty((k, 4), np.float32)
     cl.enqueue_copy(device.queue, result, out)
     return result
@@ -69,7 +69,7 @@ def test_the_specular_power_matches_float64_within_float32_rounding_of_its_expon
     n = len(x)
     out = device.empty(4 * n)
     knl = device.kernel("trace.cl", "specular_power", trace_defines())
-    knl(device.queue, (n,), None, np.int32(n), device.to_device(x), device.to_device(s), out)
+    knl(device.queue, (n,), None, n=n, x=device.to_device(x), s=device.to_device(s), out=out)
     got = np.empty(n, np.float32)
     cl.enqueue_copy(device.queue, got, out)
     exponent = s.astype(np.float64) * np.log2(x.astype(np.float64))
