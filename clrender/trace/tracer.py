@@ -30,7 +30,7 @@ import pyopencl as cl
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
 from ..launch import Kernel
-from ..layout import NORMAL_ROWS
+from ..layout import BVH_NODE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
@@ -175,7 +175,7 @@ class Tracer:
         n = self.primitives.count
         self.bvh = None
         self.bvh_seconds = 0.0
-        self.device.check_fits(n * 48, f"{n} primitives")
+        self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
         if use_bvh and n > 0:
             from .bvh import build_bvh
 
@@ -187,23 +187,25 @@ class Tracer:
             order = np.asarray(self.bvh.prim_order, np.int64)
             slots = pack_slots(self.primitives, order)
             if self.bvh_width == 2:
-                nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
+                nodes = self.bvh.nodes  # BvhNode records
             else:
-                from .bvh_wide import collapse, kernel_rows
+                from .bvh_wide import collapse, tree_buffer
 
                 self.wide = collapse(self.bvh, self.bvh_width)
-                nodes = kernel_rows(self.wide, slots)
+                nodes = tree_buffer(self.wide, slots)  # WideNode records, then LeafBlocks
             self.bvh_seconds = time.perf_counter() - start
         else:
             slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
-            nodes = np.zeros((8, 4), np.float32)
+            nodes = np.zeros(1, BVH_NODE_DTYPE)  # never read: no tree, or no primitives
         dev = self.device
         self.n_prims = n
         self.nodes = dev.to_device(nodes)
         self.prims = dev.to_device(slots)
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros((max(n, 1), NORMAL_ROWS, 4), np.float32)
-        normals[: len(self.primitives.triangles), :, :3] = self.primitives.triangle_normals
+        normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)  # by primitive id: triangles first
+        tri_normals = self.primitives.triangle_normals  # (T, vertex, xyz)
+        for k, vertex in enumerate(("n0", "n1", "n2")):
+            normals[vertex][: len(tri_normals), :3] = tri_normals[:, k]
         self.normals = dev.to_device(normals)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
