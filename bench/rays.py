@@ -108,7 +108,7 @@ def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int, packet
     counter = Tracer(mesh, builder=builder, bvh_width=width, device=dev, ray_packets=packets, count_prim_tests=True)
     row = dict(bvh_build_s=tracer.bvh_seconds)
     for kind, (o, d, t_max) in rays.items():
-        n, o_buf, d_buf = tracer._rays(o, d)
+        _, n, o_buf, d_buf = tracer._rays(o, d)
         zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
         if kind == "shadow":
             t_buf, outs = dev.to_device(t_max), (dev.empty(4 * n), dev.empty(4 * n))

@@ -22,7 +22,6 @@ import numpy as np
 
 # ---- tracing (kernels/common.h, shade.h, sampling.h, trace.cl)
 PATH_LEN = 8  # object ids recorded along each pixel's path (edge detection): IdRecord.path
-PRIM_ROWS = 3  # float4 rows per primitive slot
 
 LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # Light.type
 LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: the seed's model, or physical (scene/lights.py)
@@ -35,16 +34,9 @@ PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, 
 SPLAT_TILE = 16  # Gaussian splats are binned into SPLAT_TILE x SPLAT_TILE pixel tiles
 SPLAT_EPS = 1e-3  # normalized blend: weight of the background colour
 VORONOI_STRIP = 8  # pixels per work-item of the grid kernel (one float8)
-BVH_NODE_ROWS = 2  # float4 rows per binary BVH node: (bmin, offset), (bmax, count) -- trace/bvh.py's NODE_DTYPE
-WIDE_NODE_ROWS = 8  # rows of BVH_WIDTH lanes per wide BVH node: lo/hi per axis (rows 0-5), then child and count
-WIDE_CHILD_ROW = 6  # a wide node's row of child indices / first slots (int32 bits)
-WIDE_COUNT_ROW = 7  # a wide node's row of slot counts (int32 bits; 0 interior, -1 empty lane)
-# Leaf blocks of the wide layouts (trace/bvh_wide.py leaf_blocks): a leaf's primitives in groups of
-# BLOCK_LANES, tested at once; rows 0-8 are float4s of v0.x, v0.y, v0.z, v1.x, ... v2.z of each lane's
-# triangle, row 9 the lanes' slots (int32 bits: a triangle's slot, -2 - slot for a sphere, -1 empty)
+# Leaf blocks of the wide layouts (the LeafBlock record below): a leaf's primitives in groups of
+# BLOCK_LANES, tested at once with float4 operations
 BLOCK_LANES = 4
-BLOCK_ROWS = 10
-BLOCK_SLOT_ROW = 9
 
 
 # ---------------------------------------------------------------- records as C structs
@@ -89,14 +81,58 @@ def c_struct(record: Record) -> str:
 # ---------------------------------------------------------------- records
 # Each section is one part of the kernels; a record is a dtype plus its Record (the C struct's name).
 
-# ---- geometry and traversal (kernels/intersect.h, packet.h, shaft.h; packed by trace/geometry.py, bvh*.py)
+# ---- geometry and traversal (kernels/intersect.h, packet.h, shaft.h; packed by trace/geometry.py, bvh*.py, tracer.py)
 _F4 = ("<f4", 4)
-# triangle: (v0, id bits) (v1, 0) (v2, 0); sphere: (centre, id bits) (radius, 0, 0, 1) (0)
-PRIM_SLOT_DTYPE = np.dtype([("a", *_F4), ("b", *_F4), ("c", *_F4)])
+# A primitive slot (48 bytes), in the tree's leaf order: one buffer read through two records, PrimSlot
+# for a triangle and SphereSlot for a sphere, which keep `id` (the primitive's index in scene order)
+# and `sphere` (1 for a sphere, 0 for a triangle) at the same offsets.  A triangle holds its vertices
+# themselves, not edges: two triangles that share a vertex read bit-identical floats there
+# (watertight).  Each vertex starts a 16-byte row (v0, v1, v2 at 0, 16, 32).
+PRIM_SLOT_DTYPE = np.dtype(
+    {
+        "names": ["v0", "id", "v1", "sphere", "v2"],
+        "formats": [("<f4", 3), "<i4", ("<f4", 3), "<i4", ("<f4", 3)],
+        "offsets": [0, 12, 16, 28, 32],
+        "itemsize": 48,
+    }
+)
+PRIM_SLOT = Record("PrimSlot", PRIM_SLOT_DTYPE)
+SPHERE_SLOT_DTYPE = np.dtype(
+    {
+        "names": ["centre", "id", "radius", "sphere"],
+        "formats": [("<f4", 3), "<i4", "<f4", "<i4"],
+        "offsets": [0, 12, 16, 28],
+        "itemsize": 48,
+    }
+)
+SPHERE_SLOT = Record("SphereSlot", SPHERE_SLOT_DTYPE)
 # a binary BVH node (trace/bvh.py builds them): its box, and a leaf's first slot and count (> 0), or an
 # interior node's far child (its near child follows it) and count 0
 BVH_NODE_DTYPE = np.dtype([("bmin", "<f4", 3), ("offset", "<i4"), ("bmax", "<f4", 3), ("count", "<i4")])
 BVH_NODE = Record("BvhNode", BVH_NODE_DTYPE)
+
+
+def wide_node_dtype(width: int) -> np.dtype:
+    """A wide BVH node of `width` lanes (trace/bvh_wide.py), one child per lane, its fields OpenCL vectors
+    of `width` lanes: bounds[2 axis] and bounds[2 axis + 1] hold the children's lo and hi along the
+    axis; child is an interior child's wide node, or a leaf child's first slot (in the buffer the
+    kernels read, bvh_wide.tree_buffer: its first LeafBlock, counted from the buffer's start); count is
+    0 for an interior child, the leaf's primitives (> 0), or -1 for an empty lane (whose box is
+    [+inf, -inf], missed by every ray)."""
+    return np.dtype([("bounds", "<f4", (6, width)), ("child", "<i4", width), ("count", "<i4", width)])
+
+
+WIDE_NODE4 = Record("WideNode4", wide_node_dtype(4), vectors=("bounds", "child", "count"))  # 128 bytes
+WIDE_NODE8 = Record("WideNode8", wide_node_dtype(8), vectors=("bounds", "child", "count"))  # 256 bytes
+WIDE_NODE_DTYPES = {4: WIDE_NODE4.dtype, 8: WIDE_NODE8.dtype}
+# A leaf block (160 bytes): BLOCK_LANES primitives of a wide tree's leaf, one per float4 lane, for the
+# kernels to test at once: v0[axis], v1[axis], v2[axis] are the lanes' triangles' vertex coordinates
+# along x, y, z (copied bit for bit from their slots); slot is each lane's triangle slot, -2 - slot for
+# a sphere (tested on its own; its vertex lanes hold zeros), -1 for an empty lane.
+LEAF_BLOCK_DTYPE = np.dtype(
+    [("v0", "<f4", (3, BLOCK_LANES)), ("v1", "<f4", (3, BLOCK_LANES)), ("v2", "<f4", (3, BLOCK_LANES)), ("slot", "<i4", BLOCK_LANES)]
+)
+LEAF_BLOCK = Record("LeafBlock", LEAF_BLOCK_DTYPE, vectors=("v0", "v1", "v2", "slot"))
 
 # ---- shading and the render kernel (kernels/shade.h, trace.cl; packed by scene/*.py, trace/renderer.py)
 # a material (scene/materials.py): the seed's Blinn-Phong colours and exponent, mirror and transparency
@@ -263,7 +299,6 @@ SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)
 
 DEFINES = {
     "PATH_LEN": PATH_LEN,
-    "PRIM_ROWS": PRIM_ROWS,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
     **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
     **{f"BSDF_{name.upper()}": code for name, code in BSDF_LOBES.items()},
@@ -273,13 +308,7 @@ DEFINES = {
     "SPLAT_TILE": SPLAT_TILE,
     "SPLAT_EPS": SPLAT_EPS,
     "VORONOI_STRIP": VORONOI_STRIP,
-    "BVH_NODE_ROWS": BVH_NODE_ROWS,
-    "WIDE_NODE_ROWS": WIDE_NODE_ROWS,
-    "WIDE_CHILD_ROW": WIDE_CHILD_ROW,
-    "WIDE_COUNT_ROW": WIDE_COUNT_ROW,
     "BLOCK_LANES": BLOCK_LANES,
-    "BLOCK_ROWS": BLOCK_ROWS,
-    "BLOCK_SLOT_ROW": BLOCK_SLOT_ROW,
 }
 
 

@@ -1,27 +1,25 @@
 /* Shared definitions for the tracing kernels (OpenCL C 1.2, float32).
  *
- * Buffer layouts (records and strides in clrender/layout.py; packed by clrender/trace/geometry.py,
- * tracer.py, materials.py, lights.py and renderer.py):
- *   nodes     BVH_WIDTH 2: float4 x2 per BVH node: (bmin.xyz, offset) (bmax.xyz, count)
- *             leaf: count > 0, primitives [offset, offset+count) of `prims`;
- *             interior: count == 0, near child i+1, far child `offset`.
- *             BVH_WIDTH 4 or 8: 8 rows of BVH_WIDTH floats per node, see clrender/trace/bvh_wide.py.
- *   prims     float4 x3 per primitive slot, in BVH leaf order:
- *             triangle: (v0, id) (v1, 0) (v2, 0) -- the vertices themselves, so two
- *             triangles that share an edge see bit-identical endpoints (watertight)
- *             sphere:   (centre, id) (radius, 0, 0, 1) (0)
- *             id = the primitive's index in scene order, stored as int bits.
+ * Buffer records are declared in clrender/layout.py and reach the kernels as generated C structs, read
+ * by field name; packed by clrender/trace/geometry.py, bvh.py, bvh_wide.py, tracer.py, materials.py,
+ * lights.py and renderer.py:
+ *   nodes     the BVH (Geometry.nodes, kernels/intersect.h).  BVH_WIDTH 2: BvhNode records, depth
+ *             first; leaf: count > 0, slots [offset, offset+count); interior: count == 0, near
+ *             child i+1, far child `offset`.  BVH_WIDTH 4 or 8: WideNode records, then LeafBlocks.
+ *   prims     a PrimSlot per primitive slot, in BVH leaf order (a sphere's read as a SphereSlot):
+ *             a triangle's vertices themselves, so two triangles that share an edge see
+ *             bit-identical endpoints (watertight); `id`, the primitive's index in scene order.
  *   prim_object  int per primitive id: its object id.
- *   normals   float4 x3 per primitive id: vertex normals of a smooth triangle.
- *   objects   int2 per object: (material index, smooth shading flag).
- *   materials float4 x3: (kd.rgb, shininess) (ks.rgb, mirror) (transparency, ior, 0, 0)
- *   lights    float4 x5: (type, samples per side, intensity, falloff) (position |
+ *   normals   VertexNormals per primitive id: a smooth triangle's vertex normals.
+ *   objects   ObjectRecord per object: material index, smooth shading flag.
+ *   materials Material records.
+ *   lights    float4 x LIGHT_ROWS: (type, samples per side, intensity, falloff) (position |
  *             direction of travel | corner) (colour) (edge a) (edge b)
  */
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 
-#include "layout.h" /* PATH_LEN, ID_RECORD, the record strides, the light and sampler codes */
+#include "layout.h" /* PATH_LEN, ID_RECORD, the records, the light and sampler codes */
 
 /* The traversal's build knobs come from the host (clrender.trace.tracer.trace_defines), never from defaults here:
  * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),

@@ -1,4 +1,23 @@
-/* Ray-primitive tests and BVH traversal (closest hit and shadow transmittance). */
+/* Ray-primitive tests and BVH traversal: the closest hit of a ray, and the light a shadow ray lets
+ * through (any-hit: transmittance, which an opaque surface ends).
+ *
+ * One traversal per tree layout, closest hit and any-hit as its `any_hit` parameter (a constant at
+ * every call, so the compiler keeps one specialised copy of each): walk_binary (BVH_WIDTH 2) and Walk
+ * (wide nodes, BVH_WIDTH 4 or 8) share the leaf tests (leaf_slots, leaf_blocks), the overflow
+ * fallback (walk_overflowed) and the entry point trace_query, which the BVH-off path answers too.
+ * What stays separate, and why (python -m bench rays, its generated 100k-triangle mesh, 512 x 512
+ * rays; Mrays per CPU-second, medians of 10 runs on a loaded 2-core VM, 2026-11-24):
+ * - walk_binary and Walk: different trees.  The wide walk tests a node's boxes at once in vectors
+ *   and a leaf's triangles four at a time; the binary walk is Tracer(bvh_width=2) and the reference
+ *   the wide answers are tested against, bit for bit.  One ray at a time, width 8 vs 2: primary
+ *   6.1 vs 2.8 (x2.1), shadow 4.0 vs 2.3 (x1.8), incoherent 3.3 vs 1.5 (x2.2).
+ * - Walk and Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together,
+ *   one stack and one box sort for all, each triangle tested against eight rays in float8 lanes; the
+ *   query kernels walk rays that do not as pairs of Walks.  Packets vs pairs of Walks, width 8:
+ *   primary 11.2 vs 6.1 (x1.8), shadow 6.7 vs 4.0 (x1.7), incoherent 3.2 vs 3.3 (they rarely form).
+ * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one traversal
+ *   with the shaft that holds them all, then test only the primitives it collected: wizard_cat,
+ *   camera 3, 400 x 400, 6 x 6 samples per pixel: 6.4 CPU-seconds with shafts, 14.5 without (x2.3). */
 #ifndef CLRENDER_INTERSECT_H
 #define CLRENDER_INTERSECT_H
 
@@ -9,31 +28,64 @@
 
 typedef struct {
     float t;       /* distance along the (unit) direction; INF_T on a miss */
-    int slot;      /* index into prims; -1 on a miss */
+    int slot;      /* index into the slots; -1 on a miss */
     int id;        /* primitive id in scene order; -1 on a miss */
     float u, v;    /* barycentrics of v1 and v2 on a triangle */
 } Hit;
 
+/* The tree's node record (clrender/layout.py), by BVH_WIDTH. */
+#if BVH_WIDTH == 2
+typedef BvhNode TreeNode;
+#else
+#if BVH_WIDTH == 4
+typedef WideNode4 WideNode;
+#else
+typedef WideNode8 WideNode;
+#endif
+typedef WideNode TreeNode;
+#endif
+
 /* The scene's geometry as every traversal reads it (packed by clrender/trace/tracer.py). */
 typedef struct {
-    __global const float4 *nodes;      /* the BVH: binary nodes, or wide nodes and leaf blocks (clrender/trace/bvh*.py) */
-    __global const float4 *prims;      /* primitive slots, in the tree's leaf order */
+    __global const TreeNode *nodes;    /* the tree, node 0 its root; a wide tree's leaf blocks follow its nodes (leaf_block) */
+    __global const PrimSlot *slots;    /* primitive slots, in the tree's leaf order: prim_slot, sphere_slot */
     __global const int *prim_object;   /* object id of each primitive id */
     __global const ObjectRecord *objects;
     __global const Material *materials;
     int n_prims;
 } Geometry;
 
-INLINE Geometry geometry(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+/* The kernels' buffers as a Geometry. */
+INLINE Geometry geometry(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                          __global const ObjectRecord *objects, __global const Material *materials, int n_prims) {
     Geometry g;
-    g.nodes = nodes; g.prims = prims; g.prim_object = prim_object; g.objects = objects; g.materials = materials;
+    g.nodes = nodes; g.slots = prims; g.prim_object = prim_object; g.objects = objects; g.materials = materials;
     g.n_prims = n_prims;
     return g;
 }
 
+/* Slot s: a triangle's record, or the same 48 bytes as a sphere's (`sphere` tells which). */
+INLINE __global const PrimSlot *prim_slot(const Geometry *g, int s) { return g->slots + s; }
+INLINE __global const SphereSlot *sphere_slot(const Geometry *g, int s) { return (__global const SphereSlot *)(g->slots + s); }
+
+/* Three floats of a record (an array field) as a float3. */
+INLINE float3 load3(__global const float *xyz) { return (float3)(xyz[0], xyz[1], xyz[2]); }
+
+/* A sphere slot's centre and radius, as the sphere tests take them. */
+INLINE float4 centre_radius(__global const SphereSlot *s) { return (float4)(load3(s->centre), s->radius); }
+
+/* Lane k of a vector field in global memory, read as an array: OpenCL C cannot index a vector by a variable. */
+#define LANE_OF(type, vector, k) (((__global const type *)&(vector))[k])
+
+#if BVH_WIDTH >= 4
+/* The leaf block a wide leaf lane's child names: blocks are counted in LeafBlocks from the start of
+ * the nodes' buffer (clrender/trace/bvh_wide.py tree_buffer puts them after the nodes). */
+INLINE __global const LeafBlock *leaf_block(const Geometry *g, int first) { return (__global const LeafBlock *)g->nodes + first; }
+#endif
+
 /* What a shadow ray keeps crossing primitive `id` (its material's transparency). */
 INLINE float transparency_of(const Geometry *g, int id) { return g->materials[g->objects[g->prim_object[id]].material].transparency; }
+
 
 INLINE Hit no_hit(void) {
     Hit h;
@@ -41,15 +93,20 @@ INLINE Hit no_hit(void) {
     return h;
 }
 
-/* A primitive slot (layout.PRIM_SLOT_DTYPE): its second row ends in 1 for a sphere, 0 for a triangle;
- * its first row ends in the primitive's id, as int bits. */
-INLINE bool is_sphere_row(float4 second_row) { return second_row.w != 0.0f; }
-
-INLINE bool is_sphere(__global const float4 *prims, int slot) { return is_sphere_row(prims[PRIM_ROWS * slot + 1]); }
-
-INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims[PRIM_ROWS * slot].w); }
-
 #define GAMMA(n) ((float)(n) * 5.96046448e-8f / (1.0f - (float)(n) * 5.96046448e-8f)) /* n*u/(1-n*u), u = 2^-24 */
+
+/* A box's exit distance is widened by 1 + 2 gamma(3) (pbrt-v4's Bounds3::IntersectP): each slab
+ * distance (b - o) * inv_d is within gamma(3) of the exact one, entry and exit alike, so a box a hit
+ * lies in is never culled by rounding.  1 + 2 gamma(3) = 1 + 3.5763e-7 rounds to 1 + 3 * 2^-23 in
+ * float32, which is what 1.0000004f reads as.  The same factor culls a stacked box against the
+ * nearest hit so far: it is dropped only when hit_box, given that hit's t as t_max, would miss it. */
+#define BOX_EXIT_WIDEN 1.0000004f
+/* The t range a primitive is tested in while a nearest hit t is known: t * (1 + 2^-22), two ulps
+ * more (1.0000002f reads as 1 + 2 * 2^-23).  A primitive at exactly t must still be found, for ties
+ * go to the lower primitive id: the triangle test refuses t >= t_max and compares t * det with
+ * t_max * det before its one division, each rounding half an ulp, so without the slack a tie could
+ * be refused by rounding.  The caller's exact comparison then decides (leaf_slots, nearest_lane). */
+#define HIT_TIE_WIDEN 1.0000002f
 
 /* The triangle test, once per lane type (kernels/triangle.h, which undefines the TRI_ names after use) */
 #define TRI_F float
@@ -69,23 +126,24 @@ INLINE int prim_id(__global const float4 *prims, int slot) { return as_int(prims
 #define TRI_R float
 #include "triangle.h"
 
-/* One triangle (the records' vertices v0, v1, v2): t in (t_min, t_max) or INF_T, and u, v. */
-INLINE float hit_triangle(Ray r, float4 v0, float4 v1, float4 v2, float t_min, float t_max, float *u, float *v) {
-    float3 q0 = v0.xyz - r.o, q1 = v1.xyz - r.o, q2 = v2.xyz - r.o;
+/* One triangle (vertices v0, v1, v2): t in (t_min, t_max) or INF_T, and u, v. */
+INLINE float hit_triangle(Ray r, float3 v0, float3 v1, float3 v2, float t_min, float t_max, float *u, float *v) {
+    float3 q0 = v0 - r.o, q1 = v1 - r.o, q2 = v2 - r.o;
     return triangle_test(axis_of(q0, r.kx), axis_of(q0, r.ky), axis_of(q0, r.kz), axis_of(q1, r.kx),
                          axis_of(q1, r.ky), axis_of(q1, r.kz), axis_of(q2, r.kx), axis_of(q2, r.ky),
                          axis_of(q2, r.kz), 1, r.sx, r.sy, r.sz, t_min, t_max, u, v);
 }
 
-/* The triangles of a leaf block (layout.py BLOCK_*: rows 3v + axis hold vertex v's coordinates of
- * every lane), in lanes where `valid` is set: the same operations as hit_triangle, lane by lane. */
-INLINE float4 hit_block(Ray r, __global const float4 *block, int4 valid, float t_min, float t_max, float4 *u,
-                        float4 *v) {
+#if BVH_WIDTH >= 4
+/* The triangles of a leaf block, in lanes where `valid` is set: the same operations as hit_triangle,
+ * lane by lane. */
+INLINE float4 hit_block(Ray r, __global const LeafBlock *b, int4 valid, float t_min, float t_max, float4 *u, float4 *v) {
     float ox = axis_of(r.o, r.kx), oy = axis_of(r.o, r.ky), oz = axis_of(r.o, r.kz);
-    return triangle_test4(block[r.kx] - ox, block[r.ky] - oy, block[r.kz] - oz, block[3 + r.kx] - ox,
-                          block[3 + r.ky] - oy, block[3 + r.kz] - oz, block[6 + r.kx] - ox, block[6 + r.ky] - oy,
-                          block[6 + r.kz] - oz, valid, r.sx, r.sy, r.sz, t_min, t_max, u, v);
+    return triangle_test4(b->v0[r.kx] - ox, b->v0[r.ky] - oy, b->v0[r.kz] - oz, b->v1[r.kx] - ox, b->v1[r.ky] - oy,
+                          b->v1[r.kz] - oz, b->v2[r.kx] - ox, b->v2[r.ky] - oy, b->v2[r.kz] - oz, valid, r.sx, r.sy,
+                          r.sz, t_min, t_max, u, v);
 }
+#endif
 
 /* Both roots of |o + t d - c|^2 = r^2 for unit d, in the cancellation-free
  * form (Ray Tracing Gems ch. 7): the discriminant from the ray's closest
@@ -143,11 +201,64 @@ INLINE float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err
     return p;
 }
 
+
 /* Distance to primitive slot s in (t_min, t_max), or INF_T; u, v set on a triangle hit. */
-INLINE float hit_slot(__global const float4 *prims, int s, Ray r, float t_min, float t_max, float *u, float *v) {
-    float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
-    if (is_sphere_row(b)) return hit_sphere(r, (float4)(a.xyz, b.x), t_min, t_max);
-    return hit_triangle(r, a, b, c, t_min, t_max, u, v);
+INLINE float hit_slot(const Geometry *g, int s, Ray r, float t_min, float t_max, float *u, float *v) {
+    __global const PrimSlot *p = prim_slot(g, s);
+    if (p->sphere) return hit_sphere(r, centre_radius(sphere_slot(g, s)), t_min, t_max);
+    return hit_triangle(r, load3(p->v0), load3(p->v1), load3(p->v2), t_min, t_max, u, v);
+}
+
+/* Fraction of light reaching t_max along the ray through slot s: 0 past an opaque surface, times
+ * `transparency` for every crossing of a transparent one (the shadow ray is not bent).  With
+ * opaque_only every surface blocks (a plain any-hit occlusion query). */
+INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min, float t_max, bool opaque_only) {
+    __global const PrimSlot *p = prim_slot(g, s);
+    int crossings = 0;
+    if (p->sphere) {
+        float t0, t1;
+        float4 cr = centre_radius(sphere_slot(g, s));
+        if (sphere_roots(r, cr, &t0, &t1)) {
+            float t_lo = max_f(t_min, sphere_t_eps(r, cr));
+            crossings = (t0 > t_lo && t0 < t_max) + (t1 > t_lo && t1 < t_max);
+        }
+    } else {
+        float u, v;
+        crossings = hit_triangle(r, load3(p->v0), load3(p->v1), load3(p->v2), t_min, t_max, &u, &v) != INF_T;
+    }
+    if (crossings == 0) return 1.0f;
+    if (opaque_only) return 0.0f;
+    float transparency = transparency_of(g, p->id);
+    return crossings == 2 ? transparency * transparency : transparency;
+}
+
+/* One leaf of slots [begin, end), or every slot.  Closest hit: the nearest hit is kept in *best, and
+ * of hits at the same t the lower primitive id, so every traversal order (BVH on or off, binary or
+ * wide, either builder) finds the same primitive.  Any-hit: *T is multiplied by each slot's
+ * crossing_transmittance, in slot order, until it is 0. */
+INLINE void leaf_slots(const Geometry *g, int begin, int end, Ray r, float t_min, float t_max, bool any_hit,
+                       bool opaque_only, Hit *best, float *T) {
+    for (int s = begin; s < end && (!any_hit || *T > 0.0f); ++s) {
+        if (any_hit) {
+            *T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
+            continue;
+        }
+        float u = 0.0f, v = 0.0f;
+        float t = hit_slot(g, s, r, t_min, best->t * HIT_TIE_WIDEN, &u, &v);
+        int id = prim_slot(g, s)->id;
+        if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
+            best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
+        }
+    }
+}
+
+/* After a stack filled up (no node is ever dropped): every primitive is tested instead, from scratch
+ * for any-hit.  Trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep and the stacks hold them,
+ * so this is only reached with smaller knobs (tests of the fallback); the answer is the same. */
+INLINE void walk_overflowed(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                            Hit *best, float *T) {
+    if (any_hit) *T = 1.0f;
+    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, opaque_only, best, T);
 }
 
 /* One slab of the box test: the entry and exit distances (lo - o) / d and
@@ -164,40 +275,76 @@ INLINE void slab(float lo, float hi, float o, float inv_d, float *t_enter, float
     *t_exit = min_f(far, *t_exit);    /* a NaN `far` keeps t_exit */
 }
 
-/* Slab test; returns the entry distance or INF_T.  Correct for every
- * direction, zero and negative-zero components included, and conservative:
- * the exit distance is widened by 1 + 2*gamma(3) (pbrt-v4) so rounding never
- * culls a box a hit lies in.  Scalars: float3 arithmetic costs shuffles on CPUs. */
-INLINE float hit_box(Ray r, float4 bmin, float4 bmax, float t_max) {
+#if BVH_WIDTH == 2
+/* Slab test of a binary node's box; returns the entry distance or INF_T.  Correct for every
+ * direction, zero and negative-zero components included, and conservative: the exit distance is
+ * widened by BOX_EXIT_WIDEN.  Scalars: float3 arithmetic costs shuffles on CPUs. */
+INLINE float hit_box(Ray r, __global const BvhNode *node, float t_max) {
     float t_enter = 0.0f, t_exit = t_max;
-    slab(bmin.x, bmax.x, r.o.x, r.inv_d.x, &t_enter, &t_exit);
-    slab(bmin.y, bmax.y, r.o.y, r.inv_d.y, &t_enter, &t_exit);
-    slab(bmin.z, bmax.z, r.o.z, r.inv_d.z, &t_enter, &t_exit);
-    t_exit *= 1.0000004f;
+    slab(node->bmin[0], node->bmax[0], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab(node->bmin[1], node->bmax[1], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab(node->bmin[2], node->bmax[2], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    t_exit *= BOX_EXIT_WIDEN;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
 
-/* Test slots [begin, end), keeping the nearest hit.  Ties go to the lower
- * primitive id, so every traversal order (BVH on or off, either builder)
- * finds the same primitive. */
-INLINE void test_slots(__global const float4 *prims, int begin, int end, Ray r, float t_min, Hit *best) {
-    for (int s = begin; s < end; ++s) {
-        float u = 0.0f, v = 0.0f;
-        float t = hit_slot(prims, s, r, t_min, best->t * 1.0000002f, &u, &v);
-        int id = prim_id(prims, s);
-        if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
-            best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
+/* The binary tree (clrender/trace/bvh.py), depth first: at an interior node the child to visit next,
+ * the other on the stack.  Closest hit: the nearer box next (ties to the near child node + 1), and a
+ * stacked box is skipped once the nearest hit is nearer; any-hit: the far child `offset` next, and the
+ * walk ends at an opaque hit.  best->t is t_max to start with, and (closest hit) the nearest hit so
+ * far: every box test uses it.  Trees are at most MAX_TREE_LEVELS deep, so the stack holds at most
+ * depth - 1 nodes; should it fill up anyway, walk_overflowed. */
+INLINE void walk_binary(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                        float *T, uint *visits) {
+    __global const BvhNode *nodes = g->nodes;
+    int stack[STACK_SIZE];
+    float stack_t[STACK_SIZE];
+    int sp = 0;
+    bool overflow = false;
+    int node = (g->n_prims > 0 && hit_box(r, nodes, best->t) != INF_T) ? 0 : -1;
+    while (node >= 0) {
+        COUNT_NODE(visits);
+        int count = nodes[node].count, offset = nodes[node].offset;
+        int next = -1;
+        if (count > 0) {
+            COUNT_PRIMS(visits, count); /* any-hit: at most, it stops at the first opaque hit */
+            leaf_slots(g, offset, offset + count, r, t_min, t_max, any_hit, opaque_only, best, T);
+            if (any_hit && *T == 0.0f) return; /* blocked: done */
+        } else {
+            int first = any_hit ? offset : node + 1, second = any_hit ? node + 1 : offset;
+            float t_first = hit_box(r, nodes + first, best->t), t_second = hit_box(r, nodes + second, best->t);
+            if (!any_hit && t_second < t_first) { /* visit the nearer box first */
+                int tmp = first; first = second; second = tmp;
+                float tt = t_first; t_first = t_second; t_second = tt;
+            }
+            if (t_first != INF_T) {
+                next = first;
+                if (t_second != INF_T) { /* put the other node on the stack */
+                    if (sp < STACK_SIZE) { stack[sp] = second; stack_t[sp] = t_second; ++sp; }
+                    else overflow = true;
+                }
+            } else if (t_second != INF_T) { /* any-hit only: closest hit sorted a hit box first */
+                next = second;
+            }
         }
+        /* advance to the next node, else pop a stacked node the ray can still reach */
+        while (next < 0 && sp > 0) {
+            --sp;
+            if (any_hit || stack_t[sp] <= best->t * BOX_EXIT_WIDEN) next = stack[sp];
+        }
+        node = next;
     }
+    if (overflow) walk_overflowed(g, r, t_min, t_max, any_hit, opaque_only, best, T);
 }
+#endif
 
 /* ---------------------------------------------------------------- wide BVH (clrender/trace/bvh_wide.py)
- * BVH_WIDTH 4 or 8.  A node is 8 rows of BVH_WIDTH floats (float4 or float8 rows, read as typed
- * vectors: vloadN here was 17% slower on PoCL): lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of its
- * children, then the children's int32 index (wide node, or the row of a leaf's first block) and
- * count (0 interior, > 0 leaf primitives, -1 empty lane).  The slab test is hit_box's, lane by
- * lane: the same float operations, so each lane's answer is bit for bit the binary test's for that
- * box.  Stack entries are lane keys (lane_keys) with their node; see Walk. */
+ * BVH_WIDTH 4 or 8.  A node (WideNode, clrender/layout.py) holds its children in BVH_WIDTH lanes of
+ * OpenCL vectors (float4 or float8 fields, read as typed vectors: vloadN here was 17% slower on
+ * PoCL): bounds[2 axis], bounds[2 axis + 1] their lo and hi along each axis, child (a wide node, or a
+ * leaf's first block) and count (0 interior, > 0 leaf primitives, -1 empty lane).  The slab test is
+ * hit_box's, lane by lane: the same float operations, so each lane's answer is bit for bit the binary
+ * test's for that box.  Stack entries are lane keys (lane_keys) with their node; see Walk. */
 #if BVH_WIDTH >= 4
 #if BVH_WIDTH == 4
 typedef float4 lanes_f;
@@ -232,13 +379,10 @@ INLINE int hit_count(lanes_i h) {
     int2 s2 = s4.lo + s4.hi;
     return -(s2.x + s2.y);
 }
-#define NODE_FLOATS (WIDE_NODE_ROWS * BVH_WIDTH) /* rows of BVH_WIDTH lanes (clrender/layout.py) */
-#define CHILD_ROW (WIDE_CHILD_ROW * BVH_WIDTH)
-#define COUNT_ROW (WIDE_COUNT_ROW * BVH_WIDTH)
 
-/* One axis of the box test for every lane: the near plane's row is `near` (lo, or hi for a ray
- * going backwards along the axis: the rows are picked by index, not by selecting results), the far
- * plane's the other.  A NaN lane of the entry distance (0 * inf: the ray runs in a box plane) keeps
+/* One axis of the box test for every lane: the near plane's bounds are `near_plane` (lo, or hi for a
+ * ray going backwards along the axis: the fields are picked by index, not by selecting results), the
+ * far plane's the other.  A NaN lane of the entry distance (0 * inf: the ray runs in a box plane) keeps
  * t_enter, as max_f does; ?: rather than select(), which PoCL calls out of line. */
 INLINE void slab_lanes(lanes_f near_plane, lanes_f far_plane, float o, float inv_d, lanes_f *t_enter,
                        lanes_f *t_exit) {
@@ -248,14 +392,15 @@ INLINE void slab_lanes(lanes_f near_plane, lanes_f far_plane, float o, float inv
 }
 
 /* Entry distances of the lanes of a node (INF_T where the box is missed or the lane is empty).
- * Rows 2a and 2a + 1 hold lo and hi along axis a; the sign of 1/d picks which is near. */
-INLINE lanes_f hit_boxes(Ray r, __global const lanes_f *node, float t_max) {
+ * bounds[2a] and bounds[2a + 1] hold lo and hi along axis a; the sign of 1/d picks which is near. */
+INLINE lanes_f hit_boxes(Ray r, __global const WideNode *node, float t_max) {
     int bx = r.inv_d.x < 0.0f, by = r.inv_d.y < 0.0f, bz = r.inv_d.z < 0.0f; /* -0 counts as backwards */
+    __global const lanes_f *b = node->bounds;
     lanes_f t_enter = (lanes_f)(0.0f), t_exit = (lanes_f)(t_max);
-    slab_lanes(node[bx], node[1 - bx], r.o.x, r.inv_d.x, &t_enter, &t_exit);
-    slab_lanes(node[2 + by], node[3 - by], r.o.y, r.inv_d.y, &t_enter, &t_exit);
-    slab_lanes(node[4 + bz], node[5 - bz], r.o.z, r.inv_d.z, &t_enter, &t_exit);
-    t_exit *= 1.0000004f;
+    slab_lanes(b[bx], b[1 - bx], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab_lanes(b[2 + by], b[3 - by], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab_lanes(b[4 + bz], b[5 - bz], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    t_exit *= BOX_EXIT_WIDEN;
     /* empty lanes hold the box [+inf, -inf], missed by every ray (bvh_wide.py) */
     return t_enter <= t_exit ? t_enter : (lanes_f)(INF_T);
 }
@@ -294,10 +439,6 @@ INLINE lanes_u sort_keys_decreasing(lanes_u v) {
     return v;
 }
 
-/* Push the hit lanes of `node`: their keys sorted so that the top of the stack is the nearest
- * (closest hit) or the farthest (any-hit: the boxes nearest a shadow ray's origin rarely block
- * it).  All BVH_WIDTH keys are written (the arrays have that much slack), the stack grows by
- * the number of hits.  No branch per lane: which lanes hit is unpredictable. */
 /* The largest key of a node (its only hit lane's, when one lane hit). */
 INLINE uint max_key(lanes_u k) {
 #if BVH_WIDTH == 8
@@ -309,6 +450,10 @@ INLINE uint max_key(lanes_u k) {
     return m2.x > m2.y ? m2.x : m2.y;
 }
 
+/* Push the hit lanes of `node`: their keys sorted so that the top of the stack is the nearest
+ * (closest hit) or the farthest (any-hit: the boxes nearest a shadow ray's origin rarely block
+ * it).  All BVH_WIDTH keys are written (the arrays have that much slack), the stack grows by
+ * the number of hits.  No branch per lane: which lanes hit is unpredictable. */
 INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stack_key, int *stack_node, int sp,
                       bool *overflow) {
     lanes_u keys = lane_keys(t_lanes, farthest_first);
@@ -326,88 +471,61 @@ INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, uint *stac
     return sp + n;
 }
 
-/* The blocks of a leaf of `count` primitives whose first block starts at row `first` of the wide
- * tree's rows (bvh_wide.kernel_rows), keeping the nearest hit as test_slots does: the same t, and
- * ties to the lower primitive id.  Sphere lanes (rare: a sphere is one primitive) go one by one. */
-INLINE void test_blocks(__global const float4 *rows, int first, int count, __global const float4 *prims, Ray r,
-                        float t_min, Hit *best) {
-    for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
-        __global const float4 *block = rows + first;
-        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+/* Closest hit in one leaf block: of the lanes' hits t (INF_T where none), the nearest is kept in *best
+ * as leaf_slots keeps it: the same t, and ties to the lower primitive id. */
+INLINE void nearest_lane(const Geometry *g, int4 slot, float4 t, float4 u, float4 v, Hit *best) {
+    float2 m2 = t.lo < t.hi ? t.lo : t.hi;
+    if (min_f(m2.x, m2.y) > best->t) return; /* no lane hit */
+    float tl[4] = {t.x, t.y, t.z, t.w}, ul[4] = {u.x, u.y, u.z, u.w}, vl[4] = {v.x, v.y, v.z, v.w};
+    int sl[4] = {slot.x, slot.y, slot.z, slot.w};
+    for (int k = 0; k < BLOCK_LANES; ++k) {
+        if (tl[k] == INF_T) continue;
+        int id = prim_slot(g, sl[k])->id;
+        if (tl[k] < best->t || (tl[k] == best->t && id < best->id)) {
+            best->t = tl[k]; best->slot = sl[k]; best->id = id; best->u = ul[k]; best->v = vl[k];
+        }
+    }
+}
+
+/* T times the transparency of every triangle lane of `block` the ray crosses (a hit t in that lane),
+ * in lane order: a triangle is crossed once. */
+INLINE float times_crossed(const Geometry *g, __global const LeafBlock *block, float4 t, float T) {
+    int4 crossed = t != (float4)(INF_T);
+    if (!(crossed.x | crossed.y | crossed.z | crossed.w)) return T;
+    int4 slot = block->slot;
+    int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
+    for (int k = 0; k < BLOCK_LANES; ++k)
+        if (cl[k]) T *= transparency_of(g, prim_slot(g, sl[k])->id);
+    return T;
+}
+
+/* The blocks of a wide leaf of `count` primitives from block `first` on (leaf_block), the triangles of a
+ * block tested at once, its sphere lanes (rare: a sphere is one primitive) one by one by leaf_slots.
+ * Closest hit: as leaf_slots.  Any-hit: the leaf's own product of crossings, which then multiplies *T
+ * (the grouping the renders were made with: float products are not associative). */
+INLINE void leaf_blocks(const Geometry *g, int first, int count, Ray r, float t_min, float t_max, bool any_hit,
+                        bool opaque_only, Hit *best, float *T) {
+    __global const LeafBlock *block = leaf_block(g, first);
+    float leaf_T = 1.0f;
+    for (int b = 0; b < count && leaf_T > 0.0f; b += BLOCK_LANES, ++block) {
+        int4 slot = block->slot;
         float4 u, v;
-        float4 t = hit_block(r, block, slot >= 0, t_min, best->t * 1.0000002f, &u, &v);
-        float2 m2 = t.lo < t.hi ? t.lo : t.hi;
-        if (min_f(m2.x, m2.y) <= best->t) { /* some lane hit: the nearest, ties to the lower id */
-            float tl[4] = {t.x, t.y, t.z, t.w}, ul[4] = {u.x, u.y, u.z, u.w}, vl[4] = {v.x, v.y, v.z, v.w};
-            int sl[4] = {slot.x, slot.y, slot.z, slot.w};
-            for (int k = 0; k < BLOCK_LANES; ++k) {
-                if (tl[k] == INF_T) continue;
-                int id = prim_id(prims, sl[k]);
-                if (tl[k] < best->t || (tl[k] == best->t && id < best->id)) {
-                    best->t = tl[k]; best->slot = sl[k]; best->id = id; best->u = ul[k]; best->v = vl[k];
-                }
-            }
+        float4 t = hit_block(r, block, slot >= 0, t_min, any_hit ? t_max : best->t * HIT_TIE_WIDEN, &u, &v);
+        if (!any_hit) {
+            nearest_lane(g, slot, t, u, v, best);
+        } else if (opaque_only) {
+            int4 crossed = t != (float4)(INF_T);
+            if (crossed.x | crossed.y | crossed.z | crossed.w) { *T = 0.0f; return; } /* blocked */
+        } else {
+            leaf_T = times_crossed(g, block, t, leaf_T);
         }
         if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
             int sl[4] = {slot.x, slot.y, slot.z, slot.w};
             for (int k = 0; k < BLOCK_LANES; ++k)
-                if (sl[k] < -1) test_slots(prims, -2 - sl[k], -1 - sl[k], r, t_min, best);
+                if (sl[k] < -1) leaf_slots(g, -2 - sl[k], -1 - sl[k], r, t_min, t_max, any_hit, opaque_only, best, &leaf_T);
         }
     }
-}
-
-#endif
-
-
-/* Fraction of light reaching t_max along the ray: 0 past an opaque surface,
- * times `transparency` for every crossing of a transparent one (the shadow
- * ray is not bent).  Stops as soon as an opaque surface is found.  With
- * opaque_only every surface blocks (a plain any-hit occlusion query). */
-INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min, float t_max, bool opaque_only) {
-    __global const float4 *prims = g->prims;
-    float4 a = prims[PRIM_ROWS * s], b = prims[PRIM_ROWS * s + 1], c = prims[PRIM_ROWS * s + 2];
-    int crossings = 0;
-    if (is_sphere_row(b)) {
-        float t0, t1;
-        float4 cr = (float4)(a.xyz, b.x);
-        if (sphere_roots(r, cr, &t0, &t1)) {
-            float t_lo = max_f(t_min, sphere_t_eps(r, cr));
-            crossings = (t0 > t_lo && t0 < t_max) + (t1 > t_lo && t1 < t_max);
-        }
-    } else {
-        float u, v;
-        crossings = hit_triangle(r, a, b, c, t_min, t_max, &u, &v) != INF_T;
-    }
-    if (crossings == 0) return 1.0f;
-    if (opaque_only) return 0.0f;
-    float transparency = transparency_of(g, as_int(a.w));
-    return crossings == 2 ? transparency * transparency : transparency;
-}
-
-#if BVH_WIDTH >= 4
-/* Transmittance through the blocks of one leaf (see test_blocks): crossing_transmittance of each
- * primitive, the triangles of a block tested at once. */
-INLINE float blocks_transmittance(const Geometry *g, int first, int count, Ray r, float t_min, float t_max,
-                                  bool opaque_only) {
-    __global const float4 *rows = g->nodes;
-    float T = 1.0f;
-    for (int b = 0; b < count && T > 0.0f; b += BLOCK_LANES, first += BLOCK_ROWS) {
-        __global const float4 *block = rows + first;
-        int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
-        float4 u, v;
-        int4 crossed = hit_block(r, block, slot >= 0, t_min, t_max, &u, &v) != (float4)(INF_T);
-        int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
-        if (crossed.x | crossed.y | crossed.z | crossed.w) {
-            if (opaque_only) return 0.0f;
-            for (int k = 0; k < BLOCK_LANES; ++k) /* a triangle is crossed once: times its transparency */
-                if (cl[k]) T *= transparency_of(g, prim_id(g->prims, sl[k]));
-        }
-        if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) /* spheres: -2 - slot */
-            for (int k = 0; k < BLOCK_LANES && T > 0.0f; ++k)
-                if (sl[k] < -1)
-                    T *= crossing_transmittance(g, -2 - sl[k], r, t_min, t_max, opaque_only);
-    }
-    return T;
+    if (any_hit) *T *= leaf_T;
 }
 
 /* A ray's walk through the wide tree, as a state a work-item can advance one stack entry at a time:
@@ -417,7 +535,7 @@ INLINE float blocks_transmittance(const Geometry *g, int first, int count, Ray r
  * through so far, and the walk ends at an opaque hit.  Stack entries are lane keys (lane_keys) with
  * the node they belong to; trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so the stack
  * holds at most BVH_WIDTH - 1 siblings per level plus one node's lanes
- * (clrender.trace.knobs.TraceKnobs.wide_stack_size); should it fill up, every primitive is tested at the end. */
+ * (clrender.trace.knobs.TraceKnobs.wide_stack_size); should it fill up, walk_overflowed at the end. */
 typedef struct {
     Ray r;
     float t_min, t_max; /* any-hit: the segment; closest hit: t_max is the nearest hit so far */
@@ -436,8 +554,7 @@ INLINE void walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_m
     w->sp = 0; w->overflow = false; w->visits = 0;
     if (g->n_prims > 0) {
         COUNT_NODE(&w->visits);
-        w->sp = push_lanes(0, hit_boxes(r, (__global const lanes_f *)g->nodes, t_max), any_hit, w->stack_key,
-                           w->stack_node, 0, &w->overflow);
+        w->sp = push_lanes(0, hit_boxes(r, g->nodes, t_max), any_hit, w->stack_key, w->stack_node, 0, &w->overflow);
     }
 }
 
@@ -445,162 +562,95 @@ INLINE void walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_m
  * lanes pushed.  Call while w->sp > 0, with the any_hit the walk started with (a constant at every
  * call, so the compiler keeps one kind of walk per loop). */
 INLINE void walk_step(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
-    __global const float4 *nodes = g->nodes;
-    __global const int *ints = (__global const int *)nodes;
     int sp = --w->sp;
     uint key = w->stack_key[sp];
     float t_max = any_hit ? w->t_max : w->best.t;
-    if (!any_hit && key_t(key) > t_max * 1.0000004f) return; /* beyond the nearest hit so far */
-    int node = w->stack_node[sp], lane = key_lane(key, any_hit);
-    int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    if (!any_hit && key_t(key) > t_max * BOX_EXIT_WIDEN) return; /* beyond the nearest hit so far */
+    __global const WideNode *node = g->nodes + w->stack_node[sp];
+    int lane = key_lane(key, any_hit);
+    int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
     if (count < 0) return; /* an empty lane: only a NaN ray meets its [+inf, -inf] box; never descend */
     COUNT_NODE(&w->visits);
     if (count > 0) {
         COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */
-        if (any_hit) {
-            w->T *= blocks_transmittance(g, child, count, w->r, w->t_min, t_max, opaque_only);
-            if (w->T == 0.0f) w->sp = 0; /* blocked: done */
-        } else {
-            test_blocks(nodes, child, count, g->prims, w->r, w->t_min, &w->best);
-        }
+        leaf_blocks(g, child, count, w->r, w->t_min, t_max, any_hit, opaque_only, &w->best, &w->T);
+        if (any_hit && w->T == 0.0f) w->sp = 0; /* blocked: done */
     } else {
-        w->sp = push_lanes(child, hit_boxes(w->r, (__global const lanes_f *)nodes + 8 * child, t_max), any_hit,
-                           w->stack_key, w->stack_node, sp, &w->overflow);
+        w->sp = push_lanes(child, hit_boxes(w->r, g->nodes + child, t_max), any_hit, w->stack_key, w->stack_node, sp,
+                           &w->overflow);
     }
 }
 
 /* After the last step: a lane that did not fit on the stack means every primitive is tested instead. */
 INLINE void walk_finish(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
-    if (!w->overflow) return;
-    if (any_hit) {
-        if (w->T == 0.0f) return;
-        w->T = 1.0f;
-        for (int s = 0; s < g->n_prims && w->T > 0.0f; ++s)
-            w->T *= crossing_transmittance(g, s, w->r, w->t_min, w->t_max, opaque_only);
-    } else {
-        test_slots(g->prims, 0, g->n_prims, w->r, w->t_min, &w->best);
-    }
+    if (w->overflow && !(any_hit && w->T == 0.0f))
+        walk_overflowed(g, w->r, w->t_min, w->t_max, any_hit, opaque_only, &w->best, &w->T);
 }
 
-INLINE Hit closest_hit_wide(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
+INLINE void walk_wide(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                      float *T, uint *visits) {
     Walk w;
-    walk_start(&w, g, r, t_min, t_max, false);
-    while (w.sp > 0) walk_step(&w, g, true, false);
-    walk_finish(&w, g, true, false);
+    walk_start(&w, g, r, t_min, t_max, any_hit);
+    while (w.sp > 0) walk_step(&w, g, opaque_only, any_hit);
+    walk_finish(&w, g, opaque_only, any_hit);
     *visits += w.visits;
-    return w.best;
-}
-
-INLINE float transmittance_wide(const Geometry *g, Ray r, float t_min, float t_max, bool opaque_only, uint *visits) {
-    Walk w;
-    walk_start(&w, g, r, t_min, t_max, true);
-    while (w.sp > 0) walk_step(&w, g, opaque_only, true);
-    walk_finish(&w, g, opaque_only, true);
-    *visits += w.visits;
-    return w.T;
+    *best = w.best;
+    *T = w.T;
 }
 #endif
+
+/* Every traversal's entry point: the closest hit in (t_min, t_max) in *best (slot -1 on a miss), or
+ * (any_hit) the light let through up to t_max in *T, through the tree the build chose (USE_BVH,
+ * BVH_WIDTH) or, without one, every primitive.  *visits grows by the nodes visited (see COUNT_NODE). */
+INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                        float *T, uint *visits) {
+    *best = no_hit();
+    best->t = t_max;
+    *T = 1.0f;
+#if USE_BVH && BVH_WIDTH == 2
+    walk_binary(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#elif USE_BVH
+    walk_wide(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#else
+    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, opaque_only, best, T);
+    *visits += (uint)g->n_prims;
+#endif
+}
 
 INLINE Hit closest_hit(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
-    __global const float4 *nodes = g->nodes, *prims = g->prims;
-    int n_prims = g->n_prims;
-    Hit best = no_hit();
-    best.t = t_max;
-#if USE_BVH && BVH_WIDTH == 2
-    /* the builder keeps trees at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so near-first traversal holds
-       at most depth - 1 far nodes; should a stack ever fill up anyway, no node is dropped: the
-       primitives are then all tested (the answer is the same, only slower) */
-    int stack[STACK_SIZE];
-    float stack_t[STACK_SIZE];
-    int sp = 0;
-    bool overflow = false;
-    int node = (n_prims > 0 && hit_box(r, nodes[0], nodes[1], best.t) != INF_T) ? 0 : -1;
-    while (node >= 0) {
-        COUNT_NODE(visits);
-        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
-        int count = as_int(hi.w), offset = as_int(lo.w);
-        int next = -1;
-        if (count > 0) {
-            COUNT_PRIMS(visits, count);
-            test_slots(prims, offset, offset + count, r, t_min, &best);
-        } else {
-            int near_child = node + 1, far_child = offset;
-            float t_near = hit_box(r, nodes[BVH_NODE_ROWS * near_child], nodes[BVH_NODE_ROWS * near_child + 1], best.t);
-            float t_far = hit_box(r, nodes[BVH_NODE_ROWS * far_child], nodes[BVH_NODE_ROWS * far_child + 1], best.t);
-            if (t_far < t_near) { /* visit the nearer box first */
-                int tmp = near_child; near_child = far_child; far_child = tmp;
-                float tt = t_near; t_near = t_far; t_far = tt;
-            }
-            if (t_near != INF_T) {
-                next = near_child;
-                if (t_far != INF_T) { /* put far node on the stack */
-                    if (sp < STACK_SIZE) { stack[sp] = far_child; stack_t[sp] = t_far; ++sp; }
-                    else overflow = true;
-                }
-            }
-        }
-        /* advance to the near node, else pop a far node the ray can still reach */
-        while (next < 0 && sp > 0) {
-            --sp;
-            if (stack_t[sp] <= best.t * 1.0000004f) next = stack[sp];
-        }
-        node = next;
-    }
-    if (overflow) test_slots(prims, 0, n_prims, r, t_min, &best);
-#elif USE_BVH
-    best = closest_hit_wide(g, r, t_min, t_max, visits);
-#else
-    test_slots(prims, 0, n_prims, r, t_min, &best);
-    *visits += (uint)n_prims;
-#endif
-    if (best.slot < 0) best = no_hit();
-    return best;
+    Hit best;
+    float T;
+    trace_query(g, r, t_min, t_max, false, true, &best, &T, visits);
+    return best.slot < 0 ? no_hit() : best;
 }
 
+/* Fraction of light reaching t_max along the ray: 0 past an opaque surface, times the transparency of
+ * every crossing of a transparent one; with opaque_only every surface blocks. */
 INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, bool opaque_only, uint *visits) {
-    __global const float4 *nodes = g->nodes;
-    int n_prims = g->n_prims;
-    float T = 1.0f;
-#if USE_BVH && BVH_WIDTH >= 4
-    T = transmittance_wide(g, r, t_min, t_max, opaque_only, visits);
-#elif USE_BVH
-    int stack[STACK_SIZE]; /* holds at most the tree's depth; on overflow see below */
-    int sp = 0;
-    bool overflow = false;
-    if (n_prims > 0 && hit_box(r, nodes[0], nodes[1], t_max) != INF_T) stack[sp++] = 0;
-    while (sp > 0 && T > 0.0f) {
-        int node = stack[--sp];
-        COUNT_NODE(visits);
-        float4 lo = nodes[BVH_NODE_ROWS * node], hi = nodes[BVH_NODE_ROWS * node + 1];
-        int count = as_int(hi.w), offset = as_int(lo.w);
-        if (count > 0) {
-            COUNT_PRIMS(visits, count); /* at most: the loop stops at the first opaque hit */
-            for (int s = offset; s < offset + count && T > 0.0f; ++s)
-                T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
-        } else {
-            int children[2] = {node + 1, offset};
-            for (int k = 0; k < 2; ++k) {
-                int child = children[k];
-                if (hit_box(r, nodes[BVH_NODE_ROWS * child], nodes[BVH_NODE_ROWS * child + 1], t_max) != INF_T) {
-                    if (sp < STACK_SIZE) stack[sp++] = child;
-                    else overflow = true;
-                }
-            }
-        }
-    }
-    if (overflow && T > 0.0f) { /* a node did not fit on the stack: test every primitive instead */
-        T = 1.0f;
-        for (int s = 0; s < n_prims && T > 0.0f; ++s)
-            T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
-    }
-#else
-    for (int s = 0; s < n_prims && T > 0.0f; ++s)
-        T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
-    *visits += (uint)n_prims;
-#endif
+    Hit best;
+    float T;
+    trace_query(g, r, t_min, t_max, true, opaque_only, &best, &T, visits);
     return T;
 }
 
 #pragma OPENCL FP_CONTRACT ON /* the default again, for the files that follow */
+
+/* (Contracted like the shading code that calls it: a * b + c may become one fma here.) */
+/* Where ray (o, d) met slot h.slot: the hit point and its float32 error, the primitive's unit normal (not
+ * yet turned to face the ray: outward, or the winding's), and whether it is a sphere.  The one place the
+ * shading of either integrator reads a primitive slot. */
+INLINE float3 hit_surface(const Geometry *g, Hit h, float3 o, float3 d, float3 *p_err, float3 *n_geo, bool *sphere) {
+    __global const PrimSlot *t = prim_slot(g, h.slot);
+    *sphere = t->sphere != 0;
+    if (*sphere) {
+        float4 cr = centre_radius(sphere_slot(g, h.slot));
+        float3 p = hit_point_sphere(cr, o + h.t * d, p_err);
+        *n_geo = unit(p - cr.xyz);
+        return p;
+    }
+    float3 v0 = load3(t->v0), v1 = load3(t->v1), v2 = load3(t->v2);
+    *n_geo = unit(cross3(v1 - v0, v2 - v0));
+    return hit_point_triangle((float4)(v0, 0.0f), (float4)(v1, 0.0f), (float4)(v2, 0.0f), h.u, h.v, p_err);
+}
 
 #endif

@@ -5,7 +5,7 @@
  * of a block per float4.  The answers are the single-ray walk's bit for bit:
  * - each ray's box tests are hit_boxes' float operations with its own t range, so a ray meets every
  *   box it would meet alone (it may be carried into more: a packet descends where any ray hits);
- * - the triangle test is triangle.h's, lane by lane, and a hit is kept as test_blocks keeps it (the
+ * - the triangle test is triangle.h's, lane by lane, and a hit is kept as nearest_lane keeps it (the
  *   nearest, ties to the lower primitive id), so the order boxes are visited in changes nothing.
  * A packet needs its rays to share the signs of their directions (the near plane of every box is the
  * same for all) and the axis of the largest component (the triangle test's permutation); rays that do
@@ -82,10 +82,11 @@ INLINE void count_visit(Packet *p, uint rays, int count) {
 /* A node's boxes against the packet's rays in `rays`: the nearest entry distance over those rays per
  * lane (INF_T where none hits) and, per lane, the mask of rays that hit.  Ray k's test is hit_boxes'
  * for that ray, operation for operation; each ray's own t_max culls. */
-INLINE lanes_f packet_boxes(const Packet *p, __global const lanes_f *node, float8 t_max, uint rays,
+INLINE lanes_f packet_boxes(const Packet *p, __global const WideNode *node, float8 t_max, uint rays,
                             lanes_u *hit_rays) {
-    lanes_f nx = node[p->bx], fx = node[1 - p->bx], ny = node[2 + p->by], fy = node[3 - p->by];
-    lanes_f nz = node[4 + p->bz], fz = node[5 - p->bz];
+    __global const lanes_f *b = node->bounds;
+    lanes_f nx = b[p->bx], fx = b[1 - p->bx], ny = b[2 + p->by], fy = b[3 - p->by];
+    lanes_f nz = b[4 + p->bz], fz = b[5 - p->bz];
     lanes_f nearest = (lanes_f)(INF_T);
     lanes_u hits = (lanes_u)(0u);
 #define PACKET_BOX(k)                                                                                                 \
@@ -94,7 +95,7 @@ INLINE lanes_f packet_boxes(const Packet *p, __global const lanes_f *node, float
         slab_lanes(nx, fx, p->ox.s##k, p->ix.s##k, &t_enter, &t_exit);                                                \
         slab_lanes(ny, fy, p->oy.s##k, p->iy.s##k, &t_enter, &t_exit);                                                \
         slab_lanes(nz, fz, p->oz.s##k, p->iz.s##k, &t_enter, &t_exit);                                                \
-        t_exit *= 1.0000004f;                                                                                         \
+        t_exit *= BOX_EXIT_WIDEN;                                                                                     \
         lanes_i hit = t_enter <= t_exit;                                                                              \
         nearest = (hit & (t_enter < nearest)) ? t_enter : nearest;                                                    \
         hits |= as_lanes_u(hit) & (lanes_u)(1u << k);                                                                 \
@@ -148,7 +149,7 @@ INLINE bool packet_start(Packet *p, const Geometry *g, Ray *r, const float *t_mi
     if (g->n_prims > 0) {
         count_visit(p, ALL_RAYS, 0);
         lanes_u hit_rays;
-        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)g->nodes, p->t_max, ALL_RAYS, &hit_rays);
+        lanes_f nearest = packet_boxes(p, g->nodes, p->t_max, ALL_RAYS, &hit_rays);
         packet_push(p, 0, nearest, hit_rays, any_hit);
     }
     if (p->sp == 0) return true; /* every ray misses the root: no triangle test, no shear */
@@ -165,14 +166,13 @@ INLINE bool packet_start(Packet *p, const Geometry *g, Ray *r, const float *t_mi
 }
 
 /* Sphere slot s against the packet's `rays`, one ray at a time (a sphere is a whole leaf lane, and
- * rare): the lone walk's tests, test_slots' (closest hit) or crossing_transmittance's (any-hit). */
+ * rare): the lone walk's tests, leaf_slots' (closest hit) or crossing_transmittance's (any-hit). */
 INLINE void packet_sphere(Packet *p, const Geometry *g, int s, uint rays, bool any_hit) {
-    __global const float4 *prims = g->prims;
     float ox[PACKET_RAYS] = RAY_ARRAY(p->ox), oy[PACKET_RAYS] = RAY_ARRAY(p->oy), oz[PACKET_RAYS] = RAY_ARRAY(p->oz);
     float dx[PACKET_RAYS] = RAY_ARRAY(p->dx), dy[PACKET_RAYS] = RAY_ARRAY(p->dy), dz[PACKET_RAYS] = RAY_ARRAY(p->dz);
     float t_min[PACKET_RAYS] = RAY_ARRAY(p->t_min), t_max[PACKET_RAYS] = RAY_ARRAY(p->t_max);
     int best_id[PACKET_RAYS] = RAY_ARRAY(p->id);
-    int id = prim_id(prims, s);
+    int id = prim_slot(g, s)->id;
     for (int k = 0; k < PACKET_RAYS; ++k) {
         if (((rays >> k) & 1u) == 0) continue;
         Ray r = make_box_ray((float3)(ox[k], oy[k], oz[k]), (float3)(dx[k], dy[k], dz[k]));
@@ -180,7 +180,7 @@ INLINE void packet_sphere(Packet *p, const Geometry *g, int s, uint rays, bool a
         if (any_hit) {
             if (crossing_transmittance(g, s, r, t_min[k], t_max[k], true) == 0.0f) p->live &= ~(1u << k);
         } else {
-            float u, v, t = hit_slot(prims, s, r, t_min[k], t_max[k] * 1.0000002f, &u, &v);
+            float u, v, t = hit_slot(g, s, r, t_min[k], t_max[k] * HIT_TIE_WIDEN, &u, &v);
             if (t < t_max[k] || (t == t_max[k] && t != INF_T && id < best_id[k])) {
                 p->t_max = lane ? (float8)(t) : p->t_max;
                 p->id = lane ? (int8)(id) : p->id;
@@ -190,14 +190,13 @@ INLINE void packet_sphere(Packet *p, const Geometry *g, int s, uint rays, bool a
 }
 
 /* The triangles of a leaf's blocks against the packet's `rays`, one triangle at a time: closest hit
- * keeps each ray's nearest (ties to the lower id, as test_blocks), any-hit (opaque) drops the rays
+ * keeps each ray's nearest (ties to the lower id, as nearest_lane), any-hit (opaque) drops the rays
  * that are blocked from p->live.  Spheres go ray by ray (packet_sphere). */
 INLINE void packet_leaf(Packet *p, const Geometry *g, int first, int count, uint rays, bool any_hit) {
-    __global const float4 *rows = g->nodes, *prims = g->prims;
-    for (int b = 0; b < count; b += BLOCK_LANES, first += BLOCK_ROWS) {
-        __global const float *block = (__global const float *)(rows + first);
-        int slots[BLOCK_LANES] = {as_int(block[4 * BLOCK_SLOT_ROW]), as_int(block[4 * BLOCK_SLOT_ROW + 1]),
-                                  as_int(block[4 * BLOCK_SLOT_ROW + 2]), as_int(block[4 * BLOCK_SLOT_ROW + 3])};
+    __global const LeafBlock *block = leaf_block(g, first);
+    for (int b = 0; b < count; b += BLOCK_LANES, ++block) {
+        int4 slot4 = block->slot;
+        int slots[BLOCK_LANES] = {slot4.x, slot4.y, slot4.z, slot4.w};
         for (int k = 0; k < BLOCK_LANES; ++k) {
             int slot = slots[k];
             if (slot == -1) continue; /* an empty lane */
@@ -206,9 +205,9 @@ INLINE void packet_leaf(Packet *p, const Geometry *g, int first, int count, uint
                 if (any_hit && (rays &= p->live) == 0) return;
                 continue;
             }
-            /* row 3v + axis, lane k: vertex v's coordinate on that axis */
-#define VERTEX(v, axis) (block[4 * (3 * (v) + (axis)) + k])
-            float8 t_range = any_hit ? p->t_max : p->t_max * 1.0000002f, u, v;
+            /* lane k of vertex n's coordinates along `axis` */
+#define VERTEX(n, axis) LANE_OF(float, block->v##n[axis], k)
+            float8 t_range = any_hit ? p->t_max : p->t_max * HIT_TIE_WIDEN, u, v;
             float8 t = triangle_test8(VERTEX(0, p->kx) - p->okx, VERTEX(0, p->ky) - p->oky, VERTEX(0, p->kz) - p->okz,
                                       VERTEX(1, p->kx) - p->okx, VERTEX(1, p->ky) - p->oky, VERTEX(1, p->kz) - p->okz,
                                       VERTEX(2, p->kx) - p->okx, VERTEX(2, p->ky) - p->oky, VERTEX(2, p->kz) - p->okz,
@@ -221,7 +220,7 @@ INLINE void packet_leaf(Packet *p, const Geometry *g, int first, int count, uint
                 rays &= p->live;
                 if (rays == 0) return;
             } else {
-                int8 id = (int8)(prim_id(prims, slot));
+                int8 id = (int8)(prim_slot(g, slot)->id);
                 int8 nearer = hit & ((t < p->t_max) | ((t == p->t_max) & (id < p->id)));
                 p->t_max = nearer ? t : p->t_max;
                 p->id = nearer ? id : p->id;
@@ -232,16 +231,15 @@ INLINE void packet_leaf(Packet *p, const Geometry *g, int first, int count, uint
 
 /* Visit the entry on top of the stack with the rays that hit its box and may still need it. */
 INLINE void packet_step(Packet *p, const Geometry *g, bool any_hit) {
-    __global const float4 *nodes = g->nodes;
-    __global const int *ints = (__global const int *)nodes;
     int sp = --p->sp;
     uint key = p->stack_key[sp];
     uint rays = p->stack_rays[sp];
     /* closest hit: a ray whose nearest hit is nearer than every ray's entry into the box is done with it */
-    rays &= any_hit ? p->live : ray_bits((float8)(key_t(key)) <= p->t_max * 1.0000004f);
+    rays &= any_hit ? p->live : ray_bits((float8)(key_t(key)) <= p->t_max * BOX_EXIT_WIDEN);
     if (rays == 0) return;
-    int node = p->stack_node[sp], lane = key_lane(key, any_hit);
-    int child = ints[NODE_FLOATS * node + CHILD_ROW + lane], count = ints[NODE_FLOATS * node + COUNT_ROW + lane];
+    __global const WideNode *node = g->nodes + p->stack_node[sp];
+    int lane = key_lane(key, any_hit);
+    int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
     if (count < 0) return; /* an empty lane (see walk_step) */
     count_visit(p, rays, count);
     if (count > 0) {
@@ -249,7 +247,7 @@ INLINE void packet_step(Packet *p, const Geometry *g, bool any_hit) {
         if (any_hit && p->live == 0) p->sp = 0;
     } else {
         lanes_u hit_rays;
-        lanes_f nearest = packet_boxes(p, (__global const lanes_f *)nodes + 8 * child, p->t_max, rays, &hit_rays);
+        lanes_f nearest = packet_boxes(p, g->nodes + child, p->t_max, rays, &hit_rays);
         packet_push(p, child, nearest, hit_rays, any_hit);
         if (p->fallback) p->sp = 0;
     }

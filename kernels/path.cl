@@ -48,17 +48,12 @@ typedef struct {
 
 INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     Surface f;
-    float4 a = s->geo.prims[PRIM_ROWS * h.slot], b = s->geo.prims[PRIM_ROWS * h.slot + 1], c = s->geo.prims[PRIM_ROWS * h.slot + 2];
     ObjectRecord obj = s->geo.objects[s->geo.prim_object[h.id]];
     f.material = obj.material;
-    if (is_sphere_row(b)) {
-        f.p = hit_point_sphere((float4)(a.xyz, b.x), r.o + h.t * r.d, &f.p_err);
-        f.n_geo = unit(f.p - a.xyz);
-        f.n_shade = f.n_geo;
-    } else {
-        f.p = hit_point_triangle(a, b, c, h.u, h.v, &f.p_err);
-        f.n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
-        f.n_shade = f.n_geo;
+    bool sphere;
+    f.p = hit_surface(&s->geo, h, r.o, r.d, &f.p_err, &f.n_geo, &sphere);
+    f.n_shade = f.n_geo;
+    if (!sphere) {
         if (obj.smooth) {
             __global const float *vn = &s->normals[h.id].normal[0][0];
             f.n_shade = unit((1.0f - h.u - h.v) * vload3(0, vn) + h.u * vload3(1, vn) + h.v * vload3(2, vn));
@@ -401,7 +396,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
 
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
-__kernel void render_path(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+__kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
                           __global const Material *materials, __global const Light *lights,
                           __global const Camera *camera, __global const Emitter *emitters,

@@ -401,21 +401,6 @@ INLINE void push_ray(RayStack *s, float3 o, float medium, float3 d, int depth, f
     ++s->n;
 }
 
-/* Where ray (o, d) met primitive slot h.slot: the hit point and its float32 error, the primitive's unit
- * normal (not yet turned to face the ray), and whether it is a sphere.  The one place shading reads a
- * primitive slot. */
-INLINE float3 hit_record(const SceneView *sc, Hit h, float3 o, float3 d, float3 *p_err, float3 *n_geo, bool *sphere) {
-    float4 a = sc->geo.prims[PRIM_ROWS * h.slot], b = sc->geo.prims[PRIM_ROWS * h.slot + 1], c = sc->geo.prims[PRIM_ROWS * h.slot + 2];
-    *sphere = is_sphere_row(b);
-    if (*sphere) {
-        float3 p = hit_point_sphere((float4)(a.xyz, b.x), o + h.t * d, p_err);
-        *n_geo = unit(p - a.xyz);
-        return p;
-    }
-    *n_geo = unit(cross3(b.xyz - a.xyz, c.xyz - a.xyz));
-    return hit_point_triangle(a, b, c, h.u, h.v, p_err);
-}
-
 /* A smooth triangle's normal at hit h, interpolated from its vertex normals. */
 INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
     __global const VertexNormals *vn = sc->normals + h.id;
@@ -427,7 +412,7 @@ INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
  * the ray.  Returns whether the ray met the front face; *sphere: whether it met a sphere. */
 INLINE bool shading_point(const SceneView *sc, Hit h, float3 o, float3 d, ObjectRecord obj, const Material *m,
                           ShadingPoint *pt, bool *sphere) {
-    pt->p = hit_record(sc, h, o, d, &pt->p_err, &pt->n_geo, sphere);
+    pt->p = hit_surface(&sc->geo, h, o, d, &pt->p_err, &pt->n_geo, sphere);
     pt->n = pt->n_geo;
     if (obj.smooth && !*sphere) pt->n = smooth_normal(sc, h);
     bool front_face = dot3(d, pt->n_geo) < 0.0f;

@@ -14,7 +14,7 @@
  * falls back to the per-ray traversal when the shaft is flat, when the light is not clearly on one
  * side of the surface (rays would start from both sides), or when there are more than
  * SHAFT_CANDIDATES candidate blocks.  Needs the wide tree (BVH_WIDTH 4 or 8): blocks are its leaf
- * blocks (layout.py BLOCK_*). */
+ * blocks (LeafBlock, clrender/layout.py). */
 #ifndef CLRENDER_SHAFT_H
 #define CLRENDER_SHAFT_H
 
@@ -121,20 +121,20 @@ INLINE bool make_shaft(float3 o, float3 corner, float3 a, float3 b, Shaft *sh) {
 }
 
 /* Lanes of a wide node whose boxes may meet the shaft (and are not empty). */
-INLINE lanes_i shaft_boxes(const Shaft *sh, __global const lanes_f *node) {
-    lanes_f ext = as_lanes_f(as_lanes_u(node[0]) & 0x7fffffffu);
+INLINE lanes_i shaft_boxes(const Shaft *sh, __global const WideNode *node) {
+    __global const lanes_f *b = node->bounds; /* lo, hi along x, then y, then z */
+    lanes_f ext = as_lanes_f(as_lanes_u(b[0]) & 0x7fffffffu);
     for (int r = 1; r < 6; ++r) {
-        lanes_f e = as_lanes_f(as_lanes_u(node[r]) & 0x7fffffffu);
+        lanes_f e = as_lanes_f(as_lanes_u(b[r]) & 0x7fffffffu);
         ext = e > ext ? e : ext;
     }
     lanes_f m = SHAFT_MARGIN * (sh->scale + ext);
-    lanes_i keep = (as_lanes_i(node[WIDE_COUNT_ROW]) >= 0) & (node[0] <= sh->hi.x + m) & (node[1] >= sh->lo.x - m) &
-                   (node[2] <= sh->hi.y + m) & (node[3] >= sh->lo.y - m) & (node[4] <= sh->hi.z + m) &
-                   (node[5] >= sh->lo.z - m);
+    lanes_i keep = (node->count >= 0) & (b[0] <= sh->hi.x + m) & (b[1] >= sh->lo.x - m) & (b[2] <= sh->hi.y + m) &
+                   (b[3] >= sh->lo.y - m) & (b[4] <= sh->hi.z + m) & (b[5] >= sh->lo.z - m);
     for (int i = 0; i < 5; ++i) {
         float4 p = sh->plane[i];
         /* the box corner deepest inside the plane: lo where n > 0, hi where n < 0 */
-        lanes_f f = p.x * node[p.x > 0.0f ? 0 : 1] + p.y * node[p.y > 0.0f ? 2 : 3] + p.z * node[p.z > 0.0f ? 4 : 5] - p.w;
+        lanes_f f = p.x * b[p.x > 0.0f ? 0 : 1] + p.y * b[p.y > 0.0f ? 2 : 3] + p.z * b[p.z > 0.0f ? 4 : 5] - p.w;
         keep &= f <= m;
     }
     return keep;
@@ -176,9 +176,9 @@ INLINE int4 shaft_beside_planes(const Shaft *sh, float4 x0, float4 y0, float4 z0
 /* Triangle lanes of a leaf block that may meet the shaft (bits 0..3); `own` (the shading point's
  * slot) is left out: the caller uses shafts only when the whole light is clearly on the side the
  * rays leave towards, so no ray from the offset origin can cross the surface it starts on. */
-INLINE int shaft_triangles(const Shaft *sh, __global const float4 *block, int own) {
-    float4 x0 = block[0], y0 = block[1], z0 = block[2], x1 = block[3], y1 = block[4], z1 = block[5];
-    float4 x2 = block[6], y2 = block[7], z2 = block[8];
+INLINE int shaft_triangles(const Shaft *sh, __global const LeafBlock *block, int own) {
+    float4 x0 = block->v0[0], y0 = block->v0[1], z0 = block->v0[2], x1 = block->v1[0], y1 = block->v1[1], z1 = block->v1[2];
+    float4 x2 = block->v2[0], y2 = block->v2[1], z2 = block->v2[2];
     float4 e0 = max4(abs4(x0), max4(abs4(y0), abs4(z0))), e1 = max4(abs4(x1), max4(abs4(y1), abs4(z1)));
     float4 e2 = max4(abs4(x2), max4(abs4(y2), abs4(z2)));
     float4 m0 = SHAFT_MARGIN * (sh->scale + e0), m1 = SHAFT_MARGIN * (sh->scale + e1), m2 = SHAFT_MARGIN * (sh->scale + e2);
@@ -195,7 +195,7 @@ INLINE int shaft_triangles(const Shaft *sh, __global const float4 *block, int ow
         float4 f2 = p.x * x2 + p.y * y2 + p.z * z2 - p.w;
         out |= (f0 > m0) & (f1 > m1) & (f2 > m2);
     }
-    int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
+    int4 slot = block->slot;
     int4 keep = (slot >= 0) & (slot != own) & (out == 0);
     if (!(keep.x | keep.y | keep.z | keep.w)) return 0; /* far blocks: the planes suffice */
     keep &= shaft_beside_planes(sh, x0, y0, z0, x1, y1, z1, x2, y2, z2, max4(m0, max4(m1, m2))) == (int4)(0);
@@ -243,56 +243,59 @@ INLINE int shaft_sphere(const Shaft *sh, float4 cr) {
 }
 #pragma OPENCL FP_CONTRACT ON
 
+/* Add the candidates of one wide leaf (`count` primitives in blocks from `first` on) to `cand`: its
+ * blocks' triangle lanes that may meet the shaft, and its spheres (or, for a sphere every ray crosses
+ * once, its transparency in crossed_T).  False when they do not fit. */
+INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, int first, int count, int own, ShaftCandidates *cand) {
+    __global const LeafBlock *block = leaf_block(g, first);
+    for (int b = 0; b < count; b += BLOCK_LANES, ++first, ++block) {
+        int lanes = shaft_triangles(sh, block, own);
+        if (lanes) {
+            if (cand->n >= SHAFT_CANDIDATES) return false;
+            cand->first[cand->n] = first;
+            cand->lanes[cand->n++] = lanes;
+        }
+        int4 slot = block->slot;
+        if (!(slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1)) continue; /* spheres: -2 - slot */
+        int sl[4] = {slot.x, slot.y, slot.z, slot.w};
+        for (int q = 0; q < BLOCK_LANES; ++q) {
+            if (sl[q] >= -1) continue;
+            __global const SphereSlot *sphere = sphere_slot(g, -2 - sl[q]);
+            int what = shaft_sphere(sh, centre_radius(sphere));
+            if (what == SPHERE_MISSED) continue;
+            if (what == SPHERE_CROSSED_ONCE) {
+                cand->crossed_T *= transparency_of(g, sphere->id);
+                continue;
+            }
+            if (cand->n >= SHAFT_CANDIDATES) return false;
+            cand->first[cand->n] = sl[q];
+            cand->lanes[cand->n++] = 0;
+        }
+    }
+    return true;
+}
+
 /* Collect the candidates of the shaft from the wide tree.  False when there are more than
  * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
 INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftCandidates *cand, uint *visits) {
-    __global const float4 *nodes = g->nodes, *prims = g->prims;
-    __global const lanes_f *rows = (__global const lanes_f *)nodes; /* 8 rows per node */
-    __global const int *ints = (__global const int *)nodes;
     int stack[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     cand->n = 0;
     cand->crossed_T = 1.0f;
     if (g->n_prims > 0) stack[sp++] = 0;
     while (sp > 0) {
-        int node = stack[--sp];
+        __global const WideNode *node = g->nodes + stack[--sp];
         COUNT_NODE(visits);
-        lanes_i keep = shaft_boxes(sh, rows + 8 * node);
+        lanes_i keep = shaft_boxes(sh, node);
         int k[BVH_WIDTH] = LANES_ARRAY(keep);
         for (int j = 0; j < BVH_WIDTH; ++j) {
             if (!k[j]) continue;
-            int child = ints[NODE_FLOATS * node + CHILD_ROW + j], count = ints[NODE_FLOATS * node + COUNT_ROW + j];
+            int child = LANE_OF(int, node->child, j), count = LANE_OF(int, node->count, j);
             if (count == 0) { /* interior: visit it later */
                 if (sp >= WIDE_STACK_SIZE + BVH_WIDTH) return false;
                 stack[sp++] = child;
-                continue;
-            }
-            for (int b = 0; b < count; b += BLOCK_LANES, child += BLOCK_ROWS) {
-                __global const float4 *block = nodes + child;
-                int lanes = shaft_triangles(sh, block, own);
-                if (lanes) {
-                    if (cand->n >= SHAFT_CANDIDATES) return false;
-                    cand->first[cand->n] = child;
-                    cand->lanes[cand->n++] = lanes;
-                }
-                int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
-                if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
-                    int sl[4] = {slot.x, slot.y, slot.z, slot.w};
-                    for (int q = 0; q < BLOCK_LANES; ++q) {
-                        if (sl[q] >= -1) continue;
-                        int s = -2 - sl[q];
-                        float4 a = prims[PRIM_ROWS * s], b1 = prims[PRIM_ROWS * s + 1];
-                        int what = shaft_sphere(sh, (float4)(a.xyz, b1.x));
-                        if (what == SPHERE_MISSED) continue;
-                        if (what == SPHERE_CROSSED_ONCE) {
-                            cand->crossed_T *= transparency_of(g, as_int(a.w));
-                            continue;
-                        }
-                        if (cand->n >= SHAFT_CANDIDATES) return false;
-                        cand->first[cand->n] = sl[q];
-                        cand->lanes[cand->n++] = 0;
-                    }
-                }
+            } else if (!shaft_leaf(sh, g, child, count, own, cand)) {
+                return false;
             }
         }
     }
@@ -300,26 +303,19 @@ INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftC
 }
 
 /* Transmittance of one shadow ray (t in (0, t_max)) through the candidates: the crossings and
- * factors of blocks_transmittance / crossing_transmittance.  The candidate that blocked a ray
- * moves to the front, where the next ray (a neighbour) tries it first. */
+ * factors of leaf_blocks / crossing_transmittance.  The candidate that blocked a ray moves to the
+ * front, where the next ray (a neighbour) tries it first. */
 INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Ray r, float t_max) {
-    __global const float4 *nodes = g->nodes;
     float T = cand->crossed_T;
     for (int k = 0; k < cand->n && T > 0.0f; ++k) {
         int first = cand->first[k];
         if (first < 0) {
             T *= crossing_transmittance(g, -2 - first, r, 0.0f, t_max, false);
         } else {
-            __global const float4 *block = nodes + first;
+            __global const LeafBlock *block = leaf_block(g, first);
             int4 valid = ((int4)(cand->lanes[k]) & (int4)(1, 2, 4, 8)) != (int4)(0);
             float4 u, v;
-            int4 crossed = hit_block(r, block, valid, 0.0f, t_max, &u, &v) != (float4)(INF_T);
-            if (crossed.x | crossed.y | crossed.z | crossed.w) {
-                int4 slot = as_int4(block[BLOCK_SLOT_ROW]);
-                int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
-                for (int q = 0; q < BLOCK_LANES; ++q) /* a triangle is crossed once: times its transparency */
-                    if (cl[q]) T *= transparency_of(g, prim_id(g->prims, sl[q]));
-            }
+            T = times_crossed(g, block, hit_block(r, block, valid, 0.0f, t_max, &u, &v), T);
         }
         if (T == 0.0f && k > 0) { /* move to front */
             int f = cand->first[k], l = cand->lanes[k];

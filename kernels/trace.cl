@@ -11,7 +11,7 @@
  * samples traced and filtered into colour_out, their BVH visits and rays into stats_out; with
  * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
  * (aov_out is unused otherwise). */
-__kernel void render(__global const float4 *nodes, __global const float4 *prims, __global const int *prim_object,
+__kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                      __global const VertexNormals *normals, __global const ObjectRecord *objects,
                      __global const Material *materials, __global const Light *lights, __global const Camera *camera,
                      __global const int *pixels, RenderParams params,
@@ -67,7 +67,8 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 
 /* The ray kernels below take RAYS_PER_ITEM = 8 consecutive rays per work-item (an incomplete last
  * group repeats the last ray).  Through the wide trees they go as one packet when they go the same
- * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair). */
+ * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
+ * through the binary tree or without one, one by one (trace_query). */
 #if RAYS_PER_ITEM != 8
 #error "RAYS_PER_ITEM must be 8: the ray kernels take a packet's worth of rays"
 #endif
@@ -114,55 +115,71 @@ INLINE Ray query_ray(__global const float *origins, __global const float *direct
     return r;
 }
 
-#if USE_BVH && BVH_WIDTH >= 4
-/* The same ray for a wide walk, its shear (six divisions) computed only once the root has a hit:
- * most rays of a small mesh's batch miss it. */
-INLINE void start_query_walk(Walk *w, const Geometry *g, __global const float *origins, __global const float *directions,
-                             int i, QueryUnits *units, float t_min, float t_max, bool any_hit) {
-    Ray r = query_box_ray(origins, directions, i, units);
-    walk_start(w, g, r, to_unit_t(t_min, *units), to_unit_t(t_max, *units), any_hit);
-    if (w->sp > 0) shear_ray(&w->r);
+/* One work-item's rays: where they come from, and what their walks found. */
+typedef struct {
+    __global const float *origins, *directions; /* the caller's (x, y, z) triples */
+    __global const float *t_min, *t_max;         /* per ray; t_max for any-hit only */
+    int n;                                       /* rays of this item (fewer in the last one) */
+    int idx[RAYS_PER_ITEM];                      /* their indices; past n, the last ray again */
+    QueryUnits units[RAYS_PER_ITEM];
+    Hit hit[RAYS_PER_ITEM];                      /* closest hit */
+    float T[RAYS_PER_ITEM];                      /* any-hit: 0 where blocked */
+    uint visits[RAYS_PER_ITEM];
+} QueryItem;
+
+INLINE void query_item(QueryItem *q, int first, int n_rays, __global const float *origins, __global const float *directions,
+                       __global const float *t_min, __global const float *t_max) {
+    q->origins = origins; q->directions = directions; q->t_min = t_min; q->t_max = t_max;
+    q->n = min(n_rays - first, RAYS_PER_ITEM);
+    for (int k = 0; k < RAYS_PER_ITEM; ++k) { q->idx[k] = min(first + k, n_rays - 1); q->visits[k] = 0; }
 }
 
-/* Rays idx[k], idx[k + 1] walked in turn, closest hit or any-hit; h (closest hit) or T (any-hit) and
- * visits written at k and k + 1. */
-INLINE void walk_pair(int k, const int *idx, const Geometry *g, __global const float *origins,
-                      __global const float *directions, __global const float *t_min, __global const float *t_max,
-                      QueryUnits *units, Hit *h, float *T, uint *visits, bool any_hit) {
+/* Ray k's segment in the units of its unit direction (t_max: INF_T for closest hits). */
+INLINE float2 query_segment(const QueryItem *q, int k, bool any_hit) {
+    int i = q->idx[k];
+    return (float2)(to_unit_t(q->t_min[i], q->units[k]), to_unit_t(any_hit ? q->t_max[i] : INF_T, q->units[k]));
+}
+
+#if USE_BVH && BVH_WIDTH >= 4
+/* Rays k and k + 1 walked in turn, closest hit or any-hit; the same ray for a wide walk has its shear
+ * (six divisions) computed only once the root has a hit: most rays of a small mesh's batch miss it. */
+INLINE void walk_pair(QueryItem *q, const Geometry *g, int k, bool any_hit) {
     Walk w[2];
-    for (int j = 0; j < 2; ++j)
-        start_query_walk(&w[j], g, origins, directions, idx[k + j], &units[k + j], t_min[idx[k + j]],
-                         any_hit ? t_max[idx[k + j]] : INF_T, any_hit);
+    for (int j = 0; j < 2; ++j) {
+        Ray r = query_box_ray(q->origins, q->directions, q->idx[k + j], &q->units[k + j]);
+        float2 segment = query_segment(q, k + j, any_hit);
+        walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
+        if (w[j].sp > 0) shear_ray(&w[j].r);
+    }
     while (w[0].sp > 0 || w[1].sp > 0) {
         if (w[0].sp > 0) walk_step(&w[0], g, true, any_hit);
         if (w[1].sp > 0) walk_step(&w[1], g, true, any_hit);
     }
     for (int j = 0; j < 2; ++j) {
         walk_finish(&w[j], g, true, any_hit);
-        if (any_hit) T[k + j] = w[j].T;
-        else h[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
-        visits[k + j] = w[j].visits;
+        if (any_hit) q->T[k + j] = w[j].T;
+        else q->hit[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
+        q->visits[k + j] = w[j].visits;
     }
 }
 
-/* The eight rays idx[] as one packet: false (nothing written) when they do not go the same way or
- * the packet cannot finish, and the caller walks them alone. */
-INLINE bool walk_packet(const int *idx, const Geometry *g, __global const float *origins, __global const float *directions,
-                        __global const float *t_min, __global const float *t_max, QueryUnits *units, Hit *h, float *T,
-                        uint *visits, bool any_hit) {
+/* The eight rays as one packet: false (nothing written) when they do not go the same way or the
+ * packet cannot finish, and the caller walks them in pairs. */
+INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
 #if RAY_PACKETS
     /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
-    uint3 signs = as_uint3(load_xyz(directions, idx[0])) >> 31;
+    uint3 signs = as_uint3(load_xyz(q->directions, q->idx[0])) >> 31;
     for (int k = 1; k < PACKET_RAYS; ++k) {
-        uint3 s = as_uint3(load_xyz(directions, idx[k])) >> 31;
+        uint3 s = as_uint3(load_xyz(q->directions, q->idx[k])) >> 31;
         if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
     }
     Ray r[PACKET_RAYS];
     float t0[PACKET_RAYS], t1[PACKET_RAYS];
     for (int k = 0; k < PACKET_RAYS; ++k) {
-        r[k] = query_box_ray(origins, directions, idx[k], &units[k]);
-        t0[k] = to_unit_t(t_min[idx[k]], units[k]);
-        t1[k] = any_hit ? to_unit_t(t_max[idx[k]], units[k]) : INF_T;
+        r[k] = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
+        float2 segment = query_segment(q, k, any_hit);
+        t0[k] = segment.x;
+        t1[k] = segment.y;
     }
     Packet p;
     if (!packet_start(&p, g, r, t0, t1, any_hit)) return false;
@@ -172,9 +189,9 @@ INLINE bool walk_packet(const int *idx, const Geometry *g, __global const float 
     int id[PACKET_RAYS] = RAY_ARRAY(p.id);
     uint v[PACKET_RAYS] = RAY_ARRAY(p.visits);
     for (int k = 0; k < PACKET_RAYS; ++k) {
-        if (any_hit) T[k] = (p.live >> k) & 1u ? 1.0f : 0.0f;
-        else { h[k] = no_hit(); if (id[k] >= 0) { h[k].t = t[k]; h[k].id = id[k]; } }
-        visits[k] = v[k];
+        if (any_hit) q->T[k] = (p.live >> k) & 1u ? 1.0f : 0.0f;
+        else { q->hit[k] = no_hit(); if (id[k] >= 0) { q->hit[k].t = t[k]; q->hit[k].id = id[k]; } }
+        q->visits[k] = v[k];
     }
     return true;
 #else
@@ -183,10 +200,26 @@ INLINE bool walk_packet(const int *idx, const Geometry *g, __global const float 
 }
 #endif
 
+/* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
+ * each visited. */
+INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
+#if USE_BVH && BVH_WIDTH >= 4
+    if (!walk_packet(q, g, any_hit))
+        for (int k = 0; k < q->n; k += 2) walk_pair(q, g, k, any_hit);
+#else
+    for (int k = 0; k < q->n; ++k) {
+        Ray r = query_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
+        float2 segment = query_segment(q, k, any_hit);
+        if (any_hit) q->T[k] = transmittance(g, r, segment.x, segment.y, true, &q->visits[k]);
+        else q->hit[k] = closest_hit(g, r, segment.x, segment.y, &q->visits[k]);
+    }
+#endif
+}
+
 /* Closest hit of arbitrary rays: origins and directions as (x, y, z) triples, directions of any
  * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
  * object id and the nodes visited. */
-__kernel void intersect_rays(__global const float4 *nodes, __global const float4 *prims,
+__kernel void intersect_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
                              __global const int *prim_object, int n_prims, int n_rays,
                              __global const float *origins, __global const float *directions,
                              __global const float *t_min,
@@ -195,31 +228,20 @@ __kernel void intersect_rays(__global const float4 *nodes, __global const float4
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
-    int idx[RAYS_PER_ITEM];
-    QueryUnits units[RAYS_PER_ITEM];
-    Hit h[RAYS_PER_ITEM];
-    uint visits[RAYS_PER_ITEM];
-    for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
-#if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, &g, origins, directions, t_min, 0, units, h, 0, visits, false))
-        for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
-            walk_pair(k, idx, &g, origins, directions, t_min, 0, units, h, 0, visits, false);
-#else
-    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        Ray r = query_ray(origins, directions, idx[k], &units[k]);
-        h[k] = closest_hit(&g, r, to_unit_t(t_min[idx[k]], units[k]), INF_T, &visits[k]);
-    }
-#endif
-    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        t_out[idx[k]] = to_query_t(h[k].t, units[k]);
-        prim_out[idx[k]] = h[k].id;
-        object_out[idx[k]] = h[k].id >= 0 ? prim_object[h[k].id] : -1;
-        visits_out[idx[k]] = visits[k];
+    QueryItem q;
+    query_item(&q, first, n_rays, origins, directions, t_min, 0);
+    trace_item(&q, &g, false);
+    for (int k = 0; k < q.n; ++k) {
+        Hit h = q.hit[k];
+        t_out[q.idx[k]] = to_query_t(h.t, q.units[k]);
+        prim_out[q.idx[k]] = h.id;
+        object_out[q.idx[k]] = h.id >= 0 ? prim_object[h.id] : -1;
+        visits_out[q.idx[k]] = q.visits[k];
     }
 }
 
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
-__kernel void occluded_rays(__global const float4 *nodes, __global const float4 *prims,
+__kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
                             __global const int *prim_object, __global const ObjectRecord *objects,
                             __global const Material *materials, int n_prims, int n_rays,
                             __global const float *origins, __global const float *directions,
@@ -228,25 +250,12 @@ __kernel void occluded_rays(__global const float4 *nodes, __global const float4 
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
-    int idx[RAYS_PER_ITEM];
-    QueryUnits units[RAYS_PER_ITEM];
-    float T[RAYS_PER_ITEM];
-    uint visits[RAYS_PER_ITEM];
-    for (int k = 0; k < RAYS_PER_ITEM; ++k) { idx[k] = min(first + k, n_rays - 1); visits[k] = 0; }
-#if USE_BVH && BVH_WIDTH >= 4
-    if (!walk_packet(idx, &g, origins, directions, t_min, t_max, units, 0, T, visits, true))
-        for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; k += 2)
-            walk_pair(k, idx, &g, origins, directions, t_min, t_max, units, 0, T, visits, true);
-#else
-    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        Ray r = query_ray(origins, directions, idx[k], &units[k]);
-        T[k] = transmittance(&g, r, to_unit_t(t_min[idx[k]], units[k]),
-                             to_unit_t(t_max[idx[k]], units[k]), true, &visits[k]);
-    }
-#endif
-    for (int k = 0; k < RAYS_PER_ITEM && first + k < n_rays; ++k) {
-        occluded_out[idx[k]] = T[k] == 0.0f;
-        visits_out[idx[k]] = visits[k];
+    QueryItem q;
+    query_item(&q, first, n_rays, origins, directions, t_min, t_max);
+    trace_item(&q, &g, true);
+    for (int k = 0; k < q.n; ++k) {
+        occluded_out[q.idx[k]] = q.T[k] == 0.0f;
+        visits_out[q.idx[k]] = q.visits[k];
     }
 }
 

@@ -2,12 +2,13 @@
 
 One ray tests all children of a node at once with float4 / float8 operations
 (the slab test of kernels/intersect.h, lane by lane), then visits the hit ones
-nearest first.  Layout of one node, 8 rows of WIDTH lanes (float4 or float8
-rows in the kernel; a node is 128 or 256 bytes)::
+nearest first.  A node is one WideNode4 / WideNode8 record (clrender/layout.py,
+128 or 256 bytes), each field WIDTH lanes, one per child::
 
-    row 0..5  lo_x, hi_x, lo_y, hi_y, lo_z, hi_z   bounds of each child (float32)
-    row 6     child   (int32 bits)  interior child: its wide node index; leaf child: first slot
-    row 7     count   (int32 bits)  interior child: 0; leaf child: number of slots (> 0); empty lane: -1
+    bounds[0..5]  lo_x, hi_x, lo_y, hi_y, lo_z, hi_z   bounds of each child (float32)
+    child         interior child: its wide node index; leaf child: first slot (in the kernels'
+                  buffer, tree_buffer: its first leaf block)
+    count         interior child: 0; leaf child: number of slots (> 0); empty lane: -1
 
 Empty lanes get the box lo = +inf, hi = -inf, which the slab test misses for
 every ray (each slab's entry is +inf and its exit -inf, never NaN for a finite
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import BLOCK_LANES, BLOCK_ROWS, BLOCK_SLOT_ROW, WIDE_CHILD_ROW, WIDE_COUNT_ROW, WIDE_NODE_ROWS
+from ..layout import BLOCK_LANES, LEAF_BLOCK_DTYPE, WIDE_NODE_DTYPES
 from .bvh import BVH, half_area
 
 WIDTHS = (2, 4, 8)  # 2: the binary tree as is
@@ -38,7 +39,7 @@ WIDTHS = (2, 4, 8)  # 2: the binary tree as is
 
 @dataclass
 class WideBVH:
-    nodes: np.ndarray  # (n_nodes, WIDE_NODE_ROWS, width) float32; WIDE_CHILD_ROW, WIDE_COUNT_ROW hold int32 bits
+    nodes: np.ndarray  # (n_nodes,) layout.WIDE_NODE_DTYPES[width] records
     prim_order: np.ndarray  # int32, the binary tree's slot order
     width: int
     build_seconds: float  # binary build + collapse
@@ -50,11 +51,19 @@ class WideBVH:
 
     @property
     def child(self) -> np.ndarray:
-        return self.nodes[:, WIDE_CHILD_ROW].view(np.int32)
+        return self.nodes["child"]  # (n_nodes, width)
 
     @property
     def count(self) -> np.ndarray:
-        return self.nodes[:, WIDE_COUNT_ROW].view(np.int32)
+        return self.nodes["count"]  # (n_nodes, width)
+
+    @property
+    def lo(self) -> np.ndarray:
+        return self.nodes["bounds"][:, 0::2]  # (n_nodes, axis, width)
+
+    @property
+    def hi(self) -> np.ndarray:
+        return self.nodes["bounds"][:, 1::2]  # (n_nodes, axis, width)
 
     @property
     def depth(self) -> int:
@@ -79,8 +88,8 @@ class WideBVH:
     def sah_cost(self, traversal_cost: float = 1.0, intersect_cost: float = 1.0) -> float:
         """Expected cost of a ray hitting the root, as BVH.sah_cost: every wide node visited costs
         traversal_cost (its lanes are tested at once), every leaf intersect_cost per primitive."""
-        lo = self.nodes[:, 0:6:2].astype(np.float64).transpose(0, 2, 1)
-        hi = self.nodes[:, 1:6:2].astype(np.float64).transpose(0, 2, 1)
+        lo = self.lo.astype(np.float64).transpose(0, 2, 1)
+        hi = self.hi.astype(np.float64).transpose(0, 2, 1)
         valid = self.count >= 0
         area = np.where(valid, half_area(lo, hi), 0.0)
         root = half_area(lo[0][valid[0]].min(0), hi[0][valid[0]].max(0))
@@ -132,8 +141,8 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
 
     # wide node indices: breadth-first, in order of appearance
     n_wide = sum(len(lv) for lv in levels)
-    nodes = np.zeros((n_wide, WIDE_NODE_ROWS, width), np.float32)
-    ints = nodes.view(np.int32)
+    nodes = np.zeros(n_wide, WIDE_NODE_DTYPES[width])
+    bounds, child, count_lanes = nodes["bounds"], nodes["child"], nodes["count"]
     wide_of = np.full(n_bin, -1, np.int64)
     # assign wide indices level by level: a level's interior lanes become the next level's nodes
     wide_of[0] = 0
@@ -151,47 +160,55 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
     base = 0
     for lv in levels:
         sl = slice(base, base + len(lv))
-        nodes[sl, 0:6:2] = lo_of[lv].transpose(0, 2, 1)
-        nodes[sl, 1:6:2] = hi_of[lv].transpose(0, 2, 1)
-        ints[sl, WIDE_CHILD_ROW] = child_of[lv]
-        ints[sl, WIDE_COUNT_ROW] = count_of[lv]
+        bounds[sl, 0::2] = lo_of[lv].transpose(0, 2, 1)
+        bounds[sl, 1::2] = hi_of[lv].transpose(0, 2, 1)
+        child[sl] = child_of[lv]
+        count_lanes[sl] = count_of[lv]
         base += len(lv)
     if n_bin == 1 and count[0] == 0:  # the empty tree: no lanes at all
-        nodes[0, 0:6:2, 0], nodes[0, 1:6:2, 0] = np.inf, -np.inf
-        ints[0, WIDE_COUNT_ROW] = -1
+        bounds[0, 0::2, 0], bounds[0, 1::2, 0] = np.inf, -np.inf
+        count_lanes[0, 0] = -1
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
 
 
-def kernel_rows(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
-    """The float4 rows the kernels read for a wide tree: its nodes, then every leaf's primitives in
-    leaf blocks of BLOCK_LANES (layout.py), which the kernels test at once with float4 operations.
+def leaf_blocks(wide: WideBVH, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every leaf's primitives in leaf blocks of BLOCK_LANES (layout.LEAF_BLOCK_DTYPE), which the kernels
+    test at once with float4 operations, leaf after leaf in the order of the tree's leaf lanes
+    (wide.count > 0, row-major); and the index of each such leaf's first block.
 
-    `slots` are the primitive records in slot order (geometry.pack_slots).  A leaf lane's child row
-    then holds the row of its first block (its count still the number of primitives, so blocks =
-    ceil(count / BLOCK_LANES)); the vertices are copied bit for bit from `slots`, so a block lane
-    computes exactly what the one-primitive test computes from the record.  WideBVH itself is not
-    changed: its lanes keep naming slots."""
-    count = wide.count
-    leaf = count > 0
-    first, n = wide.child[leaf].astype(np.int64), count[leaf].astype(np.int64)
-    blocks = -(-n // BLOCK_LANES)
-    block_start = np.concatenate([[0], np.cumsum(blocks)[:-1]])
-    total = int(blocks.sum())
-    node_rows = wide.nodes.size // 4
-    rows = np.empty((node_rows + BLOCK_ROWS * total, 4), np.float32)  # one allocation, filled in place
-    nodes = rows[:node_rows].reshape(wide.nodes.shape)
+    `slots` are the primitive records in slot order (geometry.pack_slots).  A leaf of `count`
+    primitives takes ceil(count / BLOCK_LANES) blocks, its slots in order, then empty lanes (slot -1);
+    a sphere's lane holds -2 - slot and zero vertices.  The vertices are copied bit for bit from
+    `slots`, so a block lane computes exactly what the one-primitive test computes from the record."""
+    leaf = wide.count > 0
+    first, n = wide.child[leaf].astype(np.int64), wide.count[leaf].astype(np.int64)
+    per_leaf = -(-n // BLOCK_LANES)
+    first_block = np.concatenate([[0], np.cumsum(per_leaf)[:-1]]).astype(np.int64)
+    total = int(per_leaf.sum())
+    owner = np.repeat(np.arange(len(n)), per_leaf)  # leaf of each block
+    lane = (np.arange(total) - first_block[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
+    slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)  # (total, lanes)
+    rec = slots[np.maximum(slot, 0)]
+    sphere = (slot >= 0) & (rec["sphere"] != 0)
+    blank = (slot < 0) | sphere  # lanes without a triangle: zero vertices
+    blocks = np.zeros(total, LEAF_BLOCK_DTYPE)
+    for vertex in ("v0", "v1", "v2"):
+        blocks[vertex] = np.where(blank[..., None], np.float32(0), rec[vertex]).transpose(0, 2, 1)  # (block, axis, lane)
+    blocks["slot"] = np.where(sphere, -2 - slot, slot)
+    return blocks, first_block
+
+
+def tree_buffer(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
+    """The bytes the kernels read as a wide tree (Geometry.nodes in kernels/intersect.h): its nodes,
+    then from the first multiple of a LeafBlock's size on, its leaf blocks (leaf_blocks).  A leaf lane's
+    child there names its first block, counted in LeafBlocks from the buffer's start (the kernels'
+    leaf_block); WideBVH itself is not changed: its lanes keep naming slots."""
+    blocks, first_block = leaf_blocks(wide, slots)
+    block_size = LEAF_BLOCK_DTYPE.itemsize
+    base = -(-wide.nodes.nbytes // block_size)  # blocks before the first one: the nodes, padded
+    buffer = np.zeros((base + len(blocks)) * block_size, np.uint8)  # one allocation, filled in place
+    nodes = buffer[: wide.nodes.nbytes].view(wide.nodes.dtype)
     nodes[...] = wide.nodes
-    nodes.view(np.int32)[:, WIDE_CHILD_ROW][leaf] = node_rows + BLOCK_ROWS * block_start
-    # slot of every block lane: first + lane, -1 past the leaf's count
-    owner = np.repeat(np.arange(len(n)), blocks)  # leaf of each block
-    lane = (np.arange(total) - block_start[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
-    slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)
-    out = rows[node_rows:].reshape(total, BLOCK_ROWS, BLOCK_LANES)
-    rec = slots[np.maximum(slot, 0)]  # (total, lanes, PRIM_ROWS, 4)
-    sphere = (slot >= 0) & (rec[..., 1, 3] != 0)  # the record's sphere flag
-    # rows 3v + axis: vertex v's coordinate of each lane; empty and sphere lanes hold zeros
-    out[:, :9, :] = rec[..., :3, :3].reshape(total, BLOCK_LANES, 9).transpose(0, 2, 1)
-    blank = (slot < 0) | sphere
-    out.transpose(0, 2, 1)[blank, :9] = 0.0
-    out.view(np.int32)[:, BLOCK_SLOT_ROW, :] = np.where(sphere, -2 - slot, slot)
-    return rows
+    nodes["child"][wide.count > 0] = base + first_block
+    buffer[base * block_size :].view(LEAF_BLOCK_DTYPE)[...] = blocks
+    return buffer

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_ROWS
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE
 from ..scene.scene import Mesh, Scene, Sphere
 
 
@@ -65,19 +65,21 @@ def flatten(scene: Scene) -> Primitives:
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
-    """(N, PRIM_ROWS, 4) float32 primitive records in slot order (layout.PRIM_SLOT_DTYPE, kernels/common.h)."""
+    """The primitive slots in slot order, layout.PRIM_SLOT_DTYPE records (a sphere's filled through its
+    SphereSlot view of the same bytes); slot s holds primitive order[s]."""
     n_tri = len(prims.triangles)
-    out = np.zeros((len(order), PRIM_ROWS, 4), np.float32)
+    out = np.zeros(len(order), PRIM_SLOT_DTYPE)
     is_tri = order < n_tri
     t = prims.triangles[order[is_tri]]
-    out[is_tri, 0, :3] = t[:, 0]
+    out["v0"][is_tri] = t[:, 0]
     # the vertices themselves, not edges: a vertex two triangles share must round to the same
     # float32 in both for the watertight test (v0 + (v1 - v0) in float32 is not v1)
-    out[is_tri, 1, :3] = t[:, 1]
-    out[is_tri, 2, :3] = t[:, 2]
+    out["v1"][is_tri] = t[:, 1]
+    out["v2"][is_tri] = t[:, 2]
+    spheres = out.view(SPHERE_SLOT_DTYPE)
     s = prims.spheres[order[~is_tri] - n_tri]
-    out[~is_tri, 0, :3] = s[:, :3]
-    out[~is_tri, 1, 0] = s[:, 3]
-    out[~is_tri, 1, 3] = 1.0  # sphere flag
-    out.view(np.int32)[:, 0, 3] = order  # primitive id, as int bits
+    spheres["centre"][~is_tri] = s[:, :3]
+    spheres["radius"][~is_tri] = s[:, 3]
+    spheres["sphere"][~is_tri] = 1
+    out["id"] = order  # the primitive's index in scene order
     return out

@@ -29,7 +29,8 @@ import pyopencl as cl
 
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
-from ..layout import VERTEX_NORMALS_DTYPE
+from ..launch import Kernel
+from ..layout import BVH_NODE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
@@ -174,7 +175,7 @@ class Tracer:
         n = self.primitives.count
         self.bvh = None
         self.bvh_seconds = 0.0
-        self.device.check_fits(n * 48, f"{n} primitives")
+        self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
         if use_bvh and n > 0:
             from .bvh import build_bvh
 
@@ -186,16 +187,16 @@ class Tracer:
             order = np.asarray(self.bvh.prim_order, np.int64)
             slots = pack_slots(self.primitives, order)
             if self.bvh_width == 2:
-                nodes = np.ascontiguousarray(self.bvh.nodes).view(np.float32).reshape(-1, 4)
+                nodes = self.bvh.nodes  # BvhNode records
             else:
-                from .bvh_wide import collapse, kernel_rows
+                from .bvh_wide import collapse, tree_buffer
 
                 self.wide = collapse(self.bvh, self.bvh_width)
-                nodes = kernel_rows(self.wide, slots)
+                nodes = tree_buffer(self.wide, slots)  # WideNode records, then LeafBlocks
             self.bvh_seconds = time.perf_counter() - start
         else:
             slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
-            nodes = np.zeros((8, 4), np.float32)
+            nodes = np.zeros(1, BVH_NODE_DTYPE)  # never read: no tree, or no primitives
         dev = self.device
         self.n_prims = n
         self.nodes = dev.to_device(nodes)
@@ -218,7 +219,7 @@ class Tracer:
             knobs=self.knobs,
         )
 
-    def kernel(self, name: str) -> cl.Kernel:
+    def kernel(self, name: str) -> Kernel:
         return self.device.kernel("trace.cl", name, self.defines)
 
     # ------------------------------------------------------------ ray queries
@@ -269,22 +270,43 @@ class Tracer:
             raise UsageError(f"{name} must not be NaN")
         return self.device.to_device(np.array(per_ray).reshape(-1))
 
-    def _launch(self, name: str, n: int, *args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's buffers
-        first, as every ray kernel takes them."""
+    def _launch(self, name: str, n: int, **args) -> cl.Event:
+        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's
+        geometry, as every ray kernel takes it."""
         return self.kernel(name)(
-            self.device.queue, global_size(-(-n // RAYS_PER_ITEM)), (LOCAL_SIZE,), self.nodes, self.prims, self.prim_object, *args
+            self.device.queue,
+            global_size(-(-n // RAYS_PER_ITEM)),
+            (LOCAL_SIZE,),
+            nodes=self.nodes,
+            prims=self.prims,
+            prim_object=self.prim_object,
+            n_prims=self.n_prims,
+            n_rays=n,
+            **args,
         )
 
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
         outputs = (t, prim, object, visits) buffers."""
-        return self._launch("intersect_rays", n, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, *outputs)
+        t, prim, obj, visits = outputs
+        return self._launch(
+            "intersect_rays", n, origins=origins, directions=directions, t_min=t_min, t_out=t, prim_out=prim, object_out=obj, visits_out=visits
+        )
 
     def launch_occluded(self, n, origins, directions, t_min, t_max, outputs) -> cl.Event:
         """Any-hit kernel on device buffers; t_min, t_max per-ray buffers; outputs = (occluded, visits) buffers."""
+        occluded, visits = outputs
         return self._launch(
-            "occluded_rays", n, self.objects, self.materials, np.int32(self.n_prims), np.int32(n), origins, directions, t_min, t_max, *outputs
+            "occluded_rays",
+            n,
+            objects=self.objects,
+            materials=self.materials,
+            origins=origins,
+            directions=directions,
+            t_min=t_min,
+            t_max=t_max,
+            occluded_out=occluded,
+            visits_out=visits,
         )
 
     def intersect(self, origins, directions, t_min=0.0):

@@ -183,7 +183,7 @@ d = np.stack([np.sin(angles), np.zeros(4), -np.cos(angles), np.zeros(4)], 1).ast
 normals = np.tile(np.float32([0, 0, 1, 0]), (4, 1))
 eta = np.full(4, 1.5, np.float32)  # glass to air: the two steep rays are totally reflected
 out = dev.empty(64)
-knl(dev.queue, (4,), None, np.int32(4), dev.to_device(d), dev.to_device(normals), dev.to_device(eta), out)
+knl(dev.queue, (4,), None, n=4, d=dev.to_device(d), normals=dev.to_device(normals), eta=dev.to_device(eta), out=out)
 import pyopencl as cl
 res = np.empty((4, 4), np.float32); cl.enqueue_copy(dev.queue, res, out)
 assert res[:, 3].tolist() == [1, 1, 0, 0]
@@ -197,7 +197,7 @@ from clrender.trace.tracer import trace_defines
 knl = dev.kernel("trace.cl", "specular_power", trace_defines())
 x = np.float32([1.0, 0.5, 0.9, 1e-30, 0.25]); s = np.float32([3.0, 2.0, 150.0, 8.0, 0.5])
 out = dev.empty(20)
-knl(dev.queue, (5,), None, np.int32(5), dev.to_device(x), dev.to_device(s), out)
+knl(dev.queue, (5,), None, n=5, x=dev.to_device(x), s=dev.to_device(s), out=out)
 import pyopencl as cl
 res = np.empty(5, np.float32); cl.enqueue_copy(dev.queue, res, out)
 np.testing.assert_allclose(res, np.power(x.astype(np.float64), s), rtol=1e-5, atol=1e-37)

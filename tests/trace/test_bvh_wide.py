@@ -20,7 +20,7 @@ def triangle_bounds(vertices, faces):
 
 def lane_boxes(wide, i):
     """(lo, hi) of the lanes of wide node i, each (width, 3)."""
-    return wide.nodes[i, 0:6:2].T, wide.nodes[i, 1:6:2].T
+    return wide.lo[i].T, wide.hi[i].T
 
 
 def check_invariants(wide, lo, hi):
@@ -54,7 +54,7 @@ def check_invariants(wide, lo, hi):
         assert (lo[prims] >= blo[k]).all() and (hi[prims] <= bhi[k]).all()
     # empty lanes are inverted boxes, and a wide tree is no deeper than the binary one
     empty = count < 0
-    assert (wide.nodes[:, 0:6:2].transpose(0, 2, 1)[empty] > wide.nodes[:, 1:6:2].transpose(0, 2, 1)[empty]).all()
+    assert (wide.lo.transpose(0, 2, 1)[empty] > wide.hi.transpose(0, 2, 1)[empty]).all()
     assert wide.depth <= wide.binary.depth
 
 

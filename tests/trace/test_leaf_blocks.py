@@ -1,4 +1,4 @@
-"""Leaf blocks (clrender/trace/bvh_wide.py kernel_rows): the wide trees' leaves tested BLOCK_LANES
+"""Leaf blocks (clrender/trace/bvh_wide.py leaf_blocks, tree_buffer): the wide trees' leaves tested BLOCK_LANES
 primitives at a time.  The block holds every leaf's primitives, bit for bit, and tracing through the
 blocks answers exactly as the one-primitive test does: in scenes that mix spheres (tested one by one
 inside a block) with triangles, with transparent surfaces, and in whole renders."""
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender.layout import BLOCK_LANES, BLOCK_ROWS, BLOCK_SLOT_ROW, WIDE_CHILD_ROW, WIDE_COUNT_ROW
+from clrender.layout import BLOCK_LANES, LEAF_BLOCK_DTYPE
 from clrender.scene.meshes import dense_mesh
 from clrender.trace.bvh import build_bvh
-from clrender.trace.bvh_wide import collapse, kernel_rows
+from clrender.trace.bvh_wide import collapse, tree_buffer
 from clrender.trace.geometry import flatten, pack_slots
 from clrender.trace.tracer import Tracer
 
@@ -37,31 +37,36 @@ def test_every_leaf_primitive_sits_in_its_blocks_bit_for_bit():
     lo, hi = prims.bounds()
     bvh = build_bvh(lo, hi, max_leaf_size=6)
     slots = pack_slots(prims, np.asarray(bvh.prim_order, np.int64))
+    slot_vertices = np.stack([slots["v0"], slots["v1"], slots["v2"]], axis=1)  # (slot, vertex, axis)
     for width in (4, 8):
         wide = collapse(bvh, width)
-        rows = kernel_rows(wide, slots)
-        node_rows = wide.nodes.size // 4
-        ints = rows[:node_rows].reshape(wide.nodes.shape).view(np.int32)
+        buffer = tree_buffer(wide, slots)
+        size = LEAF_BLOCK_DTYPE.itemsize
+        base = -(-wide.nodes.nbytes // size)  # the blocks start at the first whole block after the nodes
+        assert len(buffer) % size == 0
+        nodes, blocks = buffer[: wide.nodes.nbytes].view(wide.nodes.dtype), buffer[base * size :].view(LEAF_BLOCK_DTYPE)
         leaf = wide.count > 0
-        np.testing.assert_array_equal(ints[:, :6], wide.nodes[:, :6].view(np.int32))  # the lanes' boxes as they were
-        assert np.array_equal(ints[:, WIDE_CHILD_ROW][~leaf], wide.child[~leaf])  # interior lanes as they were
-        assert np.array_equal(ints[:, WIDE_COUNT_ROW][leaf], wide.count[leaf])  # counts unchanged
+        np.testing.assert_array_equal(nodes["bounds"].view(np.int32), wide.nodes["bounds"].view(np.int32))  # the lanes' boxes as they were
+        assert np.array_equal(nodes["child"][~leaf], wide.child[~leaf])  # interior lanes as they were
+        assert np.array_equal(nodes["count"], wide.count)  # counts unchanged
         seen = np.zeros(len(slots), np.int64)
-        for first_row, first_slot, count in zip(ints[:, WIDE_CHILD_ROW][leaf], wide.child[leaf], wide.count[leaf]):
+        for first_block, first_slot, count in zip(nodes["child"][leaf], wide.child[leaf], wide.count[leaf]):
             n_blocks = -(-count // BLOCK_LANES)
-            assert (first_row - node_rows) % BLOCK_ROWS == 0
-            block = rows[first_row : first_row + n_blocks * BLOCK_ROWS].reshape(n_blocks, BLOCK_ROWS, 4)
-            lane_slot = block[:, BLOCK_SLOT_ROW].view(np.int32).ravel()
+            assert first_block >= base
+            block = blocks[first_block - base : first_block - base + n_blocks]
+            lane_slot = block["slot"].ravel()
             real = lane_slot != -1
             assert real.sum() == count and (lane_slot[count:] == -1).all()  # the leaf's slots, in order, then padding
             slot = np.where(lane_slot[real] < -1, -2 - lane_slot[real], lane_slot[real])
             assert np.array_equal(slot, np.arange(first_slot, first_slot + count))
             seen[slot] += 1
-            sphere = slots[slot, 1, 3] != 0
+            sphere = slots["sphere"][slot] != 0
             assert np.array_equal(lane_slot[real] < -1, sphere)  # spheres flagged as -2 - slot
-            verts = block[:, :9].transpose(0, 2, 1).reshape(-1, 3, 3)[real]  # (lanes, vertex, axis)
+            verts = np.stack([block["v0"], block["v1"], block["v2"]], axis=1)  # (block, vertex, axis, lane)
+            verts = verts.transpose(0, 3, 1, 2).reshape(-1, 3, 3)[real]  # (lane, vertex, axis)
             tri = ~sphere
-            np.testing.assert_array_equal(verts[tri].view(np.int32), slots[slot[tri], :, :3].view(np.int32))
+            np.testing.assert_array_equal(verts[tri].view(np.int32), slot_vertices[slot[tri]].view(np.int32))
+            assert not verts[sphere].any()  # a sphere's lane holds no vertices
         assert (seen == 1).all()  # every primitive in exactly one block lane
 
 
