@@ -13,13 +13,12 @@
  *   normals   VertexNormals per primitive id: a smooth triangle's vertex normals.
  *   objects   ObjectRecord per object: material index, smooth shading flag.
  *   materials Material records.
- *   lights    float4 x LIGHT_ROWS: (type, samples per side, intensity, falloff) (position |
- *             direction of travel | corner) (colour) (edge a) (edge b)
+ *   lights    Light records (type, samples, intensity, falloff, position, direction, colour, edges).
  */
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 
-#include "layout.h" /* PATH_LEN, ID_RECORD, the records, the light and sampler codes */
+#include "layout.h" /* checks clrender/layout.py's header (values and record structs) came with the build */
 
 /* The traversal's build knobs come from the host (clrender.trace.tracer.trace_defines), never from defaults here:
  * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),
