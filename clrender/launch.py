@@ -69,8 +69,8 @@ class Kernel:
                 raise TypeError(f"kernel {self.name}: parameter {p.name} has type {p.type}, which the launcher cannot pass")
 
     def __call__(self, queue, global_size, local_size, *positional, **args):
-        if positional and not args:  # TRANSITION (issue 24): callers not yet converted to names
-            return self.kernel(queue, global_size, local_size, *positional)
+        if positional:
+            raise TypeError(f"kernel {self.name}: arguments are passed by name ({', '.join(p.name for p in self.params)}), not by position")
         names = [p.name for p in self.params]
         missing = [n for n in names if n not in args]
         unknown = [n for n in args if n not in names]

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 import pyopencl as cl
 
-from ..device import Device
+from ..device import Device, kernel_source
+from ..launch import Kernel, kernel_signatures
 from ..layout import BSDF_LOBES as LOBES
 from ..layout import BSDF_PROBE_DTYPE
 from .tracer import LOCAL_SIZE, global_size, trace_defines
@@ -68,7 +69,8 @@ class BsdfProbe:
         if program is None:  # the device's cached kernels
             fetch = lambda name: device.kernel(PROBE, name, bsdf_defines())
         else:
-            fetch = lambda name: cl.Kernel(program, name)
+            signatures = kernel_signatures(kernel_source(PROBE))
+            fetch = lambda name: Kernel(cl.Kernel(program, name), signatures[name])
         self._eval, self._pdf, self._sample = fetch("bsdf_eval_probe"), fetch("bsdf_pdf_probe"), fetch("bsdf_sample_probe")
         self._frame = fetch("frame_probe")
 
@@ -79,21 +81,22 @@ class BsdfProbe:
             if k not in (1, n):
                 raise ValueError(f"{name} has {k} rows; expected 1 or {n}")
         dev = self.device
-        return (
-            np.int32(n),
-            np.int32(LOBES[lobe]),
-            dev.to_device(records),
-            np.int32(len(records) > 1 or n == 1),
-            dev.to_device(wo_rows),
-            np.int32(len(wo_rows) > 1 or n == 1),
+        return dict(
+            n=n,
+            lobe=LOBES[lobe],
+            params=dev.to_device(records),
+            params_stride=int(len(records) > 1 or n == 1),
+            wo=dev.to_device(wo_rows),
+            wo_stride=int(len(wo_rows) > 1 or n == 1),
         )
 
-    def _run(self, knl, n: int, args, *out_shapes):
+    def _run(self, knl, n: int, args: dict, outputs: dict):
+        """Launch with `args` and one new buffer per name of `outputs` (name -> shape); the outputs, in order."""
         dev = self.device
-        outs = [dev.empty(4 * int(np.prod(s))) for s in out_shapes]
-        knl(dev.queue, global_size(n), (LOCAL_SIZE,), *args, *outs)
+        outs = {name: dev.empty(4 * int(np.prod(shape))) for name, shape in outputs.items()}
+        knl(dev.queue, global_size(n), (LOCAL_SIZE,), **args, **outs)
         results = []
-        for buf, shape in zip(outs, out_shapes):
+        for buf, shape in zip(outs.values(), outputs.values()):
             host = np.empty(shape, np.float32)
             cl.enqueue_copy(dev.queue, host, buf)
             results.append(host)
@@ -103,21 +106,22 @@ class BsdfProbe:
         """(n, 3) f * |cos theta_i| for wi (n, 3), wo (n, 3) or (3,), records (n or 1, PARAM_FLOATS)."""
         wi_rows = _rows(wi)
         n = len(wi_rows)
-        (out,) = self._run(self._eval, n, (*self._common(lobe, records, wo, n), self.device.to_device(wi_rows)), (n, 4))
+        (out,) = self._run(self._eval, n, {**self._common(lobe, records, wo, n), "wi": self.device.to_device(wi_rows)}, {"out": (n, 4)})
         return out[:, :3]
 
     def pdf(self, lobe: str, records, wo, wi) -> np.ndarray:
         """(n,) solid-angle pdf of wi given wo."""
         wi_rows = _rows(wi)
         n = len(wi_rows)
-        (out,) = self._run(self._pdf, n, (*self._common(lobe, records, wo, n), self.device.to_device(wi_rows)), (n,))
+        (out,) = self._run(self._pdf, n, {**self._common(lobe, records, wo, n), "wi": self.device.to_device(wi_rows)}, {"out": (n,)})
         return out
 
     def sample(self, lobe: str, records, wo, u):
         """wi (n, 3), weight (n, 3), pdf (n,), delta (n,) bool for u (n, 3) in [0, 1): (u1, u2.x, u2.y)."""
         u = np.asarray(u, np.float32).reshape(-1, 3)
         n = len(u)
-        wi, wp = self._run(self._sample, n, (*self._common(lobe, records, wo, n), self.device.to_device(_rows(u))), (n, 4), (n, 4))
+        args = {**self._common(lobe, records, wo, n), "u": self.device.to_device(_rows(u))}
+        wi, wp = self._run(self._sample, n, args, {"wi_out": (n, 4), "weight_out": (n, 4)})
         return wi[:, :3], wp[:, :3], wp[:, 3], wi[:, 3] != 0
 
     def frame(self, normals, v):
@@ -125,8 +129,8 @@ class BsdfProbe:
         normals, v = _rows(normals), _rows(v)
         n = len(normals)
         dev = self.device
-        args = (np.int32(n), dev.to_device(normals), dev.to_device(v))
-        frames, local, back = self._run(self._frame, n, args, (n, 3, 4), (n, 4), (n, 4))
+        args = dict(n=n, normals=dev.to_device(normals), v=dev.to_device(v))
+        frames, local, back = self._run(self._frame, n, args, {"out": (n, 3, 4), "in_frame": (n, 4), "back": (n, 4)})
         return frames[..., :3], local[:, :3], back[:, :3]
 
 
