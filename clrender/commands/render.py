@@ -115,7 +115,7 @@ def add_parser(sub):
         "--integrator",
         choices=INTEGRATORS,
         default=d.integrator,
-        help="whitted: the seed's ray tracer; path: physically based path tracing (docs/materials.md) (default: whitted)",
+        help="whitted: the classic ray tracer; path: physically based path tracing (docs/materials.md) (default: whitted)",
     )
     p.add_argument(
         "--spp", type=int, default=None, help=f"path: paths per pixel per pass (default: N x N from --samples, or {PATH_DEFAULT_SPP} without it)"
