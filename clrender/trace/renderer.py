@@ -264,94 +264,39 @@ class Renderer:
         """Trace the given pixel indices: colours (k, 3), id records (k,) of layout.ID_RECORD_DTYPE, shadow (k, L), stats (k, 2),
         and with AOVs on and `record`, the primary hits' AOV records (k,) of layout.AOV_DTYPE, else None.
         The path integrator's colours are (k, 4): each pixel's filtered mean, then its filter weight; its samples
-        are first_sample ... first_sample + spp - 1 of each pixel's sequence."""
-        if self.settings.integrator == "path":
-            return self._launch_path(pixels, record, first_sample)
-        t = self.tracer
-        dev = t.device
-        k = len(pixels)
-        L = max(self.n_lights, 1)
-        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, ID_RECORD_DTYPE.itemsize, 4 * L, 8))
-        if record:  # background pixels never write their shadow entries: all lights visible
-            cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
-        aov = self._no_aov
-        if record and self.write_aov:
-            aov = dev.empty(k * AOV_DTYPE.itemsize)
-            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_DTYPE.itemsize)
-        params = self.params.copy()
-        params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
-        self.kernel(
-            dev.queue,
-            global_size(k),
-            (LOCAL_SIZE,),
-            nodes=t.nodes,
-            prims=t.prims,
-            prim_object=t.prim_object,
-            normals=t.normals,
-            objects=t.objects,
-            materials=t.materials,
-            lights=self.lights,
-            camera=self.camera,
-            pixels=dev.to_device(pixels.astype(np.int32)),
-            params=params,
-            colour_out=colour,
-            ids_out=ids,
-            shadow_out=shadow,
-            stats_out=stats,
-            aov_out=aov,
-        )
-        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
-        for host, buf in zip(out, (colour, ids, shadow, stats)):
-            cl.enqueue_copy(dev.queue, host, buf)
-        aov_host = None
-        if aov is not self._no_aov:
-            aov_host = np.empty(k, AOV_DTYPE)
-            cl.enqueue_copy(dev.queue, aov_host, aov)
-        return out[0][:, :3], out[1], out[2][:, : self.n_lights], out[3], aov_host
-
-    def _launch_path(self, pixels: np.ndarray, record: bool, first_sample: int):
-        from .path import path_params
-
+        are first_sample ... first_sample + spp - 1 of each pixel's sequence (sampler and n are the settings')."""
         t, dev = self.tracer, self.tracer.device
         k, L = len(pixels), max(self.n_lights, 1)
-        colour, ids, shadow, stats = (dev.empty(k * b) for b in (16, ID_RECORD_DTYPE.itemsize, 4 * L, 8))
-        if record:  # the path tracer has no shadow record: every light counts as visible (no shadow edges)
+        out = {name: dev.empty(k * size) for name, size in (("colour_out", 16), ("ids_out", ID_RECORD_DTYPE.itemsize), ("stats_out", 8))}
+        shadow = dev.empty(k * 4 * L)
+        if record:  # background pixels never write their shadow entries (the path tracer none): all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
-            cl.enqueue_fill_buffer(dev.queue, ids, np.int32(-1), 0, k * ID_RECORD_DTYPE.itemsize)
-        aov = self._no_aov
+        out["aov_out"] = self._no_aov
         if record and self.write_aov:
-            aov = dev.empty(k * AOV_DTYPE.itemsize)
-            cl.enqueue_fill_buffer(dev.queue, aov, AOV_MISS, 0, k * AOV_DTYPE.itemsize)
-        params = path_params(self, k, first_sample, record)
-        self.kernel(
-            dev.queue,
-            global_size(k),
-            (LOCAL_SIZE,),
-            nodes=t.nodes,
-            prims=t.prims,
-            prim_object=t.prim_object,
-            normals=t.normals,
-            objects=t.objects,
-            materials=t.materials,
-            lights=self.lights,
-            camera=self.camera,
-            emitters=self.emitters,
-            emitter_of_prim=self.emitter_of_prim,
-            pixels=dev.to_device(pixels.astype(np.int32)),
-            params=params,
-            colour_out=colour,
-            aov_out=aov,
-            ids_out=ids,
-            stats_out=stats,
-        )
-        out = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
-        for host, buf in zip(out, (colour, ids, shadow, stats)):
-            cl.enqueue_copy(dev.queue, host, buf)
+            out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
+            cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
+        geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
+        scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
+        if self.settings.integrator == "path":
+            from .path import path_params
+
+            if record:  # one object id a pixel, the rest of its id record -1
+                cl.enqueue_fill_buffer(dev.queue, out["ids_out"], np.int32(-1), 0, k * ID_RECORD_DTYPE.itemsize)
+            extra = dict(emitters=self.emitters, emitter_of_prim=self.emitter_of_prim, params=path_params(self, k, first_sample, record))
+        else:
+            params = self.params.copy()
+            params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
+            extra = dict(params=params, shadow_out=shadow)
+        self.kernel(dev.queue, global_size(k), (LOCAL_SIZE,), **geometry, **scene, **extra, **out)
+        host = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
+        for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):
+            cl.enqueue_copy(dev.queue, array, buf)
         aov_host = None
-        if aov is not self._no_aov:
+        if out["aov_out"] is not self._no_aov:
             aov_host = np.empty(k, AOV_DTYPE)
-            cl.enqueue_copy(dev.queue, aov_host, aov)
-        return out[0], out[1], out[2][:, : self.n_lights], out[3], aov_host
+            cl.enqueue_copy(dev.queue, aov_host, out["aov_out"])
+        colour = host[0] if self.settings.integrator == "path" else host[0][:, :3]
+        return colour, host[1], host[2][:, : self.n_lights], host[3], aov_host
 
     def _pass(self, pixel_lists, sampler, n, record, desc, first_sample=0):
         """Trace each pixel list in turn; returns the concatenated outputs."""

@@ -56,6 +56,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .whitted import moller_trumbore
+
 LEAVE = 1e-9  # how far (relative to the point's magnitude) a ray leaves a surface along its normal
 SHADOW_END = 1e-7  # shadow rays stop this fraction of their length short of the light's point
 SAMPLERS = ("center", "random", "stratified")
@@ -205,20 +207,8 @@ PRIM_NONE = np.iinfo(np.int64).min  # closest_hit's primitive for a ray that hit
 
 
 def _triangle_t(world: World, o, d):
-    """Distances (N, T) along unit rays to every triangle (inf where missed), Moller-Trumbore."""
-    tri = world.triangles
-    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    pvec = np.cross(d[:, None, :], e2[None])
-    det = (e1[None] * pvec).sum(-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / det
-        tvec = o[:, None, :] - v0[None]
-        u = (tvec * pvec).sum(-1) * inv
-        qvec = np.cross(tvec, e1[None])
-        v = (d[:, None, :] * qvec).sum(-1) * inv
-        t = (e2[None] * qvec).sum(-1) * inv
-        ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
-    return np.where(ok, t, np.inf)
+    """Distances (N, T) along unit rays to every triangle (inf where missed), Moller-Trumbore (whitted.py's)."""
+    return moller_trumbore(o, d, world.triangles)[0]
 
 
 def _sphere_t(world: World, o, d):

@@ -191,7 +191,7 @@ def camera_rays(camera: dict, width: int, height: int, offset=(0.5, 0.5)):
 
 
 # ------------------------------------------------------------ intersection
-def _moller_trumbore(o, d, tri):
+def moller_trumbore(o, d, tri):
     """Distances (N, T) from rays to triangles (inf where missed) and barycentrics u, v of corners 1 and 2."""
     v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     pvec = np.cross(d[:, None, :], e2[None])
@@ -219,7 +219,7 @@ def _triangle_hits(world: World, o, d):
         if near.any():
             rows = np.flatnonzero(near)
             block = np.ix_(rows, index)
-            t[block], u[block], v[block] = _moller_trumbore(o[rows], d[rows], world.triangles[index])
+            t[block], u[block], v[block] = moller_trumbore(o[rows], d[rows], world.triangles[index])
     return t, u, v
 
 
