@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .whitted import moller_trumbore
+from .whitted import moller_trumbore, sphere_roots
 
 LEAVE = 1e-9  # how far (relative to the point's magnitude) a ray leaves a surface along its normal
 SHADOW_END = 1e-7  # shadow rays stop this fraction of their length short of the light's point
@@ -213,13 +213,7 @@ def _triangle_t(world: World, o, d):
 
 def _sphere_t(world: World, o, d):
     """Distance (N, S) to the first crossing in front of each ray (inf where missed)."""
-    c, r = world.spheres[:, :3], world.spheres[:, 3]
-    oc = o[:, None, :] - c[None]
-    b = (oc * d[:, None, :]).sum(-1)
-    disc = b * b - ((oc * oc).sum(-1) - r * r)
-    with np.errstate(invalid="ignore"):
-        root = np.sqrt(disc)
-    near, far = -b - root, -b + root
+    near, far = sphere_roots(world, o, d)
     t = np.where(near > 0, near, np.where(far > 0, far, np.inf))
     return np.where(np.isnan(t), np.inf, t)
 

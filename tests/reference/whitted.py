@@ -223,7 +223,7 @@ def _triangle_hits(world: World, o, d):
     return t, u, v
 
 
-def _sphere_roots(world: World, o, d):
+def sphere_roots(world: World, o, d):
     """Both roots (N, S) of |o + t d - c| = r for unit d (NaN where the ray misses)."""
     c, r = world.spheres[:, :3], world.spheres[:, 3]
     oc = o[:, None, :] - c[None]
@@ -247,7 +247,7 @@ def closest_hit(world: World, o, d):
         best_t[hit], obj[hit], tri_index[hit] = tk[hit], world.triangle_object[k[hit]], k[hit]
         bu[hit], bv[hit] = u[np.arange(n), k][hit], v[np.arange(n), k][hit]
     if len(world.spheres):
-        t0, t1 = _sphere_roots(world, o, d)
+        t0, t1 = sphere_roots(world, o, d)
         t = np.where(t0 > 0, t0, np.where(t1 > 0, t1, np.inf))
         t = np.where(np.isnan(t), np.inf, t)
         k = np.argmin(t, axis=1)
@@ -266,7 +266,7 @@ def transmittance(world: World, o, d, t_max):
         crossings = (t < t_max).astype(float)
         T *= np.prod(world.transparency[world.triangle_object][None] ** crossings, axis=1)
     if len(world.spheres):
-        t0, t1 = _sphere_roots(world, o, d)
+        t0, t1 = sphere_roots(world, o, d)
         with np.errstate(invalid="ignore"):
             crossings = ((t0 > 0) & (t0 < t_max)).astype(float) + ((t1 > 0) & (t1 < t_max))
         T *= np.prod(world.transparency[world.sphere_object][None] ** crossings, axis=1)
