@@ -79,6 +79,19 @@ def c_struct(record: Record) -> str:
 
 
 # ---------------------------------------------------------------- records
+def padded(fields: list, itemsize: int) -> np.dtype:
+    """The fields packed one after another, the record padded to `itemsize` bytes (for a fill pattern or a row)."""
+    packed = np.dtype(fields)
+    return np.dtype(
+        {
+            "names": packed.names,
+            "formats": [packed.fields[n][0] for n in packed.names],
+            "offsets": [packed.fields[n][1] for n in packed.names],
+            "itemsize": itemsize,
+        }
+    )
+
+
 # Each section is one part of the kernels; a record is a dtype plus its Record (the C struct's name).
 
 # ---- geometry and traversal (kernels/intersect.h, packet.h, shaft.h; packed by trace/geometry.py, bvh*.py, tracer.py)
@@ -213,18 +226,11 @@ ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])
 ID_RECORD = Record("IdRecord", ID_RECORD_DTYPE)
 # per pixel, with -DWRITE_AOV=1: the primary hit's facts (trace/aov.py): the unit shading normal facing the camera,
 # the distance along the ray, the material's kd; all 0 on a miss.  32 bytes: a fill pattern clears it.
-AOV_DTYPE = np.dtype({"names": ["normal", "depth", "albedo"], "formats": [("<f4", 3), "<f4", ("<f4", 3)], "offsets": [0, 12, 16], "itemsize": 32})
+AOV_DTYPE = padded([("normal", "<f4", 3), ("depth", "<f4"), ("albedo", "<f4", 3)], 32)
 AOV = Record("AovRecord", AOV_DTYPE)
 
 # the BSDF probe kernels' lobe parameters (tests only: clrender/trace/bsdf.py, kernels/bsdf_probe.cl)
-BSDF_PROBE_DTYPE = np.dtype(
-    {
-        "names": ["colour", "alpha", "eta", "metallic"],
-        "formats": [("<f4", 3), "<f4", "<f4", "<f4"],
-        "offsets": [0, 12, 16, 20],
-        "itemsize": 32,
-    }
-)
+BSDF_PROBE_DTYPE = padded([("colour", "<f4", 3), ("alpha", "<f4"), ("eta", "<f4"), ("metallic", "<f4")], 32)
 BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)
 
 # ---- the path tracer (kernels/path.cl; packed by trace/path.py)
