@@ -50,9 +50,15 @@ def require_dask():
 
 
 def pocl_env(threads: int) -> dict:
-    """Environment that limits PoCL's CPU device to `threads` threads (old and new variable names)."""
+    """Environment that limits PoCL's CPU device to `threads` threads (old and new variable names), and Intel's
+    OpenCL CPU runtime too (its TBB workers), when a worker runs on that."""
     # and one BLAS thread: OpenBLAS threads spin-wait after a matrix product and steal PoCL's cores
-    return {"POCL_MAX_PTHREAD_COUNT": str(threads), "POCL_CPU_MAX_CU_NUM": str(threads), "OPENBLAS_NUM_THREADS": "1"}
+    return {
+        "POCL_MAX_PTHREAD_COUNT": str(threads),
+        "POCL_CPU_MAX_CU_NUM": str(threads),
+        "CL_CONFIG_CPU_TBB_NUM_WORKERS": str(threads),
+        "OPENBLAS_NUM_THREADS": "1",
+    }
 
 
 def scheduler_address(scheduler: str | None) -> str | None:
