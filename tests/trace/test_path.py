@@ -47,7 +47,7 @@ from clrender.trace.renderer import Renderer, RenderSettings
 from clrender.trace.tracer import Tracer
 
 from tests.clitools import run_cli
-from tests.reference import bsdf64
+from tests.reference import bsdf64, path_scenes
 from tests.reference import pathtracer as pt
 from tests.reference.path_scenes import camera, quad
 from tests.reference.ztest import sidak, two_sample_z
@@ -184,14 +184,7 @@ def fan_cube(inward_point=(0.3, -0.2)) -> tuple[list, list]:
 
 def closed_box(rho: float = 0.5, le: float = 1.0, size: int = 16) -> dict:
     """The camera inside fan_cube's cube, whose walls all have albedo rho and emit Le inwards."""
-    vertices, faces = fan_cube()
-    return {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0.2, 0.1, 0.3], [0, 0, -1], 100)],
-        "materials": {"wall": {"diffuse": [rho] * 3, "emission": [le] * 3}},
-        "objects": [{"type": "mesh", "vertices": vertices, "faces": faces, "material": "wall"}],
-    }
+    return path_scenes.closed_box(*fan_cube(), rho, le, size)
 
 
 def closed_box_radiance(rho: float, le: float, max_depth: int) -> float:

@@ -26,6 +26,7 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
+from tests.reference import path_scenes
 from tests.reference import pathtracer as pt
 
 ALPHA = 1e-3  # family-wise false-alarm probability of each test function, for a random seed
@@ -118,14 +119,7 @@ def cube_faces(inward=True):
 
 def closed_box(rho=0.5, le=1.0, size=16):
     """The camera inside a cube whose six walls all have albedo rho and emit Le inwards."""
-    vertices, faces = cube_faces(inward=True)
-    return {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0.2, 0.1, 0.3], [0, 0, -1], 100)],
-        "materials": {"wall": {"diffuse": [rho] * 3, "emission": [le] * 3}},
-        "objects": [{"type": "mesh", "vertices": vertices, "faces": faces, "material": "wall"}],
-    }
+    return path_scenes.closed_box(*cube_faces(inward=True), rho, le, size)
 
 
 LAMP_HEIGHT, LAMP_X, LAMP_Z = 1.0, (-0.5, 0.5), (-0.4, 0.6)
@@ -170,28 +164,6 @@ def sphere_lamp_over_floor(rho=0.6, le=2.0, size=16):
         "objects": [
             {"type": "quad", "corner": [-1.5, 0, -1.5], "edge_a": [0, 0, 3], "edge_b": [3, 0, 0], "material": "floor"},
             {"type": "sphere", "center": centre.tolist(), "radius": radius, "material": "lamp"},
-        ],
-    }
-
-
-def mixed(size=32):
-    """An emissive sphere and two diffuse spheres on a floor, under a dim sky."""
-    return {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0, 1.2, 4], [0, 0.5, 0], 45)],
-        "environment": {"color": [0.1, 0.12, 0.15]},
-        "materials": {
-            "floor": {"diffuse": [0.7, 0.7, 0.7]},
-            "red": {"diffuse": [0.8, 0.2, 0.15]},
-            "blue": {"diffuse": [0.15, 0.25, 0.8]},
-            "lamp": {"diffuse": [0, 0, 0], "emission": [3, 2.5, 2]},
-        },
-        "objects": [
-            {"type": "quad", "corner": [-3, 0, -3], "edge_a": [0, 0, 6], "edge_b": [6, 0, 0], "material": "floor"},
-            {"type": "sphere", "center": [-0.6, 0.5, 0], "radius": 0.5, "material": "red"},
-            {"type": "sphere", "center": [0.6, 0.4, 0.3], "radius": 0.4, "material": "blue"},
-            {"type": "sphere", "center": [0.1, 1.5, -0.6], "radius": 0.4, "material": "lamp"},
         ],
     }
 
@@ -440,7 +412,7 @@ CASES = {  # scene, max_depth, reference spp, clrender spp per seed
     "furnace": (lambda: furnace(two_spheres=True, size=32), 16, 64, 64),
     "closed box": (lambda: closed_box(size=32), 3, 256, 64),
     "lamp over floor": (lambda: lamp_over_floor(size=32), 0, 256, 64),
-    "mixed": (lambda: mixed(size=32), 3, 256, 64),
+    "mixed": (lambda: path_scenes.mixed(size=32), 3, 256, 64),
 }
 
 
