@@ -76,38 +76,40 @@ def camera(position, look_at, fov: float) -> dict:
     return {"position": list(position), "look_at": list(look_at), "up": [0, 1, 0], "fov": fov}
 
 
+def scene(size: int, view: dict, materials: dict, objects: list, environment=None) -> dict:
+    """A square scene dict of `size` pixels seen from camera `view`, lit by `environment` (a colour) if given."""
+    out = {"width": size, "height": size, "cameras": [view], "materials": materials, "objects": objects}
+    if environment is not None:
+        out["environment"] = {"color": list(environment)}
+    return out
+
+
 def closed_box(vertices, faces, rho: float = 0.5, le: float = 1.0, size: int = 16) -> dict:
     """The camera inside a closed mesh (vertices, faces wound inwards) whose walls all have albedo rho and emit
     Le inwards: every pixel sees Le (1 - rho^(d + 2)) / (1 - rho) after d bounces (the path tests)."""
-    return {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0.2, 0.1, 0.3], [0, 0, -1], 100)],
-        "materials": {"wall": {"diffuse": [rho] * 3, "emission": [le] * 3}},
-        "objects": [{"type": "mesh", "vertices": vertices, "faces": faces, "material": "wall"}],
-    }
+    walls = {"wall": {"diffuse": [rho] * 3, "emission": [le] * 3}}
+    return scene(size, camera([0.2, 0.1, 0.3], [0, 0, -1], 100), walls, [{"type": "mesh", "vertices": vertices, "faces": faces, "material": "wall"}])
 
 
 def mixed(size: int = 32) -> dict:
     """An emissive sphere and two diffuse spheres on a floor, under a dim sky."""
-    return {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0, 1.2, 4], [0, 0.5, 0], 45)],
-        "environment": {"color": [0.1, 0.12, 0.15]},
-        "materials": {
+    return scene(
+        size,
+        camera([0, 1.2, 4], [0, 0.5, 0], 45),
+        {
             "floor": {"diffuse": [0.7, 0.7, 0.7]},
             "red": {"diffuse": [0.8, 0.2, 0.15]},
             "blue": {"diffuse": [0.15, 0.25, 0.8]},
             "lamp": {"diffuse": [0, 0, 0], "emission": [3, 2.5, 2]},
         },
-        "objects": [
-            {"type": "quad", "corner": [-3, 0, -3], "edge_a": [0, 0, 6], "edge_b": [6, 0, 0], "material": "floor"},
+        [
+            quad([-3, 0, -3], [0, 0, 6], [6, 0, 0], "floor"),
             {"type": "sphere", "center": [-0.6, 0.5, 0], "radius": 0.5, "material": "red"},
             {"type": "sphere", "center": [0.6, 0.4, 0.3], "radius": 0.4, "material": "blue"},
             {"type": "sphere", "center": [0.1, 1.5, -0.6], "radius": 0.4, "material": "lamp"},
         ],
-    }
+        environment=(0.1, 0.12, 0.15),
+    )
 
 
 def cornell_box(size: int = 64, albedo: float = 0.75, radiance: float = 8.0) -> dict:
