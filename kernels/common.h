@@ -65,6 +65,7 @@ INLINE float3 abs3(float3 v) { return as_float3(as_uint3(v) & (uint3)(0x7fffffff
 INLINE float4 abs4(float4 v) { return as_float4(as_uint4(v) & (uint4)(0x7fffffffu)); }
 INLINE float min_f(float a, float b) { return a < b ? a : b; }
 INLINE float max_f(float a, float b) { return a > b ? a : b; }
+INLINE float max3(float3 v) { return max_f(v.x, max_f(v.y, v.z)); } /* the largest component */
 INLINE float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 INLINE float3 cross3(float3 a, float3 b) {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);

@@ -111,7 +111,7 @@ INLINE Component pick_component(__global const Material *m, float u) {
     /* Lambert kd plus a glossy GGX lobe ks, scaled together where kd + ks would exceed 1 */
     float3 kd = vload3(0, m->kd), ks = vload3(0, m->ks);
     float3 sum = kd + ks;
-    float over = max_f(1.0f, max_f(sum.x, max_f(sum.y, sum.z)));
+    float over = max_f(1.0f, max3(sum));
     kd /= over; ks /= over;
     c.lobe = BSDF_LAMBERT;
     c.bsdf.colour = kd;
@@ -243,7 +243,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
         }
     }
     float3 fc = component_eval(c, wo, to_local(fr, wi));
-    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     *rays += 1;
     return fc * radiance * (scale * mis * visible(s, f, wi, dist, visits));
 }
@@ -268,7 +268,7 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return (float3)(0.0f);
     float3 wl = to_local(fr, wi);
     float3 fc = component_eval(c, wo, wl);
-    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
     *rays += 1;
     return fc * emission_of(s, s->geo.objects[s->geo.prim_object[em->prim]].material) *
@@ -280,14 +280,14 @@ INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component
                                  uint *visits, uint *rays) {
     float2 u = (float2)(rng_next(rng), rng_next(rng));
     float3 env = vload3(0, s->p.environment);
-    if (!(max_f(env.x, max_f(env.y, env.z)) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(env) > 0.0f)) return (float3)(0.0f);
     Frame nf = make_frame(f->n_shade);
     float3 wi = to_world(nf, cosine_hemisphere(u));
     float env_pdf = dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return (float3)(0.0f);
     float3 wl = to_local(fr, wi);
     float3 fc = component_eval(c, wo, wl);
-    if (!(max_f(fc.x, max_f(fc.y, fc.z)) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
     *rays += 1;
     return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
@@ -324,7 +324,7 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
 INLINE float3 emission_met(const PathScene *s, const Surface *f, Hit h, float3 d, bool prev_delta, float prev_pdf) {
     float3 le = emission_of(s, f->material);
-    if (!f->front || !(max_f(le.x, max_f(le.y, le.z)) > 0.0f)) return (float3)(0.0f);
+    if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
     int e = s->emitter_of_prim[h.id];
     if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
     return le * power_heuristic(prev_pdf, emitter_pdf(s, e, h.t, dot3(f->n_geo, -d)));
@@ -381,11 +381,11 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
         float3 wi = to_world(fr, bs.wi);
         beta *= bs.weight;
         if (depth >= RR_DEPTH) { /* Russian roulette: continue with probability q, weighted by 1 / q */
-            float q = min_f(max_f(beta.x, max_f(beta.y, beta.z)), RR_SURVIVE_MAX);
+            float q = min_f(max3(beta), RR_SURVIVE_MAX);
             if (!(rng_next(rng) < q)) break;
             beta /= q;
         }
-        if (!(max_f(beta.x, max_f(beta.y, beta.z)) > 0.0f)) break;
+        if (!(max3(beta) > 0.0f)) break;
         prev_delta = bs.delta != 0;
         prev_pdf = bs.pdf;
         prev_n = f.n_shade;

@@ -448,9 +448,9 @@ INLINE void bounce(const SceneView *sc, RayStack *stack, const ShadingPoint *pt,
             w_reflect += w * transparency;
         }
     }
-    if (max_f(w_refract.x, max_f(w_refract.y, w_refract.z)) > 0.0f)
+    if (max3(w_refract) > 0.0f)
         push_ray(stack, offset_origin(pt->p, pt->p_err, -pt->n_geo), n2, refracted, depth + 1, w_refract);
-    if (max_f(w_reflect.x, max_f(w_reflect.y, w_reflect.z)) > 0.0f)
+    if (max3(w_reflect) > 0.0f)
         push_ray(stack, offset_origin(pt->p, pt->p_err, pt->n_geo), medium, reflect_dir(d, pt->n), depth + 1, w_reflect);
 }
 
@@ -496,7 +496,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
            unless this is the primary hit whose light visibility the edge detector needs */
         float3 surface_weight = w * (1.0f - m.transparency) * (1.0f - m.mirror);
         __global float *shadow_here = first_hit ? shadow : 0;
-        if (max_f(surface_weight.x, max_f(surface_weight.y, surface_weight.z)) > 0.0f || shadow_here) {
+        if (max3(surface_weight) > 0.0f || shadow_here) {
             float3 surface = sc->ambient * pt.kd + direct_light(sc, pt, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }

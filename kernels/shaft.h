@@ -49,7 +49,7 @@ typedef struct {
     float crossed_T; /* transmittance of the spheres every ray crosses once (not in the list) */
 } ShaftCandidates;
 
-INLINE float max3_abs(float3 v) { float3 a = abs3(v); return max_f(a.x, max_f(a.y, a.z)); }
+INLINE float max3_abs(float3 v) { return max3(abs3(v)); }
 INLINE float4 max4(float4 a, float4 b) { return a > b ? a : b; } /* ?: rather than max(), a call on PoCL */
 
 /* Which side of the surface (unit normal n_geo at p) the whole light is on: 1 in front, -1 behind,

@@ -92,7 +92,7 @@ INLINE float3 query_direction(__global const float *directions, int i, QueryUnit
     units->scale = units->unscale = 1.0f;
     if (!(length_sq >= 0x1p-120f && length_sq <= 0x1p120f)) {
         float3 a = abs3(d);
-        float largest = max_f(a.x, max_f(a.y, a.z)); /* > 0: the host refuses zero directions */
+        float largest = max3(a); /* > 0: the host refuses zero directions */
         int exponent = (int)((as_uint(largest) >> 23) & 0xffu) - 127;
         int power = -exponent < -126 ? -126 : (-exponent > 126 ? 126 : -exponent);
         units->scale = as_float((uint)(power + 127) << 23);    /* 2^power */

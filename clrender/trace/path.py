@@ -1,5 +1,5 @@
-"""The path tracer's host side (kernels/path.cl): emissive triangles as a power distribution, and one
-launch of `render_path` over a list of pixels.
+"""The path tracer's host side (kernels/path.cl): emissive triangles as a power distribution, and the
+values of one launch of `render_path`.
 
 Renderer (renderer.py) owns the settings, tiles and passes; this module knows what the path kernel
 takes beyond the Whitted kernel's buffers.
@@ -20,14 +20,13 @@ def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     n_tri = len(primitives.triangles)
     emission = primitives.materials["emission"].astype(np.float64)  # (M, 3)
     material_of = primitives.objects["material"][primitives.object_of[:n_tri]]
-    radiance = emission[material_of].mean(axis=1) if n_tri else np.zeros(0)
     tri = primitives.triangles
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) if n_tri else np.zeros(0)
-    power = area * radiance
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    power = area * emission[material_of].mean(axis=1)
     ids = np.flatnonzero(power > 0)
     index_of = np.full(max(primitives.count, 1), -1, np.int32)
     index_of[ids] = np.arange(len(ids), dtype=np.int32)
-    records = np.zeros(max(len(ids), 1), EMITTER_DTYPE)
+    records = np.zeros(len(ids), EMITTER_DTYPE)
     if len(ids):
         share = power[ids] / power[ids].sum()
         records["v0"], records["v1"], records["v2"] = tri[ids, 0], tri[ids, 1], tri[ids, 2]
@@ -36,7 +35,7 @@ def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
         records["cdf"] = np.cumsum(share)
         records["cdf"][-1] = 1.0  # the search never runs past the end
         records["prim"] = ids
-    return records[: len(ids)] if len(ids) else records[:0], index_of
+    return records, index_of
 
 
 def path_params(renderer, k: int, first_sample: int, record: bool) -> np.ndarray:

@@ -321,19 +321,19 @@ class Renderer:
         """The path integrator's passes, each a whole image of spp paths per pixel, while the time budget lasts
         (one pass without one): the first pass's outputs with the passes' filtered mean in place of its colours."""
         s = self.settings
-        start, passes, total, weight, first = time.perf_counter(), 0, None, None, None
+        start, passes, total, weight, first = time.perf_counter(), 0, 0.0, 0.0, None
         while True:
             out = self._pass(tiles, s.sampler, s.samples, passes == 0, "trace" if passes == 0 else f"pass {passes + 1}", passes * self.spp)
             colour = out[0].astype(np.float64)
-            total = colour[:, :3] * colour[:, 3:] + (0 if total is None else total)
-            weight = colour[:, 3:] + (0 if weight is None else weight)
+            total = total + colour[:, :3] * colour[:, 3:]
+            weight = weight + colour[:, 3:]
             first = first or out
             passes += 1
             spent = time.perf_counter() - start
             if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
                 break
         mean = first[0][:, :3] if passes == 1 else (total / weight).astype(np.float32)
-        return [mean, *first[1:4], first[4]], passes
+        return [mean, *first[1:]], passes
 
     def run(self) -> RenderResult:
         s = self.settings
