@@ -29,6 +29,7 @@ BSDF_LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric":
 MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or glTF's metallic-roughness ones
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
+PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
 SPLAT_TILE = 16  # Gaussian splats are binned into SPLAT_TILE x SPLAT_TILE pixel tiles
@@ -187,14 +188,21 @@ LIGHT = Record("Light", LIGHT_DTYPE)
 # per primitive id: a smooth triangle's unit normals at its vertices v0, v1, v2 (zeros for other primitives)
 VERTEX_NORMALS_DTYPE = np.dtype([("normal", "<f4", (3, 3))])
 VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
-# the pinhole camera (scene/camera.py, Camera.frame), at unit distance: a pixel's ray leaves `origin` towards
-# forward + sx right + sy up, sx and sy going from -1 to 1 across the image
+# the camera (scene/camera.py, Camera.frame; kernels/camera.h, camera_ray), sx and sy going from -1 to 1 across the
+# image.  Perspective: a pinhole ray leaves `origin` towards forward + sx right + sy up (the image plane at unit
+# distance); orthographic: it leaves origin + sx right + sy up along forward.  A thin lens (aperture > 0) moves the
+# ray's start to a point of the lens disc and aims it at where the pinhole ray meets the plane in focus.
 CAMERA_DTYPE = np.dtype(
     [
-        ("origin", "<f4", 3),  # the eye
+        ("origin", "<f4", 3),  # the eye (the lens centre)
         ("forward", "<f4", 3),  # unit view direction
-        ("right", "<f4", 3),  # unit right times the half-width of the image plane
+        ("right", "<f4", 3),  # unit right times the half-width of the image plane (orthographic: in world units)
         ("up", "<f4", 3),  # unit up times its half-height
+        ("lens_right", "<f4", 3),  # unit right times the lens radius (0 for a pinhole)
+        ("lens_up", "<f4", 3),  # unit up times the lens radius
+        ("aperture", "<f4"),  # the lens radius; 0: a pinhole, which draws no random numbers
+        ("focus_distance", "<f4"),  # distance along forward to the plane in focus
+        ("projection", "<i4"),  # PROJECTIONS code
     ]
 )
 CAMERA = Record("Camera", CAMERA_DTYPE)
@@ -311,6 +319,7 @@ DEFINES = {
     **{f"LIGHT_FALLOFF_{name.upper()}": code for name, code in LIGHT_FALLOFFS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
+    **{f"PROJECTION_{name.upper()}": code for name, code in PROJECTIONS.items()},
     "SPLAT_TILE": SPLAT_TILE,
     "SPLAT_EPS": SPLAT_EPS,
     "VORONOI_STRIP": VORONOI_STRIP,

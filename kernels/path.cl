@@ -18,6 +18,7 @@
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"
+#include "camera.h"
 #include "intersect.h"
 #include "bsdf.h"
 
@@ -411,8 +412,6 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     s.p = params;
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
-    float3 origin = vload3(0, camera->origin), forward = vload3(0, camera->forward);
-    float3 right = vload3(0, camera->right), up = vload3(0, camera->up);
     uint n = (uint)params.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
     float3 sum = (float3)(0.0f);
     float weight_sum = 0.0f;
@@ -424,7 +423,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
                                    : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, &rng);
         float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
-        Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
+        Ray r = camera_ray(camera, sx, sy, &rng);
         bool first = s_i == 0 && params.record;
         float weight = pixel_filter_weight(params.pixel_filter, off);
         sum += weight * path_radiance(&s, r, &rng, first ? aov_out + gid : 0, first ? ids_out + gid : 0, &visits, &rays);

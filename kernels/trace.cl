@@ -3,6 +3,7 @@
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"
+#include "camera.h"
 #include "intersect.h"
 #include "shade.h"
 #include "packet.h"
@@ -28,8 +29,6 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
 
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
-    float3 origin = vload3(0, camera->origin), forward = vload3(0, camera->forward);
-    float3 right = vload3(0, camera->right), up = vload3(0, camera->up);
     uint n = (uint)params.samples_per_side;
     float3 sum = (float3)(0.0f);
     float weight_sum = 0.0f;
@@ -39,7 +38,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
         float2 off = pixel_sample_offset(params.sampler, s, n, &rng);
         float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
-        Ray r = make_ray(origin, unit(forward + sx * right + sy * up));
+        Ray r = camera_ray(camera, sx, sy, &rng);
         bool keep = params.record && s == 0; /* ids and shadows of the first sample */
 #if WRITE_AOV
         sc.aov = keep ? aov_out + gid : 0; /* AOVs come from the same ray as the ids */

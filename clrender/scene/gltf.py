@@ -12,9 +12,10 @@ nothing in the file is dropped without being listed here:
   positions and normals (a primitive with normals is shaded smooth), each
   node's world transform (its matrix, or translation x rotation x scale,
   times its parents');
-- cameras: perspective ones (yfov, aspectRatio for the default image size),
-  looking down the node's -z with +y up; orthographic cameras are skipped;
-  a file without a perspective camera gets one framing its bounding sphere;
+- cameras: perspective ones (yfov, aspectRatio for the default image size) and
+  orthographic ones (2 ymag the image's height, xmag / ymag the default image's
+  aspect), looking down the node's -z with +y up, all pinholes (glTF has no lens);
+  a file without a camera gets one framing its bounding sphere;
 - lights (KHR_lights_punctual): point and directional; a spot light is
   rendered as a point light (its cone is ignored), `range` is ignored.
   glTF intensities are photometric (candela, lux) for a Lambertian BRDF
@@ -52,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from .checks import MAX_SIDE, MAX_TRIANGLES, show
+from .checks import COORD_LIMIT, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, show
 from .confine import scene_file
 
 GLB_MAGIC = b"glTF"
@@ -579,32 +580,45 @@ def _material(doc: Document, index: int) -> dict:
 
 
 def _camera(doc: Document, index: int, matrix: np.ndarray, node: int):
-    """A scene-dict camera looking down node `node`'s -z, and its aspect ratio (or None); None for orthographic."""
+    """A scene-dict camera looking down node `node`'s -z, and the aspect ratio of the default image (or None).
+    Perspective: yfov is the vertical field of view, aspectRatio the default image's aspect.  Orthographic:
+    the image spans 2 ymag vertically (ortho_height) and xmag / ymag is the default image's aspect.  glTF has
+    no lens, so every camera is a pinhole; znear and zfar are not modelled."""
     cam = doc.item("cameras", index)
-    if cam.get("type") != "perspective":
-        return None
-    persp = cam.get("perspective")
-    if not isinstance(persp, dict):
-        doc.fail(f"cameras[{index}].perspective is missing")
-    yfov = persp.get("yfov")
-    if isinstance(yfov, bool) or not isinstance(yfov, (int, float)) or not 0 < yfov < math.pi:
-        doc.fail(f"cameras[{index}].perspective.yfov must be an angle in radians in (0, pi), got {show(yfov)}")
-    aspect = persp.get("aspectRatio")
-    # the default image is IMAGE_WIDTH wide and IMAGE_WIDTH / aspect high, at most MAX_SIDE
-    if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not aspect >= IMAGE_WIDTH / MAX_SIDE):
-        lowest = IMAGE_WIDTH / MAX_SIDE
-        doc.fail(f"cameras[{index}].perspective.aspectRatio {show(aspect)}; allowed: >= {lowest:g} (a default image <= {MAX_SIDE} high)")
+    kind = cam.get("type")
+    if kind not in ("perspective", "orthographic"):
+        doc.fail(f"cameras[{index}].type {show(kind)} is not perspective or orthographic")
+    params = cam.get(kind)
+    if not isinstance(params, dict):
+        doc.fail(f"cameras[{index}].{kind} is missing")
     eye = matrix[:3, 3]
     forward = _unit(matrix[:3, :3] @ [0.0, 0.0, -1.0])
     up = _unit(matrix[:3, :3] @ [0.0, 1.0, 0.0])
     if forward is None or up is None:
         doc.fail(f"nodes[{node}]: the transform of its camera is scaled to zero, so it looks nowhere; allowed: a transform that keeps -z and +y")
-    camera = {
-        "position": eye.tolist(),
-        "look_at": (eye + forward).tolist(),
-        "up": up.tolist(),
-        "fov": min(math.degrees(yfov), 179.0),
-    }
+    camera = {"position": eye.tolist(), "look_at": (eye + forward).tolist(), "up": up.tolist()}
+    if kind == "orthographic":
+        mags = []
+        for key in ("xmag", "ymag"):
+            mag = params.get(key)
+            # the spec: not zero, should not be negative (a negative one is read by its size)
+            if isinstance(mag, bool) or not isinstance(mag, (int, float)) or not MIN_LENGTH / 2 <= abs(mag) <= COORD_LIMIT / 2:
+                doc.fail(f"cameras[{index}].orthographic.{key} {show(mag)}; allowed: a half-size of {MIN_LENGTH / 2:g} to {COORD_LIMIT / 2:g}")
+            mags.append(abs(float(mag)))
+        camera.update(projection="orthographic", ortho_height=2.0 * mags[1])
+        aspect, lowest = mags[0] / mags[1], IMAGE_WIDTH / MAX_SIDE
+        if aspect < lowest:
+            doc.fail(f"cameras[{index}].orthographic: xmag / ymag = {aspect:.6g}; allowed: >= {lowest:g} (a default image <= {MAX_SIDE} high)")
+        return camera, aspect
+    yfov = params.get("yfov")
+    if isinstance(yfov, bool) or not isinstance(yfov, (int, float)) or not 0 < yfov < math.pi:
+        doc.fail(f"cameras[{index}].perspective.yfov must be an angle in radians in (0, pi), got {show(yfov)}")
+    aspect = params.get("aspectRatio")
+    # the default image is IMAGE_WIDTH wide and IMAGE_WIDTH / aspect high, at most MAX_SIDE
+    if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float)) or not aspect >= IMAGE_WIDTH / MAX_SIDE):
+        lowest = IMAGE_WIDTH / MAX_SIDE
+        doc.fail(f"cameras[{index}].perspective.aspectRatio {show(aspect)}; allowed: >= {lowest:g} (a default image <= {MAX_SIDE} high)")
+    camera["fov"] = min(math.degrees(yfov), 179.0)
     return camera, aspect
 
 
@@ -691,10 +705,9 @@ def scene_dict(path, root=None) -> dict:
                     }
                 )
         if "camera" in node:
-            found = _camera(doc, node["camera"], matrix, index)
-            if found is not None:
-                cameras.append(found[0])
-                aspect = found[1] if len(cameras) == 1 else aspect
+            camera, camera_aspect = _camera(doc, node["camera"], matrix, index)
+            cameras.append(camera)
+            aspect = camera_aspect if len(cameras) == 1 else aspect
         light = node.get("extensions", {}).get("KHR_lights_punctual") if isinstance(node.get("extensions"), dict) else None
         if isinstance(light, dict):
             lights.append(_light(doc, light.get("light"), matrix))

@@ -116,7 +116,14 @@ class RenderSettings:
             isinstance(s.aovs, (tuple, list)) and all(_name_in(a, AOV_NAMES) for a in s.aovs),
             f"aovs {v(s.aovs)} must be a tuple of names from: {', '.join(AOV_NAMES)}",
         )
-        scene.camera(s.camera)
+        camera = scene.camera(s.camera)
+        # edge-only AA gives a pixel away from object edges one ray: behind a lens that is one point of the
+        # lens, so a blurred region would be noise; every pixel needs its N x N lens samples
+        require(
+            not (s.aa == "edge_detect" and camera.aperture > 0),
+            f"--aa edge_detect needs a pinhole camera, and camera {s.camera} has aperture {camera.aperture:g} "
+            "(a thin lens blurs every pixel away from the focal plane); use --aa full",
+        )
         s = replace(
             s,
             **{k: int(getattr(s, k)) for k in ("samples", "spp", "light_samples", "max_depth", "seed", "tile_size")},
@@ -145,6 +152,8 @@ class RenderSettings:
             )
         if self.aa != "edge_detect" and self.thickness != THICKNESS and "edges" not in self.aovs:
             said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
+        if self.aa == "none" and scene.camera(self.camera).aperture > 0:
+            said.append(f"camera {self.camera} has a lens (aperture > 0) and --aa none traces one ray a pixel: its blur is noise; use --aa full")
         if not scene.lights:
             said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
         return said
