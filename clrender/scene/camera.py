@@ -34,14 +34,14 @@ class Camera:
 
     def __post_init__(self):
         # a Camera made in Python gets the scene file's limits on the lens and projection (one line, exit 2)
-        if not (self.aperture >= 0.0 and math.isfinite(self.aperture)):
-            raise UsageError(f"camera aperture {self.aperture!r} must be a lens radius >= 0 (0: a pinhole)")
-        if self.focus_distance is not None and not (0.0 < self.focus_distance <= COORD_LIMIT):
-            raise UsageError(f"camera focus_distance {self.focus_distance!r} must be > 0 and <= {COORD_LIMIT:g}, or None for the look-at distance")
+        if not (_number(self.aperture) and 0.0 <= self.aperture <= COORD_LIMIT):
+            raise UsageError(f"camera aperture {self.aperture!r} must be a lens radius from 0 (a pinhole) to {COORD_LIMIT:g}")
+        for name in ("focus_distance", "ortho_height"):
+            value = getattr(self, name)
+            if value is not None and not (_number(value) and MIN_LENGTH <= value <= COORD_LIMIT):
+                raise UsageError(f"camera {name} {value!r} must be > 0 ({MIN_LENGTH:g} to {COORD_LIMIT:g}), or None for its default")
         if self.projection not in PROJECTIONS:
             raise UsageError(f"camera projection {self.projection!r} is not one of {', '.join(map(repr, PROJECTIONS))}")
-        if self.ortho_height is not None and not (0.0 < self.ortho_height <= COORD_LIMIT):
-            raise UsageError(f"camera ortho_height {self.ortho_height!r} must be > 0 and <= {COORD_LIMIT:g}, or None")
 
     @property
     def look_distance(self) -> float:
@@ -97,6 +97,10 @@ class Camera:
             d = origin + float(frame["focus_distance"]) * d - start
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         return np.array(start), d
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 # ------------------------------------------------------------------ reading
