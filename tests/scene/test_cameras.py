@@ -106,6 +106,9 @@ def test_edge_only_aa_is_refused_behind_a_lens():
     with pytest.raises(UsageError, match="edge_detect needs a pinhole camera.*aperture 0.1.*--aa full"):
         RenderSettings(aa="edge_detect", camera=2).validate(scene)
     RenderSettings(aa="full", camera=2).validate(scene)
+    # one ray a pixel behind a lens: allowed, and warned about
+    assert any("lens" in line for line in RenderSettings(aa="none", camera=2).pointless(scene))
+    assert not any("lens" in line for line in RenderSettings(aa="none", camera=1).pointless(scene))
 
 
 def test_gltf_orthographic_magnifications_are_checked(tmp_path):

@@ -168,3 +168,16 @@ def test_gltf_orthographic_camera_spans_2_ymag(tmp_path):
     image = render(scene, width=60, height=30, aa="full", samples=4)
     row = image[15, :, 0] / image[15, :, 0].max()
     assert row.sum() == pytest.approx(2 / 3.0 * 30, abs=0.05)  # the quad's 2 units of a 3-unit-high view
+
+
+# ------------------------------------------------------------------ the host's users of cameras
+def test_turntables_and_dask_payloads_keep_the_lens_and_projection():
+    from clrender.distributed.payload import join, split
+    from clrender.trace.turntable import orbit
+
+    lens = {"position": [0, 0, 4], "look_at": [0, 0, 0], "aperture": 0.2, "projection": "orthographic", "ortho_height": 3}
+    scene = flat_scene([{"type": "sphere", "center": [0, 0, 0], "radius": 1}], lens, (16, 16))
+    frames = orbit(scene.cameras[0], 4)
+    assert all((c.aperture, c.projection, c.ortho_height) == (0.2, "orthographic", 3.0) for c in frames)
+    assert all(c.focus == pytest.approx(4.0) for c in frames)  # the orbit keeps the look-at distance in focus
+    assert join(split(scene)).cameras == scene.cameras
