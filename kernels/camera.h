@@ -2,8 +2,8 @@
  * render_path).  The Camera record (clrender/layout.py, packed by clrender/scene/camera.py) holds a
  * perspective or orthographic frame and a thin lens: a lens of radius `aperture` whose rays through one
  * image point all meet where that point's pinhole ray crosses the plane `focus_distance` ahead, so that
- * plane is sharp and a point at distance d is a disc of diameter 2 aperture |d - focus| / d on the
- * image plane at unit distance (pbrt-v4's PerspectiveCamera and OrthographicCamera). */
+ * plane is sharp and a point at distance d is a disc of diameter 2 aperture |d - focus| / (focus d) on
+ * the perspective image plane at unit distance (pbrt-v4's PerspectiveCamera and OrthographicCamera). */
 #ifndef CLRENDER_CAMERA_H
 #define CLRENDER_CAMERA_H
 

@@ -2,8 +2,8 @@
 
 A pinhole (aperture 0, the default) sees everything sharp.  A thin lens of radius `aperture` focuses
 the plane `focus_distance` ahead (default: the look-at point's distance): a point at distance d along
-the view is spread over a disc of diameter 2 aperture |d - focus_distance| / d on the image plane at
-unit distance (its height spans 2 tan(fov / 2)).  An orthographic camera sends parallel rays along the
+the view is spread over a disc of diameter 2 aperture |d - focus_distance| / (focus_distance d) on the
+image plane at unit distance (its height spans 2 tan(fov / 2)).  An orthographic camera sends parallel rays along the
 view from a rectangle `ortho_height` world units high (default: the height the perspective view spans
 at the look-at point, so switching projection keeps that plane framed alike).  docs/scene-format.md
 lists the keys; kernels/camera.h makes the rays.
