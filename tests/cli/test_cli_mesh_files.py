@@ -9,6 +9,7 @@ import trimesh
 
 from clrender.image.files import read_image
 from clrender.scene.framing import CAMERA_NAME
+
 from tests.clitools import run_cli
 from tests.gltftools import gltf_file
 
@@ -63,55 +64,31 @@ def test_list_with_a_bundled_scene_shows_only_its_cameras(capsys):
     assert code == 0 and out.startswith("refract1: ") and len(out.splitlines()) == 6
 
 
-def _bad_files(folder):
-    """name -> words the message must hold, each file written into `folder`."""
-    (folder / "empty.obj").write_text("")
-    (folder / "empty.stl").write_bytes(b"")
-    (folder / "points.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
-    (folder / "nan.obj").write_text("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
-    (folder / "corrupt.ply").write_bytes(bytes(range(256)) * 2)
-    (folder / "corrupt.stl").write_bytes(b"\xff\xfe" + bytes(range(200)))
-    (folder / "index.off").write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n")
-    (folder / "line.obj").write_text("v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n")
-    (folder / "dot.obj").write_text("v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n")
-    (folder / "cloud.xyz").write_text("0 0 0\n1 0 0\n")
-    (folder / "folder.obj").mkdir()
-    return {
-        "empty.obj": ["no triangles"],
-        "empty.stl": ["no triangles"],
-        "points.obj": ["no triangles"],
-        "nan.obj": ["NaN"],
-        "corrupt.ply": ["cannot parse mesh", "PLY"],
-        "corrupt.stl": ["cannot parse mesh", "STL"],
-        "index.off": ["cannot parse mesh", "OFF"],
-        "line.obj": ["no triangle has an area"],
-        "dot.obj": ["0 across"],
-        "cloud.xyz": ["file type clrender reads (.xyz)"],
-        "folder.obj": ["does not exist"],
-        "missing.ply": ["does not exist"],
-    }
+# name -> (its contents, None for a folder and absent for a missing file; words the message must hold)
+BAD_FILES = {
+    "empty.obj": (b"", ["no triangles"]),
+    "empty.stl": (b"", ["no triangles"]),
+    "points.obj": (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", ["no triangles"]),
+    "nan.obj": (b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", ["NaN"]),
+    "corrupt.ply": (bytes(range(256)) * 2, ["cannot parse mesh", "PLY"]),
+    "corrupt.stl": (b"\xff\xfe" + bytes(range(200)), ["cannot parse mesh", "STL"]),
+    "index.off": (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", ["cannot parse mesh", "OFF"]),
+    "line.obj": (b"v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n", ["no triangle has an area"]),
+    "dot.obj": (b"v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n", ["0 across"]),
+    "cloud.xyz": (b"0 0 0\n1 0 0\n", ["file type clrender reads (.xyz)"]),
+    "folder.obj": (None, ["does not exist"]),
+    "missing.ply": ("absent", ["does not exist"]),
+}
 
 
-NAMES = [
-    "empty.obj",
-    "empty.stl",
-    "points.obj",
-    "nan.obj",
-    "corrupt.ply",
-    "corrupt.stl",
-    "index.off",
-    "line.obj",
-    "dot.obj",
-    "cloud.xyz",
-    "folder.obj",
-    "missing.ply",
-]
-
-
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", list(BAD_FILES))
 def test_a_bad_mesh_file_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, monkeypatch, name):
     monkeypatch.chdir(tmp_path)
-    words = _bad_files(tmp_path)[name]
+    contents, words = BAD_FILES[name]
+    if contents is None:
+        (tmp_path / name).mkdir()
+    elif contents != "absent":
+        (tmp_path / name).write_bytes(contents)
     before = sorted(os.listdir(tmp_path))
     for args in ((name, "-o", "out.png"), (name, "--list")):
         code, out, err = run_cli(capsys, "render", *args, *SIZE)

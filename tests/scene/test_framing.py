@@ -14,6 +14,7 @@ import clrender
 from clrender import Renderer, Scene
 from clrender.scene import framing
 from clrender.scene.gltf import scene_dict
+
 from tests.gltftools import gltf_file
 
 W, H = 64, 48  # 4:3, the default aspect: the vertical field of view is the narrower
