@@ -166,3 +166,9 @@ def test_the_python_api_takes_a_mesh_file(tmp_path):
     assert (scene.width, scene.height, len(scene.cameras), scene.triangle_count) == (640, 480, 1, 1280)
     image = clrender.render(str(path), width=32, height=24)
     assert image.shape == (24, 32, 3) and image.max() > 0.3
+
+
+def test_scene_from_file_takes_a_mesh_file_too(tmp_path):
+    path = mesh_file(tmp_path, trimesh.creation.box(), "cube.off")
+    for scene in (Scene.from_file(path), Scene.from_file(path, allow_outside=False), Scene.load(str(path))):
+        assert scene.name == "cube" and scene.triangle_count == 12 and scene.cameras[0].look_at == (0.0, 0.0, 0.0)
