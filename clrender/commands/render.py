@@ -19,6 +19,8 @@ EXAMPLES = """examples:
   clrender render refract1 -o refract1.png
   clrender render bunny --aa edge_detect --sampler stratified --samples 4 --edges-out edges.png -o bunny.png
   clrender render my_scene.toml --camera 2 --width 800 --height 600 --no-bvh -o out.exr
+  clrender render teapot.obj -o teapot.png            # a mesh file: framed and lit by default
+  clrender render model.glb --list                    # a file's cameras
   clrender render wizard_cat 3 edge_detect stratified 6 1.0 true -o cat.png   # the same settings as positionals
 """
 
@@ -38,13 +40,37 @@ def print_scene_list(scenes: dict) -> None:
     import tomllib
 
     for name, path in scenes.items():
-        data = tomllib.loads(path.read_text())
-        print(f"{name}: {data.get('description', '')}".rstrip(": "))
-        featured = data.get("featured_camera", data.get("seed_camera", 1))  # seed_camera: its old name
-        for number, camera in enumerate(data.get("cameras", [{}]), start=1):
-            mark = "*" if number == featured else " "
-            print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
+        print_scene_cameras(name, tomllib.loads(path.read_text()))
     print("(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)")
+
+
+def print_scene_cameras(name: str, data: dict) -> None:
+    """A scene dict's description and its cameras, by number and name, the featured one marked '*'."""
+    print(f"{name}: {data.get('description', '')}".rstrip(": "))
+    featured = data.get("featured_camera", data.get("seed_camera", 1))  # seed_camera: its old name
+    for number, camera in enumerate(data.get("cameras", [{}]), start=1):
+        mark = "*" if number == featured else " "
+        print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
+
+
+def print_file_cameras(text: str) -> None:
+    """`render SCENE --list`: the cameras of one scene, checked by loading it first: a bundled scene's or a
+    TOML file's as its file names them, a glTF file's by their names, a mesh file's one framing camera."""
+    import tomllib
+
+    from ..scene import gltf
+    from ..scene.framing import CAMERA_NAME
+    from ..scene.scene import MESH_SUFFIXES, Scene, bundled_scenes
+
+    scene = Scene.load(text)  # refuses a bad file as rendering it would
+    path = bundled_scenes().get(text, Path(text))
+    if gltf.is_gltf(path):
+        data = gltf.scene_dict(path)
+    elif path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh: framing.py's camera
+        data = {"description": scene.description, "cameras": [{"name": CAMERA_NAME}]}
+    else:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    print_scene_cameras(scene.name, data)
 
 
 def add_parser(sub):
@@ -53,9 +79,16 @@ def add_parser(sub):
         "render",
         help="ray trace a scene to an image",
         epilog=EXAMPLES,
-        description="Ray trace SCENE (a bundled scene name, a .toml scene file or a .gltf/.glb glTF file) with OpenCL.",
+        description="Ray trace SCENE (a bundled scene name, a .toml scene file, a .gltf/.glb glTF file or a mesh file) with OpenCL. "
+        "A mesh file (.obj, .ply, .stl, .off), or a glTF file without cameras, gets a camera that frames its bounding sphere "
+        "in a three-quarter view; a bare mesh also gets a key light and a uniform fill (docs/scene-format.md).",
     )
-    p.add_argument("scene", metavar="SCENE", nargs="?", help="bundled scene name (see --list), or a .toml scene file or a .gltf/.glb glTF 2.0 file")
+    p.add_argument(
+        "scene",
+        metavar="SCENE",
+        nargs="?",
+        help="bundled scene name (see --list), or a .toml scene file, a .gltf/.glb glTF 2.0 file or a triangle mesh file (.obj, .ply, .stl, .off)",
+    )
     p.add_argument(
         "positional_args",
         nargs="*",
@@ -136,7 +169,11 @@ def add_parser(sub):
         "--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result, repeatable (default: none)"
     )
     add_device_argument(p)
-    p.add_argument("--list", action="store_true", help="list the bundled scenes with their cameras and exit")
+    p.add_argument(
+        "--list",
+        action="store_true",
+        help="list the bundled scenes with their cameras and exit; with SCENE: that scene's cameras (a mesh file: its framing camera)",
+    )
     # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
     from .cluster import add_cluster_arguments
     from .turntable import add_turntable_arguments
@@ -265,10 +302,14 @@ def _render(args):
     from ..scene.scene import Scene, bundled_scenes
 
     if args.list:
-        print_scene_list(bundled_scenes())
+        if args.scene is None:
+            print_scene_list(bundled_scenes())
+        else:
+            print_file_cameras(args.scene)
         return 0
     if args.scene is None:
-        raise UsageError("render needs a SCENE: a bundled scene name (clrender render --list), a .toml scene file or a .gltf/.glb file")
+        files = "a .toml scene file, a .gltf/.glb file or a mesh file (.obj, .ply, .stl, .off)"
+        raise UsageError(f"render needs a SCENE: a bundled scene name (clrender render --list), {files}")
     settings = settings_from_args(args)
     if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
         from .turntable import run_turntable

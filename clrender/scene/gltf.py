@@ -14,8 +14,10 @@ nothing in the file is dropped without being listed here:
   times its parents');
 - cameras: perspective ones (yfov, aspectRatio for the default image size) and
   orthographic ones (2 ymag the image's height, xmag / ymag the default image's
-  aspect), looking down the node's -z with +y up, all pinholes (glTF has no lens);
-  a file without a camera gets one framing its bounding sphere;
+  aspect), looking down the node's -z with +y up, all pinholes (glTF has no lens),
+  named by the camera's or else its node's name (for `render --list`); a file
+  without a camera gets framing.py's camera, the one a bare mesh file gets (its
+  whole bounding sphere in view);
 - lights (KHR_lights_punctual): point and directional; a spot light is
   rendered as a point light (its cone is ignored), `range` is ignored.
   glTF intensities are photometric (candela, lux) for a Lambertian BRDF
@@ -53,7 +55,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from .checks import COORD_LIMIT, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, show
+from . import framing
+from .checks import COORD_LIMIT, MAX_NAME, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, escape, shorten, show
 from .confine import scene_file
 
 GLB_MAGIC = b"glTF"
@@ -491,7 +494,7 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
     parts = [p for p in parts if p is not None]
     if not parts or not sum(len(f) for _, f, _ in parts):
         doc.fail(f"nodes[{node}]: its mesh has no triangles")
-    if not any(_has_area(v, f) for v, f, _ in parts):
+    if not any(has_area(v, f) for v, f, _ in parts):
         doc.fail(f"nodes[{node}]: all its triangles have zero area (its world transform is scaled to zero); allowed: a node that is drawn")
     offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
     vertices = np.concatenate([v for v, _, _ in parts])
@@ -502,7 +505,7 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
     return NodeMesh(vertices, faces, normals)
 
 
-def _has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
+def has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
     """Whether any triangle has an area: a node scaled to zero (as files hide nodes) draws nothing."""
     tri = vertices[faces]
     return bool(np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])))
@@ -597,6 +600,10 @@ def _camera(doc: Document, index: int, matrix: np.ndarray, node: int):
     if forward is None or up is None:
         doc.fail(f"nodes[{node}]: the transform of its camera is scaled to zero, so it looks nowhere; allowed: a transform that keeps -z and +y")
     camera = {"position": eye.tolist(), "look_at": (eye + forward).tolist(), "up": up.tolist()}
+    for name in (cam.get("name"), doc.item("nodes", node).get("name")):  # shown by `render --list`: the camera's name, else its node's
+        if isinstance(name, str) and name.strip():
+            camera["name"] = shorten(escape(name.strip()), MAX_NAME)  # one printable line, as the camera reader requires
+            break
     if kind == "orthographic":
         mags = []
         for key in ("xmag", "ymag"):
@@ -653,14 +660,6 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
     return out
 
 
-def _framing_camera(bounds_lo, bounds_hi, fov=60.0) -> dict:
-    """A camera on +z of the bounding box's centre that sees its whole bounding sphere."""
-    centre = (bounds_lo + bounds_hi) / 2
-    radius = max(float(np.linalg.norm(bounds_hi - bounds_lo)) / 2, 1e-6)
-    distance = radius / math.sin(math.radians(fov) / 2)
-    return {"position": (centre + [0, 0, distance]).tolist(), "look_at": centre.tolist(), "fov": fov}
-
-
 @_malformed_is_usage_error
 def scene_dict(path, root=None) -> dict:
     """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder.
@@ -688,7 +687,7 @@ def scene_dict(path, root=None) -> dict:
                         f"(each instance reads its mesh again); allowed: at most {MAX_VERTICES_READ}"
                     )
                 tri = primitive_triangles(doc, node["mesh"], p, matrix)
-                if tri is None or not len(tri[1]) or not _has_area(tri[0], tri[1]):
+                if tri is None or not len(tri[1]) or not has_area(tri[0], tri[1]):
                     continue  # points and lines; a node scaled to zero (files hide nodes that way) draws nothing
                 lo, hi = np.minimum(lo, tri[0].min(axis=0)), np.maximum(hi, tri[0].max(axis=0))
                 material = mesh["primitives"][p].get("material")
@@ -714,7 +713,7 @@ def scene_dict(path, root=None) -> dict:
     if not objects:
         doc.fail("the scene has no triangle meshes")
     if not cameras:
-        cameras.append(_framing_camera(lo, hi))
+        cameras.append(framing.framing_camera(lo, hi))  # the same view a bare mesh file gets
     if not lights:  # a headlight, as glTF viewers light a file that brings none
         cam = cameras[0]
         lights.append({"type": "directional", "direction": np.subtract(cam["look_at"], cam["position"]).tolist()})

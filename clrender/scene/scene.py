@@ -55,7 +55,7 @@ from .checks import (  # noqa: F401
     shorten,
     show,
 )
-from .lights import read_light
+from .lights import Light, read_light
 from .materials import DEFAULT_MATERIAL, read_material
 from .toml_text import read_toml
 
@@ -110,12 +110,18 @@ class Scene:
         path = Path(path)
         if path.suffix.lower() in (".gltf", ".glb"):
             return _load_gltf(path, allow_outside=allow_outside)
+        if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh, framed and lit by framing.py
+            return _load_mesh_scene(path, allow_outside=allow_outside)
         where = escape(str(path))
         if not path.is_file():
             raise UsageError(f"scene file {shorten(where, 200)!r} does not exist")
         try:
             data = read_toml(path, where, MAX_NESTING)  # its size and dotted keys bounded before tomllib parses it
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            if path.suffix.lower() != ".toml":  # not a scene file of any kind: say which kinds there are
+                kind = escape(path.suffix) or "no suffix"
+                message = f"{shorten(where, 200)}: neither a TOML scene nor a file type clrender reads ({kind}); {SCENE_FILES}"
+                raise UsageError(shorten(message, MAX_MESSAGE)) from None
             raise UsageError(shorten(escape(f"{where}: not valid TOML ({exc})"), MAX_MESSAGE)) from None
         except RecursionError:  # tomllib recurses once per nested array or inline table
             raise UsageError(shorten(f"{where}: not valid TOML (nested too deeply; allowed: {MAX_NESTING} levels)", MAX_MESSAGE)) from None
@@ -132,7 +138,8 @@ class Scene:
 
     @classmethod
     def load(cls, name_or_path) -> Scene:
-        """A bundled scene by name (see `bundled_scenes()`), or a .toml scene file or .gltf/.glb file by path."""
+        """A bundled scene by name (see `bundled_scenes()`), or by path a .toml scene file, a .gltf/.glb file or
+        a mesh file (.obj, .ply, .stl, .off: framed and lit by framing.py)."""
         if isinstance(name_or_path, Scene):
             return name_or_path
         if isinstance(name_or_path, dict):
@@ -144,9 +151,12 @@ class Scene:
         path = Path(text)
         if path.suffix.lower() in (".gltf", ".glb"):  # a glTF 2.0 file with its cameras, lights and materials
             return _load_gltf(path)
+        if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh with the default camera and lights
+            return _load_mesh_scene(path)
         if path.suffix == ".toml" or path.exists():
             return cls.from_file(path)
-        raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or a .toml scene file or a .gltf/.glb file")
+        files = f"a .toml scene file, a .gltf/.glb file or a mesh file ({', '.join(MESH_SUFFIXES)})"
+        raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or {files}")
 
     def camera(self, number: int) -> Camera:
         """Camera `number`, counting from 1 as the seed does."""
@@ -231,6 +241,58 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
         objects.append(obj)
     scene.objects = objects
     return scene
+
+
+# Mesh files that are a whole scene on their own (`clrender render teapot.obj`): the formats of trimesh's
+# that hold triangles (its .xyz is points, .dxf mostly 2D lines); glTF has its own reader.
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
+SCENE_FILES = f"allowed: a .toml scene, a .gltf/.glb file or a triangle mesh file ({', '.join(MESH_SUFFIXES)})"
+
+
+def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
+    """A scene of one mesh file, in the default grey, seen and lit by framing.py's camera and lights
+    (a glTF file's own cameras and lights are read by _load_gltf instead); allow_outside=False reads
+    only files (an OBJ's materials) inside the file's folder."""
+    from . import framing
+
+    path = Path(path)
+    settings = framing.FRAMING
+    try:
+        tm = load_mesh_file(path, "scene", root=None if allow_outside else path.parent)
+    except UsageError as exc:  # what is wrong with the file, then what a scene may be
+        raise UsageError(shorten(f"{exc}; {SCENE_FILES}", 2 * MAX_MESSAGE)) from None
+    checks = Checks(escape(str(path)), path.parent, allow_outside)
+    if len(tm.faces) > MAX_TRIANGLES:
+        checks.fail("mesh", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
+    vertices = np.asarray(tm.vertices, np.float64)
+    _check_placed(checks, vertices, "mesh")
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    if not np.linalg.norm(hi - lo) >= MIN_LENGTH:  # the camera's distance follows the size: float32 needs some
+        checks.fail("mesh", f"its bounding box is {np.linalg.norm(hi - lo):.3g} across; allowed: at least {MIN_LENGTH:g}")
+    if not gltf.has_area(vertices, np.asarray(tm.faces)):  # nothing would be drawn: an empty frame
+        checks.fail("mesh", "no triangle has an area (all are lines or points); allowed: a mesh with at least one proper triangle")
+    rig = framing.rig(lo, hi, settings)
+    normals = None
+    if settings.smooth:
+        from .meshes import shading_normals
+
+        normals = shading_normals(vertices, tm.faces)
+    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", settings.smooth, source=path.name)
+
+    def fields(table: dict) -> dict:  # a scene dict's table as dataclass fields: lists as tuples, no `name`
+        return {k: tuple(v) if isinstance(v, list) else v for k, v in table.items() if k != "name"}
+
+    return Scene(
+        cameras=[Camera(**fields(camera)) for camera in rig["cameras"]],
+        width=rig["width"],
+        height=rig["height"],
+        ambient=tuple(rig["ambient"]),
+        environment=tuple(rig["environment"]["color"]),
+        lights=[Light(**fields(light)) for light in rig["lights"]],
+        objects=[mesh],
+        name=shorten(escape(path.stem), MAX_NAME) or "scene",
+        description=f"{shorten(escape(path.name), 100)}: {len(tm.faces)} triangles, framed and lit by default",
+    )
 
 
 def _load_gltf(path, allow_outside: bool = True) -> Scene:

@@ -38,13 +38,13 @@ def test_a_quiet_flag_after_double_dash_is_not_an_option(capsys, tmp_path):
     assert code == 2 and "unknown scene '-q'" in err
 
 
-def test_scene_is_described_as_name_toml_or_gltf(capsys):
+def test_scene_is_described_as_name_toml_gltf_or_mesh_file(capsys):
     code, help_text, _ = run_cli(capsys, "render", "--help")
-    assert code == 0 and ".gltf" in help_text and ".toml" in help_text
+    assert code == 0 and ".gltf" in help_text and ".toml" in help_text and ".obj" in help_text
     code, _, err = run_cli(capsys, "render")
-    assert code == 2 and ".toml scene file or a .gltf/.glb file" in err
+    assert code == 2 and ".toml scene file, a .gltf/.glb file or a mesh file (.obj, .ply, .stl, .off)" in err
     code, _, err = run_cli(capsys, "render", "no_such_scene")
-    assert code == 2 and ".gltf/.glb" in err
+    assert code == 2 and ".gltf/.glb" in err and ".obj" in err
 
 
 def test_a_closed_stdout_pipe_ends_quietly_with_141(tmp_path):
