@@ -36,11 +36,11 @@ INLINE float3 env_to_world(EnvMap m, float3 l) {
 /* The texel a unit world direction falls in; sin_theta gets sin of its polar angle. */
 INLINE int env_texel(EnvMap m, float3 d, float *sin_theta) {
     float3 l = env_to_local(m, d);
-    float y = clamp(l.y, -1.0f, 1.0f);
-    float u = atan2(l.x, -l.z) * (0.5f * M_1_PI_F), v = acos(y) * M_1_PI_F;
+    float r = sqrt(l.x * l.x + l.z * l.z); /* theta by atan2, not acos(y): exact near the poles too */
+    float u = atan2(l.x, -l.z) * (0.5f * M_1_PI_F), v = atan2(r, l.y) * M_1_PI_F;
     if (u < 0.0f) u += 1.0f;
     int col = min((int)(u * (float)m.width), m.width - 1), row = min((int)(v * (float)m.height), m.height - 1);
-    *sin_theta = sqrt(max_f(1.0f - y * y, 0.0f));
+    *sin_theta = r / norm(l);
     return row * m.width + col;
 }
 

@@ -145,7 +145,7 @@ class RenderSettings:
             )
         if self.aa != "edge_detect" and self.thickness != THICKNESS and "edges" not in self.aovs:
             said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
-        if not scene.lights:
+        if not scene.lights and scene.environment_map is None:  # a map is seen where rays escape (mirrors, glass)
             said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
         return said
 
