@@ -5,7 +5,8 @@
  * kernels/bsdf.h), then
  *   - next-event estimation: a shadow ray to every point and directional light, to one point of every
  *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
- *     one direction of the constant environment (cosine-weighted about the shading normal);
+ *     one direction of the environment (the constant one: cosine-weighted about the shading normal; an
+ *     image map: by its luminance x solid angle, kernels/envmap.h);
  *   - BSDF sampling for the next direction; a BSDF ray that reaches an area light, an emissive
  *     triangle or the environment adds its emission weighted against that light's strategy by the
  *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
