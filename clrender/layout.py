@@ -267,6 +267,19 @@ PATH_PARAMS_DTYPE = np.dtype(
     ]
 )
 PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)
+# the image-based environment light (kernels/envmap.h; packed by trace/envmap.py from scene/environment.py's map),
+# passed by value beside its texels (float4: RGB radiance times intensity, and the texel's density over (u, v)) and
+# the sampling CDFs; width 0: no map (the path tracer's constant `environment`, the Whitted background)
+ENV_MAP_DTYPE = np.dtype(
+    [
+        ("width", "<i4"),  # texels per row (u), 0: no map
+        ("height", "<i4"),  # rows (v)
+        ("cos_rotation", "<f4"),  # the map turned by `rotation` about +y: local = R_y(-rotation) world
+        ("sin_rotation", "<f4"),
+        ("sampled", "<i4"),  # 1: next-event estimation samples the map (0: a black map, nothing to sample)
+    ]
+)
+ENV_MAP = Record("EnvMap", ENV_MAP_DTYPE)
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...

@@ -5,7 +5,8 @@
  * kernels/bsdf.h), then
  *   - next-event estimation: a shadow ray to every point and directional light, to one point of every
  *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
- *     one direction of the constant environment (cosine-weighted about the shading normal);
+ *     one direction of the environment (the constant one: cosine-weighted about the shading normal; an
+ *     image map: by its luminance x solid angle, kernels/envmap.h);
  *   - BSDF sampling for the next direction; a BSDF ray that reaches an area light, an emissive
  *     triangle or the environment adds its emission weighted against that light's strategy by the
  *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
@@ -21,12 +22,16 @@
 #include "camera.h"
 #include "intersect.h"
 #include "bsdf.h"
+#include "envmap.h"
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
 #define SHADOW_T_SHRINK 0.9999f
+#ifndef ENV_NEE
+#define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
+#endif
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -35,6 +40,7 @@ typedef struct {
     __global const Light *lights;
     __global const Emitter *emitters;      /* emissive triangles, their power's running sum in `cdf` */
     __global const int *emitter_of_prim;   /* each primitive id's index in `emitters`, or -1 */
+    EnvView env;                           /* an environment map (env.m.width > 0) in place of p.environment */
     PathParams p;
 } PathScene;
 
@@ -276,10 +282,28 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
            (mis / light_pdf * visible(s, f, wi, dist, visits));
 }
 
-/* NEE to the constant environment: a cosine-weighted direction about the shading normal. */
+/* NEE to an environment map: a direction drawn by the map's luminance (envmap.h). */
+INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float2 u,
+                             uint *visits, uint *rays) {
+    if (!ENV_NEE || !s->env.m.sampled) return (float3)(0.0f);
+    float3 le;
+    float env_pdf;
+    float3 wi = env_sample(&s->env, u, &le, &env_pdf);
+    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
+    float3 wl = to_local(fr, wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
+    float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
+    *rays += 1;
+    return fc * le * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
+}
+
+/* NEE to the environment: the map's own sampling, or for the constant environment a cosine-weighted
+ * direction about the shading normal. */
 INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                                  uint *visits, uint *rays) {
     float2 u = (float2)(rng_next(rng), rng_next(rng));
+    if (s->env.m.width > 0) return env_map_sample(s, f, c, fr, wo, u, visits, rays);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return (float3)(0.0f);
     Frame nf = make_frame(f->n_shade);
@@ -331,6 +355,22 @@ INLINE float3 emission_met(const PathScene *s, const Surface *f, Hit h, float3 d
     return le * power_heuristic(prev_pdf, emitter_pdf(s, e, h.t, dot3(f->n_geo, -d)));
 }
 
+/* What a ray that meets nothing brings back: the environment's radiance towards -d, and in *mis its weight
+ * against the environment's NEE when the previous lobe was not a delta (prev_n: the previous vertex's shading normal). */
+INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool prev_delta, float prev_pdf, float *mis) {
+    float env_pdf;
+    float3 le;
+    if (s->env.m.width > 0) {
+        le = env_eval(&s->env, d, &env_pdf);
+        if (!ENV_NEE) env_pdf = 0.0f;
+    } else {
+        env_pdf = max_f(dot3(prev_n, d), 0.0f) * M_1_PI_F;
+        le = vload3(0, s->p.environment);
+    }
+    *mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
+    return le;
+}
+
 /* The component's local frame: +z on the ray's side for reflection, outward for dielectrics (bsdf.h's eta). */
 INLINE Frame component_frame(Component c, const Surface *f) {
     bool dielectric = c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC;
@@ -361,9 +401,9 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
         *rays += 1;
         radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {
-            float env_pdf = max_f(dot3(prev_n, r.d), 0.0f) * M_1_PI_F;
-            float mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
-            radiance += beta * vload3(0, s->p.environment) * mis;
+            float mis;
+            float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
+            radiance += beta * le * mis;
             if (depth == 0) record_first_hit(s, 0, h, aov, id);
             break;
         }
@@ -402,6 +442,8 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
                           __global const Material *materials, __global const Light *lights,
                           __global const Camera *camera, __global const Emitter *emitters,
                           __global const int *emitter_of_prim, __global const int *pixels, PathParams params,
+                          EnvMap env_map, __global const float4 *env_texels, __global const float *env_marginal,
+                          __global const float *env_conditional,
                           __global float4 *colour_out, __global AovRecord *aov_out, __global IdRecord *ids_out,
                           __global uint2 *stats_out) {
     int gid = get_global_id(0);
@@ -409,6 +451,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     PathScene s;
     s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
     s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
+    s.env = env_view(env_map, env_texels, env_marginal, env_conditional);
     s.p = params;
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);

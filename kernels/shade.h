@@ -17,6 +17,7 @@
 #include "intersect.h"
 #include "sampling.h"
 #include "shaft.h"
+#include "envmap.h"
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -34,6 +35,7 @@ typedef struct {
     int light_stratified; /* 1: one jittered sample per cell of an area light (the seed); 0: uniform random */
     float3 background;
     float3 ambient;
+    EnvView env;         /* env.m.width > 0: rays that meet nothing see this map instead of the background */
 #if WRITE_AOV
     __global AovRecord *aov; /* null, or this pixel's primary-hit record */
 #endif
@@ -475,7 +477,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
         if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
         if (h.id < 0) {
-            colour += w * sc->background;
+            colour += w * (sc->env.m.width > 0 ? env_radiance(&sc->env, d) : sc->background);
             first_hit = false;
             continue;
         }

@@ -15,7 +15,7 @@
 __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                      __global const VertexNormals *normals, __global const ObjectRecord *objects,
                      __global const Material *materials, __global const Light *lights, __global const Camera *camera,
-                     __global const int *pixels, RenderParams params,
+                     __global const int *pixels, RenderParams params, EnvMap env_map, __global const float4 *env_texels,
                      __global float4 *colour_out, __global IdRecord *ids_out, __global float *shadow_out,
                      __global uint2 *stats_out, __global AovRecord *aov_out) {
     int gid = get_global_id(0);
@@ -26,6 +26,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
     sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
+    sc.env = env_view(env_map, env_texels, 0, 0); /* escaping rays look the map up; nothing samples it */
 
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..package_data import data_dir
-from . import gltf
+from . import environment, gltf
 from .camera import Camera, read_camera
 
 # The limits and the shared checks live in checks.py (every reader imports them); named here too for older callers.
@@ -87,6 +87,7 @@ class Scene:
     background: tuple = (0.0, 0.0, 0.0)  # colour of rays that hit nothing (linear RGB)
     ambient: tuple = (0.0, 0.0, 0.0)  # ambient light, multiplied by each material's diffuse colour
     environment: tuple = (0.0, 0.0, 0.0)  # path tracer: radiance arriving from every direction that meets nothing (linear RGB)
+    environment_map: environment.EnvironmentMap | None = None  # an image instead: both integrators' escaping rays see it
     materials: dict = field(default_factory=lambda: {"default": DEFAULT_MATERIAL})
     lights: list = field(default_factory=list)
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
@@ -196,8 +197,9 @@ TOP_KEYS = (
     "description",
     "featured_camera",
 )
-# `[environment]`: what the path tracer sees in every direction that meets nothing (image maps come later)
-ENVIRONMENT_READER = TypeReader(("color",), lambda checks, e, path: checks.vec3(e, "color", path, (0.0, 0.0, 0.0), kind="colour"))
+# `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
+# (environment.py; an image is what the Whitted tracer's escaping rays see too)
+ENVIRONMENT_READER = environment.ENVIRONMENT_READER
 
 
 def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
@@ -212,8 +214,6 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.height = checks.integer(data, "height", "", 480, low=1, high=MAX_SIDE)
     scene.background = checks.vec3(data, "background", "", (0.0, 0.0, 0.0), kind="colour")
     scene.ambient = checks.vec3(data, "ambient", "", (0.0, 0.0, 0.0), kind="colour")
-    if "environment" in data:
-        scene.environment = ENVIRONMENT_READER.read(checks, checks.table(data["environment"], "environment"), "environment")
     cameras = data.get("cameras", [{}])
     if not isinstance(cameras, list) or not cameras:
         checks.fail("cameras", "expected a non-empty list of camera tables")
@@ -230,6 +230,12 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     entries = checks.counted(data, "objects", MAX_OBJECTS)
     for i, o in enumerate(entries):  # every cheap check before any mesh is built or loaded
         read_object(checks, o, f"objects[{i}]", scene.materials, False)
+    if "environment" in data:  # after the cheap checks: an image map is read here
+        env = ENVIRONMENT_READER.read(checks, checks.table(data["environment"], "environment"), "environment")
+        if isinstance(env, environment.EnvironmentMap):
+            scene.environment_map = env
+        else:
+            scene.environment = env
     objects = []
     triangles = 0
     for i, o in enumerate(entries):

@@ -154,7 +154,7 @@ class RenderSettings:
             said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
         if self.aa == "none" and scene.camera(self.camera).aperture > 0:
             said.append(f"camera {self.camera} has a lens (aperture > 0) and --aa none traces one ray a pixel: its blur is noise; use --aa full")
-        if not scene.lights:
+        if not scene.lights and scene.environment_map is None:  # a map is seen where rays escape (mirrors, glass)
             said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
         return said
 
@@ -162,7 +162,7 @@ class RenderSettings:
         said = []
         if self.thickness != THICKNESS and "edges" not in self.aovs:
             said.append("--thickness has no effect with --integrator path (it widens the edge mask of --aa edge_detect)")
-        emitters = any(max(m.emission) > 0 for m in scene.materials.values()) or max(scene.environment) > 0
+        emitters = any(max(m.emission) > 0 for m in scene.materials.values()) or max(scene.environment) > 0 or scene.environment_map is not None
         if not scene.lights and not emitters:
             said.append(f"scene {scene.name!r} has no lights, emission or environment: the path tracer will render black")
         return said
@@ -235,6 +235,9 @@ class Renderer:
         self.params = self._params()
         lights = np.array([light.pack() for light in self.scene.lights] or [np.zeros((), LIGHT_DTYPE)], LIGHT_DTYPE)
         self.lights = dev.to_device(lights)
+        from .envmap import upload
+
+        self.env = upload(dev, self.scene.environment_map)  # the env_* kernel arguments (a placeholder without a map)
         start = time.perf_counter()
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
         # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
@@ -291,11 +294,11 @@ class Renderer:
 
             if record:  # one object id a pixel, the rest of its id record -1
                 cl.enqueue_fill_buffer(dev.queue, out["ids_out"], np.int32(-1), 0, k * ID_RECORD_DTYPE.itemsize)
-            extra = dict(emitters=self.emitters, emitter_of_prim=self.emitter_of_prim, params=path_params(self, k, first_sample, record))
+            extra = dict(emitters=self.emitters, emitter_of_prim=self.emitter_of_prim, params=path_params(self, k, first_sample, record), **self.env)
         else:
             params = self.params.copy()
             params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
-            extra = dict(params=params, shadow_out=shadow)
+            extra = dict(params=params, shadow_out=shadow, env_map=self.env["env_map"], env_texels=self.env["env_texels"])
         self.kernel(dev.queue, global_size(k), (LOCAL_SIZE,), **geometry, **scene, **extra, **out)
         host = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):

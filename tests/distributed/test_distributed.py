@@ -141,6 +141,32 @@ def test_scene_travels_as_a_dict_and_arrays_and_comes_back_equal():
     assert split(moved).key != payload.key  # the cache key follows the geometry, not the name
 
 
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_an_environment_map_travels_with_the_scene(client, tmp_path, integrator):
+    """The map's texels ship in the payload: the workers render the local bytes with the file gone."""
+    import OpenImageIO as oiio
+
+    texels = np.random.default_rng(4).uniform(0, 2, (8, 16, 3)).astype(np.float32)
+    out = oiio.ImageOutput.create(str(tmp_path / "sky.exr"))
+    out.open(str(tmp_path / "sky.exr"), oiio.ImageSpec(16, 8, 3, "float"))
+    out.write_image(texels)
+    out.close()
+    data = {
+        "cameras": [{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 50}],
+        "environment": {"file": "sky.exr", "rotation": 20, "intensity": 1.5},
+        "materials": {"m": {"diffuse": [0.5, 0.5, 0.5], "mirror": 0.5}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}],
+    }
+    scene = Scene.from_dict(data, base_dir=tmp_path)
+    (tmp_path / "sky.exr").unlink()
+    payload = split(scene)
+    assert np.array_equal(join(payload).environment_map.texels, texels)
+    settings = dict(TINY, integrator=integrator, seed=3, **({"spp": 4} if integrator == "path" else {}))
+    remote = crd.DistributedRenderer(scene, client=client, **settings).run()
+    local = clrender.Renderer(scene, **settings).run()
+    assert remote.image.tobytes() == local.image.tobytes()
+
+
 # ------------------------------------------------------------------ turntable
 def test_orbit_keeps_distance_and_height_and_turns_by_equal_angles():
     cam = Camera(position=(3.0, 2.0, 1.0), look_at=(0.5, -0.5, -4.0), up=(0.0, 1.0, 0.0), fov=50)

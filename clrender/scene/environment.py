@@ -1,0 +1,145 @@
+"""The image-based environment light: an equirectangular (latitude-longitude) map read through OpenImageIO,
+and the piecewise-constant distribution the path tracer samples it by (kernels/envmap.h).
+
+Directions and the map (Mitsuba 3's `envmap` convention, so its scenes compare directly): a world direction
+is first turned by -rotation about +y (the map turns by +rotation, as a mesh's `rotate = [0, rotation, 0]`
+would), giving d, then
+    u = atan2(d.x, -d.z) / (2 pi), wrapped into [0, 1);   v = acos(d.y) / pi
+so v = 0 (the image's top row) is straight up (+y), and the left edge u = 0 looks along -z, u = 1/4 along +x,
+u = 1/2 along +z.  Back: theta = pi v, phi = 2 pi u, d = (sin theta sin phi, cos theta, -sin theta cos phi).
+Texel (row i, column j) of a W x H map covers u in [j/W, (j+1)/W) and v in [i/H, (i+1)/H) with constant
+radiance (a nearest lookup: what is sampled is exactly what is seen), times `intensity`.  A solid angle is
+d omega = 2 pi^2 sin(theta) du dv.
+
+Sampling: texel weights w = luminance x sin(theta at the row's centre) (the sin makes a texel's
+probability its share of the sphere's light, not of the image); a row by the marginal CDF over rows, a
+column by that row's conditional CDF, a uniform point inside the texel.  The density over (u, v) is
+p = w / mean(w) (constant over a texel), and over solid angle p / (2 pi^2 sin theta).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+from .checks import RADIANCE_LIMIT, Checks, TypeReader, show
+
+LUMINANCE = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, as kernels/path.cl's luminance()
+CHANNELS = (1, 3, 4)  # grey (copied to R, G, B), RGB, RGBA (alpha ignored)
+ROTATION_LIMIT = 360.0  # degrees either way
+# Peak bytes per texel while a map is read and prepared: the file's float32 channels (counted apart), its
+# RGB copy (12), the float64 weights, CDFs and densities (~64), the float4 texels and CDF (20) and their
+# device copies (20); rounded up.  Measured: 89 B/texel peak RSS growth for a 2048 x 1024 RGB EXR, read and
+# uploaded (PoCL CPU), against the 140 estimated.
+BYTES_PER_TEXEL = 128
+
+
+@dataclass
+class EnvironmentMap:
+    """An environment map as the scene holds it (shipped to Dask workers as it is: payload.py)."""
+
+    texels: np.ndarray  # (H, W, 3) float32 linear RGB radiance as the file holds it; row 0 is straight up
+    intensity: float = 1.0  # radiance scale
+    rotation: float = 0.0  # degrees about +y
+    source: str = ""  # the file it came from, for messages
+
+    @property
+    def width(self) -> int:
+        return self.texels.shape[1]
+
+    @property
+    def height(self) -> int:
+        return self.texels.shape[0]
+
+
+@dataclass
+class Distribution:
+    """What the kernels read of a map (trace/envmap.py uploads it)."""
+
+    texels: np.ndarray  # (H * W, 4) float32: RGB radiance times intensity, and the texel's density over (u, v)
+    marginal: np.ndarray  # (H + 1,) float32 running sum of the rows' probabilities, 0 ... 1
+    conditional: np.ndarray  # (H, W + 1) float32 running sums of each row's texels' probabilities, 0 ... 1
+    sampled: bool  # False for a black map: nothing to sample, nothing to see
+
+
+def row_sin_theta(height: int) -> np.ndarray:
+    """sin(theta) at each row's centre, float64."""
+    return np.sin(np.pi * (np.arange(height) + 0.5) / height)
+
+
+def distribution(env: EnvironmentMap) -> Distribution:
+    """The map's texels and its sampling CDFs (module docstring), built in float64 and stored in float32."""
+    h, w = env.height, env.width
+    radiance = env.texels.astype(np.float64) * env.intensity
+    weight = (radiance @ np.array(LUMINANCE)) * row_sin_theta(h)[:, None]  # (H, W)
+    total = weight.sum()
+    texels = np.zeros((h * w, 4), np.float32)
+    texels[:, :3] = radiance.reshape(-1, 3)
+    marginal = np.zeros(h + 1, np.float64)
+    conditional = np.zeros((h, w + 1), np.float64)
+    if total > 0:
+        texels[:, 3] = (weight / weight.mean()).ravel()
+        rows = weight.sum(axis=1)
+        marginal[1:] = np.cumsum(rows) / total
+        nonzero = rows > 0
+        conditional[nonzero, 1:] = np.cumsum(weight[nonzero], axis=1) / rows[nonzero, None]
+        conditional[~nonzero, 1:] = np.arange(1, w + 1) / w  # never picked; a uniform row keeps the CDF valid
+        marginal[-1] = 1.0  # the searches never run past the end
+        conditional[:, -1] = 1.0
+    return Distribution(texels, marginal.astype(np.float32), conditional.astype(np.float32), bool(total > 0))
+
+
+def map_bytes(width: int, height: int, channels: int) -> int:
+    """Peak bytes of reading and preparing a map of this size (BYTES_PER_TEXEL, the file's own channels)."""
+    return width * height * (BYTES_PER_TEXEL + 4 * channels)
+
+
+# ---------------------------------------------------------------------- the [environment] table
+def _read(checks: Checks, table: dict, path: str):
+    """The constant colour (a tuple), or an EnvironmentMap when the table names a `file`."""
+    if "file" not in table:
+        for key in ("intensity", "rotation"):
+            if key in table:
+                checks.fail(f"{path}.{key}", "needs 'file' (an environment map image)")
+        return checks.vec3(table, "color", path, (0.0, 0.0, 0.0), kind="colour")
+    if "color" in table:
+        checks.fail(f"{path}.color", "give either 'color' (a constant environment) or 'file' (an image), not both")
+    intensity = checks.number(table, "intensity", path, 1.0, low=0.0, high=RADIANCE_LIMIT)
+    rotation = checks.number(table, "rotation", path, 0.0, low=-ROTATION_LIMIT, high=ROTATION_LIMIT)
+    file = table["file"]
+    if not isinstance(file, str) or not file or "\x00" in file:
+        checks.fail(f"{path}.file", f"expected a path to a .hdr or .exr image, got {show(file)}")
+    from .confine import scene_file
+
+    where = f"{checks.where}: {path}.file"
+    texels = load_texels(scene_file(checks.base_dir, file, checks.root, where), where)
+    return EnvironmentMap(texels, float(intensity), float(rotation), file)
+
+
+ENVIRONMENT_READER = TypeReader(("color", "file", "intensity", "rotation"), _read)
+
+
+def load_texels(path: Path, what: str) -> np.ndarray:
+    """(H, W, 3) float32 radiance of an image file (Radiance HDR, OpenEXR, any format OpenImageIO reads):
+    its header checked and the memory it needs estimated before its pixels are read; UsageError naming
+    `what` for a missing, damaged or unsuitable file."""
+    from .. import memory
+    from ..image.files import probe_image, read_image
+
+    try:
+        info = probe_image(path)
+        if info.nchannels not in CHANNELS:
+            raise UsageError(f"image {str(path)!r} has {info.nchannels} channels; allowed: 1 (grey), 3 (RGB) or 4 (RGBA, alpha ignored)")
+        memory.require(memory.BASE_BYTES + map_bytes(info.width, info.height, info.nchannels), f"environment map {info.width}x{info.height}")
+        pixels = read_image(path).pixels
+    except UsageError as exc:
+        raise UsageError(f"{what}: {exc}") from None
+    rgb = np.repeat(pixels, 3, axis=2) if pixels.shape[2] == 1 else pixels[..., :3]
+    finite = np.isfinite(rgb)
+    if not finite.all() or (rgb < 0).any() or rgb.max(initial=0.0) > RADIANCE_LIMIT:
+        bad = rgb[~finite][0] if not finite.all() else (rgb.min() if (rgb < 0).any() else rgb.max())
+        raise UsageError(f"{what}: image {str(path)!r} holds the value {bad:g}; allowed: radiance from 0 to {RADIANCE_LIMIT:g}")
+    return np.ascontiguousarray(rgb, np.float32)

@@ -1,0 +1,300 @@
+"""The image-based environment light (clrender/scene/environment.py, kernels/envmap.h) in both integrators.
+
+References here are float64 re-derivations of docs/scene-format.md's mapping (Mitsuba 3's: v = acos(y) / pi from
++y, u = atan2(x, -z) / 2 pi, the map turned by `rotation` about +y), never clrender's own numbers:
+- a white (albedo 1) convex Lambert sphere under a map of one colour c is c in every pixel (the furnace), checked
+  by a pooled z-test over the pixels of K independent renders (|z| < Z_MAX: a false alarm once in ~10^5 runs;
+  seeds fixed);
+- under a map that is black but for one texel of radiance L, a Lambert sphere of albedo a shows
+  a / pi x L x integral over the texel of max(0, n . w) dw, the integral by a 24 x 24 midpoint rule in float64;
+- the sampler: texel counts of 2^18 device samples against luminance x sin(theta at the row centre), normalised
+  (Pearson's chi-square, p > 1e-3), every sample's density against that closed form, and the density's integral
+  over the sphere (a midpoint rule aligned with the texels: exact for a piecewise-constant density) is 1;
+- MIS against the map's NEE and BSDF sampling alone (ENV_NEE=0, a test-only kernel switch) have one expectation
+  (tests/reference/ztest.py's block z-test, alpha 0.01 with Šidák's correction);
+- Whitted: primary rays that miss and a mirror sphere's reflected rays show the texel the analytic direction
+  falls in, exactly.
+"""
+
+import math
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+from clrender.errors import UsageError
+from clrender.scene.environment import EnvironmentMap
+from clrender.scene.scene import Scene
+from clrender.trace.envmap import EnvProbe
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
+
+from tests.clitools import run_cli
+from tests.reference.path_scenes import camera
+from tests.reference.sphere_chi2 import chi2_test
+from tests.reference.ztest import two_sample_z
+
+Z_MAX = 4.4  # two-sided normal: p = 1e-5
+LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+# ---------------------------------------------------------------------- float64 references
+def direction_uv(d, rotation_deg=0.0):
+    """(u, v) in [0, 1) x [0, 1] of unit world directions (..., 3): the documented mapping."""
+    t = math.radians(rotation_deg)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    lx, lz = math.cos(t) * x - math.sin(t) * z, math.sin(t) * x + math.cos(t) * z
+    u = np.arctan2(lx, -lz) / (2 * np.pi) % 1.0
+    return u, np.arctan2(np.hypot(lx, lz), y) / np.pi  # not arccos(y): float32 directions near the poles
+
+
+def uv_direction(u, v):
+    theta, phi = np.pi * v, 2 * np.pi * u
+    return np.stack([np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=-1)
+
+
+def write_map(path, pixels) -> str:
+    """An OpenEXR (or any OpenImageIO format by extension) float file of `pixels` (H, W, C)."""
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    h, w, c = pixels.shape
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), oiio.ImageSpec(w, h, c, "float"))
+    assert out.write_image(pixels)
+    out.close()
+    return str(path)
+
+
+def sphere_scene(material: dict, size: int, environment: dict, position=(0, 0, 5), fov=28) -> dict:
+    return {
+        "width": size,
+        "height": size,
+        "cameras": [camera(list(position), [0, 0, 0], fov)],
+        "environment": environment,
+        "materials": {"m": material},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}],
+    }
+
+
+def renderer(scene: dict, folder, device, **settings) -> Renderer:
+    loaded = Scene.from_dict(scene, base_dir=folder)
+    return Renderer(loaded, tracer=Tracer(loaded, device=device), **settings)
+
+
+def renders(scene: dict, folder, device, seeds, env_nee: bool = True, **settings) -> np.ndarray:
+    """(K, H, W, 3) float64 path renders, one per seed; env_nee False builds the kernel without the map's NEE."""
+    out = []
+    for seed in seeds:
+        r = renderer(scene, folder, device, integrator="path", seed=seed, **settings)
+        if not env_nee:
+            r.kernel = r.tracer.device.kernel("path.cl", "render_path", {**r.tracer.defines, "WRITE_AOV": 0, "ENV_NEE": 0})
+        out.append(r.run().image.astype(np.float64))
+    return np.array(out)
+
+
+def sphere_hits(scene: Scene, size: int, offsets):
+    """Per pixel and sub-pixel offset: the unit sphere's normal where the ray meets it (NaN on a miss), and the ray."""
+    normals, directions = [], []
+    for off in offsets:
+        o, d = scene.camera(1).rays(size, size, off)
+        b = np.einsum("...i,...i", o, d)
+        disc = b * b - (np.einsum("...i,...i", o, o) - 1.0)
+        t = -b - np.sqrt(np.where(disc > 0, disc, np.nan))
+        normals.append(o + t[..., None] * d)
+        directions.append(d)
+    return np.array(normals), np.array(directions)
+
+
+# ---------------------------------------------------------------------- path tracer
+def test_furnace_under_a_one_colour_map_equals_the_colour(tmp_path, device):
+    """Albedo 1, convex: every pixel's expectation is the map's colour times its intensity, as with `color`."""
+    colour = np.array([0.25, 0.5, 0.75])
+    write_map(tmp_path / "flat.exr", np.broadcast_to(colour, (8, 16, 3)))
+    scene = sphere_scene({"diffuse": [1, 1, 1]}, 16, {"file": "flat.exr", "intensity": 2.0, "rotation": 33.0})
+    images = renders(scene, tmp_path, device, (1, 2, 3, 4), spp=16, max_depth=64)
+    expected = 2.0 * colour
+    k = len(images)
+    diff = (images.mean(axis=0) - expected).reshape(-1, 3)
+    var = (images.var(axis=0, ddof=1) / k).reshape(-1, 3)
+    z = diff.sum(axis=0) / np.sqrt(var.sum(axis=0))
+    assert np.all(np.abs(z) < Z_MAX), (z, images.mean(axis=(0, 1, 2)))
+    np.testing.assert_allclose(images.mean(axis=(0, 1, 2)), expected, rtol=0.01)
+    constant = sphere_scene({"diffuse": [1, 1, 1]}, 16, {"color": list(expected)})
+    np.testing.assert_allclose(renders(constant, tmp_path, device, (1,), spp=4, max_depth=64)[0], np.broadcast_to(expected, (16, 16, 3)), atol=1e-5)
+
+
+def test_one_bright_texel_lights_a_lambert_sphere_by_the_cosine_law(tmp_path, device):
+    """radiance = albedo / pi x L x integral of max(0, n . w) over the texel's solid angle, pixel by pixel (the
+    8 x 8 uniform sub-pixel rays the render uses, averaged), where the texel lies well above the horizon."""
+    h, w, row, col, L, albedo, size, n = 16, 32, 5, 20, 40.0, 0.8, 24, 8
+    pixels = np.zeros((h, w, 3), np.float32)
+    pixels[row, col] = L
+    write_map(tmp_path / "spot.exr", pixels)
+    scene = sphere_scene({"diffuse": [albedo] * 3}, size, {"file": "spot.exr"}, position=(3, 0.5, 3.5), fov=30)
+    images = renders(scene, tmp_path, device, (5, 6, 7), spp=n * n, samples=n, sampler="uniform", max_depth=0)
+    # the texel as a 24 x 24 grid of midpoints with their solid angles, float64
+    k = 24
+    uu, vv = np.meshgrid((col + (np.arange(k) + 0.5) / k) / w, (row + (np.arange(k) + 0.5) / k) / h)
+    dirs = uv_direction(uu, vv).reshape(-1, 3)
+    d_omega = (2 * np.pi**2 * np.sin(np.pi * vv) / (w * h * k * k)).ravel()
+    centre = uv_direction((col + 0.5) / w, (row + 0.5) / h)
+    offsets = [((q + 0.5) / n, (p + 0.5) / n) for p in range(n) for q in range(n)]
+    normals, _ = sphere_hits(Scene.from_dict(scene, base_dir=tmp_path), size, offsets)
+    irradiance = L * np.maximum(normals @ dirs.T, 0.0) @ d_omega  # (n*n, H, W)
+    expected = (albedo / np.pi * irradiance).mean(axis=0)
+    lit = np.all(normals @ centre > 0.3, axis=0)  # every sub-pixel ray meets the sphere, the texel well above its horizon
+    assert lit.sum() > 60, lit.sum()
+    got = images.mean(axis=0)[..., 0]
+    se = np.sqrt(images.var(axis=0, ddof=1)[..., 0] / len(images))
+    z = (got[lit] - expected[lit]).sum() / np.sqrt(np.square(se[lit]).sum())
+    assert abs(z) < Z_MAX, z
+    np.testing.assert_allclose(got[lit], expected[lit], rtol=0.03)
+    dark = np.all(normals @ centre < -0.3, axis=0)  # facing away from the only light: black
+    assert dark.sum() > 20 and np.all(got[dark] == 0.0), dark.sum()
+
+
+def test_mis_with_the_maps_nee_equals_bsdf_sampling_alone(tmp_path, device):
+    """Two estimators of one image: NEE to the map + BSDF rays, power heuristic; BSDF rays alone (ENV_NEE=0)."""
+    rng = np.random.default_rng(7)
+    pixels = rng.uniform(0.1, 0.6, (8, 16, 3))
+    pixels[2:4, 5:9] = 6.0  # a bright patch, so the strategies differ
+    write_map(tmp_path / "sky.exr", pixels)
+    scene = sphere_scene({"diffuse": [0.7, 0.5, 0.3], "specular": [0.2, 0.2, 0.2], "shininess": 40}, 16, {"file": "sky.exr", "rotation": 60})
+    scene["objects"].append({"type": "sphere", "center": [1.2, -0.6, 1.0], "radius": 0.5, "material": "m"})
+    settings = dict(spp=64, max_depth=3)
+    mis = renders(scene, tmp_path, device, (11, 12, 13, 14), **settings)
+    bsdf = renders(scene, tmp_path, device, (21, 22, 23, 24), env_nee=False, **settings)
+    result = two_sample_z(mis, bsdf, block=4)
+    assert result.passed, result.report()
+    # and the map's NEE helps: the MIS image is less noisy
+    assert mis.var(axis=0).mean() < 0.5 * bsdf.var(axis=0).mean()
+
+
+# ---------------------------------------------------------------------- the sampler
+@pytest.fixture
+def patchy_map():
+    rng = np.random.default_rng(3)
+    texels = rng.uniform(0.0, 1.0, (8, 12, 3)).astype(np.float32) ** 3
+    texels[0] = 0.0  # a black row: never sampled
+    texels[4, 3:6] = 0.0
+    texels[6, 9] = 20.0
+    return EnvironmentMap(texels, intensity=1.5, rotation=-40.0)
+
+
+def test_env_samples_follow_luminance_times_solid_angle(patchy_map, device):
+    env, n = patchy_map, 1 << 18
+    h, w = env.height, env.width
+    probe = EnvProbe(device, env)
+    dirs, radiance, pdf = probe.sample(np.random.default_rng(1).random((n, 2)))
+    u, v = direction_uv(dirs.astype(np.float64), env.rotation)
+    rows, cols = np.minimum((v * h).astype(int), h - 1), np.minimum((u * w).astype(int), w - 1)
+    weight = (env.texels.astype(np.float64) @ LUM) * np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
+    prob = weight / weight.sum()
+    counts = np.bincount(rows * w + cols, minlength=h * w)
+    result = chi2_test(counts, prob, n, 0)
+    assert result.p_value > 1e-3, str(result)
+    assert counts.reshape(h, w)[0].sum() == 0 and counts.reshape(h, w)[4, 3:6].sum() == 0
+    # every sample's density is p_uv / (2 pi^2 sin theta), p_uv = the texel's probability x W H
+    expected_pdf = prob[rows, cols] * w * h / (2 * np.pi**2 * np.sin(np.pi * v))
+    # not on a texel's edge, where float32 may pick the neighbour
+    inside = (np.abs(v * h - np.round(v * h)) > 1e-3) & (np.abs(u * w - np.round(u * w)) > 1e-3)
+    np.testing.assert_allclose(pdf[inside], expected_pdf[inside], rtol=2e-3)
+    np.testing.assert_allclose(radiance[inside], 1.5 * env.texels[rows, cols][inside], rtol=1e-6)
+
+
+def test_env_pdf_integrates_to_one(patchy_map, device):
+    env, k = patchy_map, 6  # k x k midpoints per texel: the density is constant over each
+    h, w = env.height, env.width
+    uu, vv = np.meshgrid((np.arange(w * k) + 0.5) / (w * k), (np.arange(h * k) + 0.5) / (h * k))
+    # directions in the map's own frame, turned into the world by the rotation
+    local = uv_direction(uu, vv).reshape(-1, 3)
+    t = math.radians(env.rotation)
+    world = np.stack([math.cos(t) * local[:, 0] + math.sin(t) * local[:, 2], local[:, 1], -math.sin(t) * local[:, 0] + math.cos(t) * local[:, 2]], 1)
+    _, pdf = EnvProbe(device, env).eval(world)
+    d_omega = 2 * np.pi**2 * np.sin(np.pi * vv).ravel() / (w * k * h * k)
+    assert abs(np.sum(pdf.astype(np.float64) * d_omega) - 1.0) < 1e-4
+
+
+# ---------------------------------------------------------------------- Whitted
+def test_whitted_primary_and_mirror_rays_see_the_analytic_texel(tmp_path, device):
+    rng = np.random.default_rng(5)
+    h, w, size, rotation = 6, 10, 48, 25.0
+    pixels = rng.uniform(0.05, 1.0, (h, w, 3)).astype(np.float32)
+    write_map(tmp_path / "tiles.hdr", pixels)
+    scene = sphere_scene({"diffuse": [0, 0, 0], "mirror": 1.0}, size, {"file": "tiles.hdr", "rotation": rotation, "intensity": 3.0}, fov=40)
+    loaded = Scene.from_dict(scene, base_dir=tmp_path)
+    stored = loaded.environment_map.texels  # the Radiance HDR file rounds the floats: its own values are the map
+    assert np.allclose(stored, pixels, atol=0.01)
+    image = renderer(scene, tmp_path, device).run().image
+    normal, d = sphere_hits(loaded, size, [(0.5, 0.5)])
+    normal, d = normal[0], d[0]
+    hit = ~np.isnan(normal[..., 0])
+    seen = np.where(hit[..., None], d - 2 * np.einsum("...i,...i", d, normal)[..., None] * normal, d)
+    u, v = direction_uv(seen, rotation)
+    clear = (np.abs(u * w - np.round(u * w)) > 0.02) & (np.abs(v * h - np.round(v * h)) > 0.02)  # away from texel edges
+    grazing = hit & (np.abs(np.einsum("...i,...i", d, np.nan_to_num(normal))) < 0.2)  # near the silhouette: skip
+    check = clear & ~grazing
+    assert check[hit].sum() > 300 and check[~hit].sum() > 300
+    expected = 3.0 * stored[np.minimum((v * h).astype(int), h - 1), np.minimum((u * w).astype(int), w - 1)]
+    np.testing.assert_allclose(image[check], expected[check], rtol=1e-6)
+
+
+def test_without_a_map_whitted_keeps_its_background(tmp_path, device):
+    scene = sphere_scene({"diffuse": [0, 0, 0], "mirror": 1.0}, 8, {"color": [1, 1, 1]})
+    scene["background"] = [0.2, 0.3, 0.4]
+    image = renderer(scene, tmp_path, device).run().image
+    assert np.all(image == np.float32([0.2, 0.3, 0.4]))
+
+
+# ---------------------------------------------------------------------- the scene key
+def scene_with(environment: dict) -> dict:
+    return {"environment": environment, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]}
+
+
+def test_map_keys_and_defaults(tmp_path):
+    write_map(tmp_path / "m.exr", np.ones((2, 4, 4)))  # RGBA: alpha dropped
+    s = Scene.from_dict(scene_with({"file": "m.exr"}), base_dir=tmp_path)
+    env = s.environment_map
+    assert (env.intensity, env.rotation, env.texels.shape, s.environment) == (1.0, 0.0, (2, 4, 3), (0.0, 0.0, 0.0))
+    grey = write_map(tmp_path / "g.exr", np.full((2, 4, 1), 0.5))
+    assert np.all(Scene.from_dict(scene_with({"file": grey})).environment_map.texels == 0.5)
+    assert Scene.from_dict(scene_with({"color": [1, 1, 1]})).environment_map is None
+
+
+def bad(tmp_path, environment, match, **kwargs):
+    with pytest.raises(UsageError, match=match) as info:
+        Scene.from_dict(scene_with(environment), base_dir=tmp_path, **kwargs)
+    assert "\n" not in str(info.value)
+
+
+def test_bad_maps_are_one_line_errors(tmp_path, monkeypatch):
+    write_map(tmp_path / "ok.exr", np.ones((2, 4, 3)))
+    write_map(tmp_path / "two.exr", np.ones((2, 4, 2)))
+    write_map(tmp_path / "neg.exr", -np.ones((2, 4, 3)))
+    write_map(tmp_path / "nan.exr", np.full((2, 4, 3), np.nan))
+    (tmp_path / "text.hdr").write_text("not an image\n")
+    data = (tmp_path / "ok.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[: len(data) // 2])
+    bad(tmp_path, {"file": "missing.exr"}, "environment.file: .*does not exist")
+    bad(tmp_path, {"file": "text.hdr"}, "environment.file: cannot read")
+    bad(tmp_path, {"file": "cut.exr"}, "environment.file: .*(damaged|truncated|cannot read)")
+    bad(tmp_path, {"file": "two.exr"}, "2 channels; allowed: 1 .*3 .*4")
+    bad(tmp_path, {"file": "neg.exr"}, "value -1; allowed: radiance from 0")
+    bad(tmp_path, {"file": "nan.exr"}, "value nan")
+    bad(tmp_path, {"file": "ok.exr", "intensity": -1}, "environment.intensity: -1 is out of range")
+    bad(tmp_path, {"file": "ok.exr", "color": [1, 1, 1]}, "either 'color' .* or 'file'")
+    bad(tmp_path, {"intensity": 2}, "environment.intensity: needs 'file'")
+    bad(tmp_path, {"file": 3}, "expected a path")
+    bad(tmp_path, {"file": "ok.exr", "scale": 2}, "environment.scale: unknown key")
+    outside = tmp_path / "inner"
+    outside.mkdir()
+    bad(outside, {"file": "../ok.exr"}, "outside the scene folder", allow_outside=False)
+    assert Scene.from_dict(scene_with({"file": "../ok.exr"}), base_dir=outside).environment_map is not None
+    monkeypatch.setattr("clrender.memory.MAX_MEMORY", 1 << 20)
+    bad(tmp_path, {"file": "ok.exr"}, "environment map 4x2 needs about .* of memory")
+
+
+def test_cli_refuses_a_bad_map_with_exit_2(tmp_path, capsys):
+    (tmp_path / "s.toml").write_text('[environment]\nfile = "nowhere.hdr"\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = 1\n')
+    out = tmp_path / "o.png"
+    code, _, stderr = run_cli(capsys, "render", str(tmp_path / "s.toml"), "--integrator", "path", "-o", str(out))
+    assert code == 2 and "nowhere.hdr" in stderr and len(stderr.strip().splitlines()) == 1 and not out.exists()
