@@ -14,6 +14,8 @@ the same scenes, converted by tests/reference/mitsuba_scenes.py, in the same run
                 the time scaled by 64 / spp (the independent sampler's cost is linear in spp), one run.
 Both use every core (Mitsuba's thread pool, PoCL's device).  Samples per second are camera paths (pixels x
 spp) per wall second; the ratios are wall times against Mitsuba llvm.  `--quick`: 128x128, 16 spp, one run.
+With both clrender and llvm: path_<scene>_pair.png (clrender left, Mitsuba right, the seed-0 renders) and a
+line per scene, the two renderers' mean brightness and a block-mean z-test over all their renders (agreement_line).
 
 wizard_cat is a Whitted scene, converted by this rule (the path tracer reads seed materials the same way):
 `diffuse` kd -> Lambert; `specular` ks with `shininess` s -> ks times a GGX conductor of reflectance 1 with
