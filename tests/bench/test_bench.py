@@ -85,3 +85,36 @@ def test_path_harness_quick_run_measures_mitsuba_and_says_when_clrender_cannot_p
     assert all(float(r["msamples_per_s"]) > 0 for r in rows)
     assert ("clrender" in renderers) != ("path integrator is not available" in proc.stdout)
     assert (tmp_path / "path.png").stat().st_size > 1000
+    if "clrender" in renderers:  # clrender beside Mitsuba llvm, and their brightness compared
+        assert (tmp_path / "path_wizard_cat_pair.png").stat().st_size > 1000
+        assert proc.stdout.count("block means over") == 2
+
+
+def test_path_bench_lights_wizard_cat_physically_as_bright_at_the_cat():
+    """bench/path.py's physical_lights: the area light's inverse-square irradiance at camera 3's look-at point,
+    radiance c I' times A cos(theta_l) / d^2 (a small light: 1.2 square at distance 5.2), is the pi c I of
+    falloff "none" within the small-light approximation's 1%; the directional light's pi c I stays."""
+    import math
+
+    import numpy as np
+
+    from bench.path import wizard_cat_scene
+    from clrender.scene.scene import Scene
+
+    before, after = Scene.load("wizard_cat").lights, wizard_cat_scene(3).lights
+    focus = np.asarray(Scene.load("wizard_cat").camera(3).look_at, float)
+    assert [light.falloff for light in after] == ["inverse_square"] * len(before)
+    for old, new in zip(before, after):
+        if old.type == "directional":
+            assert new.intensity == pytest.approx(math.pi * old.intensity)
+            continue
+        a, b = np.asarray(new.edge_a, float), np.asarray(new.edge_b, float)
+        # the irradiance of the parallelogram by midpoint quadrature (64 x 64 cells), light travelling along n = a x b
+        s = (np.arange(64) + 0.5) / 64
+        points = np.asarray(new.position, float) + s[:, None, None] * a + s[None, :, None] * b
+        d = focus - points
+        dist = np.linalg.norm(d, axis=-1)
+        n = np.cross(a, b)
+        cos_l = (d @ n) / (np.linalg.norm(n) * dist)
+        irradiance = new.intensity * np.mean(cos_l / dist**2) * np.linalg.norm(n)  # per unit colour, normal incidence
+        assert irradiance == pytest.approx(math.pi * old.intensity, rel=0.01)
