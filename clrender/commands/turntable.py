@@ -216,10 +216,10 @@ def ffmpeg_exe() -> str:
         raise RenderFailure(f"--video found no ffmpeg: {first_line(str(exc))}") from None
 
 
-def _srgb8(image: np.ndarray) -> np.ndarray:
-    from ..image.files import linear_to_srgb
+def _srgb8(image: np.ndarray, display=None) -> np.ndarray:
+    from ..image.tonemap import srgb8
 
-    return np.round(linear_to_srgb(image) * 255.0).astype(np.uint8)
+    return srgb8(image, display)
 
 
 def run_turntable(args, settings) -> int:
@@ -243,6 +243,9 @@ def run_turntable(args, settings) -> int:
 
         for name in args.filter:
             filters.parse(name)
+    from .render import display_from_args
+
+    display = display_from_args(args)
     scene = Scene.load(args.scene)
     # every check before anything is created: a refused option leaves no folder behind
     paths = frame_paths(args.output, Path(args.scene).stem, k_frames)
@@ -278,9 +281,9 @@ def run_turntable(args, settings) -> int:
                 for k, image in frames:
                     if args.filter:
                         image = filters.apply(image, *args.filter)
-                    write_display_image(paths[k], image)
+                    write_display_image(paths[k], image, display=display)
                     if video is not None:
-                        video.add(k, _srgb8(image))
+                        video.add(k, _srgb8(image, display))
                     bar.update()
             if video is not None:
                 video.finish()

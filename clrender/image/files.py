@@ -349,9 +349,12 @@ def _copy_into(source_fd: int, temp: str, size: int, path: Path) -> None:
         raise RenderFailure(f"cannot write {shown(path)}: only {os.stat(temp).st_size} of its {size} bytes were written (is the disk full?)")
 
 
-def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True) -> Path:
-    """Write a linear render: float formats stay linear, others are sRGB-encoded 8-bit."""
+def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True, display=None) -> Path:
+    """Write a linear render: float formats stay scene-linear, others get the display transform
+    (`display`, a tonemap.DisplaySettings: exposure and tone curve; default clamp) and are sRGB-encoded 8-bit."""
     path = Path(path)
     if path.suffix.lower() in FLOAT_EXTENSIONS:
         return write_image(path, linear_rgb, format="float", overwrite=overwrite)
-    return write_image(path, linear_to_srgb(linear_rgb), format="uint8", overwrite=overwrite)
+    from .tonemap import display_srgb
+
+    return write_image(path, display_srgb(linear_rgb, display), format="uint8", overwrite=overwrite)
