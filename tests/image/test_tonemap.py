@@ -117,3 +117,14 @@ def test_python_api_takes_the_display_transform():
     assert np.array_equal(result.srgb8(exposure=1, tonemap="agx"), srgb8(result.image, DisplaySettings(1, "agx")))
     with pytest.raises(ValueError, match="allowed: clamp|aces|agx"):
         result.srgb8(tonemap="reinhard")
+
+
+def test_turntable_frames_take_the_display_transform(tmp_path, capsys):
+    tiny = ("render", "refract1", "--camera", "2", "--width", "16", "--height", "12", "--turntable", "2")
+    assert run_cli(capsys, *tiny, "-o", str(tmp_path / "f{:d}.exr"))[0] == 0
+    code, _, err = run_cli(capsys, *tiny, "--tonemap", "agx", "--exposure", "1", "-o", str(tmp_path / "f{:d}.png"))
+    assert code == 0, err
+    for k in range(2):
+        linear = read_image(tmp_path / f"f{k}.exr").pixels
+        expected = np.round(255 * tonemap64.srgb_oetf(tonemap64.agx_base(2.0 * linear.astype(np.float64))))
+        assert np.abs(np.round(read_image(tmp_path / f"f{k}.png").pixels * 255) - expected).max() <= 1
