@@ -321,7 +321,7 @@ def _render(args):
     if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
         from .turntable import run_turntable
 
-        return run_turntable(args, settings)
+        return run_turntable(args, settings, display_from_args(args))
     output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
     display = display_from_args(args, output)
     noisy_out = check_output_path(args.noisy_out, overwrite=args.overwrite) if args.noisy_out else None

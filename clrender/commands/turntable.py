@@ -217,12 +217,13 @@ def ffmpeg_exe() -> str:
 
 
 def _srgb8(image: np.ndarray, display=None) -> np.ndarray:
-    from ..image.tonemap import srgb8
+    from ..image.files import srgb8
 
     return srgb8(image, display)
 
 
-def run_turntable(args, settings) -> int:
+def run_turntable(args, settings, display=None) -> int:
+    """K frames into a folder (and a video); `display`: the PNG/JPEG frames' exposure and tone curve."""
     from ..image.files import check_output_path, write_display_image
     from ..outputs import output_set
     from ..progress import progress
@@ -243,9 +244,6 @@ def run_turntable(args, settings) -> int:
 
         for name in args.filter:
             filters.parse(name)
-    from .render import display_from_args
-
-    display = display_from_args(args)
     scene = Scene.load(args.scene)
     # every check before anything is created: a refused option leaves no folder behind
     paths = frame_paths(args.output, Path(args.scene).stem, k_frames)

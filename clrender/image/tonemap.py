@@ -6,7 +6,8 @@
 written before there was a choice got, bit for bit (the sRGB OETF clamps to [0, 1] itself).  `aces`
 and `agx` roll highlights off instead of clipping them.  Float outputs (EXR, HDR, PFM) take none of
 this: they keep the renderer's scene-linear values, exposure included, for a compositor to grade
-(docs/display.md).
+(docs/display.md).  The sRGB encoding itself, and `display_srgb` / `srgb8` which end the chain, are in
+clrender/image/files.py beside the writers.
 """
 
 from __future__ import annotations
@@ -110,15 +111,3 @@ def display_linear(linear_rgb: np.ndarray, display: DisplaySettings | None = Non
         return rgb
     curve = aces if d.tonemap is Tonemap.ACES else agx
     return curve(np.nan_to_num(rgb, nan=0.0, posinf=np.finfo(np.float32).max)).astype(np.float32)
-
-
-def display_srgb(linear_rgb: np.ndarray, display: DisplaySettings | None = None) -> np.ndarray:
-    """sRGB-encoded float32 in [0, 1], ready for an 8-bit writer (clamp: exactly linear_to_srgb(linear_rgb))."""
-    from .files import linear_to_srgb
-
-    return linear_to_srgb(display_linear(linear_rgb, display))
-
-
-def srgb8(linear_rgb: np.ndarray, display: DisplaySettings | None = None) -> np.ndarray:
-    """(H, W, 3) uint8 sRGB codes of a linear render, as a PNG of it stores them."""
-    return np.round(display_srgb(linear_rgb, display) * 255.0).astype(np.uint8)

@@ -6,8 +6,8 @@ refused with one line."""
 import numpy as np
 import pytest
 
-from clrender.image.files import linear_to_srgb, read_image, write_image
-from clrender.image.tonemap import DisplaySettings, aces, agx, display_linear, display_srgb, srgb8
+from clrender.image.files import display_srgb, linear_to_srgb, read_image, srgb8, write_image
+from clrender.image.tonemap import DisplaySettings, aces, agx, display_linear
 
 from tests.clitools import run_cli
 from tests.reference import tonemap64
