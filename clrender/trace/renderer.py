@@ -222,6 +222,13 @@ class RenderResult:
 
         return png_bytes(self.image, linear=True)
 
+    def srgb8(self, exposure: float = 0.0, tonemap: str = "clamp") -> np.ndarray:
+        """(H, W, 3) uint8 sRGB codes of the image after the display transform (clrender/image/tonemap.py):
+        2**exposure times the linear image, then the tone curve ("clamp", "aces" or "agx"), as a PNG stores it."""
+        from ..image.files import DisplaySettings, srgb8
+
+        return srgb8(self.image, DisplaySettings(exposure=exposure, tonemap=tonemap))
+
 
 class Renderer:
     def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):
