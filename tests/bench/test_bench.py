@@ -118,3 +118,20 @@ def test_path_bench_lights_wizard_cat_physically_as_bright_at_the_cat():
         cos_l = (d @ n) / (np.linalg.norm(n) * dist)
         irradiance = new.intensity * np.mean(cos_l / dist**2) * np.linalg.norm(n)  # per unit colour, normal incidence
         assert irradiance == pytest.approx(math.pi * old.intensity, rel=0.01)
+
+
+def test_rays_harness_compares_end_to_end_queries_with_embree_at_equal_threads(tmp_path):
+    """`bench rays --peer embree`: the user queries of clrender and Embree (two threads each) on the same rays,
+    clrender's ratio per ray kind, and Mrays/s against the batch size; an unknown peer is refused (exit 2)."""
+    pytest.importorskip("embreex")
+    args = ["--peer", "embree", "--size", "32", "--runs", "1", "--no-build", "--threads", "2", "--out", str(tmp_path)]
+    proc = subprocess.run([sys.executable, "-m", "bench", "rays", *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    tools = list(csv.DictReader(open(tmp_path / "rays_end_to_end.csv")))
+    assert [(r["tool"], r["threads"]) for r in tools] == [("clrender", "2"), ("embree", "2")]
+    for kind in ("primary", "shadow", "incoherent"):
+        ratio = float(tools[0][f"{kind}_mrays"]) / float(tools[1][f"{kind}_mrays"])
+        assert float(tools[0][f"{kind}_vs_embree"]) == pytest.approx(ratio, rel=1e-3)
+    assert [int(r["batch"]) for r in csv.DictReader(open(tmp_path / "rays_batches.csv"))] == [256, 1024]
+    bad = subprocess.run([sys.executable, "-m", "bench", "rays", "--peer", "optix"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "allowed: a comma list of embree, open3d" in bad.stderr
