@@ -20,6 +20,7 @@
 #include "sampling.h"
 #include "intersect.h"
 #include "bsdf.h"
+#include "texture.h"
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
@@ -31,6 +32,7 @@
 typedef struct {
     Geometry geo;
     __global const VertexNormals *normals;
+    TextureView tex;                       /* uvs, vertex colours and textures (texture.h) */
     __global const Light *lights;
     __global const Emitter *emitters;      /* emissive triangles, their power's running sum in `cdf` */
     __global const int *emitter_of_prim;   /* each primitive id's index in `emitters`, or -1 */
@@ -65,6 +67,19 @@ INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     return f;
 }
 
+/* The material at hit h, its textures and vertex colours applied (texture.h); *occlusion: glTF's ambient
+ * occlusion there (the albedo AOV only: a path tracer finds occlusion by itself). */
+INLINE Material material_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
+    Material m = s->geo.materials[f->material];
+    *occlusion = 1.0f;
+    int vertex_colours = s->geo.objects[s->geo.prim_object[h.id]].vertex_colours;
+    if (vertex_colours || material_textured(&m)) {
+        apply_textures(s->tex, &m, h.id, h.u, h.v, vertex_colours);
+        *occlusion = material_occlusion(s->tex, &m, h.id, h.u, h.v);
+    }
+    return m;
+}
+
 /* ---------------------------------------------------------------- materials
  * The component a vertex uses: a lobe of bsdf.h with its parameters, or a delta mirror. */
 #define LOBE_MIRROR (-1)
@@ -85,7 +100,7 @@ INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)
 
 /* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
  * throughput is not rescaled).  docs/materials.md states the rule. */
-INLINE Component pick_component(__global const Material *m, float u) {
+INLINE Component pick_component(const Material *m, float u) {
     Component c;
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
@@ -202,8 +217,15 @@ INLINE int pick_emitter(const PathScene *s, float u) {
     return lo;
 }
 
-/* Emitted radiance of a material towards a ray that met its front (emission is one-sided). */
-INLINE float3 emission_of(const PathScene *s, int material) { return vload3(0, s->geo.materials[material].emission); }
+/* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
+ * one-sided): its material's emission, times its emissive texture there. */
+INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
+    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
+    float3 le = vload3(0, gm->emission);
+    if (gm->textures[TEXTURE_EMISSIVE] < 0) return le;
+    Material m = *gm;
+    return le * slot_texel(s->tex, &m, TEXTURE_EMISSIVE, prim, u, v).xyz;
+}
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
  * the cosine at the emitter. */
@@ -271,8 +293,7 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * emission_of(s, s->geo.objects[s->geo.prim_object[em->prim]].material) *
-           (mis / light_pdf * visible(s, f, wi, dist, visits));
+    return fc * emission_at(s, em->prim, su * (1.0f - u.y), su * u.y) * (mis / light_pdf * visible(s, f, wi, dist, visits));
 }
 
 /* NEE to the constant environment: a cosine-weighted direction about the shading normal. */
@@ -322,8 +343,9 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
 
 /* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
-INLINE float3 emission_met(const PathScene *s, const Surface *f, Hit h, float3 d, bool prev_delta, float prev_pdf) {
-    float3 le = emission_of(s, f->material);
+INLINE float3 emission_met(const PathScene *s, const Surface *f, const Material *m, Hit h, float3 d, bool prev_delta,
+                          float prev_pdf) {
+    float3 le = vload3(0, m->emission);
     if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
     int e = s->emitter_of_prim[h.id];
     if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
@@ -337,14 +359,14 @@ INLINE Frame component_frame(Component c, const Surface *f) {
 }
 
 /* The first hit's AOV record and object id (the `id` and `edges` AOVs). */
-INLINE void record_first_hit(const PathScene *s, const Surface *f, Hit h, __global AovRecord *aov, __global IdRecord *id) {
+INLINE void record_first_hit(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h,
+                             __global AovRecord *aov, __global IdRecord *id) {
     if (id) id->path[0] = h.id >= 0 ? s->geo.prim_object[h.id] : -1; /* the rest stays -1: one id per pixel */
 #if WRITE_AOV
     if (aov && h.id >= 0) {
-        __global const Material *m = &s->geo.materials[f->material];
         vstore3(f->n_shade, 0, aov->normal);
         aov->depth = h.t;
-        vstore3(m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd), 0, aov->albedo);
+        vstore3((m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion, 0, aov->albedo);
     }
 #endif
 }
@@ -363,14 +385,16 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
             float env_pdf = max_f(dot3(prev_n, r.d), 0.0f) * M_1_PI_F;
             float mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
             radiance += beta * vload3(0, s->p.environment) * mis;
-            if (depth == 0) record_first_hit(s, 0, h, aov, id);
+            if (depth == 0) record_first_hit(s, 0, 0, 1.0f, h, aov, id);
             break;
         }
         Surface f = surface_at(s, r, h);
-        if (depth == 0) record_first_hit(s, &f, h, aov, id);
-        radiance += beta * emission_met(s, &f, h, r.d, prev_delta, prev_pdf);
+        float occlusion;
+        Material m = material_at(s, &f, h, &occlusion);
+        if (depth == 0) record_first_hit(s, &f, &m, occlusion, h, aov, id);
+        radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
-        Component c = pick_component(&s->geo.materials[f.material], rng_next(rng));
+        Component c = pick_component(&m, rng_next(rng));
         Frame fr = component_frame(c, &f);
         float3 wo = to_local(fr, -r.d);
         if (!component_is_delta(c)) radiance += beta * direct_lighting(s, &f, c, fr, wo, rng, visits, rays);
@@ -398,7 +422,8 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                          __global const Material *materials, __global const Light *lights,
+                          __global const Material *materials, __global const VertexAttributes *attributes,
+                          __global const Texture *textures, __global const float4 *texels, __global const Light *lights,
                           __global const Camera *camera, __global const Emitter *emitters,
                           __global const int *emitter_of_prim, __global const int *pixels, PathParams params,
                           __global float4 *colour_out, __global AovRecord *aov_out, __global IdRecord *ids_out,
@@ -408,6 +433,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     PathScene s;
     s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
     s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
+    s.tex = texture_view(attributes, textures, texels);
     s.p = params;
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);

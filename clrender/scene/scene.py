@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..package_data import data_dir
-from . import gltf
+from . import gltf, textures
 from .camera import Camera, read_camera
 
 # The limits and the shared checks live in checks.py (every reader imports them); named here too for older callers.
@@ -77,6 +77,9 @@ class Mesh:
     material: str = "default"
     smooth: bool = False  # interpolate vertex normals (True) or use each face's normal
     source: str = ""  # file or generator it came from, for messages
+    uvs: np.ndarray | None = None  # (V, 2) texture coordinates (glTF's convention: (0, 0) the image's top-left)
+    uvs1: np.ndarray | None = None  # (V, 2) a second set (glTF TEXCOORD_1)
+    colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
 
 
 @dataclass
@@ -90,6 +93,7 @@ class Scene:
     materials: dict = field(default_factory=lambda: {"default": DEFAULT_MATERIAL})
     lights: list = field(default_factory=list)
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
+    textures: list = field(default_factory=list)  # decoded textures (textures.TextureImage) the materials index
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
     featured_camera: int = 1  # the view the scene is made for, marked * by `render --list` (not a default: --camera is 1 unless given)
@@ -185,6 +189,7 @@ TOP_KEYS = (
     "name",
     "description",
     "featured_camera",
+    "textures",
 )
 # `[environment]`: what the path tracer sees in every direction that meets nothing (image maps come later)
 ENVIRONMENT_READER = TypeReader(("color",), lambda checks, e, path: checks.vec3(e, "color", path, (0.0, 0.0, 0.0), kind="colour"))
@@ -217,9 +222,11 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.materials = {"default": DEFAULT_MATERIAL}
     scene.materials.update({checks.name(k, "materials"): read_material(checks, v, f"materials.{k}") for k, v in materials.items()})
     scene.lights = [read_light(checks, l, f"lights[{i}]") for i, l in enumerate(checks.counted(data, "lights", MAX_LIGHTS))]
+    specs = textures.read_specs(checks, data.get("textures", {}))
     entries = checks.counted(data, "objects", MAX_OBJECTS)
     for i, o in enumerate(entries):  # every cheap check before any mesh is built or loaded
         read_object(checks, o, f"objects[{i}]", scene.materials, False)
+    scene.materials, scene.textures = textures.resolve(checks, specs, scene.materials)
     objects = []
     triangles = 0
     for i, o in enumerate(entries):
@@ -297,7 +304,9 @@ def _plane(checks: Checks, o, path, materials, build) -> Mesh:
 
 def _parallelogram(checks: Checks, o, path, materials, corner, a, b) -> Mesh:
     verts = np.array([corner, corner + a, corner + a + b, corner + b])
-    return Mesh(verts, np.array([[0, 1, 2], [0, 2, 3]]), material=material_ref(checks, o, path, materials), source=path)
+    # the image laid upright on it: edge_a along its width (u), edge_b up its height (v runs down the image)
+    uvs = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]])
+    return Mesh(verts, np.array([[0, 1, 2], [0, 2, 3]]), material=material_ref(checks, o, path, materials), source=path, uvs=uvs)
 
 
 def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
@@ -356,7 +365,22 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source)
+    uvs, uvs1, colours = _vertex_attributes(tm)
+    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours)
+
+
+def _vertex_attributes(tm):
+    """(uvs, uvs1, colours) of a mesh, each None when it has none: a glTF node's (gltf.NodeMesh), or the
+    texture coordinates trimesh read (an OBJ's `vt`, whose v runs up the image: flipped to glTF's convention)."""
+    if hasattr(tm, "uv0"):
+        return tm.uv0, tm.uv1, tm.colours
+    visual = getattr(tm, "visual", None)
+    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
+    if uv is None or np.shape(uv) != (len(tm.vertices), 2):
+        return None, None, None
+    uv = np.asarray(uv, np.float64)
+    uv = np.where(np.isfinite(uv), uv, 0.0)
+    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None
 
 
 @dataclass

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE
 from ..scene.scene import Mesh, Scene, Sphere
 
 
@@ -18,11 +18,13 @@ from ..scene.scene import Mesh, Scene, Sphere
 class Primitives:
     triangles: np.ndarray  # (T, 3, 3) float64 vertices
     triangle_normals: np.ndarray  # (T, 3, 3) float32 vertex normals (zeros when flat)
+    triangle_attributes: np.ndarray  # (T,) layout.VERTEX_ATTRIBUTES_DTYPE: uvs and vertex colours at the vertices
     spheres: np.ndarray  # (S, 4) float64 centre and radius
     object_of: np.ndarray  # (T + S,) int32 object id per primitive id
     objects: np.ndarray  # (O,) layout.OBJECT_DTYPE records: material index and smooth flag
     materials: np.ndarray  # (M,) layout.MATERIAL_DTYPE records
     material_names: list
+    textures: list = None  # the scene's decoded textures (scene/textures.py), which the materials index
 
     @property
     def count(self) -> int:
@@ -43,7 +45,7 @@ def flatten(scene: Scene) -> Primitives:
     index = {n: i for i, n in enumerate(names)}
     materials = np.array([scene.materials[n].pack() for n in names], MATERIAL_DTYPE)
     objects = np.zeros(max(len(scene.objects), 1), OBJECT_DTYPE)
-    tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
+    tris, tri_normals, tri_attrs, tri_obj, spheres, sphere_obj = [], [], [], [], [], []
     for oid, obj in enumerate(scene.objects):
         objects[oid]["material"] = index[obj.material]
         if isinstance(obj, Sphere):
@@ -57,11 +59,25 @@ def flatten(scene: Scene) -> Primitives:
             tri_normals.append(obj.vertex_normals[obj.faces].astype(np.float32))
         else:
             tri_normals.append(np.zeros((len(obj.faces), 3, 3), np.float32))
+        tri_attrs.append(_attributes(obj))
+        objects[oid]["vertex_colours"] = int(obj.colours is not None)
         tri_obj.append(np.full(len(obj.faces), oid, np.int32))
     triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
     normals = np.concatenate(tri_normals) if tri_normals else np.zeros((0, 3, 3), np.float32)
+    attrs = np.concatenate(tri_attrs) if tri_attrs else np.zeros(0, VERTEX_ATTRIBUTES_DTYPE)
     object_of = np.concatenate([*tri_obj, np.asarray(sphere_obj, np.int32)]).astype(np.int32)
-    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects, materials, names)
+    spheres = np.asarray(spheres, np.float64).reshape(-1, 4)
+    return Primitives(triangles, normals, attrs, spheres, object_of, objects, materials, names, list(getattr(scene, "textures", [])))
+
+
+def _attributes(mesh: Mesh) -> np.ndarray:
+    """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without)."""
+    out = np.zeros(len(mesh.faces), VERTEX_ATTRIBUTES_DTYPE)
+    out["colour"] = 1.0
+    for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours)):
+        if values is not None:
+            out[name] = np.asarray(values)[mesh.faces]
+    return out
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:

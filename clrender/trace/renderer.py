@@ -276,6 +276,7 @@ class Renderer:
             out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
             cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
         geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
+        geometry.update(attributes=t.attributes, textures=t.textures, texels=t.texels)
         scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
         if self.settings.integrator == "path":
             from .path import path_params
