@@ -106,7 +106,9 @@ def textured_quad(tmp_path, material, images, *, uv_scale=1.0, colours=None, sam
     return path
 
 
-def quad_hits(n: int) -> np.ndarray:
-    """(n, n, 2) x, y where each pixel centre's ray of an n x n render of textured_quad meets the quad (z = 0)."""
-    c = (np.arange(n) + 0.5) / n * 2 - 1
-    return np.stack(np.meshgrid(c * HALF_VIEW, -c * HALF_VIEW, indexing="xy"), -1)
+def quad_hits(n: int, offset=(0.5, 0.5)) -> np.ndarray:
+    """(n, n, 2) x, y where the ray through each pixel's point `offset` (its centre by default) of an n x n render
+    of textured_quad meets the quad (z = 0)."""
+    c = (np.arange(n) + offset[0]) / n * 2 - 1
+    r = (np.arange(n) + offset[1]) / n * 2 - 1
+    return np.stack(np.meshgrid(c * HALF_VIEW, -r * HALF_VIEW, indexing="xy"), -1)
