@@ -80,6 +80,7 @@ class Mesh:
     uvs: np.ndarray | None = None  # (V, 2) texture coordinates (glTF's convention: (0, 0) the image's top-left)
     uvs1: np.ndarray | None = None  # (V, 2) a second set (glTF TEXCOORD_1)
     colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
+    file_material: dict | None = None  # an OBJ's .mtl material (textures.mtl_material), made a scene material on reading
 
 
 @dataclass
@@ -237,6 +238,7 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
                 checks.fail(f"objects[{i}]", f"the scene has more than {MAX_TRIANGLES} triangles")
         objects.append(obj)
     scene.objects = objects
+    textures.adopt_file_materials(checks, scene)
     return scene
 
 
@@ -366,7 +368,10 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     uvs, uvs1, colours = _vertex_attributes(tm)
-    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours)
+    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours)
+    if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
+        mesh.file_material = textures.mtl_material(tm)
+    return mesh
 
 
 def _vertex_attributes(tm):

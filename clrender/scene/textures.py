@@ -233,3 +233,64 @@ def pack(images: list) -> tuple[np.ndarray, np.ndarray]:
 
 def texture_bytes(images: list) -> int:
     return sum(i.pixels.shape[0] * i.pixels.shape[1] for i in images) * TEXEL_BYTES
+
+
+# ------------------------------------------------------------------ OBJ materials
+def mtl_material(tm) -> dict | None:
+    """The material a mesh file brings through trimesh (an OBJ's .mtl), as Material keyword arguments plus the
+    `image` trimesh decoded for map_Kd (a PIL image) under "image"; None when it brings none.  The rule: Kd is
+    the diffuse colour, Ks the specular colour, Ns the Blinn-Phong exponent, 1 - d the transparency, Ke the
+    emission (all linear, as clrender's colours are), map_Kd a diffuse texture (sRGB-decoded)."""
+    material = getattr(getattr(tm, "visual", None), "material", None)
+    raw = getattr(material, "kwargs", None)
+    if not isinstance(raw, dict):
+        return None
+
+    def floats(key, n):
+        value = raw.get(key)
+        value = [value] if isinstance(value, (int, float, str)) else value
+        try:
+            out = [float(v) for v in value][:n]
+        except (TypeError, ValueError):
+            return None
+        return out if len(out) == n and all(math.isfinite(v) for v in out) else None
+
+    keys = {}
+    for key, name, n in (("kd", "diffuse", 3), ("ks", "specular", 3), ("ke", "emission", 3), ("ns", "shininess", 1), ("d", "transparency", 1)):
+        value = floats(key, n)
+        if value is not None:
+            value = [min(max(v, 0.0), 1e6) for v in value]
+            keys[name] = value[0] if n == 1 else tuple(value)
+    if "transparency" in keys:
+        keys["transparency"] = 1.0 - min(keys["transparency"], 1.0)
+    image = getattr(material, "image", None)
+    if not keys and image is None:
+        return None
+    return {**keys, "image": image, "name": str(getattr(material, "name", "") or "material")}
+
+
+def adopt_file_materials(checks: Checks, scene) -> None:
+    """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
+    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
+    from ..memory import require
+    from .materials import Material
+
+    for obj in scene.objects:
+        found = getattr(obj, "file_material", None)
+        if found is None:
+            continue
+        obj.file_material = None
+        found = dict(found)
+        image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
+        ref = None
+        if image is not None:
+            buffer = io.BytesIO()
+            try:
+                image.save(buffer, format="PNG")
+            except (OSError, ValueError) as exc:
+                raise UsageError(f"{checks.where}: {obj.source}: its map_Kd image cannot be read ({exc})") from None
+            pixels = decode(buffer.getvalue(), srgb=True, what=f"{obj.source} map_Kd", require=require)
+            ref = TextureRef(texture=name, index=len(scene.textures))
+            scene.textures.append(TextureImage(pixels, source=f"{obj.source} map_Kd"))
+        scene.materials[name] = Material(**found, base_color_texture=ref)
+        obj.material = name
