@@ -175,7 +175,7 @@ MATERIAL_DTYPE = np.dtype(
         ("tex_coord", "<i4", len(TEXTURE_SLOTS)),
         ("tex_transform", "<f4", (len(TEXTURE_SLOTS), 6)),
         ("occlusion_strength", "<f4"),  # glTF occlusionTexture.strength: occlusion = 1 + s (texel.r - 1)
-        ("normal_scale", "<f4"),  # glTF normalTexture.scale (read, not yet drawn)
+        ("normal_scale", "<f4"),  # glTF normalTexture.scale (a slot for later: normal maps are not drawn yet)
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)

@@ -30,12 +30,11 @@ nothing in the file is dropped without being listed here:
   emissiveFactor times KHR_materials_emissive_strength, KHR_materials_ior and
   KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
   draws the base colour as its diffuse colour); baseColorTexture,
-  metallicRoughnessTexture, emissiveTexture, occlusionTexture and
-  normalTexture (read; normals not yet drawn) with their texCoord and
+  metallicRoughnessTexture, emissiveTexture and occlusionTexture with their texCoord and
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
   bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex.  Alpha
-  (alphaMode, alphaCutoff) is not modelled; doubleSided is read and ignored
+  (alphaMode, alphaCutoff) and normalTexture are not modelled; doubleSided is ignored
   (every surface is shaded on both sides).  Primitives without a material get
   clrender's default grey.
 
@@ -627,15 +626,12 @@ def _material(doc: Document, index: int) -> dict:
         "metallic_roughness_texture": (pbr, "metallicRoughnessTexture"),
         "emissive_texture": (item, "emissiveTexture"),
         "occlusion_texture": (item, "occlusionTexture"),
-        "normal_texture": (item, "normalTexture"),
     }
     for key, (table, name) in infos.items():
         if name in table:
             out[key], extra = _texture_info(doc, table[name], f"{where}.{name}")
             if name == "occlusionTexture":
                 out["occlusion_strength"] = min(max(extra.get("strength", 1.0), 0.0), 1.0)
-            if name == "normalTexture":
-                out["normal_scale"] = extra.get("scale", 1.0)
     return out
 
 

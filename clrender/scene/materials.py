@@ -40,7 +40,7 @@ class Material:
     metallic_roughness_texture: TextureRef | None = None  # B times metallic, G times roughness (linear)
     emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
     occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
-    normal_texture: TextureRef | None = None  # tangent-space normals (read, not yet drawn)
+    normal_texture: TextureRef | None = None  # tangent-space normals: a slot for later (not read, not drawn)
     occlusion_strength: float = 1.0  # occlusion = 1 + strength (R - 1)
     normal_scale: float = 1.0
 
@@ -108,8 +108,6 @@ GLTF_KEYS = (
     "metallic_roughness_texture",
     "occlusion_texture",
     "occlusion_strength",
-    "normal_texture",
-    "normal_scale",
 )
 
 
@@ -130,7 +128,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
     )
     if gltf:
-        slots = ("base_color", "metallic_roughness", "occlusion", "normal")
+        slots = ("base_color", "metallic_roughness", "occlusion")
         common.update(_refs(checks, m, path, {f"{s}_texture": f"{s}_texture" for s in slots}))
         return Material(
             base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="colour"),
@@ -138,7 +136,6 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
             roughness=checks.number(m, "roughness", path, d.roughness, low=0.0, high=1.0),
             transmission=checks.number(m, "transmission", path, d.transmission, low=0.0, high=1.0),
             occlusion_strength=checks.number(m, "occlusion_strength", path, 1.0, low=0.0, high=1.0),
-            normal_scale=checks.number(m, "normal_scale", path, 1.0, low=-1e6, high=1e6),
             **common,
         )
     return Material(

@@ -13,6 +13,7 @@ checks.py.  Imports go one way: this module imports gltf.py (which reads a glTF 
 
 from __future__ import annotations
 
+import io
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,7 +57,7 @@ from .checks import (  # noqa: F401
     show,
 )
 from .lights import read_light
-from .materials import DEFAULT_MATERIAL, read_material
+from .materials import DEFAULT_MATERIAL, Material, read_material
 from .toml_text import read_toml
 
 
@@ -238,8 +239,34 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
                 checks.fail(f"objects[{i}]", f"the scene has more than {MAX_TRIANGLES} triangles")
         objects.append(obj)
     scene.objects = objects
-    textures.adopt_file_materials(checks, scene)
+    _adopt_file_materials(checks, scene)
     return scene
+
+
+def _adopt_file_materials(checks: Checks, scene) -> None:
+    """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
+    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
+    from ..memory import require
+
+    for obj in scene.objects:
+        found = getattr(obj, "file_material", None)
+        if found is None:
+            continue
+        obj.file_material = None
+        found = dict(found)
+        image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
+        ref = None
+        if image is not None:
+            buffer = io.BytesIO()
+            try:
+                image.save(buffer, format="PNG")
+            except (OSError, ValueError) as exc:
+                raise UsageError(f"{checks.where}: {obj.source}: its map_Kd image cannot be read ({exc})") from None
+            pixels = textures.decode(buffer.getvalue(), srgb=True, what=f"{obj.source} map_Kd", require=require)
+            ref = textures.TextureRef(texture=name, index=len(scene.textures))
+            scene.textures.append(textures.TextureImage(pixels, source=f"{obj.source} map_Kd"))
+        scene.materials[name] = Material(**found, base_color_texture=ref)
+        obj.material = name
 
 
 def _load_gltf(path, allow_outside: bool = True) -> Scene:

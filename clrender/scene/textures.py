@@ -267,30 +267,3 @@ def mtl_material(tm) -> dict | None:
     if not keys and image is None:
         return None
     return {**keys, "image": image, "name": str(getattr(material, "name", "") or "material")}
-
-
-def adopt_file_materials(checks: Checks, scene) -> None:
-    """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
-    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
-    from ..memory import require
-    from .materials import Material
-
-    for obj in scene.objects:
-        found = getattr(obj, "file_material", None)
-        if found is None:
-            continue
-        obj.file_material = None
-        found = dict(found)
-        image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
-        ref = None
-        if image is not None:
-            buffer = io.BytesIO()
-            try:
-                image.save(buffer, format="PNG")
-            except (OSError, ValueError) as exc:
-                raise UsageError(f"{checks.where}: {obj.source}: its map_Kd image cannot be read ({exc})") from None
-            pixels = decode(buffer.getvalue(), srgb=True, what=f"{obj.source} map_Kd", require=require)
-            ref = TextureRef(texture=name, index=len(scene.textures))
-            scene.textures.append(TextureImage(pixels, source=f"{obj.source} map_Kd"))
-        scene.materials[name] = Material(**found, base_color_texture=ref)
-        obj.material = name
