@@ -175,7 +175,7 @@ MATERIAL_DTYPE = np.dtype(
         ("tex_coord", "<i4", len(TEXTURE_SLOTS)),
         ("tex_transform", "<f4", (len(TEXTURE_SLOTS), 6)),
         ("occlusion_strength", "<f4"),  # glTF occlusionTexture.strength: occlusion = 1 + s (texel.r - 1)
-        ("normal_scale", "<f4"),  # glTF normalTexture.scale (a slot for later: normal maps are not drawn yet)
+        ("normal_scale", "<f4"),  # glTF normalTexture.scale: the tangent-space normal's x and y are scaled by it
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
@@ -203,7 +203,9 @@ VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
 # per primitive id: a triangle's texture coordinates at v0, v1, v2 (TEXCOORD_0 in uv, TEXCOORD_1 in uv1; glTF's
 # convention, (0, 0) the image's top-left) and linear RGB vertex colours (COLOR_0); zeros for uvs and ones for
 # colours where a mesh has none, and for spheres
-VERTEX_ATTRIBUTES_DTYPE = np.dtype([("uv", "<f4", (3, 2)), ("uv1", "<f4", (3, 2)), ("colour", "<f4", (3, 3))])
+# and tangents for normal maps (xyz a unit vector along increasing u, w = +-1: bitangent = w normal x tangent, towards
+# decreasing v, glTF's convention): glTF TANGENT, else generated per triangle from its UVs (zeros: none)
+VERTEX_ATTRIBUTES_DTYPE = np.dtype([("uv", "<f4", (3, 2)), ("uv1", "<f4", (3, 2)), ("colour", "<f4", (3, 3)), ("tangent", "<f4", (3, 4))])
 VERTEX_ATTRIBUTES = Record("VertexAttributes", VERTEX_ATTRIBUTES_DTYPE)
 # an image texture (scene/textures.py packs them): its texels' first index in the one float4 texel buffer (row-major,
 # row 0 the image's top, linear values), its size, the glTF sampler's wrap modes (WRAP_MODES codes) and 1 for

@@ -391,6 +391,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
         Surface f = surface_at(s, r, h);
         float occlusion;
         Material m = material_at(s, &f, h, &occlusion);
+        if (m.textures[TEXTURE_NORMAL] >= 0) f.n_shade = normal_mapped(s->tex, &m, h.id, h.u, h.v, f.n_shade, f.front, r.d);
         if (depth == 0) record_first_hit(s, &f, &m, occlusion, h, aov, id);
         radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */

@@ -491,6 +491,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         ShadingPoint pt;
         bool sphere;
         bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
+        if (m.textures[TEXTURE_NORMAL] >= 0) pt.n = normal_mapped(sc->tex, &m, h.id, h.u, h.v, pt.n, front_face, d);
         if (ids && first_hit && !obj.smooth && !sphere) ids->facet = h.id;
 #if WRITE_AOV
         if (first_hit && sc->aov) {

@@ -108,6 +108,25 @@ INLINE void apply_textures(TextureView tv, Material *m, int prim, float u, float
         vstore3(vload3(0, m->emission) * slot_texel(tv, m, TEXTURE_EMISSIVE, prim, u, v).xyz, 0, m->emission);
 }
 
+/* The shading normal tilted by the material's normal map (glTF's normalTexture) at the hit: n_side and n_geo_side
+ * face the ray (direction d), `front` says whether that is the primitive's front.  The tangent frame is the
+ * interpolated tangent made orthogonal to the front-side normal n and the bitangent w n x t; the texel's
+ * 2 rgb - 1 (x, y scaled by normal_scale) is taken in it.  A normal that ends up facing away from the ray, or a
+ * triangle without tangents (no UVs), keeps n_side. */
+INLINE float3 normal_mapped(TextureView tv, const Material *m, int prim, float u, float v, float3 n_side, bool front, float3 d) {
+    __global const float *tg = &tv.attributes[prim].tangent[0][0];
+    float4 t4 = (1.0f - u - v) * vload4(0, tg) + u * vload4(1, tg) + v * vload4(2, tg);
+    float3 n = front ? n_side : -n_side;
+    float3 t = t4.xyz - n * dot3(n, t4.xyz);
+    if (!(dot3(t, t) > 1e-12f)) return n_side;
+    t = unit(t);
+    float3 b = (t4.w < 0.0f ? -1.0f : 1.0f) * cross3(n, t);
+    float3 c = 2.0f * slot_texel(tv, m, TEXTURE_NORMAL, prim, u, v).xyz - 1.0f;
+    float3 mapped = unit(m->normal_scale * (c.x * t + c.y * b) + c.z * n);
+    mapped = front ? mapped : -mapped;
+    return dot3(mapped, d) < 0.0f ? mapped : n_side;
+}
+
 /* glTF's ambient occlusion at the hit: 1 + strength (R - 1), 1 without an occlusion texture. */
 INLINE float material_occlusion(TextureView tv, const Material *m, int prim, float u, float v) {
     if (m->textures[TEXTURE_OCCLUSION] < 0) return 1.0f;

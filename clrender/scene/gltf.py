@@ -30,11 +30,12 @@ nothing in the file is dropped without being listed here:
   emissiveFactor times KHR_materials_emissive_strength, KHR_materials_ior and
   KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
   draws the base colour as its diffuse colour); baseColorTexture,
-  metallicRoughnessTexture, emissiveTexture and occlusionTexture with their texCoord and
+  metallicRoughnessTexture, emissiveTexture, occlusionTexture and normalTexture (with TANGENT, or tangents
+  generated from the UVs) with their texCoord and
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
   bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex.  Alpha
-  (alphaMode, alphaCutoff) and normalTexture are not modelled; doubleSided is ignored
+  (alphaMode, alphaCutoff) is not modelled; doubleSided is ignored
   (every surface is shaded on both sides).  Primitives without a material get
   clrender's default grey.
 
@@ -461,6 +462,7 @@ class NodeMesh:
     uv0: np.ndarray | None = None  # (V, 2) TEXCOORD_0, where every primitive has it (else zeros where missing)
     uv1: np.ndarray | None = None  # (V, 2) TEXCOORD_1
     colours: np.ndarray | None = None  # (V, 3) COLOR_0's RGB (ones where a primitive has none)
+    tangents: np.ndarray | None = None  # (V, 4) TANGENT in world space, where every primitive has it
 
     @property
     def vertex_normals(self) -> np.ndarray:
@@ -517,11 +519,18 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
             continue
         width = 3 if k == 2 else 2
         joined.append(np.concatenate([g if g is not None else np.full((len(v), width), fill) for g, (v, _, _) in zip(given, parts)]))
+    given = [a[3] for a in attrs]
+    joined.append(np.concatenate(given) if all(g is not None for g in given) else None)
+    if joined[-1] is not None:  # tangents turn with the node's linear transform (not its inverse transpose)
+        t = joined[-1]
+        xyz = t[:, :3] @ matrix[:3, :3].T
+        t[:, :3] = xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30)
     return NodeMesh(vertices, faces, normals, *joined)
 
 
 def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vertices: int):
-    """(TEXCOORD_0, TEXCOORD_1, COLOR_0 RGB) of a triangle primitive, each (n_vertices, 2 or 3) float64 or None."""
+    """(TEXCOORD_0, TEXCOORD_1, COLOR_0 RGB, TANGENT) of a triangle primitive, each (n_vertices, 2, 3 or 4) float64
+    or None."""
     prim = doc.item("meshes", mesh_index)["primitives"][prim_index]
     attributes = prim["attributes"]
     where = f"meshes[{mesh_index}].primitives[{prim_index}].attributes"
@@ -543,6 +552,13 @@ def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vert
             doc.fail(f"{where}.COLOR_0: {len(c)} finite colours needed, one per POSITION ({n_vertices})")
         colours = np.clip(c[:, :3], 0.0, 1.0)
     out.append(colours)
+    tangents = None
+    if "TANGENT" in attributes:
+        tangents = accessor(doc, attributes["TANGENT"], f"{where}.TANGENT", "VEC4", (5126, 5120, 5122))
+        if len(tangents) != n_vertices or not np.isfinite(tangents).all():
+            doc.fail(f"{where}.TANGENT: {len(tangents)} finite tangents needed, one per POSITION ({n_vertices})")
+        tangents[:, 3] = np.where(tangents[:, 3] < 0, -1.0, 1.0)
+    out.append(tangents)
     return out
 
 
@@ -626,12 +642,15 @@ def _material(doc: Document, index: int) -> dict:
         "metallic_roughness_texture": (pbr, "metallicRoughnessTexture"),
         "emissive_texture": (item, "emissiveTexture"),
         "occlusion_texture": (item, "occlusionTexture"),
+        "normal_texture": (item, "normalTexture"),
     }
     for key, (table, name) in infos.items():
         if name in table:
             out[key], extra = _texture_info(doc, table[name], f"{where}.{name}")
             if name == "occlusionTexture":
-                out["occlusion_strength"] = min(max(extra.get("strength", 1.0), 0.0), 1.0)
+                out[key]["strength"] = min(max(extra.get("strength", 1.0), 0.0), 1.0)
+            if name == "normalTexture":
+                out[key]["strength"] = extra.get("scale", 1.0)
     return out
 
 

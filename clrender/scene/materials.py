@@ -9,7 +9,8 @@ tracer), and nothing else of it.
 
 Textures (scene/textures.py) modulate the parameters per hit: `diffuse_texture` (seed) or `base_color_texture`
 multiplies kd / base colour, `metallic_roughness_texture` metallic (B) and roughness (G), `emissive_texture` the
-emission; `occlusion_texture` darkens only the albedo AOV and the Whitted ambient term (docs/materials.md)."""
+emission; `occlusion_texture` darkens only the albedo AOV and the Whitted ambient term; `normal_texture` tilts
+the shading normal (docs/materials.md)."""
 
 from __future__ import annotations
 
@@ -40,9 +41,7 @@ class Material:
     metallic_roughness_texture: TextureRef | None = None  # B times metallic, G times roughness (linear)
     emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
     occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
-    normal_texture: TextureRef | None = None  # tangent-space normals: a slot for later (not read, not drawn)
-    occlusion_strength: float = 1.0  # occlusion = 1 + strength (R - 1)
-    normal_scale: float = 1.0
+    normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
 
     @property
     def base_color_or_kd(self) -> tuple:
@@ -68,6 +67,14 @@ class Material:
     @property
     def model_code(self) -> int:
         return MATERIAL_MODELS[self.model]
+
+    @property
+    def occlusion_strength(self) -> float:
+        return 1.0 if self.occlusion_texture is None else self.occlusion_texture.strength
+
+    @property
+    def normal_scale(self) -> float:
+        return 1.0 if self.normal_texture is None else self.normal_texture.strength
 
     def _refs(self) -> list:
         return [getattr(self, f"{slot}_texture") for slot in TEXTURE_SLOTS]
@@ -107,7 +114,7 @@ GLTF_KEYS = (
     "base_color_texture",
     "metallic_roughness_texture",
     "occlusion_texture",
-    "occlusion_strength",
+    "normal_texture",
 )
 
 
@@ -128,14 +135,16 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
     )
     if gltf:
-        slots = ("base_color", "metallic_roughness", "occlusion")
+        slots = ("base_color", "metallic_roughness", "occlusion", "normal")
         common.update(_refs(checks, m, path, {f"{s}_texture": f"{s}_texture" for s in slots}))
+        occlusion = common.get("occlusion_texture")
+        if occlusion is not None and not 0.0 <= occlusion.strength <= 1.0:
+            checks.fail(f"{path}.occlusion_texture.strength", f"{occlusion.strength:g} is out of range; allowed: 0 to 1")
         return Material(
             base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="colour"),
             metallic=checks.number(m, "metallic", path, d.metallic, low=0.0, high=1.0),
             roughness=checks.number(m, "roughness", path, d.roughness, low=0.0, high=1.0),
             transmission=checks.number(m, "transmission", path, d.transmission, low=0.0, high=1.0),
-            occlusion_strength=checks.number(m, "occlusion_strength", path, 1.0, low=0.0, high=1.0),
             **common,
         )
     return Material(

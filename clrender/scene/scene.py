@@ -81,6 +81,7 @@ class Mesh:
     uvs: np.ndarray | None = None  # (V, 2) texture coordinates (glTF's convention: (0, 0) the image's top-left)
     uvs1: np.ndarray | None = None  # (V, 2) a second set (glTF TEXCOORD_1)
     colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
+    tangents: np.ndarray | None = None  # (V, 4) unit tangents along +u and the bitangent's sign (glTF TANGENT); None: from the UVs
     file_material: dict | None = None  # an OBJ's .mtl material (textures.mtl_material), made a scene material on reading
 
 
@@ -394,25 +395,28 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    uvs, uvs1, colours = _vertex_attributes(tm)
-    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours)
+    uvs, uvs1, colours, tangents = _vertex_attributes(tm)
+    if tangents is not None:  # they turn with the object's transform
+        xyz = tangents[:, :3] @ matrix[:3, :3].T
+        tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
+    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours, tangents)
     if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
         mesh.file_material = textures.mtl_material(tm)
     return mesh
 
 
 def _vertex_attributes(tm):
-    """(uvs, uvs1, colours) of a mesh, each None when it has none: a glTF node's (gltf.NodeMesh), or the
+    """(uvs, uvs1, colours, tangents) of a mesh, each None when it has none: a glTF node's (gltf.NodeMesh), or the
     texture coordinates trimesh read (an OBJ's `vt`, whose v runs up the image: flipped to glTF's convention)."""
     if hasattr(tm, "uv0"):
-        return tm.uv0, tm.uv1, tm.colours
+        return tm.uv0, tm.uv1, tm.colours, tm.tangents
     visual = getattr(tm, "visual", None)
     uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
     if uv is None or np.shape(uv) != (len(tm.vertices), 2):
-        return None, None, None
+        return None, None, None, None
     uv = np.asarray(uv, np.float64)
     uv = np.where(np.isfinite(uv), uv, 0.0)
-    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None
+    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
 
 
 @dataclass

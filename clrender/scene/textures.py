@@ -53,6 +53,7 @@ class TextureRef:
     offset: tuple = (0.0, 0.0)
     rotation: float = 0.0
     scale: tuple = (1.0, 1.0)
+    strength: float = 1.0  # occlusion: occlusion = 1 + strength (R - 1), in [0, 1]; normal map: the scale of x and y
     index: int = -1
 
     def matrix(self) -> list:
@@ -107,11 +108,11 @@ def read_specs(checks: Checks, table) -> dict:
 
 
 def read_ref(checks: Checks, value, path: str) -> TextureRef:
-    """A material's texture key: a texture's name, or a table {texture, tex_coord, offset, rotation, scale}."""
+    """A material's texture key: a texture's name, or a table {texture, tex_coord, offset, rotation, scale, strength}."""
     if isinstance(value, str):
         value = {"texture": value}
     checks.table(value, path)
-    checks.check_keys(value, path, ("texture", "tex_coord", "offset", "rotation", "scale"))
+    checks.check_keys(value, path, ("texture", "tex_coord", "offset", "rotation", "scale", "strength"))
     name = value.get("texture")
     if not isinstance(name, str):
         checks.fail(f"{path}.texture", f"expected a texture's name, got {show(name)}")
@@ -128,6 +129,7 @@ def read_ref(checks: Checks, value, path: str) -> TextureRef:
         offset=pair("offset", (0.0, 0.0)),
         rotation=checks.number(value, "rotation", path, 0.0, low=-1e6, high=1e6),
         scale=pair("scale", (1.0, 1.0)),
+        strength=checks.number(value, "strength", path, 1.0, low=-1e6, high=1e6),
     )
 
 

@@ -74,9 +74,33 @@ def _attributes(mesh: Mesh) -> np.ndarray:
     """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without)."""
     out = np.zeros(len(mesh.faces), VERTEX_ATTRIBUTES_DTYPE)
     out["colour"] = 1.0
-    for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours)):
+    for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours), ("tangent", mesh.tangents)):
         if values is not None:
             out[name] = np.asarray(values)[mesh.faces]
+    if mesh.tangents is None and mesh.uvs is not None:
+        out["tangent"] = face_tangents(mesh.vertices[mesh.faces], np.asarray(mesh.uvs)[mesh.faces])[:, None, :]
+    return out
+
+
+def face_tangents(tri: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(F, 4) per-triangle tangents from the UV derivatives (MikkTSpace's per-face step, without its welding):
+    xyz the unit direction of increasing u, w = +-1 so that w n x t points towards decreasing v (up the image,
+    glTF's convention for the green channel), n the face normal; zeros where the UVs are degenerate."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    du1, dv1 = uv[:, 1, 0] - uv[:, 0, 0], uv[:, 1, 1] - uv[:, 0, 1]
+    du2, dv2 = uv[:, 2, 0] - uv[:, 0, 0], uv[:, 2, 1] - uv[:, 0, 1]
+    det = du1 * dv2 - du2 * dv1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(det != 0, 1.0 / det, 0.0)[:, None]
+        t = (e1 * dv2[:, None] - e2 * dv1[:, None]) * r  # d position / d u
+        b = (e2 * du1[:, None] - e1 * du2[:, None]) * r  # d position / d v: down the image
+        length = np.linalg.norm(t, axis=1, keepdims=True)
+        t = np.where(length > 0, t / np.maximum(length, 1e-300), 0.0)
+    n = np.cross(e1, e2)
+    w = np.where(np.einsum("ij,ij->i", np.cross(n, t), -b) < 0, -1.0, 1.0)
+    out = np.zeros((len(tri), 4))
+    out[:, :3], out[:, 3] = t, np.where(np.isfinite(t).all(axis=1) & (length[:, 0] > 0), w, 0.0)
+    out[~np.isfinite(out).all(axis=1)] = 0.0
     return out
 
 

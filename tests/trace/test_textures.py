@@ -236,3 +236,35 @@ def test_emissive_texture_lights_a_plane(tmp_path, max_depth):
     values = image[..., 0].ravel()
     stderr = values.std(ddof=1) / math.sqrt(values.size)
     assert abs(values.mean() - expected) < 4 * stderr + 0.01 * expected, (values.mean(), expected, stderr)
+
+
+@pytest.mark.parametrize("tilt", [(1, 0), (0, 1), (-1, 0)])
+def test_normal_map_tilts_the_shading_normal(tmp_path, tilt):
+    """A uniform normal map tilting the normal 30 degrees towards +u (image right, +x), -u, or up the image (+y),
+    under a light leaning towards +x and +y: Whitted shows kd cos(angle between them), from the 8-bit texel's
+    own vector; a wrong tangent or bitangent sign would show another value."""
+    from PIL import Image
+
+    from clrender.scene.scene import Scene
+
+    theta, phi = math.radians(30), math.radians(20)
+    n = np.array([tilt[0] * math.sin(theta), tilt[1] * math.sin(theta), math.cos(theta)])
+    code = np.round((n + 1) / 2 * 255).astype(np.uint8)
+    Image.fromarray(np.broadcast_to(code, (2, 2, 3)).copy()).save(tmp_path / "n.png")
+    mapped = 2 * code.astype(float) / 255 - 1
+    mapped /= np.linalg.norm(mapped)
+    light = np.array([math.sin(phi), 0.5 * math.sin(phi), math.cos(phi)])  # towards the light
+    light /= np.linalg.norm(light)
+    scene = {
+        "width": 8,
+        "height": 8,
+        "cameras": [{"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 20}],
+        "textures": {"n": {"file": "n.png"}},
+        "materials": {"m": {"base_color": [0.5, 0.5, 0.5], "normal_texture": "n"}},
+        "lights": [{"type": "directional", "direction": (-light).tolist()}],
+        "objects": [{"type": "quad", "corner": [-1, -1, 0], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0], "material": "m"}],
+    }
+    image = clrender.Renderer(Scene.from_dict(scene, base_dir=tmp_path), aa="none").run().image
+    np.testing.assert_allclose(image, 0.5 * max(float(mapped @ light), 0.0), rtol=1e-5)
+    wrong = [-1, 1, 1] if tilt[0] else [1, -1, 1]  # the tangent (or bitangent) of the other sign
+    assert abs((mapped * wrong) @ light - mapped @ light) > 0.05
