@@ -32,6 +32,7 @@ PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, 
 # a material's texture slots (Material.textures[slot]; kernels/texture.h): colour ones hold sRGB-decoded texels,
 # data ones linear values
 TEXTURE_SLOTS = {"base_color": 0, "metallic_roughness": 1, "emissive": 2, "occlusion": 3, "normal": 4}
+ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (the path tracer; Whitted draws all opaque)
 WRAP_MODES = {"repeat": 10497, "clamp_to_edge": 33071, "mirrored_repeat": 33648}  # Texture.wrap_s/t: glTF's sampler codes
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
@@ -176,6 +177,9 @@ MATERIAL_DTYPE = np.dtype(
         ("tex_transform", "<f4", (len(TEXTURE_SLOTS), 6)),
         ("occlusion_strength", "<f4"),  # glTF occlusionTexture.strength: occlusion = 1 + s (texel.r - 1)
         ("normal_scale", "<f4"),  # glTF normalTexture.scale: the tangent-space normal's x and y are scaled by it
+        ("alpha", "<f4"),  # coverage: times the base colour texture's alpha (glTF baseColorFactor[3])
+        ("alpha_mode", "<i4"),  # ALPHA_MODES code
+        ("alpha_cutoff", "<f4"),  # mask: a point whose alpha is below this is not there
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
@@ -339,6 +343,7 @@ DEFINES = {
     **{f"TEXTURE_{name.upper()}": code for name, code in TEXTURE_SLOTS.items()},
     "TEXTURE_SLOTS": len(TEXTURE_SLOTS),
     **{f"WRAP_{name.upper()}": code for name, code in WRAP_MODES.items()},
+    **{f"ALPHA_{name.upper()}": code for name, code in ALPHA_MODES.items()},
     "SPLAT_TILE": SPLAT_TILE,
     "SPLAT_EPS": SPLAT_EPS,
     "VORONOI_STRIP": VORONOI_STRIP,

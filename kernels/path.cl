@@ -27,6 +27,10 @@
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
 #define SHADOW_T_SHRINK 0.9999f
+#ifndef ALPHA_TEST
+#define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
+#endif
+#define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -184,12 +188,43 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
+#if ALPHA_TEST
+/* Whether hit h's point is there: its material's alpha (factor times the base colour texture's alpha) at least
+ * the cutoff (MASK), or with probability alpha (BLEND: stochastic transparency, unbiased on average). */
+INLINE bool alpha_passes(const PathScene *s, Hit h, Rng *rng) {
+    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[h.id]].material];
+    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
+    float a = gm->alpha;
+    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
+        Material m = *gm;
+        a *= slot_texel(s->tex, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
+    }
+    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
+}
+#endif
+
+/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points. */
+INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, Rng *rng, uint *visits) {
+#if ALPHA_TEST
+    for (int k = 0; k < ALPHA_LAYERS; ++k) {
+        Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
+        if (h.id < 0 || alpha_passes(s, h, rng)) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
+    }
+#endif
+    return closest_hit(&s->geo, r, t_min, t_max, visits);
+}
+
 /* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */
-INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, uint *visits) {
+INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, Rng *rng, uint *visits) {
     float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
     Ray sr = make_ray(origin, wi);
     float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
+#if ALPHA_TEST
+    return seen_hit(s, sr, 0.0f, t_max, rng, visits).id < 0 ? 1.0f : 0.0f;
+#else
     return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
+#endif
 }
 
 /* An area light's parallelogram along the ray: t in (0, t_max) or INF_T. */
@@ -267,7 +302,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
     float3 fc = component_eval(c, wo, to_local(fr, wi));
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     *rays += 1;
-    return fc * radiance * (scale * mis * visible(s, f, wi, dist, visits));
+    return fc * radiance * (scale * mis * visible(s, f, wi, dist, rng, visits));
 }
 
 /* NEE to one point of one emissive triangle, chosen in proportion to its power. */
@@ -293,7 +328,7 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * emission_at(s, em->prim, su * (1.0f - u.y), su * u.y) * (mis / light_pdf * visible(s, f, wi, dist, visits));
+    return fc * emission_at(s, em->prim, su * (1.0f - u.y), su * u.y) * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
 }
 
 /* NEE to the constant environment: a cosine-weighted direction about the shading normal. */
@@ -311,7 +346,7 @@ INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
+    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, rng, visits));
 }
 
 /* Every NEE strategy at a vertex whose component is not a delta lobe. */
@@ -378,7 +413,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
     for (int depth = 0;; ++depth) {
-        Hit h = closest_hit(&s->geo, r, 0.0f, INF_T, visits);
+        Hit h = seen_hit(s, r, 0.0f, INF_T, rng, visits);
         *rays += 1;
         radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {

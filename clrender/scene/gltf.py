@@ -34,8 +34,8 @@ nothing in the file is dropped without being listed here:
   generated from the UVs) with their texCoord and
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
-  bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex.  Alpha
-  (alphaMode, alphaCutoff) is not modelled; doubleSided is ignored
+  bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex; alphaMode
+  MASK (alphaCutoff) and BLEND (stochastic) in the path tracer; doubleSided is ignored
   (every surface is shaded on both sides).  Primitives without a material get
   clrender's default grey.
 
@@ -637,6 +637,12 @@ def _material(doc: Document, index: int) -> dict:
         "ior": ior,
         "transmission": transmission,
     }
+    mode = item.get("alphaMode", "OPAQUE")
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
+        doc.fail(f"{where}.alphaMode {show(mode)}; allowed: OPAQUE, MASK, BLEND")
+    if mode != "OPAQUE":
+        cutoff = float(_numbers(doc, [item.get("alphaCutoff", 0.5)], 1, f"{where}.alphaCutoff")[0])
+        out["alpha"] = {"mode": mode.lower(), "cutoff": min(max(cutoff, 0.0), 1.0), "factor": min(max(float(factor[3]), 0.0), 1.0)}
     infos = {
         "base_color_texture": (pbr, "baseColorTexture"),
         "metallic_roughness_texture": (pbr, "metallicRoughnessTexture"),

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, MATERIAL_MODELS, TEXTURE_SLOTS
+from ..layout import ALPHA_MODES, MATERIAL_DTYPE, MATERIAL_MODELS, TEXTURE_SLOTS
 from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
 from .textures import TextureRef, read_ref
 
@@ -42,6 +42,9 @@ class Material:
     emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
     occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
     normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
+    alpha: float = 1.0  # coverage, times the base colour texture's alpha (path tracer only)
+    alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
+    alpha_cutoff: float = 0.5
 
     @property
     def base_color_or_kd(self) -> tuple:
@@ -67,6 +70,10 @@ class Material:
     @property
     def model_code(self) -> int:
         return MATERIAL_MODELS[self.model]
+
+    @property
+    def alpha_mode_code(self) -> int:
+        return ALPHA_MODES[self.alpha_mode]
 
     @property
     def occlusion_strength(self) -> float:
@@ -100,6 +107,7 @@ RECORD_NAMES = {
     "textures": "texture_indices",
     "tex_coord": "texture_coords",
     "tex_transform": "texture_transforms",
+    "alpha_mode": "alpha_mode_code",
 }
 DEFAULT_MATERIAL = Material()
 
@@ -123,6 +131,17 @@ def _refs(checks: Checks, m: dict, path: str, keys: dict) -> dict:
     return {attr: read_ref(checks, m[key], f"{path}.{key}") for key, attr in keys.items() if key in m}
 
 
+def _alpha(checks: Checks, a, path: str) -> dict:
+    """`alpha = { mode = "mask", cutoff = 0.5, factor = 1 }` as Material keyword arguments."""
+    checks.table(a, path)
+    checks.check_keys(a, path, ("mode", "cutoff", "factor"))
+    return dict(
+        alpha_mode=checks.choice(a, "mode", path, "opaque", tuple(ALPHA_MODES)),
+        alpha_cutoff=checks.number(a, "cutoff", path, 0.5, low=0.0, high=1.0),
+        alpha=checks.number(a, "factor", path, 1.0, low=0.0, high=1.0),
+    )
+
+
 def _build_material(checks: Checks, m: dict, path: str) -> Material:
     d = DEFAULT_MATERIAL
     seed, gltf = [k for k in SEED_KEYS if k in m], [k for k in GLTF_KEYS if k in m]
@@ -133,6 +152,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
         emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
         **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
+        **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
     )
     if gltf:
         slots = ("base_color", "metallic_roughness", "occlusion", "normal")
@@ -159,7 +179,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
-MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture"), _build_material)
+MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha"), _build_material)
 
 
 def read_material(checks: Checks, m, path: str) -> Material:

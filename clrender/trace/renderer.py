@@ -236,7 +236,9 @@ class Renderer:
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.kernel = dev.kernel("path.cl", "render_path", defines)
+            # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+            alpha = any(m.alpha_mode != "opaque" for m in self.scene.materials.values())
+            self.kernel = dev.kernel("path.cl", "render_path", {**defines, "ALPHA_TEST": int(alpha)})
         else:
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument

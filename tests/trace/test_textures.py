@@ -268,3 +268,54 @@ def test_normal_map_tilts_the_shading_normal(tmp_path, tilt):
     np.testing.assert_allclose(image, 0.5 * max(float(mapped @ light), 0.0), rtol=1e-5)
     wrong = [-1, 1, 1] if tilt[0] else [1, -1, 1]  # the tangent (or bitangent) of the other sign
     assert abs((mapped * wrong) @ light - mapped @ light) > 0.05
+
+
+def alpha_scene(tmp_path, alpha: dict, light):
+    """A red quad at z = 1 over x, y in [-1, 1], its texture's alpha 0 on the half x < 0 and 1 on x > 0, over a
+    white quad at z = 0 three times as wide; a nearly orthographic camera above sees x, y in [-1.5, 1.5]."""
+    from PIL import Image
+
+    from clrender.scene.scene import Scene
+
+    texels = np.full((1, 2, 4), 255, np.uint8)
+    texels[0, 0, 3] = 0
+    Image.fromarray(texels, "RGBA").save(tmp_path / "a.png")
+    scene = {
+        "width": 30,
+        "height": 30,
+        "cameras": [{"position": [0, 0, 100], "look_at": [0, 0, 0], "fov": math.degrees(2 * math.atan(1.5 / 100))}],
+        "textures": {"a": {"file": "a.png", "filter": "nearest", "wrap_s": "clamp_to_edge"}},
+        "materials": {"front": {"diffuse": [1, 0, 0], "diffuse_texture": "a", "alpha": alpha}, "back": {"diffuse": [1, 1, 1]}},
+        "lights": [{"type": "directional", "direction": light}],
+        "objects": [
+            {"type": "quad", "corner": [-1, -1, 1], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0], "material": "front"},
+            {"type": "quad", "corner": [-3, -3, 0], "edge_a": [6, 0, 0], "edge_b": [0, 6, 0], "material": "back"},
+        ],
+    }
+    return Scene.from_dict(scene, base_dir=tmp_path)
+
+
+def test_alpha_mask_is_seen_through_by_camera_and_shadow_rays(tmp_path):
+    """Light at 45 degrees from +x: the opaque half (x in (0, 1)) is red and lit (cos 45); through the cut-out half
+    the camera sees the white floor, shadowed there by the opaque half; past the red quad (x < -1) the floor's
+    shadow rays pass through the cut-out half, so it is lit."""
+    scene = alpha_scene(tmp_path, {"mode": "mask", "cutoff": 0.5}, [-1, 0, -1])
+    image = clrender.Renderer(scene, integrator="path", spp=1, max_depth=0).run().image.astype(np.float64)
+    x = ((np.arange(30) + 0.5) / 30 * 2 - 1) * 1.5
+    c = math.sqrt(0.5)
+    rows = slice(6, 24)  # y in (-0.9, 0.9): inside the red quad's rows
+    for lo, hi, colour in ((0.05, 0.95, [c, 0, 0]), (-0.95, -0.05, [0, 0, 0]), (-1.45, -1.05, [c, c, c]), (1.05, 1.45, [c, c, c])):
+        cols = (x > lo) & (x < hi)
+        assert cols.any()
+        np.testing.assert_allclose(image[rows][:, cols], np.broadcast_to(colour, image[rows][:, cols].shape), atol=2e-3)
+
+
+def test_alpha_blend_is_stochastic_coverage(tmp_path):
+    """alpha factor 0.5 times the texture's 1 on x > 0: half the paths see the red quad (lit: red), half the white
+    floor, whose shadow ray passes it with probability 0.5: the mean is 0.5 (1, 0, 0) + 0.25 (1, 1, 1)."""
+    scene = alpha_scene(tmp_path, {"mode": "blend", "factor": 0.5}, [0, 0, -1])
+    image = clrender.Renderer(scene, integrator="path", spp=64, max_depth=0, seed=5).run().image.astype(np.float64)
+    x = ((np.arange(30) + 0.5) / 30 * 2 - 1) * 1.5
+    values = image[6:24][:, (x > 0.05) & (x < 0.95)].reshape(-1, 3)
+    stderr = values.std(axis=0, ddof=1) / math.sqrt(len(values))
+    assert (np.abs(values.mean(axis=0) - [0.75, 0.25, 0.25]) < 4 * stderr + 1e-3).all(), (values.mean(axis=0), stderr)
