@@ -21,11 +21,11 @@ import numpy as np
 
 from ..errors import UsageError, shown
 from ..layout import TEXTURE_DTYPE, TEXTURE_SLOTS, WRAP_MODES
+from ..memory import TEXEL_BYTES  # a float4 on the device and the decoded host copy
 from .checks import Checks, TypeReader, show
 
 MAX_TEXTURE_SIDE = 16384  # texels along either side of one texture
 MAX_TEXTURES = 1024  # textures of one scene (distinct images times colour spaces)
-TEXEL_BYTES = 16  # float4
 FILTERS = ("linear", "nearest")  # bilinear, or the nearest texel (glTF magFilter 9729 / 9728)
 COLOUR_SLOTS = ("base_color", "emissive")  # sRGB-decoded; the other slots are data
 # Pillow's modes and how many channels they hold; palette images are expanded first
@@ -153,12 +153,27 @@ def resolve(checks: Checks, specs: dict, materials: dict) -> tuple[dict, list]:
             if key not in index_of:
                 spec = specs[ref.texture]
                 data, what = _image_source(checks, spec, f"textures.{ref.texture}")
-                pixels = decode(data, srgb=key[1], what=what, require=require)
+                held = sum(i.pixels.shape[0] * i.pixels.shape[1] for i in images) * TEXEL_BYTES  # the textures before it
+                pixels = decode(
+                    data,
+                    srgb=key[1],
+                    what=what,
+                    require=_with_held(require, held),
+                )
                 index_of[key] = len(images)
                 images.append(TextureImage(pixels, spec.wrap_s, spec.wrap_t, spec.filter == "nearest", what))
             changes[f"{slot}_texture"] = replace(ref, index=index_of[key])
         out[mname] = replace(material, **changes) if changes else material
     return out, images
+
+
+def _with_held(require, held: int):
+    """memory.require for one more texture, counting the `held` bytes of the textures decoded before it."""
+
+    def check(need: int, what: str) -> None:
+        require(held + need, what + (" and the textures before it" if held else ""))
+
+    return check
 
 
 def _image_source(checks: Checks, spec: TextureSpec, path: str):
@@ -187,7 +202,7 @@ def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
         if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
             raise UsageError(f"texture {shown(what)} is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
         if require is not None:
-            require(width * height * (TEXEL_BYTES + 4 * 4), f"texture {shown(what)} ({width} x {height})")
+            require(width * height * TEXEL_BYTES, f"texture {shown(what)} ({width} x {height})")
         if image.mode in ("P", "PA", "1"):
             image = image.convert("RGBA")
         if image.mode not in CHANNELS:
@@ -240,10 +255,6 @@ def pack(images: list) -> tuple[np.ndarray, np.ndarray]:
         offset += w * h
     texels = np.concatenate([i.pixels.reshape(-1, 4) for i in images]) if images else np.zeros((1, 4), np.float32)
     return (records if len(records) else np.zeros(1, TEXTURE_DTYPE)), np.ascontiguousarray(texels, np.float32)
-
-
-def texture_bytes(images: list) -> int:
-    return sum(i.pixels.shape[0] * i.pixels.shape[1] for i in images) * TEXEL_BYTES
 
 
 # ------------------------------------------------------------------ OBJ materials

@@ -187,3 +187,17 @@ def test_gltf_missing_and_truncated_images(capsys, tmp_path):
     png = png_bytes(np.random.default_rng(2).integers(0, 255, (32, 32, 3)))
     truncated = textured_quad(tmp_path, MATERIAL, [png[:100]], name="t.gltf")
     assert "cannot be decoded" in refused(capsys, tmp_path, str(truncated))
+
+
+def test_textures_are_counted_together_against_memory(capsys, tmp_path):
+    """Two 1024^2 textures of 32 MiB each (device texels and the host copy): the second is refused under 48 MiB."""
+    for name in ("a", "b"):
+        Image.fromarray(np.zeros((1024, 1024, 3), np.uint8)).save(tmp_path / f"{name}.png")
+    path = tmp_path / "two.toml"
+    path.write_text(
+        '[textures.a]\nfile = "a.png"\n[textures.b]\nfile = "b.png"\n'
+        '[materials.m]\nbase_color_texture = "a"\nmetallic_roughness_texture = "b"\n'
+        '[[objects]]\ntype = "quad"\ncorner = [-1, -1, -3]\nedge_a = [2, 0, 0]\nedge_b = [0, 2, 0]\nmaterial = "m"\n'
+    )
+    err = refused(capsys, tmp_path, str(path), "--max-memory", "48M")
+    assert "b.png" in err and "and the textures before it" in err and "64 MiB" in err
