@@ -319,3 +319,23 @@ def test_alpha_blend_is_stochastic_coverage(tmp_path):
     values = image[6:24][:, (x > 0.05) & (x < 0.95)].reshape(-1, 3)
     stderr = values.std(axis=0, ddof=1) / math.sqrt(len(values))
     assert (np.abs(values.mean(axis=0) - [0.75, 0.25, 0.25]) < 4 * stderr + 1e-3).all(), (values.mean(axis=0), stderr)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_occlusion_darkens_the_albedo_aov_and_the_ambient_term_only(tmp_path, integrator):
+    """occlusionTexture R = 128 (linear 0.50196), strength 0.5: occlusion 1 + 0.5 (0.50196 - 1); the albedo AOV is
+    base x occlusion; Whitted's ambient term is ambient x kd x occlusion, its light term untouched."""
+    from clrender.scene.scene import Scene
+
+    occlusion = 1 + 0.5 * (128 / 255 - 1)
+    mat = material(baseColorFactor=[0.8, 0.6, 0.4, 1])
+    mat["occlusionTexture"] = {"index": 0, "strength": 0.5}
+    path = textured_quad(tmp_path, mat, [png_bytes(np.full((2, 2, 3), 128))])
+    scene = Scene.load(str(path))
+    scene.ambient = (0.1, 0.1, 0.1)
+    kw = dict(integrator="path", spp=1, max_depth=0) if integrator == "path" else {}
+    result = clrender.Renderer(scene, width=N, height=N, aovs=("albedo",), **kw).run()
+    base = np.array([0.8, 0.6, 0.4])
+    np.testing.assert_allclose(result.aovs["albedo"], np.broadcast_to(base * occlusion, (N, N, 3)), rtol=1e-6)
+    if integrator == "whitted":  # the light shows kd (I cos = 1), the ambient 0.1 kd occlusion
+        np.testing.assert_allclose(result.image, np.broadcast_to(base * (1 + 0.1 * occlusion), (N, N, 3)), rtol=1e-5)
