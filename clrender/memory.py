@@ -7,6 +7,7 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     render, --aa edge_detect           ~275 B/pixel  (+1.08 GiB)
     render, edge_detect + all AOVs     ~340 B/pixel  (+1.32 GiB)
     dense mesh, load + BVH + trace     ~580 B/triangle (1 M triangles: +540 MiB)
+    textures                           32 B/texel (a 2048 x 2048 texture: 128 MiB), checked as each is decoded
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now or --max-memory is refused with the figure (exit 2)
@@ -27,7 +28,9 @@ RENDER_BYTES_PER_PIXEL = 176  # image, path ids, shadow, frame and device copies
 EDGE_AA_BYTES_PER_PIXEL = 144  # edge_detect adds the ID/colour comparisons, mask and resample buffers
 AOV_BYTES_PER_PIXEL = 80  # kernel AOV record (8 floats) and the EXR channels
 FILTER_BYTES_PER_PIXEL = 6 * 12  # convolution working copies of an RGB float image
-BYTES_PER_TRIANGLE = 640  # vertices, faces, normals, BVH build and device arrays
+BYTES_PER_TRIANGLE = 780  # vertices, faces, normals, BVH build and device arrays; 140 of it the texture coordinates,
+# vertex colours and tangents every triangle carries (layout.VertexAttributes, 132 bytes, and their host copies)
+TEXEL_BYTES = 16 + 16  # a texture's float4 texel on the device and its decoded host copy (scene/textures.py)
 BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 

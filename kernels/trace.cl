@@ -14,7 +14,9 @@
  * (aov_out is unused otherwise). */
 __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                      __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                     __global const Material *materials, __global const Light *lights, __global const Camera *camera,
+                     __global const Material *materials, __global const VertexAttributes *attributes,
+                     __global const Texture *textures, __global const float4 *texels,
+                     __global const Light *lights, __global const Camera *camera,
                      __global const int *pixels, RenderParams params, EnvMap env_map, __global const float4 *env_texels,
                      __global float4 *colour_out, __global IdRecord *ids_out, __global float *shadow_out,
                      __global uint2 *stats_out, __global AovRecord *aov_out) {
@@ -22,7 +24,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     if (gid >= params.n_work) return;
     SceneView sc;
     sc.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
-    sc.normals = normals; sc.lights = lights;
+    sc.normals = normals; sc.lights = lights; sc.tex = texture_view(attributes, textures, texels);
     sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
     sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);

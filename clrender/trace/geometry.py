@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE
 from ..scene.scene import Mesh, Scene, Sphere
 
 
@@ -18,11 +18,13 @@ from ..scene.scene import Mesh, Scene, Sphere
 class Primitives:
     triangles: np.ndarray  # (T, 3, 3) float64 vertices
     triangle_normals: np.ndarray  # (T, 3, 3) float32 vertex normals (zeros when flat)
+    triangle_attributes: np.ndarray  # (T,) layout.VERTEX_ATTRIBUTES_DTYPE: uvs and vertex colours at the vertices
     spheres: np.ndarray  # (S, 4) float64 centre and radius
     object_of: np.ndarray  # (T + S,) int32 object id per primitive id
     objects: np.ndarray  # (O,) layout.OBJECT_DTYPE records: material index and smooth flag
     materials: np.ndarray  # (M,) layout.MATERIAL_DTYPE records
     material_names: list
+    textures: list = None  # the scene's decoded textures (scene/textures.py), which the materials index
 
     @property
     def count(self) -> int:
@@ -43,7 +45,7 @@ def flatten(scene: Scene) -> Primitives:
     index = {n: i for i, n in enumerate(names)}
     materials = np.array([scene.materials[n].pack() for n in names], MATERIAL_DTYPE)
     objects = np.zeros(max(len(scene.objects), 1), OBJECT_DTYPE)
-    tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
+    tris, tri_normals, tri_attrs, tri_obj, spheres, sphere_obj = [], [], [], [], [], []
     for oid, obj in enumerate(scene.objects):
         objects[oid]["material"] = index[obj.material]
         if isinstance(obj, Sphere):
@@ -57,11 +59,49 @@ def flatten(scene: Scene) -> Primitives:
             tri_normals.append(obj.vertex_normals[obj.faces].astype(np.float32))
         else:
             tri_normals.append(np.zeros((len(obj.faces), 3, 3), np.float32))
+        tri_attrs.append(_attributes(obj))
+        objects[oid]["vertex_colours"] = int(obj.colours is not None)
         tri_obj.append(np.full(len(obj.faces), oid, np.int32))
     triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
     normals = np.concatenate(tri_normals) if tri_normals else np.zeros((0, 3, 3), np.float32)
+    attrs = np.concatenate(tri_attrs) if tri_attrs else np.zeros(0, VERTEX_ATTRIBUTES_DTYPE)
     object_of = np.concatenate([*tri_obj, np.asarray(sphere_obj, np.int32)]).astype(np.int32)
-    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects, materials, names)
+    spheres = np.asarray(spheres, np.float64).reshape(-1, 4)
+    return Primitives(triangles, normals, attrs, spheres, object_of, objects, materials, names, list(getattr(scene, "textures", [])))
+
+
+def _attributes(mesh: Mesh) -> np.ndarray:
+    """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without)."""
+    out = np.zeros(len(mesh.faces), VERTEX_ATTRIBUTES_DTYPE)
+    out["colour"] = 1.0
+    for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours), ("tangent", mesh.tangents)):
+        if values is not None:
+            out[name] = np.asarray(values)[mesh.faces]
+    if mesh.tangents is None and mesh.uvs is not None:
+        out["tangent"] = face_tangents(mesh.vertices[mesh.faces], np.asarray(mesh.uvs)[mesh.faces])[:, None, :]
+    return out
+
+
+def face_tangents(tri: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(F, 4) per-triangle tangents from the UV derivatives (MikkTSpace's per-face step, without its welding):
+    xyz the unit direction of increasing u, w = +-1 so that w n x t points towards decreasing v (up the image,
+    glTF's convention for the green channel), n the face normal; zeros where the UVs are degenerate."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    du1, dv1 = uv[:, 1, 0] - uv[:, 0, 0], uv[:, 1, 1] - uv[:, 0, 1]
+    du2, dv2 = uv[:, 2, 0] - uv[:, 0, 0], uv[:, 2, 1] - uv[:, 0, 1]
+    det = du1 * dv2 - du2 * dv1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(det != 0, 1.0 / det, 0.0)[:, None]
+        t = (e1 * dv2[:, None] - e2 * dv1[:, None]) * r  # d position / d u
+        b = (e2 * du1[:, None] - e1 * du2[:, None]) * r  # d position / d v: down the image
+        length = np.linalg.norm(t, axis=1, keepdims=True)
+        t = np.where(length > 0, t / np.maximum(length, 1e-300), 0.0)
+    n = np.cross(e1, e2)
+    w = np.where(np.einsum("ij,ij->i", np.cross(n, t), -b) < 0, -1.0, 1.0)
+    out = np.zeros((len(tri), 4))
+    out[:, :3], out[:, 3] = t, np.where(np.isfinite(t).all(axis=1) & (length[:, 0] > 0), w, 0.0)
+    out[~np.isfinite(out).all(axis=1)] = 0.0
+    return out
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:

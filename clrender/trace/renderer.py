@@ -255,7 +255,9 @@ class Renderer:
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.kernel = dev.kernel("path.cl", "render_path", defines)
+            # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+            alpha = any(m.alpha_mode != "opaque" for m in self.scene.materials.values())
+            self.kernel = dev.kernel("path.cl", "render_path", {**defines, "ALPHA_TEST": int(alpha)})
         else:
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
@@ -295,6 +297,7 @@ class Renderer:
             out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
             cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
         geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
+        geometry.update(attributes=t.attributes, textures=t.textures, texels=t.texels)
         scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
         if self.settings.integrator == "path":
             from .path import path_params

@@ -30,8 +30,9 @@ import pyopencl as cl
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
 from ..launch import Kernel
-from ..layout import BVH_NODE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE
+from ..layout import BVH_NODE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
+from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
 from .knobs import DEFAULT_KNOBS, TraceKnobs
@@ -205,6 +206,12 @@ class Tracer:
         normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)
         normals["normal"][: len(self.primitives.triangles)] = self.primitives.triangle_normals
         self.normals = dev.to_device(normals)
+        attributes = np.zeros(max(n, 1), VERTEX_ATTRIBUTES_DTYPE)
+        attributes["colour"] = 1.0
+        attributes[: len(self.primitives.triangles)] = self.primitives.triangle_attributes
+        self.attributes = dev.to_device(attributes)
+        records, texels = pack_textures(self.primitives.textures or [])
+        self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
 
