@@ -434,22 +434,26 @@ INLINE Frame component_frame(Component c, const Surface *f) {
     return make_frame(dielectric && !f->front ? -f->n_shade : f->n_shade);
 }
 
-/* The first hit's AOV record and object id (the `id` and `edges` AOVs). */
-INLINE void record_first_hit(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h,
-                             __global AovRecord *aov, __global IdRecord *id) {
-    if (id) id->path[0] = h.id >= 0 ? s->geo.prim_object[h.id] : -1; /* the rest stays -1: one id per pixel */
-#if WRITE_AOV
-    if (aov && h.id >= 0) {
-        vstore3(f->n_shade, 0, aov->normal);
-        aov->depth = h.t;
-        vstore3((m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion, 0, aov->albedo);
-    }
-#endif
+/* What a path's first hit tells the AOVs: the unit shading normal, the distance, the albedo (the base colour or
+ * kd, times glTF's occlusion) and the object; zeros and -1 on a miss. */
+typedef struct {
+    float3 normal, albedo;
+    float depth;
+    int object;
+} FirstHit;
+
+INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h) {
+    FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
+    if (h.id < 0) return fh;
+    fh.object = s->geo.prim_object[h.id];
+    fh.normal = f->n_shade;
+    fh.depth = h.t;
+    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion;
+    return fh;
 }
 
-/* Radiance along one camera ray. */
-INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRecord *aov, __global IdRecord *id, uint *visits,
-                            uint *rays) {
+/* Radiance along one camera ray; *first gets its first hit. */
+INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first, uint *visits, uint *rays) {
     float3 radiance = (float3)(0.0f), beta = (float3)(1.0f), prev_n = (float3)(0.0f);
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
@@ -461,14 +465,14 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
             float mis;
             float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
             radiance += beta * le * mis;
-            if (depth == 0) record_first_hit(s, 0, 0, 1.0f, h, aov, id);
+            if (depth == 0) *first = first_hit_of(s, 0, 0, 1.0f, h);
             break;
         }
         Surface f = surface_at(s, r, h);
         float occlusion;
         Material m = material_at(s, &f, h, &occlusion);
         if (m.textures[TEXTURE_NORMAL] >= 0) f.n_shade = normal_mapped(s->tex, &m, h.id, h.u, h.v, f.n_shade, f.front, r.d);
-        if (depth == 0) record_first_hit(s, &f, &m, occlusion, h, aov, id);
+        if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
         radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
         Component c = pick_component(&m, rng_next(rng));
@@ -495,6 +499,19 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
     return radiance;
 }
 
+/* A pixel's AOVs: the object id and depth of its first path, and the normal and albedo as the colour is, the
+ * filtered mean over its paths (a denoiser wants them filtered like the beauty; Mitsuba's film does the same). */
+INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global AovRecord *aov, __global IdRecord *id) {
+    id->path[0] = first.object; /* the rest stays -1: one id per pixel */
+#if WRITE_AOV
+    if (first.object >= 0 || max3(abs3(normal)) > 0.0f) { /* a miss in every path keeps the cleared record */
+        vstore3(normal, 0, aov->normal);
+        aov->depth = first.depth;
+        vstore3(albedo, 0, aov->albedo);
+    }
+#endif
+}
+
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
@@ -518,9 +535,10 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
     uint n = (uint)params.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
-    float3 sum = (float3)(0.0f);
+    float3 sum = (float3)(0.0f), normal_sum = (float3)(0.0f), albedo_sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
+    FirstHit first;
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
         Rng rng = make_rng(params.seed, (uint)pixel, sample);
@@ -529,11 +547,15 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
         float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
         Ray r = camera_ray(camera, sx, sy, &rng);
-        bool first = s_i == 0 && params.record;
         float weight = pixel_filter_weight(params.pixel_filter, off);
-        sum += weight * path_radiance(&s, r, &rng, first ? aov_out + gid : 0, first ? ids_out + gid : 0, &visits, &rays);
+        FirstHit fh;
+        sum += weight * path_radiance(&s, r, &rng, &fh, &visits, &rays);
         weight_sum += weight;
+        normal_sum += weight * fh.normal;
+        albedo_sum += weight * fh.albedo;
+        if (s_i == 0) first = fh;
     }
     colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
+    if (params.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
     stats_out[gid] = (uint2)(visits, rays);
 }

@@ -6,9 +6,10 @@ normal (which keep edges and textures that a blur would smear) and gives the sam
 same input on the same machine.  It is an optional dependency (setup.cfg extra `denoise`):
 `require_oidn()` refuses `--denoise` with the install hint before anything is rendered.
 
-The auxiliary images are the path tracer's `albedo` and `normal` AOVs (clrender/trace/aov.py): one
-ray per pixel, so aliased at silhouettes; OIDN is told they are not clean (`clean_aux=False`) and
-prefilters them itself.  The beauty is HDR (radiance above 1 is kept), so `hdr=True`.
+The auxiliary images are the path tracer's `albedo` and `normal` AOVs (clrender/trace/aov.py): the
+filtered mean of every path's first hit, as the beauty is, so free of Monte Carlo noise: OIDN is told
+they are clean (`clean_aux=True`; measured in docs/display.md: it lowers the error, and with one-ray
+AOVs it raised it).  The beauty is HDR (radiance above 1 is kept), so `hdr=True`.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ def denoise(image: np.ndarray, albedo=None, normal=None, settings: DenoiseSettin
         if aux is not None and np.shape(aux) != color.shape:
             raise UsageError(f"{name} image has shape {np.shape(aux)}; the image to denoise is {color.shape}")
     try:
-        out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=False, quality=s.quality)
+        out = pyoidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=s.quality)
     except RuntimeError as exc:
         raise RenderFailure(f"Open Image Denoise failed: {exc}") from None
     return np.asarray(out, np.float32)

@@ -81,7 +81,7 @@ def test_the_albedo_and_normal_aovs_are_passed_to_oidn(monkeypatch):
 
     monkeypatch.setattr(pyoidn, "denoise", spy)
     denoise_module.denoise_result(result)
-    assert seen["hdr"] is True and seen["clean_aux"] is False
+    assert seen["hdr"] is True and seen["clean_aux"] is True
     for name in ("color", "albedo", "normal"):
         image = seen[name]
         assert image.shape == (16, 24, 3) and image.dtype == np.float32 and image.flags.c_contiguous, name
@@ -89,7 +89,8 @@ def test_the_albedo_and_normal_aovs_are_passed_to_oidn(monkeypatch):
     assert np.array_equal(seen["albedo"], np.clip(result.aovs["albedo"], 0, 1))
     hit = np.linalg.norm(seen["normal"], axis=-1) > 0
     assert hit.mean() > 0.5  # the floor and the spheres fill most of the view
-    np.testing.assert_allclose(np.linalg.norm(seen["normal"][hit], axis=-1), 1.0, atol=1e-4)
+    length = np.linalg.norm(seen["normal"][hit], axis=-1)  # the mean of a pixel's unit normals: shorter where they spread
+    assert (length <= 1 + 1e-4).all() and np.median(length) > 0.999
     with pytest.raises(ValueError, match="albedo"):
         denoise_module.denoise_result(Renderer("refract1", integrator="path", spp=1, width=8, height=8).run())
 
