@@ -35,12 +35,9 @@ from ..scene.scene import Mesh, Scene
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
 from .knobs import DEFAULT_KNOBS, TraceKnobs
+from .work_layout import WorkLayout, work_layout
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
-# A fixed work-group size: PoCL builds a work-group function per local size, so
-# letting it choose (with a global size that changes per call) recompiles.
-LOCAL_SIZE = 64
-RAYS_PER_ITEM = 8  # intersect_rays / occluded_rays take a packet's worth of rays per work-item (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
@@ -101,9 +98,9 @@ def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return v.astype(np.float64), f.astype(np.int64)
 
 
-def global_size(n: int) -> tuple:
+def global_size(n: int, local_size: int) -> tuple:
     """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
-    return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
+    return (max(-(-n // local_size), 1) * local_size,)
 
 
 def trace_defines(
@@ -114,6 +111,7 @@ def trace_defines(
     shadow_shafts: bool = True,
     ray_packets: bool = True,
     knobs: TraceKnobs = DEFAULT_KNOBS,
+    rays_per_item: int = 8,
 ) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
@@ -124,7 +122,7 @@ def trace_defines(
         "BVH_WIDTH": bvh_width,
         "WIDE_STACK_SIZE": knobs.wide_stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
-        "RAYS_PER_ITEM": RAYS_PER_ITEM,
+        "RAYS_PER_ITEM": rays_per_item,  # query rays per work-item: the device's WorkLayout
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
         "SHAFT_CANDIDATES": knobs.shaft_candidates,
@@ -169,6 +167,8 @@ class Tracer:
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
+        # rays per work-item and work-group size, from what the device reports (work_layout.py)
+        self.layout: WorkLayout = work_layout(self.device.device)
         self.use_bvh = bool(use_bvh)
         self.builder = builder
         self.primitives: Primitives = flatten(self.scene)
@@ -217,6 +217,7 @@ class Tracer:
             shadow_shafts=self.shadow_shafts,
             ray_packets=self.ray_packets,
             knobs=self.knobs,
+            rays_per_item=self.layout.rays_per_item,
         )
 
     def kernel(self, name: str) -> Kernel:
@@ -271,12 +272,13 @@ class Tracer:
         return self.device.to_device(np.array(per_ray).reshape(-1))
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's
-        geometry, as every ray kernel takes it."""
+        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
+        scene's geometry, as every ray kernel takes it."""
+        layout = self.layout
         return self.kernel(name)(
             self.device.queue,
-            global_size(-(-n // RAYS_PER_ITEM)),
-            (LOCAL_SIZE,),
+            global_size(-(-n // layout.rays_per_item), layout.local_size),
+            (layout.local_size,),
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,
