@@ -95,7 +95,7 @@ def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         if not 0 <= bad < len(v):
             allowed = f"0 to {len(v) - 1} (the {len(v)} vertices)" if len(v) else "none (there are no vertices)"
             raise UsageError(f"face index {int(bad)} is not a vertex; allowed: {allowed}")
-    return v.astype(np.float64), f.astype(np.int64)
+    return v.astype(np.float64, copy=False), f.astype(np.int64, copy=False)  # the caller's arrays when they are already so
 
 
 def global_size(n: int, local_size: int) -> tuple:
@@ -176,6 +176,10 @@ class Tracer:
         self.bvh = None
         self.bvh_seconds = 0.0
         self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
+        dev = self.device
+        # Peak memory (docs/bvh.md, "Memory"): every host array is dropped once its device copy is made,
+        # the primitives' float64 vertices are gathered a chunk at a time (geometry.py), and vertex
+        # normals are stored only when some mesh is smooth.
         if use_bvh and n > 0:
             from .bvh import build_bvh
 
@@ -184,8 +188,8 @@ class Tracer:
             self.bvh = build_bvh(
                 lo, hi, builder=builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
             )
-            order = np.asarray(self.bvh.prim_order, np.int64)
-            slots = pack_slots(self.primitives, order)
+            del lo, hi
+            slots = pack_slots(self.primitives, np.asarray(self.bvh.prim_order, np.int64))
             if self.bvh_width == 2:
                 nodes = self.bvh.nodes  # BvhNode records
             else:
@@ -197,14 +201,17 @@ class Tracer:
         else:
             slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
             nodes = np.zeros(1, BVH_NODE_DTYPE)  # never read: no tree, or no primitives
-        dev = self.device
         self.n_prims = n
-        self.nodes = dev.to_device(nodes)
-        self.prims = dev.to_device(slots)
+        self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
+        self.nodes = dev.adopt(nodes)
+        self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
+        del slots, nodes
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)
-        normals["normal"][: len(self.primitives.triangles)] = self.primitives.triangle_normals
+        # the kernels read a primitive's vertex normals only when its object is smooth
+        normals = np.zeros(max(n, 1) if self.primitives.any_smooth else 1, VERTEX_NORMALS_DTYPE)
+        self.primitives.triangle_normals_into(normals["normal"])
         self.normals = dev.to_device(normals)
+        del normals
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
 
