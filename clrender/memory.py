@@ -6,7 +6,8 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     render, --aa none or full          ~150 B/pixel  (2048 x 2048: +603 MiB)
     render, --aa edge_detect           ~275 B/pixel  (+1.08 GiB)
     render, edge_detect + all AOVs     ~340 B/pixel  (+1.32 GiB)
-    dense mesh, load + BVH + trace     ~580 B/triangle (1 M triangles: +540 MiB)
+    dense mesh, load + BVH + trace     ~360 B/triangle (1 M smooth triangles: 454 MB peak for a 64 x 64 render;
+                                       ~670 B before the Tracer dropped its host copies, 2026-11-24)
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now or --max-memory is refused with the figure (exit 2)
@@ -27,7 +28,7 @@ RENDER_BYTES_PER_PIXEL = 176  # image, path ids, shadow, frame and device copies
 EDGE_AA_BYTES_PER_PIXEL = 144  # edge_detect adds the ID/colour comparisons, mask and resample buffers
 AOV_BYTES_PER_PIXEL = 80  # kernel AOV record (8 floats) and the EXR channels
 FILTER_BYTES_PER_PIXEL = 6 * 12  # convolution working copies of an RGB float image
-BYTES_PER_TRIANGLE = 640  # vertices, faces, normals, BVH build and device arrays
+BYTES_PER_TRIANGLE = 420  # the mesh and its vertex normals, the BVH build, the device arrays (docs/bvh.md, "Memory")
 BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 
