@@ -106,13 +106,13 @@ def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
     out = aligned_zeros(len(order), PRIM_SLOT_DTYPE)  # a CPU device's buffer as it is (Device.adopt)
     is_tri = order < n_tri
     for a in range(0, len(order), CHUNK):  # float64 vertices a chunk at a time
-        rows = slice(a, a + CHUNK)
-        tri = is_tri[rows]
-        t = prims.triangles_at(order[rows][tri])
+        chunk, tri = out[a : a + CHUNK], is_tri[a : a + CHUNK]
+        t = prims.triangles_at(order[a : a + CHUNK][tri])
+        chunk["v0"][tri] = t[:, 0]
         # the vertices themselves, not edges: a vertex two triangles share must round to the same
         # float32 in both for the watertight test (v0 + (v1 - v0) in float32 is not v1)
-        for k, name in enumerate(("v0", "v1", "v2")):
-            out[name][rows][tri] = t[:, k]
+        chunk["v1"][tri] = t[:, 1]
+        chunk["v2"][tri] = t[:, 2]
     spheres = out.view(SPHERE_SLOT_DTYPE)
     s = prims.spheres[order[~is_tri] - n_tri]
     spheres["centre"][~is_tri] = s[:, :3]

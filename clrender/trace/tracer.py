@@ -177,9 +177,9 @@ class Tracer:
         self.bvh_seconds = 0.0
         self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
         dev = self.device
-        # Peak memory (docs/bvh.md, "Memory"): every host array is dropped once its device copy is made,
-        # the primitives' float64 vertices are gathered a chunk at a time (geometry.py), and vertex
-        # normals are stored only when some mesh is smooth.
+        # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
+        # is itself the buffer (Device.adopt); the primitives' float64 vertices are gathered a chunk at
+        # a time (geometry.py); vertex normals are stored only when some mesh is smooth.
         if use_bvh and n > 0:
             from .bvh import build_bvh
 

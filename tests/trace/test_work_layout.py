@@ -13,7 +13,12 @@ from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 from clrender.trace.work_layout import ENV, GPU, POCL, SCALAR_CPU, WorkLayout, choose, parse, work_layout
 
-from .test_ray_packets import assert_same_hits
+
+def assert_same_hits(a, b, what):
+    """Bit for bit: t's float32 bits, primitive ids and object ids."""
+    for name, x, y in zip(("t", "primitive", "object"), a, b):
+        np.testing.assert_array_equal(np.asarray(x).view(np.uint32), np.asarray(y).view(np.uint32), err_msg=f"{what}: {name}")
+
 
 LAYOUTS = [WorkLayout(8, 64), WorkLayout(8, 8), WorkLayout(8, 1), WorkLayout(1, 64), WorkLayout(1, 1)]
 CPU, GPU_TYPE = 2, 4  # cl.device_type bits
