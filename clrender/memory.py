@@ -7,7 +7,8 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     render, --aa edge_detect           ~275 B/pixel  (+1.08 GiB)
     render, edge_detect + all AOVs     ~340 B/pixel  (+1.32 GiB)
     dense mesh, load + BVH + trace     ~360 B/triangle (1 M smooth triangles: 454 MB peak for a 64 x 64 render;
-                                       ~670 B before the Tracer dropped its host copies, 2026-11-24)
+                                       a flat 1 M-triangle PLY: 477 MB; before the Tracer dropped its host
+                                       copies, 2026-11-24: ~670 B, and 1.16 GB for the PLY)
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now or --max-memory is refused with the figure (exit 2)
