@@ -399,6 +399,7 @@ def _render(args):
             aovs=len(settings.aovs),
             filters=len(args.filter),
             extra_images=(edges_out is not None) + 2 * args.denoise,  # denoise: its output and the noisy copy
+            attributes=scene.has_vertex_attributes,
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )

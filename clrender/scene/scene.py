@@ -177,6 +177,12 @@ class Scene:
         return sum(len(o.faces) for o in self.objects if isinstance(o, Mesh))
 
     @property
+    def has_vertex_attributes(self) -> bool:
+        """Whether the device gets every triangle's uvs, vertex colours and tangents (geometry.Primitives.any_attributes)."""
+        has = lambda m: any(getattr(m, k) is not None for k in ("uvs", "uvs1", "colours", "tangents"))
+        return bool(self.textures) or any(has(o) for o in self.objects if isinstance(o, Mesh))
+
+    @property
     def sphere_count(self) -> int:
         return sum(isinstance(o, Sphere) for o in self.objects)
 

@@ -24,7 +24,7 @@ from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, REN
 from ..progress import progress
 from ..scene.scene import Scene
 from .aov import AOV_NAMES
-from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
+from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
 INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
@@ -309,7 +309,8 @@ class Renderer:
             params = self.params.copy()
             params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
             extra = dict(params=params, shadow_out=shadow, env_map=self.env["env_map"], env_texels=self.env["env_texels"])
-        self.kernel(dev.queue, global_size(k), (LOCAL_SIZE,), **geometry, **scene, **extra, **out)
+        local = t.layout.local_size
+        self.kernel(dev.queue, global_size(k, local), (local,), **geometry, **scene, **extra, **out)
         host = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):
             cl.enqueue_copy(dev.queue, array, buf)

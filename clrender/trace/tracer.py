@@ -36,12 +36,9 @@ from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
 from .knobs import DEFAULT_KNOBS, TraceKnobs
+from .work_layout import WorkLayout, work_layout
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
-# A fixed work-group size: PoCL builds a work-group function per local size, so
-# letting it choose (with a global size that changes per call) recompiles.
-LOCAL_SIZE = 64
-RAYS_PER_ITEM = 8  # intersect_rays / occluded_rays take a packet's worth of rays per work-item (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
@@ -99,12 +96,12 @@ def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         if not 0 <= bad < len(v):
             allowed = f"0 to {len(v) - 1} (the {len(v)} vertices)" if len(v) else "none (there are no vertices)"
             raise UsageError(f"face index {int(bad)} is not a vertex; allowed: {allowed}")
-    return v.astype(np.float64), f.astype(np.int64)
+    return v.astype(np.float64, copy=False), f.astype(np.int64, copy=False)  # the caller's arrays when they are already so
 
 
-def global_size(n: int) -> tuple:
+def global_size(n: int, local_size: int) -> tuple:
     """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
-    return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
+    return (max(-(-n // local_size), 1) * local_size,)
 
 
 def trace_defines(
@@ -115,6 +112,7 @@ def trace_defines(
     shadow_shafts: bool = True,
     ray_packets: bool = True,
     knobs: TraceKnobs = DEFAULT_KNOBS,
+    rays_per_item: int = 8,
 ) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
@@ -125,7 +123,7 @@ def trace_defines(
         "BVH_WIDTH": bvh_width,
         "WIDE_STACK_SIZE": knobs.wide_stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
-        "RAYS_PER_ITEM": RAYS_PER_ITEM,
+        "RAYS_PER_ITEM": rays_per_item,  # query rays per work-item: the device's WorkLayout
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
         "SHAFT_CANDIDATES": knobs.shaft_candidates,
@@ -170,6 +168,8 @@ class Tracer:
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
+        # rays per work-item and work-group size, from what the device reports (work_layout.py)
+        self.layout: WorkLayout = work_layout(self.device.device)
         self.use_bvh = bool(use_bvh)
         self.builder = builder
         self.primitives: Primitives = flatten(self.scene)
@@ -177,6 +177,10 @@ class Tracer:
         self.bvh = None
         self.bvh_seconds = 0.0
         self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
+        dev = self.device
+        # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
+        # is itself the buffer (Device.adopt); the primitives' float64 vertices are gathered a chunk at
+        # a time (geometry.py); vertex normals are stored only when some mesh is smooth.
         if use_bvh and n > 0:
             from .bvh import build_bvh
 
@@ -185,8 +189,8 @@ class Tracer:
             self.bvh = build_bvh(
                 lo, hi, builder=builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
             )
-            order = np.asarray(self.bvh.prim_order, np.int64)
-            slots = pack_slots(self.primitives, order)
+            del lo, hi
+            slots = pack_slots(self.primitives, np.asarray(self.bvh.prim_order, np.int64))
             if self.bvh_width == 2:
                 nodes = self.bvh.nodes  # BvhNode records
             else:
@@ -198,18 +202,24 @@ class Tracer:
         else:
             slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
             nodes = np.zeros(1, BVH_NODE_DTYPE)  # never read: no tree, or no primitives
-        dev = self.device
         self.n_prims = n
-        self.nodes = dev.to_device(nodes)
-        self.prims = dev.to_device(slots)
+        self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
+        self.nodes = dev.adopt(nodes)
+        self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
+        del slots, nodes
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)
-        normals["normal"][: len(self.primitives.triangles)] = self.primitives.triangle_normals
+        # the kernels read a primitive's vertex normals only when its object is smooth
+        normals = np.zeros(max(n, 1) if self.primitives.any_smooth else 1, VERTEX_NORMALS_DTYPE)
+        self.primitives.triangle_normals_into(normals["normal"])
         self.normals = dev.to_device(normals)
-        attributes = np.zeros(max(n, 1), VERTEX_ATTRIBUTES_DTYPE)
+        del normals
+        # the kernels read VertexAttributes only for textured materials and vertex colours: else one record
+        attributes = np.zeros(max(n, 1) if self.primitives.any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
         attributes["colour"] = 1.0
-        attributes[: len(self.primitives.triangles)] = self.primitives.triangle_attributes
+        if self.primitives.any_attributes:
+            self.primitives.triangle_attributes_into(attributes)
         self.attributes = dev.to_device(attributes)
+        del attributes
         records, texels = pack_textures(self.primitives.textures or [])
         self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
         self.objects = dev.to_device(self.primitives.objects)
@@ -224,6 +234,7 @@ class Tracer:
             shadow_shafts=self.shadow_shafts,
             ray_packets=self.ray_packets,
             knobs=self.knobs,
+            rays_per_item=self.layout.rays_per_item,
         )
 
     def kernel(self, name: str) -> Kernel:
@@ -278,12 +289,13 @@ class Tracer:
         return self.device.to_device(np.array(per_ray).reshape(-1))
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's
-        geometry, as every ray kernel takes it."""
+        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
+        scene's geometry, as every ray kernel takes it."""
+        layout = self.layout
         return self.kernel(name)(
             self.device.queue,
-            global_size(-(-n // RAYS_PER_ITEM)),
-            (LOCAL_SIZE,),
+            global_size(-(-n // layout.rays_per_item), layout.local_size),
+            (layout.local_size,),
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,
