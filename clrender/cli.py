@@ -175,21 +175,27 @@ def _global_options_first(argv: list) -> list:
 def _run(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    import numpy  # noqa: F401 - loaded now, so that threadpool_limits finds its BLAS
+    from threadpoolctl import threadpool_limits
+
     from . import memory
 
+    # --max-memory and -q/-v hold for this command only: a program (or a test) that runs several commands
+    # and then the library in one process keeps its own settings
+    before = memory.MAX_MEMORY, progress.SHOW
     memory.MAX_MEMORY = args.max_memory
     if args.quiet:
         progress.SHOW = False
     elif args.verbose:
         progress.SHOW = True
     _show_library_notes(quiet=args.quiet)
-    import numpy  # noqa: F401 - loaded now, so that threadpool_limits finds its BLAS
-    from threadpoolctl import threadpool_limits
-
     # numpy's OpenBLAS threads spin-wait after a matrix product and steal the cores PoCL runs the
     # kernels on; the host work never needs them.  Scoped to the command, not the environment.
-    with threadpool_limits(limits=1, user_api="blas"):
-        return int(args.run(args) or 0)
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return int(args.run(args) or 0)
+    finally:
+        memory.MAX_MEMORY, progress.SHOW = before
 
 
 class _StderrHandler(logging.StreamHandler):

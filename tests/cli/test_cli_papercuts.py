@@ -145,3 +145,13 @@ def test_a_render_is_refused_by_the_cgroup_limit(capsys, tmp_path, monkeypatch):
     (code, stdout, err), out = render_small(capsys, tmp_path)
     assert code == 2 and not out.exists()
     assert err.startswith("clrender: ") and "only 200 MiB is available" in err
+
+
+def test_max_memory_and_quiet_hold_for_one_command_only(capsys):
+    """A command's --max-memory and -q do not stay behind for the library or the next command in the same process."""
+    from clrender import progress
+
+    before = memory.MAX_MEMORY, progress.SHOW
+    code, _, err = run_cli(capsys, "-q", "--max-memory", "1K", "render", "refract1", "--width", "8", "--height", "8", "-o", "never.png")
+    assert code == 2 and "--max-memory" in err
+    assert (memory.MAX_MEMORY, progress.SHOW) == before
