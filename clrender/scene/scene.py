@@ -77,6 +77,11 @@ class Mesh:
     material: str = "default"
     smooth: bool = False  # interpolate vertex normals (True) or use each face's normal
     source: str = ""  # file or generator it came from, for messages
+    # Instancing (clrender/trace/instancing.py): objects with the same shape_key were made from the same
+    # object-space mesh (`local_vertices`, shared, not copied; `faces`) placed by `to_world` (4x4).
+    shape_key: tuple | None = None  # None: not shareable (inline vertices)
+    local_vertices: np.ndarray | None = None  # (V, 3) float64 before to_world
+    to_world: np.ndarray | None = None  # (4, 4) object-to-world matrix: vertices = local_vertices @ M[:3, :3].T + M[:3, 3]
 
 
 @dataclass
@@ -395,7 +400,11 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     material = material_ref(checks, o, path, materials)
     if not build:
         return None
-    if gltf_node is not None:  # one node's mesh of a glTF file, in its world space
+    key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
+    cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
+    if key is not None and key in cache:
+        tm, source = cache[key]
+    elif gltf_node is not None:  # one node's mesh of a glTF file, in its world space
         tm = gltf.node_mesh(file, *gltf_node, root=checks.root)
         source = f"{o['file']} node {gltf_node[0]}"
     elif "file" in o:
@@ -408,6 +417,8 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
 
         tm = getattr(meshes, gen)(**params)
         source = gen
+    if key is not None:
+        cache[key] = (tm, source)
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
     matrix = transform_matrix(translate, rotate, scale)
@@ -421,10 +432,25 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Given normals: a generator's, or a glTF node's from its file (trimesh drops a file's
         # own); shading_normals computes the rest, welded across patches, and replaces zero/NaN ones.
         given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)  # inline: None
+        local = cache.get(("normals", key)) if key is not None else None
+        if local is None:
+            local = shading_normals(tm.vertices, tm.faces, given)
+            if key is not None:
+                cache[("normals", key)] = local
         # Normals transform by the inverse transpose; renormalise afterwards.
-        n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
+        n = local @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source)
+    local_vertices = np.asarray(tm.vertices, np.float64)
+    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, key, local_vertices, matrix)
+
+
+def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
+    """What an object's object-space mesh is made from: equal keys, equal meshes (None: inline vertices)."""
+    if file is not None:
+        return ("file", str(Path(file).resolve()), gltf_node)
+    if gen is not None:
+        return ("generator", gen, repr(sorted(params.items())))
+    return None
 
 
 @dataclass
