@@ -10,6 +10,7 @@ import trimesh
 from clrender.scene.scene import Scene
 from clrender.trace.instancing import find_instances, inverse_affine
 from clrender.trace.tracer import Tracer
+
 from tests.reference.whitted import moller_trumbore
 
 # t of one hit found two ways in float32: the flat scene's world vertices are rounded once, the
