@@ -402,6 +402,12 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         return None
     key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
     cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
+    placed = None  # a glTF node: (mesh index, the mesh's own vertices, the node's world matrix)
+    if gltf_node is not None:  # nodes sharing a mesh share its vertices; each node's world ones are read as before
+        shape = cache.get(("gltf node", key))
+        if shape is None:
+            shape = cache[("gltf node", key)] = gltf.node_shape(file, *gltf_node, root=checks.root)
+        placed = shape
     if key is not None and key in cache:
         tm, source = cache[key]
     elif gltf_node is not None:  # one node's mesh of a glTF file, in its world space
@@ -440,8 +446,12 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = local @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    local_vertices = np.asarray(tm.vertices, np.float64)
-    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, key, local_vertices, matrix)
+    local_vertices, to_world = np.asarray(tm.vertices, np.float64), matrix
+    if placed is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
+        mesh_index, own, node_matrix = placed
+        key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
+        local_vertices = cache.setdefault(("gltf mesh", key), own)
+    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, key, local_vertices, to_world)
 
 
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:

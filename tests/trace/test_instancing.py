@@ -158,3 +158,28 @@ def test_objects_naming_one_mesh_file_are_read_once_and_stored_once(device, tmp_
     np.testing.assert_array_equal(np.isfinite(t0), np.isfinite(t1))
     np.testing.assert_allclose(t1[np.isfinite(t0)], t0[np.isfinite(t0)], rtol=T_RTOL)
     np.testing.assert_array_equal(o0, o1)
+
+
+def test_gltf_nodes_sharing_a_mesh_are_one_shape_placed_twice(device, tmp_path):
+    from tests.gltftools import gltf_file, quaternion
+
+    nodes = [
+        {"mesh": 0, "translation": [-1.5, 0.0, -4.0]},
+        {"mesh": 0, "translation": [1.5, 0.2, -5.0], "rotation": quaternion([0, 1, 0], 30), "scale": [0.5, 1.5, 1.0]},
+    ]
+    scene = Scene.load(gltf_file(tmp_path, nodes))
+    inst = find_instances(scene)
+    assert len(inst.shapes) == 1 and inst.shapes[0].objects == [0, 1] and inst.unique_triangles == 2
+    for m in scene.objects:  # the node's world vertices are the mesh's own placed by the node's matrix
+        np.testing.assert_allclose(m.local_vertices @ m.to_world[:3, :3].T + m.to_world[:3, 3], m.vertices, atol=1e-6)
+    tracer = Tracer(scene, device=device, instancing=True)
+    assert tracer.n_prims == 0 and tracer.prims.size == 2 * 48  # the quad's two slots, once
+    ys, xs = np.mgrid[-1:1:40j, -3:3:80j]
+    d = np.stack([xs, ys, np.full_like(xs, -4.5)], -1).reshape(-1, 3)
+    t0, _, o0 = Tracer(scene, device=device).intersect(np.zeros(3), d)
+    t1, _, o1 = tracer.intersect(np.zeros(3), d)
+    assert np.isfinite(t0).sum() > 500 and set(o0[np.isfinite(t0)]) == {0, 1}
+    assert np.mean(np.isfinite(t0) != np.isfinite(t1)) <= 0.01  # rays along the quads' edges
+    both = np.isfinite(t0) & np.isfinite(t1)
+    np.testing.assert_allclose(t1[both], t0[both], rtol=T_RTOL)
+    np.testing.assert_array_equal(o1[both], o0[both])
