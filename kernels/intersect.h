@@ -57,7 +57,8 @@ typedef struct {
     __global const Material *materials;
     int n_prims;
 #if INSTANCED
-    __global const Instance *instances; /* the top level (walk_instances); each names its mesh's tree and slots */
+    __global const Instance *instances; /* each names its mesh's tree and slots, in the top tree's leaf order */
+    __global const BvhNode *top;        /* the top level: a binary tree over the instances' world boxes */
     int n_instances;
 #endif
 } Geometry;
@@ -631,10 +632,11 @@ INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool a
 /* ---------------------------------------------------------------- instances (clrender/trace/instancing.py)
  * -DINSTANCED=1: meshes that several objects place are stored once, each with its own tree in object
  * space after the flat part's tree in the nodes' buffer, and g->instances place them.  A ray meets the
- * flat part first, then every instance whose world box it enters (the top level: a list, tested
- * box by box), in object space: origin and direction by world_to_object, the direction NOT
- * renormalised, so t is the world t and hits compare across instances.  Spheres stay flat (their
- * test wants a unit direction). */
+ * flat part first, then the instances whose world boxes it enters (the top level, g->top: a binary
+ * tree over those boxes), each in object space: origin and direction by world_to_object, the
+ * direction NOT renormalised, so t is the world t and hits compare across instances.  Spheres stay
+ * flat (their test wants a unit direction).  The query kernels walk one ray at a time here (no
+ * packets); the render kernels are not built with INSTANCED (the renderer never asks for it). */
 INLINE float3 affine_point(__global const float *m, float3 p) {
     return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
@@ -644,12 +646,12 @@ INLINE float3 affine_vector(__global const float *m, float3 v) {
                     m[8] * v.x + m[9] * v.y + m[10] * v.z);
 }
 
-/* hit_box's slab test on an instance's world box: its entry distance or INF_T. */
-INLINE float hit_bounds(Ray r, __global const Instance *in, float t_max) {
+/* hit_box's slab test on a world box: its entry distance or INF_T. */
+INLINE float hit_bounds(Ray r, __global const float *lo, __global const float *hi, float t_max) {
     float t_enter = 0.0f, t_exit = t_max;
-    slab(in->bmin[0], in->bmax[0], r.o.x, r.inv_d.x, &t_enter, &t_exit);
-    slab(in->bmin[1], in->bmax[1], r.o.y, r.inv_d.y, &t_enter, &t_exit);
-    slab(in->bmin[2], in->bmax[2], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    slab(lo[0], hi[0], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab(lo[1], hi[1], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab(lo[2], hi[2], r.o.z, r.inv_d.z, &t_enter, &t_exit);
     t_exit *= BOX_EXIT_WIDEN;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
@@ -663,27 +665,60 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
     return s;
 }
 
-/* The flat part, then each instance the ray's box test lets in.  Closest hit: a mesh's hit (local id
- * + prim_base, ties to the lower id as everywhere) replaces *best when nearer; any-hit: the product of
- * the parts' transmittances (opaque_only: the query kernels; shading reads no instance yet). */
+/* Instance i met in object space.  Closest hit: its mesh's hit (local id + prim_base, ties to the lower
+ * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (opaque_only: the
+ * query kernels; shading reads no instance yet). */
+INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                           Hit *best, float *T, uint *visits) {
+    __global const Instance *in = g->instances + i;
+    float t_far = any_hit ? t_max : best->t;
+    if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
+    Ray r_object = make_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
+    Geometry s = instance_geometry(g, in);
+    Hit h;
+    float T_in;
+    walk_tree(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
+    if (any_hit) { *T *= T_in; return; }
+    int id = h.id + in->prim_base;
+    if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
+        *best = h; best->id = id; best->instance = i;
+    }
+}
+
+/* The flat part, then the top tree depth first (nearer child first for closest hits), each leaf's
+ * instances by visit_instance.  Should the stack fill up, every instance is visited instead (the
+ * answer is the same: visit_instance keeps the nearest hit whatever the order). */
 INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
                            Hit *best, float *T, uint *visits) {
     walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i) {
-        __global const Instance *in = g->instances + i;
+    int stack[STACK_SIZE];
+    int sp = 0, node = 0;
+    if (g->n_instances == 0 || hit_bounds(r, g->top[0].bmin, g->top[0].bmax, any_hit ? t_max : best->t) == INF_T) return;
+    while (node >= 0 && !(any_hit && *T == 0.0f)) {
+        __global const BvhNode *n = g->top + node;
         COUNT_NODE(visits);
-        float t_far = any_hit ? t_max : best->t;
-        if (hit_bounds(r, in, t_far) == INF_T) continue;
-        Ray r_object = make_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
-        Geometry s = instance_geometry(g, in);
-        Hit h;
-        float T_in;
-        walk_tree(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
-        if (any_hit) { *T *= T_in; continue; }
-        int id = h.id + in->prim_base;
-        if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
-            *best = h; best->id = id; best->instance = i;
+        int next = -1;
+        if (n->count > 0) {
+            for (int i = n->offset; i < n->offset + n->count && !(any_hit && *T == 0.0f); ++i)
+                visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+        } else {
+            int first = node + 1, second = n->offset;
+            float t_far = any_hit ? t_max : best->t;
+            float t1 = hit_bounds(r, g->top[first].bmin, g->top[first].bmax, t_far);
+            float t2 = hit_bounds(r, g->top[second].bmin, g->top[second].bmax, t_far);
+            if (t2 < t1) { int k = first; first = second; second = k; float t = t1; t1 = t2; t2 = t; }
+            if (t2 != INF_T) {
+                if (sp == STACK_SIZE) { /* full: every instance instead */
+                    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i)
+                        visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+                    return;
+                }
+                stack[sp++] = second;
+            }
+            if (t1 != INF_T) next = first;
         }
+        if (next < 0 && sp > 0) next = stack[--sp];
+        node = next;
     }
 }
 #endif

@@ -201,9 +201,11 @@ INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
 #endif
 
 /* The query kernels' instances (-DINSTANCED=1; without, none are read and n_instances is 0). */
-INLINE void with_instances(Geometry *g, __global const Instance *instances, int n_instances) {
+INLINE void with_instances(Geometry *g, __global const Instance *instances, __global const BvhNode *top,
+                           int n_instances) {
 #if INSTANCED
     g->instances = instances;
+    g->top = top;
     g->n_instances = n_instances;
 #endif
 }
@@ -237,7 +239,7 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
  * object id and the nodes visited. */
 __kernel void intersect_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
                              __global const int *prim_object, __global const Instance *instances,
-                             int n_instances, int n_prims, int n_rays,
+                             __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
                              __global const float *origins, __global const float *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
@@ -245,7 +247,7 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
-    with_instances(&g, instances, n_instances);
+    with_instances(&g, instances, top, n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
     trace_item(&q, &g, false);
@@ -262,14 +264,14 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
 __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
                             __global const int *prim_object, __global const ObjectRecord *objects,
                             __global const Material *materials, __global const Instance *instances,
-                            int n_instances, int n_prims, int n_rays,
+                            __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
                             __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
-    with_instances(&g, instances, n_instances);
+    with_instances(&g, instances, top, n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
     trace_item(&q, &g, true);

@@ -185,11 +185,13 @@ class Tracer:
             self.primitives: Primitives = flatten(self.scene)
             nodes, slots = self._tree(self.primitives)
             records = np.zeros(1, INSTANCE_DTYPE)  # never read: n_instances is 0
+            top = np.zeros(1, BVH_NODE_DTYPE)
         else:  # the flat part's tree first, then each unique mesh's after it (instancing.py)
             self.primitives = flatten(flat_part(self.scene, self.instances))
             nodes, slots = self._tree(self.primitives)
             flat_trees = self.bvh, self.wide
             nodes, slots, records = two_level(self.instances, nodes, slots, self.primitives.count, self._tree)
+            top, records = self._top(records)
             self.bvh, self.wide = flat_trees  # bvh and wide describe the flat part
         n = self.primitives.count
         dev = self.device
@@ -197,6 +199,7 @@ class Tracer:
         self.n_instances = len(records) if self.instances is not None else 0
         self.instance_records = records
         self.instance_buffer = dev.to_device(records)
+        self.top = dev.to_device(top)
         self.nodes = dev.to_device(nodes)
         self.prims = dev.to_device(slots)
         self.prim_object = dev.to_device(self.primitives.object_of)
@@ -205,6 +208,16 @@ class Tracer:
         self.normals = dev.to_device(normals)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
+
+    def _top(self, records: np.ndarray):
+        """The top level: a binary tree (BvhNode records) over the instances' world boxes, and the
+        records in its leaf order (a leaf's instances are records[offset:offset + count])."""
+        from .bvh import build_bvh
+
+        top = build_bvh(
+            records["bmin"], records["bmax"], builder=self.builder, max_leaf_size=2, max_levels=self.knobs.max_tree_levels, device=self.device
+        )
+        return top.nodes, records[np.asarray(top.prim_order, np.int64)]
 
     def _tree(self, prims: Primitives):
         """The tree's buffer (BvhNode records, or WideNode records then LeafBlocks) and the slots in its
@@ -306,6 +319,7 @@ class Tracer:
             prims=self.prims,
             prim_object=self.prim_object,
             instances=self.instance_buffer,
+            top=self.top,
             n_instances=self.n_instances,
             n_prims=self.n_prims,
             n_rays=n,

@@ -88,7 +88,7 @@ def test_instanced_hits_are_the_flat_scenes_hits(device, kw):
     np.testing.assert_allclose(t1[both], t0[both], rtol=T_RTOL)
     assert np.mean(o1[both] != o0[both]) <= MAX_DISAGREE  # a different object only where two lie within rounding
     # the primitive: a flat-part id is below n_prims; an instance's is its prim_base + the mesh's face index
-    rec = inst.instance_records
+    rec = np.sort(inst.instance_records, order="prim_base")  # the records come in the top tree's leaf order
     first_face = np.cumsum([0] + [len(ob.faces) for ob in scene.objects[:5]])
     hit_inst = both & (p1 >= inst.n_prims) & (o1 == o0)
     k = np.searchsorted(rec["prim_base"], p1[hit_inst], side="right") - 1
@@ -183,3 +183,14 @@ def test_gltf_nodes_sharing_a_mesh_are_one_shape_placed_twice(device, tmp_path):
     both = np.isfinite(t0) & np.isfinite(t1)
     np.testing.assert_allclose(t1[both], t0[both], rtol=T_RTOL)
     np.testing.assert_array_equal(o1[both], o0[both])
+
+
+def test_a_full_top_level_stack_visits_every_instance_and_finds_the_same_hits(device):
+    from clrender.trace.knobs import TraceKnobs
+
+    scene = Scene.from_dict(bunnies(5))
+    o, d = random_rays(1500, seed=4)
+    t0, p0, o0 = Tracer(scene, device=device, instancing=True).intersect(o, d)
+    t1, p1, o1 = Tracer(scene, device=device, instancing=True, knobs=TraceKnobs(stack_size=1), bvh_width=8).intersect(o, d)
+    for a, b in ((t0, t1), (p0, p1), (o0, o1)):
+        np.testing.assert_array_equal(a, b)
