@@ -11,9 +11,10 @@ Here: `find_instances` groups the objects; `flat_part` is the scene without them
 usual, clrender/trace/geometry.py); `two_level` appends each unique mesh's tree and slots to the flat
 part's and packs one layout.INSTANCE_DTYPE record per instance; the Tracer (Tracer(instancing=True))
 builds the top level over the records' world boxes with its own builder and uploads them in that
-tree's leaf order (kernels/intersect.h walk_instances reads them).  Primitive ids: the flat part's 0..n_flat-1, then each instance's prim_base + local id
-(instances in object order, each as many ids as its mesh has triangles), so every hit's id is unique
-and ids order as a flattened scene's would, object by object.
+tree's leaf order (kernels/intersect.h walk_instances reads them).
+
+Primitive ids: the flat part's 0..n_flat-1, then each instance's prim_base + local id (instances in
+object order, each as many ids as its mesh has triangles), so every hit's id is unique.
 """
 
 from __future__ import annotations
