@@ -16,6 +16,9 @@ surface (the renderer moves it just past the hit point's float32 error bound) or
 pass a t_min.  Exact answers (docs/bvh.md, "Exact ray queries"): the slab test
 holds for every direction, the triangle test is watertight, and of hits at the
 same float32 t the lowest primitive id wins, whatever the BVH.
+
+Tracer(scene, instancing=True) stores a mesh that several objects place once and meets each copy in
+object space (clrender/trace/instancing.py; docs/bvh.md, "Instancing"): ray queries only.
 """
 
 from __future__ import annotations
@@ -150,7 +153,7 @@ class Tracer:
         shadow_shafts: bool = True,
         ray_packets: bool = True,
         knobs: TraceKnobs = DEFAULT_KNOBS,
-        instancing: bool = False,
+        instancing: bool = False,  # meshes placed by several objects stored once (ray queries only; the renderer refuses it)
     ):
         from .bvh_wide import WIDTHS
 
