@@ -446,12 +446,15 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = local @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    local_vertices, to_world = np.asarray(tm.vertices, np.float64), matrix
+    local_vertices, faces, to_world = np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64), matrix
+    if key is not None:  # one array object for every copy (payload.py ships it once)
+        local_vertices = cache.setdefault(("local", key), local_vertices)
+        faces = cache.setdefault(("faces", key), faces)
     if placed is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
         mesh_index, own, node_matrix = placed
         key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
         local_vertices = cache.setdefault(("gltf mesh", key), own)
-    return Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, key, local_vertices, to_world)
+    return Mesh(vertices, faces, normals, material, smooth, source, key, local_vertices, to_world)
 
 
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
