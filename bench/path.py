@@ -14,15 +14,19 @@ the same scenes, converted by tests/reference/mitsuba_scenes.py, in the same run
                 the time scaled by 64 / spp (the independent sampler's cost is linear in spp), one run.
 Both use every core (Mitsuba's thread pool, PoCL's device).  Samples per second are camera paths (pixels x
 spp) per wall second; the ratios are wall times against Mitsuba llvm.  `--quick`: 128x128, 16 spp, one run.
+With both clrender and llvm: path_<scene>_pair.png (clrender left, Mitsuba right, the seed-0 renders) and a
+line per scene, the two renderers' mean brightness and a block-mean z-test over all their renders (agreement_line).
 
 wizard_cat is a Whitted scene, converted by this rule (the path tracer reads seed materials the same way):
 `diffuse` kd -> Lambert; `specular` ks with `shininess` s -> ks times a GGX conductor of reflectance 1 with
 alpha = sqrt(2 / (s + 2)), added to the Lambert lobe; `mirror` -> a smooth conductor of that weight;
 `transparency` with `ior` -> a smooth dielectric of that weight.  Lights (docs/shading.md's units): an area
 light's colour x intensity is a radiance (falloff inverse_square) -> a one-sided rectangle emitter; a point
-light's is a radiant intensity (W/sr) -> a point emitter; wizard_cat's lights use the classic falloff "none"
-(no 1/pi, no 1/r^2), mapped to the physical light that is as bright on a Lambert surface at unit distance
-(pi c I; an area light's radiance divided by its area).  `background` and `ambient` are Whitted's and not
+light's is a radiant intensity (W/sr) -> a point emitter.  wizard_cat's lights use the seed's falloff "none"
+(pi I c cos(theta) at every distance: no physical light does that), so the bench makes them physical for BOTH
+renderers (`physical_lights`, a bench-only mapping): the directional light's irradiance pi c I, the area
+light's radiance chosen so that its irradiance at camera 3's look-at point (the cat) is what falloff "none"
+gives there; both renderers then draw the same physical scene.  `background` and `ambient` are Whitted's and not
 drawn.  The metal of the Cornell box is Mitsuba's native `principled` here (metallic 1: the same D, F and
 alpha, separable Smith G instead of the height-correlated G2: the same cost, not the same function; the
 reference tests use the exact lobe).
@@ -37,6 +41,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .common import write_table
 from tests.reference import mitsuba_scenes, path_scenes
 
@@ -44,13 +50,46 @@ SCENES = ("cornell_box", "wizard_cat")
 WHITTED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "ior")
 
 
-def wizard_cat_dict(camera: int = 3) -> dict:
-    """The bundled wizard_cat as the scene dict mitsuba_scenes reads: meshes as world-space triangles."""
-    from dataclasses import asdict
+def physical_lights(scene, focus) -> list:
+    """The scene's falloff-"none" lights as inverse-square ones as bright at the point `focus` (bench only):
+    a directional light's irradiance pi c I stays; an area light's radiance L is set so that its
+    irradiance there, L A cos(theta_l) / d^2 (A, cos(theta_l) and d from the light's centre), is the
+    pi c I cos(theta) of falloff "none"."""
+    import math
+    from dataclasses import replace
 
+    import numpy as np
+
+    lights = []
+    for light in scene.lights:
+        if light.falloff != "none":
+            lights.append(light)
+        elif light.type == "area":
+            a, b = np.asarray(light.edge_a, float), np.asarray(light.edge_b, float)
+            normal = np.cross(a, b)
+            area = float(np.linalg.norm(normal))
+            d = np.asarray(focus, float) - (np.asarray(light.position, float) + (a + b) / 2)
+            cos_l = abs(float(normal @ d)) / (area * float(np.linalg.norm(d)))
+            lights.append(replace(light, falloff="inverse_square", intensity=light.intensity * math.pi * float(d @ d) / (area * cos_l)))
+        else:  # directional: pi c I at every distance already; a point light: pi c I at unit distance
+            lights.append(replace(light, falloff="inverse_square", intensity=light.intensity * math.pi))
+    return lights
+
+
+def wizard_cat_scene(camera: int = 3):
+    """The bundled wizard_cat with physical_lights as bright at the camera's look-at point."""
     from clrender.scene.scene import Scene
 
     scene = Scene.load("wizard_cat")
+    scene.lights = physical_lights(scene, scene.camera(camera).look_at)
+    return scene
+
+
+def wizard_cat_dict(camera: int = 3) -> dict:
+    """wizard_cat_scene as the scene dict mitsuba_scenes reads: meshes as world-space triangles."""
+    from dataclasses import asdict
+
+    scene = wizard_cat_scene(camera)
     cam = scene.camera(camera)
     lights = []
     for light in scene.lights:
@@ -78,6 +117,24 @@ def wizard_cat_dict(camera: int = 3) -> dict:
     }
 
 
+def agreement_line(ours: list, theirs: list, block: int = 16) -> str:
+    """Mean brightness of both renderers' images and a block-mean z-test: each image's means over
+    block x block pixel blocks, averaged over the renders (independent seeds), the difference's z from
+    the renders' spread (a t statistic with renders - 1 degrees of freedom each side)."""
+    a, b = np.stack(ours).astype(np.float64), np.stack(theirs).astype(np.float64)  # (K, H, W, 3)
+    k, h, w, _ = a.shape
+    blocks = lambda x: x[:, : h // block * block, : w // block * block].reshape(x.shape[0], h // block, block, w // block, block, 3).mean(axis=(2, 4))
+    ba, bb = blocks(a), blocks(b)
+    se2 = ba.var(axis=0, ddof=1) / len(ba) + bb.var(axis=0, ddof=1) / len(bb)
+    z = (ba.mean(0) - bb.mean(0)) / np.sqrt(np.maximum(se2, 1e-30))
+    ma, mb = a.mean(axis=(0, 1, 2)), b.mean(axis=(0, 1, 2))
+    return (
+        f"mean RGB clrender {np.round(ma, 4).tolist()} vs Mitsuba {np.round(mb, 4).tolist()} (ratio {np.round(ma / mb, 3).tolist()}); "
+        f"{block}x{block} block means over {len(ba)} + {len(bb)} renders: |z| > 3 in {np.mean(np.abs(z) > 3):.1%} of {z.size} block channels, "
+        f"median |z| {np.median(np.abs(z)):.2f}"
+    )
+
+
 def clrender_has_path_tracer() -> bool:
     from clrender.trace.renderer import RenderSettings
 
@@ -85,28 +142,28 @@ def clrender_has_path_tracer() -> bool:
 
 
 def time_clrender(name: str, size: int, spp: int, depth: int, runs: int):
-    """(first image s, its kernel compile s, median s, median CPU s, image) of clrender's path tracer."""
+    """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path tracer."""
     from clrender.trace.renderer import Renderer
 
-    scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else ("wizard_cat", 3)
+    scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
     settings = dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
     start = time.perf_counter()
     renderer = Renderer(scene, seed=0, **settings)
     result = renderer.run()
-    first, image = time.perf_counter() - start, result.image
+    first, images = time.perf_counter() - start, [result.image]
     compile_s = result.timings.get("compile", float("nan"))
     walls, cpus = [], []
     for run in range(runs):
         renderer = Renderer(scene, seed=run + 1, tracer=renderer.tracer, **settings)
         wall, cpu = time.perf_counter(), time.process_time()
-        renderer.run()
+        images.append(renderer.run().image)
         walls.append(time.perf_counter() - wall)
         cpus.append(time.process_time() - cpu)
-    return first, compile_s, statistics.median(walls), statistics.median(cpus), image
+    return first, compile_s, statistics.median(walls), statistics.median(cpus), images
 
 
 def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, runs: int):
-    """(load s, first render s, JIT s, kernels from the disk cache, median s, median CPU s, image)."""
+    """(load s, first render s, JIT s, kernels from the disk cache, median s, median CPU s, images: the first and each timed one)."""
     import drjit as dr
 
     start = time.perf_counter()
@@ -116,7 +173,7 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
     if jit:
         dr.set_flag(dr.JitFlag.KernelHistory, True)
     start = time.perf_counter()
-    image = mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=0)
+    images = [mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=0)]
     first = time.perf_counter() - start
     compile_s, cached = float("nan"), ""
     if jit:
@@ -127,10 +184,10 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
     walls, cpus = [], []
     for run in range(runs):
         wall, cpu = time.perf_counter(), time.process_time()
-        mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=run + 1)
+        images.append(mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=run + 1))
         walls.append(time.perf_counter() - wall)
         cpus.append(time.process_time() - cpu)
-    return load_s, first, compile_s, cached, statistics.median(walls), statistics.median(cpus), image
+    return load_s, first, compile_s, cached, statistics.median(walls), statistics.median(cpus), images
 
 
 def main(argv=None):
@@ -157,14 +214,15 @@ def main(argv=None):
     from clrender.image.files import write_display_image
 
     pixels = args.size * args.size
-    rows = []
+    rows, agreement = [], []
     for name in args.scenes:
         scene = path_scenes.cornell_box(args.size) if name == "cornell_box" else wizard_cat_dict(3)
-        measured = {}
+        measured, renders = {}, {}
         if have_clrender:
-            first, compile_s, wall, cpu, image = time_clrender(name, args.size, args.spp, args.max_depth, args.runs)
+            first, compile_s, wall, cpu, images = time_clrender(name, args.size, args.spp, args.max_depth, args.runs)
             measured["clrender"] = dict(spp_run=args.spp, load_s=float("nan"), first_s=first, compile_s=compile_s, cached="", seconds=wall, cpu_s=cpu)
-            write_display_image(out / f"path_{name}_clrender.png", image)
+            renders["clrender"] = images
+            write_display_image(out / f"path_{name}_clrender.png", images[0])
         if args.peer == "mitsuba":
             variants = [("mitsuba llvm_ad_rgb", "llvm_ad_rgb", args.spp, args.runs)]
             if args.scalar_spp > 0:
@@ -174,12 +232,17 @@ def main(argv=None):
                 if reason:
                     print(f"{label}: not measured: {reason}")
                     continue
-                load_s, first, compile_s, cached, wall, cpu, image = time_mitsuba(scene, variant, args.size, spp, args.max_depth, runs)
+                load_s, first, compile_s, cached, wall, cpu, images = time_mitsuba(scene, variant, args.size, spp, args.max_depth, runs)
                 scale = args.spp / spp  # the scalar render's time at --spp
                 measured[label] = dict(
                     spp_run=spp, load_s=load_s, first_s=first, compile_s=compile_s, cached=cached, seconds=wall * scale, cpu_s=cpu * scale
                 )
-                write_display_image(out / f"path_{name}_{variant}.png", image)
+                renders[variant] = images
+                write_display_image(out / f"path_{name}_{variant}.png", images[0])
+        if "clrender" in renders and "llvm_ad_rgb" in renders:
+            ours, theirs = renders["clrender"], renders["llvm_ad_rgb"]
+            write_display_image(out / f"path_{name}_pair.png", np.concatenate([ours[0], theirs[0]], axis=1))
+            agreement.append(f"{name}: {agreement_line(ours, theirs)}")
         llvm = measured.get("mitsuba llvm_ad_rgb", {}).get("seconds", float("nan"))
         for renderer, m in measured.items():
             rows.append(
@@ -208,6 +271,7 @@ def main(argv=None):
     bar_chart(out / "path.png", args.scenes, series, title=title, ylabel="million samples (camera paths) per second")
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs; seconds: median per image at {args.spp} spp")
     print(table)
+    print("\n".join(agreement))
     return 0
 
 

@@ -6,9 +6,16 @@ hit in a random direction of the hit face's hemisphere.  Kernel time only (rays
 already on the device, compile and warm-up excluded), median of K runs, also per
 CPU-second of this process (steadier than wall time on a shared CPU), with nodes
 and primitives tested per ray, for each layout (builder, BVH width, eight coherent
-rays walked as one packet or each ray alone).  --peer
-embree traces the same rays with Embree in the same run (embreex, which calls
-rtcIntersect1 / rtcOccluded1 once per ray on one thread) and reports the ratios.
+rays walked as one packet or each ray alone).  --peer embree traces the same rays
+with Embree in the same run (embreex, which calls rtcIntersect1 / rtcOccluded1 once
+per ray on one thread) and reports the ratios.
+
+--peer embree,open3d also measures what a user gets, end to end on host arrays
+(issue 27): `Tracer.intersect` / `Tracer.occluded` against Embree on as many threads
+as clrender's device has compute units (embreex in that many Python threads, each
+on its share of the rays: embreex releases the GIL) and Open3D's RaycastingScene
+(`cast_rays`, `test_occlusions`, with the same thread count), median of K runs, and
+Mrays/s against the batch size (host overhead per call) for primary rays.
 Also the BVH build time for a 1,000,000-triangle mesh and the SAH cost of both builders.
 """
 
@@ -148,6 +155,95 @@ def embree_rates(mesh, rays: dict, runs: int):
     return row
 
 
+PEERS = ("embree", "open3d")
+BATCHES = (256, 1024, 4096, 16384, 65536, 262144)  # rays per call, for the host overhead per call
+
+
+def user_queries(mesh, threads: int):
+    """Each tool's end-to-end query on host float32 arrays, as its user calls it: name -> (closest(o, d),
+    occluded(o, d, t_max)).  Every tool gets `threads` threads (clrender: its device's compute units)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    tracer = Tracer(mesh)
+    tools = {"clrender": (lambda o, d: tracer.intersect(o, d), lambda o, d, t: tracer.occluded(o, d, t))}
+    tri = np.ascontiguousarray(np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)])
+    try:
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+    except ImportError:
+        pass
+    else:
+        scene = rtcore_scene.EmbreeScene()
+        TriangleMesh(scene, tri)
+        pool = ThreadPoolExecutor(threads)
+
+        def split(fn, *arrays):  # each thread a contiguous share of the rays
+            parts = [np.array_split(a, threads) for a in arrays]
+            return list(pool.map(fn, *parts))
+
+        tools["embree"] = (
+            lambda o, d: split(lambda oo, dd: scene.run(oo, dd, output=True), o, d),
+            lambda o, d, t: split(lambda oo, dd, tt: scene.run(oo, dd, dists=tt.copy(), query="OCCLUDED"), o, d, t),
+        )
+    try:
+        import open3d as o3d
+    except ImportError:
+        pass
+    else:
+        rc = o3d.t.geometry.RaycastingScene()
+        vertices = o3d.core.Tensor(np.asarray(mesh.vertices, np.float32))
+        rc.add_triangles(vertices, o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))
+        rays = lambda o, d: o3d.core.Tensor(np.concatenate([o, d], axis=1))
+        # test_occlusions takes one t_far for all rays: each direction is scaled to its segment, t_far = 1
+        tools["open3d"] = (
+            lambda o, d: rc.cast_rays(rays(o, d), nthreads=threads),
+            lambda o, d, t: rc.test_occlusions(rays(o, d * np.minimum(t, 3e38)[:, None]), tfar=1.0, nthreads=threads),
+        )
+    return tools
+
+
+def end_to_end(mesh, rays: dict, runs: int, peers: list[str], threads: int):
+    """Mrays/s of each tool's user query for each ray kind, and clrender's ratio to each peer, measured
+    in this run; then Mrays/s against the batch size for primary rays."""
+    tools = user_queries(mesh, threads)
+    missing = [p for p in peers if p not in tools]
+    if missing:
+        sys.exit(f"bench rays: --peer {','.join(missing)} needs its package: pip install 'clrender[bench]'")
+    rows = []
+    for name in ["clrender", *peers]:
+        closest, occluded = tools[name]
+        row = dict(tool=name, threads=threads)
+        for kind, (o, d, t_max) in rays.items():
+            call = (lambda: occluded(o, d, t_max)) if kind == "shadow" else (lambda: closest(o, d))
+            warm_up(call, calls=2)
+            row[f"{kind}_mrays"] = len(o) / median_seconds(call, runs) / 1e6
+        rows.append(row)
+    for peer_row in rows[1:]:
+        for kind in KINDS:
+            rows[0][f"{kind}_vs_{peer_row['tool']}"] = rows[0][f"{kind}_mrays"] / peer_row[f"{kind}_mrays"]
+    rows = [{k: r.get(k, float("nan")) for k in rows[0]} for r in rows]  # one table: the peers' ratio columns empty
+    o, d, _ = rays["primary"]
+    batches = []
+    for n in (b for b in BATCHES if b <= len(o)):
+        row = dict(batch=n)
+        for name in ["clrender", *peers]:
+            closest = tools[name][0]
+            warm_up(lambda: closest(o[:n], d[:n]), calls=2)
+            row[f"{name}_mrays"] = n / median_seconds(lambda: closest(o[:n], d[:n]), runs) / 1e6
+        batches.append(row)
+    return rows, batches
+
+
+def end_to_end_summary(rows: list[dict]) -> str:
+    peers = [r["tool"] for r in rows[1:]]
+    head = "| rays | " + " | ".join(f"{r['tool']} Mrays/s" for r in rows) + "".join(f" | clrender / {p}" for p in peers) + " |"
+    lines = [head, "|" + "---|" * (1 + len(rows) + len(peers))]
+    for k in KINDS:
+        cells = [f"{r[f'{k}_mrays']:.3g}" for r in rows] + [f"{rows[0][f'{k}_vs_{p}']:.2f}" for p in peers]
+        lines.append(f"| {k} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def build_times(n_triangles: int, runs: int):
     """Build time (wall and CPU) and SAH cost of each builder with its default leaves, and of the tree
     the Tracer builds for its default width (leaves of DEFAULT_KNOBS.leaf_size(width), then the collapse)."""
@@ -231,11 +327,15 @@ def main(argv=None):
     ap.add_argument("--out", default="bench/out", help="folder for rays.csv / rays.md")
     ap.add_argument(
         "--peer",
-        choices=("embree",),
-        help="also trace the same rays with Embree (embreex, one thread) and report clrender / Embree ratios measured in this run",
+        help="embree: also trace the same rays with Embree (embreex, one thread) and report kernel-time ratios; "
+        "a comma list of embree, open3d: also the end-to-end user queries at equal threads, and Mrays/s against batch size",
     )
+    ap.add_argument("--threads", type=int, default=0, help="threads of the end-to-end peers (default: the device's compute units)")
     ap.add_argument("--no-build", action="store_true", help="skip the 1M-triangle build benchmark")
     args = ap.parse_args(argv)
+    peers = [p for p in (args.peer or "").split(",") if p]
+    if any(p not in PEERS for p in peers):
+        ap.error(f"--peer {args.peer!r}; allowed: a comma list of {', '.join(PEERS)}")
     if args.mesh:
         mesh = load_mesh_file(Path(args.mesh), "--mesh")
         label = args.mesh
@@ -245,7 +345,17 @@ def main(argv=None):
         mesh = dense_mesh(100_000, seed=0)
         label = "generated"
     rays, hit_fraction = ray_sets(mesh, args.size)
-    peer = embree_rates(mesh, rays, args.runs) if args.peer == "embree" else None
+    out = Path(args.out)
+    if peers:
+        threads = args.threads or get_device().device.max_compute_units
+        rows, batches = end_to_end(mesh, rays, args.runs, peers, threads)
+        write_table(out, "rays_end_to_end", rows, f"End-to-end ray queries on host arrays, {threads} threads each")
+        table = end_to_end_summary(rows)
+        print(f"{label}: {len(mesh.faces)} triangles, {args.size}x{args.size} rays, {threads} threads each, median of {args.runs}")
+        print(table)
+        print(write_table(out, "rays_batches", batches, "Primary-ray Mrays/s against rays per call"))
+        (out / "rays_end_to_end_summary.md").write_text(table + "\n")
+    peer = embree_rates(mesh, rays, args.runs) if "embree" in peers else None
     rows = []
     for builder, width, packets in LAYOUTS:
         r = clrender_rates(mesh, rays, args.runs, builder, width, packets)
@@ -258,7 +368,6 @@ def main(argv=None):
     if peer:
         base = dict(mesh=label, triangles=len(mesh.faces), builder="embree", width=0, packets=False, hit_fraction=hit_fraction, **peer)
         rows.append({k: base.get(k, float("nan")) for k in rows[0]})
-    out = Path(args.out)
     write_table(out, "rays", rows, f"Ray throughput at {args.size}x{args.size} (median of {args.runs})")
     table = summary(rows)
     (out / "rays_summary.md").write_text(table + "\n")

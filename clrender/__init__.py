@@ -39,6 +39,8 @@ _EXPORTS = {  # the public API, by the module that defines it (README: code map)
     "read_image": "image.files",
     "write_image": "image.files",
     "show": "image.display",
+    "DisplaySettings": "image.tonemap",
+    "denoise": "image.denoise",
     "get_device": "device",
     "list_devices": "device",
     "UsageError": "errors",

@@ -36,6 +36,18 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
 INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
 
 
+HOST_ALIGN = 4096  # bytes: a page, more than any driver asks of a USE_HOST_PTR buffer
+
+
+def aligned_zeros(shape, dtype) -> np.ndarray:
+    """np.zeros(shape, dtype) starting at a multiple of HOST_ALIGN bytes (numpy's own start 16 bytes into a page)."""
+    dtype = np.dtype(dtype)
+    count = int(np.prod(shape))
+    raw = np.zeros(count * dtype.itemsize + HOST_ALIGN, np.uint8)
+    skip = -raw.ctypes.data % HOST_ALIGN
+    return raw[skip : skip + count * dtype.itemsize].view(dtype).reshape(shape)
+
+
 @dataclass
 class Device:
     """A context and in-order queue on one OpenCL device, plus its program cache."""
@@ -95,6 +107,15 @@ class Device:
         if array.nbytes == 0:
             array = np.zeros(1, dtype=array.dtype if array.dtype.itemsize else np.uint8)
         return cl.Buffer(self.context, (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.COPY_HOST_PTR, hostbuf=array)
+
+    def adopt(self, array: np.ndarray) -> cl.Buffer:
+        """A read-only buffer of `array`: on a CPU device its own memory (USE_HOST_PTR: no second copy
+        at the peak of a big upload) when it is HOST_ALIGN-aligned (`aligned_zeros`; PoCL 3.0 crashed
+        on unaligned ones), else a copy.  The caller keeps `array` alive, unchanged, as long as the
+        buffer (pyopencl does not hold it)."""
+        if array.nbytes == 0 or not self.device.type & cl.device_type.CPU or array.ctypes.data % HOST_ALIGN:
+            return self.to_device(array)
+        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=np.ascontiguousarray(array))
 
     def empty(self, nbytes: int) -> cl.Buffer:
         """An uninitialised read-write buffer of `nbytes` (at least one byte)."""

@@ -30,6 +30,11 @@ MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
+# a material's texture slots (Material.textures[slot]; kernels/texture.h): colour ones hold sRGB-decoded texels,
+# data ones linear values
+TEXTURE_SLOTS = {"base_color": 0, "metallic_roughness": 1, "emissive": 2, "occlusion": 3, "normal": 4}
+ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (the path tracer; Whitted draws all opaque)
+WRAP_MODES = {"repeat": 10497, "clamp_to_edge": 33071, "mirrored_repeat": 33648}  # Texture.wrap_s/t: glTF's sampler codes
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
 SPLAT_TILE = 16  # Gaussian splats are binned into SPLAT_TILE x SPLAT_TILE pixel tiles
@@ -165,10 +170,22 @@ MATERIAL_DTYPE = np.dtype(
         ("transmission", "<f4"),
         ("emission", "<f4", 3),  # radiance of the front faces
         ("model", "<i4"),  # MATERIAL_MODELS code
+        # textures (kernels/texture.h), per TEXTURE_SLOTS slot: the Texture record's index (-1: none), the UV set
+        # it reads (0: TEXCOORD_0, 1: TEXCOORD_1) and KHR_texture_transform as a 2 x 3 matrix, row-major:
+        # uv' = (m0 u + m1 v + m2, m3 u + m4 v + m5)
+        ("textures", "<i4", len(TEXTURE_SLOTS)),
+        ("tex_coord", "<i4", len(TEXTURE_SLOTS)),
+        ("tex_transform", "<f4", (len(TEXTURE_SLOTS), 6)),
+        ("occlusion_strength", "<f4"),  # glTF occlusionTexture.strength: occlusion = 1 + s (texel.r - 1)
+        ("normal_scale", "<f4"),  # glTF normalTexture.scale: the tangent-space normal's x and y are scaled by it
+        ("alpha", "<f4"),  # coverage: times the base colour texture's alpha (glTF baseColorFactor[3])
+        ("alpha_mode", "<i4"),  # ALPHA_MODES code
+        ("alpha_cutoff", "<f4"),  # mask: a point whose alpha is below this is not there
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
-OBJECT_DTYPE = np.dtype([("material", "<i4"), ("smooth", "<i4")])  # an object's material index; 1: smooth-shaded mesh
+# an object's material index; 1: smooth-shaded mesh; 1: a mesh whose vertex colours (VertexAttributes.colour) multiply its base colour
+OBJECT_DTYPE = np.dtype([("material", "<i4"), ("smooth", "<i4"), ("vertex_colours", "<i4")])
 OBJECT = Record("ObjectRecord", OBJECT_DTYPE)
 # a light (scene/lights.py packs it; its units are in that module's docstring)
 LIGHT_DTYPE = np.dtype(
@@ -188,6 +205,18 @@ LIGHT = Record("Light", LIGHT_DTYPE)
 # per primitive id: a smooth triangle's unit normals at its vertices v0, v1, v2 (zeros for other primitives)
 VERTEX_NORMALS_DTYPE = np.dtype([("normal", "<f4", (3, 3))])
 VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
+# per primitive id: a triangle's texture coordinates at v0, v1, v2 (TEXCOORD_0 in uv, TEXCOORD_1 in uv1; glTF's
+# convention, (0, 0) the image's top-left) and linear RGB vertex colours (COLOR_0); zeros for uvs and ones for
+# colours where a mesh has none, and for spheres
+# and tangents for normal maps (xyz a unit vector along increasing u, w = +-1: bitangent = w normal x tangent, towards
+# decreasing v, glTF's convention): glTF TANGENT, else generated per triangle from its UVs (zeros: none)
+VERTEX_ATTRIBUTES_DTYPE = np.dtype([("uv", "<f4", (3, 2)), ("uv1", "<f4", (3, 2)), ("colour", "<f4", (3, 3)), ("tangent", "<f4", (3, 4))])
+VERTEX_ATTRIBUTES = Record("VertexAttributes", VERTEX_ATTRIBUTES_DTYPE)
+# an image texture (scene/textures.py packs them): its texels' first index in the one float4 texel buffer (row-major,
+# row 0 the image's top, linear values), its size, the glTF sampler's wrap modes (WRAP_MODES codes) and 1 for
+# nearest-texel lookups (magFilter NEAREST), 0 for bilinear
+TEXTURE_DTYPE = np.dtype([("offset", "<i4"), ("width", "<i4"), ("height", "<i4"), ("wrap_s", "<i4"), ("wrap_t", "<i4"), ("nearest", "<i4")])
+TEXTURE = Record("Texture", TEXTURE_DTYPE)
 # an instance of a unique mesh (clrender/trace/instancing.py; docs/bvh.md, "Instancing"): rows of the affine
 # maps (x' = M[:, :3] x + M[:, 3]), the mesh's bottom-level tree and primitives, and the scene object it is.
 # A ray enters object space by world_to_object, its direction not renormalised, so t stays the world t.
@@ -351,6 +380,10 @@ DEFINES = {
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
     **{f"PROJECTION_{name.upper()}": code for name, code in PROJECTIONS.items()},
+    **{f"TEXTURE_{name.upper()}": code for name, code in TEXTURE_SLOTS.items()},
+    "TEXTURE_SLOTS": len(TEXTURE_SLOTS),
+    **{f"WRAP_{name.upper()}": code for name, code in WRAP_MODES.items()},
+    **{f"ALPHA_{name.upper()}": code for name, code in ALPHA_MODES.items()},
     "SPLAT_TILE": SPLAT_TILE,
     "SPLAT_EPS": SPLAT_EPS,
     "VORONOI_STRIP": VORONOI_STRIP,

@@ -6,7 +6,10 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     render, --aa none or full          ~150 B/pixel  (2048 x 2048: +603 MiB)
     render, --aa edge_detect           ~275 B/pixel  (+1.08 GiB)
     render, edge_detect + all AOVs     ~340 B/pixel  (+1.32 GiB)
-    dense mesh, load + BVH + trace     ~580 B/triangle (1 M triangles: +540 MiB)
+    dense mesh, load + BVH + trace     ~360 B/triangle (1 M smooth triangles: 454 MB peak for a 64 x 64 render;
+                                       a flat 1 M-triangle PLY: 477 MB; before the Tracer dropped its host
+                                       copies, 2026-11-24: ~670 B, and 1.16 GB for the PLY)
+    textures                           32 B/texel (a 2048 x 2048 texture: 128 MiB), checked as each is decoded
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now or --max-memory is refused with the figure (exit 2)
@@ -27,7 +30,11 @@ RENDER_BYTES_PER_PIXEL = 176  # image, path ids, shadow, frame and device copies
 EDGE_AA_BYTES_PER_PIXEL = 144  # edge_detect adds the ID/colour comparisons, mask and resample buffers
 AOV_BYTES_PER_PIXEL = 80  # kernel AOV record (8 floats) and the EXR channels
 FILTER_BYTES_PER_PIXEL = 6 * 12  # convolution working copies of an RGB float image
-BYTES_PER_TRIANGLE = 640  # vertices, faces, normals, BVH build and device arrays
+BYTES_PER_TRIANGLE = 420  # the mesh and its vertex normals, the BVH build, the device arrays (docs/bvh.md, "Memory")
+# a textured or vertex-coloured scene's triangles also carry uvs, colours and tangents (layout.VertexAttributes,
+# 132 bytes, gathered per mesh) on the device
+ATTRIBUTE_BYTES_PER_TRIANGLE = 140
+TEXEL_BYTES = 16 + 16  # a texture's float4 texel on the device and its decoded host copy (scene/textures.py)
 BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 
@@ -168,8 +175,11 @@ def require(need: int, what: str, max_memory: int | None = None) -> None:
         raise UsageError(f"{what} needs about {format_bytes(need)} of memory but {budget}; use a smaller size")
 
 
-def render_bytes(width: int, height: int, triangles: int = 0, *, aa: str = "none", aovs: int = 0, filters: int = 0, extra_images: int = 0) -> int:
-    """Peak bytes of one render with these settings (see the table at the top)."""
+def render_bytes(
+    width: int, height: int, triangles: int = 0, *, aa: str = "none", aovs: int = 0, filters: int = 0, extra_images: int = 0, attributes: bool = False
+) -> int:
+    """Peak bytes of one render with these settings (see the table at the top); attributes: the triangles carry
+    uvs, vertex colours and tangents (a textured or vertex-coloured scene)."""
     per_pixel = RENDER_BYTES_PER_PIXEL
     if aa == "edge_detect":
         per_pixel += EDGE_AA_BYTES_PER_PIXEL
@@ -178,7 +188,8 @@ def render_bytes(width: int, height: int, triangles: int = 0, *, aa: str = "none
     if filters:
         per_pixel += FILTER_BYTES_PER_PIXEL
     per_pixel += 16 * extra_images  # an extra written image: its pixels and the 8-bit copy
-    return BASE_BYTES + width * height * per_pixel + triangles * BYTES_PER_TRIANGLE
+    per_triangle = BYTES_PER_TRIANGLE + ATTRIBUTE_BYTES_PER_TRIANGLE * attributes
+    return BASE_BYTES + width * height * per_pixel + triangles * per_triangle
 
 
 def triangles_bytes(triangles: int) -> int:

@@ -23,6 +23,7 @@
 #include "intersect.h"
 #include "bsdf.h"
 #include "envmap.h"
+#include "texture.h"
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
@@ -32,11 +33,16 @@
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
 #endif
+#ifndef ALPHA_TEST
+#define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
+#endif
+#define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
     Geometry geo;
     __global const VertexNormals *normals;
+    TextureView tex;                       /* uvs, vertex colours and textures (texture.h) */
     __global const Light *lights;
     __global const Emitter *emitters;      /* emissive triangles, their power's running sum in `cdf` */
     __global const int *emitter_of_prim;   /* each primitive id's index in `emitters`, or -1 */
@@ -72,6 +78,19 @@ INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     return f;
 }
 
+/* The material at hit h, its textures and vertex colours applied (texture.h); *occlusion: glTF's ambient
+ * occlusion there (the albedo AOV only: a path tracer finds occlusion by itself). */
+INLINE Material material_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
+    Material m = s->geo.materials[f->material];
+    *occlusion = 1.0f;
+    int vertex_colours = s->geo.objects[s->geo.prim_object[h.id]].vertex_colours;
+    if (vertex_colours || material_textured(&m)) {
+        apply_textures(s->tex, &m, h.id, h.u, h.v, vertex_colours);
+        *occlusion = material_occlusion(s->tex, &m, h.id, h.u, h.v);
+    }
+    return m;
+}
+
 /* ---------------------------------------------------------------- materials
  * The component a vertex uses: a lobe of bsdf.h with its parameters, or a delta mirror. */
 #define LOBE_MIRROR (-1)
@@ -92,7 +111,7 @@ INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)
 
 /* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
  * throughput is not rescaled).  docs/materials.md states the rule. */
-INLINE Component pick_component(__global const Material *m, float u) {
+INLINE Component pick_component(const Material *m, float u) {
     Component c;
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
@@ -176,12 +195,43 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
+#if ALPHA_TEST
+/* Whether hit h's point is there: its material's alpha (factor times the base colour texture's alpha) at least
+ * the cutoff (MASK), or with probability alpha (BLEND: stochastic transparency, unbiased on average). */
+INLINE bool alpha_passes(const PathScene *s, Hit h, Rng *rng) {
+    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[h.id]].material];
+    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
+    float a = gm->alpha;
+    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
+        Material m = *gm;
+        a *= slot_texel(s->tex, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
+    }
+    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
+}
+#endif
+
+/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points. */
+INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, Rng *rng, uint *visits) {
+#if ALPHA_TEST
+    for (int k = 0; k < ALPHA_LAYERS; ++k) {
+        Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
+        if (h.id < 0 || alpha_passes(s, h, rng)) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
+    }
+#endif
+    return closest_hit(&s->geo, r, t_min, t_max, visits);
+}
+
 /* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */
-INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, uint *visits) {
+INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, Rng *rng, uint *visits) {
     float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
     Ray sr = make_ray(origin, wi);
     float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
+#if ALPHA_TEST
+    return seen_hit(s, sr, 0.0f, t_max, rng, visits).id < 0 ? 1.0f : 0.0f;
+#else
     return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
+#endif
 }
 
 /* An area light's parallelogram along the ray: t in (0, t_max) or INF_T. */
@@ -209,8 +259,15 @@ INLINE int pick_emitter(const PathScene *s, float u) {
     return lo;
 }
 
-/* Emitted radiance of a material towards a ray that met its front (emission is one-sided). */
-INLINE float3 emission_of(const PathScene *s, int material) { return vload3(0, s->geo.materials[material].emission); }
+/* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
+ * one-sided): its material's emission, times its emissive texture there. */
+INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
+    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
+    float3 le = vload3(0, gm->emission);
+    if (gm->textures[TEXTURE_EMISSIVE] < 0) return le;
+    Material m = *gm;
+    return le * slot_texel(s->tex, &m, TEXTURE_EMISSIVE, prim, u, v).xyz;
+}
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
  * the cosine at the emitter. */
@@ -252,7 +309,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
     float3 fc = component_eval(c, wo, to_local(fr, wi));
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     *rays += 1;
-    return fc * radiance * (scale * mis * visible(s, f, wi, dist, visits));
+    return fc * radiance * (scale * mis * visible(s, f, wi, dist, rng, visits));
 }
 
 /* NEE to one point of one emissive triangle, chosen in proportion to its power. */
@@ -278,13 +335,12 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * emission_of(s, s->geo.objects[s->geo.prim_object[em->prim]].material) *
-           (mis / light_pdf * visible(s, f, wi, dist, visits));
+    return fc * emission_at(s, em->prim, su * (1.0f - u.y), su * u.y) * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
 }
 
 /* NEE to an environment map: a direction drawn by the map's luminance (envmap.h). */
 INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float2 u,
-                             uint *visits, uint *rays) {
+                             Rng *rng, uint *visits, uint *rays) {
     if (!ENV_NEE || !s->env.m.sampled) return (float3)(0.0f);
     float3 le;
     float env_pdf;
@@ -295,7 +351,7 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * le * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
+    return fc * le * (mis / env_pdf * visible(s, f, wi, INF_T, rng, visits));
 }
 
 /* NEE to the environment: the map's own sampling, or for the constant environment a cosine-weighted
@@ -303,7 +359,7 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
 INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                                  uint *visits, uint *rays) {
     float2 u = (float2)(rng_next(rng), rng_next(rng));
-    if (s->env.m.width > 0) return env_map_sample(s, f, c, fr, wo, u, visits, rays);
+    if (s->env.m.width > 0) return env_map_sample(s, f, c, fr, wo, u, rng, visits, rays);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return (float3)(0.0f);
     Frame nf = make_frame(f->n_shade);
@@ -315,7 +371,7 @@ INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
     *rays += 1;
-    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, visits));
+    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, rng, visits));
 }
 
 /* Every NEE strategy at a vertex whose component is not a delta lobe. */
@@ -347,8 +403,9 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
 
 /* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
-INLINE float3 emission_met(const PathScene *s, const Surface *f, Hit h, float3 d, bool prev_delta, float prev_pdf) {
-    float3 le = emission_of(s, f->material);
+INLINE float3 emission_met(const PathScene *s, const Surface *f, const Material *m, Hit h, float3 d, bool prev_delta,
+                          float prev_pdf) {
+    float3 le = vload3(0, m->emission);
     if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
     int e = s->emitter_of_prim[h.id];
     if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
@@ -377,41 +434,48 @@ INLINE Frame component_frame(Component c, const Surface *f) {
     return make_frame(dielectric && !f->front ? -f->n_shade : f->n_shade);
 }
 
-/* The first hit's AOV record and object id (the `id` and `edges` AOVs). */
-INLINE void record_first_hit(const PathScene *s, const Surface *f, Hit h, __global AovRecord *aov, __global IdRecord *id) {
-    if (id) id->path[0] = h.id >= 0 ? s->geo.prim_object[h.id] : -1; /* the rest stays -1: one id per pixel */
-#if WRITE_AOV
-    if (aov && h.id >= 0) {
-        __global const Material *m = &s->geo.materials[f->material];
-        vstore3(f->n_shade, 0, aov->normal);
-        aov->depth = h.t;
-        vstore3(m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd), 0, aov->albedo);
-    }
-#endif
+/* What a path's first hit tells the AOVs: the unit shading normal, the distance, the albedo (the base colour or
+ * kd, times glTF's occlusion) and the object; zeros and -1 on a miss. */
+typedef struct {
+    float3 normal, albedo;
+    float depth;
+    int object;
+} FirstHit;
+
+INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h) {
+    FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
+    if (h.id < 0) return fh;
+    fh.object = s->geo.prim_object[h.id];
+    fh.normal = f->n_shade;
+    fh.depth = h.t;
+    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion;
+    return fh;
 }
 
-/* Radiance along one camera ray. */
-INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRecord *aov, __global IdRecord *id, uint *visits,
-                            uint *rays) {
+/* Radiance along one camera ray; *first gets its first hit. */
+INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first, uint *visits, uint *rays) {
     float3 radiance = (float3)(0.0f), beta = (float3)(1.0f), prev_n = (float3)(0.0f);
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
     for (int depth = 0;; ++depth) {
-        Hit h = closest_hit(&s->geo, r, 0.0f, INF_T, visits);
+        Hit h = seen_hit(s, r, 0.0f, INF_T, rng, visits);
         *rays += 1;
         radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {
             float mis;
             float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
             radiance += beta * le * mis;
-            if (depth == 0) record_first_hit(s, 0, h, aov, id);
+            if (depth == 0) *first = first_hit_of(s, 0, 0, 1.0f, h);
             break;
         }
         Surface f = surface_at(s, r, h);
-        if (depth == 0) record_first_hit(s, &f, h, aov, id);
-        radiance += beta * emission_met(s, &f, h, r.d, prev_delta, prev_pdf);
+        float occlusion;
+        Material m = material_at(s, &f, h, &occlusion);
+        if (m.textures[TEXTURE_NORMAL] >= 0) f.n_shade = normal_mapped(s->tex, &m, h.id, h.u, h.v, f.n_shade, f.front, r.d);
+        if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
+        radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
-        Component c = pick_component(&s->geo.materials[f.material], rng_next(rng));
+        Component c = pick_component(&m, rng_next(rng));
         Frame fr = component_frame(c, &f);
         float3 wo = to_local(fr, -r.d);
         if (!component_is_delta(c)) radiance += beta * direct_lighting(s, &f, c, fr, wo, rng, visits, rays);
@@ -435,11 +499,25 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, __global AovRec
     return radiance;
 }
 
+/* A pixel's AOVs: the object id and depth of its first path, and the normal and albedo as the colour is, the
+ * filtered mean over its paths (a denoiser wants them filtered like the beauty; Mitsuba's film does the same). */
+INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global AovRecord *aov, __global IdRecord *id) {
+    id->path[0] = first.object; /* the rest stays -1: one id per pixel */
+#if WRITE_AOV
+    if (first.object >= 0 || max3(abs3(normal)) > 0.0f) { /* a miss in every path keeps the cleared record */
+        vstore3(normal, 0, aov->normal);
+        aov->depth = first.depth;
+        vstore3(albedo, 0, aov->albedo);
+    }
+#endif
+}
+
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                          __global const Material *materials, __global const Light *lights,
+                          __global const Material *materials, __global const VertexAttributes *attributes,
+                          __global const Texture *textures, __global const float4 *texels, __global const Light *lights,
                           __global const Camera *camera, __global const Emitter *emitters,
                           __global const int *emitter_of_prim, __global const int *pixels, PathParams params,
                           EnvMap env_map, __global const float4 *env_texels, __global const float *env_marginal,
@@ -452,13 +530,15 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
     s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
     s.env = env_view(env_map, env_texels, env_marginal, env_conditional);
+    s.tex = texture_view(attributes, textures, texels);
     s.p = params;
     int pixel = pixels[gid];
     float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
     uint n = (uint)params.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
-    float3 sum = (float3)(0.0f);
+    float3 sum = (float3)(0.0f), normal_sum = (float3)(0.0f), albedo_sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
+    FirstHit first;
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
         Rng rng = make_rng(params.seed, (uint)pixel, sample);
@@ -467,11 +547,15 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
         float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
         Ray r = camera_ray(camera, sx, sy, &rng);
-        bool first = s_i == 0 && params.record;
         float weight = pixel_filter_weight(params.pixel_filter, off);
-        sum += weight * path_radiance(&s, r, &rng, first ? aov_out + gid : 0, first ? ids_out + gid : 0, &visits, &rays);
+        FirstHit fh;
+        sum += weight * path_radiance(&s, r, &rng, &fh, &visits, &rays);
         weight_sum += weight;
+        normal_sum += weight * fh.normal;
+        albedo_sum += weight * fh.albedo;
+        if (s_i == 0) first = fh;
     }
     colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
+    if (params.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
     stats_out[gid] = (uint2)(visits, rays);
 }

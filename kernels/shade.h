@@ -18,6 +18,7 @@
 #include "sampling.h"
 #include "shaft.h"
 #include "envmap.h"
+#include "texture.h"
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -27,6 +28,7 @@
 typedef struct {
     Geometry geo;
     __global const VertexNormals *normals; /* per primitive id */
+    TextureView tex;                       /* uvs, vertex colours and textures (texture.h) */
     __global const Light *lights;
     int n_lights;
     int light_samples;   /* > 0 overrides every area light's samples per side */
@@ -483,15 +485,21 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         }
         ObjectRecord obj = sc->geo.objects[object];
         Material m = sc->geo.materials[obj.material];
+        float occlusion = 1.0f; /* darkens the ambient term and the albedo AOV only (glTF's occlusionTexture) */
+        if (obj.vertex_colours || material_textured(&m)) { /* textures modulate kd (texture.h) */
+            apply_textures(sc->tex, &m, h.id, h.u, h.v, obj.vertex_colours);
+            occlusion = material_occlusion(sc->tex, &m, h.id, h.u, h.v);
+        }
         ShadingPoint pt;
         bool sphere;
         bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
+        if (m.textures[TEXTURE_NORMAL] >= 0) pt.n = normal_mapped(sc->tex, &m, h.id, h.u, h.v, pt.n, front_face, d);
         if (ids && first_hit && !obj.smooth && !sphere) ids->facet = h.id;
 #if WRITE_AOV
         if (first_hit && sc->aov) {
             vstore3(pt.n, 0, sc->aov->normal);
             sc->aov->depth = h.t;
-            vstore3(pt.kd, 0, sc->aov->albedo);
+            vstore3(pt.kd * occlusion, 0, sc->aov->albedo);
         }
 #endif
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
@@ -499,7 +507,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         float3 surface_weight = w * (1.0f - m.transparency) * (1.0f - m.mirror);
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max3(surface_weight) > 0.0f || shadow_here) {
-            float3 surface = sc->ambient * pt.kd + direct_light(sc, pt, rng, shadow_here, visits, rays);
+            float3 surface = sc->ambient * (pt.kd * occlusion) + direct_light(sc, pt, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;

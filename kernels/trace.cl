@@ -14,7 +14,9 @@
  * (aov_out is unused otherwise). */
 __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                      __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                     __global const Material *materials, __global const Light *lights, __global const Camera *camera,
+                     __global const Material *materials, __global const VertexAttributes *attributes,
+                     __global const Texture *textures, __global const float4 *texels,
+                     __global const Light *lights, __global const Camera *camera,
                      __global const int *pixels, RenderParams params, EnvMap env_map, __global const float4 *env_texels,
                      __global float4 *colour_out, __global IdRecord *ids_out, __global float *shadow_out,
                      __global uint2 *stats_out, __global AovRecord *aov_out) {
@@ -22,7 +24,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     if (gid >= params.n_work) return;
     SceneView sc;
     sc.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
-    sc.normals = normals; sc.lights = lights;
+    sc.normals = normals; sc.lights = lights; sc.tex = texture_view(attributes, textures, texels);
     sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
     sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
@@ -65,13 +67,15 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
     }
 }
 
-/* The ray kernels below take RAYS_PER_ITEM = 8 consecutive rays per work-item (an incomplete last
- * group repeats the last ray).  Through the wide trees they go as one packet when they go the same
- * way (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
- * through the binary tree or without one, one by one (trace_query). */
-#if RAYS_PER_ITEM != 8
-#error "RAYS_PER_ITEM must be 8: the ray kernels take a packet's worth of rays"
+/* The ray kernels below take RAYS_PER_ITEM consecutive rays per work-item (an incomplete last group
+ * repeats the last ray): 8, a packet's worth, or 1 (the layout chosen per device, clrender/trace/
+ * portability.py).  Eight through the wide trees go as one packet when they go the same way
+ * (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
+ * one per item, and through the binary tree or without one, one by one (trace_query). */
+#if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
+#error "RAYS_PER_ITEM must be 8 (a packet's worth of rays per work-item) or 1"
 #endif
+#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks; instances: one ray at a time (walk_instances) */
 
 /* Ray i of packed (x, y, z) float32 triples (the caller's arrays, uploaded as they are). */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
@@ -140,7 +144,7 @@ INLINE float2 query_segment(const QueryItem *q, int k, bool any_hit) {
     return (float2)(to_unit_t(q->t_min[i], q->units[k]), to_unit_t(any_hit ? q->t_max[i] : INF_T, q->units[k]));
 }
 
-#if USE_BVH && BVH_WIDTH >= 4
+#if ITEM_PACKETS
 /* Rays k and k + 1 walked in turn, closest hit or any-hit; the same ray for a wide walk has its shear
  * (six divisions) computed only once the root has a hit: most rays of a small mesh's batch miss it. */
 INLINE void walk_pair(QueryItem *q, const Geometry *g, int k, bool any_hit) {
@@ -221,7 +225,7 @@ INLINE int hit_object(const Geometry *g, Hit h) {
 /* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
  * each visited. */
 INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
-#if USE_BVH && BVH_WIDTH >= 4 && !INSTANCED /* instances: one ray at a time (walk_instances) */
+#if ITEM_PACKETS
     if (!walk_packet(q, g, any_hit))
         for (int k = 0; k < q->n; k += 2) walk_pair(q, g, k, any_hit);
 #else

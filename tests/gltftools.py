@@ -57,3 +57,58 @@ def gltf_file(tmp_path, nodes, *, mode=4, indices=(0, 1, 2, 0, 2, 3), lights=(),
     path = tmp_path / name
     path.write_text(json.dumps(doc))
     return path
+
+
+def png_bytes(texels) -> bytes:
+    """A PNG of uint8 texels (H, W) or (H, W, C), C = 1 to 4, encoded in memory."""
+    import io
+
+    from PIL import Image
+
+    texels = np.asarray(texels, np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(texels if texels.ndim == 2 or texels.shape[2] > 1 else texels[..., 0]).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+# a camera 2 above the quad looking down -z that sees x, y in [-0.9, 0.9] of it, and a directional light along -z
+# whose glTF intensity pi gives an irradiance of pi: a Lambert surface then shows its base colour exactly
+HALF_VIEW = 0.9
+CAMERA_NODE = {"camera": 0, "translation": [0, 0, 2]}
+CAMERA = {"type": "perspective", "perspective": {"yfov": 2 * math.atan(HALF_VIEW / 2), "aspectRatio": 1.0}}
+LIGHT_NODE = {"extensions": {"KHR_lights_punctual": {"light": 0}}}
+LIGHT = {"type": "directional", "intensity": math.pi}
+
+
+def textured_quad(tmp_path, material, images, *, uv_scale=1.0, colours=None, samplers=None, textures=None, name="textured.gltf"):
+    """The quad of gltf_file with TEXCOORD_0 laying the image upright over it (UV (0, 0) at its top-left corner
+    (-1, 1), uv_scale times the image across it), optional COLOR_0 (4 x 3), the material, images (PNG bytes as
+    data URIs, or dicts taken as they are), textures (default: texture i shows image i with sampler i if given)."""
+    uv = np.stack([(QUAD[:, 0] + 1) / 2, (1 - QUAD[:, 1]) / 2], 1).astype(np.float32) * uv_scale
+    path = gltf_file(tmp_path, [{"mesh": 0}, CAMERA_NODE, LIGHT_NODE], cameras=[CAMERA], lights=[LIGHT], materials=[material], name=name)
+    doc = json.loads(path.read_text())
+    blob = base64.b64decode(doc["buffers"][0]["uri"].split(",", 1)[1])
+    attributes = doc["meshes"][0]["primitives"][0]["attributes"]
+    for key, values, kind in (("TEXCOORD_0", uv, "VEC2"), ("COLOR_0", colours, "VEC3")):
+        if values is None:
+            continue
+        values = np.asarray(values, np.float32)
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": values.nbytes})
+        doc["accessors"].append({"bufferView": len(doc["bufferViews"]) - 1, "componentType": 5126, "count": 4, "type": kind})
+        attributes[key] = len(doc["accessors"]) - 1
+        blob += values.tobytes()
+    doc["buffers"] = [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}]
+    doc["images"] = [i if isinstance(i, dict) else {"uri": "data:image/png;base64," + base64.b64encode(i).decode()} for i in images]
+    doc["samplers"] = samplers or [{"magFilter": 9728, "minFilter": 9728}]
+    doc["textures"] = textures or [{"source": i, "sampler": min(i, len(doc["samplers"]) - 1)} for i in range(len(images))]
+    doc["extensionsUsed"] = sorted({*doc.get("extensionsUsed", []), "KHR_texture_transform"})
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def quad_hits(n: int, offset=(0.5, 0.5)) -> np.ndarray:
+    """(n, n, 2) x, y where the ray through each pixel's point `offset` (its centre by default) of an n x n render
+    of textured_quad meets the quad (z = 0)."""
+    c = (np.arange(n) + offset[0]) / n * 2 - 1
+    r = (np.arange(n) + offset[1]) / n * 2 - 1
+    return np.stack(np.meshgrid(c * HALF_VIEW, -r * HALF_VIEW, indexing="xy"), -1)

@@ -10,6 +10,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import RenderWarning, UsageError
+from ..image.tonemap import TONEMAPS
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument
 
@@ -143,6 +144,25 @@ def add_parser(sub):
     p.add_argument(
         "--aov-out", default=None, metavar="PATH", help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)"
     )
+    p.add_argument(
+        "--exposure",
+        type=float,
+        default=0.0,
+        metavar="STOPS",
+        help="PNG/JPEG: multiply the linear image by 2**STOPS before the tone curve; EXR stays as rendered (default: 0)",
+    )
+    p.add_argument(
+        "--tonemap",
+        choices=TONEMAPS,
+        default="clamp",
+        help="PNG/JPEG tone curve: clamp clips at 1, aces (Hill's RRT+ODT fit) and agx (AgX base) roll highlights off (default: clamp)",
+    )
+    p.add_argument(
+        "--denoise",
+        action="store_true",
+        help="path: denoise the image with Intel Open Image Denoise, using the albedo and normal AOVs (needs clrender[denoise])",
+    )
+    p.add_argument("--noisy-out", default=None, metavar="PATH", help="with --denoise: also write the image before denoising (default: not written)")
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument(
         "--integrator",
@@ -295,6 +315,33 @@ def run(args):
         return _render(args)
 
 
+def display_from_args(args, output=None):
+    """The display transform of PNG/JPEG outputs (clrender/image/tonemap.py); a warning when the one
+    output named is a float file, which stays scene-linear."""
+    from ..image.files import FLOAT_EXTENSIONS
+    from ..image.tonemap import DisplaySettings
+
+    display = DisplaySettings(exposure=getattr(args, "exposure", 0.0), tonemap=getattr(args, "tonemap", "clamp"))
+    if output is not None and Path(output).suffix.lower() in FLOAT_EXTENSIONS and display != DisplaySettings():
+        warn(f"--exposure and --tonemap change nothing in {Path(output).name}: float outputs stay scene-linear")
+    return display
+
+
+def check_denoise(args, settings) -> None:
+    """--denoise and --noisy-out: refused where they do not apply, and without OIDN installed (before any work)."""
+    if args.noisy_out is not None and not args.denoise:
+        raise UsageError("--noisy-out needs --denoise (without it the output is the noisy image)")
+    if not args.denoise:
+        return
+    if settings.integrator != "path":
+        raise UsageError(f"--denoise is for --integrator path (Monte Carlo noise); --integrator {settings.integrator} has none to remove")
+    if args.turntable is not None or args.video:
+        raise UsageError("--denoise is for single renders; --turntable writes the frames as rendered")
+    from ..image.denoise import require_oidn
+
+    require_oidn()
+
+
 def _render(args):
     from .. import memory
     from ..image.files import check_distinct_outputs, check_output_path, write_display_image
@@ -311,23 +358,33 @@ def _render(args):
         files = "a .toml scene file, a .gltf/.glb file or a mesh file (.obj, .ply, .stl, .off)"
         raise UsageError(f"render needs a SCENE: a bundled scene name (clrender render --list), {files}")
     settings = settings_from_args(args)
+    check_denoise(args, settings)
     if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
         from .turntable import run_turntable
 
-        return run_turntable(args, settings)
+        return run_turntable(args, settings, display_from_args(args))
     output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
+    display = display_from_args(args, output)
+    noisy_out = check_output_path(args.noisy_out, overwrite=args.overwrite) if args.noisy_out else None
     edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
     if edges_out and settings.aa != "edge_detect":
         raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
     from ..trace.aov import aov_output
 
     aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
-    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out})
+    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out, "--noisy-out": noisy_out})
     if args.filter:
         from ..image import filters
 
         for name in args.filter:
             filters.parse(name)
+    requested_aovs = settings.aovs
+    if args.denoise:  # OIDN's auxiliary images; only the AOVs asked for are written
+        from dataclasses import replace
+
+        from ..image.denoise import AUX_AOVS
+
+        settings = replace(settings, aovs=requested_aovs + tuple(a for a in AUX_AOVS if a not in requested_aovs))
     start = time.perf_counter()
     scene = Scene.load(args.scene)
     load_seconds = time.perf_counter() - start
@@ -341,7 +398,8 @@ def _render(args):
             aa=settings.aa,
             aovs=len(settings.aovs),
             filters=len(args.filter),
-            extra_images=edges_out is not None,
+            extra_images=(edges_out is not None) + 2 * args.denoise,  # denoise: its output and the noisy copy
+            attributes=scene.has_vertex_attributes,
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )
@@ -349,28 +407,41 @@ def _render(args):
 
     with renderer_for(args, scene, settings) as renderer:
         result = renderer.run()
-    image = result.image
-    if args.filter:
+    image = noisy = result.image
+    denoise_seconds = None
+    if args.denoise:
+        from ..image.denoise import denoise_result
+
+        start = time.perf_counter()
+        image = denoise_result(result)
+        denoise_seconds = time.perf_counter() - start
+    if args.filter:  # after denoising: OIDN is trained on the renderer's own noise, not on filtered images
         image = filters.apply(image, *args.filter)
+        noisy = filters.apply(noisy, *args.filter) if noisy_out is not None else noisy
+    aovs = {name: result.aovs[name] for name in requested_aovs}
     from ..trace.aov import write_exr
     from ..trace.edges import overlay_edges
 
     with output_set(overwrite=args.overwrite):  # every output is written, then all are put in place together
-        if settings.aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
-            write_exr(output, result.aovs, beauty=image)
+        if aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
+            write_exr(output, aovs, beauty=image)
         else:
-            write_display_image(output, image)
+            write_display_image(output, image, display=display)
         if aov_out is not None:
-            write_exr(aov_out, result.aovs)
+            write_exr(aov_out, aovs)
         if edges_out is not None:
-            write_display_image(edges_out, overlay_edges(result.image, result.edge_mask))
-    for path in (output, aov_out, edges_out):  # stdout: every written path, for scripts
+            write_display_image(edges_out, overlay_edges(result.image, result.edge_mask), display=display)
+        if noisy_out is not None:
+            write_display_image(noisy_out, noisy, display=display)
+    for path in (output, aov_out, edges_out, noisy_out):  # stdout: every written path, for scripts
         if path is not None:
             print(path)
     if not args.quiet:
         s = renderer.settings
         t = result.timings
         parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        if denoise_seconds is not None:
+            parts.append(f"denoise {denoise_seconds:.2f}s")
         if "resample" in t:
             parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
         sys.stderr.write(

@@ -216,13 +216,14 @@ def ffmpeg_exe() -> str:
         raise RenderFailure(f"--video found no ffmpeg: {first_line(str(exc))}") from None
 
 
-def _srgb8(image: np.ndarray) -> np.ndarray:
-    from ..image.files import linear_to_srgb
+def _srgb8(image: np.ndarray, display=None) -> np.ndarray:
+    from ..image.files import srgb8
 
-    return np.round(linear_to_srgb(image) * 255.0).astype(np.uint8)
+    return srgb8(image, display)
 
 
-def run_turntable(args, settings) -> int:
+def run_turntable(args, settings, display=None) -> int:
+    """K frames into a folder (and a video); `display`: the PNG/JPEG frames' exposure and tone curve."""
     from ..image.files import check_output_path, write_display_image
     from ..outputs import output_set
     from ..progress import progress
@@ -278,9 +279,9 @@ def run_turntable(args, settings) -> int:
                 for k, image in frames:
                     if args.filter:
                         image = filters.apply(image, *args.filter)
-                    write_display_image(paths[k], image)
+                    write_display_image(paths[k], image, display=display)
                     if video is not None:
-                        video.add(k, _srgb8(image))
+                        video.add(k, _srgb8(image, display))
                     bar.update()
             if video is not None:
                 video.finish()

@@ -21,6 +21,7 @@ import OpenImageIO as oiio
 
 from ..errors import RenderFailure, UsageError, first_line, library_messages, shown
 from ..outputs import check_writable, write_file
+from .tonemap import DisplaySettings, display_linear
 
 # An image header may promise any size; more pixels than this are refused
 # before a byte of them is allocated (the renderer's own limit, 8192 x 8192).
@@ -349,9 +350,22 @@ def _copy_into(source_fd: int, temp: str, size: int, path: Path) -> None:
         raise RenderFailure(f"cannot write {shown(path)}: only {os.stat(temp).st_size} of its {size} bytes were written (is the disk full?)")
 
 
-def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True) -> Path:
-    """Write a linear render: float formats stay linear, others are sRGB-encoded 8-bit."""
+def display_srgb(linear_rgb: np.ndarray, display: DisplaySettings | None = None) -> np.ndarray:
+    """The display transform (clrender/image/tonemap.py: exposure, tone curve), then the sRGB encoding:
+    float32 in [0, 1], ready for an 8-bit writer (the default clamp: exactly linear_to_srgb(linear_rgb))."""
+    return linear_to_srgb(display_linear(linear_rgb, display))
+
+
+def srgb8(linear_rgb: np.ndarray, display: DisplaySettings | None = None) -> np.ndarray:
+    """(H, W, 3) uint8 sRGB codes of a linear render after the display transform, as a PNG of it stores them."""
+    return np.round(display_srgb(linear_rgb, display) * 255.0).astype(np.uint8)
+
+
+def write_display_image(path: str | os.PathLike, linear_rgb: np.ndarray, *, overwrite: bool = True, display: DisplaySettings | None = None) -> Path:
+    """Write a linear render: float formats stay scene-linear, others get the display transform
+    (`display`: exposure and tone curve, default clamp) and are sRGB-encoded 8-bit."""
     path = Path(path)
     if path.suffix.lower() in FLOAT_EXTENSIONS:
         return write_image(path, linear_rgb, format="float", overwrite=overwrite)
+    linear_rgb = display_linear(linear_rgb, display)  # clamp: the values as they are (the encoding clips)
     return write_image(path, linear_to_srgb(linear_rgb), format="uint8", overwrite=overwrite)

@@ -32,8 +32,15 @@ nothing in the file is dropped without being listed here:
   (linear RGB, as glTF stores it), metallicFactor, roughnessFactor,
   emissiveFactor times KHR_materials_emissive_strength, KHR_materials_ior and
   KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
-  draws the base colour as its diffuse colour); textures and alpha are not
-  modelled.  Primitives without a material get clrender's default grey.
+  draws the base colour as its diffuse colour); baseColorTexture,
+  metallicRoughnessTexture, emissiveTexture, occlusionTexture and normalTexture (with TANGENT, or tangents
+  generated from the UVs) with their texCoord and
+  KHR_texture_transform, as scene `textures` entries that name the file's
+  image (`image_bytes`: a uri beside the file, a data URI or a GLB
+  bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex; alphaMode
+  MASK (alphaCutoff) and BLEND (stochastic) in the path tracer; doubleSided is ignored
+  (every surface is shaded on both sides).  Primitives without a material get
+  clrender's default grey.
 
 Anything malformed is a UsageError naming the file and what was wrong.  Counts
 (accessor elements, triangles, vertices read) are checked against the limits
@@ -456,6 +463,10 @@ class NodeMesh:
     vertices: np.ndarray  # (V, 3) float64
     faces: np.ndarray  # (F, 3) int64
     normals: np.ndarray | None = None  # (V, 3) unit normals from the file, if it has them
+    uv0: np.ndarray | None = None  # (V, 2) TEXCOORD_0, where every primitive has it (else zeros where missing)
+    uv1: np.ndarray | None = None  # (V, 2) TEXCOORD_1
+    colours: np.ndarray | None = None  # (V, 3) COLOR_0's RGB (ones where a primitive has none)
+    tangents: np.ndarray | None = None  # (V, 4) TANGENT in world space, where every primitive has it
 
     @property
     def vertex_normals(self) -> np.ndarray:
@@ -502,7 +513,57 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
     normals = None
     if all(n is not None for _, _, n in parts):
         normals = np.concatenate([n for _, _, n in parts])
-    return NodeMesh(vertices, faces, normals)
+    kept = [p for p in chosen if _triangle_primitive(doc, mesh_index, p) is not None]
+    attrs = [primitive_attributes(doc, mesh_index, p, len(v)) for p, (v, _, _) in zip(kept, parts)]
+    joined = []
+    for k, fill in enumerate((0.0, 0.0, 1.0)):
+        given = [a[k] for a in attrs]
+        if all(g is None for g in given):
+            joined.append(None)
+            continue
+        width = 3 if k == 2 else 2
+        joined.append(np.concatenate([g if g is not None else np.full((len(v), width), fill) for g, (v, _, _) in zip(given, parts)]))
+    given = [a[3] for a in attrs]
+    joined.append(np.concatenate(given) if all(g is not None for g in given) else None)
+    if joined[-1] is not None:  # tangents turn with the node's linear transform (not its inverse transpose)
+        t = joined[-1]
+        xyz = t[:, :3] @ matrix[:3, :3].T
+        t[:, :3] = xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30)
+    return NodeMesh(vertices, faces, normals, *joined)
+
+
+def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vertices: int):
+    """(TEXCOORD_0, TEXCOORD_1, COLOR_0 RGB, TANGENT) of a triangle primitive, each (n_vertices, 2, 3 or 4) float64
+    or None."""
+    prim = doc.item("meshes", mesh_index)["primitives"][prim_index]
+    attributes = prim["attributes"]
+    where = f"meshes[{mesh_index}].primitives[{prim_index}].attributes"
+    out = []
+    for name in ("TEXCOORD_0", "TEXCOORD_1"):
+        if name not in attributes:
+            out.append(None)
+            continue
+        uv = accessor(doc, attributes[name], f"{where}.{name}", "VEC2", (5126, 5121, 5123))
+        if len(uv) != n_vertices or not np.isfinite(uv).all():
+            doc.fail(f"{where}.{name}: {len(uv)} finite coordinates needed, one per POSITION ({n_vertices})")
+        out.append(uv)
+    colours = None
+    if "COLOR_0" in attributes:
+        kind = doc.item("accessors", attributes["COLOR_0"]).get("type")
+        kind = kind if kind in ("VEC3", "VEC4") else "VEC3"
+        c = accessor(doc, attributes["COLOR_0"], f"{where}.COLOR_0", kind, (5126, 5121, 5123))
+        if len(c) != n_vertices or not np.isfinite(c).all():
+            doc.fail(f"{where}.COLOR_0: {len(c)} finite colours needed, one per POSITION ({n_vertices})")
+        colours = np.clip(c[:, :3], 0.0, 1.0)
+    out.append(colours)
+    tangents = None
+    if "TANGENT" in attributes:
+        tangents = accessor(doc, attributes["TANGENT"], f"{where}.TANGENT", "VEC4", (5126, 5120, 5122))
+        if len(tangents) != n_vertices or not np.isfinite(tangents).all():
+            doc.fail(f"{where}.TANGENT: {len(tangents)} finite tangents needed, one per POSITION ({n_vertices})")
+        tangents[:, 3] = np.where(tangents[:, 3] < 0, -1.0, 1.0)
+    out.append(tangents)
+    return out
 
 
 def node_shape(path, node: int, primitive: int | None = None, root=None) -> tuple[int, np.ndarray, np.ndarray]:
@@ -583,7 +644,7 @@ def _material(doc: Document, index: int) -> dict:
     strength = extension("KHR_materials_emissive_strength", "emissiveStrength", 1.0)
     ior = extension("KHR_materials_ior", "ior", 1.5)
     transmission = extension("KHR_materials_transmission", "transmissionFactor", 0.0)
-    return {
+    out = {
         "base_color": [float(c) for c in factor[:3]],
         "metallic": float(metallic[0]),
         "roughness": float(roughness[0]),
@@ -591,6 +652,109 @@ def _material(doc: Document, index: int) -> dict:
         "ior": ior,
         "transmission": transmission,
     }
+    mode = item.get("alphaMode", "OPAQUE")
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
+        doc.fail(f"{where}.alphaMode {show(mode)}; allowed: OPAQUE, MASK, BLEND")
+    if mode != "OPAQUE":
+        cutoff = float(_numbers(doc, [item.get("alphaCutoff", 0.5)], 1, f"{where}.alphaCutoff")[0])
+        out["alpha"] = {"mode": mode.lower(), "cutoff": min(max(cutoff, 0.0), 1.0), "factor": min(max(float(factor[3]), 0.0), 1.0)}
+    infos = {
+        "base_color_texture": (pbr, "baseColorTexture"),
+        "metallic_roughness_texture": (pbr, "metallicRoughnessTexture"),
+        "emissive_texture": (item, "emissiveTexture"),
+        "occlusion_texture": (item, "occlusionTexture"),
+        "normal_texture": (item, "normalTexture"),
+    }
+    for key, (table, name) in infos.items():
+        if name in table:
+            out[key], extra = _texture_info(doc, table[name], f"{where}.{name}")
+            if name == "occlusionTexture":
+                out[key]["strength"] = min(max(extra.get("strength", 1.0), 0.0), 1.0)
+            if name == "normalTexture":
+                out[key]["strength"] = extra.get("scale", 1.0)
+    return out
+
+
+def _texture_info(doc: Document, info, where: str):
+    """A textureInfo as a scene material's texture table, and its strength/scale values."""
+    if not isinstance(info, dict):
+        doc.fail(f"{where} must be an object, got {show(info)}")
+    index = info.get("index")
+    doc.item("textures", index)
+    tex_coord = info.get("texCoord", 0)
+    ext = info.get("extensions", {}).get("KHR_texture_transform") if isinstance(info.get("extensions"), dict) else None
+    ref = {"texture": f"texture_{index}"}
+    if isinstance(ext, dict):
+        tex_coord = ext.get("texCoord", tex_coord)
+        ref["offset"] = _numbers(doc, ext.get("offset", [0, 0]), 2, f"{where}.extensions.KHR_texture_transform.offset").tolist()
+        ref["rotation"] = float(_numbers(doc, [ext.get("rotation", 0.0)], 1, f"{where}.extensions.KHR_texture_transform.rotation")[0])
+        ref["scale"] = _numbers(doc, ext.get("scale", [1, 1]), 2, f"{where}.extensions.KHR_texture_transform.scale").tolist()
+    if tex_coord not in (0, 1) or isinstance(tex_coord, bool):
+        doc.fail(f"{where}.texCoord {show(tex_coord)}; allowed: 0 or 1 (TEXCOORD_0, TEXCOORD_1)")
+    ref["tex_coord"] = tex_coord
+    extra = {k: float(_numbers(doc, [info[k]], 1, f"{where}.{k}")[0]) for k in ("strength", "scale") if k in info}
+    return ref, extra
+
+
+WRAPS = {10497: "repeat", 33071: "clamp_to_edge", 33648: "mirrored_repeat"}
+NEAREST = 9728
+
+
+def _textures(doc: Document, path: Path, materials: dict) -> dict:
+    """The scene `textures` entries of the glTF textures the materials use, named texture_<index>."""
+    used = sorted({int(v["texture"].split("_")[1]) for m in materials.values() for k, v in m.items() if k.endswith("_texture")})
+    out = {}
+    for t in used:
+        tex = doc.item("textures", t)
+        source = tex.get("source")
+        if source is None:
+            doc.fail(f"textures[{t}] has no source image (an image only an extension names is not read)")
+        doc.item("images", source)
+        sampler = doc.item("samplers", tex["sampler"]) if "sampler" in tex else {}
+        entry = {"file": path.name, "image": source}
+        for key, name in (("wrapS", "wrap_s"), ("wrapT", "wrap_t")):
+            code = sampler.get(key, 10497)
+            if code not in WRAPS:
+                doc.fail(f"samplers[{tex['sampler']}].{key} {show(code)}; allowed: {', '.join(map(str, WRAPS))}")
+            entry[name] = WRAPS[code]
+        entry["filter"] = "nearest" if sampler.get("magFilter") == NEAREST else "linear"
+        out[f"texture_{t}"] = entry
+    return out
+
+
+@_malformed_is_usage_error
+def image_bytes(path, index: int, root=None) -> bytes:
+    """The encoded bytes of images[index] of a glTF file: a data URI, a GLB bufferView, or a file beside it
+    (found through confine.scene_file: a confined scene reads none outside its folder)."""
+    doc = read_document(path, root)
+    image = doc.item("images", index)
+    where = f"images[{index}]"
+    if "uri" in image:
+        uri = image["uri"]
+        if not isinstance(uri, str):
+            doc.fail(f"{where}.uri must be a string")
+        if uri.startswith("data:"):
+            try:
+                return base64.b64decode(uri.split(",", 1)[1], validate=True)
+            except (IndexError, ValueError):
+                doc.fail(f"{where}.uri is not a base64 data URI")
+        from urllib.parse import unquote
+
+        file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: {where}.uri")
+        if not file.is_file():
+            doc.fail(f"{where}.uri: image file {str(file)!r} does not exist")
+        return file.read_bytes()
+    if "bufferView" not in image:
+        doc.fail(f"{where} has neither a uri nor a bufferView")
+    view = doc.item("bufferViews", image["bufferView"])
+    buffer_index = view.get("buffer")
+    if isinstance(buffer_index, bool) or not isinstance(buffer_index, int) or not 0 <= buffer_index < len(doc.buffers):
+        doc.fail(f"bufferViews[{image['bufferView']}].buffer {buffer_index!r} does not exist")
+    start, length = view.get("byteOffset", 0), view.get("byteLength", 0)
+    data = doc.buffers[buffer_index]
+    if not isinstance(start, int) or not isinstance(length, int) or start < 0 or start + length > len(data):
+        doc.fail(f"{where}: bufferViews[{image['bufferView']}] runs past its buffer")
+    return bytes(data[start : start + length])
 
 
 def _camera(doc: Document, index: int, matrix: np.ndarray, node: int):
@@ -737,4 +901,5 @@ def scene_dict(path, root=None) -> dict:
         "materials": materials,
         "lights": lights,
         "objects": objects,
+        "textures": _textures(doc, path, materials),
     }

@@ -5,7 +5,12 @@ A material given with `base_color`, `metallic`, `roughness` or `transmission` is
 material (MATERIAL_MODELS["gltf"]); any other is a seed material, which the path tracer maps onto its lobes
 by one rule (docs/materials.md).  `emission` and `ior` belong to both.  The Whitted integrator draws a
 metallic-roughness material as Lambert with kd = base colour (what it drew of glTF materials before the path
-tracer), and nothing else of it."""
+tracer), and nothing else of it.
+
+Textures (scene/textures.py) modulate the parameters per hit: `diffuse_texture` (seed) or `base_color_texture`
+multiplies kd / base colour, `metallic_roughness_texture` metallic (B) and roughness (G), `emissive_texture` the
+emission; `occlusion_texture` darkens only the albedo AOV and the Whitted ambient term; `normal_texture` tilts
+the shading normal (docs/materials.md)."""
 
 from __future__ import annotations
 
@@ -13,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, MATERIAL_MODELS
+from ..layout import ALPHA_MODES, MATERIAL_DTYPE, MATERIAL_MODELS, TEXTURE_SLOTS
 from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
+from .textures import TextureRef, read_ref
 
 
 @dataclass(frozen=True)
@@ -30,6 +36,15 @@ class Material:
     roughness: float = 0.5  # glTF perceptual roughness r, 0 to 1; GGX alpha = r^2
     transmission: float = 0.0  # fraction of the dielectric part that is transmitted (KHR_materials_transmission)
     emission: tuple = (0.0, 0.0, 0.0)  # emitted radiance of the front faces, W/(m^2 sr) per channel (path tracer)
+    # textures by layout.TEXTURE_SLOTS slot (None: none); base_color_texture is the seed model's diffuse_texture
+    base_color_texture: TextureRef | None = None  # times kd / base colour (sRGB-decoded)
+    metallic_roughness_texture: TextureRef | None = None  # B times metallic, G times roughness (linear)
+    emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
+    occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
+    normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
+    alpha: float = 1.0  # coverage, times the base colour texture's alpha (path tracer only)
+    alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
+    alpha_cutoff: float = 0.5
 
     @property
     def base_color_or_kd(self) -> tuple:
@@ -56,15 +71,75 @@ class Material:
     def model_code(self) -> int:
         return MATERIAL_MODELS[self.model]
 
+    @property
+    def alpha_mode_code(self) -> int:
+        return ALPHA_MODES[self.alpha_mode]
+
+    @property
+    def occlusion_strength(self) -> float:
+        return 1.0 if self.occlusion_texture is None else self.occlusion_texture.strength
+
+    @property
+    def normal_scale(self) -> float:
+        return 1.0 if self.normal_texture is None else self.normal_texture.strength
+
+    def _refs(self) -> list:
+        return [getattr(self, f"{slot}_texture") for slot in TEXTURE_SLOTS]
+
+    @property
+    def texture_indices(self) -> list:
+        return [-1 if r is None else r.index for r in self._refs()]
+
+    @property
+    def texture_coords(self) -> list:
+        return [0 if r is None else r.tex_coord for r in self._refs()]
+
+    @property
+    def texture_transforms(self) -> list:
+        return [[1.0, 0.0, 0.0, 0.0, 1.0, 0.0] if r is None else r.matrix() for r in self._refs()]
+
 
 # record fields whose Material attribute has another name (the kernels' shading formulas name them)
-RECORD_NAMES = {"ks": "specular", "model": "model_code", "base_color": "base_color_or_kd"}
+RECORD_NAMES = {
+    "ks": "specular",
+    "model": "model_code",
+    "base_color": "base_color_or_kd",
+    "textures": "texture_indices",
+    "tex_coord": "texture_coords",
+    "tex_transform": "texture_transforms",
+    "alpha_mode": "alpha_mode_code",
+}
 DEFAULT_MATERIAL = Material()
 
 
 # ------------------------------------------------------------------ reading
-SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency")
-GLTF_KEYS = ("base_color", "metallic", "roughness", "transmission")
+SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "diffuse_texture")
+GLTF_KEYS = (
+    "base_color",
+    "metallic",
+    "roughness",
+    "transmission",
+    "base_color_texture",
+    "metallic_roughness_texture",
+    "occlusion_texture",
+    "normal_texture",
+)
+
+
+def _refs(checks: Checks, m: dict, path: str, keys: dict) -> dict:
+    """Material attributes {slot_texture: TextureRef} of the texture keys present (`keys`: key -> attribute)."""
+    return {attr: read_ref(checks, m[key], f"{path}.{key}") for key, attr in keys.items() if key in m}
+
+
+def _alpha(checks: Checks, a, path: str) -> dict:
+    """`alpha = { mode = "mask", cutoff = 0.5, factor = 1 }` as Material keyword arguments."""
+    checks.table(a, path)
+    checks.check_keys(a, path, ("mode", "cutoff", "factor"))
+    return dict(
+        alpha_mode=checks.choice(a, "mode", path, "opaque", tuple(ALPHA_MODES)),
+        alpha_cutoff=checks.number(a, "cutoff", path, 0.5, low=0.0, high=1.0),
+        alpha=checks.number(a, "factor", path, 1.0, low=0.0, high=1.0),
+    )
 
 
 def _build_material(checks: Checks, m: dict, path: str) -> Material:
@@ -76,8 +151,15 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
     common = dict(
         ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
         emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
+        **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
+        **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
     )
     if gltf:
+        slots = ("base_color", "metallic_roughness", "occlusion", "normal")
+        common.update(_refs(checks, m, path, {f"{s}_texture": f"{s}_texture" for s in slots}))
+        occlusion = common.get("occlusion_texture")
+        if occlusion is not None and not 0.0 <= occlusion.strength <= 1.0:
+            checks.fail(f"{path}.occlusion_texture.strength", f"{occlusion.strength:g} is out of range; allowed: 0 to 1")
         return Material(
             base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="colour"),
             metallic=checks.number(m, "metallic", path, d.metallic, low=0.0, high=1.0),
@@ -91,12 +173,13 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         shininess=checks.number(m, "shininess", path, d.shininess, low=0.0, high=SHININESS_LIMIT),
         mirror=checks.number(m, "mirror", path, d.mirror, low=0.0, high=1.0),
         transparency=checks.number(m, "transparency", path, d.transparency, low=0.0, high=1.0),
+        **_refs(checks, m, path, {"diffuse_texture": "base_color_texture"}),
         **common,
     )
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
-MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission"), _build_material)
+MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha"), _build_material)
 
 
 def read_material(checks: Checks, m, path: str) -> Material:

@@ -13,6 +13,7 @@ checks.py.  Imports go one way: this module imports gltf.py (which reads a glTF 
 
 from __future__ import annotations
 
+import io
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +22,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..package_data import data_dir
-from . import environment, gltf
+from . import environment, gltf, textures
 from .camera import Camera, read_camera
 
 # The limits and the shared checks live in checks.py (every reader imports them); named here too for older callers.
@@ -56,7 +57,7 @@ from .checks import (  # noqa: F401
     show,
 )
 from .lights import Light, read_light
-from .materials import DEFAULT_MATERIAL, read_material
+from .materials import DEFAULT_MATERIAL, Material, read_material
 from .toml_text import read_toml
 
 
@@ -77,6 +78,11 @@ class Mesh:
     material: str = "default"
     smooth: bool = False  # interpolate vertex normals (True) or use each face's normal
     source: str = ""  # file or generator it came from, for messages
+    uvs: np.ndarray | None = None  # (V, 2) texture coordinates (glTF's convention: (0, 0) the image's top-left)
+    uvs1: np.ndarray | None = None  # (V, 2) a second set (glTF TEXCOORD_1)
+    colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
+    tangents: np.ndarray | None = None  # (V, 4) unit tangents along +u and the bitangent's sign (glTF TANGENT); None: from the UVs
+    file_material: dict | None = None  # an OBJ's .mtl material (textures.mtl_material), made a scene material on reading
     # Instancing (clrender/trace/instancing.py): objects with the same shape_key were made from the same
     # object-space mesh (`local_vertices`, shared, not copied; `faces`) placed by `to_world` (4x4).
     shape_key: tuple | None = None  # None: not shareable (inline vertices)
@@ -96,6 +102,7 @@ class Scene:
     materials: dict = field(default_factory=lambda: {"default": DEFAULT_MATERIAL})
     lights: list = field(default_factory=list)
     objects: list = field(default_factory=list)  # Sphere and Mesh, in file order; index = object id
+    textures: list = field(default_factory=list)  # decoded textures (textures.TextureImage) the materials index
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
     featured_camera: int = 1  # the view the scene is made for, marked * by `render --list` (not a default: --camera is 1 unless given)
@@ -175,6 +182,12 @@ class Scene:
         return sum(len(o.faces) for o in self.objects if isinstance(o, Mesh))
 
     @property
+    def has_vertex_attributes(self) -> bool:
+        """Whether the device gets every triangle's uvs, vertex colours and tangents (geometry.Primitives.any_attributes)."""
+        has = lambda m: any(getattr(m, k) is not None for k in ("uvs", "uvs1", "colours", "tangents"))
+        return bool(self.textures) or any(has(o) for o in self.objects if isinstance(o, Mesh))
+
+    @property
     def sphere_count(self) -> int:
         return sum(isinstance(o, Sphere) for o in self.objects)
 
@@ -201,6 +214,7 @@ TOP_KEYS = (
     "name",
     "description",
     "featured_camera",
+    "textures",
 )
 # `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
 # (environment.py; an image is what the Whitted tracer's escaping rays see too)
@@ -232,9 +246,11 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.materials = {"default": DEFAULT_MATERIAL}
     scene.materials.update({checks.name(k, "materials"): read_material(checks, v, f"materials.{k}") for k, v in materials.items()})
     scene.lights = [read_light(checks, l, f"lights[{i}]") for i, l in enumerate(checks.counted(data, "lights", MAX_LIGHTS))]
+    specs = textures.read_specs(checks, data.get("textures", {}))
     entries = checks.counted(data, "objects", MAX_OBJECTS)
     for i, o in enumerate(entries):  # every cheap check before any mesh is built or loaded
         read_object(checks, o, f"objects[{i}]", scene.materials, False)
+    scene.materials, scene.textures = textures.resolve(checks, specs, scene.materials)
     if "environment" in data:  # after the cheap checks: an image map is read here
         env = ENVIRONMENT_READER.read(checks, checks.table(data["environment"], "environment"), "environment")
         if isinstance(env, environment.EnvironmentMap):
@@ -251,7 +267,34 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
                 checks.fail(f"objects[{i}]", f"the scene has more than {MAX_TRIANGLES} triangles")
         objects.append(obj)
     scene.objects = objects
+    _adopt_file_materials(checks, scene)
     return scene
+
+
+def _adopt_file_materials(checks: Checks, scene) -> None:
+    """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
+    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
+    from ..memory import require
+
+    for obj in scene.objects:
+        found = getattr(obj, "file_material", None)
+        if found is None:
+            continue
+        obj.file_material = None
+        found = dict(found)
+        image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
+        ref = None
+        if image is not None:
+            buffer = io.BytesIO()
+            try:
+                image.save(buffer, format="PNG")
+            except (OSError, ValueError) as exc:
+                raise UsageError(f"{checks.where}: {obj.source}: its map_Kd image cannot be read ({exc})") from None
+            pixels = textures.decode(buffer.getvalue(), srgb=True, what=f"{obj.source} map_Kd", require=require)
+            ref = textures.TextureRef(texture=name, index=len(scene.textures))
+            scene.textures.append(textures.TextureImage(pixels, source=f"{obj.source} map_Kd"))
+        scene.materials[name] = Material(**found, base_color_texture=ref)
+        obj.material = name
 
 
 # Mesh files that are a whole scene on their own (`clrender render teapot.obj`): the formats of trimesh's
@@ -370,7 +413,9 @@ def _plane(checks: Checks, o, path, materials, build) -> Mesh:
 
 def _parallelogram(checks: Checks, o, path, materials, corner, a, b) -> Mesh:
     verts = np.array([corner, corner + a, corner + a + b, corner + b])
-    return Mesh(verts, np.array([[0, 1, 2], [0, 2, 3]]), material=material_ref(checks, o, path, materials), source=path)
+    # the image laid upright on it: edge_a along its width (u), edge_b up its height (v runs down the image)
+    uvs = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]])
+    return Mesh(verts, np.array([[0, 1, 2], [0, 2, 3]]), material=material_ref(checks, o, path, materials), source=path, uvs=uvs)
 
 
 def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
@@ -446,6 +491,10 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Normals transform by the inverse transpose; renormalise afterwards.
         n = local @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    uvs, uvs1, colours, tangents = _vertex_attributes(tm)
+    if tangents is not None:  # they turn with the object's transform
+        xyz = tangents[:, :3] @ matrix[:3, :3].T
+        tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
     local_vertices, faces, to_world = np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64), matrix
     if key is not None:  # one array object for every copy (payload.py ships it once)
         local_vertices = cache.setdefault(("local", key), local_vertices)
@@ -454,7 +503,25 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         mesh_index, own, node_matrix = placed
         key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
         local_vertices = cache.setdefault(("gltf mesh", key), own)
-    return Mesh(vertices, faces, normals, material, smooth, source, key, local_vertices, to_world)
+    mesh = Mesh(vertices, faces, normals, material, smooth, source, uvs, uvs1, colours, tangents)
+    mesh.shape_key, mesh.local_vertices, mesh.to_world = key, local_vertices, to_world
+    if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
+        mesh.file_material = textures.mtl_material(tm)
+    return mesh
+
+
+def _vertex_attributes(tm):
+    """(uvs, uvs1, colours, tangents) of a mesh, each None when it has none: a glTF node's (gltf.NodeMesh), or the
+    texture coordinates trimesh read (an OBJ's `vt`, whose v runs up the image: flipped to glTF's convention)."""
+    if hasattr(tm, "uv0"):
+        return tm.uv0, tm.uv1, tm.colours, tm.tangents
+    visual = getattr(tm, "visual", None)
+    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
+    if uv is None or np.shape(uv) != (len(tm.vertices), 2):
+        return None, None, None, None
+    uv = np.asarray(uv, np.float64)
+    uv = np.where(np.isfinite(uv), uv, 0.0)
+    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
 
 
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:

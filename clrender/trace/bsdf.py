@@ -23,7 +23,8 @@ from ..device import Device, kernel_source
 from ..launch import Kernel, kernel_signatures
 from ..layout import BSDF_LOBES as LOBES
 from ..layout import BSDF_PROBE_DTYPE
-from .tracer import LOCAL_SIZE, global_size, trace_defines
+from .tracer import global_size, trace_defines
+from .work_layout import work_layout
 
 PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s: colour.rgb, alpha, eta, metallic, 0, 0
 PROBE = "bsdf_probe.cl"
@@ -94,7 +95,8 @@ class BsdfProbe:
         """Launch with `args` and one new buffer per name of `outputs` (name -> shape); the outputs, in order."""
         dev = self.device
         outs = {name: dev.empty(4 * int(np.prod(shape))) for name, shape in outputs.items()}
-        knl(dev.queue, global_size(n), (LOCAL_SIZE,), **args, **outs)
+        local = work_layout(dev.device).local_size
+        knl(dev.queue, global_size(n, local), (local,), **args, **outs)
         results = []
         for buf, shape in zip(outs.values(), outputs.values()):
             host = np.empty(shape, np.float32)

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..device import aligned_zeros
 from ..layout import BLOCK_LANES, LEAF_BLOCK_DTYPE, WIDE_NODE_DTYPES
 from .bvh import BVH, half_area
 
@@ -171,7 +172,7 @@ def collapse(bvh: BVH, width: int = 4) -> WideBVH:
     return WideBVH(nodes, bvh.prim_order, width, bvh.build_seconds + time.perf_counter() - start, bvh)
 
 
-def leaf_blocks(wide: WideBVH, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def leaf_blocks(wide: WideBVH, slots: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Every leaf's primitives in leaf blocks of BLOCK_LANES (layout.LEAF_BLOCK_DTYPE), which the kernels
     test at once with float4 operations, leaf after leaf in the order of the tree's leaf lanes
     (wide.count > 0, row-major); and the index of each such leaf's first block.
@@ -179,23 +180,31 @@ def leaf_blocks(wide: WideBVH, slots: np.ndarray) -> tuple[np.ndarray, np.ndarra
     `slots` are the primitive records in slot order (geometry.pack_slots).  A leaf of `count`
     primitives takes ceil(count / BLOCK_LANES) blocks, its slots in order, then empty lanes (slot -1);
     a sphere's lane holds -2 - slot and zero vertices.  The vertices are copied bit for bit from
-    `slots`, so a block lane computes exactly what the one-primitive test computes from the record."""
+    `slots`, so a block lane computes exactly what the one-primitive test computes from the record.
+    `out`: LEAF_BLOCK_DTYPE records to fill (at least as many as the blocks; default: new ones);
+    they are filled a chunk of blocks at a time, so the temporaries stay small."""
     leaf = wide.count > 0
     first, n = wide.child[leaf].astype(np.int64), wide.count[leaf].astype(np.int64)
     per_leaf = -(-n // BLOCK_LANES)
     first_block = np.concatenate([[0], np.cumsum(per_leaf)[:-1]]).astype(np.int64)
     total = int(per_leaf.sum())
-    owner = np.repeat(np.arange(len(n)), per_leaf)  # leaf of each block
-    lane = (np.arange(total) - first_block[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
-    slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)  # (total, lanes)
-    rec = slots[np.maximum(slot, 0)]
-    sphere = (slot >= 0) & (rec["sphere"] != 0)
-    blank = (slot < 0) | sphere  # lanes without a triangle: zero vertices
-    blocks = np.zeros(total, LEAF_BLOCK_DTYPE)
-    for vertex in ("v0", "v1", "v2"):
-        blocks[vertex] = np.where(blank[..., None], np.float32(0), rec[vertex]).transpose(0, 2, 1)  # (block, axis, lane)
-    blocks["slot"] = np.where(sphere, -2 - slot, slot)
+    blocks = np.zeros(total, LEAF_BLOCK_DTYPE) if out is None else out[:total]
+    owner_all = np.repeat(np.arange(len(n), dtype=np.int32), per_leaf)  # leaf of each block
+    for a in range(0, total, BLOCK_CHUNK):
+        owner = owner_all[a : a + BLOCK_CHUNK]
+        lane = (np.arange(a, a + len(owner)) - first_block[owner])[:, None] * BLOCK_LANES + np.arange(BLOCK_LANES)
+        slot = np.where(lane < n[owner, None], first[owner, None] + lane, -1)  # (chunk, lanes)
+        rec = slots[np.maximum(slot, 0)]
+        sphere = (slot >= 0) & (rec["sphere"] != 0)
+        blank = (slot < 0) | sphere  # lanes without a triangle: zero vertices
+        chunk = blocks[a : a + len(owner)]
+        for vertex in ("v0", "v1", "v2"):
+            chunk[vertex] = np.where(blank[..., None], np.float32(0), rec[vertex]).transpose(0, 2, 1)  # (block, axis, lane)
+        chunk["slot"] = np.where(sphere, -2 - slot, slot)
     return blocks, first_block
+
+
+BLOCK_CHUNK = 1 << 16  # leaf blocks filled at a time (their temporaries: a few MB)
 
 
 def tree_buffer(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
@@ -203,12 +212,13 @@ def tree_buffer(wide: WideBVH, slots: np.ndarray) -> np.ndarray:
     then from the first multiple of a LeafBlock's size on, its leaf blocks (leaf_blocks).  A leaf lane's
     child there names its first block, counted in LeafBlocks from the buffer's start (the kernels'
     leaf_block); WideBVH itself is not changed: its lanes keep naming slots."""
-    blocks, first_block = leaf_blocks(wide, slots)
     block_size = LEAF_BLOCK_DTYPE.itemsize
+    counts = wide.count[wide.count > 0].astype(np.int64)
+    total = int((-(-counts // BLOCK_LANES)).sum())
     base = -(-wide.nodes.nbytes // block_size)  # blocks before the first one: the nodes, padded
-    buffer = np.zeros((base + len(blocks)) * block_size, np.uint8)  # one allocation, filled in place
+    buffer = aligned_zeros((base + total) * block_size, np.uint8)  # one allocation, filled in place; Device.adopt's
+    _, first_block = leaf_blocks(wide, slots, out=buffer[base * block_size :].view(LEAF_BLOCK_DTYPE))
     nodes = buffer[: wide.nodes.nbytes].view(wide.nodes.dtype)
     nodes[...] = wide.nodes
     nodes["child"][wide.count > 0] = base + first_block
-    buffer[base * block_size :].view(LEAF_BLOCK_DTYPE)[...] = blocks
     return buffer

@@ -13,7 +13,8 @@ import numpy as np
 
 from ..layout import ENV_MAP_DTYPE
 from ..scene.environment import EnvironmentMap, distribution
-from .tracer import LOCAL_SIZE, global_size, trace_defines
+from .tracer import global_size, trace_defines
+from .work_layout import work_layout
 
 PROBE = "envmap_probe.cl"
 
@@ -57,7 +58,8 @@ class EnvProbe:
 
         dev, n = self.device, len(values)
         out = dev.empty(16 * n)
-        kernel(dev.queue, global_size(n), (LOCAL_SIZE,), n=np.int32(n), **{name: dev.to_device(values)}, out=out, **self.args)
+        local = work_layout(dev.device).local_size
+        kernel(dev.queue, global_size(n, local), (local,), n=np.int32(n), **{name: dev.to_device(values)}, out=out, **self.args)
         host = np.empty((n, 4), np.float32)
         cl.enqueue_copy(dev.queue, host, out)
         return host

@@ -10,32 +10,82 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE
+from ..device import aligned_zeros
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE
 from ..scene.scene import Mesh, Scene, Sphere
+
+CHUNK = 1 << 18  # triangles gathered at a time: float64 temporaries of ~19 MB, not 72 B per triangle at once
 
 
 @dataclass
 class Primitives:
-    triangles: np.ndarray  # (T, 3, 3) float64 vertices
-    triangle_normals: np.ndarray  # (T, 3, 3) float32 vertex normals (zeros when flat)
+    meshes: list  # (vertices (V, 3) float64, faces (F, 3) int) per mesh, the scene's own arrays (not copied)
+    smooth: list  # per mesh: its (V, 3) vertex normals when it is shaded smooth, else None
+    mesh_objects: list  # per mesh: the Mesh it came from (its uvs, vertex colours and tangents)
     spheres: np.ndarray  # (S, 4) float64 centre and radius
     object_of: np.ndarray  # (T + S,) int32 object id per primitive id
     objects: np.ndarray  # (O,) layout.OBJECT_DTYPE records: material index and smooth flag
     materials: np.ndarray  # (M,) layout.MATERIAL_DTYPE records
     material_names: list
+    textures: list = None  # the scene's decoded textures (scene/textures.py), which the materials index
+    any_attributes: bool = False  # Scene.has_vertex_attributes: the kernels may read VertexAttributes records
+
+    @property
+    def n_triangles(self) -> int:
+        return sum(len(f) for _, f in self.meshes)
 
     @property
     def count(self) -> int:
-        return len(self.triangles) + len(self.spheres)
+        return self.n_triangles + len(self.spheres)
+
+    def triangles_at(self, ids: np.ndarray) -> np.ndarray:
+        """(len(ids), 3, 3) float64 vertices of triangles `ids` (primitive ids below n_triangles)."""
+        out = np.empty((len(ids), 3, 3))
+        first = 0
+        for v, f in self.meshes:
+            mine = (ids >= first) & (ids < first + len(f))
+            out[mine] = v[f[ids[mine] - first]]
+            first += len(f)
+        return out
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """(T, 3, 3) float64 vertices of every triangle (made on each call: 72 bytes a triangle)."""
+        return np.concatenate([v[f] for v, f in self.meshes]) if self.meshes else np.zeros((0, 3, 3))
+
+    @property
+    def any_smooth(self) -> bool:
+        return any(n is not None for n in self.smooth)
+
+    def triangle_normals_into(self, out: np.ndarray) -> None:
+        """Write the (3, 3) float32 vertex normals of every smooth mesh's triangles into out[id] (zeros stay for flat ones)."""
+        first = 0
+        for (_, f), n in zip(self.meshes, self.smooth):
+            for lo in range(0, len(f) if n is not None else 0, CHUNK):
+                out[first + lo : first + min(lo + CHUNK, len(f))] = n[f[lo : lo + CHUNK]].astype(np.float32)
+            first += len(f)
+
+    def triangle_attributes_into(self, out: np.ndarray) -> None:
+        """Write every triangle's VertexAttributes record into out[id] (uvs zeros and colours ones where none)."""
+        first = 0
+        for m in self.mesh_objects:
+            out[first : first + len(m.faces)] = _attributes(m)
+            first += len(m.faces)
 
     def bounds(self):
         """Per-primitive axis-aligned bounds (lo, hi), each (N, 3) float32, conservatively rounded."""
-        tri_lo, tri_hi = self.triangles.min(axis=1), self.triangles.max(axis=1)
+        lo, hi = np.empty((self.count, 3), np.float32), np.empty((self.count, 3), np.float32)
+        first = 0
+        for v, f in self.meshes:
+            for a in range(0, len(f), CHUNK):
+                tri = v[f[a : a + CHUNK]]
+                rows = slice(first + a, first + a + len(tri))
+                lo[rows], hi[rows] = tri.min(axis=1), tri.max(axis=1)  # float64 min, then rounded once
+            first += len(f)
         c, r = self.spheres[:, :3], self.spheres[:, 3:4]
-        lo = np.concatenate([tri_lo, c - r]).astype(np.float32)
-        hi = np.concatenate([tri_hi, c + r]).astype(np.float32)
+        lo[first:], hi[first:] = c - r, c + r
         # float32 rounding must never shrink a box
-        return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+        return np.nextafter(lo, -np.inf, out=lo), np.nextafter(hi, np.inf, out=hi)
 
 
 def flatten(scene: Scene) -> Primitives:
@@ -43,7 +93,7 @@ def flatten(scene: Scene) -> Primitives:
     index = {n: i for i, n in enumerate(names)}
     materials = np.array([scene.materials[n].pack() for n in names], MATERIAL_DTYPE)
     objects = np.zeros(max(len(scene.objects), 1), OBJECT_DTYPE)
-    tris, tri_normals, tri_obj, spheres, sphere_obj = [], [], [], [], []
+    meshes, smooth, mesh_objects, tri_obj, spheres, sphere_obj = [], [], [], [], [], []
     for oid, obj in enumerate(scene.objects):
         objects[oid]["material"] = index[obj.material]
         if isinstance(obj, Sphere):
@@ -52,30 +102,65 @@ def flatten(scene: Scene) -> Primitives:
             continue
         assert isinstance(obj, Mesh)
         objects[oid]["smooth"] = int(obj.smooth and obj.vertex_normals is not None)
-        tris.append(obj.vertices[obj.faces])
-        if objects[oid]["smooth"]:
-            tri_normals.append(obj.vertex_normals[obj.faces].astype(np.float32))
-        else:
-            tri_normals.append(np.zeros((len(obj.faces), 3, 3), np.float32))
+        meshes.append((obj.vertices, obj.faces))
+        smooth.append(obj.vertex_normals if objects[oid]["smooth"] else None)
+        mesh_objects.append(obj)
+        objects[oid]["vertex_colours"] = int(obj.colours is not None)
         tri_obj.append(np.full(len(obj.faces), oid, np.int32))
-    triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
-    normals = np.concatenate(tri_normals) if tri_normals else np.zeros((0, 3, 3), np.float32)
     object_of = np.concatenate([*tri_obj, np.asarray(sphere_obj, np.int32)]).astype(np.int32)
-    return Primitives(triangles, normals, np.asarray(spheres, np.float64).reshape(-1, 4), object_of, objects, materials, names)
+    spheres = np.asarray(spheres, np.float64).reshape(-1, 4)
+    textures = list(getattr(scene, "textures", []))
+    return Primitives(meshes, smooth, mesh_objects, spheres, object_of, objects, materials, names, textures, scene.has_vertex_attributes)
+
+
+def _attributes(mesh: Mesh) -> np.ndarray:
+    """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without)."""
+    out = np.zeros(len(mesh.faces), VERTEX_ATTRIBUTES_DTYPE)
+    out["colour"] = 1.0
+    for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours), ("tangent", mesh.tangents)):
+        if values is not None:
+            out[name] = np.asarray(values)[mesh.faces]
+    if mesh.tangents is None and mesh.uvs is not None:
+        out["tangent"] = face_tangents(mesh.vertices[mesh.faces], np.asarray(mesh.uvs)[mesh.faces])[:, None, :]
+    return out
+
+
+def face_tangents(tri: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(F, 4) per-triangle tangents from the UV derivatives (MikkTSpace's per-face step, without its welding):
+    xyz the unit direction of increasing u, w = +-1 so that w n x t points towards decreasing v (up the image,
+    glTF's convention for the green channel), n the face normal; zeros where the UVs are degenerate."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    du1, dv1 = uv[:, 1, 0] - uv[:, 0, 0], uv[:, 1, 1] - uv[:, 0, 1]
+    du2, dv2 = uv[:, 2, 0] - uv[:, 0, 0], uv[:, 2, 1] - uv[:, 0, 1]
+    det = du1 * dv2 - du2 * dv1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(det != 0, 1.0 / det, 0.0)[:, None]
+        t = (e1 * dv2[:, None] - e2 * dv1[:, None]) * r  # d position / d u
+        b = (e2 * du1[:, None] - e1 * du2[:, None]) * r  # d position / d v: down the image
+        length = np.linalg.norm(t, axis=1, keepdims=True)
+        t = np.where(length > 0, t / np.maximum(length, 1e-300), 0.0)
+    n = np.cross(e1, e2)
+    w = np.where(np.einsum("ij,ij->i", np.cross(n, t), -b) < 0, -1.0, 1.0)
+    out = np.zeros((len(tri), 4))
+    out[:, :3], out[:, 3] = t, np.where(np.isfinite(t).all(axis=1) & (length[:, 0] > 0), w, 0.0)
+    out[~np.isfinite(out).all(axis=1)] = 0.0
+    return out
 
 
 def pack_slots(prims: Primitives, order: np.ndarray) -> np.ndarray:
     """The primitive slots in slot order, layout.PRIM_SLOT_DTYPE records (a sphere's filled through its
     SphereSlot view of the same bytes); slot s holds primitive order[s]."""
-    n_tri = len(prims.triangles)
-    out = np.zeros(len(order), PRIM_SLOT_DTYPE)
+    n_tri = prims.n_triangles
+    out = aligned_zeros(len(order), PRIM_SLOT_DTYPE)  # a CPU device's buffer as it is (Device.adopt)
     is_tri = order < n_tri
-    t = prims.triangles[order[is_tri]]
-    out["v0"][is_tri] = t[:, 0]
-    # the vertices themselves, not edges: a vertex two triangles share must round to the same
-    # float32 in both for the watertight test (v0 + (v1 - v0) in float32 is not v1)
-    out["v1"][is_tri] = t[:, 1]
-    out["v2"][is_tri] = t[:, 2]
+    for a in range(0, len(order), CHUNK):  # float64 vertices a chunk at a time
+        chunk, tri = out[a : a + CHUNK], is_tri[a : a + CHUNK]
+        t = prims.triangles_at(order[a : a + CHUNK][tri])
+        chunk["v0"][tri] = t[:, 0]
+        # the vertices themselves, not edges: a vertex two triangles share must round to the same
+        # float32 in both for the watertight test (v0 + (v1 - v0) in float32 is not v1)
+        chunk["v1"][tri] = t[:, 1]
+        chunk["v2"][tri] = t[:, 2]
     spheres = out.view(SPHERE_SLOT_DTYPE)
     s = prims.spheres[order[~is_tri] - n_tri]
     spheres["centre"][~is_tri] = s[:, :3]

@@ -9,28 +9,40 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, PIXEL_FILTERS, SAMPLERS
+from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, PIXEL_FILTERS, SAMPLERS, TEXTURE_SLOTS
 from .geometry import Primitives
 
 
 def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     """The emissive triangles (layout.EMITTER_DTYPE records, their power's running sum normalised in `cdf` and
     each one's share in `prob`) and every primitive id's index among them (-1: none).  A triangle's power is
-    its area times its material's mean emitted radiance (times pi for the hemisphere: a constant factor)."""
-    n_tri = len(primitives.triangles)
+    its area times its material's mean emitted radiance (times pi for the hemisphere: a constant factor).
+
+    With an emissive texture the radiance is the factor times the texture's mean texel over the whole image, not
+    over the triangle's own UVs: an approximation of the power that only shapes the sampling density.  Both
+    strategies evaluate the texel at the point they find (path.cl emission_at, emission_met), so the estimate
+    stays unbiased as long as no triangle that emits gets a zero share, which a texture of mean 0 (black
+    everywhere) cannot make emit."""
+    n_tri = primitives.n_triangles
     emission = primitives.materials["emission"].astype(np.float64)  # (M, 3)
+    slot = TEXTURE_SLOTS["emissive"]
+    for m, texture in enumerate(primitives.materials["textures"][:, slot]):
+        if texture >= 0:
+            emission[m] = emission[m] * primitives.textures[texture].mean_rgb()
     material_of = primitives.objects["material"][primitives.object_of[:n_tri]]
-    tri = primitives.triangles
+    glowing = np.flatnonzero(emission[material_of].mean(axis=1) > 0)  # only these triangles are gathered
+    tri = primitives.triangles_at(glowing)
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    power = area * emission[material_of].mean(axis=1)
-    ids = np.flatnonzero(power > 0)
+    power = area * emission[material_of[glowing]].mean(axis=1)
+    keep = power > 0
+    ids, tri, area = glowing[keep], tri[keep], area[keep]
     index_of = np.full(max(primitives.count, 1), -1, np.int32)
     index_of[ids] = np.arange(len(ids), dtype=np.int32)
     records = np.zeros(len(ids), EMITTER_DTYPE)
     if len(ids):
-        share = power[ids] / power[ids].sum()
-        records["v0"], records["v1"], records["v2"] = tri[ids, 0], tri[ids, 1], tri[ids, 2]
-        records["area"] = area[ids]
+        share = power[keep] / power[keep].sum()
+        records["v0"], records["v1"], records["v2"] = tri[:, 0], tri[:, 1], tri[:, 2]
+        records["area"] = area
         records["prob"] = share
         records["cdf"] = np.cumsum(share)
         records["cdf"][-1] = 1.0  # the search never runs past the end

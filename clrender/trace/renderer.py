@@ -24,7 +24,7 @@ from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, REN
 from ..progress import progress
 from ..scene.scene import Scene
 from .aov import AOV_NAMES
-from .tracer import BUILDERS, LOCAL_SIZE, MAX_DEPTH_LIMIT, Tracer, global_size
+from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
 INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
@@ -222,6 +222,13 @@ class RenderResult:
 
         return png_bytes(self.image, linear=True)
 
+    def srgb8(self, exposure: float = 0.0, tonemap: str = "clamp") -> np.ndarray:
+        """(H, W, 3) uint8 sRGB codes of the image after the display transform (clrender/image/tonemap.py):
+        2**exposure times the linear image, then the tone curve ("clamp", "aces" or "agx"), as a PNG stores it."""
+        from ..image.files import DisplaySettings, srgb8
+
+        return srgb8(self.image, DisplaySettings(exposure=exposure, tonemap=tonemap))
+
 
 class Renderer:
     def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):
@@ -250,7 +257,9 @@ class Renderer:
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.kernel = dev.kernel("path.cl", "render_path", defines)
+            # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+            alpha = any(m.alpha_mode != "opaque" for m in self.scene.materials.values())
+            self.kernel = dev.kernel("path.cl", "render_path", {**defines, "ALPHA_TEST": int(alpha)})
         else:
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
@@ -290,6 +299,7 @@ class Renderer:
             out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
             cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
         geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
+        geometry.update(attributes=t.attributes, textures=t.textures, texels=t.texels)
         scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
         if self.settings.integrator == "path":
             from .path import path_params
@@ -301,7 +311,8 @@ class Renderer:
             params = self.params.copy()
             params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
             extra = dict(params=params, shadow_out=shadow, env_map=self.env["env_map"], env_texels=self.env["env_texels"])
-        self.kernel(dev.queue, global_size(k), (LOCAL_SIZE,), **geometry, **scene, **extra, **out)
+        local = t.layout.local_size
+        self.kernel(dev.queue, global_size(k, local), (local,), **geometry, **scene, **extra, **out)
         host = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
         for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):
             cl.enqueue_copy(dev.queue, array, buf)

@@ -16,7 +16,8 @@ import pyopencl as cl
 
 from ..device import Device, get_device
 from ..layout import SAMPLERS
-from .tracer import LOCAL_SIZE, global_size, trace_defines
+from .tracer import global_size, trace_defines
+from .work_layout import work_layout
 
 
 def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device | None = None) -> np.ndarray:
@@ -26,10 +27,11 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     k = len(pixels)
     out = dev.empty(8 * k * n * n)
     knl = dev.kernel("trace.cl", "sample_offsets", trace_defines())  # the renderer's own build
+    local = work_layout(dev.device).local_size
     knl(
         dev.queue,
-        global_size(k),
-        (LOCAL_SIZE,),
+        global_size(k, local),
+        (local,),
         pixels=dev.to_device(pixels),
         n_work=k,
         sampler=SAMPLERS[sampler],

@@ -33,18 +33,16 @@ import pyopencl as cl
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
 from ..launch import Kernel
-from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE
+from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
+from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
 from .instancing import find_instances, flat_part, two_level
 from .knobs import DEFAULT_KNOBS, TraceKnobs
+from .work_layout import WorkLayout, work_layout
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
-# A fixed work-group size: PoCL builds a work-group function per local size, so
-# letting it choose (with a global size that changes per call) recompiles.
-LOCAL_SIZE = 64
-RAYS_PER_ITEM = 8  # intersect_rays / occluded_rays take a packet's worth of rays per work-item (kernels/trace.cl)
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
@@ -102,12 +100,12 @@ def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         if not 0 <= bad < len(v):
             allowed = f"0 to {len(v) - 1} (the {len(v)} vertices)" if len(v) else "none (there are no vertices)"
             raise UsageError(f"face index {int(bad)} is not a vertex; allowed: {allowed}")
-    return v.astype(np.float64), f.astype(np.int64)
+    return v.astype(np.float64, copy=False), f.astype(np.int64, copy=False)  # the caller's arrays when they are already so
 
 
-def global_size(n: int) -> tuple:
+def global_size(n: int, local_size: int) -> tuple:
     """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
-    return (max(-(-n // LOCAL_SIZE), 1) * LOCAL_SIZE,)
+    return (max(-(-n // local_size), 1) * local_size,)
 
 
 def trace_defines(
@@ -119,6 +117,7 @@ def trace_defines(
     ray_packets: bool = True,
     knobs: TraceKnobs = DEFAULT_KNOBS,
     instanced: bool = False,
+    rays_per_item: int = 8,
 ) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
     (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
@@ -129,7 +128,7 @@ def trace_defines(
         "BVH_WIDTH": bvh_width,
         "WIDE_STACK_SIZE": knobs.wide_stack_size(max(bvh_width, 4)),
         "COUNT_PRIM_TESTS": int(count_prim_tests),
-        "RAYS_PER_ITEM": RAYS_PER_ITEM,
+        "RAYS_PER_ITEM": rays_per_item,  # query rays per work-item: the device's WorkLayout
         # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
         "SHADOW_SHAFTS": int(shadow_shafts),
         "SHAFT_CANDIDATES": knobs.shaft_candidates,
@@ -177,6 +176,8 @@ class Tracer:
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
         self.device = device if isinstance(device, Device) else get_device(device)
+        # rays per work-item and work-group size, from what the device reports (work_layout.py)
+        self.layout: WorkLayout = work_layout(self.device.device)
         self.use_bvh = bool(use_bvh)
         self.builder = builder
         self.instances = find_instances(self.scene) if instancing else None
@@ -184,6 +185,10 @@ class Tracer:
             self.instances = None  # no mesh is placed twice: the flat scene, as without instancing
         self.bvh = None
         self.bvh_seconds = 0.0
+        dev = self.device
+        # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
+        # is itself the buffer (Device.adopt); the primitives' float64 vertices are gathered a chunk at
+        # a time (geometry.py); vertex normals are stored only when some mesh is smooth.
         if self.instances is None:
             self.primitives: Primitives = flatten(self.scene)
             nodes, slots = self._tree(self.primitives)
@@ -197,18 +202,30 @@ class Tracer:
             top, records = self._top(records)
             self.bvh, self.wide = flat_trees  # bvh and wide describe the flat part
         n = self.primitives.count
-        dev = self.device
         self.n_prims = n  # the flat part's; instances' primitive ids follow (instancing.py)
         self.n_instances = len(records) if self.instances is not None else 0
         self.instance_records = records
         self.instance_buffer = dev.to_device(records)
         self.top = dev.to_device(top)
-        self.nodes = dev.to_device(nodes)
-        self.prims = dev.to_device(slots)
+        self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
+        self.nodes = dev.adopt(nodes)
+        self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
+        del slots, nodes
         self.prim_object = dev.to_device(self.primitives.object_of)
-        normals = np.zeros(max(n, 1), VERTEX_NORMALS_DTYPE)
-        normals["normal"][: len(self.primitives.triangles)] = self.primitives.triangle_normals
+        # the kernels read a primitive's vertex normals only when its object is smooth
+        normals = np.zeros(max(n, 1) if self.primitives.any_smooth else 1, VERTEX_NORMALS_DTYPE)
+        self.primitives.triangle_normals_into(normals["normal"])
         self.normals = dev.to_device(normals)
+        del normals
+        # the kernels read VertexAttributes only for textured materials and vertex colours: else one record
+        attributes = np.zeros(max(n, 1) if self.primitives.any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
+        attributes["colour"] = 1.0
+        if self.primitives.any_attributes:
+            self.primitives.triangle_attributes_into(attributes)
+        self.attributes = dev.to_device(attributes)
+        del attributes
+        records, texels = pack_textures(self.primitives.textures or [])
+        self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
 
@@ -237,6 +254,7 @@ class Tracer:
         self.bvh = build_bvh(
             lo, hi, builder=self.builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
         )
+        del lo, hi
         slots = pack_slots(prims, np.asarray(self.bvh.prim_order, np.int64))
         if self.bvh_width == 2:
             nodes = self.bvh.nodes  # BvhNode records
@@ -258,6 +276,7 @@ class Tracer:
             ray_packets=self.ray_packets,
             knobs=self.knobs,
             instanced=self.instances is not None,
+            rays_per_item=self.layout.rays_per_item,
         )
 
     def kernel(self, name: str) -> Kernel:
@@ -312,12 +331,13 @@ class Tracer:
         return self.device.to_device(np.array(per_ray).reshape(-1))
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (RAYS_PER_ITEM per work-item) with the scene's
-        geometry, as every ray kernel takes it."""
+        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
+        scene's geometry, as every ray kernel takes it."""
+        layout = self.layout
         return self.kernel(name)(
             self.device.queue,
-            global_size(-(-n // RAYS_PER_ITEM)),
-            (LOCAL_SIZE,),
+            global_size(-(-n // layout.rays_per_item), layout.local_size),
+            (layout.local_size,),
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,

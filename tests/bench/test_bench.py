@@ -85,3 +85,53 @@ def test_path_harness_quick_run_measures_mitsuba_and_says_when_clrender_cannot_p
     assert all(float(r["msamples_per_s"]) > 0 for r in rows)
     assert ("clrender" in renderers) != ("path integrator is not available" in proc.stdout)
     assert (tmp_path / "path.png").stat().st_size > 1000
+    if "clrender" in renderers:  # clrender beside Mitsuba llvm, and their brightness compared
+        assert (tmp_path / "path_wizard_cat_pair.png").stat().st_size > 1000
+        assert proc.stdout.count("block means over") == 2
+
+
+def test_path_bench_lights_wizard_cat_physically_as_bright_at_the_cat():
+    """bench/path.py's physical_lights: the area light's inverse-square irradiance at camera 3's look-at point,
+    radiance c I' times A cos(theta_l) / d^2 (a small light: 1.2 square at distance 5.2), is the pi c I of
+    falloff "none" within the small-light approximation's 1%; the directional light's pi c I stays."""
+    import math
+
+    import numpy as np
+
+    from bench.path import wizard_cat_scene
+    from clrender.scene.scene import Scene
+
+    before, after = Scene.load("wizard_cat").lights, wizard_cat_scene(3).lights
+    focus = np.asarray(Scene.load("wizard_cat").camera(3).look_at, float)
+    assert [light.falloff for light in after] == ["inverse_square"] * len(before)
+    for old, new in zip(before, after):
+        if old.type == "directional":
+            assert new.intensity == pytest.approx(math.pi * old.intensity)
+            continue
+        a, b = np.asarray(new.edge_a, float), np.asarray(new.edge_b, float)
+        # the irradiance of the parallelogram by midpoint quadrature (64 x 64 cells), light travelling along n = a x b
+        s = (np.arange(64) + 0.5) / 64
+        points = np.asarray(new.position, float) + s[:, None, None] * a + s[None, :, None] * b
+        d = focus - points
+        dist = np.linalg.norm(d, axis=-1)
+        n = np.cross(a, b)
+        cos_l = (d @ n) / (np.linalg.norm(n) * dist)
+        irradiance = new.intensity * np.mean(cos_l / dist**2) * np.linalg.norm(n)  # per unit colour, normal incidence
+        assert irradiance == pytest.approx(math.pi * old.intensity, rel=0.01)
+
+
+def test_rays_harness_compares_end_to_end_queries_with_embree_at_equal_threads(tmp_path):
+    """`bench rays --peer embree`: the user queries of clrender and Embree (two threads each) on the same rays,
+    clrender's ratio per ray kind, and Mrays/s against the batch size; an unknown peer is refused (exit 2)."""
+    pytest.importorskip("embreex")
+    args = ["--peer", "embree", "--size", "32", "--runs", "1", "--no-build", "--threads", "2", "--out", str(tmp_path)]
+    proc = subprocess.run([sys.executable, "-m", "bench", "rays", *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    tools = list(csv.DictReader(open(tmp_path / "rays_end_to_end.csv")))
+    assert [(r["tool"], r["threads"]) for r in tools] == [("clrender", "2"), ("embree", "2")]
+    for kind in ("primary", "shadow", "incoherent"):
+        ratio = float(tools[0][f"{kind}_mrays"]) / float(tools[1][f"{kind}_mrays"])
+        assert float(tools[0][f"{kind}_vs_embree"]) == pytest.approx(ratio, rel=1e-3)
+    assert [int(r["batch"]) for r in csv.DictReader(open(tmp_path / "rays_batches.csv"))] == [256, 1024]
+    bad = subprocess.run([sys.executable, "-m", "bench", "rays", "--peer", "optix"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "allowed: a comma list of embree, open3d" in bad.stderr

