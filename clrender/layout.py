@@ -217,6 +217,24 @@ VERTEX_ATTRIBUTES = Record("VertexAttributes", VERTEX_ATTRIBUTES_DTYPE)
 # nearest-texel lookups (magFilter NEAREST), 0 for bilinear
 TEXTURE_DTYPE = np.dtype([("offset", "<i4"), ("width", "<i4"), ("height", "<i4"), ("wrap_s", "<i4"), ("wrap_t", "<i4"), ("nearest", "<i4")])
 TEXTURE = Record("Texture", TEXTURE_DTYPE)
+# an instance of a unique mesh (clrender/trace/instancing.py; docs/bvh.md, "Instancing"): rows of the affine
+# maps (x' = M[:, :3] x + M[:, 3]), the mesh's bottom-level tree and primitives, and the scene object it is.
+# A ray enters object space by world_to_object, its direction not renormalised, so t stays the world t.
+INSTANCE_DTYPE = np.dtype(
+    [
+        ("world_to_object", "<f4", (3, 4)),
+        ("object_to_world", "<f4", (3, 4)),
+        ("bmin", "<f4", 3),  # the instance's world bounds (the top level's box)
+        ("bmax", "<f4", 3),
+        ("node_bytes", "<i4"),  # where the unique mesh's tree starts in the nodes' buffer, in bytes
+        ("slot_base", "<i4"),  # its first slot: the tree's slots count from there
+        ("n_prims", "<i4"),  # its primitives
+        ("prim_base", "<i4"),  # this instance's first primitive id: hits report prim_base + local id
+        ("object", "<i4"),  # the scene object (material, smooth flag)
+        ("shape", "<i4"),  # index of the unique mesh
+    ]
+)
+INSTANCE = Record("Instance", INSTANCE_DTYPE)
 # the camera (scene/camera.py, Camera.frame; kernels/camera.h, camera_ray), sx and sy going from -1 to 1 across the
 # image.  Perspective: a pinhole ray leaves `origin` towards forward + sx right + sy up (the image plane at unit
 # distance); orthographic: it leaves origin + sx right + sy up along forward.  A thin lens (aperture > 0) moves the

@@ -31,6 +31,9 @@ typedef struct {
     int slot;      /* index into the slots; -1 on a miss */
     int id;        /* primitive id in scene order; -1 on a miss */
     float u, v;    /* barycentrics of v1 and v2 on a triangle */
+#if INSTANCED
+    int instance;  /* the Instance hit (its slot and u, v are the mesh's, in object space); -1: the flat part */
+#endif
 } Hit;
 
 /* The tree's node record (clrender/layout.py), by BVH_WIDTH. */
@@ -53,6 +56,11 @@ typedef struct {
     __global const ObjectRecord *objects;
     __global const Material *materials;
     int n_prims;
+#if INSTANCED
+    __global const Instance *instances; /* each names its mesh's tree and slots, in the top tree's leaf order */
+    __global const BvhNode *top;        /* the top level: a binary tree over the instances' world boxes */
+    int n_instances;
+#endif
 } Geometry;
 
 /* The kernels' buffers as a Geometry. */
@@ -90,6 +98,9 @@ INLINE float transparency_of(const Geometry *g, int id) { return g->materials[g-
 INLINE Hit no_hit(void) {
     Hit h;
     h.t = INF_T; h.slot = -1; h.id = -1; h.u = 0.0f; h.v = 0.0f;
+#if INSTANCED
+    h.instance = -1;
+#endif
     return h;
 }
 
@@ -602,8 +613,8 @@ INLINE void walk_wide(const Geometry *g, Ray r, float t_min, float t_max, bool a
 /* Every traversal's entry point: the closest hit in (t_min, t_max) in *best (slot -1 on a miss), or
  * (any_hit) the light let through up to t_max in *T, through the tree the build chose (USE_BVH,
  * BVH_WIDTH) or, without one, every primitive.  *visits grows by the nodes visited (see COUNT_NODE). */
-INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
-                        float *T, uint *visits) {
+INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                      float *T, uint *visits) {
     *best = no_hit();
     best->t = t_max;
     *T = 1.0f;
@@ -614,6 +625,110 @@ INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool
 #else
     leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, opaque_only, best, T);
     *visits += (uint)g->n_prims;
+#endif
+}
+
+#if INSTANCED
+/* ---------------------------------------------------------------- instances (clrender/trace/instancing.py)
+ * -DINSTANCED=1: meshes that several objects place are stored once, each with its own tree in object
+ * space after the flat part's tree in the nodes' buffer, and g->instances place them.  A ray meets the
+ * flat part first, then the instances whose world boxes it enters (the top level, g->top: a binary
+ * tree over those boxes), each in object space: origin and direction by world_to_object, the
+ * direction NOT renormalised, so t is the world t and hits compare across instances.  Spheres stay
+ * flat (their test wants a unit direction).  The query kernels walk one ray at a time here (no
+ * packets); the render kernels are not built with INSTANCED (the renderer never asks for it). */
+INLINE float3 affine_point(__global const float *m, float3 p) {
+    return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                    m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+INLINE float3 affine_vector(__global const float *m, float3 v) {
+    return (float3)(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z,
+                    m[8] * v.x + m[9] * v.y + m[10] * v.z);
+}
+
+/* hit_box's slab test on a world box: its entry distance or INF_T. */
+INLINE float hit_bounds(Ray r, __global const float *lo, __global const float *hi, float t_max) {
+    float t_enter = 0.0f, t_exit = t_max;
+    slab(lo[0], hi[0], r.o.x, r.inv_d.x, &t_enter, &t_exit);
+    slab(lo[1], hi[1], r.o.y, r.inv_d.y, &t_enter, &t_exit);
+    slab(lo[2], hi[2], r.o.z, r.inv_d.z, &t_enter, &t_exit);
+    t_exit *= BOX_EXIT_WIDEN;
+    return t_enter <= t_exit ? t_enter : INF_T;
+}
+
+/* Instance i's mesh as a Geometry of its own: its tree (self-relative, as the builder wrote it) and slots. */
+INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in) {
+    Geometry s = *g;
+    s.nodes = (__global const TreeNode *)((__global const char *)g->nodes + in->node_bytes);
+    s.slots = g->slots + in->slot_base;
+    s.n_prims = in->n_prims;
+    return s;
+}
+
+/* Instance i met in object space.  Closest hit: its mesh's hit (local id + prim_base, ties to the lower
+ * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (opaque_only: the
+ * query kernels; shading reads no instance yet). */
+INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                           Hit *best, float *T, uint *visits) {
+    __global const Instance *in = g->instances + i;
+    float t_far = any_hit ? t_max : best->t;
+    if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
+    Ray r_object = make_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
+    Geometry s = instance_geometry(g, in);
+    Hit h;
+    float T_in;
+    walk_tree(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
+    if (any_hit) { *T *= T_in; return; }
+    int id = h.id + in->prim_base;
+    if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
+        *best = h; best->id = id; best->instance = i;
+    }
+}
+
+/* The flat part, then the top tree depth first (nearer child first for closest hits), each leaf's
+ * instances by visit_instance.  Should the stack fill up, every instance is visited instead (the
+ * answer is the same: visit_instance keeps the nearest hit whatever the order). */
+INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                           Hit *best, float *T, uint *visits) {
+    walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    int stack[STACK_SIZE];
+    int sp = 0, node = 0;
+    if (g->n_instances == 0 || hit_bounds(r, g->top[0].bmin, g->top[0].bmax, any_hit ? t_max : best->t) == INF_T) return;
+    while (node >= 0 && !(any_hit && *T == 0.0f)) {
+        __global const BvhNode *n = g->top + node;
+        COUNT_NODE(visits);
+        int next = -1;
+        if (n->count > 0) {
+            for (int i = n->offset; i < n->offset + n->count && !(any_hit && *T == 0.0f); ++i)
+                visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+        } else {
+            int first = node + 1, second = n->offset;
+            float t_far = any_hit ? t_max : best->t;
+            float t1 = hit_bounds(r, g->top[first].bmin, g->top[first].bmax, t_far);
+            float t2 = hit_bounds(r, g->top[second].bmin, g->top[second].bmax, t_far);
+            if (t2 < t1) { int k = first; first = second; second = k; float t = t1; t1 = t2; t2 = t; }
+            if (t2 != INF_T) {
+                if (sp == STACK_SIZE) { /* full: every instance instead */
+                    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i)
+                        visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+                    return;
+                }
+                stack[sp++] = second;
+            }
+            if (t1 != INF_T) next = first;
+        }
+        if (next < 0 && sp > 0) next = stack[--sp];
+        node = next;
+    }
+}
+#endif
+
+INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                        float *T, uint *visits) {
+#if INSTANCED
+    walk_instances(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#else
+    walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
 #endif
 }
 

@@ -75,7 +75,7 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 #if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
 #error "RAYS_PER_ITEM must be 8 (a packet's worth of rays per work-item) or 1"
 #endif
-#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8) /* packets and pairs of walks */
+#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks; instances: one ray at a time (walk_instances) */
 
 /* Ray i of packed (x, y, z) float32 triples (the caller's arrays, uploaded as they are). */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
@@ -204,6 +204,24 @@ INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
 }
 #endif
 
+/* The query kernels' instances (-DINSTANCED=1; without, none are read and n_instances is 0). */
+INLINE void with_instances(Geometry *g, __global const Instance *instances, __global const BvhNode *top,
+                           int n_instances) {
+#if INSTANCED
+    g->instances = instances;
+    g->top = top;
+    g->n_instances = n_instances;
+#endif
+}
+
+/* The scene object a hit belongs to: its instance's, or its flat primitive's; -1 on a miss. */
+INLINE int hit_object(const Geometry *g, Hit h) {
+#if INSTANCED
+    if (h.instance >= 0) return g->instances[h.instance].object;
+#endif
+    return h.id >= 0 ? g->prim_object[h.id] : -1;
+}
+
 /* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
  * each visited. */
 INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
@@ -224,7 +242,8 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
  * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
  * object id and the nodes visited. */
 __kernel void intersect_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
-                             __global const int *prim_object, int n_prims, int n_rays,
+                             __global const int *prim_object, __global const Instance *instances,
+                             __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
                              __global const float *origins, __global const float *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
@@ -232,6 +251,7 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
+    with_instances(&g, instances, top, n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
     trace_item(&q, &g, false);
@@ -239,7 +259,7 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
         Hit h = q.hit[k];
         t_out[q.idx[k]] = to_query_t(h.t, q.units[k]);
         prim_out[q.idx[k]] = h.id;
-        object_out[q.idx[k]] = h.id >= 0 ? prim_object[h.id] : -1;
+        object_out[q.idx[k]] = hit_object(&g, h);
         visits_out[q.idx[k]] = q.visits[k];
     }
 }
@@ -247,13 +267,15 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
 __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
                             __global const int *prim_object, __global const ObjectRecord *objects,
-                            __global const Material *materials, int n_prims, int n_rays,
+                            __global const Material *materials, __global const Instance *instances,
+                            __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
                             __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0);
     if (first >= n_rays) return;
     Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
+    with_instances(&g, instances, top, n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
     trace_item(&q, &g, true);

@@ -65,6 +65,7 @@ def split(scene) -> ScenePayload:
     """The scene as (description dict, arrays), with its content hash."""
     arrays: dict = {}
     description = _describe(scene, arrays, "scene")
+    arrays = {name: a for name, a in arrays.items() if isinstance(name, str)}  # without _describe's index by id
     digest = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
@@ -84,7 +85,11 @@ def _describe(value, arrays: dict, path: str):
         fields = {f.name: _describe(getattr(value, f.name), arrays, f"{path}.{f.name}") for f in dataclasses.fields(value)}
         return {"__class__": f"{cls.__module__}:{cls.__qualname__}", "fields": fields}
     if isinstance(value, np.ndarray):
+        for name in arrays.get(id(value), ()):  # an array several objects share (instancing's local vertices) ships once
+            if arrays[name] is value:
+                return {"__array__": name}
         arrays[path] = value
+        arrays.setdefault(id(value), []).append(path)
         return {"__array__": path}
     if isinstance(value, tuple):
         return {"__tuple__": [_describe(v, arrays, f"{path}[{i}]") for i, v in enumerate(value)]}

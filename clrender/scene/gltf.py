@@ -566,6 +566,17 @@ def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vert
     return out
 
 
+def node_shape(path, node: int, primitive: int | None = None, root=None) -> tuple[int, np.ndarray, np.ndarray]:
+    """(mesh index, its vertices in the mesh's own space, the node's world matrix) of node_mesh's mesh:
+    nodes that share a mesh place the same vertices (instancing, clrender/trace/instancing.py)."""
+    doc = read_document(path, root)
+    mesh_index = doc.item("nodes", node).get("mesh")
+    count = len(doc.item("meshes", mesh_index).get("primitives", []))
+    chosen = [primitive] if primitive is not None else range(count)
+    parts = [primitive_triangles(doc, mesh_index, p, np.eye(4)) for p in chosen]
+    return mesh_index, np.concatenate([v for v, _, _ in (p for p in parts if p is not None)]), node_world_matrix(doc, node)
+
+
 def has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
     """Whether any triangle has an area: a node scaled to zero (as files hide nodes) draws nothing."""
     tri = vertices[faces]

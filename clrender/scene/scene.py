@@ -83,6 +83,11 @@ class Mesh:
     colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
     tangents: np.ndarray | None = None  # (V, 4) unit tangents along +u and the bitangent's sign (glTF TANGENT); None: from the UVs
     file_material: dict | None = None  # an OBJ's .mtl material (textures.mtl_material), made a scene material on reading
+    # Instancing (clrender/trace/instancing.py): objects with the same shape_key were made from the same
+    # object-space mesh (`local_vertices`, shared, not copied; `faces`) placed by `to_world` (4x4).
+    shape_key: tuple | None = None  # None: not shareable (inline vertices)
+    local_vertices: np.ndarray | None = None  # (V, 3) float64 before to_world
+    to_world: np.ndarray | None = None  # (4, 4) object-to-world matrix: vertices = local_vertices @ M[:3, :3].T + M[:3, 3]
 
 
 @dataclass
@@ -440,7 +445,17 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     material = material_ref(checks, o, path, materials)
     if not build:
         return None
-    if gltf_node is not None:  # one node's mesh of a glTF file, in its world space
+    key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
+    cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
+    placed = None  # a glTF node: (mesh index, the mesh's own vertices, the node's world matrix)
+    if gltf_node is not None:  # nodes sharing a mesh share its vertices; each node's world ones are read as before
+        shape = cache.get(("gltf node", key))
+        if shape is None:
+            shape = cache[("gltf node", key)] = gltf.node_shape(file, *gltf_node, root=checks.root)
+        placed = shape
+    if key is not None and key in cache:
+        tm, source = cache[key]
+    elif gltf_node is not None:  # one node's mesh of a glTF file, in its world space
         tm = gltf.node_mesh(file, *gltf_node, root=checks.root)
         source = f"{o['file']} node {gltf_node[0]}"
     elif "file" in o:
@@ -453,6 +468,8 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
 
         tm = getattr(meshes, gen)(**params)
         source = gen
+    if key is not None:
+        cache[key] = (tm, source)
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
     matrix = transform_matrix(translate, rotate, scale)
@@ -466,14 +483,28 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         # Given normals: a generator's, or a glTF node's from its file (trimesh drops a file's
         # own); shading_normals computes the rest, welded across patches, and replaces zero/NaN ones.
         given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)  # inline: None
+        local = cache.get(("normals", key)) if key is not None else None
+        if local is None:
+            local = shading_normals(tm.vertices, tm.faces, given)
+            if key is not None:
+                cache[("normals", key)] = local
         # Normals transform by the inverse transpose; renormalise afterwards.
-        n = shading_normals(tm.vertices, tm.faces, given) @ np.linalg.inv(matrix[:3, :3])
+        n = local @ np.linalg.inv(matrix[:3, :3])
         normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     uvs, uvs1, colours, tangents = _vertex_attributes(tm)
     if tangents is not None:  # they turn with the object's transform
         xyz = tangents[:, :3] @ matrix[:3, :3].T
         tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
-    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, material, smooth, source, uvs, uvs1, colours, tangents)
+    local_vertices, faces, to_world = np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64), matrix
+    if key is not None:  # one array object for every copy (payload.py ships it once)
+        local_vertices = cache.setdefault(("local", key), local_vertices)
+        faces = cache.setdefault(("faces", key), faces)
+    if placed is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
+        mesh_index, own, node_matrix = placed
+        key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
+        local_vertices = cache.setdefault(("gltf mesh", key), own)
+    mesh = Mesh(vertices, faces, normals, material, smooth, source, uvs, uvs1, colours, tangents)
+    mesh.shape_key, mesh.local_vertices, mesh.to_world = key, local_vertices, to_world
     if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
         mesh.file_material = textures.mtl_material(tm)
     return mesh
@@ -491,6 +522,15 @@ def _vertex_attributes(tm):
     uv = np.asarray(uv, np.float64)
     uv = np.where(np.isfinite(uv), uv, 0.0)
     return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
+
+
+def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
+    """What an object's object-space mesh is made from: equal keys, equal meshes (None: inline vertices)."""
+    if file is not None:
+        return ("file", str(Path(file).resolve()), gltf_node)
+    if gen is not None:
+        return ("generator", gen, repr(sorted(params.items())))
+    return None
 
 
 @dataclass

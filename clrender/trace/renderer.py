@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pyopencl as cl
 
-from ..errors import require, value_shown, warn
+from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -236,6 +236,8 @@ class Renderer:
         self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device)
+        if getattr(self.tracer, "instances", None) is not None:  # its render kernels cannot shade instances yet (docs/bvh.md)
+            raise UsageError("a Tracer made with instancing=True answers ray queries only; allowed: a Tracer without it for rendering")
         dev = self.tracer.device
         self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)

@@ -16,6 +16,9 @@ surface (the renderer moves it just past the hit point's float32 error bound) or
 pass a t_min.  Exact answers (docs/bvh.md, "Exact ray queries"): the slab test
 holds for every direction, the triangle test is watertight, and of hits at the
 same float32 t the lowest primitive id wins, whatever the BVH.
+
+Tracer(scene, instancing=True) stores a mesh that several objects place once and meets each copy in
+object space (clrender/trace/instancing.py; docs/bvh.md, "Instancing"): ray queries only.
 """
 
 from __future__ import annotations
@@ -30,11 +33,12 @@ import pyopencl as cl
 from ..device import Device, get_device
 from ..errors import UsageError, shown, value_shown
 from ..launch import Kernel
-from ..layout import BVH_NODE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
+from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
 from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
+from .instancing import find_instances, flat_part, two_level
 from .knobs import DEFAULT_KNOBS, TraceKnobs
 from .work_layout import WorkLayout, work_layout
 
@@ -112,6 +116,7 @@ def trace_defines(
     shadow_shafts: bool = True,
     ray_packets: bool = True,
     knobs: TraceKnobs = DEFAULT_KNOBS,
+    instanced: bool = False,
     rays_per_item: int = 8,
 ) -> dict:
     """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
@@ -129,6 +134,8 @@ def trace_defines(
         "SHAFT_CANDIDATES": knobs.shaft_candidates,
         # ray queries walk eight rays that go the same way as one packet (kernels/packet.h; wide trees only)
         "RAY_PACKETS": int(ray_packets),
+        # meshes placed by instances, each stored once (clrender/trace/instancing.py): only when there are
+        **({"INSTANCED": 1} if instanced else {}),
     }
 
 
@@ -145,6 +152,7 @@ class Tracer:
         shadow_shafts: bool = True,
         ray_packets: bool = True,
         knobs: TraceKnobs = DEFAULT_KNOBS,
+        instancing: bool = False,  # meshes placed by several objects stored once (ray queries only; the renderer refuses it)
     ):
         from .bvh_wide import WIDTHS
 
@@ -152,7 +160,7 @@ class Tracer:
             raise UsageError(f"unknown BVH builder {value_shown(builder)}; allowed: {', '.join(BUILDERS)}")
         if isinstance(bvh_width, (bool, np.bool_)) or not isinstance(bvh_width, (int, np.integer)) or bvh_width not in WIDTHS:
             raise UsageError(f"BVH width {value_shown(bvh_width)}; allowed: {', '.join(map(str, WIDTHS))}")
-        flags = dict(use_bvh=use_bvh, count_prim_tests=count_prim_tests, shadow_shafts=shadow_shafts, ray_packets=ray_packets)
+        flags = dict(use_bvh=use_bvh, count_prim_tests=count_prim_tests, shadow_shafts=shadow_shafts, ray_packets=ray_packets, instancing=instancing)
         for name, flag in flags.items():
             if not isinstance(flag, (bool, np.bool_)):
                 raise UsageError(f"{name} {value_shown(flag)} must be True or False")
@@ -172,37 +180,33 @@ class Tracer:
         self.layout: WorkLayout = work_layout(self.device.device)
         self.use_bvh = bool(use_bvh)
         self.builder = builder
-        self.primitives: Primitives = flatten(self.scene)
-        n = self.primitives.count
+        self.instances = find_instances(self.scene) if instancing else None
+        if self.instances is not None and not self.instances.shapes:
+            self.instances = None  # no mesh is placed twice: the flat scene, as without instancing
         self.bvh = None
         self.bvh_seconds = 0.0
-        self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
         dev = self.device
         # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
         # is itself the buffer (Device.adopt); the primitives' float64 vertices are gathered a chunk at
         # a time (geometry.py); vertex normals are stored only when some mesh is smooth.
-        if use_bvh and n > 0:
-            from .bvh import build_bvh
-
-            lo, hi = self.primitives.bounds()
-            start = time.perf_counter()
-            self.bvh = build_bvh(
-                lo, hi, builder=builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
-            )
-            del lo, hi
-            slots = pack_slots(self.primitives, np.asarray(self.bvh.prim_order, np.int64))
-            if self.bvh_width == 2:
-                nodes = self.bvh.nodes  # BvhNode records
-            else:
-                from .bvh_wide import collapse, tree_buffer
-
-                self.wide = collapse(self.bvh, self.bvh_width)
-                nodes = tree_buffer(self.wide, slots)  # WideNode records, then LeafBlocks
-            self.bvh_seconds = time.perf_counter() - start
-        else:
-            slots = pack_slots(self.primitives, np.arange(n, dtype=np.int64))
-            nodes = np.zeros(1, BVH_NODE_DTYPE)  # never read: no tree, or no primitives
-        self.n_prims = n
+        if self.instances is None:
+            self.primitives: Primitives = flatten(self.scene)
+            nodes, slots = self._tree(self.primitives)
+            records = np.zeros(1, INSTANCE_DTYPE)  # never read: n_instances is 0
+            top = np.zeros(1, BVH_NODE_DTYPE)
+        else:  # the flat part's tree first, then each unique mesh's after it (instancing.py)
+            self.primitives = flatten(flat_part(self.scene, self.instances))
+            nodes, slots = self._tree(self.primitives)
+            flat_trees = self.bvh, self.wide
+            nodes, slots, records = two_level(self.instances, nodes, slots, self.primitives.count, self._tree)
+            top, records = self._top(records)
+            self.bvh, self.wide = flat_trees  # bvh and wide describe the flat part
+        n = self.primitives.count
+        self.n_prims = n  # the flat part's; instances' primitive ids follow (instancing.py)
+        self.n_instances = len(records) if self.instances is not None else 0
+        self.instance_records = records
+        self.instance_buffer = dev.to_device(records)
+        self.top = dev.to_device(top)
         self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
         self.nodes = dev.adopt(nodes)
         self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
@@ -225,6 +229,43 @@ class Tracer:
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
 
+    def _top(self, records: np.ndarray):
+        """The top level: a binary tree (BvhNode records) over the instances' world boxes, and the
+        records in its leaf order (a leaf's instances are records[offset:offset + count])."""
+        from .bvh import build_bvh
+
+        top = build_bvh(
+            records["bmin"], records["bmax"], builder=self.builder, max_leaf_size=2, max_levels=self.knobs.max_tree_levels, device=self.device
+        )
+        return top.nodes, records[np.asarray(top.prim_order, np.int64)]
+
+    def _tree(self, prims: Primitives):
+        """The tree's buffer (BvhNode records, or WideNode records then LeafBlocks) and the slots in its
+        leaf order, over `prims` (the whole scene, or one mesh in object space)."""
+        n = prims.count
+        self.device.check_fits(n * PRIM_SLOT_DTYPE.itemsize, f"{n} primitives")
+        if not (self.use_bvh and n > 0):
+            return np.zeros(1, BVH_NODE_DTYPE), pack_slots(prims, np.arange(n, dtype=np.int64))  # nodes never read
+        from .bvh import build_bvh
+
+        lo, hi = prims.bounds()
+        knobs = self.knobs
+        start = time.perf_counter()
+        self.bvh = build_bvh(
+            lo, hi, builder=self.builder, max_leaf_size=knobs.leaf_size(self.bvh_width), max_levels=knobs.max_tree_levels, device=self.device
+        )
+        del lo, hi
+        slots = pack_slots(prims, np.asarray(self.bvh.prim_order, np.int64))
+        if self.bvh_width == 2:
+            nodes = self.bvh.nodes  # BvhNode records
+        else:
+            from .bvh_wide import collapse, tree_buffer
+
+            self.wide = collapse(self.bvh, self.bvh_width)
+            nodes = tree_buffer(self.wide, slots)  # WideNode records, then LeafBlocks
+        self.bvh_seconds += time.perf_counter() - start
+        return nodes, slots
+
     @property
     def defines(self) -> dict:
         return trace_defines(
@@ -234,6 +275,7 @@ class Tracer:
             shadow_shafts=self.shadow_shafts,
             ray_packets=self.ray_packets,
             knobs=self.knobs,
+            instanced=self.instances is not None,
             rays_per_item=self.layout.rays_per_item,
         )
 
@@ -299,6 +341,9 @@ class Tracer:
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,
+            instances=self.instance_buffer,
+            top=self.top,
+            n_instances=self.n_instances,
             n_prims=self.n_prims,
             n_rays=n,
             **args,
