@@ -8,7 +8,8 @@
    stripes and roughness in B/G, a normal map of the wood's grooves), generated here from numpy.  Each of
    --runs fresh processes times its phases with the Python API: load (glTF parse, PNG decode, sRGB decode:
    `Scene.from_file`), BVH (`Tracer`), compile (the path kernels, once a process; reported apart: PoCL keeps
-   its binaries in a disk cache, so only a first run ever pays the full compile), first pass (one path a
+   its binaries in a disk cache, so only a first run pays the full compile: one more process with an empty
+   cache measures that, compile_cold_s), first pass (one path a
    pixel at 640 x 480), then a pass at --spp for samples per second.  Medians are reported, with the bytes
    the textures take on the device (float4 texels).
 2. The picture (--peer mitsuba): a torus of 8,192 triangles with a wood texture (Lambert, kd from an 8-bit
@@ -143,11 +144,15 @@ def write_glb(path: Path, positions, normals, uvs, faces, images: list[bytes]) -
     path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
 
 
+def grid(triangles: int) -> tuple[int, int]:
+    """(nu, nv) of a torus of about `triangles` triangles, its cells about square (the ring 2.5 times the tube)."""
+    nv = max(4, int(round(np.sqrt(triangles / 4))))
+    return max(4, int(round(triangles / (2 * nv)))), nv
+
+
 def make_model(path: Path, triangles: int, texture: int) -> dict:
     """Write the load-time asset; return what it holds."""
-    nv = max(4, int(round(np.sqrt(triangles / 4))))
-    nu = max(4, int(round(triangles / (2 * nv))))
-    positions, normals, uvs, faces = torus(nu, nv)
+    positions, normals, uvs, faces = torus(*grid(triangles))
     start = time.perf_counter()
     images = [png_bytes(t) for t in wood(texture)]
     write_glb(path, positions, normals, uvs, faces, images)
@@ -187,16 +192,21 @@ def child(model: str, width: int, height: int, spp: int) -> dict:
 
 def time_loads(model: Path, runs: int, width: int, height: int, spp: int) -> dict:
     """Median of `runs` fresh processes' phases (each its own imports, device and kernels)."""
-    results = []
-    for _ in range(runs):
+    import tempfile
+
+    def one(env=None) -> dict:
         code = f"import json, bench.assets as a; print(json.dumps(a.child({str(model)!r}, {width}, {height}, {spp})))"
-        proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=False)
+        proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=False, env=env)
         if proc.returncode:
             raise SystemExit(f"load-time child failed: {proc.stderr.strip().splitlines()[-1:]}")
-        results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    with tempfile.TemporaryDirectory() as empty:  # one process with an empty PoCL kernel cache: the first-ever compile
+        cold = one({**os.environ, "POCL_CACHE_DIR": empty})
+    results = [one() for _ in range(runs)]
     row = {k: statistics.median(r[k] for r in results) for k in results[0]}
     row["without_compile_s"] = statistics.median(r["to_first_image_s"] - r["compile_s"] for r in results)
-    row["compile_each_s"] = " / ".join(f"{r['compile_s']:.2f}" for r in results)
+    row["compile_cold_s"] = cold["compile_s"]
     return row
 
 
@@ -259,7 +269,7 @@ def picture_scenes(folder: Path, width: int, height: int, texture: int):
     return ours, theirs
 
 
-def picture(out: Path, width: int, height: int, spp: int, texture: int, runs: int = 4) -> tuple[list, str]:
+def picture(out: Path, width: int, height: int, spp: int, texture: int, runs: int = 3) -> tuple[list, str]:
     """clrender | Mitsuba side by side (assets_pair.png), table rows and the z-test line."""
     from clrender import Renderer
     from clrender.image.files import write_display_image
@@ -318,7 +328,7 @@ def main(argv=None):
     ap.add_argument("--spp", type=int, default=8, help="samples per pixel of the samples-per-second pass (640 x 480)")
     ap.add_argument("--peer", choices=("mitsuba",), help="also render the picture with Mitsuba 3 (llvm_ad_rgb) beside clrender")
     ap.add_argument("--picture", default="512x320", help="WIDTHxHEIGHT of the picture (--peer mitsuba)")
-    ap.add_argument("--picture-spp", type=int, default=256, help="samples per pixel of each picture render")
+    ap.add_argument("--picture-spp", type=int, default=128, help="samples per pixel of each picture render")
     ap.add_argument("--quick", action="store_true", help="10k triangles, 256^2 textures, one run, a 96x64 picture at 16 spp")
     ap.add_argument("--out", default="bench/out", help="folder for assets.csv / assets.md, model.glb and assets_pair.png")
     args = ap.parse_args(argv)
@@ -343,7 +353,7 @@ def main(argv=None):
             print(f"mitsuba: not rendered: {reason}")
             return 0
         width, height = (int(x) for x in args.picture.split("x"))
-        rows, line = picture(out, width, height, args.picture_spp, min(args.texture, 1024))
+        rows, line = picture(out, width, height, args.picture_spp, min(args.texture, 1024), runs=max(2, args.runs))
         print(write_table(out, "assets_picture", rows, f"The picture, {args.picture} at {args.picture_spp} spp"))
         print(line)
     return 0
