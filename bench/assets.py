@@ -3,22 +3,24 @@
 `python -m bench assets [--peer mitsuba] [--quick] [--runs 3] [--out DIR]`
 
 1. Load time (issue "Real assets": a textured glTF of 100k triangles with 2048^2 textures loads and starts
-   rendering in <= 3 s).  The harness writes model.glb: a torus of 100,480 triangles with normals and UVs, a
+   rendering in <= 3 s).  The harness writes model.glb: a torus of 99,856 triangles with normals and UVs, a
    metallic-roughness material with three 2048^2 PNG textures inside the GLB (a wood-like base colour, metal
    stripes and roughness in B/G, a normal map of the wood's grooves), generated here from numpy.  Each of
    --runs fresh processes times its phases with the Python API: load (glTF parse, PNG decode, sRGB decode:
    `Scene.from_file`), BVH (`Tracer`), compile (the path kernels, once a process; reported apart: PoCL keeps
    its binaries in a disk cache, so only a first run pays the full compile: one more process with an empty
-   cache measures that, compile_cold_s), first pass (one path a
-   pixel at 640 x 480), then a pass at --spp for samples per second.  Medians are reported, with the bytes
+   cache measures that, compile_cold_s), first pass (one path a pixel at 640 x 480), then a pass at --spp
+   for samples per second.  Medians are reported, with the bytes
    the textures take on the device (float4 texels).
 2. The picture (--peer mitsuba): a torus of 8,192 triangles with a wood texture (Lambert, kd from an 8-bit
    sRGB PNG, bilinear, repeat) and a rough gold sphere (glTF metal, roughness 0.35) on a checker floor, under
    a generated HDR sky (a blue gradient, a bright sun disc) written as EXR: clrender's path tracer on the left,
    Mitsuba 3 (llvm_ad_rgb, the scene converted by tests/reference/mitsuba_scenes.py) on the right, at equal
-   spp, with the z-test's line (tests/reference/ztest.py over 16 x 16 blocks) under the table.  The torus reaches
+   spp (--runs renders a side, at least 2), with the z-test's line (tests/reference/ztest.py over 16 x 16 blocks,
+   the rows where the sky is seen directly left out: the two look the map up differently by design, piecewise
+   constant against bilinear, mitsuba_scenes.mitsuba_envmap) under the table.  The torus reaches
    clrender as a glb node (its UVs from the file) and Mitsuba as the same arrays inline.
-`--quick`: textures 256^2, 10k triangles, one run, a 96 x 64 picture at 16 spp.
+`--quick`: textures 256^2, 10k triangles, one timed process, a 96 x 64 picture at 16 spp.
 """
 
 from __future__ import annotations
