@@ -135,3 +135,47 @@ def test_rays_harness_compares_end_to_end_queries_with_embree_at_equal_threads(t
     assert [int(r["batch"]) for r in csv.DictReader(open(tmp_path / "rays_batches.csv"))] == [256, 1024]
     bad = subprocess.run([sys.executable, "-m", "bench", "rays", "--peer", "optix"], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "allowed: a comma list of embree, open3d" in bad.stderr
+
+
+def test_assets_glb_is_read_back_by_clrender_with_its_uvs_and_three_textures(tmp_path):
+    """bench/assets.py writes its GLB by hand: clrender reads the same triangles, UVs and texels (base colour
+    sRGB-decoded, metallic-roughness and normal map linear), so the load-time numbers are of the asset described."""
+    import numpy as np
+
+    from bench.assets import grid, make_model, torus, wood
+    from clrender.scene.scene import Scene
+    from clrender.scene.textures import srgb_to_linear
+
+    made = make_model(tmp_path / "model.glb", 2000, 64)
+    scene = Scene.from_file(tmp_path / "model.glb")
+    mesh = scene.objects[0]
+    _, _, uvs, faces = torus(*grid(2000))
+    assert made["triangles"] == len(faces) == len(mesh.faces)
+    np.testing.assert_allclose(mesh.uvs, uvs, atol=1e-6)
+    base, mr, normal = wood(64)
+    texels = {t.pixels.shape: t for t in scene.textures}
+    assert len(scene.textures) == 3 and list(texels) == [(64, 64, 4)]
+    got = sorted((t.pixels[..., :3] for t in scene.textures), key=lambda p: float(p[..., 2].mean()))
+    want = sorted([srgb_to_linear(base / 255.0), mr / 255.0, normal / 255.0], key=lambda p: float(p[..., 2].mean()))
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(g, w, atol=1e-6)
+
+
+@pytest.mark.slow
+def test_assets_harness_times_the_load_phases_and_renders_beside_mitsuba(tmp_path):
+    """`bench assets --quick [--peer mitsuba]`: one row of load phases (they add up to the time to the first image),
+    the device bytes of three 256^2 float4 textures, and (with Mitsuba) the side-by-side picture and its z-test line."""
+    from tests.reference import mitsuba_scenes
+
+    args = ["--quick", "--out", str(tmp_path)]
+    if mitsuba_scenes.unavailable("llvm_ad_rgb") is None:
+        args += ["--peer", "mitsuba"]
+    proc = subprocess.run([sys.executable, "-m", "bench", "assets", *args], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    (row,) = csv.DictReader(open(tmp_path / "assets.csv"))
+    assert int(row["texture_bytes"]) == 3 * 256 * 256 * 16
+    phases = sum(float(row[k]) for k in ("load_s", "bvh_s", "setup_s", "first_pass_s"))
+    assert phases <= float(row["to_first_image_s"]) + 1e-6
+    if "--peer" in args:
+        assert (tmp_path / "assets_pair.png").stat().st_size > 1000
+        assert ": pass" in proc.stdout, proc.stdout

@@ -234,8 +234,42 @@ GLASS_KEYS = ("transmission",)
 SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "ior")
 
 
-def bsdf(material: dict, exact: bool = True) -> dict:
-    """A Mitsuba BSDF dict for one clrender material (the table in the module docstring)."""
+MITSUBA_WRAP = {"repeat": "repeat", "mirrored_repeat": "mirror", "clamp_to_edge": "clamp"}
+
+
+def bitmap(spec: dict, *, srgb: bool, flip_v: bool = False) -> dict:
+    """A scene `[textures]` entry as Mitsuba's `bitmap` texture: bilinear between texel centres (or nearest),
+    the glTF wrap mode (Mitsuba has one mode for both axes), an 8-bit colour image sRGB-decoded (`raw` False)
+    before filtering as clrender decodes it on loading.  UVs need no flip: Mitsuba's bitmap, like glTF, puts
+    v = 0 at the image's first (top) row.  `flip_v` is the planted bug of the negative control."""
+    wrap_s, wrap_t = spec.get("wrap_s", "repeat"), spec.get("wrap_t", "repeat")
+    if wrap_s != wrap_t:
+        raise NotImplementedError(f"wrap_s {wrap_s!r} != wrap_t {wrap_t!r}: Mitsuba's bitmap has one wrap mode")
+    out = {
+        "type": "bitmap",
+        "filename": str(spec["file"]),
+        "filter_type": "nearest" if spec.get("filter") == "nearest" else "bilinear",
+        "wrap_mode": MITSUBA_WRAP[wrap_s],
+        "raw": not srgb,
+    }
+    if flip_v:
+        import mitsuba as mi
+
+        out["to_uv"] = mi.ScalarTransform4f().translate([0, 1, 0]) @ mi.ScalarTransform4f().scale([1, -1, 1])
+    return out
+
+
+def bsdf(material: dict, exact: bool = True, textures: dict | None = None, planted: str = "") -> dict:
+    """A Mitsuba BSDF dict for one clrender material (the table in the module docstring); `textures` is the
+    scene's `[textures]` table, for `diffuse_texture` (kd must then be white: Mitsuba's bitmap has no scale)."""
+    if "diffuse_texture" in material:
+        kd = material.get("diffuse", (1.0, 1.0, 1.0))
+        rest = set(material) - {"diffuse", "diffuse_texture"}
+        if any(float(c) != 1.0 for c in kd) or rest or not isinstance(material["diffuse_texture"], str):
+            raise NotImplementedError("a diffuse_texture is mapped on a plain Lambert material of kd 1 only")
+        spec = (textures or {})[material["diffuse_texture"]]
+        tex = bitmap(spec, srgb=planted != "raw", flip_v=planted == "flip_v")
+        return {"type": "twosided", "material": {"type": "diffuse", "reflectance": tex}}
     if material.get("transmission", 0.0) > 0:
         if material.get("transmission") != 1.0 or material.get("roughness", 0.0) != 0.0:
             raise NotImplementedError(
@@ -308,40 +342,49 @@ def _parallelogram_matrix(corner, a, b):
 
 
 # ---------------------------------------------------------------------- shapes
-def _mesh(mi, name: str, vertices, faces, normals, bsdf_dict: dict, emission):
-    """A Mitsuba Mesh of these triangles, its BSDF and (when `emission`) an area emitter."""
+def _mesh(mi, name: str, vertices, faces, normals, bsdf_dict: dict, emission, uvs=None):
+    """A Mitsuba Mesh of these triangles (and texture coordinates), its BSDF and (when `emission`) an area emitter."""
     vertices = np.ascontiguousarray(vertices, np.float32).reshape(-1, 3)
     faces = np.ascontiguousarray(faces, np.uint32).reshape(-1, 3)
     props = mi.Properties()
     props["bsdf"] = mi.load_dict(bsdf_dict)
     if emission is not None:
         props["emitter"] = mi.load_dict({"type": "area", "radiance": rgb(emission)})
-    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=normals is not None)
+    mesh = mi.Mesh(name, len(vertices), len(faces), props=props, has_vertex_normals=normals is not None, has_vertex_texcoords=uvs is not None)
     params = mi.traverse(mesh)
     params["vertex_positions"] = type(params["vertex_positions"])(vertices.ravel())
     params["faces"] = type(params["faces"])(faces.ravel())
     if normals is not None:
         normals = np.ascontiguousarray(normals, np.float32).reshape(-1, 3)
         params["vertex_normals"] = type(params["vertex_normals"])(normals.ravel())
+    if uvs is not None:
+        params["vertex_texcoords"] = type(params["vertex_texcoords"])(np.ascontiguousarray(uvs, np.float32).ravel())
     params.update()
     return mesh
 
 
+QUAD_UVS = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]])  # the image upright: u along edge_a, v down edge_b
+
+
 def _triangles(obj: dict):
-    """(vertices, faces, normals or None) of a quad, triangle or mesh object, as clrender builds them."""
+    """(vertices, faces, normals or None, uvs or None) of a quad, triangle or mesh object, as clrender builds them
+    (docs/materials.md: a quad lays its image upright, glTF UVs with (0, 0) at the image's top-left)."""
     kind = obj["type"]
     if kind == "quad":
         c, a, b = (np.asarray(obj[k], float) for k in ("corner", "edge_a", "edge_b"))
-        return np.array([c, c + a, c + a + b, c + b]), np.array([[0, 1, 2], [0, 2, 3]]), None
+        return np.array([c, c + a, c + a + b, c + b]), np.array([[0, 1, 2], [0, 2, 3]]), None, QUAD_UVS
     if kind == "triangle":
-        return np.asarray(obj["vertices"], float), np.array([[0, 1, 2]]), None
+        return np.asarray(obj["vertices"], float), np.array([[0, 1, 2]]), None, None
     if kind == "mesh" and "vertices" in obj:
-        return np.asarray(obj["vertices"], float), np.asarray(obj["faces"]), obj.get("normals")
+        return np.asarray(obj["vertices"], float), np.asarray(obj["faces"]), obj.get("normals"), obj.get("uvs")
     raise NotImplementedError(f"object type {kind!r} (keys {sorted(obj)}) is not mapped to Mitsuba; give meshes as vertices + faces")
 
 
-def to_mitsuba(scene: dict, *, spp: int, seed: int = 0, max_depth: int = 8, camera: int = 1, width=None, height=None, exact=True) -> dict:
-    """The mitsuba.load_dict dict of a clrender scene dict, for the variant already set (load_mitsuba)."""
+def to_mitsuba(
+    scene: dict, *, spp: int, seed: int = 0, max_depth: int = 8, camera: int = 1, width=None, height=None, exact=True, planted: str = ""
+) -> dict:
+    """The mitsuba.load_dict dict of a clrender scene dict, for the variant already set (load_mitsuba).  `planted`
+    ("raw": textures not sRGB-decoded, "flip_v": v flipped) is a known mistake, for the tests' negative controls."""
     import mitsuba as mi
 
     width = int(width or scene.get("width", 640))
@@ -379,7 +422,7 @@ def to_mitsuba(scene: dict, *, spp: int, seed: int = 0, max_depth: int = 8, came
     materials = scene.get("materials", {})
     for i, obj in enumerate(scene.get("objects", [])):
         material = materials.get(obj.get("material", "default"), {})
-        bsdf_dict = bsdf(material, exact)
+        bsdf_dict = bsdf(material, exact, scene.get("textures", {}), planted)
         emission = material.get("emission")
         if emission is not None and max(emission) <= 0:
             emission = None
@@ -389,8 +432,8 @@ def to_mitsuba(scene: dict, *, spp: int, seed: int = 0, max_depth: int = 8, came
                 shape["emitter"] = {"type": "area", "radiance": rgb(emission)}
             out[f"object_{i}"] = shape
         else:
-            vertices, faces, normals = _triangles(obj)
-            out[f"object_{i}"] = _mesh(mi, f"object_{i}", vertices, faces, normals, bsdf_dict, emission)
+            vertices, faces, normals, uvs = _triangles(obj)
+            out[f"object_{i}"] = _mesh(mi, f"object_{i}", vertices, faces, normals, bsdf_dict, emission, uvs)
     return out
 
 
@@ -417,11 +460,22 @@ def mitsuba_envmap(pixels, s: int = ENV_UPSAMPLE) -> np.ndarray:
 
 
 def load(
-    scene: dict, *, variant: str = "llvm_ad_rgb", spp: int, seed: int = 0, max_depth: int = 8, camera: int = 1, width=None, height=None, exact=True
+    scene: dict,
+    *,
+    variant: str = "llvm_ad_rgb",
+    spp: int,
+    seed: int = 0,
+    max_depth: int = 8,
+    camera: int = 1,
+    width=None,
+    height=None,
+    exact=True,
+    planted: str = "",
 ):
     """(mitsuba module, loaded mitsuba Scene) of a clrender scene dict."""
     mi = load_mitsuba(variant)
-    return mi, mi.load_dict(to_mitsuba(scene, spp=spp, seed=seed, max_depth=max_depth, camera=camera, width=width, height=height, exact=exact))
+    args = dict(spp=spp, seed=seed, max_depth=max_depth, camera=camera, width=width, height=height, exact=exact, planted=planted)
+    return mi, mi.load_dict(to_mitsuba(scene, **args))
 
 
 def render_loaded(mi, mi_scene, *, spp: int, seed: int = 0) -> np.ndarray:

@@ -246,3 +246,64 @@ def test_a_diffuse_sphere_under_an_environment_map_matches_mitsuba(device, tmp_p
     theirs = mitsuba_renders(scene, seeds=range(100, 100 + K))
     result = two_sample_z(ours, theirs)
     assert result.passed, f"clrender (a) vs Mitsuba (b)\n{result.report()}"
+
+
+# ---------------------------------------------------------------------- textures against Mitsuba
+def write_image(path, pixels):
+    """An image file by OpenImageIO: uint8 pixels as an 8-bit PNG (sRGB codes), float32 as EXR."""
+    import OpenImageIO as oiio
+
+    pixels = np.ascontiguousarray(pixels)
+    h, w, c = pixels.shape
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(w, h, c, "uint8" if pixels.dtype == np.uint8 else "float"))
+    out.write_image(pixels)
+    out.close()
+    return str(path)
+
+
+def textured_scene(folder) -> dict:
+    """A checker floor (64 x 64 8-bit sRGB PNG, 16 squares a side, bilinear, repeat) and an upright card whose
+    texture ramps red along u and green down v (so a flipped v or a skipped sRGB decoding changes block means),
+    under a generated 32 x 16 HDR sky with a sun patch; the camera looks down so the map is never seen directly."""
+    i, j = np.mgrid[0:64, 0:64]
+    checker = np.where(((i // 4 + j // 4) % 2)[..., None] == 0, [230, 210, 170], [40, 80, 150]).astype(np.uint8)
+    v, u = np.mgrid[0:32, 0:32] / 31.0
+    ramp = np.stack([40 + 200 * u, 30 + 210 * v, 60 + 0 * u], -1).astype(np.uint8)
+    sv, su = np.meshgrid((np.arange(16) + 0.5) / 16, (np.arange(32) + 0.5) / 32, indexing="ij")
+    sky = np.stack([0.5 + 0.3 * np.cos(np.pi * sv), 0.6 + 0.2 * np.sin(2 * np.pi * su), 0.9 + 0.0 * su], -1).astype(np.float32)
+    sky[3:5, 9:11] = [30.0, 28.0, 24.0]
+    return {
+        "width": 64,
+        "height": 64,
+        "cameras": [path_scenes.camera([0.3, 2.2, 2.4], [0, 0.3, -0.2], 36)],
+        "environment": {"file": write_image(folder / "sky.exr", sky), "intensity": 1.0, "rotation": 20.0},
+        "textures": {
+            "checker": {"file": write_image(folder / "checker.png", checker), "filter": "linear"},
+            "ramp": {"file": write_image(folder / "ramp.png", ramp), "filter": "linear", "wrap_s": "clamp_to_edge", "wrap_t": "clamp_to_edge"},
+        },
+        "materials": {"floor": {"diffuse": [1, 1, 1], "diffuse_texture": "checker"}, "card": {"diffuse": [1, 1, 1], "diffuse_texture": "ramp"}},
+        "objects": [
+            {"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "floor"},
+            {"type": "quad", "corner": [-0.8, 0, -0.5], "edge_a": [1.6, 0, 0.3], "edge_b": [0, 1.2, 0], "material": "card"},
+        ],
+    }
+
+
+@pytest.mark.slow
+def test_a_textured_scene_under_an_environment_map_matches_mitsuba_and_planted_texture_bugs_fail(device, tmp_path):
+    """Textures on both sides (clrender's float texels and bilinear lookups, Mitsuba's `bitmap`): the same
+    z-test passes; the same Mitsuba scene with its textures left sRGB-encoded (`raw`) or v flipped fails
+    (docs/testing.md has the measured p-values).  64 x 64, K = 4 renders of 64 spp a side, max_depth 6."""
+    mitsuba_or_skip(LLVM)
+    scene = textured_scene(tmp_path)
+    ours = clrender_path_renders(scene, device)
+    results = {}
+    for planted in ("", "raw", "flip_v"):
+        mi, loaded = mitsuba_scenes.load(scene, variant=LLVM, spp=SPP, max_depth=MAX_DEPTH, planted=planted)
+        theirs = np.stack([mitsuba_scenes.render_loaded(mi, loaded, spp=SPP, seed=s) for s in range(100, 100 + K)])
+        results[planted] = two_sample_z(ours, theirs)
+        print(f"planted {planted or 'none'}: worst p {results[planted].worst_p:.3g} (threshold {results[planted].threshold:.3g})")
+    assert results[""].passed, f"clrender (a) vs Mitsuba (b)\n{results[''].report()}"
+    for planted in ("raw", "flip_v"):
+        assert not results[planted].passed, f"planted {planted} was not detected\n{results[planted].report()}"
