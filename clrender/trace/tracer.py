@@ -304,9 +304,11 @@ class Tracer:
             o, d = (a.astype(np.float32, copy=False) for a in (o, d))
         o, d = (np.ascontiguousarray(a if a.shape[:-1] == shape else np.broadcast_to(a, (*shape, 3))).reshape(n, 3) for a in (o, d))
         # a float32 direction has a nonzero length exactly when some component is nonzero (its square
-        # is then at least 2^-298 > 0 in float64)
-        good = np.isfinite(o).all(1) & np.isfinite(d).all(1) & ((d[:, 0] != 0) | (d[:, 1] != 0) | (d[:, 2] != 0))
-        if not good.all():
+        # is then at least 2^-298 > 0 in float64); whole-array reductions first (a fifth of a 512^2 query's
+        # time row by row), the row-wise test only to name a bad ray
+        lengths2 = np.einsum("ij,ij->i", d, d, dtype=np.float64)
+        if not (np.isfinite(o).all() and np.isfinite(d).all() and np.count_nonzero(lengths2) == n):
+            good = np.isfinite(o).all(1) & np.isfinite(d).all(1) & (lengths2 != 0)
             i = int(np.argmin(good))
             where = tuple(int(k) for k in np.unravel_index(i, shape)) if len(shape) != 1 else i
             raise UsageError(
