@@ -33,7 +33,7 @@ PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/
 # a material's texture slots (Material.textures[slot]; kernels/texture.h): colour ones hold sRGB-decoded texels,
 # data ones linear values
 TEXTURE_SLOTS = {"base_color": 0, "metallic_roughness": 1, "emissive": 2, "occlusion": 3, "normal": 4}
-ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (the path tracer; Whitted draws all opaque)
+ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (kernels/alpha.h, both integrators)
 WRAP_MODES = {"repeat": 10497, "clamp_to_edge": 33071, "mirrored_repeat": 33648}  # Texture.wrap_s/t: glTF's sampler codes
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)

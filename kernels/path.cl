@@ -24,6 +24,7 @@
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
+#include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
@@ -33,10 +34,6 @@
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
 #endif
-#ifndef ALPHA_TEST
-#define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
-#endif
-#define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -195,27 +192,12 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-#if ALPHA_TEST
-/* Whether hit h's point is there: its material's alpha (factor times the base colour texture's alpha) at least
- * the cutoff (MASK), or with probability alpha (BLEND: stochastic transparency, unbiased on average). */
-INLINE bool alpha_passes(const PathScene *s, Hit h, Rng *rng) {
-    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[h.id]].material];
-    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
-    float a = gm->alpha;
-    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
-        Material m = *gm;
-        a *= slot_texel(s->tex, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
-    }
-    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
-}
-#endif
-
 /* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points. */
 INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, Rng *rng, uint *visits) {
 #if ALPHA_TEST
     for (int k = 0; k < ALPHA_LAYERS; ++k) {
         Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
-        if (h.id < 0 || alpha_passes(s, h, rng)) return h;
+        if (h.id < 0 || alpha_kept(&s->geo, s->tex, h, rng)) return h;
         t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
     }
 #endif

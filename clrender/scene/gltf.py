@@ -38,7 +38,7 @@ nothing in the file is dropped without being listed here:
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
   bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex; alphaMode
-  MASK (alphaCutoff) and BLEND (stochastic) in the path tracer; doubleSided is ignored
+  MASK (alphaCutoff) and BLEND (path: stochastic, Whitted: blended); doubleSided is ignored
   (every surface is shaded on both sides).  Primitives without a material get
   clrender's default grey.
 

@@ -42,7 +42,7 @@ class Material:
     emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
     occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
     normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
-    alpha: float = 1.0  # coverage, times the base colour texture's alpha (path tracer only)
+    alpha: float = 1.0  # coverage, times the base colour texture's alpha (docs/materials.md#alpha)
     alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
     alpha_cutoff: float = 0.5
 
