@@ -181,6 +181,7 @@ MATERIAL_DTYPE = np.dtype(
         ("alpha", "<f4"),  # coverage: times the base colour texture's alpha (glTF baseColorFactor[3])
         ("alpha_mode", "<i4"),  # ALPHA_MODES code
         ("alpha_cutoff", "<f4"),  # mask: a point whose alpha is below this is not there
+        ("double_sided", "<i4"),  # 0: camera rays do not see the back faces (glTF doubleSided false; kernels/alpha.h)
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)

@@ -1,12 +1,13 @@
-/* glTF alphaMode for both integrators: a point's coverage alpha (the material's factor times its base colour
+/* What rays look past, for both integrators: glTF alphaMode, and (camera rays) single-sided back faces.
+ * glTF alphaMode: a point's coverage alpha (the material's factor times its base colour
  * texture's alpha there) and what a ray does with it.
  *   MASK:  the point is there where alpha >= alphaCutoff, else every ray (camera, bounce, shadow) goes on past it.
  *   BLEND: the path tracer keeps the point with probability alpha (stochastic transparency, alpha_kept); the
  *          Whitted integrator, which draws no random numbers for its rays, blends instead: a camera or bounce
  *          ray sees alpha x the surface + (1 - alpha) x what lies behind it, and a shadow ray crossing the point
  *          keeps (1 - alpha) + alpha x transparency of the light (docs/materials.md).
- * Compiled only into the -DALPHA_TEST=1 variants (renderer.py builds them for scenes with alpha-tested
- * materials): every other scene keeps the kernels it had, bit for bit. */
+ * Compiled only into the -DALPHA_TEST=1 and -DCULL_BACKFACES=1 variants (renderer.py builds them for scenes
+ * with alpha-tested, single-sided materials): every other scene keeps the kernels it had, bit for bit. */
 #ifndef CLRENDER_ALPHA_H
 #define CLRENDER_ALPHA_H
 
@@ -18,7 +19,24 @@
 #ifndef ALPHA_TEST
 #define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
 #endif
+#ifndef CULL_BACKFACES
+#define CULL_BACKFACES 0 /* 1: some material is single-sided (glTF doubleSided false): camera rays look past its back faces */
+#endif
+#define LOOK_PAST (ALPHA_TEST || CULL_BACKFACES) /* camera rays may be traced again past a hit */
 #define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
+
+#if CULL_BACKFACES
+/* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
+ * outward normal) of a single-sided material.  glTF: "When this value is false, back-face culling is enabled";
+ * only camera rays cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
+INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
+    if (g->materials[g->objects[g->prim_object[h.id]].material].double_sided) return false;
+    float3 p_err, n;
+    bool sphere;
+    hit_surface(g, h, o, d, &p_err, &n, &sphere);
+    return dot3(d, n) > 0.0f;
+}
+#endif
 
 #if ALPHA_TEST
 /* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup). */

@@ -192,13 +192,22 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points. */
-INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, Rng *rng, uint *visits) {
-#if ALPHA_TEST
+/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points and,
+ * for a camera ray, culled back faces (alpha.h). */
+INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, bool camera, Rng *rng, uint *visits) {
+#if LOOK_PAST
     for (int k = 0; k < ALPHA_LAYERS; ++k) {
         Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
-        if (h.id < 0 || alpha_kept(&s->geo, s->tex, h, rng)) return h;
-        t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
+        if (h.id < 0) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
+#if CULL_BACKFACES
+        if (camera && back_culled(&s->geo, h, r.o, r.d)) continue;
+#endif
+#if ALPHA_TEST
+        if (alpha_kept(&s->geo, s->tex, h, rng)) return h;
+#else
+        return h;
+#endif
     }
 #endif
     return closest_hit(&s->geo, r, t_min, t_max, visits);
@@ -210,7 +219,7 @@ INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist
     Ray sr = make_ray(origin, wi);
     float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
 #if ALPHA_TEST
-    return seen_hit(s, sr, 0.0f, t_max, rng, visits).id < 0 ? 1.0f : 0.0f;
+    return seen_hit(s, sr, 0.0f, t_max, false, rng, visits).id < 0 ? 1.0f : 0.0f;
 #else
     return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
 #endif
@@ -440,7 +449,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
     for (int depth = 0;; ++depth) {
-        Hit h = seen_hit(s, r, 0.0f, INF_T, rng, visits);
+        Hit h = seen_hit(s, r, 0.0f, INF_T, depth == 0, rng, visits);
         *rays += 1;
         radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {

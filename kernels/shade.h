@@ -415,17 +415,26 @@ INLINE void push_ray(RayStack *s, float3 o, float medium, float3 d, int depth, f
     ++s->n;
 }
 
-#if ALPHA_TEST
-/* The first point along r that a Whitted ray stops at, past MASK-rejected (and alpha 0) points, through
- * ALPHA_LAYERS of them; *opacity: the share of the ray's light it stops (hit_opacity: BLEND's alpha, else 1). */
-INLINE Hit whitted_hit(const SceneView *sc, Ray r, float *opacity, uint *visits) {
+#if LOOK_PAST
+/* The first point along (o, d) that a Whitted ray stops at, past MASK-rejected (and alpha 0) points and, for a
+ * camera ray, culled back faces (alpha.h), through ALPHA_LAYERS of them; *opacity: the share of the ray's light
+ * it stops (hit_opacity: BLEND's alpha, else 1). */
+INLINE Hit whitted_hit(const SceneView *sc, float3 o, float3 d, bool camera, float *opacity, uint *visits) {
+    Ray r = make_ray(o, d);
     float t_min = 0.0f;
     for (int k = 0; k < ALPHA_LAYERS; ++k) {
         Hit h = closest_hit(&sc->geo, r, t_min, INF_T, visits);
         if (h.id < 0) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
+#if CULL_BACKFACES
+        if (camera && back_culled(&sc->geo, h, o, d)) continue;
+#endif
+#if ALPHA_TEST
         *opacity = hit_opacity(&sc->geo, sc->tex, h);
         if (*opacity > 0.0f) return h;
-        t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
+#else
+        return h;
+#endif
     }
     *opacity = 1.0f;
     return closest_hit(&sc->geo, r, t_min, INF_T, visits);
@@ -501,9 +510,9 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         float3 o = stack.o[stack.n].xyz, d = stack.d[stack.n].xyz, w = stack.w[stack.n].xyz;
         float medium = stack.o[stack.n].w;
         int depth = (int)stack.d[stack.n].w;
-#if ALPHA_TEST
+#if LOOK_PAST
         float opacity = 1.0f;
-        Hit h = whitted_hit(sc, make_ray(o, d), &opacity, visits);
+        Hit h = whitted_hit(sc, o, d, depth == 0, &opacity, visits);
 #else
         Hit h = closest_hit(&sc->geo, make_ray(o, d), 0.0f, INF_T, visits);
 #endif
@@ -526,7 +535,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         bool sphere;
         bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
         if (m.textures[TEXTURE_NORMAL] >= 0) pt.n = normal_mapped(sc->tex, &m, h.id, h.u, h.v, pt.n, front_face, d);
-#if ALPHA_TEST
+#if LOOK_PAST
         if (opacity < 1.0f) { /* BLEND: what lies behind the point, 1 - alpha of the ray, on the same footing */
             push_ray(&stack, offset_origin(pt.p, pt.p_err, -pt.n_geo), medium, d, depth, w * (1.0f - opacity));
             w *= opacity;

@@ -253,6 +253,9 @@ class Renderer:
         # (kernels/alpha.h); scenes without them keep the kernels they had
         if any(m.alpha_mode != "opaque" for m in self.scene.materials.values()):
             defines["ALPHA_TEST"] = 1
+        # ... and single-sided materials (glTF doubleSided false) hide their back faces from camera rays
+        if not all(m.double_sided for m in self.scene.materials.values()):
+            defines["CULL_BACKFACES"] = 1
         if s.integrator == "path":
             from .path import emitters
 
