@@ -210,7 +210,7 @@ VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
 # convention, (0, 0) the image's top-left) and linear RGB vertex colours (COLOR_0); zeros for uvs and ones for
 # colours where a mesh has none, and for spheres
 # and tangents for normal maps (xyz a unit vector along increasing u, w = +-1: bitangent = w normal x tangent, towards
-# decreasing v, glTF's convention): glTF TANGENT, else generated per triangle from its UVs (zeros: none)
+# decreasing v, glTF's convention): glTF TANGENT, else generated per vertex from the UVs (trace/geometry.py vertex_tangents; zeros: none)
 VERTEX_ATTRIBUTES_DTYPE = np.dtype([("uv", "<f4", (3, 2)), ("uv1", "<f4", (3, 2)), ("colour", "<f4", (3, 3)), ("tangent", "<f4", (3, 4))])
 VERTEX_ATTRIBUTES = Record("VertexAttributes", VERTEX_ATTRIBUTES_DTYPE)
 # an image texture (scene/textures.py packs them): its texels' first index in the one float4 texel buffer (row-major,

@@ -34,7 +34,7 @@ nothing in the file is dropped without being listed here:
   KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
   draws the base colour as its diffuse colour); baseColorTexture,
   metallicRoughnessTexture, emissiveTexture, occlusionTexture and normalTexture (with TANGENT, or tangents
-  generated from the UVs) with their texCoord and
+  generated per vertex from the UVs) with their texCoord and
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
   bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex; alphaMode
