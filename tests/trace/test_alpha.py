@@ -16,15 +16,19 @@ CHECKER = 4  # 4 x 4 texels, alpha 255 where i + j is even, 0 elsewhere
 MARGIN = 0.06  # texels: pixels whose camera or shadow ray passes this close to a texel edge are not compared
 
 
-def scene(tmp_path, alpha: dict, texture=True):
+def write_checker(tmp_path):
     from PIL import Image
-
-    from clrender.scene.scene import Scene
 
     i, j = np.meshgrid(np.arange(CHECKER), np.arange(CHECKER))
     texels = np.full((CHECKER, CHECKER, 4), 255, np.uint8)
     texels[..., 3] = np.where((i + j) % 2 == 0, 255, 0)
     Image.fromarray(texels, "RGBA").save(tmp_path / "checker.png")
+
+
+def scene(tmp_path, alpha: dict, texture=True):
+    from clrender.scene.scene import Scene
+
+    write_checker(tmp_path)
     card = {"diffuse": [1, 0, 0], "alpha": alpha, **({"diffuse_texture": "checker"} if texture else {})}
     return Scene.from_dict(
         {
@@ -116,3 +120,55 @@ def test_path_tracer_agrees_on_the_mask(tmp_path):
         keep &= (seen_there == seen) & (shadowed_there == shadowed)
     assert keep.mean() > 0.3
     np.testing.assert_allclose(image[keep], want[keep], atol=0.02)
+
+
+def geometry_card_scene(tmp_path, alpha_card: bool, lights, floor_mirror=0.0):
+    """The checker card as alpha (MASK) or as its opaque texels modelled as eight small quads (no alpha: the
+    renderer's ordinary kernels, shadow shafts included), over a floor with some mirror reflection."""
+    from clrender.scene.scene import Scene
+
+    write_checker(tmp_path)
+
+    data = {
+        "width": N,
+        "height": N,
+        "background": [0.3, 0.5, 0.7],
+        "cameras": [{"position": [0, 0, 10], "look_at": [0, 0, 0], "projection": "orthographic", "ortho_height": VIEW}],
+        "textures": {"checker": {"file": "checker.png", "filter": "nearest", "wrap_s": "clamp_to_edge", "wrap_t": "clamp_to_edge"}},
+        "materials": {
+            "card": {"diffuse": [1, 0, 0], **({"diffuse_texture": "checker", "alpha": {"mode": "mask"}} if alpha_card else {})},
+            "floor": {"diffuse": [1, 1, 1], "mirror": floor_mirror},
+        },
+        "lights": lights,
+        "objects": [{"type": "quad", "corner": [-4, -4, 0], "edge_a": [8, 0, 0], "edge_b": [0, 8, 0], "material": "floor"}],
+    }
+    side = 2 / CHECKER
+    if alpha_card:
+        data["objects"].append({"type": "quad", "corner": [-1, -1, CARD_Z], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0], "material": "card"})
+    else:  # texel (i, j): x from -1 + i side, y from 1 - (j + 1) side
+        for j in range(CHECKER):
+            for i in range(CHECKER):
+                if (i + j) % 2 == 0:
+                    corner = [-1 + i * side, 1 - (j + 1) * side, CARD_Z]
+                    data["objects"].append({"type": "quad", "corner": corner, "edge_a": [side, 0, 0], "edge_b": [0, side, 0], "material": "card"})
+    return Scene.from_dict(data, base_dir=tmp_path)
+
+
+@pytest.mark.parametrize(
+    "lights, floor_mirror",
+    [
+        ([{"type": "area", "corner": [-0.5, -0.3, 2.0], "edge_a": [1.0, 0, 0], "edge_b": [0, 0.8, 0], "samples": 4}], 0.0),
+        ([{"type": "point", "position": LIGHT.tolist()}], 0.5),
+    ],
+    ids=["area-light", "mirror-floor"],
+)
+def test_mask_card_renders_as_its_opaque_texels_modelled_as_geometry(tmp_path, lights, floor_mirror):
+    """Two independent ways to the same picture: the alpha-tested card (ALPHA_TEST variant: shadow rays walk hit by
+    hit, no shafts) and its opaque texels as quads (the ordinary kernels, shafts on).  Area-light shadow rays and
+    mirror rays from the floor (which see the background through the holes and the card's unlit back elsewhere)
+    must pass the holes exactly where the geometry has none."""
+    alpha = clrender.Renderer(geometry_card_scene(tmp_path, True, lights, floor_mirror), aa="none").run().image.astype(np.float64)
+    geometry = clrender.Renderer(geometry_card_scene(tmp_path, False, lights, floor_mirror), aa="none").run().image.astype(np.float64)
+    _, far, seen, _ = expected()
+    assert (far & seen).any() and (far & ~seen).any()
+    np.testing.assert_allclose(alpha[far], geometry[far], atol=2e-5)
