@@ -33,7 +33,7 @@ PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/
 # a material's texture slots (Material.textures[slot]; kernels/texture.h): colour ones hold sRGB-decoded texels,
 # data ones linear values
 TEXTURE_SLOTS = {"base_color": 0, "metallic_roughness": 1, "emissive": 2, "occlusion": 3, "normal": 4}
-ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (the path tracer; Whitted draws all opaque)
+ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (kernels/alpha.h, both integrators)
 WRAP_MODES = {"repeat": 10497, "clamp_to_edge": 33071, "mirrored_repeat": 33648}  # Texture.wrap_s/t: glTF's sampler codes
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl)
@@ -181,6 +181,7 @@ MATERIAL_DTYPE = np.dtype(
         ("alpha", "<f4"),  # coverage: times the base colour texture's alpha (glTF baseColorFactor[3])
         ("alpha_mode", "<i4"),  # ALPHA_MODES code
         ("alpha_cutoff", "<f4"),  # mask: a point whose alpha is below this is not there
+        ("double_sided", "<i4"),  # 0: camera rays do not see the back faces (glTF doubleSided false; kernels/alpha.h)
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
@@ -209,7 +210,7 @@ VERTEX_NORMALS = Record("VertexNormals", VERTEX_NORMALS_DTYPE)
 # convention, (0, 0) the image's top-left) and linear RGB vertex colours (COLOR_0); zeros for uvs and ones for
 # colours where a mesh has none, and for spheres
 # and tangents for normal maps (xyz a unit vector along increasing u, w = +-1: bitangent = w normal x tangent, towards
-# decreasing v, glTF's convention): glTF TANGENT, else generated per triangle from its UVs (zeros: none)
+# decreasing v, glTF's convention): glTF TANGENT, else generated per vertex from the UVs (trace/geometry.py vertex_tangents; zeros: none)
 VERTEX_ATTRIBUTES_DTYPE = np.dtype([("uv", "<f4", (3, 2)), ("uv1", "<f4", (3, 2)), ("colour", "<f4", (3, 3)), ("tangent", "<f4", (3, 4))])
 VERTEX_ATTRIBUTES = Record("VertexAttributes", VERTEX_ATTRIBUTES_DTYPE)
 # an image texture (scene/textures.py packs them): its texels' first index in the one float4 texel buffer (row-major,

@@ -24,6 +24,7 @@
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
+#include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
@@ -33,10 +34,6 @@
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
 #endif
-#ifndef ALPHA_TEST
-#define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
-#endif
-#define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -195,28 +192,22 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-#if ALPHA_TEST
-/* Whether hit h's point is there: its material's alpha (factor times the base colour texture's alpha) at least
- * the cutoff (MASK), or with probability alpha (BLEND: stochastic transparency, unbiased on average). */
-INLINE bool alpha_passes(const PathScene *s, Hit h, Rng *rng) {
-    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[h.id]].material];
-    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
-    float a = gm->alpha;
-    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
-        Material m = *gm;
-        a *= slot_texel(s->tex, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
-    }
-    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
-}
-#endif
-
-/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points. */
-INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, Rng *rng, uint *visits) {
-#if ALPHA_TEST
+/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points and,
+ * for a camera ray, culled back faces (alpha.h). */
+INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, bool camera, Rng *rng, uint *visits) {
+#if LOOK_PAST
     for (int k = 0; k < ALPHA_LAYERS; ++k) {
         Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
-        if (h.id < 0 || alpha_passes(s, h, rng)) return h;
-        t_min = h.t; /* hits are in (t_min, t_max): the rejected one is left out */
+        if (h.id < 0) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
+#if CULL_BACKFACES
+        if (camera && back_culled(&s->geo, h, r.o, r.d)) continue;
+#endif
+#if ALPHA_TEST
+        if (alpha_kept(&s->geo, s->tex, h, rng)) return h;
+#else
+        return h;
+#endif
     }
 #endif
     return closest_hit(&s->geo, r, t_min, t_max, visits);
@@ -228,7 +219,7 @@ INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist
     Ray sr = make_ray(origin, wi);
     float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
 #if ALPHA_TEST
-    return seen_hit(s, sr, 0.0f, t_max, rng, visits).id < 0 ? 1.0f : 0.0f;
+    return seen_hit(s, sr, 0.0f, t_max, false, rng, visits).id < 0 ? 1.0f : 0.0f;
 #else
     return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
 #endif
@@ -458,7 +449,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
     for (int depth = 0;; ++depth) {
-        Hit h = seen_hit(s, r, 0.0f, INF_T, rng, visits);
+        Hit h = seen_hit(s, r, 0.0f, INF_T, depth == 0, rng, visits);
         *rays += 1;
         radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {

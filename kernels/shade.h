@@ -19,6 +19,7 @@
 #include "shaft.h"
 #include "envmap.h"
 #include "texture.h"
+#include "alpha.h" /* ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) */
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -198,7 +199,11 @@ INLINE float sample_transmittance(const SceneView *sc, const ShadingPoint *pt, f
 #if SHAFTS_ON
     if (by_shaft) return shaft_transmittance(cand, &sc->geo, sr, t_max);
 #endif
+#if ALPHA_TEST
+    return alpha_transmittance(&sc->geo, sc->tex, sr, t_max, visits); /* one ray's walk: shafts are off (shaft.h) */
+#else
     return transmittance(&sc->geo, sr, 0.0f, t_max, false, visits);
+#endif
 }
 
 /* A point or directional light's one sample at pt: its light added to *total; returns the fraction
@@ -391,19 +396,50 @@ INLINE float3 direct_light(const SceneView *sc, ShadingPoint pt, Rng *rng, __glo
 
 /* ---- following a camera ray */
 
-/* The rays still to follow, last in first out. */
+/* The rays still to follow, last in first out (ALPHA_TEST: room for BLEND's see-through rays too). */
+#if ALPHA_TEST
+#define WHITTED_STACK (RAY_STACK + ALPHA_LAYERS)
+#else
+#define WHITTED_STACK RAY_STACK
+#endif
 typedef struct {
-    float4 o[RAY_STACK], d[RAY_STACK], w[RAY_STACK]; /* (origin, medium IOR) (direction, depth) (weight, 0) */
+    float4 o[WHITTED_STACK], d[WHITTED_STACK], w[WHITTED_STACK]; /* (origin, medium IOR) (direction, depth) (weight, 0) */
     int n;
 } RayStack;
 
 INLINE void push_ray(RayStack *s, float3 o, float medium, float3 d, int depth, float3 w) {
-    if (s->n == RAY_STACK) return; /* cannot happen: a path holds at most max_depth + 1 rays */
+    if (s->n == WHITTED_STACK) return; /* cannot happen: a path holds at most max_depth + 1 rays */
     s->o[s->n] = (float4)(o, medium);
     s->d[s->n] = (float4)(d, (float)depth);
     s->w[s->n] = (float4)(w, 0.0f);
     ++s->n;
 }
+
+#if LOOK_PAST
+/* The first point along (o, d) that a Whitted ray stops at, past MASK-rejected (and alpha 0) points and, for a
+ * camera ray, culled back faces (alpha.h), through ALPHA_LAYERS of them; *opacity: the share of the ray's light
+ * it stops (hit_opacity: BLEND's alpha, else 1). */
+INLINE Hit whitted_hit(const SceneView *sc, float3 o, float3 d, bool camera, float *opacity, uint *visits) {
+    Ray r = make_ray(o, d);
+    float t_min = 0.0f;
+    for (int k = 0; k < ALPHA_LAYERS; ++k) {
+        Hit h = closest_hit(&sc->geo, r, t_min, INF_T, visits);
+        if (h.id < 0) return h;
+        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
+#if CULL_BACKFACES
+        if (camera && back_culled(&sc->geo, h, o, d)) continue;
+#endif
+#if ALPHA_TEST
+        *opacity = hit_opacity(&sc->geo, sc->tex, h);
+        if (*opacity > 0.0f) return h;
+#else
+        return h;
+#endif
+    }
+    *opacity = 1.0f;
+    return closest_hit(&sc->geo, r, t_min, INF_T, visits);
+}
+#endif
 
 /* A smooth triangle's normal at hit h, interpolated from its vertex normals. */
 INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
@@ -474,7 +510,12 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         float3 o = stack.o[stack.n].xyz, d = stack.d[stack.n].xyz, w = stack.w[stack.n].xyz;
         float medium = stack.o[stack.n].w;
         int depth = (int)stack.d[stack.n].w;
+#if LOOK_PAST
+        float opacity = 1.0f;
+        Hit h = whitted_hit(sc, o, d, depth == 0, &opacity, visits);
+#else
         Hit h = closest_hit(&sc->geo, make_ray(o, d), 0.0f, INF_T, visits);
+#endif
         *rays += 1;
         int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
         if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
@@ -494,6 +535,12 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         bool sphere;
         bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
         if (m.textures[TEXTURE_NORMAL] >= 0) pt.n = normal_mapped(sc->tex, &m, h.id, h.u, h.v, pt.n, front_face, d);
+#if LOOK_PAST
+        if (opacity < 1.0f) { /* BLEND: what lies behind the point, 1 - alpha of the ray, on the same footing */
+            push_ray(&stack, offset_origin(pt.p, pt.p_err, -pt.n_geo), medium, d, depth, w * (1.0f - opacity));
+            w *= opacity;
+        }
+#endif
         if (ids && first_hit && !obj.smooth && !sphere) ids->facet = h.id;
 #if WRITE_AOV
         if (first_hit && sc->aov) {

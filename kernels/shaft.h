@@ -24,7 +24,9 @@
 #ifndef SHADOW_SHAFTS
 #error "SHADOW_SHAFTS is missing: build trace.cl with clrender.trace.tracer.trace_defines()"
 #endif
-#define SHAFTS_ON (SHADOW_SHAFTS && USE_BVH && BVH_WIDTH >= 4) /* the binary tree and BVH-off keep per-ray rays */
+/* the binary tree and BVH-off keep per-ray rays, and so do alpha-tested scenes (alpha.h: each shadow ray walks its
+   hits one by one, reading textures) */
+#define SHAFTS_ON (SHADOW_SHAFTS && USE_BVH && BVH_WIDTH >= 4 && !ALPHA_TEST)
 
 #if SHAFTS_ON
 #ifndef SHAFT_CANDIDATES

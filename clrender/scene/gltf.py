@@ -34,12 +34,12 @@ nothing in the file is dropped without being listed here:
   KHR_materials_transmission (the path tracer's lobes; the Whitted integrator
   draws the base colour as its diffuse colour); baseColorTexture,
   metallicRoughnessTexture, emissiveTexture, occlusionTexture and normalTexture (with TANGENT, or tangents
-  generated from the UVs) with their texCoord and
+  generated per vertex from the UVs) with their texCoord and
   KHR_texture_transform, as scene `textures` entries that name the file's
   image (`image_bytes`: a uri beside the file, a data URI or a GLB
   bufferView); COLOR_0 vertex colours and TEXCOORD_0/1 per vertex; alphaMode
-  MASK (alphaCutoff) and BLEND (stochastic) in the path tracer; doubleSided is ignored
-  (every surface is shaded on both sides).  Primitives without a material get
+  MASK (alphaCutoff) and BLEND (path: stochastic, Whitted: blended); doubleSided
+  (false, the default: camera rays cull back faces; both sides are shaded).  Primitives without a material get
   clrender's default grey.
 
 Anything malformed is a UsageError naming the file and what was wrong.  Counts
@@ -652,6 +652,10 @@ def _material(doc: Document, index: int) -> dict:
         "ior": ior,
         "transmission": transmission,
     }
+    double_sided = item.get("doubleSided", False)
+    if not isinstance(double_sided, bool):
+        doc.fail(f"{where}.doubleSided {show(double_sided)}; allowed: true, false")
+    out["double_sided"] = double_sided
     mode = item.get("alphaMode", "OPAQUE")
     if mode not in ("OPAQUE", "MASK", "BLEND"):
         doc.fail(f"{where}.alphaMode {show(mode)}; allowed: OPAQUE, MASK, BLEND")

@@ -42,9 +42,10 @@ class Material:
     emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
     occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
     normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
-    alpha: float = 1.0  # coverage, times the base colour texture's alpha (path tracer only)
+    alpha: float = 1.0  # coverage, times the base colour texture's alpha (docs/materials.md#alpha)
     alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
     alpha_cutoff: float = 0.5
+    double_sided: bool = True  # False: camera rays look past back faces (glTF's doubleSided false, docs/materials.md)
 
     @property
     def base_color_or_kd(self) -> tuple:
@@ -153,6 +154,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
         **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
         **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
+        double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
     )
     if gltf:
         slots = ("base_color", "metallic_roughness", "occlusion", "normal")
@@ -179,7 +181,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
-MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha"), _build_material)
+MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha", "double_sided"), _build_material)
 
 
 def read_material(checks: Checks, m, path: str) -> Material:

@@ -121,8 +121,52 @@ def _attributes(mesh: Mesh) -> np.ndarray:
         if values is not None:
             out[name] = np.asarray(values)[mesh.faces]
     if mesh.tangents is None and mesh.uvs is not None:
-        out["tangent"] = face_tangents(mesh.vertices[mesh.faces], np.asarray(mesh.uvs)[mesh.faces])[:, None, :]
+        normals = mesh.vertex_normals if mesh.smooth and mesh.vertex_normals is not None else None
+        out["tangent"] = vertex_tangents(mesh.vertices, mesh.faces, np.asarray(mesh.uvs), normals)
     return out
+
+
+def _corner_angles(tri: np.ndarray) -> np.ndarray:
+    """(F, 3) the triangle's angle at each corner (0 for degenerate ones)."""
+    out = np.zeros(tri.shape[:2])
+    for k in range(3):
+        a, b = tri[:, (k + 1) % 3] - tri[:, k], tri[:, (k + 2) % 3] - tri[:, k]
+        out[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+    return out
+
+
+def vertex_tangents(vertices: np.ndarray, faces: np.ndarray, uvs: np.ndarray, normals: np.ndarray | None) -> np.ndarray:
+    """(F, 3, 4) tangents at each face's corners, generated as MikkTSpace does (Mikkelsen 2008), so that normal maps
+    baked with it show no seams: each face's tangent (face_tangents) is projected into the plane of each corner's
+    normal (the vertex normal, or the face's without `normals`) and summed, weighted by the corner's angle, over
+    the corners that share position, normal, UV and handedness (welded by value, as MikkTSpace does, so split
+    vertices join again); the sum, made orthogonal to the normal (Gram-Schmidt) and unit, is the corner's tangent,
+    w its handedness.  Corners whose group has no usable face get zeros (the kernel then keeps the unmapped normal)."""
+    tri, uv = vertices[faces].astype(np.float64), uvs[faces].astype(np.float64)
+    face_t = face_tangents(tri, uv)  # (F, 4): unit tangent, handedness (0: degenerate UVs)
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
+    n = normals[faces].astype(np.float64) if normals is not None else np.repeat(face_n[:, None], 3, axis=1)
+    sign = np.where(face_t[:, 3] < 0, -1.0, 1.0)
+    keys = np.concatenate([tri, n, uv, np.repeat(sign[:, None, None], 3, axis=1)], axis=2).reshape(-1, 9)
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    n_flat = n.reshape(-1, 3)
+    t = np.repeat(face_t[:, None, :3], 3, axis=1).reshape(-1, 3)
+    t_proj = t - n_flat * np.einsum("ij,ij->i", n_flat, t)[:, None]
+    length = np.linalg.norm(t_proj, axis=1, keepdims=True)
+    weight = (_corner_angles(tri) * (face_t[:, 3:] != 0)).reshape(-1, 1)
+    contribution = np.where(length > 1e-12, t_proj / np.maximum(length, 1e-300), 0.0) * weight
+    summed = np.zeros((group.max() + 1 if len(group) else 0, 3))
+    np.add.at(summed, group, contribution)
+    tangent = summed[group]
+    tangent -= n_flat * np.einsum("ij,ij->i", n_flat, tangent)[:, None]
+    length = np.linalg.norm(tangent, axis=1, keepdims=True)
+    usable = (length[:, 0] > 1e-12) & np.isfinite(tangent).all(axis=1)
+    out = np.zeros((len(group), 4))
+    out[usable, :3] = tangent[usable] / length[usable]
+    out[usable, 3] = np.repeat(sign, 3)[usable]
+    return out.reshape(-1, 3, 4)
 
 
 def face_tangents(tri: np.ndarray, uv: np.ndarray) -> np.ndarray:

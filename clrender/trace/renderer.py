@@ -251,15 +251,20 @@ class Renderer:
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
         # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
         defines = {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)}
+        # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+        # (kernels/alpha.h); scenes without them keep the kernels they had
+        if any(m.alpha_mode != "opaque" for m in self.scene.materials.values()):
+            defines["ALPHA_TEST"] = 1
+        # ... and single-sided materials (glTF doubleSided false) hide their back faces from camera rays
+        if not all(m.double_sided for m in self.scene.materials.values()):
+            defines["CULL_BACKFACES"] = 1
         if s.integrator == "path":
             from .path import emitters
 
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
-            alpha = any(m.alpha_mode != "opaque" for m in self.scene.materials.values())
-            self.kernel = dev.kernel("path.cl", "render_path", {**defines, "ALPHA_TEST": int(alpha)})
+            self.kernel = dev.kernel("path.cl", "render_path", defines)
         else:
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument

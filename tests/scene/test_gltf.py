@@ -234,3 +234,19 @@ def test_render_a_glb_from_the_command_line(box_glb, tmp_path, capsys):
     code, stdout, err = run_cli(capsys, "render", str(path), "--width", "16", "--height", "12", "-o", str(out))
     assert code == 0, err
     assert stdout.split() == [str(out)]
+
+
+# ------------------------------------------------------------- doubleSided
+@pytest.mark.parametrize("given, sided", [({}, False), ({"doubleSided": False}, False), ({"doubleSided": True}, True)])
+def test_double_sided_is_read_with_the_specifications_default(tmp_path, given, sided):
+    """glTF's doubleSided defaults to false: single-sided (camera rays cull its back faces, tests/trace/test_double_sided.py)."""
+    path = gltf_file(tmp_path, [{"mesh": 0}], materials=[{"pbrMetallicRoughness": {}, **given}])
+    (material,) = [Scene.load(path).materials[o.material] for o in Scene.load(path).objects]
+    assert material.double_sided is sided
+
+
+def test_a_double_sided_that_is_not_a_boolean_is_one_line_exit_2(tmp_path, capsys):
+    path = gltf_file(tmp_path, [{"mesh": 0}], materials=[{"doubleSided": 1}])
+    code, _, err = run_cli(capsys, "render", str(path), "-o", str(tmp_path / "out.png"))
+    assert code == 2 and "doubleSided 1; allowed: true, false" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out.png").exists()

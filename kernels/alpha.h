@@ -1,0 +1,89 @@
+/* What rays look past, for both integrators: glTF alphaMode, and (camera rays) single-sided back faces.
+ * glTF alphaMode: a point's coverage alpha (the material's factor times its base colour
+ * texture's alpha there) and what a ray does with it.
+ *   MASK:  the point is there where alpha >= alphaCutoff, else every ray (camera, bounce, shadow) goes on past it.
+ *   BLEND: the path tracer keeps the point with probability alpha (stochastic transparency, alpha_kept); the
+ *          Whitted integrator, which draws no random numbers for its rays, blends instead: a camera or bounce
+ *          ray sees alpha x the surface + (1 - alpha) x what lies behind it, and a shadow ray crossing the point
+ *          keeps (1 - alpha) + alpha x transparency of the light (docs/materials.md).
+ * Compiled only into the -DALPHA_TEST=1 and -DCULL_BACKFACES=1 variants (renderer.py builds them for scenes
+ * with alpha-tested, single-sided materials): every other scene keeps the kernels it had, bit for bit. */
+#ifndef CLRENDER_ALPHA_H
+#define CLRENDER_ALPHA_H
+
+#include "common.h"
+#include "intersect.h"
+#include "texture.h"
+#include "rng.h"
+
+#ifndef ALPHA_TEST
+#define ALPHA_TEST 0 /* 1: some material is alpha-tested (renderer.py): rays look past the points it leaves out */
+#endif
+#ifndef CULL_BACKFACES
+#define CULL_BACKFACES 0 /* 1: some material is single-sided (glTF doubleSided false): camera rays look past its back faces */
+#endif
+#define LOOK_PAST (ALPHA_TEST || CULL_BACKFACES) /* camera rays may be traced again past a hit */
+#define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
+
+#if CULL_BACKFACES
+/* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
+ * outward normal) of a single-sided material.  glTF: "When this value is false, back-face culling is enabled";
+ * only camera rays cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
+INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
+    if (g->materials[g->objects[g->prim_object[h.id]].material].double_sided) return false;
+    float3 p_err, n;
+    bool sphere;
+    hit_surface(g, h, o, d, &p_err, &n, &sphere);
+    return dot3(d, n) > 0.0f;
+}
+#endif
+
+#if ALPHA_TEST
+/* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup). */
+INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
+    __global const Material *gm = &g->materials[g->objects[g->prim_object[h.id]].material];
+    *alpha = 1.0f;
+    if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
+    *alpha = gm->alpha;
+    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
+        Material m = *gm;
+        *alpha *= slot_texel(tv, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
+    }
+    return gm;
+}
+
+/* The fraction of a ray's light that hit h's point stops by coverage (MASK: 1 where alpha >= cutoff, else 0;
+ * BLEND: alpha; OPAQUE: 1). */
+INLINE float hit_opacity(const Geometry *g, TextureView tv, Hit h) {
+    float a;
+    __global const Material *gm = hit_coverage(g, tv, h, &a);
+    if (gm->alpha_mode == ALPHA_MASK) return a >= gm->alpha_cutoff ? 1.0f : 0.0f;
+    return a;
+}
+
+/* Whether hit h's point is there for one stochastic ray (the path tracer): MASK by the cutoff, BLEND with
+ * probability alpha (the uniform number drawn only for BLEND, so MASK scenes use no random dimensions). */
+INLINE bool alpha_kept(const Geometry *g, TextureView tv, Hit h, Rng *rng) {
+    float a;
+    __global const Material *gm = hit_coverage(g, tv, h, &a);
+    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
+    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
+}
+
+/* Fraction of light reaching t_max along the shadow ray r (Whitted): each point met in turn passes
+ * (1 - opacity) + opacity x its material's transparency, through ALPHA_LAYERS points; the rest is
+ * transmittance's (alpha ignored).  A walk of closest hits of one ray (no shafts, no packets). */
+INLINE float alpha_transmittance(const Geometry *g, TextureView tv, Ray r, float t_max, uint *visits) {
+    float T = 1.0f, t_min = 0.0f;
+    for (int k = 0; k < ALPHA_LAYERS && T > 0.0f; ++k) {
+        Hit h = closest_hit(g, r, t_min, t_max, visits);
+        if (h.id < 0) return T;
+        float opacity = hit_opacity(g, tv, h);
+        T *= (1.0f - opacity) + opacity * transparency_of(g, h.id);
+        t_min = h.t; /* hits are in (t_min, t_max): this one is left out next */
+    }
+    return T > 0.0f ? T * transmittance(g, r, t_min, t_max, false, visits) : 0.0f;
+}
+#endif
+
+#endif
