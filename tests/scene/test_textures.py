@@ -191,7 +191,6 @@ def test_gltf_missing_and_truncated_images(capsys, tmp_path):
 
 def test_textures_are_counted_together_against_memory(capsys, tmp_path, monkeypatch):
     """Two 1024^2 textures of 32 MiB each (device texels and the host copy): the second is refused under 48 MiB."""
-    monkeypatch.setattr("clrender.memory.MAX_MEMORY", None)  # the CLI's --max-memory 48M must not outlive this test
     for name in ("a", "b"):
         Image.fromarray(np.zeros((1024, 1024, 3), np.uint8)).save(tmp_path / f"{name}.png")
     path = tmp_path / "two.toml"
