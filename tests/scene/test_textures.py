@@ -189,7 +189,7 @@ def test_gltf_missing_and_truncated_images(capsys, tmp_path):
     assert "cannot be decoded" in refused(capsys, tmp_path, str(truncated))
 
 
-def test_textures_are_counted_together_against_memory(capsys, tmp_path, monkeypatch):
+def test_textures_are_counted_together_against_memory(capsys, tmp_path):
     """Two 1024^2 textures of 32 MiB each (device texels and the host copy): the second is refused under 48 MiB."""
     for name in ("a", "b"):
         Image.fromarray(np.zeros((1024, 1024, 3), np.uint8)).save(tmp_path / f"{name}.png")
