@@ -303,6 +303,19 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
     return fc * radiance * (scale * mis * visible(s, f, wi, dist, rng, visits));
 }
 
+/* The MIS-weighted NEE estimate f cos Le / pdf of radiance le arriving along wi from a point drawn with
+ * solid-angle density light_pdf, dist away (INF_T: from infinity), weighted against the component's own
+ * sampling of wi by the power heuristic: the tail emitter, map and environment sampling share. */
+INLINE float3 nee_weighted(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float3 wi, float3 le,
+                           float light_pdf, float dist, Rng *rng, uint *visits, uint *rays) {
+    float3 wl = to_local(fr, wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
+    float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
+    *rays += 1;
+    return fc * le * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
+}
+
 /* NEE to one point of one emissive triangle, chosen in proportion to its power. */
 INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                              uint *visits, uint *rays) {
@@ -321,12 +334,8 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     float cos_l = -dot3(unit(cross3(v1 - v0, v2 - v0)), wi);
     float light_pdf = emitter_pdf(s, e, dist, cos_l);
     if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return (float3)(0.0f);
-    float3 wl = to_local(fr, wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
-    *rays += 1;
-    return fc * emission_at(s, em->prim, su * (1.0f - u.y), su * u.y) * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
+    float3 le = emission_at(s, em->prim, su * (1.0f - u.y), su * u.y);
+    return nee_weighted(s, f, c, fr, wo, wi, le, light_pdf, dist, rng, visits, rays);
 }
 
 /* NEE to an environment map: a direction drawn by the map's luminance (envmap.h). */
@@ -337,12 +346,7 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
     if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
-    float3 wl = to_local(fr, wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
-    *rays += 1;
-    return fc * le * (mis / env_pdf * visible(s, f, wi, INF_T, rng, visits));
+    return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, rng, visits, rays);
 }
 
 /* NEE to the environment: the map's own sampling, or for the constant environment a cosine-weighted
@@ -357,12 +361,7 @@ INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component
     float3 wi = to_world(nf, cosine_hemisphere(u));
     float env_pdf = dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return (float3)(0.0f);
-    float3 wl = to_local(fr, wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = power_heuristic(env_pdf, component_pdf(c, wo, wl));
-    *rays += 1;
-    return fc * env * (mis / env_pdf * visible(s, f, wi, INF_T, rng, visits));
+    return nee_weighted(s, f, c, fr, wo, wi, env, env_pdf, INF_T, rng, visits, rays);
 }
 
 /* Every NEE strategy at a vertex whose component is not a delta lobe. */
