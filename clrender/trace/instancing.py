@@ -135,7 +135,7 @@ def shape_meshes(scene: Scene, instances: Instances) -> list:
         tangents = first.tangents
         if tangents is not None:
             tangents = np.concatenate([object_space(tangents[:, :3], first.to_world, False), np.asarray(tangents)[:, 3:]], 1)
-        out.append(Mesh(shape.vertices, shape.faces, normals, first.material, bool(smooth), first.source, first.uvs, first.uvs1, first.colours, tangents))
+        out.append(Mesh(shape.vertices, shape.faces, normals, "default", bool(smooth), first.source, first.uvs, first.uvs1, first.colours, tangents))
     return out
 
 

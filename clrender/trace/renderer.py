@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pyopencl as cl
 
-from ..errors import UsageError, require, value_shown, warn
+from ..errors import require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -114,7 +114,10 @@ class RenderSettings:
         require(_whole(s.tile_size) and s.tile_size >= 1, f"tile size {v(s.tile_size)} must be a whole number >= 1")
         for name in ("shadow_edges", "fresnel", "bvh"):
             require(isinstance(getattr(s, name), (bool, np.bool_)), f"{name} {v(getattr(s, name))} must be True or False")
-        require(s.instancing is None or isinstance(s.instancing, (bool, np.bool_)), f"instancing {v(s.instancing)} must be True, False or None (automatic)")
+        require(
+            s.instancing is None or isinstance(s.instancing, (bool, np.bool_)),
+            f"instancing {v(s.instancing)} must be True, False or None (automatic)",
+        )
         require(s.device is None or isinstance(s.device, str), f"device {v(s.device)} must be a device name (a string) or None")
         require(
             isinstance(s.aovs, (tuple, list)) and all(_name_in(a, AOV_NAMES) for a in s.aovs),
