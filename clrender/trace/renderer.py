@@ -242,12 +242,7 @@ class Renderer:
         self.scene = Scene.load(scene) if not isinstance(scene, Scene) else scene
         self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
         s = self.settings
-        if tracer is None:
-            from .instancing import worth_instancing
-
-            instancing = worth_instancing(self.scene) if s.instancing is None else bool(s.instancing)
-            tracer = Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing)
-        self.tracer = tracer
+        self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
         self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)
@@ -452,6 +447,14 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
+
+
+def instancing_for(scene: Scene, settings: RenderSettings) -> bool:
+    """Whether the Tracer of a render stores repeated meshes once: settings.instancing, or when None, whether that
+    saves at least instancing.AUTO_MIN_TRIANGLES triangles (the same answer on every machine of a Dask render)."""
+    from .instancing import worth_instancing
+
+    return worth_instancing(scene) if settings.instancing is None else bool(settings.instancing)
 
 
 def render(scene, settings: RenderSettings | None = None, **overrides) -> np.ndarray:

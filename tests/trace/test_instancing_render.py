@@ -27,21 +27,24 @@ SIZE = dict(width=96, height=72)
 
 
 def bunny_row(smooth_mirrored: bool = False, resolution: int = 24) -> dict:
-    """Five bunnies in a row, turned, scaled (one non-uniformly, one mirrored) and moved, one shiny; a sphere and
+    """Five bunnies in a row, turned, scaled (one non-uniformly, one mirrored) and moved, one shiny, one glass; a sphere and
     a floor that stay flat; a point and an area light.  Smooth, but for the mirrored one unless asked (its flat
     copy shades by its winding, not its normals: see test_a_mirrored_instance_...)."""
     objects = []
     for i, (scale, turn) in enumerate([(1.3, 20), ([0.9, 1.8, 1.1], -35), ([-1.3, 1.3, 1.3], 60), (1.1, 150), (1.5, 250)]):
         bunny = {"type": "mesh", "generator": "bunny", "params": {"resolution": resolution}, "smooth": i != 2 or smooth_mirrored}
         objects.append({**bunny, "translate": [1.05 * i - 2.1, -0.25, 0.3 * (i % 2)], "rotate": [0, turn, 0], "scale": scale})
-    objects[3]["material"] = "shiny"
+    objects[3]["material"], objects[4]["material"] = "shiny", "glass"
     objects += [
         {"type": "sphere", "center": [0.4, 1.6, -1.0], "radius": 0.4},
         {"type": "quad", "corner": [-5, -0.3, -3], "edge_a": [10, 0, 0], "edge_b": [0, 0, 6]},
     ]
     return {
         "cameras": [{"position": [0, 1.0, 4.0], "look_at": [0, 0.4, 0], "fov": 60}],
-        "materials": {"shiny": {"diffuse": [0.7, 0.6, 0.5], "specular": [0.3, 0.3, 0.3], "shininess": 30, "mirror": 0.2}},
+        "materials": {
+            "shiny": {"diffuse": [0.7, 0.6, 0.5], "specular": [0.3, 0.3, 0.3], "shininess": 30, "mirror": 0.2},
+            "glass": {"diffuse": [0.2, 0.3, 0.2], "transparency": 0.6, "ior": 1.4},  # refracts; dims the shadows it casts
+        },
         "lights": [
             {"type": "point", "position": [1, 8, 6]},
             {"type": "area", "corner": [-2, 5, 2], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "samples": 2},
