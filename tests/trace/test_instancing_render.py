@@ -262,3 +262,15 @@ def test_alpha_masked_instances_let_rays_through_their_holes_as_flat_copies_do(d
     on_cards = np.isin(a.ids, (0, 1))
     assert 0.1 < on_cards.mean() and (a.ids == 2).mean() > 0.3  # cards, and the floor through their holes and around
     assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
+
+
+def test_the_command_line_sets_instancing():
+    from clrender.cli import build_parser
+    from clrender.commands.render import settings_from_args
+
+    def settings(*argv):
+        return settings_from_args(build_parser().parse_args(["render", "bunny", *argv]))
+
+    assert settings().instancing is None
+    assert settings("--instancing").instancing is True
+    assert settings("--no-instancing").instancing is False
