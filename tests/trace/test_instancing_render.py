@@ -274,3 +274,34 @@ def test_the_command_line_sets_instancing():
     assert settings().instancing is None
     assert settings("--instancing").instancing is True
     assert settings("--no-instancing").instancing is False
+
+
+def test_normal_mapped_instances_turn_their_tangents_to_world_space(device, tmp_path):
+    """Two copies of a uv-mapped card with a uniform normal map tilted 30 degrees towards +u, one turned about its
+    normal and stretched: the instance's tangents are the mesh's, turned by object_to_world per hit
+    (TextureView.tangent_to_world), and shade as the flat copies' world tangents do.  Without the turn the turned
+    copy's shading would differ (checked below by its brightness range)."""
+    import math
+
+    from PIL import Image
+
+    n = np.array([math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))])
+    Image.fromarray(np.broadcast_to(np.round((n + 1) / 2 * 255).astype(np.uint8), (2, 2, 3)).copy()).save(tmp_path / "n.png")
+    (tmp_path / "card.obj").write_text(CARD_OBJ)
+    card = {"type": "mesh", "file": "card.obj", "material": "m"}
+    data = {
+        "width": 64,
+        "height": 32,
+        "cameras": [{"position": [0, 0, 8], "look_at": [0, 0, 0], "fov": 35}],
+        "textures": {"n": {"file": "n.png"}},
+        "materials": {"m": {"base_color": [0.5, 0.5, 0.5], "normal_texture": "n"}},
+        "lights": [{"type": "directional", "direction": [-0.6, -0.2, -1.0]}],
+        "objects": [{**card, "translate": [-1.5, 0, 0]}, {**card, "translate": [1.5, 0, 0], "rotate": [0, 0, 90], "scale": [1.2, 0.8, 1]}],
+    }
+    scene = Scene.from_dict(data, base_dir=tmp_path)
+    assert len(find_instances(scene).records) == 2
+    a, b = (Renderer(scene, tracer=Tracer(scene, device=device, instancing=i)).run() for i in (False, True))
+    left, right = a.image[a.ids == 0][:, 0], a.image[a.ids == 1][:, 0]
+    assert len(left) > 100 and len(right) > 100
+    assert abs(np.median(left) - np.median(right)) > 0.05  # the turned copy's tilt points elsewhere: another shade
+    assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
