@@ -111,7 +111,11 @@ def render_rates(copies: int, resolution: int, size: int, spp: int, rounds: int)
     from clrender.scene.scene import Scene
     from clrender.trace.renderer import Renderer
 
-    scene = Scene.from_dict(bunnies_scene(copies, resolution))
+    data = bunnies_scene(copies, resolution)
+    # closer than the ray benchmark's view, over a floor: every ray meets something and shadows cross the bunnies
+    data["cameras"] = [{"position": [-1.0, 3.0, 3.0], "look_at": [-1.0, 0.0, -4.5], "fov": 60}]
+    data["objects"].append({"type": "quad", "corner": [-9, 0, 3], "edge_a": [16, 0, 0], "edge_b": [0, 0, -16]})
+    scene = Scene.from_dict(data)
     rows = []
     for integrator, extra in (("whitted", {}), ("path", {"spp": spp, "max_depth": 4})):
         with warnings.catch_warnings():
