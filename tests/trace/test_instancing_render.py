@@ -305,3 +305,24 @@ def test_normal_mapped_instances_turn_their_tangents_to_world_space(device, tmp_
     assert len(left) > 100 and len(right) > 100
     assert abs(np.median(left) - np.median(right)) > 0.05  # the turned copy's tilt points elsewhere: another shade
     assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
+
+
+def test_gltf_nodes_sharing_a_smooth_mesh_render_as_the_flat_nodes(device, tmp_path):
+    """Two glTF nodes naming one quad whose NORMALs lean away from the face (so the interpolated normal is not the
+    facet's), the second node turned and stretched: the instance's vertex normals, taken back to the mesh's space
+    (shape_meshes) and out again per hit, shade as scene.py's world normals of the flat nodes."""
+    from tests.gltftools import CAMERA, LIGHT, LIGHT_NODE, gltf_file, quaternion
+
+    nodes = [
+        {"mesh": 0, "translation": [-1.2, 0.0, -1.0]},
+        {"mesh": 0, "translation": [1.2, 0.1, -1.5], "rotation": quaternion([0.3, 1, 0], 35), "scale": [0.6, 1.3, 1.0]},
+        {"camera": 0, "translation": [0, 0, 3]},
+        {**LIGHT_NODE, "rotation": quaternion([1, 0.5, 0], 25)},
+    ]
+    tilted = [[0.4, 0.2, 1.0], [-0.3, 0.3, 1.0], [0.1, -0.4, 1.0], [-0.2, -0.1, 1.0]]
+    path = gltf_file(tmp_path, nodes, cameras=[{**CAMERA, "perspective": {"yfov": 1.2, "aspectRatio": 1.5}}], lights=[LIGHT], normals=tilted)
+    scene = Scene.load(path)
+    assert len(find_instances(scene).records) == 2 and all(o.smooth for o in scene.objects)
+    a, b = (Renderer(scene, tracer=Tracer(scene, device=device, instancing=i), width=48, height=32).run() for i in (False, True))
+    assert (a.ids == 0).sum() > 100 and (a.ids == 1).sum() > 40 and np.ptp(a.image[a.ids == 1][:, 0]) > 0.05  # shading varies across it
+    assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
