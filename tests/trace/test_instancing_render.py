@@ -233,10 +233,18 @@ f 1/1 3/3 4/4
 """
 
 
-@pytest.mark.parametrize("integrator", ["whitted", pytest.param("path", marks=pytest.mark.slow)])  # path: two kernel builds, ~2 min cold
-def test_alpha_masked_instances_let_rays_through_their_holes_as_flat_copies_do(device, tmp_path, integrator):
-    """Two copies of a card (.obj with uvs) whose base colour texture's alpha is a checker (MASK, tests/trace/
-    test_alpha.py's): camera, bounce and shadow rays pass its holes, read through the instance's uvs (hit_data)."""
+@pytest.mark.parametrize(
+    "integrator, alpha",
+    [
+        ("whitted", {"mode": "mask"}),
+        ("whitted", {"mode": "blend", "factor": 0.7}),
+        pytest.param("path", {"mode": "mask"}, marks=pytest.mark.slow),  # two kernel builds, ~2 min cold
+    ],
+)
+def test_alpha_tested_instances_let_rays_through_their_holes_as_flat_copies_do(device, tmp_path, integrator, alpha):
+    """Two copies of a card (.obj with uvs) whose base colour texture's alpha is a checker (tests/trace/
+    test_alpha.py's), MASK or BLEND: camera, bounce and shadow rays pass its holes (BLEND: blend and dim through
+    the rest), read through the instance's uvs (hit_data) and object (hit_object, hit_transparency)."""
     from tests.trace.test_alpha import write_checker
 
     write_checker(tmp_path)
@@ -247,7 +255,7 @@ def test_alpha_masked_instances_let_rays_through_their_holes_as_flat_copies_do(d
         "height": 48,
         "cameras": [{"position": [0, 0, 10], "look_at": [0, 0, 0], "fov": 30}],
         "textures": {"checker": {"file": "checker.png", "filter": "nearest"}},
-        "materials": {"card": {"diffuse": [1, 0, 0], "diffuse_texture": "checker", "alpha": {"mode": "mask"}}, "floor": {"diffuse": [1, 1, 1]}},
+        "materials": {"card": {"diffuse": [1, 0, 0], "diffuse_texture": "checker", "alpha": alpha}, "floor": {"diffuse": [1, 1, 1]}},
         "lights": [{"type": "point", "position": [0.3, 0.2, 4.0]}],
         "objects": [
             {**card, "translate": [-1.2, 0, 1]},
