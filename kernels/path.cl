@@ -58,15 +58,19 @@ typedef struct {
 
 INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     Surface f;
-    ObjectRecord obj = s->geo.objects[s->geo.prim_object[h.id]];
+    ObjectRecord obj = s->geo.objects[hit_object(&s->geo, h)];
     f.material = obj.material;
     bool sphere;
     f.p = hit_surface(&s->geo, h, r.o, r.d, &f.p_err, &f.n_geo, &sphere);
     f.n_shade = f.n_geo;
     if (!sphere) {
         if (obj.smooth) {
-            __global const float *vn = &s->normals[h.id].normal[0][0];
-            f.n_shade = unit((1.0f - h.u - h.v) * vload3(0, vn) + h.u * vload3(1, vn) + h.v * vload3(2, vn));
+            __global const float *vn = &s->normals[hit_data(&s->geo, h)].normal[0][0];
+            float3 n0 = vload3(0, vn), n1 = vload3(1, vn), n2 = vload3(2, vn);
+#if INSTANCED
+            if (h.instance >= 0) vertex_normals_to_world(s->geo.instances + h.instance, &n0, &n1, &n2);
+#endif
+            f.n_shade = unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
         }
     }
     f.front = dot3(r.d, f.n_geo) < 0.0f;
@@ -80,10 +84,10 @@ INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
 INLINE Material material_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
     Material m = s->geo.materials[f->material];
     *occlusion = 1.0f;
-    int vertex_colours = s->geo.objects[s->geo.prim_object[h.id]].vertex_colours;
+    int vertex_colours = s->geo.objects[hit_object(&s->geo, h)].vertex_colours;
     if (vertex_colours || material_textured(&m)) {
-        apply_textures(s->tex, &m, h.id, h.u, h.v, vertex_colours);
-        *occlusion = material_occlusion(s->tex, &m, h.id, h.u, h.v);
+        apply_textures(s->tex, &m, hit_data(&s->geo, h), h.u, h.v, vertex_colours);
+        *occlusion = material_occlusion(s->tex, &m, hit_data(&s->geo, h), h.u, h.v);
     }
     return m;
 }
@@ -435,7 +439,7 @@ typedef struct {
 INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h) {
     FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
     if (h.id < 0) return fh;
-    fh.object = s->geo.prim_object[h.id];
+    fh.object = hit_object(&s->geo, h);
     fh.normal = f->n_shade;
     fh.depth = h.t;
     fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion;
@@ -461,7 +465,8 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         Surface f = surface_at(s, r, h);
         float occlusion;
         Material m = material_at(s, &f, h, &occlusion);
-        if (m.textures[TEXTURE_NORMAL] >= 0) f.n_shade = normal_mapped(s->tex, &m, h.id, h.u, h.v, f.n_shade, f.front, r.d);
+        if (m.textures[TEXTURE_NORMAL] >= 0)
+            f.n_shade = normal_mapped(hit_texture_view(s->tex, &s->geo, h), &m, hit_data(&s->geo, h), h.u, h.v, f.n_shade, f.front, r.d);
         if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
         radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
@@ -505,6 +510,7 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
+                          __global const Instance *instances, __global const BvhNode *top, int n_instances,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
                           __global const Material *materials, __global const VertexAttributes *attributes,
                           __global const Texture *textures, __global const float4 *texels, __global const Light *lights,
@@ -518,6 +524,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     if (gid >= params.n_work) return;
     PathScene s;
     s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
+    with_instances(&s.geo, instances, top, n_instances);
     s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
     s.env = env_view(env_map, env_texels, env_marginal, env_conditional);
     s.tex = texture_view(attributes, textures, texels);

@@ -16,12 +16,18 @@ typedef struct {
     __global const VertexAttributes *attributes; /* per primitive id */
     __global const Texture *textures;
     __global const float4 *texels;
+#if INSTANCED
+    __global const float *tangent_to_world; /* a hit on an instance: its object_to_world (3x4), whose tangents are in object space; else 0 */
+#endif
 } TextureView;
 
 INLINE TextureView texture_view(__global const VertexAttributes *attributes, __global const Texture *textures,
                                 __global const float4 *texels) {
     TextureView t;
     t.attributes = attributes; t.textures = textures; t.texels = texels;
+#if INSTANCED
+    t.tangent_to_world = 0;
+#endif
     return t;
 }
 
@@ -116,6 +122,11 @@ INLINE void apply_textures(TextureView tv, Material *m, int prim, float u, float
 INLINE float3 normal_mapped(TextureView tv, const Material *m, int prim, float u, float v, float3 n_side, bool front, float3 d) {
     __global const float *tg = &tv.attributes[prim].tangent[0][0];
     float4 t4 = (1.0f - u - v) * vload4(0, tg) + u * vload4(1, tg) + v * vload4(2, tg);
+#if INSTANCED
+    __global const float *w = tv.tangent_to_world; /* tangents go to world space as vectors, by object_to_world */
+    if (w) t4.xyz = (float3)(w[0] * t4.x + w[1] * t4.y + w[2] * t4.z, w[4] * t4.x + w[5] * t4.y + w[6] * t4.z,
+                             w[8] * t4.x + w[9] * t4.y + w[10] * t4.z);
+#endif
     float3 n = front ? n_side : -n_side;
     float3 t = t4.xyz - n * dot3(n, t4.xyz);
     if (!(dot3(t, t) > 1e-12f)) return n_side;
