@@ -2,7 +2,7 @@
 projecting it in numpy here; the object covers the fraction of the image a sphere's silhouette predicts; the
 default rig's brightness lies between its analytic bounds; scaling the mesh by 1e-3 or 1e3 changes nothing;
 the path tracer agrees with the Whitted tracer on a convex mesh (z-test); a glTF file without cameras gets
-the same view."""
+the same view, and one without lights the same lights."""
 
 import math
 
@@ -158,6 +158,39 @@ def test_a_gltf_file_without_cameras_gets_the_same_view_and_keeps_its_own_camera
     own = {"type": "perspective", "perspective": {"yfov": 0.5}, "name": "hero"}
     named = scene_dict(gltf_file(tmp_path, [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 4]}], cameras=[own], name="own.gltf"))
     assert [c["name"] for c in named["cameras"]] == ["hero"] and named["cameras"][0]["position"] == [0, 0, 4]
+
+
+def test_a_gltf_file_without_lights_gets_the_bare_mesh_rig_and_one_with_lights_keeps_them(tmp_path):
+    """The quad (z = 0, facing +z) as a glTF without lights and as a bare OBJ: the same key light, ambient and
+    environment; both integrators show the default grey x (fill + key cos) on it, cos from the light the dict
+    holds (the old headlight along the view would give kd x cos(view) with no fill).  A file with a
+    KHR_lights_punctual light keeps just that light: no fill."""
+    gltf = scene_dict(gltf_file(tmp_path, [{"mesh": 0}], name="unlit.gltf"))
+    mesh = trimesh.Trimesh(np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float), [[0, 1, 2], [0, 2, 3]])
+    bare = Scene.load(mesh_file(tmp_path, mesh, "quad.obj"))
+    (light,) = gltf["lights"]
+    (bare_light,) = bare.lights
+    np.testing.assert_allclose(light["direction"], bare_light.direction, rtol=1e-12)
+    assert light["intensity"] == bare_light.intensity == framing.FRAMING.key_intensity
+    fill = framing.FRAMING.fill
+    assert gltf["ambient"] == list(bare.ambient) == [fill] * 3 and gltf["environment"] == {"color": [fill] * 3}
+    toward = -np.asarray(light["direction"]) / np.linalg.norm(light["direction"])
+    expected = KD * (fill + framing.FRAMING.key_intensity * toward[2])  # the quad's normal is +z
+    path = tmp_path / "unlit.gltf"
+    whitted = Renderer(str(path), width=W, height=H, aa="none").run()
+    traced = Renderer(str(path), width=W, height=H, integrator="path", spp=1, max_depth=0).run()
+    on_quad = whitted.ids == 0
+    assert on_quad.mean() > 0.1
+    np.testing.assert_allclose(whitted.image[on_quad], expected, rtol=1e-5)
+    inside = on_quad.copy()  # the path tracer's ray lands anywhere in its pixel: pixels on the quad's outline mix both sides
+    for axis in (0, 1):
+        inside &= np.roll(on_quad, 1, axis) & np.roll(on_quad, -1, axis)
+    # max_depth 0: the key light by NEE and the fill by the environment's NEE (one cosine-weighted direction: kd x fill
+    # exactly when it escapes, as every direction over a quad facing +z does)
+    np.testing.assert_allclose(traced.image[inside], expected, rtol=1e-4)
+    np.testing.assert_allclose(traced.image[whitted.ids < 0].mean(), fill, rtol=0.05)  # misses see the fill
+    lit = scene_dict(gltf_file(tmp_path, [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}], lights=[{"type": "point"}]))
+    assert [entry["type"] for entry in lit["lights"]] == ["point"] and "ambient" not in lit and "environment" not in lit
 
 
 def test_the_python_api_takes_a_mesh_file(tmp_path):
