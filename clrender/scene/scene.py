@@ -14,6 +14,7 @@ checks.py.  Imports go one way: this module imports gltf.py (which reads a glTF 
 from __future__ import annotations
 
 import io
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -157,6 +158,9 @@ class Scene:
             return name_or_path
         if isinstance(name_or_path, dict):
             return cls.from_dict(name_or_path)
+        if not isinstance(name_or_path, (str, os.PathLike)):  # str() of an array or a number would read as a file name
+            got = f"a numpy array of shape {name_or_path.shape}" if isinstance(name_or_path, np.ndarray) else type(name_or_path).__name__
+            raise UsageError(f"a scene is a Scene, a scene dict, a bundled scene name or a path (str or os.PathLike); got {got}")
         text = str(name_or_path)
         bundled = bundled_scenes()
         if text in bundled:
