@@ -77,7 +77,7 @@ INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
 
 /* What shading reads of the material at a hit, its textures and vertex colours applied: these fields alone, filled
  * from the Material record where it lies (a private copy of the whole 256-byte record per hit, arrays and all, cost
- * the path tracer ~4.5 %); `g` is the record, for its texture slots. */
+ * the path tracer 4-5 % of its CPU time: docs/benchmarks.md); `g` is the record, for its texture slots. */
 typedef struct {
     float3 kd, ks, base_color, emission;
     float shininess, mirror, transparency, ior, metallic, roughness, transmission;
