@@ -113,7 +113,7 @@ def analytic_ellipsoids(scene: Scene):
         disc = b * b - 4 * a * c
         t = np.where(disc > 0, (-b - np.sqrt(np.maximum(disc, 0))) / (2 * a), np.inf)
         near = (t > 0) & (t < best_t)
-        y = oo + t[..., None] * dd
+        y = oo + np.where(near, t, 0.0)[..., None] * dd  # misses at t = 0: no inf * 0
         n, w = y @ inv[:3, :3], y @ m[:3, :3].T  # (M^-T y) as rows; M y
         best_t[near], ids[near] = t[near], oid
         normal[near] = (n / np.linalg.norm(n, axis=-1, keepdims=True))[near]
