@@ -45,6 +45,7 @@ from .ray_buffers import INTERSECT_IN, INTERSECT_OUT, OCCLUDED_IN, OCCLUDED_OUT,
 from .work_layout import WorkLayout, work_layout
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
+QUERY_KERNELS = {"intersect": "intersect_rays", "occluded": "occluded_rays"}  # trace.cl's kernel of each ray query
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
@@ -233,6 +234,7 @@ class Tracer:
         # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
         self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
+        self._bound = {}  # the query kernels' own copies, arguments kept between calls (launch.BoundKernel)
 
     def _top(self, records: np.ndarray):
         """The top level: a binary tree (BvhNode records) over the instances' world boxes, and the
@@ -359,25 +361,20 @@ class Tracer:
                 self._fill_rays(host, shape, o, d)
                 for name, value in distances.items():
                     self._fill_per_ray(host, shape, value, name)
-            args = inputs.args
-            if kind == "intersect":
-                outs = [outputs.args[k] for k in ("t_out", "prim_out", "object_out", "visits_out")]
-                self.launch_intersect(n, args["origins"], args["directions"], args["t_min"], outs)
-            else:
-                outs = [outputs.args[k] for k in ("occluded_out", "visits_out")]
-                self.launch_occluded(n, args["origins"], args["directions"], args["t_min"], args["t_max"], outs)
+            knl = self._bound.get(kind)
+            if knl is None:  # the scene's arguments set once, the buffers' only when they are new
+                knl = self._bound[kind] = self.kernel(QUERY_KERNELS[kind]).bound()
+                knl.set(**self._geometry(), **({"objects": self.objects, "materials": self.materials} if kind == "occluded" else {}))
+            knl.set(n_rays=n, **inputs.args, **outputs.args)
+            layout = self.layout
+            knl.enqueue(queue, global_size(-(-n // layout.rays_per_item), layout.local_size), (layout.local_size,))
             with outputs.mapped(queue, n, cl.map_flags.READ) as host:  # waits for the kernel (in-order queue)
                 answers = {name: a != 0 if name == "occluded_out" else a.copy() for name, a in host.items()}
         return shape, answers
 
-    def _launch(self, name: str, n: int, **args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
-        scene's geometry, as every ray kernel takes it."""
-        layout = self.layout
-        return self.kernel(name)(
-            self.device.queue,
-            global_size(-(-n // layout.rays_per_item), layout.local_size),
-            (layout.local_size,),
+    def _geometry(self) -> dict:
+        """The scene's arguments, as every ray kernel takes them."""
+        return dict(
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,
@@ -385,9 +382,14 @@ class Tracer:
             top=self.top,
             n_instances=self.n_instances,
             n_prims=self.n_prims,
-            n_rays=n,
-            **args,
         )
+
+    def _launch(self, name: str, n: int, **args) -> cl.Event:
+        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
+        scene's geometry, as every ray kernel takes it."""
+        layout = self.layout
+        size = global_size(-(-n // layout.rays_per_item), layout.local_size)
+        return self.kernel(name)(self.device.queue, size, (layout.local_size,), n_rays=n, **self._geometry(), **args)
 
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
