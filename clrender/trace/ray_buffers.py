@@ -22,7 +22,7 @@ import pyopencl as cl
 
 from ..device import Device
 
-# rays a Tracer keeps buffers for between calls (44 bytes a ray, ~92 MiB); a larger call gets its own, freed after
+# rays a Tracer keeps buffers for between calls (44 bytes a ray: 88 MiB); a larger call gets its own, freed after
 KEEP_RAYS = 1 << 21
 MIN_RAYS = 1024  # smallest capacity: small calls of different sizes share one set of buffers
 
