@@ -143,3 +143,15 @@ def test_calls_from_several_threads_answer_as_one_after_another(tracer):
         parallel = list(pool.map(lambda s: tracer.intersect(s[0], s[1], t_min=0.01 * s[2]), sets * 2))
     for got, want in zip(parallel, serial * 2):
         assert_same(got, want)
+
+
+def test_two_tracers_taking_turns_answer_each_for_its_own_scene(device, tracer):
+    """Each Tracer launches a kernel copy of its own (launch.BoundKernel): the scene set on one is not
+    the other's, though both are built from the same program."""
+    other = Tracer(dense_mesh(1500, seed=8), device=device)
+    o, d, t_far = rays(400, seed=30)
+    want = answers(tracer, o, d, t_far), answers(other, o, d, t_far)
+    for _ in range(2):
+        assert_same(answers(tracer, o, d, t_far), want[0])
+        assert_same(answers(other, o, d, t_far), want[1])
+    assert not np.array_equal(want[0][1], want[1][1])  # the two scenes answer differently
