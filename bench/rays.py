@@ -115,7 +115,7 @@ def clrender_rates(mesh, rays: dict, runs: int, builder: str, width: int, packet
     counter = Tracer(mesh, builder=builder, bvh_width=width, device=dev, ray_packets=packets, count_prim_tests=True)
     row = dict(bvh_build_s=tracer.bvh_seconds)
     for kind, (o, d, t_max) in rays.items():
-        _, n, o_buf, d_buf = tracer._rays(o, d)
+        n, o_buf, d_buf = len(o), dev.to_device(o), dev.to_device(d)  # float32 (n, 3) rays (ray_sets)
         zeros = dev.to_device(np.zeros(n, np.float32))  # t_min
         if kind == "shadow":
             t_buf, outs = dev.to_device(t_max), (dev.empty(4 * n), dev.empty(4 * n))
@@ -202,6 +202,21 @@ def user_queries(mesh, threads: int):
     return tools
 
 
+def interleaved_seconds(calls: list, runs: int) -> list[float]:
+    """Median wall time of each call over `runs` rounds, the calls taking turns within a round (in an
+    order rotated from round to round), so that load from other jobs on the machine falls on all alike."""
+    for call in calls:
+        warm_up(call, calls=2)
+    times = [[] for _ in calls]
+    for r in range(runs):
+        for i in (r + k for k in range(len(calls))):
+            i %= len(calls)
+            start = time.perf_counter()
+            calls[i]()
+            times[i].append(time.perf_counter() - start)
+    return [float(np.median(t)) for t in times]
+
+
 def end_to_end(mesh, rays: dict, runs: int, peers: list[str], threads: int):
     """Mrays/s of each tool's user query for each ray kind, and clrender's ratio to each peer, measured
     in this run; then Mrays/s against the batch size for primary rays."""
@@ -209,15 +224,12 @@ def end_to_end(mesh, rays: dict, runs: int, peers: list[str], threads: int):
     missing = [p for p in peers if p not in tools]
     if missing:
         sys.exit(f"bench rays: --peer {','.join(missing)} needs its package: pip install 'clrender[bench]'")
-    rows = []
-    for name in ["clrender", *peers]:
-        closest, occluded = tools[name]
-        row = dict(tool=name, threads=threads)
-        for kind, (o, d, t_max) in rays.items():
-            call = (lambda: occluded(o, d, t_max)) if kind == "shadow" else (lambda: closest(o, d))
-            warm_up(call, calls=2)
-            row[f"{kind}_mrays"] = len(o) / median_seconds(call, runs) / 1e6
-        rows.append(row)
+    names = ["clrender", *peers]
+    rows = [dict(tool=name, threads=threads) for name in names]
+    for kind, (o, d, t_max) in rays.items():
+        calls = [(lambda q=tools[name][1]: q(o, d, t_max)) if kind == "shadow" else (lambda q=tools[name][0]: q(o, d)) for name in names]
+        for row, seconds in zip(rows, interleaved_seconds(calls, runs)):
+            row[f"{kind}_mrays"] = len(o) / seconds / 1e6
     for peer_row in rows[1:]:
         for kind in KINDS:
             rows[0][f"{kind}_vs_{peer_row['tool']}"] = rows[0][f"{kind}_mrays"] / peer_row[f"{kind}_mrays"]
@@ -225,12 +237,8 @@ def end_to_end(mesh, rays: dict, runs: int, peers: list[str], threads: int):
     o, d, _ = rays["primary"]
     batches = []
     for n in (b for b in BATCHES if b <= len(o)):
-        row = dict(batch=n)
-        for name in ["clrender", *peers]:
-            closest = tools[name][0]
-            warm_up(lambda: closest(o[:n], d[:n]), calls=2)
-            row[f"{name}_mrays"] = n / median_seconds(lambda: closest(o[:n], d[:n]), runs) / 1e6
-        batches.append(row)
+        calls = [lambda q=tools[name][0], n=n: q(o[:n], d[:n]) for name in names]
+        batches.append(dict(batch=n, **{f"{name}_mrays": n / s / 1e6 for name, s in zip(names, interleaved_seconds(calls, runs))}))
     return rows, batches
 
 

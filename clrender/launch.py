@@ -9,6 +9,10 @@ record types) and the count against what the driver reports (`num_args`), then e
     knl(queue, (n,), None, n=n, d=d_buf, normals=n_buf, eta=eta_buf, out=out_buf)
 
 A wrong name or a missing argument is a TypeError naming it, never a silently shifted launch.
+
+A caller that launches one kernel many times with mostly the same arguments (a Tracer's ray
+queries) takes `knl.bound()`: a kernel object of its own whose arguments, set and checked by name,
+stay set between launches, so that a launch sets only what changed.
 """
 
 from __future__ import annotations
@@ -108,3 +112,35 @@ class Kernel:
         if not info.min <= int(value) <= info.max:
             raise TypeError(f"{where}: {int(value)} does not fit")
         return kind(value)
+
+    def bound(self) -> BoundKernel:
+        """A copy of this kernel whose arguments stay set between launches (see BoundKernel)."""
+        return BoundKernel(self)
+
+
+class BoundKernel:
+    """A Kernel's own cl.Kernel (a Kernel's is shared by every caller of Device.kernel) whose arguments,
+    set by name with the checks of Kernel, stay set between launches: `set(**args)`, then `enqueue`."""
+
+    def __init__(self, kernel: Kernel):
+        self.spec = kernel
+        self.kernel = cl.Kernel(kernel.kernel.program, kernel.name)
+        self.index = {p.name: (i, p) for i, p in enumerate(kernel.params)}
+        self.values: dict = {}  # what each argument was last set to (kept: an object's id is not reused)
+
+    def set(self, **args) -> None:
+        unknown = [n for n in args if n not in self.index]
+        if unknown:
+            raise TypeError(f"kernel {self.spec.name}: unknown {unknown}; it takes {', '.join(self.index)}")
+        for name, value in args.items():
+            if name in self.values and self.values[name] is value:
+                continue  # the same buffer as last time: already set
+            i, p = self.index[name]
+            self.kernel.set_arg(i, self.spec._value(p, value))
+            self.values[name] = value
+
+    def enqueue(self, queue, global_size, local_size):
+        if len(self.values) != len(self.index):
+            missing = [n for n in self.index if n not in self.values]
+            raise TypeError(f"kernel {self.spec.name}: missing {missing}; it takes {', '.join(self.index)}")
+        return cl.enqueue_nd_range_kernel(queue, self.kernel, global_size, local_size)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 
 import numpy as np
@@ -40,9 +41,11 @@ from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
 from .instancing import find_instances, flat_part, instanced_object_flags, shape_meshes, two_level
 from .knobs import DEFAULT_KNOBS, TraceKnobs
+from .ray_buffers import INTERSECT_IN, INTERSECT_OUT, OCCLUDED_IN, OCCLUDED_OUT, RayBuffers
 from .work_layout import WorkLayout, work_layout
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
+QUERY_KERNELS = {"intersect": "intersect_rays", "occluded": "occluded_rays"}  # trace.cl's kernel of each ray query
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
@@ -239,6 +242,10 @@ class Tracer:
         self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
+        # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
+        self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
+        self._query_lock = threading.Lock()
+        self._bound = {}  # the query kernels' own copies, arguments kept between calls (launch.BoundKernel)
 
     def _top(self, records: np.ndarray):
         """The top level: a binary tree (BvhNode records) over the instances' world boxes, and the
@@ -295,9 +302,8 @@ class Tracer:
 
     # ------------------------------------------------------------ ray queries
     def _rays(self, origins, directions):
-        """The rays' leading shape, their count n and device buffers of packed (x, y, z) float32 triples,
-        checked: (..., 3) arrays whose leading shapes broadcast together (float32 C-ordered arrays of
-        one shape are uploaded as they are, without an intermediate copy)."""
+        """The rays' leading shape, their count n and the arrays as given, checked: (..., 3) arrays of
+        real numbers whose leading shapes broadcast together (`_fill_rays` then converts and checks values)."""
         o, d = real_array(origins, "origins"), real_array(directions, "directions")
         for name, a in (("origins", o), ("directions", d)):
             if a.ndim == 0 or a.shape[-1] != 3:
@@ -310,47 +316,76 @@ class Tracer:
                 "or leading shapes that broadcast (one (3,) origin for many directions)"
             ) from None
         n = math.prod(shape)
-        self.device.check_fits(n * 12, f"{n} rays")  # before the float32 copies are made
-        with np.errstate(over="ignore"):  # beyond float32: inf, refused below with the message
-            o, d = (a.astype(np.float32, copy=False) for a in (o, d))
-        o, d = (np.ascontiguousarray(a if a.shape[:-1] == shape else np.broadcast_to(a, (*shape, 3))).reshape(n, 3) for a in (o, d))
-        # a float32 direction has a nonzero length exactly when some component is nonzero (its square
-        # is then at least 2^-298 > 0 in float64); whole-array reductions first (a fifth of a 512^2 query's
-        # time row by row), the row-wise test only to name a bad ray
-        lengths2 = np.einsum("ij,ij->i", d, d, dtype=np.float64)
-        if not (np.isfinite(o).all() and np.isfinite(d).all() and np.count_nonzero(lengths2) == n):
-            good = np.isfinite(o).all(1) & np.isfinite(d).all(1) & (lengths2 != 0)
-            i = int(np.argmin(good))
-            where = tuple(int(k) for k in np.unravel_index(i, shape)) if len(shape) != 1 else i
-            raise UsageError(
-                f"ray origins and directions must be finite, and directions nonzero; ray {where} has origin "
-                f"{tuple(o[i].tolist())} and direction {tuple(d[i].tolist())}"
-            )
-        return shape, n, self.device.to_device(o), self.device.to_device(d)
+        self.device.check_fits(n * 12, f"{n} rays")  # before any buffer is made
+        return shape, n, o, d
 
-    def _per_ray(self, shape, value, name):
-        """A per-ray float32 buffer from a number or an array that broadcasts to the rays' leading shape."""
+    @staticmethod
+    def _fill_rays(host: dict, shape, o, d) -> None:
+        """Write the rays into the mapped input buffer as packed float32 (x, y, z) triples (conversion,
+        broadcast and copy in one assignment each), then refuse non-finite rays and zero directions."""
+        with np.errstate(over="ignore"):  # beyond float32: inf, refused below with the message
+            host["origins"].reshape(*shape, 3)[...] = o
+            host["directions"].reshape(*shape, 3)[...] = d
+        o, d = host["origins"], host["directions"]
+        # a float32 direction is zero exactly when its three components are +-0: their bits or'ed
+        # together, less the sign bit, are zero (a third of the float64 dot product's time)
+        bits = d.view(np.uint32)
+        nonzero = bits[:, 0] | bits[:, 1]
+        nonzero |= bits[:, 2]
+        nonzero <<= 1
+        if np.isfinite(o).all() and np.isfinite(d).all() and nonzero.all():
+            return
+        good = np.isfinite(o).all(1) & np.isfinite(d).all(1) & (nonzero != 0)
+        i = int(np.argmin(good))
+        where = tuple(int(k) for k in np.unravel_index(i, shape)) if len(shape) != 1 else i
+        raise UsageError(
+            f"ray origins and directions must be finite, and directions nonzero; ray {where} has origin "
+            f"{tuple(o[i].tolist())} and direction {tuple(d[i].tolist())}"
+        )
+
+    @staticmethod
+    def _fill_per_ray(host: dict, shape, value, name) -> None:
+        """Write a number, or an array that broadcasts to the rays' leading shape, into the mapped
+        input buffer's per-ray float32 `name` (t_min, t_max), checked."""
         a = real_array(value, name)
         with np.errstate(over="ignore"):  # a distance beyond float32 is inf, as the kernels see it
-            a = a.astype(np.float32)
+            a = a.astype(np.float32, copy=False)
         try:
-            per_ray = np.broadcast_to(a, shape)
+            np.broadcast_to(a, shape)
         except ValueError:
             raise UsageError(
                 f"{name} of shape {a.shape} does not fit rays of shape {shape}; allowed: a number or an array that broadcasts to {shape}"
             ) from None
         if np.isnan(a).any():
             raise UsageError(f"{name} must not be NaN")
-        return self.device.to_device(np.array(per_ray).reshape(-1))
+        host[name].reshape(shape)[...] = a
 
-    def _launch(self, name: str, n: int, **args) -> cl.Event:
-        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
-        scene's geometry, as every ray kernel takes it."""
-        layout = self.layout
-        return self.kernel(name)(
-            self.device.queue,
-            global_size(-(-n // layout.rays_per_item), layout.local_size),
-            (layout.local_size,),
+    def _query(self, kind: str, origins, directions, distances: dict):
+        """Run query `kind` ("intersect" or "occluded") on host rays through the Tracer's kept buffers
+        (ray_buffers.py): checked rays and distances written in, the kernel, then fresh host copies of
+        its outputs, by parameter name, and the rays' leading shape."""
+        shape, n, o, d = self._rays(origins, directions)
+        queue = self.device.queue
+        with self._query_lock:  # the kept buffers serve one call at a time
+            inputs, outputs = self._ray_buffers[kind].blocks(n)
+            with inputs.mapped(queue, n, cl.map_flags.WRITE_INVALIDATE_REGION) as host:
+                self._fill_rays(host, shape, o, d)
+                for name, value in distances.items():
+                    self._fill_per_ray(host, shape, value, name)
+            knl = self._bound.get(kind)
+            if knl is None:  # the scene's arguments set once, the buffers' only when they are new
+                knl = self._bound[kind] = self.kernel(QUERY_KERNELS[kind]).bound()
+                knl.set(**self._geometry(), **({"objects": self.objects, "materials": self.materials} if kind == "occluded" else {}))
+            knl.set(n_rays=n, **inputs.args, **outputs.args)
+            layout = self.layout
+            knl.enqueue(queue, global_size(-(-n // layout.rays_per_item), layout.local_size), (layout.local_size,))
+            with outputs.mapped(queue, n, cl.map_flags.READ) as host:  # waits for the kernel (in-order queue)
+                answers = {name: a != 0 if name == "occluded_out" else a.copy() for name, a in host.items()}
+        return shape, answers
+
+    def _geometry(self) -> dict:
+        """The scene's arguments, as every ray kernel takes them."""
+        return dict(
             nodes=self.nodes,
             prims=self.prims,
             prim_object=self.prim_object,
@@ -358,9 +393,14 @@ class Tracer:
             top=self.top,
             n_instances=self.n_instances,
             n_prims=self.n_prims,
-            n_rays=n,
-            **args,
         )
+
+    def _launch(self, name: str, n: int, **args) -> cl.Event:
+        """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
+        scene's geometry, as every ray kernel takes it."""
+        layout = self.layout
+        size = global_size(-(-n // layout.rays_per_item), layout.local_size)
+        return self.kernel(name)(self.device.queue, size, (layout.local_size,), n_rays=n, **self._geometry(), **args)
 
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
@@ -395,28 +435,13 @@ class Tracer:
 
         t is in units of each direction as given (not normalised).  Of hits at the same float32 t, the
         lowest primitive id is returned, with the BVH on or off and for every builder."""
-        shape, n, o, d = self._rays(origins, directions)
-        dev = self.device
-        # the kernel writes straight into the result arrays (USE_HOST_PTR: no copy on a CPU device)
-        t, prim, obj = np.empty(max(n, 1), np.float32), np.empty(max(n, 1), np.int32), np.empty(max(n, 1), np.int32)
-        visits = np.empty(max(n, 1), np.uint32)
-        bufs = [dev.host_buffer(a) for a in (t, prim, obj, visits)]
-        self.launch_intersect(n, o, d, self._per_ray(shape, t_min, "t_min"), bufs)
-        for buf, host in zip(bufs, (t, prim, obj, visits)):
-            dev.sync_to_host(buf, host)
-        self.last_visits = visits[:n]  # flat, one per ray
-        return t[:n].reshape(shape), prim[:n].reshape(shape), obj[:n].reshape(shape)
+        shape, out = self._query("intersect", origins, directions, {"t_min": t_min})
+        self.last_visits = out["visits_out"]  # flat, one per ray
+        return out["t_out"].reshape(shape), out["prim_out"].reshape(shape), out["object_out"].reshape(shape)
 
     def occluded(self, origins, directions, t_max, t_min=0.0):
         """True where any surface lies at origin + t * direction with t_min < t < t_max (t in units of
         the direction as given), in the rays' leading shape; shapes as for `intersect`."""
-        shape, n, o, d = self._rays(origins, directions)
-        dev = self.device
-        t_min, t_max = self._per_ray(shape, t_min, "t_min"), self._per_ray(shape, t_max, "t_max")
-        out, v_buf = dev.empty(4 * n), dev.empty(4 * n)
-        self.launch_occluded(n, o, d, t_min, t_max, (out, v_buf))
-        result = np.empty(n, np.int32)
-        self.last_visits = np.empty(n, np.uint32)
-        cl.enqueue_copy(dev.queue, result, out)
-        cl.enqueue_copy(dev.queue, self.last_visits, v_buf)
-        return result.astype(bool).reshape(shape)
+        shape, out = self._query("occluded", origins, directions, {"t_min": t_min, "t_max": t_max})
+        self.last_visits = out["visits_out"]
+        return out["occluded_out"].reshape(shape)

@@ -83,3 +83,31 @@ def test_a_record_argument_must_have_the_records_dtype(device, kernels):
 def test_a_signature_that_disagrees_with_the_driver_is_refused(device, kernels):
     with pytest.raises(RuntimeError, match="reports 5 arguments, its source declares 4"):
         Kernel(kernels["axpy"].kernel, kernel_signatures(SOURCE)["axpy"][:4])
+
+
+def test_a_bound_kernel_keeps_its_arguments_between_launches(device, kernels):
+    """knl.bound(): arguments set by name stay set; a launch changes only what it names; the shared
+    kernel's arguments are not touched (a launch through it in between does not change the bound one's)."""
+    bound = kernels["axpy"].bound()
+    x = device.to_device(np.arange(4, dtype=np.float32))
+    y = np.zeros(4, np.float32)
+    y_buf = device.to_device(y, writable=True)
+    bound.set(n=4, a=2.0, x=x, y=y_buf, tag=0)
+    bound.enqueue(device.queue, (4,), None)
+    other = device.to_device(np.zeros(4, np.float32), writable=True)
+    kernels["axpy"](device.queue, (4,), None, n=4, a=100.0, x=x, y=other, tag=7)
+    bound.set(tag=1, n=3)  # the rest as before
+    bound.enqueue(device.queue, (4,), None)
+    cl.enqueue_copy(device.queue, y, y_buf)
+    np.testing.assert_array_equal(y, [0 * 4 + 1, 2 * 2 + 1, 4 * 2 + 1, 6])  # the fourth outside n=3 the second time
+
+
+def test_a_bound_kernel_refuses_what_a_launch_refuses(device, kernels):
+    bound = kernels["axpy"].bound()
+    with pytest.raises(TypeError, match=r"unknown \['alpha'\]"):
+        bound.set(alpha=2.0)
+    with pytest.raises(TypeError, match="argument x .*must be a buffer"):
+        bound.set(x=np.zeros(4, np.float32))
+    bound.set(n=4, a=2.0)
+    with pytest.raises(TypeError, match=r"missing \['x', 'y', 'tag'\]"):
+        bound.enqueue(device.queue, (4,), None)
