@@ -2,19 +2,28 @@
 
     python -m bench instancing [--copies 30] [--resolution 140] [--size 256] [--out DIR]
 
-A scene dict of `copies` objects naming the same built-in mesh (the procedural bunny at
-`resolution`, about 3.5 * resolution^2 triangles: 68,600 at 140) with different translate /
-rotate / scale, against the same scene with one object.  Reported per scene: the seconds of
-Scene.from_dict (mesh loading and transforms), of Tracer(scene) (flatten, BVH build, upload),
-the bytes of the Tracer's device buffers, the peak Python-heap bytes of both steps (tracemalloc:
-numpy's arrays are counted), and primary-ray Mrays/s at size x size (Tracer.intersect); the copies
-flat and with Tracer(instancing=True) (clrender/trace/instancing.py).  Numbers are reported, never
+Two ways of naming one mesh `copies` times, each with different translate / rotate / scale, against
+the same scene with one object:
+
+- `generator`: a scene dict of the built-in procedural bunny at `resolution` (about 3.5 * resolution^2
+  triangles: 68,600 at 140);
+- `file`: that bunny written once to a .ply in a temporary folder and a TOML scene file whose objects
+  all name it (the issue's case: the file is read once, `file_reads` counts scene.load_mesh_file's calls).
+
+Reported per scene: the median seconds of loading it (Scene.from_dict or Scene.from_file: mesh reading
+and placing), of Tracer(scene) (flatten, BVH build, upload), the peak Python-heap bytes of both steps
+(tracemalloc, in a separate untimed run: numpy's arrays are counted; the Tracer's peak has the loaded
+scene in it), the bytes of the Tracer's device buffers, whether any copy's world vertices were made
+(`world_made`: Mesh.vertices is made on first read, which the instanced Tracer never does) and
+primary-ray Mrays/s at size x size (Tracer.intersect); the copies flat and with Tracer(instancing=True)
+(clrender/trace/instancing.py), then each copies row over its one-copy row.  Numbers are reported, never
 asserted (docs/bvh.md, "Instancing").
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
@@ -23,57 +32,96 @@ import numpy as np
 
 from .common import median_seconds, write_table
 
+LOAD_RUNS = 5  # loads timed per scene (the median is reported): one takes some 20 ms, within the noise of a loaded machine
 
-def bunnies_scene(copies: int, resolution: int) -> dict:
-    """A scene dict of `copies` bunnies on a grid, each turned, scaled and moved differently."""
+
+def placements(copies: int):
+    """(translate, rotate, scale) of `copies` bunnies on a grid, each turned, scaled and moved differently."""
     rng = np.random.default_rng(7)
     side = int(np.ceil(np.sqrt(copies)))
-    objects = []
-    for i in range(copies):
-        x, z = i % side, i // side
-        objects.append(
-            {
-                "type": "mesh",
-                "generator": "bunny",
-                "params": {"resolution": resolution},
-                "translate": [2.0 * x - side, 0.0, -2.0 * z],
-                "rotate": [0.0, float(rng.uniform(0, 360)), 0.0],
-                "scale": float(rng.uniform(0.6, 1.2)),
-            }
-        )
+    return [
+        ([2.0 * (i % side) - side, 0.0, -2.0 * (i // side)], [0.0, float(rng.uniform(0, 360)), 0.0], float(rng.uniform(0.6, 1.2)))
+        for i in range(copies)
+    ]
+
+
+def bunnies_scene(copies: int, resolution: int) -> dict:
+    """A scene dict of `copies` generated bunnies (placements)."""
+    objects = [
+        {"type": "mesh", "generator": "bunny", "params": {"resolution": resolution}, "translate": t, "rotate": r, "scale": s}
+        for t, r, s in placements(copies)
+    ]
+    return {**_view(copies), "objects": objects}
+
+
+def _view(copies: int) -> dict:
+    side = int(np.ceil(np.sqrt(copies)))
     return {
         "cameras": [{"position": [0.0, 6.0, 8.0], "look_at": [0.0, 0.0, -side], "fov": 60}],
         "lights": [{"type": "point", "position": [0, 20, 10]}],
-        "objects": objects,
     }
 
 
-def measure(copies: int, resolution: int, size: int, instancing: bool) -> dict:
-    from clrender.scene.scene import Scene
+def bunnies_file_scene(folder: Path, copies: int, resolution: int) -> Path:
+    """A TOML scene file in `folder` whose `copies` objects all name bunny.ply (written there once)."""
+    from clrender.scene.meshes import bunny
+
+    mesh_file = folder / "bunny.ply"
+    if not mesh_file.exists():
+        bunny(resolution).export(mesh_file)
+    view = _view(copies)
+    camera, light = view["cameras"][0], view["lights"][0]
+    lines = ["[[cameras]]", f"position = {camera['position']}", f"look_at = {camera['look_at']}", f"fov = {camera['fov']}"]
+    lines += ["[[lights]]", 'type = "point"', f"position = {light['position']}"]
+    for t, r, s in placements(copies):
+        lines += ["[[objects]]", 'type = "mesh"', 'file = "bunny.ply"', f"translate = {t}", f"rotate = {r}", f"scale = {s}"]
+    path = folder / f"bunnies-{copies}.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def measure(kind: str, copies: int, resolution: int, size: int, instancing: bool, folder: Path) -> dict:
+    from clrender.scene import scene as scene_module
+    from clrender.scene.scene import Mesh, Scene
     from clrender.trace.tracer import Tracer
 
-    data = bunnies_scene(copies, resolution)
+    if kind == "file":
+        path = bunnies_file_scene(folder, copies, resolution)
+        load = lambda: Scene.from_file(path)
+    else:
+        data = bunnies_scene(copies, resolution)
+        load = lambda: Scene.from_dict(data)
     # the bunny built and cached on disk, the BVH builder's kernels compiled, before any timing
     Tracer(Scene.from_dict(bunnies_scene(1, resolution)))
-    tracemalloc.start()
+    reads, read = [], scene_module.load_mesh_file
+    scene_module.load_mesh_file = lambda *a, **k: reads.append(a[0]) or read(*a, **k)
+    try:
+        load()
+    finally:
+        scene_module.load_mesh_file = read
+    load_s = median_seconds(load, LOAD_RUNS)
     start = time.perf_counter()
-    scene = Scene.from_dict(data)
-    load_s = time.perf_counter() - start
+    tracer = Tracer(load(), instancing=instancing)
+    build_s = time.perf_counter() - start
+    del tracer
+    tracemalloc.start()  # an untimed run: tracemalloc slows every allocation
+    scene = load()
     _, load_peak = tracemalloc.get_traced_memory()
     tracemalloc.reset_peak()
-    start = time.perf_counter()
     tracer = Tracer(scene, instancing=instancing)
-    build_s = time.perf_counter() - start
     _, build_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     names = ("nodes", "prims", "prim_object", "normals", "objects", "materials", "instance_buffer")
     device_bytes = sum(getattr(tracer, k).size for k in names)
+    world_made = sum(bool(o.world_made) for o in scene.objects if isinstance(o, Mesh))
     o, d = primary_rays(scene, size)
     tracer.intersect(o, d)  # compile and warm up
     seconds = median_seconds(lambda: tracer.intersect(o, d), 3)
     return {
+        "scene": kind,
         "copies": copies,
         "instancing": instancing,
+        "file_reads": len(reads),
         "triangles": scene.triangle_count,
         "stored_triangles": tracer.primitives.count + sum(len(s.faces) for s in (tracer.instances.shapes if tracer.instances else [])),
         "load_s": load_s,
@@ -81,8 +129,29 @@ def measure(copies: int, resolution: int, size: int, instancing: bool) -> dict:
         "load_peak_MB": load_peak / 1e6,
         "tracer_peak_MB": build_peak / 1e6,
         "device_MB": device_bytes / 1e6,
+        "world_made": world_made,
         "primary_Mrays_s": len(d) / seconds / 1e6,
     }
+
+
+def ratios(rows: list[dict]) -> list[dict]:
+    """Each row of copies over its scene kind's one-copy row: the issue's targets are load and memory
+    <= 1.5x one copy's, traversal (primary Mrays/s) within 1.3x."""
+    out = []
+    for row in rows:
+        one = next(r for r in rows if r["scene"] == row["scene"] and r["copies"] == 1)
+        if row is one:
+            continue
+        out.append(
+            {
+                "scene": row["scene"],
+                "copies": row["copies"],
+                "instancing": row["instancing"],
+                **{f"{k} / one": row[k] / one[k] for k in ("load_s", "load_peak_MB", "tracer_s", "tracer_peak_MB", "device_MB")},
+                "one / primary_Mrays_s": one["primary_Mrays_s"] / row["primary_Mrays_s"],
+            }
+        )
+    return out
 
 
 def primary_rays(scene, size: int):
@@ -107,6 +176,11 @@ def main(argv):
     parser.add_argument("--size", type=int, default=256, help="primary rays: size x size (default 256)")
     parser.add_argument("--out", type=Path, default=Path("bench_out"), help="folder for instancing.csv/.md (default bench_out)")
     args = parser.parse_args(argv)
-    rows = [measure(n, args.resolution, args.size, inst) for n, inst in ((1, False), (args.copies, False), (args.copies, True))]
+    runs = [("generator", 1, False), ("generator", args.copies, False), ("generator", args.copies, True)]
+    runs += [("file", 1, False), ("file", args.copies, True)]
+    with tempfile.TemporaryDirectory() as folder:
+        rows = [measure(kind, n, args.resolution, args.size, inst, Path(folder)) for kind, n, inst in runs]
     print(write_table(args.out, "instancing", rows, f"Instancing: 1 vs {args.copies} bunnies"))
+    print()
+    print(write_table(args.out, "instancing_ratios", ratios(rows), f"Instancing: {args.copies} bunnies over one"))
     return 0
