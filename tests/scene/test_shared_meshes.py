@@ -71,6 +71,7 @@ def test_a_copys_world_vertices_are_the_float64_placement_bit_for_bit(ball):
 
 def test_a_glTF_nodes_world_vertices_are_its_node_vertices_placed_by_the_object(tmp_path):
     from clrender.scene import gltf
+
     from tests.gltftools import gltf_file, quaternion
 
     nodes = [{"mesh": 0, "translation": [1.5, 0.2, -5.0], "rotation": quaternion([0, 1, 0], 30), "scale": [0.5, 1.5, 1.0]}]
