@@ -135,13 +135,16 @@ def measure(kind: str, copies: int, resolution: int, size: int, instancing: bool
 
 
 def ratios(rows: list[dict]) -> list[dict]:
-    """Each row of copies over its scene kind's one-copy row: the issue's targets are load and memory
-    <= 1.5x one copy's, traversal (primary Mrays/s) within 1.3x."""
+    """Each row of copies over its scene kind's one-copy row (the issue's targets: load and memory <= 1.5x
+    one copy's), and the flat copies' primary Mrays/s over the row's on the same rays (traversal within
+    1.3x: the cost of the instanced walk; the one-copy scene's rays see another picture, mostly empty)."""
     out = []
     for row in rows:
         one = next(r for r in rows if r["scene"] == row["scene"] and r["copies"] == 1)
         if row is one:
             continue
+        flat = [r for r in rows if r["copies"] == row["copies"] and not r["instancing"]]  # the same scene either way
+        flat = next((r for r in flat if r["scene"] == row["scene"]), flat[0] if flat else None)
         out.append(
             {
                 "scene": row["scene"],
@@ -149,6 +152,7 @@ def ratios(rows: list[dict]) -> list[dict]:
                 "instancing": row["instancing"],
                 **{f"{k} / one": row[k] / one[k] for k in ("load_s", "load_peak_MB", "tracer_s", "tracer_peak_MB", "device_MB")},
                 "one / primary_Mrays_s": one["primary_Mrays_s"] / row["primary_Mrays_s"],
+                "flat / primary_Mrays_s": flat["primary_Mrays_s"] / row["primary_Mrays_s"] if flat else float("nan"),
             }
         )
     return out

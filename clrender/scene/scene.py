@@ -324,9 +324,11 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
 
 def _adopt_file_materials(checks: Checks, scene) -> None:
     """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
-    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
+    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects.
+    Objects naming one file share its material: its image is decoded once."""
     from ..memory import require
 
+    adopted = set()  # names made here: a second copy of a file uses the first's material and texture
     for obj in scene.objects:
         found = getattr(obj, "file_material", None)
         if found is None:
@@ -334,6 +336,10 @@ def _adopt_file_materials(checks: Checks, scene) -> None:
         obj.file_material = None
         found = dict(found)
         image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
+        if name in adopted:
+            obj.material = name
+            continue
+        adopted.add(name)
         ref = None
         if image is not None:
             buffer = io.BytesIO()

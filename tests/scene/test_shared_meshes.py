@@ -143,3 +143,21 @@ def test_the_box_check_refuses_exactly_what_placing_every_vertex_refuses(reach, 
     placed = np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     exact = answer(lambda: scene_module._check_placed(checks, placed, "objects[0]"))
     assert answer(lambda: scene_module._check_placed_box(checks, points, box, matrix, "objects[0]")) == exact
+
+
+def test_objects_naming_one_textured_obj_share_its_material_and_decode_its_image_once(tmp_path, monkeypatch):
+    from PIL import Image
+
+    from clrender.scene import textures
+
+    Image.fromarray(np.array([[[255, 0, 0], [0, 128, 0]]], np.uint8)).save(tmp_path / "tex.png")
+    (tmp_path / "m.mtl").write_text("newmtl paint\nKd 0.5 0.6 0.7\nmap_Kd tex.png\n")
+    (tmp_path / "q.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl paint\nf 1/1 2/2 3/3\n")
+    decoded = []
+    decode = textures.decode
+    monkeypatch.setattr(textures, "decode", lambda *a, **k: decoded.append(k.get("what")) or decode(*a, **k))
+    scene = Scene.from_dict({"objects": [{"type": "mesh", "file": "q.obj", "translate": [2.0 * i, 0, 0]} for i in range(5)]}, base_dir=tmp_path)
+    assert len(decoded) == 1 and len(scene.textures) == 1
+    assert {m.material for m in scene.objects} == {"q.obj:paint"}
+    assert scene.materials["q.obj:paint"].base_color_texture.index == 0 and scene.materials["q.obj:paint"].diffuse == (0.5, 0.6, 0.7)
+    assert all(m.uvs is scene.objects[0].uvs for m in scene.objects)  # made from trimesh's once, shared
