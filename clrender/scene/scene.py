@@ -133,7 +133,15 @@ class _MadeOnFirstRead:
         if mesh is None:
             return self
         value = mesh.__dict__[self.name] = self.make(mesh.placed)
+        mesh.__dict__.setdefault("_made_here", set()).add(self.name)
         return value
+
+    def given(self, mesh):
+        """The value as the mesh was given it: None when it is (or would be) made from `placed`, so that
+        payload.py ships `placed` alone and the worker makes the same bits."""
+        if self.name in mesh.__dict__.get("_made_here", ()):
+            return None
+        return mesh.__dict__.get(self.name)
 
 
 _LAZY_FIELDS = ("vertices", "vertex_normals")

@@ -161,3 +161,18 @@ def test_objects_naming_one_textured_obj_share_its_material_and_decode_its_image
     assert {m.material for m in scene.objects} == {"q.obj:paint"}
     assert scene.materials["q.obj:paint"].base_color_texture.index == 0 and scene.materials["q.obj:paint"].diffuse == (0.5, 0.6, 0.7)
     assert all(m.uvs is scene.objects[0].uvs for m in scene.objects)  # made from trimesh's once, shared
+
+
+def test_a_scene_of_copies_ships_to_workers_as_one_array_and_comes_back_the_same(ball):
+    from clrender.distributed.payload import join, split
+
+    scene = Scene.from_dict({"objects": ball_objects(COPIES)}, base_dir=ball)
+    one = split(Scene.from_dict({"objects": ball_objects(1)}, base_dir=ball))
+    payload = split(scene)
+    assert all(m.world_made == () for m in scene.objects)  # shipping made none of them
+    assert payload.nbytes <= one.nbytes + COPIES * 1024  # the shared vertices and faces once, then a matrix a copy
+    back = join(payload)
+    assert all(m.world_made == () for m in back.objects)
+    for a, b in zip(scene.objects, back.objects):
+        assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.to_world, b.to_world)
+    assert split(back).key == payload.key == split(scene).key  # made or not, the same scene ships the same
