@@ -11,18 +11,21 @@ the same scene with one object:
   all name it (the issue's case: the file is read once, `file_reads` counts scene.load_mesh_file's calls).
 
 Reported per scene: the median seconds of loading it (Scene.from_dict or Scene.from_file: mesh reading
-and placing), of Tracer(scene) (flatten, BVH build, upload), the peak Python-heap bytes of both steps
+and placing; the scenes loaded in turn, as their rays are traced, so that a busy machine slows all
+alike), of Tracer(scene) (flatten, BVH build, upload), the peak Python-heap bytes of both steps
 (tracemalloc, in a separate untimed run: numpy's arrays are counted; the Tracer's peak has the loaded
 scene in it), the bytes of the Tracer's device buffers, whether any copy's world vertices were made
 (`world_made`: Mesh.vertices is made on first read, which the instanced Tracer never does) and
 primary-ray Mrays/s at size x size (Tracer.intersect); the copies flat and with Tracer(instancing=True)
-(clrender/trace/instancing.py), then each copies row over its one-copy row.  Numbers are reported, never
+(clrender/trace/instancing.py), then each copies row over its one-copy row and the flat copies' Mrays/s
+over its own.  `file` is `generator`'s bunny rounded to float32 by the .ply.  Numbers are reported, never
 asserted (docs/bvh.md, "Instancing").
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import tempfile
 import time
 import tracemalloc
@@ -30,9 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import median_seconds, write_table
+from .common import write_table
 
-LOAD_RUNS = 5  # loads timed per scene (the median is reported): one takes some 20 ms, within the noise of a loaded machine
+LOAD_RUNS = 7  # loads timed per scene, the scenes in turn (the median is reported): one takes some 20 ms
+TRACE_RUNS = 5  # primary-ray passes timed per scene, likewise
 
 
 def placements(copies: int):
@@ -80,7 +84,9 @@ def bunnies_file_scene(folder: Path, copies: int, resolution: int) -> Path:
     return path
 
 
-def measure(kind: str, copies: int, resolution: int, size: int, instancing: bool, folder: Path) -> dict:
+def prepare(kind: str, copies: int, resolution: int, size: int, instancing: bool, folder: Path) -> dict:
+    """One scene's untimed numbers (row, with load_s and primary_Mrays_s left to `alternate`), its loader
+    and its traced rays."""
     from clrender.scene import scene as scene_module
     from clrender.scene.scene import Mesh, Scene
     from clrender.trace.tracer import Tracer
@@ -99,7 +105,6 @@ def measure(kind: str, copies: int, resolution: int, size: int, instancing: bool
         load()
     finally:
         scene_module.load_mesh_file = read
-    load_s = median_seconds(load, LOAD_RUNS)
     start = time.perf_counter()
     tracer = Tracer(load(), instancing=instancing)
     build_s = time.perf_counter() - start
@@ -116,22 +121,33 @@ def measure(kind: str, copies: int, resolution: int, size: int, instancing: bool
     world_made = sum(bool(o.world_made) for o in scene.objects if isinstance(o, Mesh))
     o, d = primary_rays(scene, size)
     tracer.intersect(o, d)  # compile and warm up
-    seconds = median_seconds(lambda: tracer.intersect(o, d), 3)
-    return {
+    row = {
         "scene": kind,
         "copies": copies,
         "instancing": instancing,
         "file_reads": len(reads),
         "triangles": scene.triangle_count,
         "stored_triangles": tracer.primitives.count + sum(len(s.faces) for s in (tracer.instances.shapes if tracer.instances else [])),
-        "load_s": load_s,
+        "load_s": None,
         "tracer_s": build_s,
         "load_peak_MB": load_peak / 1e6,
         "tracer_peak_MB": build_peak / 1e6,
         "device_MB": device_bytes / 1e6,
         "world_made": world_made,
-        "primary_Mrays_s": len(d) / seconds / 1e6,
+        "primary_Mrays_s": None,
     }
+    return {"row": row, "load": load, "trace": lambda: tracer.intersect(o, d), "rays": len(d)}
+
+
+def alternate(fns, rounds: int) -> list[float]:
+    """The median seconds of each fn, all called in turn `rounds` times (the machine's load falls on all alike)."""
+    times = [[] for _ in fns]
+    for _ in range(rounds):
+        for spent, fn in zip(times, fns):
+            start = time.perf_counter()
+            fn()
+            spent.append(time.perf_counter() - start)
+    return [statistics.median(t) for t in times]
 
 
 def ratios(rows: list[dict]) -> list[dict]:
@@ -183,7 +199,12 @@ def main(argv):
     runs = [("generator", 1, False), ("generator", args.copies, False), ("generator", args.copies, True)]
     runs += [("file", 1, False), ("file", args.copies, True)]
     with tempfile.TemporaryDirectory() as folder:
-        rows = [measure(kind, n, args.resolution, args.size, inst, Path(folder)) for kind, n, inst in runs]
+        parts = [prepare(kind, n, args.resolution, args.size, inst, Path(folder)) for kind, n, inst in runs]
+        for part, seconds in zip(parts, alternate([p["load"] for p in parts], LOAD_RUNS)):
+            part["row"]["load_s"] = seconds
+        for part, seconds in zip(parts, alternate([p["trace"] for p in parts], TRACE_RUNS)):
+            part["row"]["primary_Mrays_s"] = part["rays"] / seconds / 1e6
+    rows = [p["row"] for p in parts]
     print(write_table(args.out, "instancing", rows, f"Instancing: 1 vs {args.copies} bunnies"))
     print()
     print(write_table(args.out, "instancing_ratios", ratios(rows), f"Instancing: {args.copies} bunnies over one"))
