@@ -1,6 +1,6 @@
 """Instancing: memory and load time of N copies of one mesh vs one copy.
 
-    python -m bench instancing [--copies 30] [--resolution 140] [--size 256] [--out DIR]
+    python -m bench instancing [--copies 30] [--resolution 140] [--size 256] [--render 0] [--spp 4] [--rounds 3] [--out DIR]
 
 Two ways of naming one mesh `copies` times, each with different translate / rotate / scale, against
 the same scene with one object:
@@ -18,8 +18,11 @@ scene in it), the bytes of the Tracer's device buffers, whether any copy's world
 (`world_made`: Mesh.vertices is made on first read, which the instanced Tracer never does) and
 primary-ray Mrays/s at size x size (Tracer.intersect); the copies flat and with Tracer(instancing=True)
 (clrender/trace/instancing.py), then each copies row over its one-copy row and the flat copies' Mrays/s
-over its own.  `file` is `generator`'s bunny rounded to float32 by the .ply.  Numbers are reported, never
-asserted (docs/bvh.md, "Instancing").
+over its own.  `file` is `generator`'s bunny rounded to float32 by the .ply.  With --render N, also
+renders of the copies at N x N, Whitted (one ray a pixel, shadows) and path (--spp paths a pixel), flat
+and instanced alternating in this one process: camera samples per second of Renderer.run, the median of
+--rounds (instancing.csv/.md and instancing_ratios, then instancing_render.csv/.md).  Numbers are
+reported, never asserted (docs/bvh.md, "Instancing").
 """
 
 from __future__ import annotations
@@ -213,11 +216,56 @@ def pinhole_rays(position, look_at, up_hint, spread: float, size: int):
     return np.broadcast_to(np.asarray(position, np.float32), d.shape).copy(), d
 
 
+def render_rates(copies: int, resolution: int, size: int, spp: int, rounds: int) -> list:
+    """Camera samples per second of Renderer.run over the copies, Whitted and path, flat and instanced: the two
+    Renderers of each integrator built first, then timed alternately, `rounds` times each (median)."""
+    import warnings
+
+    from clrender.scene.scene import Scene
+    from clrender.trace.renderer import Renderer
+
+    data = bunnies_scene(copies, resolution)
+    # closer than the ray benchmark's view, over a floor: every ray meets something and shadows cross the bunnies
+    data["cameras"] = [{"position": [-1.0, 3.0, 3.0], "look_at": [-1.0, 0.0, -4.5], "fov": 60}]
+    data["objects"].append({"type": "quad", "corner": [-9, 0, 3], "edge_a": [16, 0, 0], "edge_b": [0, 0, -16]})
+    scene = Scene.from_dict(data)
+    rows = []
+    for integrator, extra in (("whitted", {}), ("path", {"spp": spp, "max_depth": 4})):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a scene without lights for the path tracer's emission: said once is enough
+            renderers = {inst: Renderer(scene, width=size, height=size, integrator=integrator, instancing=inst, **extra) for inst in (False, True)}
+        for r in renderers.values():
+            r.run()  # warm-up
+        times = {False: [], True: []}
+        for _ in range(rounds):
+            for inst, r in renderers.items():
+                start = time.perf_counter()
+                r.run()
+                times[inst].append(time.perf_counter() - start)
+        samples = size * size * (spp if integrator == "path" else 1)
+        for inst in (False, True):
+            seconds = float(np.median(times[inst]))
+            rows.append(
+                {
+                    "integrator": integrator,
+                    "instancing": inst,
+                    "size": size,
+                    "samples": samples,
+                    "run_s": seconds,
+                    "Msamples_s": samples / seconds / 1e6,
+                }
+            )
+    return rows
+
+
 def main(argv):
     parser = argparse.ArgumentParser(prog="python -m bench instancing", description=__doc__.splitlines()[0])
     parser.add_argument("--copies", type=int, default=30, help="objects naming the same mesh (default 30)")
     parser.add_argument("--resolution", type=int, default=140, help="bunny resolution: 3.5 r^2 triangles (default 140: 68,600)")
     parser.add_argument("--size", type=int, default=256, help="primary rays: size x size (default 256)")
+    parser.add_argument("--render", type=int, default=0, help="also time renders of the copies at this size, flat vs instanced (default 0: none)")
+    parser.add_argument("--spp", type=int, default=4, help="--render: paths per pixel of the path renders (default 4)")
+    parser.add_argument("--rounds", type=int, default=3, help="--render: timed runs of each, alternating (default 3)")
     parser.add_argument("--out", type=Path, default=Path("bench_out"), help="folder for instancing.csv/.md (default bench_out)")
     args = parser.parse_args(argv)
     runs = [("generator", 1, False), ("generator", args.copies, False), ("generator", args.copies, True)]
@@ -233,4 +281,8 @@ def main(argv):
     print(write_table(args.out, "instancing", rows, f"Instancing: 1 vs {args.copies} bunnies"))
     print()
     print(write_table(args.out, "instancing_ratios", ratios(rows), f"Instancing: {args.copies} bunnies over one"))
+    if args.render > 0:
+        rates = render_rates(args.copies, args.resolution, args.render, args.spp, args.rounds)
+        print()
+        print(write_table(args.out, "instancing_render", rates, f"Instancing: renders of {args.copies} bunnies, flat vs instanced"))
     return 0

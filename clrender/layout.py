@@ -233,6 +233,7 @@ INSTANCE_DTYPE = np.dtype(
         ("prim_base", "<i4"),  # this instance's first primitive id: hits report prim_base + local id
         ("object", "<i4"),  # the scene object (material, smooth flag)
         ("shape", "<i4"),  # index of the unique mesh
+        ("data_base", "<i4"),  # its mesh's first entry in the per-primitive arrays (vertex normals, attributes): data_base + local id
     ]
 )
 INSTANCE = Record("Instance", INSTANCE_DTYPE)

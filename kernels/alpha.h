@@ -25,12 +25,21 @@
 #define LOOK_PAST (ALPHA_TEST || CULL_BACKFACES) /* camera rays may be traced again past a hit */
 #define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
+/* The texture view for hit h's records (here, where intersect.h and texture.h meet): an instance's tangents
+ * are turned to world space by its object_to_world (texture.h normal_mapped). */
+INLINE TextureView hit_texture_view(TextureView tv, const Geometry *g, Hit h) {
+#if INSTANCED
+    if (h.instance >= 0) tv.tangent_to_world = &g->instances[h.instance].object_to_world[0][0];
+#endif
+    return tv;
+}
+
 #if CULL_BACKFACES
 /* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
  * outward normal) of a single-sided material.  glTF: "When this value is false, back-face culling is enabled";
  * only camera rays cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
 INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
-    if (g->materials[g->objects[g->prim_object[h.id]].material].double_sided) return false;
+    if (g->materials[g->objects[hit_object(g, h)].material].double_sided) return false;
     float3 p_err, n;
     bool sphere;
     hit_surface(g, h, o, d, &p_err, &n, &sphere);
@@ -41,13 +50,13 @@ INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
 #if ALPHA_TEST
 /* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup). */
 INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
-    __global const Material *gm = &g->materials[g->objects[g->prim_object[h.id]].material];
+    __global const Material *gm = &g->materials[g->objects[hit_object(g, h)].material];
     *alpha = 1.0f;
     if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
     *alpha = gm->alpha;
     if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
         Material m = *gm;
-        *alpha *= slot_texel(tv, &m, TEXTURE_BASE_COLOR, h.id, h.u, h.v).w;
+        *alpha *= slot_texel(tv, &m, TEXTURE_BASE_COLOR, hit_data(g, h), h.u, h.v).w;
     }
     return gm;
 }
@@ -79,7 +88,7 @@ INLINE float alpha_transmittance(const Geometry *g, TextureView tv, Ray r, float
         Hit h = closest_hit(g, r, t_min, t_max, visits);
         if (h.id < 0) return T;
         float opacity = hit_opacity(g, tv, h);
-        T *= (1.0f - opacity) + opacity * transparency_of(g, h.id);
+        T *= (1.0f - opacity) + opacity * hit_transparency(g, h);
         t_min = h.t; /* hits are in (t_min, t_max): this one is left out next */
     }
     return T > 0.0f ? T * transmittance(g, r, t_min, t_max, false, visits) : 0.0f;

@@ -60,6 +60,7 @@ typedef struct {
     __global const Instance *instances; /* each names its mesh's tree and slots, in the top tree's leaf order */
     __global const BvhNode *top;        /* the top level: a binary tree over the instances' world boxes */
     int n_instances;
+    int object;                         /* an instance's Geometry (instance_geometry): its object; -1: the flat part */
 #endif
 } Geometry;
 
@@ -69,7 +70,20 @@ INLINE Geometry geometry(__global const TreeNode *nodes, __global const PrimSlot
     Geometry g;
     g.nodes = nodes; g.slots = prims; g.prim_object = prim_object; g.objects = objects; g.materials = materials;
     g.n_prims = n_prims;
+#if INSTANCED
+    g.instances = 0; g.top = 0; g.n_instances = 0; g.object = -1; /* the kernels' with_instances sets them */
+#endif
     return g;
+}
+
+/* The kernels' instances (-DINSTANCED=1; without, none are read and n_instances is 0). */
+INLINE void with_instances(Geometry *g, __global const Instance *instances, __global const BvhNode *top,
+                           int n_instances) {
+#if INSTANCED
+    g->instances = instances;
+    g->top = top;
+    g->n_instances = n_instances;
+#endif
 }
 
 /* Slot s: a triangle's record, or the same 48 bytes as a sphere's (`sphere` tells which). */
@@ -92,7 +106,12 @@ INLINE __global const LeafBlock *leaf_block(const Geometry *g, int first) { retu
 #endif
 
 /* What a shadow ray keeps crossing primitive `id` (its material's transparency). */
-INLINE float transparency_of(const Geometry *g, int id) { return g->materials[g->objects[g->prim_object[id]].material].transparency; }
+INLINE float transparency_of(const Geometry *g, int id) {
+#if INSTANCED
+    if (g->object >= 0) return g->materials[g->objects[g->object].material].transparency; /* id is the mesh's own */
+#endif
+    return g->materials[g->objects[g->prim_object[id]].material].transparency;
+}
 
 
 INLINE Hit no_hit(void) {
@@ -636,7 +655,7 @@ INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool a
  * tree over those boxes), each in object space: origin and direction by world_to_object, the
  * direction NOT renormalised, so t is the world t and hits compare across instances.  Spheres stay
  * flat (their test wants a unit direction).  The query kernels walk one ray at a time here (no
- * packets); the render kernels are not built with INSTANCED (the renderer never asks for it). */
+ * packets); the render kernels neither (no shadow shafts, shaft.h), and shade a hit by instance_surface. */
 INLINE float3 affine_point(__global const float *m, float3 p) {
     return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
@@ -662,12 +681,13 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
     s.nodes = (__global const TreeNode *)((__global const char *)g->nodes + in->node_bytes);
     s.slots = g->slots + in->slot_base;
     s.n_prims = in->n_prims;
+    s.object = in->object;
     return s;
 }
 
 /* Instance i met in object space.  Closest hit: its mesh's hit (local id + prim_base, ties to the lower
- * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (opaque_only: the
- * query kernels; shading reads no instance yet). */
+ * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (transparency_of
+ * reads the instance's object: s.object). */
 INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
                            Hit *best, float *T, uint *visits) {
     __global const Instance *in = g->instances + i;
@@ -750,11 +770,73 @@ INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, b
 
 #pragma OPENCL FP_CONTRACT ON /* the default again, for the files that follow */
 
+/* The scene object a hit belongs to: its instance's, or its flat primitive's; -1 on a miss. */
+INLINE int hit_object(const Geometry *g, Hit h) {
+#if INSTANCED
+    if (h.instance >= 0) return g->instances[h.instance].object;
+#endif
+    return h.id >= 0 ? g->prim_object[h.id] : -1;
+}
+
+/* Where hit h's per-primitive records are (vertex normals, VertexAttributes): its primitive id, or for an
+ * instance its mesh's records, stored once for all its instances (Instance.data_base + the mesh's own id). */
+INLINE int hit_data(const Geometry *g, Hit h) {
+#if INSTANCED
+    if (h.instance >= 0) return g->instances[h.instance].data_base + (h.id - g->instances[h.instance].prim_base);
+#endif
+    return h.id;
+}
+
+/* What hit h's material lets through (transparency_of by the hit's object). */
+INLINE float hit_transparency(const Geometry *g, Hit h) { return g->materials[g->objects[hit_object(g, h)].material].transparency; }
+
+#if INSTANCED
+/* An object-space normal n of instance `in` in world space: by the inverse transpose, world_to_object
+ * transposed, renormalised (outward stays outward under mirrors too: no winding is involved). */
+INLINE float3 normal_to_world(__global const Instance *in, float3 n) {
+    __global const float *m = &in->world_to_object[0][0];
+    return unit((float3)(m[0] * n.x + m[4] * n.y + m[8] * n.z, m[1] * n.x + m[5] * n.y + m[9] * n.z,
+                         m[2] * n.x + m[6] * n.y + m[10] * n.z));
+}
+
+/* An instance's three vertex normals in world space, each by normal_to_world, before they are interpolated:
+ * as the flat scene's, whose vertex normals scene.py placed one by one (the same shading under non-uniform scale). */
+INLINE void vertex_normals_to_world(__global const Instance *in, float3 *n0, float3 *n1, float3 *n2) {
+    *n0 = normal_to_world(in, *n0); *n1 = normal_to_world(in, *n1); *n2 = normal_to_world(in, *n2);
+}
+
+/* |M| x for the linear part of a 3x4 map (error bounds). */
+INLINE float3 abs_linear(__global const float *m, float3 x) {
+    return (float3)(fabs(m[0]) * x.x + fabs(m[1]) * x.y + fabs(m[2]) * x.z, fabs(m[4]) * x.x + fabs(m[5]) * x.y + fabs(m[6]) * x.z,
+                    fabs(m[8]) * x.x + fabs(m[9]) * x.y + fabs(m[10]) * x.z);
+}
+
+/* hit_surface on an instance: the mesh's triangle in object space, its point placed by object_to_world
+ * with the error bound carried along (pbrt-v4's transform of a point with error: (1 + gamma3) |M| err +
+ * gamma3 (|M| |p| + |t|)), doubled for the ray's own rounding into object space; the normal by
+ * normal_to_world. */
+INLINE float3 instance_surface(const Geometry *g, Hit h, float3 *p_err, float3 *n_geo) {
+    __global const Instance *in = g->instances + h.instance;
+    __global const PrimSlot *t = g->slots + in->slot_base + h.slot;
+    float3 v0 = load3(t->v0), v1 = load3(t->v1), v2 = load3(t->v2);
+    float3 err;
+    float3 p = hit_point_triangle((float4)(v0, 0.0f), (float4)(v1, 0.0f), (float4)(v2, 0.0f), h.u, h.v, &err);
+    *n_geo = normal_to_world(in, cross3(v1 - v0, v2 - v0));
+    __global const float *m = &in->object_to_world[0][0];
+    float3 shift = (float3)(fabs(m[3]), fabs(m[7]), fabs(m[11]));
+    *p_err = 2.0f * ((1.0f + GAMMA(3)) * abs_linear(m, err) + GAMMA(3) * (abs_linear(m, fabs(p)) + shift));
+    return affine_point(m, p);
+}
+#endif
+
 /* (Contracted like the shading code that calls it: a * b + c may become one fma here.) */
 /* Where ray (o, d) met slot h.slot: the hit point and its float32 error, the primitive's unit normal (not
  * yet turned to face the ray: outward, or the winding's), and whether it is a sphere.  The one place the
  * shading of either integrator reads a primitive slot. */
 INLINE float3 hit_surface(const Geometry *g, Hit h, float3 o, float3 d, float3 *p_err, float3 *n_geo, bool *sphere) {
+#if INSTANCED
+    if (h.instance >= 0) { *sphere = false; return instance_surface(g, h, p_err, n_geo); }
+#endif
     __global const PrimSlot *t = prim_slot(g, h.slot);
     *sphere = t->sphere != 0;
     if (*sphere) {

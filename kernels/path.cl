@@ -58,15 +58,19 @@ typedef struct {
 
 INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     Surface f;
-    ObjectRecord obj = s->geo.objects[s->geo.prim_object[h.id]];
+    ObjectRecord obj = s->geo.objects[hit_object(&s->geo, h)];
     f.material = obj.material;
     bool sphere;
     f.p = hit_surface(&s->geo, h, r.o, r.d, &f.p_err, &f.n_geo, &sphere);
     f.n_shade = f.n_geo;
     if (!sphere) {
         if (obj.smooth) {
-            __global const float *vn = &s->normals[h.id].normal[0][0];
-            f.n_shade = unit((1.0f - h.u - h.v) * vload3(0, vn) + h.u * vload3(1, vn) + h.v * vload3(2, vn));
+            __global const float *vn = &s->normals[hit_data(&s->geo, h)].normal[0][0];
+            float3 n0 = vload3(0, vn), n1 = vload3(1, vn), n2 = vload3(2, vn);
+#if INSTANCED
+            if (h.instance >= 0) vertex_normals_to_world(s->geo.instances + h.instance, &n0, &n1, &n2);
+#endif
+            f.n_shade = unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
         }
     }
     f.front = dot3(r.d, f.n_geo) < 0.0f;
@@ -75,17 +79,57 @@ INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
     return f;
 }
 
-/* The material at hit h, its textures and vertex colours applied (texture.h); *occlusion: glTF's ambient
- * occlusion there (the albedo AOV only: a path tracer finds occlusion by itself). */
-INLINE Material material_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
-    Material m = s->geo.materials[f->material];
-    *occlusion = 1.0f;
-    int vertex_colours = s->geo.objects[s->geo.prim_object[h.id]].vertex_colours;
-    if (vertex_colours || material_textured(&m)) {
-        apply_textures(s->tex, &m, h.id, h.u, h.v, vertex_colours);
-        *occlusion = material_occlusion(s->tex, &m, h.id, h.u, h.v);
+/* What shading reads of the material at a hit, its textures and vertex colours applied: these fields alone, filled
+ * from the Material record where it lies (a private copy of the whole 256-byte record per hit, arrays and all, cost
+ * the path tracer 4-5 % of its CPU time: docs/benchmarks.md); `g` is the record, for its texture slots. */
+typedef struct {
+    float3 kd, ks, base_color, emission;
+    float shininess, mirror, transparency, ior, metallic, roughness, transmission;
+    int model; /* a MATERIAL_MODELS code */
+    __global const Material *g;
+} Shading;
+
+/* The material at hit h with texture.h's apply_textures rule (kd and base_color times the colour texture and the
+ * vertex colour, metallic times B and roughness times G of the metallic-roughness texture, emission times the
+ * emissive texture); *occlusion: glTF's ambient occlusion there (the albedo AOV only: a path tracer finds
+ * occlusion by itself). */
+INLINE Shading shading_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
+    __global const Material *g = &s->geo.materials[f->material];
+    Shading m;
+    m.g = g;
+    m.kd = vload3(0, g->kd); m.ks = vload3(0, g->ks);
+    m.base_color = vload3(0, g->base_color); m.emission = vload3(0, g->emission);
+    m.shininess = g->shininess; m.mirror = g->mirror; m.transparency = g->transparency; m.ior = g->ior;
+    m.metallic = g->metallic; m.roughness = g->roughness; m.transmission = g->transmission;
+    m.model = g->model;
+    TextureView tv = s->tex;
+    bool vertex_colours = s->geo.objects[hit_object(&s->geo, h)].vertex_colours;
+    int prim = hit_data(&s->geo, h);
+    if (vertex_colours || g->textures[TEXTURE_BASE_COLOR] >= 0) {
+        float3 colour = vertex_colours ? hit_colour(tv, prim, h.u, h.v) : (float3)(1.0f);
+        if (g->textures[TEXTURE_BASE_COLOR] >= 0) colour *= material_texel(tv, g, TEXTURE_BASE_COLOR, prim, h.u, h.v).xyz;
+        m.kd *= colour;
+        m.base_color *= colour;
     }
+    if (g->textures[TEXTURE_METALLIC_ROUGHNESS] >= 0) {
+        float4 mr = material_texel(tv, g, TEXTURE_METALLIC_ROUGHNESS, prim, h.u, h.v);
+        m.metallic *= mr.z;
+        m.roughness *= mr.y;
+    }
+    if (g->textures[TEXTURE_EMISSIVE] >= 0) m.emission *= material_texel(tv, g, TEXTURE_EMISSIVE, prim, h.u, h.v).xyz;
+    *occlusion = 1.0f;
+    if (g->textures[TEXTURE_OCCLUSION] >= 0)
+        *occlusion = 1.0f + g->occlusion_strength * (material_texel(tv, g, TEXTURE_OCCLUSION, prim, h.u, h.v).x - 1.0f);
     return m;
+}
+
+/* The surface's shading normal tilted by the material's normal map, if it has one (texture.h). */
+INLINE void normal_map(const PathScene *s, const Shading *m, Surface *f, Hit h, float3 d) {
+    if (m->g->textures[TEXTURE_NORMAL] < 0) return;
+    int prim = hit_data(&s->geo, h);
+    float3 texel = material_texel(s->tex, m->g, TEXTURE_NORMAL, prim, h.u, h.v).xyz;
+    f->n_shade = normal_from_texel(hit_texture_view(s->tex, &s->geo, h), texel, m->g->normal_scale, prim, h.u, h.v, f->n_shade,
+                                   f->front, d);
 }
 
 /* ---------------------------------------------------------------- materials
@@ -108,14 +152,14 @@ INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)
 
 /* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
  * throughput is not rescaled).  docs/materials.md states the rule. */
-INLINE Component pick_component(const Material *m, float u) {
+INLINE Component pick_component(const Shading *m, float u) {
     Component c;
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
     c.glossy_prob = 0.0f;
     c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
     c.bsdf.metallic = m->metallic;
-    c.bsdf.colour = vload3(0, m->kd);
+    c.bsdf.colour = m->kd;
     if (m->model == MATERIAL_MODEL_GLTF) {
         float alpha = ggx_alpha_from_roughness(m->roughness);
         c.bsdf.alpha = alpha;
@@ -125,14 +169,14 @@ INLINE Component pick_component(const Material *m, float u) {
             return c;
         }
         c.lobe = BSDF_GLTF;
-        c.bsdf.colour = vload3(0, m->base_color);
+        c.bsdf.colour = m->base_color;
         return c;
     }
     float t = m->transparency, mirror = (1.0f - t) * m->mirror;
     if (u < t) { c.lobe = BSDF_DIELECTRIC; return c; }
     if (u < t + mirror) { c.lobe = LOBE_MIRROR; c.bsdf.colour = (float3)(1.0f); return c; }
     /* Lambert kd plus a glossy GGX lobe ks, scaled together where kd + ks would exceed 1 */
-    float3 kd = vload3(0, m->kd), ks = vload3(0, m->ks);
+    float3 kd = m->kd, ks = m->ks;
     float3 sum = kd + ks;
     float over = max_f(1.0f, max3(sum));
     kd /= over; ks /= over;
@@ -256,8 +300,7 @@ INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
     __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
     float3 le = vload3(0, gm->emission);
     if (gm->textures[TEXTURE_EMISSIVE] < 0) return le;
-    Material m = *gm;
-    return le * slot_texel(s->tex, &m, TEXTURE_EMISSIVE, prim, u, v).xyz;
+    return le * material_texel(s->tex, gm, TEXTURE_EMISSIVE, prim, u, v).xyz;
 }
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
@@ -393,9 +436,9 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
 
 /* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
-INLINE float3 emission_met(const PathScene *s, const Surface *f, const Material *m, Hit h, float3 d, bool prev_delta,
+INLINE float3 emission_met(const PathScene *s, const Surface *f, const Shading *m, Hit h, float3 d, bool prev_delta,
                           float prev_pdf) {
-    float3 le = vload3(0, m->emission);
+    float3 le = m->emission;
     if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
     int e = s->emitter_of_prim[h.id];
     if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
@@ -432,13 +475,13 @@ typedef struct {
     int object;
 } FirstHit;
 
-INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Material *m, float occlusion, Hit h) {
+INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Shading *m, float occlusion, Hit h) {
     FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
     if (h.id < 0) return fh;
-    fh.object = s->geo.prim_object[h.id];
+    fh.object = hit_object(&s->geo, h);
     fh.normal = f->n_shade;
     fh.depth = h.t;
-    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? vload3(0, m->base_color) : vload3(0, m->kd)) * occlusion;
+    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? m->base_color : m->kd) * occlusion;
     return fh;
 }
 
@@ -460,8 +503,8 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         }
         Surface f = surface_at(s, r, h);
         float occlusion;
-        Material m = material_at(s, &f, h, &occlusion);
-        if (m.textures[TEXTURE_NORMAL] >= 0) f.n_shade = normal_mapped(s->tex, &m, h.id, h.u, h.v, f.n_shade, f.front, r.d);
+        Shading m = shading_at(s, &f, h, &occlusion);
+        normal_map(s, &m, &f, h, r.d);
         if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
         radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
@@ -505,6 +548,7 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
+                          __global const Instance *instances, __global const BvhNode *top, int n_instances,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
                           __global const Material *materials, __global const VertexAttributes *attributes,
                           __global const Texture *textures, __global const float4 *texels, __global const Light *lights,
@@ -518,6 +562,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     if (gid >= params.n_work) return;
     PathScene s;
     s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
+    with_instances(&s.geo, instances, top, n_instances);
     s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
     s.env = env_view(env_map, env_texels, env_marginal, env_conditional);
     s.tex = texture_view(attributes, textures, texels);

@@ -443,8 +443,11 @@ INLINE Hit whitted_hit(const SceneView *sc, float3 o, float3 d, bool camera, flo
 
 /* A smooth triangle's normal at hit h, interpolated from its vertex normals. */
 INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
-    __global const VertexNormals *vn = sc->normals + h.id;
+    __global const VertexNormals *vn = sc->normals + hit_data(&sc->geo, h);
     float3 n0 = vload3(0, vn->normal[0]), n1 = vload3(0, vn->normal[1]), n2 = vload3(0, vn->normal[2]);
+#if INSTANCED
+    if (h.instance >= 0) vertex_normals_to_world(sc->geo.instances + h.instance, &n0, &n1, &n2);
+#endif
     return unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
 }
 
@@ -517,7 +520,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         Hit h = closest_hit(&sc->geo, make_ray(o, d), 0.0f, INF_T, visits);
 #endif
         *rays += 1;
-        int object = h.id >= 0 ? sc->geo.prim_object[h.id] : -1;
+        int object = hit_object(&sc->geo, h);
         if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
         if (h.id < 0) {
             colour += w * (sc->env.m.width > 0 ? env_radiance(&sc->env, d) : sc->background);
@@ -528,13 +531,14 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         Material m = sc->geo.materials[obj.material];
         float occlusion = 1.0f; /* darkens the ambient term and the albedo AOV only (glTF's occlusionTexture) */
         if (obj.vertex_colours || material_textured(&m)) { /* textures modulate kd (texture.h) */
-            apply_textures(sc->tex, &m, h.id, h.u, h.v, obj.vertex_colours);
-            occlusion = material_occlusion(sc->tex, &m, h.id, h.u, h.v);
+            apply_textures(sc->tex, &m, hit_data(&sc->geo, h), h.u, h.v, obj.vertex_colours);
+            occlusion = material_occlusion(sc->tex, &m, hit_data(&sc->geo, h), h.u, h.v);
         }
         ShadingPoint pt;
         bool sphere;
         bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
-        if (m.textures[TEXTURE_NORMAL] >= 0) pt.n = normal_mapped(sc->tex, &m, h.id, h.u, h.v, pt.n, front_face, d);
+        if (m.textures[TEXTURE_NORMAL] >= 0)
+            pt.n = normal_mapped(hit_texture_view(sc->tex, &sc->geo, h), &m, hit_data(&sc->geo, h), h.u, h.v, pt.n, front_face, d);
 #if LOOK_PAST
         if (opacity < 1.0f) { /* BLEND: what lies behind the point, 1 - alpha of the ray, on the same footing */
             push_ray(&stack, offset_origin(pt.p, pt.p_err, -pt.n_geo), medium, d, depth, w * (1.0f - opacity));

@@ -26,7 +26,7 @@
 #endif
 /* the binary tree and BVH-off keep per-ray rays, and so do alpha-tested scenes (alpha.h: each shadow ray walks its
    hits one by one, reading textures) */
-#define SHAFTS_ON (SHADOW_SHAFTS && USE_BVH && BVH_WIDTH >= 4 && !ALPHA_TEST)
+#define SHAFTS_ON (SHADOW_SHAFTS && USE_BVH && BVH_WIDTH >= 4 && !ALPHA_TEST && !INSTANCED) /* instances: walk_instances any-hit */
 
 #if SHAFTS_ON
 #ifndef SHAFT_CANDIDATES

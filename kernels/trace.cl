@@ -13,6 +13,7 @@
  * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
  * (aov_out is unused otherwise). */
 __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
+                     __global const Instance *instances, __global const BvhNode *top, int n_instances,
                      __global const VertexNormals *normals, __global const ObjectRecord *objects,
                      __global const Material *materials, __global const VertexAttributes *attributes,
                      __global const Texture *textures, __global const float4 *texels,
@@ -24,6 +25,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     if (gid >= params.n_work) return;
     SceneView sc;
     sc.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
+    with_instances(&sc.geo, instances, top, n_instances);
     sc.normals = normals; sc.lights = lights; sc.tex = texture_view(attributes, textures, texels);
     sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
     sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
@@ -204,23 +206,7 @@ INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
 }
 #endif
 
-/* The query kernels' instances (-DINSTANCED=1; without, none are read and n_instances is 0). */
-INLINE void with_instances(Geometry *g, __global const Instance *instances, __global const BvhNode *top,
-                           int n_instances) {
-#if INSTANCED
-    g->instances = instances;
-    g->top = top;
-    g->n_instances = n_instances;
-#endif
-}
 
-/* The scene object a hit belongs to: its instance's, or its flat primitive's; -1 on a miss. */
-INLINE int hit_object(const Geometry *g, Hit h) {
-#if INSTANCED
-    if (h.instance >= 0) return g->instances[h.instance].object;
-#endif
-    return h.id >= 0 ? g->prim_object[h.id] : -1;
-}
 
 /* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
  * each visited. */

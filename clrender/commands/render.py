@@ -184,6 +184,14 @@ def add_parser(sub):
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
+    from ..trace.instancing import AUTO_MIN_TRIANGLES
+
+    p.add_argument(
+        "--instancing",
+        action=argparse.BooleanOptionalAction,
+        default=d.instancing,
+        help=f"store a mesh that several objects place once (default: when the copies save >= {AUTO_MIN_TRIANGLES:,} triangles; docs/bvh.md)",
+    )
     p.add_argument("--seed", type=int, default=d.seed, help="random seed (same seed, same image)")
     p.add_argument(
         "--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result, repeatable (default: none)"
@@ -304,6 +312,7 @@ def settings_from_args(args) -> RenderSettings:
         fresnel=args.fresnel,
         bvh=args.bvh,
         bvh_builder=args.bvh_builder,
+        instancing=args.instancing,
         seed=args.seed,
         device=args.device,
         **values,

@@ -22,7 +22,7 @@ from collections import OrderedDict
 from dataclasses import replace
 
 from ..errors import RenderFailure, UsageError
-from ..trace.renderer import Renderer, RenderSettings
+from ..trace.renderer import Renderer, RenderSettings, instancing_for
 from ..trace.tracer import Tracer
 from .payload import ScenePayload, code_fingerprint, join
 
@@ -84,10 +84,14 @@ def scene_of(payload: ScenePayload):
 
 
 def tracer_for(payload: ScenePayload, settings: RenderSettings) -> Tracer:
-    key = (payload.key, settings.bvh, settings.bvh_builder, settings.device)
-    return _cached(
-        _TRACERS, key, lambda: Tracer(scene_of(payload), use_bvh=settings.bvh, builder=settings.bvh_builder, device=settings.device), TRACERS_KEPT
-    )
+    key = (payload.key, settings.bvh, settings.bvh_builder, settings.device, settings.instancing)
+
+    def build() -> Tracer:
+        scene = scene_of(payload)
+        s = settings
+        return Tracer(scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(scene, s))
+
+    return _cached(_TRACERS, key, build, TRACERS_KEPT)
 
 
 def renderer_for(payload: ScenePayload, settings: RenderSettings, scene=None) -> Renderer:

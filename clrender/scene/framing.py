@@ -1,5 +1,5 @@
 """The camera and lights a scene without its own gets: a bare mesh file (`clrender render teapot.obj`),
-and the camera of a glTF file that has none.
+and the camera and lights of a glTF file that has none (the lights then follow its first camera).
 
 Camera: it looks at the centre of the bounding box from `direction` (default: in front, +z, a little to
 the right, +x, and above, +y: a three-quarter view), with +y up, from the distance at which the bounding
@@ -80,16 +80,15 @@ def key_light(camera: dict, settings: Framing = FRAMING) -> dict:
     return {"type": "directional", "direction": (-toward_light).tolist(), "intensity": settings.key_intensity}
 
 
+def lighting(camera: dict, settings: Framing = FRAMING) -> dict:
+    """The top-level keys of a scene dict that light it for `camera`: the key light over its shoulder and the
+    fill (ambient and environment).  A bare mesh gets them, and so does a glTF file that brings no lights."""
+    fill = [settings.fill] * 3
+    return {"lights": [key_light(camera, settings)], "ambient": fill, "environment": {"color": fill}}
+
+
 def rig(lo, hi, settings: Framing = FRAMING) -> dict:
     """The top-level keys of a scene dict for the bounds lo..hi: image size, the framing camera, the key
     light and the fill (ambient and environment)."""
     camera = framing_camera(lo, hi, settings=settings)
-    fill = [settings.fill] * 3
-    return {
-        "width": settings.width,
-        "height": settings.height,
-        "cameras": [camera],
-        "lights": [key_light(camera, settings)],
-        "ambient": fill,
-        "environment": {"color": fill},
-    }
+    return {"width": settings.width, "height": settings.height, "cameras": [camera], **lighting(camera, settings)}

@@ -26,8 +26,9 @@ nothing in the file is dropped without being listed here:
   seed's model, whose Lambert term has no 1/pi, so their intensity is divided
   by pi: either way a surface shows (base_colour / pi) * E, as the glTF
   specification defines.
-  A file without lights gets a headlight: a directional light of intensity
-  1 along the first camera's view, as glTF viewers do;
+  A file without lights gets the lights a bare mesh file gets (framing.py: a key
+  light over the first camera's left shoulder and a uniform fill, ambient for
+  Whitted and a constant environment for the path tracer);
 - materials: the metallic-roughness model as the file gives it: baseColorFactor
   (linear RGB, as glTF stores it), metallicFactor, roughnessFactor,
   emissiveFactor times KHR_materials_emissive_strength, KHR_materials_ior and
@@ -893,9 +894,8 @@ def scene_dict(path, root=None) -> dict:
         doc.fail("the scene has no triangle meshes")
     if not cameras:
         cameras.append(framing.framing_camera(lo, hi))  # the same view a bare mesh file gets
-    if not lights:  # a headlight, as glTF viewers light a file that brings none
-        cam = cameras[0]
-        lights.append({"type": "directional", "direction": np.subtract(cam["look_at"], cam["position"]).tolist()})
+    # a file that brings no lights gets a bare mesh's: the key light over the first camera's shoulder and the fill
+    lighting = framing.lighting(cameras[0]) if not lights else {"lights": lights}
     height = max(1, round(IMAGE_WIDTH / aspect)) if aspect else IMAGE_WIDTH * 3 // 4
     return {
         "name": path.stem,
@@ -903,7 +903,7 @@ def scene_dict(path, root=None) -> dict:
         "height": height,
         "cameras": cameras,
         "materials": materials,
-        "lights": lights,
+        **lighting,
         "objects": objects,
         "textures": _textures(doc, path, materials),
     }

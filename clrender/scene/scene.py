@@ -14,6 +14,7 @@ checks.py.  Imports go one way: this module imports gltf.py (which reads a glTF 
 from __future__ import annotations
 
 import io
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -216,6 +217,9 @@ class Scene:
             return name_or_path
         if isinstance(name_or_path, dict):
             return cls.from_dict(name_or_path)
+        if not isinstance(name_or_path, (str, os.PathLike)):  # str() of an array or a number would read as a file name
+            got = f"a numpy array of shape {name_or_path.shape}" if isinstance(name_or_path, np.ndarray) else type(name_or_path).__name__
+            raise UsageError(f"a scene is a Scene, a scene dict, a bundled scene name or a path (str or os.PathLike); got {got}")
         text = str(name_or_path)
         bundled = bundled_scenes()
         if text in bundled:
@@ -369,9 +373,9 @@ SCENE_FILES = f"allowed: a .toml scene, a .gltf/.glb file or a triangle mesh fil
 
 
 def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
-    """A scene of one mesh file, in the default grey, seen and lit by framing.py's camera and lights
-    (a glTF file's own cameras and lights are read by _load_gltf instead); allow_outside=False reads
-    only files (an OBJ's materials) inside the file's folder."""
+    """A scene of one mesh file, in its own material (an OBJ's .mtl, as a TOML `file =` object reads it) or else
+    the default grey, seen and lit by framing.py's camera and lights (a glTF file's own cameras and lights are read
+    by _load_gltf instead); allow_outside=False reads only files (an OBJ's materials) inside the file's folder."""
     from . import framing
 
     path = Path(path)
@@ -396,12 +400,14 @@ def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
         from .meshes import shading_normals
 
         normals = shading_normals(vertices, tm.faces)
-    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", settings.smooth, source=path.name)
+    uvs, _, _, _ = _vertex_attributes(tm)  # an OBJ's vt, for its map_Kd
+    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", settings.smooth, source=path.name, uvs=uvs)
+    mesh.file_material = textures.mtl_material(tm)  # an OBJ's .mtl, as a TOML `file =` object gets it
 
     def fields(table: dict) -> dict:  # a scene dict's table as dataclass fields: lists as tuples, no `name`
         return {k: tuple(v) if isinstance(v, list) else v for k, v in table.items() if k != "name"}
 
-    return Scene(
+    scene = Scene(
         cameras=[Camera(**fields(camera)) for camera in rig["cameras"]],
         width=rig["width"],
         height=rig["height"],
@@ -412,6 +418,8 @@ def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
         name=shorten(escape(path.stem), MAX_NAME) or "scene",
         description=f"{shorten(escape(path.name), 100)}: {len(tm.faces)} triangles, framed and lit by default",
     )
+    _adopt_file_materials(checks, scene)
+    return scene
 
 
 def _load_gltf(path, allow_outside: bool = True) -> Scene:

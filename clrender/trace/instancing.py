@@ -15,6 +15,11 @@ tree's leaf order (kernels/intersect.h walk_instances reads them).
 
 Primitive ids: the flat part's 0..n_flat-1, then each instance's prim_base + local id (instances in
 object order, each as many ids as its mesh has triangles), so every hit's id is unique.
+
+Renders (renderer.py; docs/bvh.md, "Rendering instances"): the per-primitive records (vertex normals, uvs,
+colours, tangents) are the flat part's, then each shape's once in object space (`shape_meshes`), read at the
+instance's data_base + local id; `worth_instancing` decides for a render whose settings leave it open;
+objects of emissive materials stay flat (`emissive`), where the path tracer's emitter list finds them.
 """
 
 from __future__ import annotations
@@ -28,6 +33,10 @@ from ..layout import INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE, WIDE
 from ..scene.scene import Mesh, Scene
 
 MIN_COPIES = 2  # a shape used once is left in the flat part of the scene: instancing it saves nothing
+# renders (RenderSettings.instancing None) instance by themselves when the copies beyond each shape's first
+# stand for at least this many triangles: then the memory saved (~150 bytes a triangle, flat_bytes) is
+# megabytes; below it a second tree level would cost time for little (and small scenes keep their bits)
+AUTO_MIN_TRIANGLES = 20_000
 # bytes per primitive of the flat layout beyond its slot: object id, vertex normals, about one 8-wide
 # node per 4 primitives (256 bytes / 4 leaves of ~4) and the leaf blocks' copy of the vertices (148 / 4)
 FLAT_EXTRA_BYTES = 4 + VERTEX_NORMALS_DTYPE.itemsize + 64 + 37
@@ -77,11 +86,19 @@ def inverse_affine(matrix: np.ndarray) -> np.ndarray:
     return inv
 
 
+def emissive(scene: Scene, obj) -> bool:
+    """Whether an object's material emits: such objects stay flat, where the path tracer's emitter list
+    (clrender/trace/path.py) finds each of their triangles in world space."""
+    material = scene.materials.get(obj.material)
+    return material is not None and max(material.emission) > 0
+
+
 def find_instances(scene: Scene, min_copies: int = MIN_COPIES) -> Instances:
-    """The scene's shapes used by at least `min_copies` objects, and one Instance record per such object."""
+    """The scene's shapes used by at least `min_copies` objects, and one Instance record per such object
+    (objects of emissive materials stay flat: `emissive`)."""
     by_key: dict = {}
     for oid, obj in enumerate(scene.objects):
-        if isinstance(obj, Mesh) and obj.shape_key is not None and obj.to_world is not None:
+        if isinstance(obj, Mesh) and obj.shape_key is not None and obj.to_world is not None and not emissive(scene, obj):
             by_key.setdefault(obj.shape_key, []).append(oid)
     shapes, rows, flat, matrices = [], [], set(range(len(scene.objects))), {}
     base = 0
@@ -94,12 +111,51 @@ def find_instances(scene: Scene, min_copies: int = MIN_COPIES) -> Instances:
         for oid in oids:
             to_world = scene.objects[oid].to_world
             matrices[oid] = np.asarray(to_world, np.float64)
-            rows.append((affine_rows(inverse_affine(to_world)), affine_rows(to_world), 0, 0, -1, 0, 0, shape.prim_base, oid, len(shapes)))
+            rows.append((affine_rows(inverse_affine(to_world)), affine_rows(to_world), 0, 0, -1, 0, 0, shape.prim_base, oid, len(shapes), 0))
             flat.discard(oid)
         shapes.append(shape)
     records = np.array(rows, INSTANCE_DTYPE) if rows else np.zeros(0, INSTANCE_DTYPE)
     records = records[np.argsort(records["object"], kind="stable")]
     return Instances(shapes, records, sorted(flat), matrices)
+
+
+def object_space(vectors: np.ndarray, to_world: np.ndarray, normals: bool) -> np.ndarray:
+    """World vectors back in object space, unit length: normals by M^T (their world ones are M^-T n),
+    tangents by M^-1 (theirs are M t); M the linear part of to_world."""
+    m = np.asarray(to_world, np.float64)[:3, :3]
+    v = np.asarray(vectors, np.float64) @ (m if normals else np.linalg.inv(m).T)
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-30)
+
+
+def shape_meshes(scene: Scene, instances: Instances) -> list:
+    """Each shape as one object-space Mesh that carries what its triangles' per-primitive records need
+    (vertex normals, uvs, vertex colours, tangents): the render kernels read them at the instance's
+    data_base + local id and turn normals and tangents to world space per hit (kernels/intersect.h)."""
+    out = []
+    for shape in instances.shapes:
+        objs = [scene.objects[o] for o in shape.objects]
+        first = objs[0]
+        smooth = [o for o in objs if o.smooth and o.vertex_normals is not None]
+        normals = object_space(smooth[0].vertex_normals, smooth[0].to_world, True) if smooth else None
+        tangents = first.tangents
+        if tangents is not None:
+            tangents = np.concatenate([object_space(tangents[:, :3], first.to_world, False), np.asarray(tangents)[:, 3:]], 1)
+        out.append(Mesh(shape.vertices, shape.faces, normals, "default", bool(smooth), first.source, first.uvs, first.uvs1, first.colours, tangents))
+    return out
+
+
+def instanced_object_flags(objects: np.ndarray, scene: Scene, instances: Instances) -> None:
+    """The ObjectRecords of the instanced objects (flat_part made them empty meshes): smooth and vertex-colour flags as flatten sets them."""
+    for oid in instances.records["object"]:
+        obj = scene.objects[int(oid)]
+        objects[oid]["smooth"] = int(obj.smooth and obj.vertex_normals is not None)
+        objects[oid]["vertex_colours"] = int(obj.colours is not None)
+
+
+def worth_instancing(scene: Scene) -> bool:
+    """Whether a render of `scene` instances by itself (AUTO_MIN_TRIANGLES)."""
+    inst = find_instances(scene)
+    return inst.instanced_triangles - inst.unique_triangles >= AUTO_MIN_TRIANGLES
 
 
 def flat_bytes(triangles: int) -> int:
@@ -172,6 +228,7 @@ def two_level(instances: Instances, flat_nodes, flat_slots, n_flat: int, build_t
         r = records[i : i + 1]
         k = int(r["shape"][0])
         r["node_bytes"], r["slot_base"], r["n_prims"], r["prim_base"] = node_at[k], slot_at[k], counts[k], prim_base
+        r["data_base"] = n_flat + instances.shapes[k].prim_base  # the shapes' records follow the flat part's (Tracer)
         prim_base += counts[k]
         r["bmin"][0], r["bmax"][0] = world_bounds(*instances.shapes[k].bounds, instances.matrices[int(r["object"][0])])
     if offset >= 2**31 or prim_base >= 2**31:

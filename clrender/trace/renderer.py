@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pyopencl as cl
 
-from ..errors import UsageError, require, value_shown, warn
+from ..errors import require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -65,6 +65,9 @@ class RenderSettings:
     tile_size: int = 128  # tiles are tile_size x tile_size pixels per kernel launch
     device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else PoCL's CPU
     aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
+    # meshes that several objects place stored once and placed per hit (clrender/trace/instancing.py);
+    # None: when that saves at least instancing.AUTO_MIN_TRIANGLES triangles (docs/bvh.md, "Instancing")
+    instancing: bool | None = None
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
@@ -111,6 +114,10 @@ class RenderSettings:
         require(_whole(s.tile_size) and s.tile_size >= 1, f"tile size {v(s.tile_size)} must be a whole number >= 1")
         for name in ("shadow_edges", "fresnel", "bvh"):
             require(isinstance(getattr(s, name), (bool, np.bool_)), f"{name} {v(getattr(s, name))} must be True or False")
+        require(
+            s.instancing is None or isinstance(s.instancing, (bool, np.bool_)),
+            f"instancing {v(s.instancing)} must be True, False or None (automatic)",
+        )
         require(s.device is None or isinstance(s.device, str), f"device {v(s.device)} must be a device name (a string) or None")
         require(
             isinstance(s.aovs, (tuple, list)) and all(_name_in(a, AOV_NAMES) for a in s.aovs),
@@ -235,9 +242,7 @@ class Renderer:
         self.scene = Scene.load(scene) if not isinstance(scene, Scene) else scene
         self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
         s = self.settings
-        self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device)
-        if getattr(self.tracer, "instances", None) is not None:  # its render kernels cannot shade instances yet (docs/bvh.md)
-            raise UsageError("a Tracer made with instancing=True answers ray queries only; allowed: a Tracer without it for rendering")
+        self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
         self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)
@@ -304,6 +309,7 @@ class Renderer:
             out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
             cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
         geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
+        geometry.update(instances=t.instance_buffer, top=t.top, n_instances=t.n_instances)  # read only by -DINSTANCED=1 kernels
         geometry.update(attributes=t.attributes, textures=t.textures, texels=t.texels)
         scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
         if self.settings.integrator == "path":
@@ -441,6 +447,14 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
+
+
+def instancing_for(scene: Scene, settings: RenderSettings) -> bool:
+    """Whether the Tracer of a render stores repeated meshes once: settings.instancing, or when None, whether that
+    saves at least instancing.AUTO_MIN_TRIANGLES triangles (the same answer on every machine of a Dask render)."""
+    from .instancing import worth_instancing
+
+    return worth_instancing(scene) if settings.instancing is None else bool(settings.instancing)
 
 
 def render(scene, settings: RenderSettings | None = None, **overrides) -> np.ndarray:

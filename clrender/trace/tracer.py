@@ -18,7 +18,7 @@ holds for every direction, the triangle test is watertight, and of hits at the
 same float32 t the lowest primitive id wins, whatever the BVH.
 
 Tracer(scene, instancing=True) stores a mesh that several objects place once and meets each copy in
-object space (clrender/trace/instancing.py; docs/bvh.md, "Instancing"): ray queries only.
+object space (clrender/trace/instancing.py; docs/bvh.md, "Instancing"), for ray queries and renders.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from ..scene.scene import Mesh, Scene
 from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
 from .geometry import Primitives, flatten, pack_slots
-from .instancing import find_instances, flat_part, two_level
+from .instancing import find_instances, flat_part, instanced_object_flags, shape_meshes, two_level
 from .knobs import DEFAULT_KNOBS, TraceKnobs
 from .work_layout import WorkLayout, work_layout
 
@@ -152,7 +152,7 @@ class Tracer:
         shadow_shafts: bool = True,
         ray_packets: bool = True,
         knobs: TraceKnobs = DEFAULT_KNOBS,
-        instancing: bool = False,  # meshes placed by several objects stored once (ray queries only; the renderer refuses it)
+        instancing: bool = False,  # meshes placed by several objects stored once (queries and renders; renderer.py decides for renders)
     ):
         from .bvh_wide import WIDTHS
 
@@ -212,16 +212,27 @@ class Tracer:
         self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
         del slots, nodes
         self.prim_object = dev.to_device(self.primitives.object_of)
+        # per-primitive records: the flat part's, then each instanced shape's once, in object space (its
+        # instances' data_base; instancing.shape_meshes), whose normals the kernels turn per hit
+        shapes = flatten(Scene(objects=shape_meshes(self.scene, self.instances))) if self.instances is not None else None
+        if shapes is not None:
+            instanced_object_flags(self.primitives.objects, self.scene, self.instances)
+        n_data = n + (shapes.count if shapes is not None else 0)
         # the kernels read a primitive's vertex normals only when its object is smooth
-        normals = np.zeros(max(n, 1) if self.primitives.any_smooth else 1, VERTEX_NORMALS_DTYPE)
-        self.primitives.triangle_normals_into(normals["normal"])
+        any_smooth = self.primitives.any_smooth or (shapes is not None and shapes.any_smooth)
+        normals = np.zeros(max(n_data, 1) if any_smooth else 1, VERTEX_NORMALS_DTYPE)
+        for part, at in ((self.primitives, 0), (shapes, n)):
+            if part is not None and any_smooth:
+                part.triangle_normals_into(normals["normal"][at:])
         self.normals = dev.to_device(normals)
         del normals
         # the kernels read VertexAttributes only for textured materials and vertex colours: else one record
-        attributes = np.zeros(max(n, 1) if self.primitives.any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
+        any_attributes = self.primitives.any_attributes or (shapes is not None and self.scene.has_vertex_attributes)
+        attributes = np.zeros(max(n_data, 1) if any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
         attributes["colour"] = 1.0
-        if self.primitives.any_attributes:
-            self.primitives.triangle_attributes_into(attributes)
+        for part, at in ((self.primitives, 0), (shapes, n)):
+            if part is not None and any_attributes:
+                part.triangle_attributes_into(attributes[at:])
         self.attributes = dev.to_device(attributes)
         del attributes
         records, texels = pack_textures(self.primitives.textures or [])

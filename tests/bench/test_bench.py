@@ -1,6 +1,7 @@
 """The benchmark harnesses: `python -m bench` lists them and nothing else, and smoke tests of their --quick modes."""
 
 import csv
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -179,3 +180,59 @@ def test_assets_harness_times_the_load_phases_and_renders_beside_mitsuba(tmp_pat
     if "--peer" in args:
         assert (tmp_path / "assets_pair.png").stat().st_size > 1000
         assert ": pass" in proc.stdout, proc.stdout
+
+
+@pytest.mark.slow
+def test_whitted_harness_matches_mitsuba_direct_rays_to_clrenders_and_reports_consistent_ratios(tmp_path):
+    """`bench whitted --quick`: for both variants Mitsuba direct's emitter_samples is the whole number whose
+    counted rays come nearest clrender's counted rays (within half an emitter sample per camera ray), and the
+    speedup columns are the ratios of the columns beside them.  Skips without Mitsuba's LLVM variant."""
+    from tests.reference.mitsuba_scenes import unavailable
+
+    reason = unavailable("llvm_ad_rgb")
+    if reason:
+        pytest.skip(reason)
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "whitted", "--quick", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    rows = {r["variant"]: r for r in csv.DictReader(open(tmp_path / "whitted.csv"))}
+    assert list(rows) == ["opaque", "glass"]
+    camera_mrays = 64 * 64 * 4 / 1e6
+    for r in rows.values():
+        ours, theirs = float(r["clrender_mrays"]), float(r["mitsuba_mrays"])
+        assert ours > camera_mrays and int(r["emitter_samples"]) >= 1 and int(r["bsdf_samples"]) == 0
+        assert abs(theirs - ours) <= camera_mrays / 2 + 1e-9  # each emitter sample adds at most one ray per camera ray
+        ours_rate, theirs_rate = ours / float(r["clrender_s"]), theirs / float(r["mitsuba_s"])
+        assert float(r["speedup_mrays_per_s"]) == pytest.approx(ours_rate / theirs_rate, rel=1e-3)
+        assert float(r["speedup_wall"]) == pytest.approx(float(r["mitsuba_s"]) / float(r["clrender_s"]), rel=1e-3)
+        assert (tmp_path / f"whitted_{r['variant']}_pair.png").stat().st_size > 1000
+    # the glass sphere's refracted and reflected rays are clrender's only extra work
+    assert float(rows["glass"]["clrender_mrays"]) > float(rows["opaque"]["clrender_mrays"])
+    assert "directional-light weight" in proc.stdout
+
+
+def test_whitted_harness_without_mitsuba_says_how_to_install_it_in_one_line(tmp_path):
+    """A `mitsuba` that cannot be imported (a stand-in package first on the path): exit 2, one line naming the extra."""
+    fake = tmp_path / "mitsuba"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise ImportError('stand-in: no mitsuba here')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench", "whitted", "--out", str(tmp_path / "out")], cwd=ROOT, capture_output=True, text=True, timeout=120, env=env
+    )
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "pip install -e '.[reference]'" in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_whitted_bench_solves_emitter_samples_for_the_nearest_ray_count():
+    """equal_work_emitter_samples: rays = P (1 + e r_e + b r_b); the whole e >= 1 nearest the target."""
+    from bench.whitted import equal_work_emitter_samples, mitsuba_rays
+
+    rates = {"emitter": 0.5, "bsdf": 0.25}
+    assert mitsuba_rays(1000, rates, 7, 2) == 1000 * (1 + 3.5 + 0.5)
+    assert equal_work_emitter_samples(1000 * (1 + 3.5), 1000, rates, 0) == 7
+    assert equal_work_emitter_samples(1000 * (1 + 3.5 + 0.5) + 240, 1000, rates, 2) == 7  # 0.48 of a sample above: 7
+    assert equal_work_emitter_samples(1000 * (1 + 3.5) + 260, 1000, rates, 0) == 8
+    assert equal_work_emitter_samples(900, 1000, rates, 0) == 1  # fewer rays than the camera's alone: at least one sample

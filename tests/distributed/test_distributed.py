@@ -716,3 +716,15 @@ def test_scheduler_renders_turntables_and_fits_under_cpu_load_60_times(client, t
         assert [f.tobytes() for f in frames] == frames_here, i
         assert fit_gauss([photo], config, client=client, deadlines=deadlines)[0].image.tobytes() == fit_here, i
     assert wait_for(lambda: scheduler_tasks(client) == 0)
+
+
+def test_workers_instance_a_scene_as_the_client_does(client, tmp_path):
+    """A scene whose copies make a render instance by itself (trace/instancing.py AUTO_MIN_TRIANGLES): the workers
+    decide as the client (renderer.instancing_for) and render the local bytes."""
+    from tests.trace.test_instancing_render import copies_scene
+
+    scene = copies_scene(tmp_path, 30)
+    local = clrender.Renderer(scene, **TINY)
+    assert local.tracer.n_instances == 30
+    remote = crd.DistributedRenderer(scene, client=client, **TINY).run()
+    assert remote.image.tobytes() == local.run().image.tobytes()

@@ -2,9 +2,10 @@
 projecting it in numpy here; the object covers the fraction of the image a sphere's silhouette predicts; the
 default rig's brightness lies between its analytic bounds; scaling the mesh by 1e-3 or 1e3 changes nothing;
 the path tracer agrees with the Whitted tracer on a convex mesh (z-test); a glTF file without cameras gets
-the same view."""
+the same view, and one without lights the same lights; a bare OBJ shows its .mtl colour and map_Kd."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -158,6 +159,95 @@ def test_a_gltf_file_without_cameras_gets_the_same_view_and_keeps_its_own_camera
     own = {"type": "perspective", "perspective": {"yfov": 0.5}, "name": "hero"}
     named = scene_dict(gltf_file(tmp_path, [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 4]}], cameras=[own], name="own.gltf"))
     assert [c["name"] for c in named["cameras"]] == ["hero"] and named["cameras"][0]["position"] == [0, 0, 4]
+
+
+def test_a_gltf_file_without_lights_gets_the_bare_mesh_rig_and_one_with_lights_keeps_them(tmp_path):
+    """The quad (z = 0, facing +z) as a glTF without lights and as a bare OBJ: the same key light, ambient and
+    environment; both integrators show the default grey x (fill + key cos) on it, cos from the light the dict
+    holds (the old headlight along the view would give kd x cos(view) with no fill).  A file with a
+    KHR_lights_punctual light keeps just that light: no fill."""
+    gltf = scene_dict(gltf_file(tmp_path, [{"mesh": 0}], name="unlit.gltf"))
+    mesh = trimesh.Trimesh(np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float), [[0, 1, 2], [0, 2, 3]])
+    bare = Scene.load(mesh_file(tmp_path, mesh, "quad.obj"))
+    (light,) = gltf["lights"]
+    (bare_light,) = bare.lights
+    np.testing.assert_allclose(light["direction"], bare_light.direction, rtol=1e-12)
+    assert light["intensity"] == bare_light.intensity == framing.FRAMING.key_intensity
+    fill = framing.FRAMING.fill
+    assert gltf["ambient"] == list(bare.ambient) == [fill] * 3 and gltf["environment"] == {"color": [fill] * 3}
+    toward = -np.asarray(light["direction"]) / np.linalg.norm(light["direction"])
+    expected = KD * (fill + framing.FRAMING.key_intensity * toward[2])  # the quad's normal is +z
+    path = tmp_path / "unlit.gltf"
+    whitted = Renderer(str(path), width=W, height=H, aa="none").run()
+    traced = Renderer(str(path), width=W, height=H, integrator="path", spp=1, max_depth=0).run()
+    on_quad = whitted.ids == 0
+    assert on_quad.mean() > 0.1
+    np.testing.assert_allclose(whitted.image[on_quad], expected, rtol=1e-5)
+    inside = on_quad.copy()  # the path tracer's ray lands anywhere in its pixel: pixels on the quad's outline mix both sides
+    for axis in (0, 1):
+        inside &= np.roll(on_quad, 1, axis) & np.roll(on_quad, -1, axis)
+    # max_depth 0: the key light by NEE and the fill by the environment's NEE (one cosine-weighted direction: kd x fill
+    # exactly when it escapes, as every direction over a quad facing +z does)
+    np.testing.assert_allclose(traced.image[inside], expected, rtol=1e-4)
+    np.testing.assert_allclose(traced.image[whitted.ids < 0].mean(), fill, rtol=0.05)  # misses see the fill
+    lit = scene_dict(gltf_file(tmp_path, [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}], lights=[{"type": "point"}]))
+    assert [entry["type"] for entry in lit["lights"]] == ["point"] and "ambient" not in lit and "environment" not in lit
+
+
+def obj_quad(tmp_path, mtl: str, name="quad") -> Path:
+    """The 2 x 2 quad at z = 0 facing +z as an OBJ with vt (u along +x, v up +y) and a .mtl beside it."""
+    (tmp_path / f"{name}.mtl").write_text(f"newmtl paint\n{mtl}\n")
+    path = tmp_path / f"{name}.obj"
+    path.write_text(
+        f"mtllib {name}.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl paint\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+    )
+    return path
+
+
+def test_a_bare_obj_on_the_command_line_brings_its_mtl_colour(tmp_path, capsys):
+    """`clrender render quad.obj` with Kd 0.9 0.1 0.05 in quad.mtl: the quad shows Kd x (fill + key cos) in every
+    channel under the framing rig (the written PNG: red far above green and blue), not the default grey."""
+    from PIL import Image
+
+    from clrender.cli import main
+
+    path = obj_quad(tmp_path, "Kd 0.9 0.1 0.05\nKs 0 0 0")
+    kd = np.array([0.9, 0.1, 0.05])
+    scene = Scene.load(path)
+    (light,) = scene.lights
+    toward = -np.asarray(light.direction) / np.linalg.norm(light.direction)
+    image = Renderer(str(path), width=W, height=H, aa="none").run()
+    on_quad = image.ids == 0
+    assert on_quad.mean() > 0.1
+    np.testing.assert_allclose(
+        image.image[on_quad], np.broadcast_to(kd * (framing.FRAMING.fill + light.intensity * toward[2]), (on_quad.sum(), 3)), rtol=1e-5
+    )
+    out = tmp_path / "quad.png"
+    assert main(["render", str(path), "--width", str(W), "--height", str(H), "-o", str(out)]) == 0, capsys.readouterr().err
+    pixels = np.asarray(Image.open(out), np.float64)[on_quad]
+    assert (pixels[:, 0] > 2 * pixels[:, 1] + 20).all() and (pixels[:, 0] > 2 * pixels[:, 2] + 20).all()
+
+
+def test_a_bare_obj_shows_its_map_kd_texture_the_right_way_round(tmp_path):
+    """map_Kd a 4 x 1 PNG, red red blue blue: the quad's left half (x < 0, u < 0.5) is red and its right half blue;
+    where the bilinear lookup reads only red (or only blue) texels the pixel is exactly texel x (fill + key cos)."""
+    from PIL import Image
+
+    Image.fromarray(np.array([[[255, 0, 0], [255, 0, 0], [0, 0, 255], [0, 0, 255]]], np.uint8)).save(tmp_path / "stripes.png")
+    path = obj_quad(tmp_path, "Kd 1 1 1\nKs 0 0 0\nmap_Kd stripes.png")
+    scene = Scene.load(path)
+    (light,) = scene.lights
+    toward = -np.asarray(light.direction) / np.linalg.norm(light.direction)
+    lit = framing.FRAMING.fill + light.intensity * toward[2]
+    result = Renderer(scene, width=W, height=H, aa="none").run()
+    image, on_quad = result.image.astype(np.float64), result.ids == 0
+    assert (image[on_quad][:, 1] == 0).all()  # no green in either texel
+    red, blue = on_quad & (image[..., 0] > 0.99 * lit) & (image[..., 2] == 0), on_quad & (image[..., 2] > 0.99 * lit) & (image[..., 0] == 0)
+    assert red.sum() > 0.2 * on_quad.sum() and blue.sum() > 0.2 * on_quad.sum()
+    np.testing.assert_allclose(image[red][:, 0], lit, rtol=1e-5)
+    np.testing.assert_allclose(image[blue][:, 2], lit, rtol=1e-5)
+    columns = np.arange(W)[None, :].repeat(H, 0)
+    assert columns[red].max() < columns[blue].min()  # red on the left (x < 0 is image left from the framing view)
 
 
 def test_the_python_api_takes_a_mesh_file(tmp_path):

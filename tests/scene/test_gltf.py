@@ -165,13 +165,17 @@ def test_a_flat_lit_quad_shows_lambert_for_the_gltf_brdf(tmp_path):
     np.testing.assert_allclose(image, np.broadcast_to(expected, image.shape), rtol=1e-5)
 
 
-def test_a_file_without_camera_or_lights_is_framed_and_headlit(box_glb):
+def test_a_file_without_camera_or_lights_is_framed_and_lit_by_the_framing_rig(box_glb):
     path, _, world = box_glb
     d = scene_dict(path)
     (cam,) = d["cameras"]
     (light,) = d["lights"]
     assert light["type"] == "directional"
-    np.testing.assert_allclose(light["direction"], np.subtract(cam["look_at"], cam["position"]))
+    toward = -np.asarray(light["direction"])
+    view = np.subtract(cam["position"], cam["look_at"])
+    right = np.cross(cam["up"], view)
+    assert toward @ view > 0 and toward @ np.asarray(cam["up"]) > 0 and toward @ right < 0  # over the camera's left shoulder
+    assert d["ambient"] == d["environment"]["color"] == [0.25] * 3  # and the fill (tests/scene/test_framing.py renders it)
     image = Renderer(path, width=16, height=12).run()
     assert (image.ids == 0).any() and (image.ids == -1).any()  # the box is in view, with room around it
 

@@ -155,6 +155,15 @@ def test_what_is_not_a_scene_is_refused_saying_what_a_tracer_takes(scene):
 
 
 @pytest.mark.parametrize(
+    "scene, got", [(np.zeros((3, 3)), r"a numpy array of shape \(3, 3\)"), (42, "int"), (None, "NoneType"), (b"refract1", "bytes")]
+)
+def test_what_is_not_a_scene_is_refused_by_the_renderer_naming_its_type(scene, got):
+    with pytest.raises(UsageError, match=r"^a scene is a Scene, a scene dict, a bundled scene name or a path .*; got " + got + "$") as refused:
+        clrender.Renderer(scene)
+    assert "\n" not in str(refused.value) and "unknown scene" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
     "option, says",
     [({"builder": ["sah"]}, "BVH builder"), ({"use_bvh": "no"}, "use_bvh 'no'"), ({"bvh_width": 8.5}, "BVH width 8.5"), ({"device": 3}, "device 3")],
 )

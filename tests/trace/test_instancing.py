@@ -194,12 +194,3 @@ def test_a_full_top_level_stack_visits_every_instance_and_finds_the_same_hits(de
     t1, p1, o1 = Tracer(scene, device=device, instancing=True, knobs=TraceKnobs(stack_size=1), bvh_width=8).intersect(o, d)
     for a, b in ((t0, t1), (p0, p1), (o0, o1)):
         np.testing.assert_array_equal(a, b)
-
-
-def test_a_renderer_refuses_an_instancing_tracer_with_one_line(device):
-    from clrender.errors import UsageError
-    from clrender.trace.renderer import Renderer
-
-    scene = Scene.from_dict(bunnies(2))
-    with pytest.raises(UsageError, match="instancing=True answers ray queries only"):
-        Renderer(scene, tracer=Tracer(scene, device=device, instancing=True), width=8, height=8)

@@ -265,6 +265,18 @@ def test_normal_map_tilts_the_shading_normal(tmp_path, tilt):
     }
     image = clrender.Renderer(Scene.from_dict(scene, base_dir=tmp_path), aa="none").run().image
     np.testing.assert_allclose(image, 0.5 * max(float(mapped @ light), 0.0), rtol=1e-5)
+    # the path tracer's glTF BRDF with the mapped normal = the same BRDF on a plain quad turned so that its geometric
+    # normal is the mapped one (same camera rays, so the same wo, wi and normal at every sample)
+    path = dict(integrator="path", spp=1, max_depth=0, seed=4)
+    traced = clrender.Renderer(Scene.from_dict(scene, base_dir=tmp_path), **path).run().image
+    a = np.cross([0.0, 1.0, 0.0], mapped)
+    a *= 4 / np.linalg.norm(a)
+    b = np.cross(mapped, a)  # a x b is along the mapped normal
+    turned = {**scene, "materials": {"m": {"base_color": [0.5, 0.5, 0.5]}}}
+    turned["objects"] = [{"type": "quad", "corner": (-(a + b) / 2).tolist(), "edge_a": a.tolist(), "edge_b": b.tolist(), "material": "m"}]
+    expected = clrender.Renderer(Scene.from_dict(turned), **path).run().image
+    assert expected.min() > 0.05
+    np.testing.assert_allclose(traced, expected, rtol=1e-4)
     wrong = [-1, 1, 1] if tilt[0] else [1, -1, 1]  # the tangent (or bitangent) of the other sign
     assert abs((mapped * wrong) @ light - mapped @ light) > 0.05
 
