@@ -106,6 +106,13 @@ class Mesh:
                 del self.__dict__[name]
 
     @property
+    def has_vertex_normals(self) -> bool:
+        """Whether vertex_normals is an array (given, or to be made from `placed`), without making it."""
+        if "vertex_normals" in self.__dict__:
+            return self.__dict__["vertex_normals"] is not None
+        return self.placed is not None and self.placed[1] is not None
+
+    @property
     def world_made(self) -> tuple:
         """The names of the world arrays this mesh holds (made on reading, or given)."""
         return tuple(name for name in _LAZY_FIELDS if self.__dict__.get(name) is not None)

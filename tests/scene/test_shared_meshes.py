@@ -176,3 +176,20 @@ def test_a_scene_of_copies_ships_to_workers_as_one_array_and_comes_back_the_same
     for a, b in zip(scene.objects, back.objects):
         assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.to_world, b.to_world)
     assert split(back).key == payload.key == split(scene).key  # made or not, the same scene ships the same
+
+
+def test_an_instanced_render_makes_no_copys_world_vertices(ball, device):
+    """Whitted and path renders with instancing read the shape's object-space arrays: no copy's world vertices
+    are made, and of a smooth shape's normals only its first copy's (taken back to object space once)."""
+    from clrender.trace.renderer import Renderer
+
+    objects = ball_objects(6)
+    for o in objects[3:]:
+        o["smooth"] = True
+    lights = [{"type": "point", "position": [0.0, 10.0, 10.0]}]
+    scene = Scene.from_dict(
+        {"objects": objects, "lights": lights, "cameras": [{"position": [7.5, 2.0, 12.0], "look_at": [7.5, 0.0, 0.0]}]}, base_dir=ball
+    )
+    for integrator in ("whitted", "path"):
+        Renderer(scene, width=16, height=12, integrator=integrator, instancing=True).run()
+    assert [m.world_made for m in scene.objects] == [()] * 3 + [("vertex_normals",)] + [()] * 2
