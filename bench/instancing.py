@@ -10,7 +10,7 @@ the same scene with one object:
 - `file`: that bunny written once to a .ply in a temporary folder and a TOML scene file whose objects
   all name it (the issue's case: the file is read once, `file_reads` counts scene.load_mesh_file's calls).
 
-Reported per scene: the median seconds of loading it (Scene.from_dict or Scene.from_file: mesh reading
+Reported per scene: the fewest seconds of loading it (Scene.from_dict or Scene.from_file: mesh reading
 and placing; the scenes loaded in turn, as their rays are traced, so that a busy machine slows all
 alike), of Tracer(scene) (flatten, BVH build, upload), the peak Python-heap bytes of both steps
 (tracemalloc, in a separate untimed run: numpy's arrays are counted; the Tracer's peak has the loaded
@@ -28,7 +28,6 @@ reported, never asserted (docs/bvh.md, "Instancing").
 from __future__ import annotations
 
 import argparse
-import statistics
 import tempfile
 import time
 import tracemalloc
@@ -38,8 +37,9 @@ import numpy as np
 
 from .common import write_table
 
-LOAD_RUNS = 7  # loads timed per scene, the scenes in turn (the median is reported): one takes some 20 ms
-TRACE_RUNS = 5  # primary-ray passes timed per scene, likewise
+LOAD_RUNS = 15  # loads timed per scene, the scenes in turn (the fastest is reported: other work only adds time)
+TRACE_RUNS = 15  # primary-ray passes timed per scene, likewise
+BUILD_RUNS = 3  # Tracer builds timed per scene (the fastest is reported; the flat copies' takes seconds)
 
 
 def placements(copies: int):
@@ -108,10 +108,13 @@ def prepare(kind: str, copies: int, resolution: int, size: int, instancing: bool
         load()
     finally:
         scene_module.load_mesh_file = read
-    start = time.perf_counter()
-    tracer = Tracer(load(), instancing=instancing)
-    build_s = time.perf_counter() - start
-    del tracer
+    loaded, build_s = load(), float("inf")
+    for _ in range(BUILD_RUNS):
+        start = time.perf_counter()
+        tracer = Tracer(loaded, instancing=instancing)
+        build_s = min(build_s, time.perf_counter() - start)
+        del tracer
+    del loaded
     tracemalloc.start()  # an untimed run: tracemalloc slows every allocation
     scene = load()
     _, load_peak = tracemalloc.get_traced_memory()
@@ -148,14 +151,15 @@ def prepare(kind: str, copies: int, resolution: int, size: int, instancing: bool
 
 
 def alternate(fns, rounds: int) -> list[float]:
-    """The median seconds of each fn, all called in turn `rounds` times (the machine's load falls on all alike)."""
+    """The fewest seconds of each fn, all called in turn `rounds` times: the machine's load falls on all alike,
+    and on a busy machine (other helpers' work on 2 cores) it only ever adds time, by 1.5x from run to run."""
     times = [[] for _ in fns]
     for _ in range(rounds):
         for spent, fn in zip(times, fns):
             start = time.perf_counter()
             fn()
             spent.append(time.perf_counter() - start)
-    return [statistics.median(t) for t in times]
+    return [min(t) for t in times]
 
 
 def ratios(rows: list[dict]) -> list[dict]:
