@@ -82,7 +82,7 @@ def join(payload: ScenePayload):
 def _describe(value, arrays: dict, path: str):
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         cls = type(value)
-        fields = {f.name: _describe(getattr(value, f.name), arrays, f"{path}.{f.name}") for f in dataclasses.fields(value)}
+        fields = {f.name: _describe(_field(value, f.name), arrays, f"{path}.{f.name}") for f in dataclasses.fields(value)}
         return {"__class__": f"{cls.__module__}:{cls.__qualname__}", "fields": fields}
     if isinstance(value, np.ndarray):
         for name in arrays.get(id(value), ()):  # an array several objects share (instancing's local vertices) ships once
@@ -102,6 +102,13 @@ def _describe(value, arrays: dict, path: str):
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     raise TypeError(f"cannot ship {type(value).__name__} at {path} to a worker")
+
+
+def _field(value, name: str):
+    """A dataclass field's value; one made on first read (a shared mesh's world vertices, scene.Mesh) as it
+    was given: None when the worker makes it from what the mesh keeps, so 30 copies ship one array."""
+    made = getattr(type(value), name, None)
+    return made.given(value) if hasattr(made, "given") else getattr(value, name)
 
 
 def _rebuild(value, arrays: dict):

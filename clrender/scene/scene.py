@@ -71,11 +71,16 @@ class Sphere:
 
 @dataclass
 class Mesh:
-    """Triangles with optional per-vertex normals (used when `smooth`)."""
+    """Triangles with optional per-vertex normals (used when `smooth`).
 
-    vertices: np.ndarray  # (V, 3) float64 in world space
+    A mesh read from a file or a generator keeps only what places it (`placed`): its world vertices and
+    normals are made on first read and then kept (`world_made` says which), so 30 objects naming one
+    file hold one array until something (the flat Tracer) asks for each copy; the instanced Tracer never does.
+    """
+
+    vertices: np.ndarray | None  # (V, 3) float64 in world space; None: made from `placed` on first read
     faces: np.ndarray  # (F, 3) int
-    vertex_normals: np.ndarray | None = None  # (V, 3) unit normals for smooth shading
+    vertex_normals: np.ndarray | None = None  # (V, 3) unit normals for smooth shading (from `placed` when it has normals)
     material: str = "default"
     smooth: bool = False  # interpolate vertex normals (True) or use each face's normal
     source: str = ""  # file or generator it came from, for messages
@@ -89,6 +94,67 @@ class Mesh:
     shape_key: tuple | None = None  # None: not shareable (inline vertices)
     local_vertices: np.ndarray | None = None  # (V, 3) float64 before to_world
     to_world: np.ndarray | None = None  # (4, 4) object-to-world matrix: vertices = local_vertices @ M[:3, :3].T + M[:3, 3]
+    # What vertices and vertex_normals are made from on first read: (points, normals or None, 4x4 matrix M), the
+    # points placed by M and the normals by its inverse transpose.  A file's or generator's: local_vertices and
+    # to_world; a glTF node's: the node's world vertices and the object's own transform (the order the loader
+    # always used, so the world vertices are the same bits however they are made).
+    placed: tuple | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        for name in _LAZY_FIELDS:  # None and placed given: read through _MadeOnFirstRead
+            if self.__dict__.get(name, 0) is None and self.placed is not None and (name == "vertices" or self.placed[1] is not None):
+                del self.__dict__[name]
+
+    @property
+    def has_vertex_normals(self) -> bool:
+        """Whether vertex_normals is an array (given, or to be made from `placed`), without making it."""
+        if "vertex_normals" in self.__dict__:
+            return self.__dict__["vertex_normals"] is not None
+        return self.placed is not None and self.placed[1] is not None
+
+    @property
+    def world_made(self) -> tuple:
+        """The names of the world arrays this mesh holds (made on reading, or given)."""
+        return tuple(name for name in _LAZY_FIELDS if self.__dict__.get(name) is not None)
+
+
+def _place_points(placed) -> np.ndarray:
+    points, _, matrix = placed
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge file coordinate times scale: _check_placed refused it
+        return np.asarray(points, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def _place_normals(placed) -> np.ndarray:
+    _, local, matrix = placed
+    n = local @ np.linalg.inv(matrix[:3, :3])  # normals transform by the inverse transpose; renormalised afterwards
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+
+
+class _MadeOnFirstRead:
+    """A Mesh field made from `placed` when first read and kept in the instance (a non-data descriptor, like
+    functools.cached_property: once the instance holds the value, reads never come here again)."""
+
+    def __init__(self, name: str, make):
+        self.name, self.make = name, make
+
+    def __get__(self, mesh, owner=None):
+        if mesh is None:
+            return self
+        value = mesh.__dict__[self.name] = self.make(mesh.placed)
+        mesh.__dict__.setdefault("_made_here", set()).add(self.name)
+        return value
+
+    def given(self, mesh):
+        """The value as the mesh was given it: None when it is (or would be) made from `placed`, so that
+        payload.py ships `placed` alone and the worker makes the same bits."""
+        if self.name in mesh.__dict__.get("_made_here", ()):
+            return None
+        return mesh.__dict__.get(self.name)
+
+
+_LAZY_FIELDS = ("vertices", "vertex_normals")
+Mesh.vertices = _MadeOnFirstRead("vertices", _place_points)
+Mesh.vertex_normals = _MadeOnFirstRead("vertex_normals", _place_normals)
 
 
 @dataclass
@@ -277,9 +343,11 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
 
 def _adopt_file_materials(checks: Checks, scene) -> None:
     """Every mesh's file material (mtl_material) becomes a scene material named after the file and its material,
-    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects."""
+    its map_Kd image a texture; the mesh then uses it.  The meshes keep no reference to trimesh's objects.
+    Objects naming one file share its material: its image is decoded once."""
     from ..memory import require
 
+    adopted = set()  # names made here: a second copy of a file uses the first's material and texture
     for obj in scene.objects:
         found = getattr(obj, "file_material", None)
         if found is None:
@@ -287,6 +355,10 @@ def _adopt_file_materials(checks: Checks, scene) -> None:
         obj.file_material = None
         found = dict(found)
         image, name = found.pop("image"), f"{obj.source}:{found.pop('name')}"
+        if name in adopted:
+            obj.material = name
+            continue
+        adopted.add(name)
         ref = None
         if image is not None:
             buffer = io.BytesIO()
@@ -481,9 +553,16 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
     matrix = transform_matrix(translate, rotate, scale)
-    with np.errstate(over="ignore", invalid="ignore"):  # a huge file coordinate times scale: check_placed refuses it
-        vertices = np.asarray(tm.vertices, np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-    _check_placed(checks, vertices, path)
+    points = np.asarray(tm.vertices, np.float64)  # what matrix places: the mesh's own, or a glTF node's world ones
+    if key is not None:  # one array object for every copy (payload.py ships it once)
+        points = cache.setdefault(("local", key), points)
+        box = cache.get(("box", key))
+        if box is None:
+            box = cache[("box", key)] = (points.min(axis=0), points.max(axis=0))
+        _check_placed_box(checks, points, box, matrix, path)
+    else:  # inline vertices: placed now, as they are not shared
+        vertices = _place_points((points, None, matrix))
+        _check_placed(checks, vertices, path)
     normals = None
     if smooth:
         from .meshes import shading_normals
@@ -496,22 +575,25 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
             local = shading_normals(tm.vertices, tm.faces, given)
             if key is not None:
                 cache[("normals", key)] = local
-        # Normals transform by the inverse transpose; renormalise afterwards.
-        n = local @ np.linalg.inv(matrix[:3, :3])
-        normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    uvs, uvs1, colours, tangents = _vertex_attributes(tm)
+        normals = local
+    uvs, uvs1, colours, tangents = _vertex_attributes(tm) if key is None else cache.get(("attributes", key)) or _vertex_attributes(tm)
+    if key is not None:  # a file's uvs are made from trimesh's once, and shared like its vertices
+        cache[("attributes", key)] = (uvs, uvs1, colours, tangents)
     if tangents is not None:  # they turn with the object's transform
         xyz = tangents[:, :3] @ matrix[:3, :3].T
         tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
-    local_vertices, faces, to_world = np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64), matrix
-    if key is not None:  # one array object for every copy (payload.py ships it once)
-        local_vertices = cache.setdefault(("local", key), local_vertices)
+    local_vertices, faces, to_world = points, np.asarray(tm.faces, np.int64), matrix
+    if key is not None:
         faces = cache.setdefault(("faces", key), faces)
     if placed is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
         mesh_index, own, node_matrix = placed
         key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
         local_vertices = cache.setdefault(("gltf mesh", key), own)
-    mesh = Mesh(vertices, faces, normals, material, smooth, source, uvs, uvs1, colours, tangents)
+    if key is None:
+        mesh = Mesh(vertices, faces, None if normals is None else _place_normals((points, normals, matrix)), material, smooth, source)
+    else:  # world vertices (and normals) made on first read: the instanced Tracer never reads them
+        mesh = Mesh(None, faces, None, material, smooth, source, placed=(points, normals, matrix))
+    mesh.uvs, mesh.uvs1, mesh.colours, mesh.tangents = uvs, uvs1, colours, tangents
     mesh.shape_key, mesh.local_vertices, mesh.to_world = key, local_vertices, to_world
     if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
         mesh.file_material = textures.mtl_material(tm)
@@ -560,6 +642,22 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
         if not (isinstance(f, list) and len(f) == 3 and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(points) for k in f)):
             checks.fail(f"{path}.faces[{i}]", f"{show(f)}: expected 3 vertex indices from 0 to {len(points) - 1}")
     return _InlineMesh(points, np.array(faces, np.int64))
+
+
+def _check_placed_box(checks: Checks, points, box, matrix, path):
+    """_check_placed's answer without placing every vertex when the box of `points` (lo, hi) settles it: no
+    coordinate of the placed points reaches past the placed box's corners (each is affine in the point), and
+    the placed points span at least the smallest singular value of the matrix times the box's longest side,
+    over sqrt(3) along some axis.  Near either limit the vertices are placed and checked as always."""
+    lo, hi = box
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = np.abs(corners @ matrix[:3, :3].T + matrix[:3, 3]).max()
+        extent = np.linalg.svd(matrix[:3, :3], compute_uv=False).min() * (hi - lo).max() / np.sqrt(3)
+    margin = 1 + 1e-6  # far above the rounding of either way of placing the points
+    if reach * margin <= 10 * COORD_LIMIT and extent >= margin * RELATIVE_PRECISION * reach:
+        return
+    _check_placed(checks, _place_points((points, None, matrix)), path)
 
 
 def _check_placed(checks: Checks, vertices, path):

@@ -135,7 +135,7 @@ def shape_meshes(scene: Scene, instances: Instances) -> list:
     for shape in instances.shapes:
         objs = [scene.objects[o] for o in shape.objects]
         first = objs[0]
-        smooth = [o for o in objs if o.smooth and o.vertex_normals is not None]
+        smooth = [o for o in objs if o.smooth and o.has_vertex_normals]  # the first one's world normals are made, no other's
         normals = object_space(smooth[0].vertex_normals, smooth[0].to_world, True) if smooth else None
         tangents = first.tangents
         if tangents is not None:
@@ -148,7 +148,7 @@ def instanced_object_flags(objects: np.ndarray, scene: Scene, instances: Instanc
     """The ObjectRecords of the instanced objects (flat_part made them empty meshes): smooth and vertex-colour flags as flatten sets them."""
     for oid in instances.records["object"]:
         obj = scene.objects[int(oid)]
-        objects[oid]["smooth"] = int(obj.smooth and obj.vertex_normals is not None)
+        objects[oid]["smooth"] = int(obj.smooth and obj.has_vertex_normals)  # not obj.vertex_normals: each copy's would be made
         objects[oid]["vertex_colours"] = int(obj.colours is not None)
 
 
