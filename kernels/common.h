@@ -73,7 +73,16 @@ INLINE float3 cross3(float3 a, float3 b) {
 
 /* sqrt inline: PoCL calls its builtin out of line (a function around one vsqrtss); clang's
  * __builtin_sqrtf is the IEEE square root, correctly rounded like the hardware one it called. */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_sqrtf)
+#define SQRT_BUILTIN 1
+#endif
+#endif
+#ifdef SQRT_BUILTIN
 INLINE float sqrt_f(float x) { return __builtin_sqrtf(x); }
+#else
+INLINE float sqrt_f(float x) { return sqrt(x); } /* a compiler without clang's builtins */
+#endif
 INLINE float norm(float3 a) { return sqrt_f(dot3(a, a)); }
 INLINE float3 unit(float3 a) { return a / sqrt_f(dot3(a, a)); }
 
