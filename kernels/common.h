@@ -71,8 +71,34 @@ INLINE float3 cross3(float3 a, float3 b) {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 
-INLINE float norm(float3 a) { return sqrt(dot3(a, a)); }
-INLINE float3 unit(float3 a) { return a / sqrt(dot3(a, a)); }
+/* sqrt inline: PoCL calls its builtin out of line (a function around one vsqrtss); clang's
+ * __builtin_sqrtf is the IEEE square root, correctly rounded like the hardware one it called. */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_sqrtf)
+#define SQRT_BUILTIN 1
+#endif
+#endif
+#ifdef SQRT_BUILTIN
+INLINE float sqrt_f(float x) { return __builtin_sqrtf(x); }
+#else
+INLINE float sqrt_f(float x) { return sqrt(x); } /* a compiler without clang's builtins */
+#endif
+INLINE float norm(float3 a) { return sqrt_f(dot3(a, a)); }
+INLINE float3 unit(float3 a) { return a / sqrt_f(dot3(a, a)); }
+
+/* nextafter(x, INFINITY) and nextafter(x, -INFINITY) by the bits, inline (PoCL's is a call); the
+ * same for every float: NaN and the infinity it heads for unchanged, +-0 to the smallest denormal
+ * of that sign, others one ulp along. */
+INLINE float next_up(float x) {
+    if (!(x < INFINITY)) return x; /* NaN, +inf */
+    if (x == 0.0f) return as_float(1);
+    return as_float(as_int(x) + (x > 0.0f ? 1 : -1));
+}
+INLINE float next_down(float x) {
+    if (!(x > -INFINITY)) return x; /* NaN, -inf */
+    if (x == 0.0f) return as_float((int)0x80000001u);
+    return as_float(as_int(x) + (x > 0.0f ? -1 : 1));
+}
 
 /* The watertight triangle test's permutation and shear of a ray (see Ray). */
 INLINE void shear_ray(Ray *r) {
@@ -115,9 +141,9 @@ INLINE float3 offset_origin(float3 p, float3 p_err, float3 n) {
     float d = abs_f(n.x) * p_err.x + abs_f(n.y) * p_err.y + abs_f(n.z) * p_err.z;
     float3 offset = d * n;
     float3 po = p + offset;
-    po.x = offset.x > 0.0f ? nextafter(po.x, INFINITY) : (offset.x < 0.0f ? nextafter(po.x, -INFINITY) : po.x);
-    po.y = offset.y > 0.0f ? nextafter(po.y, INFINITY) : (offset.y < 0.0f ? nextafter(po.y, -INFINITY) : po.y);
-    po.z = offset.z > 0.0f ? nextafter(po.z, INFINITY) : (offset.z < 0.0f ? nextafter(po.z, -INFINITY) : po.z);
+    po.x = offset.x > 0.0f ? next_up(po.x) : (offset.x < 0.0f ? next_down(po.x) : po.x);
+    po.y = offset.y > 0.0f ? next_up(po.y) : (offset.y < 0.0f ? next_down(po.y) : po.y);
+    po.z = offset.z > 0.0f ? next_up(po.z) : (offset.z < 0.0f ? next_down(po.z) : po.z);
     return po;
 }
 

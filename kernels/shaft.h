@@ -20,6 +20,7 @@
 
 #include "common.h"
 #include "intersect.h"
+#include "packet.h" /* triangle_test8: two candidate blocks against a ray at once (hit_block_pair) */
 
 #ifndef SHADOW_SHAFTS
 #error "SHADOW_SHAFTS is missing: build trace.cl with clrender.trace.tracer.trace_defines()"
@@ -304,20 +305,55 @@ INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftC
     return true;
 }
 
+/* Two leaf blocks' triangles against one ray, block a in the low four float8 lanes and b in the high
+ * four: hit_block's float operations lane by lane (triangle.h, the ray's values the same in every
+ * lane), so each half is bit for bit hit_block of its block, for about the cost of one. */
+INLINE float8 hit_block_pair(Ray r, __global const LeafBlock *a, __global const LeafBlock *b, int8 valid, float t_max) {
+    float ox = axis_of(r.o, r.kx), oy = axis_of(r.o, r.ky), oz = axis_of(r.o, r.kz);
+#define PAIR(v, k) (float8)(a->v[k], b->v[k])
+    float8 u, v;
+    return triangle_test8(PAIR(v0, r.kx) - ox, PAIR(v0, r.ky) - oy, PAIR(v0, r.kz) - oz, PAIR(v1, r.kx) - ox,
+                          PAIR(v1, r.ky) - oy, PAIR(v1, r.kz) - oz, PAIR(v2, r.kx) - ox, PAIR(v2, r.ky) - oy,
+                          PAIR(v2, r.kz) - oz, valid, (float8)(r.sx), (float8)(r.sy), (float8)(r.sz), (float8)(0.0f),
+                          (float8)(t_max), &u, &v);
+#undef PAIR
+}
+
+/* The triangle lanes (bits 0..3) of a candidate as hit_block's valid mask */
+INLINE int4 candidate_lanes(int lanes) { return ((int4)(lanes) & (int4)(1, 2, 4, 8)) != (int4)(0); }
+
 /* Transmittance of one shadow ray (t in (0, t_max)) through the candidates: the crossings and
- * factors of leaf_blocks / crossing_transmittance.  The candidate that blocked a ray moves to the
+ * factors of leaf_blocks / crossing_transmittance, candidate by candidate in list order.  Two
+ * block candidates in a row are tested at once (hit_block_pair); the second one's crossings count
+ * only if the ray gets past the first, as one by one.  The candidate that blocked a ray moves to the
  * front, where the next ray (a neighbour) tries it first. */
 INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Ray r, float t_max) {
     float T = cand->crossed_T;
+    float4 next_t = (float4)(INF_T); /* candidate k's block hits, when the pair test before found them */
+    bool have_next = false;
     for (int k = 0; k < cand->n && T > 0.0f; ++k) {
         int first = cand->first[k];
         if (first < 0) {
             T *= crossing_transmittance(g, -2 - first, r, 0.0f, t_max, false);
         } else {
             __global const LeafBlock *block = leaf_block(g, first);
-            int4 valid = ((int4)(cand->lanes[k]) & (int4)(1, 2, 4, 8)) != (int4)(0);
-            float4 u, v;
-            T = times_crossed(g, block, hit_block(r, block, valid, 0.0f, t_max, &u, &v), T);
+            float4 t = next_t;
+            if (!have_next) {
+                int second = k + 1 < cand->n ? cand->first[k + 1] : -1;
+                if (second >= 0) {
+                    int8 valid = (int8)(candidate_lanes(cand->lanes[k]), candidate_lanes(cand->lanes[k + 1]));
+                    float8 t8 = hit_block_pair(r, block, leaf_block(g, second), valid, t_max);
+                    t = t8.lo;
+                    next_t = t8.hi;
+                } else {
+                    float4 u, v;
+                    t = hit_block(r, block, candidate_lanes(cand->lanes[k]), 0.0f, t_max, &u, &v);
+                }
+                have_next = second >= 0;
+            } else {
+                have_next = false;
+            }
+            T = times_crossed(g, block, t, T);
         }
         if (T == 0.0f && k > 0) { /* move to front */
             int f = cand->first[k], l = cand->lanes[k];

@@ -36,13 +36,22 @@ import math
 import re
 from dataclasses import dataclass, replace
 
-import cv2
 import numpy as np
 
 from ..errors import UsageError, shown
 from .files import Image
 
-BORDER = cv2.BORDER_REFLECT_101
+BORDER = 4  # cv2.BORDER_REFLECT_101 (tests/image check it): OpenCV is imported only when a filter runs
+
+
+def _cv2():
+    """OpenCV, imported on first use: the CLI imports this module for the filter names, and a render
+    without --filter should not pay cv2's import (20 ms)."""
+    import cv2
+
+    return cv2
+
+
 MAX_SIZE = 10001  # widest box or Gaussian accepted
 FLOAT_MAX = float(np.finfo(np.float32).max)  # results are clamped to +-this (float32's largest finite value)
 # Blurs and edge detectors scale inputs beyond 2^SAFE_EXPONENT down first: a sum of MAX_SIZE^2 (< 2^27)
@@ -105,6 +114,7 @@ class Filter:
 
     def _linear(self, pixels: np.ndarray) -> np.ndarray:
         """The blur or edge detector itself (OpenCV), on values small enough not to overflow."""
+        cv2 = _cv2()
         if self.kind == "edge_detect":
             return _per_planes(lambda x: cv2.filter2D(x, cv2.CV_32F, EDGE_KERNELS[int(self.value)], borderType=BORDER), pixels)
         size = int(self.value)
@@ -268,6 +278,7 @@ def separable_fft(pixels: np.ndarray, weights: np.ndarray, rows_per_block: int =
 
 def _fft_lines(lines: np.ndarray, weights: np.ndarray, block: int) -> np.ndarray:
     """Filter each row of a 2-D float32 array with a symmetric 1-D kernel by FFT (cv2.dft, rows at a time)."""
+    cv2 = _cv2()
     lines = np.ascontiguousarray(lines)
     count, n = lines.shape
     r = len(weights) // 2

@@ -8,7 +8,10 @@
 * `shading_normals(vertices, faces, given)` -- the normals a `smooth = true` mesh is shaded with:
   a file's or generator's where usable, else computed and welded across patch borders
 
-Scene files use them with `generator = "bunny"` and keyword arguments in `params = {...}`.
+Scene files use them with `generator = "bunny"` and keyword arguments in `params = {...}`, through
+`generate(name, **params)`, which returns bare arrays (`MeshArrays`): trimesh is imported only by the
+functions that return a `trimesh.Trimesh`, because its import (scipy with it) took 0.34 s of a
+3.8 s `clrender render wizard_cat` (docs/bvh.md).
 Every generated mesh carries its vertex normals, computed here with numpy (`vertex_normals`):
 trimesh's own routine needs scipy and otherwise falls back to a per-vertex Python loop
 (72 s for the 120k-triangle rock of refract2) with a traceback on stderr.
@@ -16,15 +19,19 @@ trimesh's own routine needs scipy and otherwise falls back to a per-vertex Pytho
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import platformdirs
-import trimesh
 
 from ..errors import UsageError
 from ..memory import MAX_TRIANGLES, triangles_bytes
 from ..memory import require as require_memory
+
+if TYPE_CHECKING:
+    import trimesh
 
 MAX_DENSE_TRIANGLES = MAX_TRIANGLES  # memory.py: about 640 bytes each to load, build and trace
 
@@ -106,11 +113,32 @@ def shading_normals(vertices: np.ndarray, faces: np.ndarray, given: np.ndarray |
     return np.where(bad[:, None], welded_vertex_normals(vertices, faces), given)
 
 
-def with_normals(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """`mesh` with its vertex normals set from `vertex_normals` (trimesh keeps them until the
-    vertices or faces change), so nobody asks trimesh, and so scipy, for them."""
-    mesh.vertex_normals = vertex_normals(mesh.vertices, mesh.faces)
-    return mesh
+@dataclass
+class MeshArrays:
+    """What a scene reads of a generated mesh, with the dtypes trimesh.Trimesh(process=False) gives."""
+
+    vertices: np.ndarray  # (n, 3) float64
+    faces: np.ndarray  # (m, 3) int64, counter-clockwise seen from outside
+    vertex_normals: np.ndarray  # (n, 3) float64, unit
+
+    def to_trimesh(self) -> trimesh.Trimesh:
+        import trimesh
+
+        mesh = trimesh.Trimesh(self.vertices, self.faces, process=False)
+        mesh.vertex_normals = self.vertex_normals  # kept until the vertices or faces change
+        return mesh
+
+
+def with_normals(vertices, faces) -> MeshArrays:
+    """The mesh with its vertex normals from `vertex_normals`, so nobody asks trimesh, and so scipy, for them."""
+    vertices, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    return MeshArrays(vertices, faces, vertex_normals(vertices, faces))
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Volume enclosed by a closed mesh, positive when its faces wind counter-clockwise seen from outside."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    return float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
 
 
 def uv_sphere_faces(rings: int, segments: int) -> np.ndarray:
@@ -139,6 +167,11 @@ def uv_sphere_directions(rings: int, segments: int) -> np.ndarray:
 
 
 def dense_mesh(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
+    """`dense_mesh_arrays` as a trimesh.Trimesh."""
+    return dense_mesh_arrays(n_triangles, seed).to_trimesh()
+
+
+def dense_mesh_arrays(n_triangles: int = 100_000, seed: int = 0) -> MeshArrays:
     """A closed lumpy sphere (radius about 1, centred at the origin) of about `n_triangles` triangles.
 
     The surface is a UV sphere displaced along its normals by a sum of random waves; `seed` picks
@@ -157,7 +190,7 @@ def dense_mesh(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     phase = rng.uniform(0, 2 * np.pi, waves)
     radius = 1.0 + np.sin(dirs @ k.T + phase) @ amp
     vertices = dirs * radius[:, None]
-    return with_normals(trimesh.Trimesh(vertices, faces, process=False))
+    return with_normals(vertices, faces)
 
 
 DENSE_VERSION = 1  # bump when dense_mesh's shape changes: names the cache file
@@ -165,9 +198,13 @@ DENSE_VERSION = 1  # bump when dense_mesh's shape changes: names the cache file
 
 def dense(n_triangles: int = 100_000, seed: int = 0) -> trimesh.Trimesh:
     """Scene generator name for `dense_mesh` (about 100k triangles), cached like the bunny."""
+    return dense_arrays(n_triangles, seed).to_trimesh()
+
+
+def dense_arrays(n_triangles: int = 100_000, seed: int = 0) -> MeshArrays:
     n_triangles = _check_range("dense mesh triangle count", n_triangles, 8, MAX_DENSE_TRIANGLES)
     require_memory(triangles_bytes(n_triangles), f"a dense mesh of {n_triangles} triangles")
-    return cached_mesh(f"dense-v{DENSE_VERSION}-n{n_triangles}-s{seed!r}", lambda: dense_mesh(n_triangles, seed))
+    return cached_mesh(f"dense-v{DENSE_VERSION}-n{n_triangles}-s{seed!r}", lambda: dense_mesh_arrays(n_triangles, seed))
 
 
 # ------------------------------------------------------------ implicit surfaces
@@ -311,15 +348,20 @@ def cache_dir() -> Path:
     return Path(platformdirs.user_cache_dir("clrender", appauthor=False))
 
 
-def build_bunny(resolution: int = 112) -> trimesh.Trimesh:
+def build_bunny(resolution: int = 112) -> MeshArrays:
     """Mesh `bunny_field` (no cache): scaled to fit a unit box, sitting on y = 0, centred in x and z."""
     verts, faces = surface_nets(bunny_field, (-1.0, -0.2, -1.4), (1.0, 2.8, 1.4), resolution)
     lo, hi = verts.min(0), verts.max(0)
     verts = (verts - [(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2]) / (hi - lo).max()
-    return with_normals(trimesh.Trimesh(verts, faces, process=False))
+    return with_normals(verts, faces)
 
 
 def bunny(resolution: int = 112, cache: bool = True) -> trimesh.Trimesh:
+    """`bunny_arrays` as a trimesh.Trimesh."""
+    return bunny_arrays(resolution, cache).to_trimesh()
+
+
+def bunny_arrays(resolution: int = 112, cache: bool = True) -> MeshArrays:
     """A closed bunny-like mesh (body, head, two long ears, tail, legs; about 3.5 * resolution^2
     triangles, 43,840 at the default), scaled to fit a unit box, sitting on y = 0, facing +z.
     Watertight at the default resolution (surface nets can leave a few non-manifold edges at others).
@@ -333,7 +375,7 @@ def bunny(resolution: int = 112, cache: bool = True) -> trimesh.Trimesh:
     return cached_mesh(f"bunny-v{BUNNY_VERSION}-r{resolution}", lambda: build_bunny(resolution))
 
 
-def cached_mesh(key: str, build) -> trimesh.Trimesh:
+def cached_mesh(key: str, build) -> MeshArrays:
     """cache_dir()/<key>.npz if it is there and readable, else build() saved under that name.
     Generating the bunny (2 s) or the 120k-triangle rock (0.3 s) on every scene load would
     dominate a small render; loading the .npz takes milliseconds."""
@@ -345,21 +387,19 @@ def cached_mesh(key: str, build) -> trimesh.Trimesh:
     return mesh
 
 
-def load_cached_mesh(path: Path) -> trimesh.Trimesh | None:
+def load_cached_mesh(path: Path) -> MeshArrays | None:
     """A mesh saved by `save_cached_mesh`, or None when the file is missing or damaged."""
     try:
         with np.load(path) as data:
             vertices, faces, normals = data["vertices"], data["faces"], data["normals"]
         if len(faces) == 0 or normals.shape != vertices.shape or not 0 <= faces.min() <= faces.max() < len(vertices):
             return None
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        mesh.vertex_normals = normals
-        return mesh
+        return MeshArrays(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), np.asarray(normals, np.float64))
     except Exception:  # missing, truncated or foreign: rebuild it
         return None
 
 
-def save_cached_mesh(path: Path, mesh: trimesh.Trimesh) -> None:
+def save_cached_mesh(path: Path, mesh: MeshArrays) -> None:
     """Write vertices, faces and vertex normals as .npz (temp file + rename, so a reader never
     sees half a file); a read-only home just means no cache."""
     try:
@@ -372,7 +412,7 @@ def save_cached_mesh(path: Path, mesh: trimesh.Trimesh) -> None:
 
 
 # ------------------------------------------------------------ low-poly props
-def lathe(profile, segments: int) -> trimesh.Trimesh:
+def lathe(profile, segments: int) -> MeshArrays:
     """Revolve a profile [(radius, y), ...] around the y axis.  The profile starts and ends on the
     axis (radius 0) and runs bottom to top; the result is closed and wound outward."""
     prof = np.asarray(profile, np.float64)
@@ -386,13 +426,18 @@ def lathe(profile, segments: int) -> trimesh.Trimesh:
     )
     verts = np.concatenate([[[0, prof[0, 1], 0], [0, prof[-1, 1], 0]], ring_v])
     # the same connectivity as a UV sphere: a pole, `rings` rings, a pole
-    mesh = trimesh.Trimesh(verts, uv_sphere_faces(rings + 1, segments), process=False)
-    if mesh.volume < 0:
-        mesh.invert()
-    return with_normals(mesh)
+    verts, faces = np.asarray(verts, np.float64), uv_sphere_faces(rings + 1, segments)
+    if signed_volume(verts, faces) < 0:
+        faces = np.ascontiguousarray(faces[:, ::-1])  # wound outward (trimesh's invert: the columns reversed)
+    return with_normals(verts, faces)
 
 
 def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
+    """`wizard_hat_arrays` as a trimesh.Trimesh."""
+    return wizard_hat_arrays(segments).to_trimesh()
+
+
+def wizard_hat_arrays(segments: int = 48) -> MeshArrays:
     """A pointed hat with a brim and a tip bent back (-z): brim radius 0.5, height about 0.9, on y = 0."""
     segments = _check_range("wizard_hat segments", segments, 3, 4096)
     cone = [(0.24 * (1 - t) ** 1.3, 0.04 + 0.86 * t) for t in np.linspace(0, 1, 14)[1:]]
@@ -403,11 +448,15 @@ def wizard_hat(segments: int = 48) -> trimesh.Trimesh:
     bend = np.clip((v[:, 1] - 0.45) / 0.45, 0, None)
     v[:, 2] -= 0.22 * bend**2  # the droop of the tip
     v[:, 1] -= 0.06 * bend**3
-    mesh.vertices = v
-    return with_normals(mesh)
+    return with_normals(v, mesh.faces)
 
 
 def tower(segments: int = 24) -> trimesh.Trimesh:
+    """`tower_arrays` as a trimesh.Trimesh."""
+    return tower_arrays(segments).to_trimesh()
+
+
+def tower_arrays(segments: int = 24) -> MeshArrays:
     """A round tower: a cylinder (radius 0.3, 1.5 high) with a battlement lip and a cone roof."""
     segments = _check_range("tower segments", segments, 3, 4096)
     profile = [(0, 0), (0.3, 0), (0.3, 1.5), (0.36, 1.52), (0.36, 1.62), (0.0, 2.2)]
@@ -415,6 +464,11 @@ def tower(segments: int = 24) -> trimesh.Trimesh:
 
 
 def cat(resolution: int = 40) -> trimesh.Trimesh:
+    """`cat_arrays` as a trimesh.Trimesh."""
+    return cat_arrays(resolution).to_trimesh()
+
+
+def cat_arrays(resolution: int = 40) -> MeshArrays:
     """A low-poly sitting cat facing +z, about 1 tall, on y = 0: body, head, pointed ears, tail."""
     resolution = _check_range("cat resolution", resolution, 16, 256)
 
@@ -437,4 +491,13 @@ def cat(resolution: int = 40) -> trimesh.Trimesh:
 
     verts, faces = surface_nets(field, (-0.5, -0.1, -0.5), (0.5, 1.1, 0.5), resolution)
     verts[:, 1] -= verts[:, 1].min()
-    return with_normals(trimesh.Trimesh(verts, faces, process=False))
+    return with_normals(verts, faces)
+
+
+# scene generator name -> the function a scene calls (scene.py checks the names and params: GENERATOR_PARAMS)
+GENERATORS = {"bunny": bunny_arrays, "dense": dense_arrays, "wizard_hat": wizard_hat_arrays, "tower": tower_arrays, "cat": cat_arrays}
+
+
+def generate(name: str, **params) -> MeshArrays:
+    """The built-in mesh `name` (a key of GENERATORS) with its keyword arguments, as bare arrays."""
+    return GENERATORS[name](**params)

@@ -546,7 +546,7 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     else:
         from . import meshes
 
-        tm = getattr(meshes, gen)(**params)
+        tm = meshes.generate(gen, **params)  # bare arrays: no trimesh import for a generated mesh
         source = gen
     if key is not None:
         cache[key] = (tm, source)

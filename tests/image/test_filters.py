@@ -277,3 +277,10 @@ def test_sizes_of_thousands_of_digits_are_refused_in_one_line():
         filters.parse(name)
     message = str(err.value)
     assert "5000 digits long" in message and "K odd in 1..10001" in message and len(message) < 400
+
+
+def test_border_is_opencvs_reflect_101():
+    """filters.BORDER is written as a number so that importing the module does not import OpenCV."""
+    import cv2
+
+    assert filters.BORDER == cv2.BORDER_REFLECT_101
