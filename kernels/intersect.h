@@ -660,6 +660,9 @@ INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool a
 }
 
 #if INSTANCED
+#ifndef INSTANCE_SORT_ALWAYS
+#define INSTANCE_SORT_ALWAYS false
+#endif
 /* ---------------------------------------------------------------- instances (clrender/trace/instancing.py)
  * -DINSTANCED=1: meshes that several objects place are stored once, each with its own tree in object
  * space after the flat part's tree in the nodes' buffer, and g->instances place them.  A ray meets the
@@ -697,6 +700,25 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
     return s;
 }
 
+/* The mesh tree of an instance, for a ray already in object space: the wide walk, its shear (three
+ * divisions) made only once the root has a hit (as the query kernels' walk_pair), else walk_tree. */
+INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                      float *T, uint *visits) {
+#if USE_BVH && BVH_WIDTH >= 4
+    Walk w;
+    walk_start_sorting(&w, s, r, t_min, t_max, any_hit, INSTANCE_SORT_ALWAYS);
+    if (w.sp > 0) shear_ray(&w.r);
+    while (w.sp > 0) walk_step(&w, s, opaque_only, any_hit);
+    walk_finish(&w, s, opaque_only, any_hit);
+    *visits += w.visits;
+    *best = w.best;
+    *T = w.T;
+#else
+    shear_ray(&r);
+    walk_tree(s, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#endif
+}
+
 /* Instance i met in object space.  Closest hit: its mesh's hit (local id + prim_base, ties to the lower
  * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (transparency_of
  * reads the instance's object: s.object). */
@@ -705,11 +727,11 @@ INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t
     __global const Instance *in = g->instances + i;
     float t_far = any_hit ? t_max : best->t;
     if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
-    Ray r_object = make_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
+    Ray r_object = make_box_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
     Geometry s = instance_geometry(g, in);
     Hit h;
     float T_in;
-    walk_tree(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
+    walk_mesh(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
     if (any_hit) { *T *= T_in; return; }
     int id = h.id + in->prim_base;
     if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
@@ -717,13 +739,22 @@ INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t
     }
 }
 
-/* The flat part, then the top tree depth first (nearer child first for closest hits), each leaf's
- * instances by visit_instance.  Should the stack fill up, every instance is visited instead (the
- * answer is the same: visit_instance keeps the nearest hit whatever the order). */
+/* The flat part (when it has primitives), then the top tree depth first (nearer child first for closest
+ * hits, a stacked child dropped when the nearest hit so far is before its box), each leaf's instances by
+ * visit_instance.  Should the stack fill up, every instance is visited instead (the answer is the same:
+ * visit_instance keeps the nearest hit whatever the order).  r needs no shear: each walk makes its own. */
 INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
                            Hit *best, float *T, uint *visits) {
-    walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    *best = no_hit();
+    best->t = t_max;
+    *T = 1.0f;
+    if (g->n_prims > 0) {
+        Ray r_flat = r;
+        shear_ray(&r_flat);
+        walk_tree(g, r_flat, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    }
     int stack[STACK_SIZE];
+    float stack_t[STACK_SIZE];
     int sp = 0, node = 0;
     if (g->n_instances == 0 || hit_bounds(r, g->top[0].bmin, g->top[0].bmax, any_hit ? t_max : best->t) == INF_T) return;
     while (node >= 0 && !(any_hit && *T == 0.0f)) {
@@ -745,11 +776,14 @@ INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, b
                         visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
                     return;
                 }
-                stack[sp++] = second;
+                stack[sp] = second; stack_t[sp] = t2; ++sp;
             }
             if (t1 != INF_T) next = first;
         }
-        if (next < 0 && sp > 0) next = stack[--sp];
+        while (next < 0 && sp > 0) { /* closest hit: a box entered beyond the nearest hit holds none nearer */
+            --sp;
+            if (any_hit || stack_t[sp] <= best->t * BOX_EXIT_WIDEN) next = stack[sp];
+        }
         node = next;
     }
 }
