@@ -48,6 +48,17 @@ typedef WideNode8 WideNode;
 typedef WideNode TreeNode;
 #endif
 
+#if INSTANCED
+/* The top level's node record: -DTOP_WIDE=1 (wide mesh trees and a top tree of more than one node), the
+ * wide walks' (clrender/trace/tracer.py _top collapses the binary tree over the instances' boxes, a leaf
+ * lane's child the first instance and count how many), else binary. */
+#if TOP_WIDE
+typedef WideNode TopNode;
+#else
+typedef BvhNode TopNode;
+#endif
+#endif
+
 /* The scene's geometry as every traversal reads it (packed by clrender/trace/tracer.py). */
 typedef struct {
     __global const TreeNode *nodes;    /* the tree, node 0 its root; a wide tree's leaf blocks follow its nodes (leaf_block) */
@@ -58,7 +69,7 @@ typedef struct {
     int n_prims;
 #if INSTANCED
     __global const Instance *instances; /* each names its mesh's tree and slots, in the top tree's leaf order */
-    __global const BvhNode *top;        /* the top level: a binary tree over the instances' world boxes */
+    __global const TopNode *top;        /* the top level: a tree over the instances' world boxes (TopNode) */
     int n_instances;
     int object;                         /* an instance's Geometry (instance_geometry): its object; -1: the flat part */
 #endif
@@ -81,7 +92,7 @@ INLINE void with_instances(Geometry *g, __global const Instance *instances, __gl
                            int n_instances) {
 #if INSTANCED
     g->instances = instances;
-    g->top = top;
+    g->top = (__global const TopNode *)top; /* the kernels' `top` argument holds TopNode records */
     g->n_instances = n_instances;
 #endif
 }
@@ -660,6 +671,9 @@ INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool a
 }
 
 #if INSTANCED
+#ifndef INSTANCE_SORT_ALWAYS
+#define INSTANCE_SORT_ALWAYS false
+#endif
 /* ---------------------------------------------------------------- instances (clrender/trace/instancing.py)
  * -DINSTANCED=1: meshes that several objects place are stored once, each with its own tree in object
  * space after the flat part's tree in the nodes' buffer, and g->instances place them.  A ray meets the
@@ -697,19 +711,37 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
     return s;
 }
 
-/* Instance i met in object space.  Closest hit: its mesh's hit (local id + prim_base, ties to the lower
- * id as everywhere) replaces *best when nearer; any-hit: *T times its transmittance (transparency_of
- * reads the instance's object: s.object). */
-INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
-                           Hit *best, float *T, uint *visits) {
+/* The mesh tree of an instance, for a ray already in object space: the wide walk, its shear (three
+ * divisions) made only once the root has a hit (as the query kernels' walk_pair), else walk_tree. */
+INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+                      float *T, uint *visits) {
+#if USE_BVH && BVH_WIDTH >= 4
+    Walk w;
+    walk_start_sorting(&w, s, r, t_min, t_max, any_hit, INSTANCE_SORT_ALWAYS);
+    if (w.sp > 0 || w.overflow) shear_ray(&w.r); /* walk_finish tests every triangle after an overflow */
+    while (w.sp > 0) walk_step(&w, s, opaque_only, any_hit);
+    walk_finish(&w, s, opaque_only, any_hit);
+    *visits += w.visits;
+    *best = w.best;
+    *T = w.T;
+#else
+    shear_ray(&r);
+    walk_tree(s, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#endif
+}
+
+/* Instance i met in object space, its world box entered.  Closest hit: its mesh's hit (local id +
+ * prim_base, ties to the lower id as everywhere) replaces *best when nearer; any-hit: *T times its
+ * transmittance (transparency_of reads the instance's object: s.object). */
+INLINE void visit_instance_entered(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit,
+                                   bool opaque_only, Hit *best, float *T, uint *visits) {
     __global const Instance *in = g->instances + i;
     float t_far = any_hit ? t_max : best->t;
-    if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
-    Ray r_object = make_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
+    Ray r_object = make_box_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
     Geometry s = instance_geometry(g, in);
     Hit h;
     float T_in;
-    walk_tree(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
+    walk_mesh(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
     if (any_hit) { *T *= T_in; return; }
     int id = h.id + in->prim_base;
     if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
@@ -717,14 +749,66 @@ INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t
     }
 }
 
-/* The flat part, then the top tree depth first (nearer child first for closest hits), each leaf's
- * instances by visit_instance.  Should the stack fill up, every instance is visited instead (the
- * answer is the same: visit_instance keeps the nearest hit whatever the order). */
-INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+/* Instance i, if the ray enters its world box before the nearest hit so far. */
+INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
                            Hit *best, float *T, uint *visits) {
-    walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    __global const Instance *in = g->instances + i;
+    float t_far = any_hit ? t_max : best->t;
+    if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
+    visit_instance_entered(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+}
+
+/* Every instance, when a top-level stack fills up (never with the builder's depth limit): the nearest hit
+ * whatever the order; any-hit starts again from the flat part's T_flat, so none is crossed twice. */
+INLINE void visit_every_instance(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                                 Hit *best, float *T, float T_flat, uint *visits) {
+    if (any_hit) *T = T_flat;
+    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i)
+        visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+}
+
+#if TOP_WIDE
+/* The top tree as the wide walks go (push_lanes: hit lanes nearest first, or farthest for any-hit; a lane
+ * entered beyond the nearest hit so far dropped), a leaf lane's instances by visit_instance. */
+INLINE void walk_top_wide(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                          Hit *best, float *T, uint *visits) {
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
+    bool overflow = false;
+    float T_flat = *T;
+    COUNT_NODE(visits);
+    int sp = push_lanes(0, hit_boxes(r, g->top, any_hit ? t_max : best->t), any_hit, false, stack_key, stack_node, 0,
+                        &overflow);
+    while (sp > 0 && !(any_hit && *T == 0.0f)) {
+        uint key = stack_key[--sp];
+        float t_far = any_hit ? t_max : best->t;
+        if (!any_hit && key_t(key) > t_far * BOX_EXIT_WIDEN) continue;
+        __global const WideNode *node = g->top + stack_node[sp];
+        int lane = key_lane(key, any_hit);
+        int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
+        if (count < 0) continue; /* an empty lane */
+        COUNT_NODE(visits);
+        if (count > 0) {
+            if (count == 1) /* the lane's box is the instance's own */
+                visit_instance_entered(g, child, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+            else
+                for (int i = child; i < child + count && !(any_hit && *T == 0.0f); ++i)
+                    visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+        } else {
+            sp = push_lanes(child, hit_boxes(r, g->top + child, t_far), any_hit, false, stack_key, stack_node, sp, &overflow);
+        }
+    }
+    if (overflow && !(any_hit && *T == 0.0f)) visit_every_instance(g, r, t_min, t_max, any_hit, opaque_only, best, T, T_flat, visits);
+}
+#else
+/* The binary top tree depth first, nearer child first for closest hits, a stacked child dropped when the
+ * nearest hit so far is before its box. */
+INLINE void walk_top_binary(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                            Hit *best, float *T, uint *visits) {
     int stack[STACK_SIZE];
+    float stack_t[STACK_SIZE];
     int sp = 0, node = 0;
+    float T_flat = *T;
     if (g->n_instances == 0 || hit_bounds(r, g->top[0].bmin, g->top[0].bmax, any_hit ? t_max : best->t) == INF_T) return;
     while (node >= 0 && !(any_hit && *T == 0.0f)) {
         __global const BvhNode *n = g->top + node;
@@ -741,17 +825,40 @@ INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, b
             if (t2 < t1) { int k = first; first = second; second = k; float t = t1; t1 = t2; t2 = t; }
             if (t2 != INF_T) {
                 if (sp == STACK_SIZE) { /* full: every instance instead */
-                    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i)
-                        visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+                    visit_every_instance(g, r, t_min, t_max, any_hit, opaque_only, best, T, T_flat, visits);
                     return;
                 }
-                stack[sp++] = second;
+                stack[sp] = second; stack_t[sp] = t2; ++sp;
             }
             if (t1 != INF_T) next = first;
         }
-        if (next < 0 && sp > 0) next = stack[--sp];
+        while (next < 0 && sp > 0) { /* closest hit: a box entered beyond the nearest hit holds none nearer */
+            --sp;
+            if (any_hit || stack_t[sp] <= best->t * BOX_EXIT_WIDEN) next = stack[sp];
+        }
         node = next;
     }
+}
+#endif
+
+/* The flat part (when it has primitives), then the top tree (walk_top_wide, walk_top_binary), each leaf's
+ * instances by visit_instance.  r needs no shear: each walk makes its own. */
+INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+                           Hit *best, float *T, uint *visits) {
+    *best = no_hit();
+    best->t = t_max;
+    *T = 1.0f;
+    if (g->n_prims > 0) {
+        Ray r_flat = r;
+        shear_ray(&r_flat);
+        walk_tree(g, r_flat, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    }
+    if (g->n_instances == 0 || (any_hit && *T == 0.0f)) return;
+#if TOP_WIDE
+    walk_top_wide(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#else
+    walk_top_binary(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#endif
 }
 #endif
 

@@ -216,7 +216,11 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
         for (int k = 0; k < q->n; k += 2) walk_pair(q, g, k, any_hit);
 #else
     for (int k = 0; k < q->n; ++k) {
+#if INSTANCED
+        Ray r = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]); /* each walk shears its own */
+#else
         Ray r = query_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
+#endif
         float2 segment = query_segment(q, k, any_hit);
         if (any_hit) q->T[k] = transmittance(g, r, segment.x, segment.y, true, &q->visits[k]);
         else q->hit[k] = closest_hit(g, r, segment.x, segment.y, &q->visits[k]);
