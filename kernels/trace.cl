@@ -77,7 +77,10 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 #if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
 #error "RAYS_PER_ITEM must be 8 (a packet's worth of rays per work-item) or 1"
 #endif
-#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks; instances: one ray at a time (walk_instances) */
+#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks */
+/* instances: eight rays that go the same way walk the top tree and each mesh as packets (walk_instance_packet),
+ * others one at a time (walk_instances) */
+#define INSTANCE_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && INSTANCED && RAY_PACKETS)
 
 /* Ray i of packed (x, y, z) float32 triples (the caller's arrays, uploaded as they are). */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
@@ -208,6 +211,44 @@ INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
 
 
 
+#if INSTANCE_PACKETS
+/* The eight rays with instances (packet.h, "instanced packets"): the flat part ray by ray as walk_instances
+ * walks it, then the top tree and the meshes as packets.  False (nothing written) when their directions
+ * differ in sign or the top tree's stack fills up, and the caller walks them one by one. */
+INLINE bool walk_instance_packet(QueryItem *q, const Geometry *g, bool any_hit) {
+    uint3 signs = as_uint3(load_xyz(q->directions, q->idx[0])) >> 31;
+    for (int k = 1; k < PACKET_RAYS; ++k) {
+        uint3 s = as_uint3(load_xyz(q->directions, q->idx[k])) >> 31;
+        if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
+    }
+    InstanceRays ir;
+    uint rays = 0;
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        ir.r[k] = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
+        float2 segment = query_segment(q, k, any_hit);
+        ir.t_min[k] = segment.x;
+        ir.t_max[k] = segment.y;
+        ir.best[k] = no_hit();
+        ir.best[k].t = segment.y;
+        ir.T[k] = 1.0f;
+        ir.visits[k] = 0;
+        if (g->n_prims > 0) {
+            Ray r_flat = ir.r[k];
+            shear_ray(&r_flat);
+            walk_tree(g, r_flat, segment.x, segment.y, any_hit, true, &ir.best[k], &ir.T[k], &ir.visits[k]);
+        }
+        rays |= (any_hit && ir.T[k] == 0.0f) ? 0u : 1u << k;
+    }
+    if (g->n_instances > 0 && rays != 0 && !packet_top(g, &ir, rays, any_hit)) return false;
+    for (int k = 0; k < PACKET_RAYS; ++k) {
+        if (any_hit) q->T[k] = ir.T[k];
+        else q->hit[k] = ir.best[k].slot < 0 ? no_hit() : ir.best[k];
+        q->visits[k] = ir.visits[k];
+    }
+    return true;
+}
+#endif
+
 /* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
  * each visited. */
 INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
@@ -215,6 +256,9 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
     if (!walk_packet(q, g, any_hit))
         for (int k = 0; k < q->n; k += 2) walk_pair(q, g, k, any_hit);
 #else
+#if INSTANCE_PACKETS
+    if (walk_instance_packet(q, g, any_hit)) return;
+#endif
     for (int k = 0; k < q->n; ++k) {
 #if INSTANCED
         Ray r = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]); /* each walk shears its own */

@@ -194,3 +194,33 @@ def test_a_full_top_level_stack_visits_every_instance_and_finds_the_same_hits(de
     t1, p1, o1 = Tracer(scene, device=device, instancing=True, knobs=TraceKnobs(stack_size=1), bvh_width=8).intersect(o, d)
     for a, b in ((t0, t1), (p0, p1), (o0, o1)):
         np.testing.assert_array_equal(a, b)
+
+
+def coherent_rays(groups: int, seed: int):
+    """Groups of 8 rays from one origin toward points near one spot: most groups share their directions'
+    signs (the query kernels walk them as packets, kernels/packet.h), some not in an instance's object space."""
+    rng = np.random.default_rng(seed)
+    o = np.repeat(np.column_stack([rng.uniform(-5, 5, groups), rng.uniform(-0.5, 3, groups), rng.uniform(-3, 3, groups)]), 8, axis=0)
+    spots = np.column_stack([rng.uniform(-4, 4, groups), rng.uniform(0, 1.5, groups), rng.uniform(-1, 1, groups)])
+    targets = np.repeat(spots, 8, axis=0) + rng.normal(scale=0.15, size=(8 * groups, 3))
+    return o, targets - o
+
+
+@pytest.mark.parametrize("copies, stack", [(2, None), (5, None), (5, 2)], ids=["binary-top", "wide-top", "small-stack"])
+def test_instanced_packets_give_the_one_ray_walks_answers_bit_for_bit(device, copies, stack):
+    """The instanced query kernels' packets (top tree and meshes walked by 8 rays together, the rays taken
+    into each object space one by one) find each ray's one-ray answer: t, primitive and object, occlusion."""
+    from clrender.trace.knobs import TraceKnobs
+
+    scene = Scene.from_dict(bunnies(copies))
+    kw = {} if stack is None else {"knobs": TraceKnobs(stack_size=stack)}  # packets that fill it fall back
+    packets, single = (Tracer(scene, device=device, instancing=True, ray_packets=p, **kw) for p in (True, False))
+    o, d = coherent_rays(400, seed=11)
+    signs = np.signbit(d).reshape(-1, 8, 3)
+    assert (signs == signs[:, :1]).all(axis=(1, 2)).mean() > 0.5  # most groups can go as packets
+    hits = single.intersect(o, d)
+    assert np.isfinite(hits[0]).mean() > 0.3
+    for a, b in zip(packets.intersect(o, d), hits):
+        np.testing.assert_array_equal(a, b)
+    for t_max in (np.where(np.isfinite(hits[0]), hits[0] * 0.999, 2.0), np.where(np.isfinite(hits[0]), hits[0] * 1.001, 8.0)):
+        np.testing.assert_array_equal(packets.occluded(o, d, t_max), single.occluded(o, d, t_max))
