@@ -680,8 +680,9 @@ INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool a
  * flat part first, then the instances whose world boxes it enters (the top level, g->top: a binary
  * tree over those boxes), each in object space: origin and direction by world_to_object, the
  * direction NOT renormalised, so t is the world t and hits compare across instances.  Spheres stay
- * flat (their test wants a unit direction).  The query kernels walk one ray at a time here (no
- * packets); the render kernels neither (no shadow shafts, shaft.h), and shade a hit by instance_surface. */
+ * flat (their test wants a unit direction).  The query kernels walk eight rays that go the same way as
+ * packets (packet.h, "instanced packets"), others one at a time here; the render kernels walk one ray at a
+ * time (no shadow shafts, shaft.h), and shade a hit by instance_surface. */
 INLINE float3 affine_point(__global const float *m, float3 p) {
     return (float3)(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
