@@ -27,6 +27,7 @@ from clrender.scene.scene import Scene
 from clrender.trace.turntable import frame_scene, orbit, render_turntable
 
 from tests.clitools import default_sigint
+from tests.scenetools import copies_scene
 
 distributed = pytest.importorskip("distributed")
 crd = pytest.importorskip("clrender.distributed")
@@ -721,8 +722,6 @@ def test_scheduler_renders_turntables_and_fits_under_cpu_load_60_times(client, t
 def test_workers_instance_a_scene_as_the_client_does(client, tmp_path):
     """A scene whose copies make a render instance by itself (trace/instancing.py AUTO_MIN_TRIANGLES): the workers
     decide as the client (renderer.instancing_for) and render the local bytes."""
-    from tests.trace.test_instancing_render import copies_scene
-
     scene = copies_scene(tmp_path, 30)
     local = clrender.Renderer(scene, **TINY)
     assert local.tracer.n_instances == 30

@@ -9,20 +9,12 @@ import pytest
 
 import clrender
 
+from tests.scenetools import CHECKER, write_checker
+
 N = 48  # image side
 VIEW = 3.0  # the orthographic camera sees x, y in [-1.5, 1.5]
 CARD_Z, LIGHT = 1.0, np.array([0.3, 0.2, 2.0])  # the card at z = 1 over [-1, 1]^2; the floor at z = 0
-CHECKER = 4  # 4 x 4 texels, alpha 255 where i + j is even, 0 elsewhere
 MARGIN = 0.06  # texels: pixels whose camera or shadow ray passes this close to a texel edge are not compared
-
-
-def write_checker(tmp_path):
-    from PIL import Image
-
-    i, j = np.meshgrid(np.arange(CHECKER), np.arange(CHECKER))
-    texels = np.full((CHECKER, CHECKER, 4), 255, np.uint8)
-    texels[..., 3] = np.where((i + j) % 2 == 0, 255, 0)
-    Image.fromarray(texels, "RGBA").save(tmp_path / "checker.png")
 
 
 def scene(tmp_path, alpha: dict, texture=True):

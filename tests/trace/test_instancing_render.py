@@ -13,6 +13,8 @@ from clrender.trace.instancing import AUTO_MIN_TRIANGLES, find_instances
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
+from tests.scenetools import copies_scene, write_checker
+
 # Per-pixel agreement of an instanced render with the flat one.  The two differ only by float32 rounding: the
 # flat scene's vertices are rounded once in world space, the instance's ray goes through a 3x4 transform.  A
 # camera ray that passes within rounding of an edge may meet the neighbouring triangle or object in one render
@@ -158,31 +160,6 @@ def device_bytes(tracer: Tracer) -> int:
     return sum(getattr(tracer, name).size for name in DEVICE_BUFFERS)
 
 
-def copies_scene(tmp_path, copies: int, material: dict | None = None) -> Scene:
-    """`copies` objects naming one smooth .obj (an icosphere of 1280 faces), on a grid, turned and scaled."""
-    trimesh.creation.icosphere(subdivisions=3).export(tmp_path / "ball.obj")
-    rng = np.random.default_rng(11)
-    objects = [
-        {
-            "type": "mesh",
-            "file": "ball.obj",
-            "smooth": True,
-            "translate": [1.2 * (i % 6) - 3, 1.2 * (i // 6) - 2.4, 0],
-            "rotate": [0, float(rng.uniform(0, 360)), 0],
-            "scale": [0.5, float(rng.uniform(0.3, 0.6)), 0.4],
-            "material": "m",
-        }
-        for i in range(copies)
-    ]
-    data = {
-        "cameras": [{"position": [0, 0, 9], "look_at": [0, 0, 0], "fov": 50}],
-        "lights": [{"type": "point", "position": [2, 3, 8]}],
-        "materials": {"m": material or {"diffuse": [0.8, 0.7, 0.6]}},
-        "objects": objects,
-    }
-    return Scene.from_dict(data, base_dir=tmp_path)
-
-
 def test_thirty_instances_render_in_about_one_copys_device_memory(device, tmp_path):
     """The per-primitive records (vertex normals here) are stored once per mesh too: 30 copies keep 1.1 x one
     copy's device bytes + 256 bytes a copy (its Instance record and top-level node)."""
@@ -245,8 +222,6 @@ def test_alpha_tested_instances_let_rays_through_their_holes_as_flat_copies_do(d
     """Two copies of a card (.obj with uvs) whose base colour texture's alpha is a checker (tests/trace/
     test_alpha.py's), MASK or BLEND: camera, bounce and shadow rays pass its holes (BLEND: blend and dim through
     the rest), read through the instance's uvs (hit_data) and object (hit_object, hit_transparency)."""
-    from tests.trace.test_alpha import write_checker
-
     write_checker(tmp_path)
     (tmp_path / "card.obj").write_text(CARD_OBJ)
     card = {"type": "mesh", "file": "card.obj", "material": "card"}
