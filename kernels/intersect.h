@@ -36,6 +36,10 @@ typedef struct {
 #endif
 } Hit;
 
+/* Whether a hit at t on primitive `id` replaces *best: nearer, or as near and a lower id (ties go to the
+ * lowest primitive id, whatever the walk's order). */
+INLINE bool nearer_hit(float t, int id, const Hit *best) { return t < best->t || (t == best->t && id < best->id); }
+
 /* The tree's node record (clrender/layout.py), by BVH_WIDTH. */
 #if BVH_WIDTH == 2
 typedef BvhNode TreeNode;
@@ -287,7 +291,7 @@ INLINE void leaf_slots(const Geometry *g, int begin, int end, Ray r, float t_min
         float u = 0.0f, v = 0.0f;
         float t = hit_slot(g, s, r, t_min, best->t * HIT_TIE_WIDEN, &u, &v);
         int id = prim_slot(g, s)->id;
-        if (t < best->t || (t == best->t && t != INF_T && id < best->id)) {
+        if (t != INF_T && nearer_hit(t, id, best)) {
             best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
         }
     }
@@ -526,7 +530,7 @@ INLINE void nearest_lane(const Geometry *g, int4 slot, float4 t, float4 u, float
     for (int k = 0; k < BLOCK_LANES; ++k) {
         if (tl[k] == INF_T) continue;
         int id = prim_slot(g, sl[k])->id;
-        if (tl[k] < best->t || (tl[k] == best->t && id < best->id)) {
+        if (nearer_hit(tl[k], id, best)) {
             best->t = tl[k]; best->slot = sl[k]; best->id = id; best->u = ul[k]; best->v = vl[k];
         }
     }
@@ -745,7 +749,7 @@ INLINE void visit_instance_entered(const Geometry *g, int i, Ray r, float t_min,
     walk_mesh(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
     if (any_hit) { *T *= T_in; return; }
     int id = h.id + in->prim_base;
-    if (h.slot >= 0 && (h.t < best->t || (h.t == best->t && id < best->id))) {
+    if (h.slot >= 0 && nearer_hit(h.t, id, best)) {
         *best = h; best->id = id; best->instance = i;
     }
 }

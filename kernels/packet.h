@@ -304,7 +304,7 @@ INLINE void merge_instance_packet(InstanceRays *q, const Packet *p, int i, int p
         } else if (id[k] >= 0) {
             int hit_id = id[k] + prim_base;
             Hit *b = &q->best[k];
-            if (t[k] < b->t || (t[k] == b->t && hit_id < b->id)) {
+            if (nearer_hit(t[k], hit_id, b)) {
                 b->t = t[k]; b->slot = 0; b->id = hit_id; b->u = 0.0f; b->v = 0.0f; b->instance = i;
             }
         }
