@@ -576,9 +576,12 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
             if key is not None:
                 cache[("normals", key)] = local
         normals = local
-    uvs, uvs1, colours, tangents = _vertex_attributes(tm) if key is None else cache.get(("attributes", key)) or _vertex_attributes(tm)
-    if key is not None:  # a file's uvs are made from trimesh's once, and shared like its vertices
-        cache[("attributes", key)] = (uvs, uvs1, colours, tangents)
+    if key is None:
+        uvs, uvs1, colours, tangents = _vertex_attributes(tm)
+    else:  # a file's uvs are made from trimesh's once, and shared like its vertices
+        if ("attributes", key) not in cache:
+            cache[("attributes", key)] = _vertex_attributes(tm)
+        uvs, uvs1, colours, tangents = cache[("attributes", key)]
     if tangents is not None:  # they turn with the object's transform
         xyz = tangents[:, :3] @ matrix[:3, :3].T
         tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)

@@ -48,21 +48,24 @@ class Block:
     def __init__(self, device: Device, fields, capacity: int, flags):
         self.capacity = capacity
         align = max(4096, device.device.mem_base_addr_align // 8)  # a sub-buffer starts at a multiple
+
+        def padded(size: int) -> int:
+            return -(-size // align) * align
+
         sizes = [capacity * np.dtype(dtype).itemsize * width for _, dtype, width in fields]
-        padded = [-(-s // align) * align for s in sizes]
-        one = sum(padded) <= device.device.max_mem_alloc_size
+        one = sum(map(padded, sizes)) <= device.device.max_mem_alloc_size
         self.groups: list[tuple[cl.Buffer, int, list[Field]]] = []  # (buffer, bytes, its fields)
         self.args: dict[str, cl.Buffer] = {}
         grouped = [list(zip(fields, sizes))] if one else [[(f, s)] for f, s in zip(fields, sizes)]
         for group in grouped:
-            nbytes = sum(-(-s // align) * align for _, s in group)
+            nbytes = sum(padded(size) for _, size in group)
             buffer = cl.Buffer(device.context, flags | cl.mem_flags.ALLOC_HOST_PTR, size=nbytes)
             placed, offset = [], 0
             for (name, dtype, width), size in group:
                 placed.append(Field(name, np.dtype(dtype), width, offset))
                 region = buffer if len(group) == 1 else buffer.get_sub_region(offset, size, flags)
                 self.args[name] = region
-                offset += -(-size // align) * align
+                offset += padded(size)
             self.groups.append((buffer, nbytes, placed))
 
     @contextlib.contextmanager
