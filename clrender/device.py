@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError, first_line, library_messages
+from .drivers import register_pip_runtimes
+from .errors import RenderFailure, UsageError, first_line, library_messages
 from .launch import Kernel, kernel_signatures
 from .layout import DEFINES as LAYOUT_DEFINES
 from .layout import c_header, c_value
@@ -34,6 +35,7 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
     _IMPORT_ERROR = exc
 
 INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
+FAST_HINT = "install Intel's OpenCL CPU runtime (the `fast` extra) with: pip install intel-opencl-rt intel-cmplr-lib-rt"
 
 
 HOST_ALIGN = 4096  # bytes: a page, more than any driver asks of a USE_HOST_PTR buffer
@@ -83,8 +85,6 @@ class Device:
             with library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
                 prg = cl.Program(self.context, source).build(options=options)
         except cl.RuntimeError as exc:
-            from .errors import RenderFailure
-
             logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
             first_error = first_line(str(exc), prefer="error:") or "no build log"
             raise RenderFailure(f"building kernels/{filename} failed on {self.name}: {first_error}") from exc
@@ -161,25 +161,26 @@ def _describe(dev) -> str:
     return f"{dev.platform.name.strip()}: {dev.name.strip()}"
 
 
+def _platforms() -> list:
+    """Every OpenCL platform, after making the loader see a pip-installed Intel runtime (drivers.py)."""
+    register_pip_runtimes()
+    try:
+        return cl.get_platforms()
+    except cl.Error:
+        return []
+
+
 def list_devices() -> list[str]:
     """'<platform>: <device>' for every OpenCL device visible to this process."""
     if cl is None:
         return []
-    try:
-        platforms = cl.get_platforms()
-    except cl.Error:
-        return []
-    return [_describe(d) for p in platforms for d in p.get_devices()]
+    return [_describe(d) for p in _platforms() for d in p.get_devices()]
 
 
 def _pick(spec: str | None):
     if cl is None:
         raise UsageError(f"pyopencl is not importable ({_IMPORT_ERROR}); {INSTALL_HINT}")
-    try:
-        platforms = cl.get_platforms()
-    except cl.Error:
-        platforms = []
-    devices = [d for p in platforms for d in p.get_devices()]
+    devices = [d for p in _platforms() for d in p.get_devices()]
     if not devices:
         raise UsageError(f"no OpenCL platform or device found; {INSTALL_HINT}")
     if spec:
@@ -188,13 +189,46 @@ def _pick(spec: str | None):
             found = "; ".join(_describe(d) for d in devices)
             raise UsageError(f"no OpenCL device matches {spec!r}; available: {found}")
         return matches[0]
-    pocl_cpus = [d for d in devices if "portable computing language" in d.platform.name.lower() and d.type & cl.device_type.CPU]
-    if not pocl_cpus:
+    return _default_cpu(devices)
+
+
+def _is_pocl_cpu(dev) -> bool:
+    return "portable computing language" in dev.platform.name.lower() and bool(dev.type & cl.device_type.CPU)
+
+
+def _default_cpu(devices: list):
+    """PoCL's CPU device, if it can compile for this CPU; else the first other CPU device that can.
+
+    PoCL 3.0 (the newest on PyPI) compiles with LLVM 14, which names the host CPU for its code generator
+    and does not know AMD's Zen 5 (family 26): there every build fails with "unknown target CPU
+    'generic'". A one-line probe build tells, before any work is done on the device."""
+    pocl = [d for d in devices if _is_pocl_cpu(d)]
+    others = [d for d in devices if d.type & cl.device_type.CPU and not _is_pocl_cpu(d)]
+    if not pocl and not others:
         found = "; ".join(_describe(d) for d in devices)
         raise UsageError(
             f"the PoCL CPU device was not found (available: {found}); {INSTALL_HINT}, or choose a device with --device / CLRENDER_DEVICE"
         )
-    return pocl_cpus[0]
+    failures = []
+    for dev in pocl + others:
+        reason = _cannot_compile(dev)
+        if reason is None:
+            return dev
+        failures.append(f"{_describe(dev)}: {reason}")
+    raise RenderFailure(f"no OpenCL CPU device can compile kernels here ({'; '.join(failures)}); {FAST_HINT}, or choose a device with --device")
+
+
+_PROBE = "__kernel void probe(__global int *a) { a[get_global_id(0)] = 1; }"
+
+
+def _cannot_compile(dev) -> str | None:
+    """None if `dev` builds a one-line kernel, else the first line of why not."""
+    try:
+        with _signal_handlers_kept(), library_messages():
+            cl.Program(cl.Context([dev]), _PROBE).build()
+    except cl.Error as exc:
+        return first_line(str(exc), prefer="error:") or "the build failed"
+    return None
 
 
 _DEVICES: dict[str, Device] = {}

@@ -1,4 +1,6 @@
-"""Print the `export` line that makes Intel's OpenCL CPU runtime visible beside PoCL.
+"""Print the `export` line that makes Intel's OpenCL CPU runtime visible beside PoCL, for other programs.
+
+clrender itself needs no such line: clrender/drivers.py registers the runtime before its first OpenCL call.
 
     .venv/bin/pip install intel-opencl-rt intel-cmplr-lib-rt     # once: the runtime and its libraries
     eval "$(.venv/bin/python tools/intel_opencl.py)"                # then, in each shell
@@ -23,73 +25,25 @@ Exit status 1, with the pip line on stderr, when the runtime is not installed.
 from __future__ import annotations
 
 import argparse
-import os
 import shlex
 import sys
 import tempfile
 from pathlib import Path
 
-PACKAGE = "intel-opencl-rt"
-LIBRARY = "libintelocl.so"
-SYSTEM_VENDORS = Path("/etc/OpenCL/vendors")
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run as a script from a checkout
 
+from clrender.drivers import INTEL_LIBRARY as LIBRARY  # noqa: E402
+from clrender.drivers import INTEL_PACKAGE as PACKAGE  # noqa: E402
+from clrender.drivers import find_intel_library, write_vendors  # noqa: E402
 
-def find_library() -> Path | None:
-    """libintelocl.so from the installed intel-opencl-rt, else from this environment's lib/."""
-    from importlib import metadata
-
-    try:
-        for f in metadata.files(PACKAGE) or []:
-            if f.name == LIBRARY:
-                path = Path(f.locate()).resolve()
-                if path.is_file():
-                    return path
-    except metadata.PackageNotFoundError:
-        pass
-    for prefix in dict.fromkeys((sys.prefix, sys.base_prefix)):
-        path = Path(prefix) / "lib" / LIBRARY
-        if path.is_file():
-            return path.resolve()
-    return None
-
-
-def previous_icds() -> list[Path]:
-    """The ICD files the loader reads without our folder: $OCL_ICD_VENDORS (a folder or one file), else /etc/OpenCL/vendors."""
-    current = os.environ.get("OCL_ICD_VENDORS")
-    where = Path(current) if current else SYSTEM_VENDORS
-    if where.is_file():
-        return [where]
-    return sorted(where.glob("*.icd")) if where.is_dir() else []
-
-
-def usable(line: str, intel: Path) -> bool:
-    """An ICD line worth keeping: not Intel's runtime again, and not an absolute path that is missing here."""
-    if not line:
-        return False
-    if Path(line).name.startswith(LIBRARY):  # ours, or the package's own ICD with a build machine's path
-        return False
-    return not os.path.isabs(line) or Path(line).exists()
-
-
-def write_vendors(folder: Path, intel: Path) -> None:
-    folder.mkdir(parents=True, exist_ok=True)
-    for old in folder.glob("*.icd"):
-        old.unlink()
-    (folder / "intel.icd").write_text(f"{intel}\n")
-    for i, icd in enumerate(previous_icds()):
-        try:
-            line = icd.read_text().strip()
-        except OSError:
-            continue
-        if usable(line, intel):
-            (folder / f"kept{i}-{icd.name}").write_text(line + "\n")
+__all__ = ["LIBRARY", "PACKAGE", "main", "write_vendors"]
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--dir", type=Path, help="folder for the ICD files (default: a new temporary folder)")
     args = parser.parse_args(argv)
-    intel = find_library()
+    intel = find_intel_library()
     if intel is None:
         pip = f"{sys.executable} -m pip install {PACKAGE} intel-cmplr-lib-rt"
         print(f"{LIBRARY} not found: install Intel's OpenCL CPU runtime with: {pip}", file=sys.stderr)
