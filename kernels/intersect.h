@@ -5,19 +5,16 @@
  * every call, so the compiler keeps one specialised copy of each): walk_binary (BVH_WIDTH 2) and Walk
  * (wide nodes, BVH_WIDTH 4 or 8) share the leaf tests (leaf_slots, leaf_blocks), the overflow
  * fallback (walk_overflowed) and the entry point trace_query, which the BVH-off path answers too.
- * What stays separate, and why (python -m bench rays, its generated 100k-triangle mesh, 512 x 512
- * rays; Mrays per CPU-second, medians of 10 runs on a loaded 2-core VM, 2026-11-24):
+ * What stays separate, and why (measured speeds: docs/benchmarks.md, "Ray queries"):
  * - walk_binary and Walk: different trees.  The wide walk tests a node's boxes at once in vectors
- *   and a leaf's triangles four at a time; the binary walk is Tracer(bvh_width=2) and the reference
- *   the wide answers are tested against, bit for bit.  One ray at a time, width 8 vs 2: primary
- *   6.1 vs 2.8 (x2.1), shadow 4.0 vs 2.3 (x1.8), incoherent 3.3 vs 1.5 (x2.2).
+ *   and a leaf's triangles four at a time (about 2x the binary walk's rays per second); the binary
+ *   walk is Tracer(bvh_width=2) and the reference the wide answers are tested against, bit for bit.
  * - Walk and Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together,
  *   one stack and one box sort for all, each triangle tested against eight rays in float8 lanes; the
- *   query kernels walk rays that do not as pairs of Walks.  Packets vs pairs of Walks, width 8:
- *   primary 11.2 vs 6.1 (x1.8), shadow 6.7 vs 4.0 (x1.7), incoherent 3.2 vs 3.3 (they rarely form).
+ *   query kernels walk rays that do not as pairs of Walks (packets: about 1.7x for coherent rays).
  * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one traversal
- *   with the shaft that holds them all, then test only the primitives it collected: wizard_cat,
- *   camera 3, 400 x 400, 6 x 6 samples per pixel: 6.4 CPU-seconds with shafts, 14.5 without (x2.3). */
+ *   with the shaft that holds them all, then test only the primitives it collected (about 2x fewer
+ *   CPU-seconds for soft shadows). */
 #ifndef CLRENDER_INTERSECT_H
 #define CLRENDER_INTERSECT_H
 

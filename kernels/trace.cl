@@ -71,7 +71,7 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
 
 /* The ray kernels below take RAYS_PER_ITEM consecutive rays per work-item (an incomplete last group
  * repeats the last ray): 8, a packet's worth, or 1 (the layout chosen per device, clrender/trace/
- * portability.py).  Eight through the wide trees go as one packet when they go the same way
+ * work_layout.py).  Eight through the wide trees go as one packet when they go the same way
  * (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
  * one per item, and through the binary tree or without one, one by one (trace_query). */
 #if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
