@@ -290,6 +290,27 @@ MATERIAL_READER = TypeReader(
 )
 
 
+# Each model's keys: an unknown key is refused naming those of the model the table is (its `type`, else glTF's when it
+# has a metallic-roughness key, else the seed's); MATERIAL_READER declares their union.
+_SHARED = ("emission", "emissive_texture", "alpha", "double_sided", "type")
+MODEL_KEYS = {
+    "seed": (*SEED_KEYS, "ior", *_SHARED),
+    "gltf": (*GLTF_KEYS, "ior", "smith", *_SHARED),
+    **{kind: (*COMMON_KEYS, *keys) for kind, keys in TYPE_KEYS.items()},
+}
+
+
+def model_of(m: dict) -> str:
+    """The model a material table is, for its key check (a bad `type` is refused when it is read)."""
+    kind = m.get("type")
+    if isinstance(kind, str) and kind in MODEL_KEYS:
+        return kind
+    return "gltf" if any(k in m for k in GLTF_KEYS) and not any(k in m for k in SEED_KEYS) else "seed"
+
+
 def read_material(checks: Checks, m, path: str) -> Material:
     checks.table(m, path)
-    return MATERIAL_READER.read(checks, m, path)
+    if set(m) <= set(MATERIAL_READER.keys):  # the model's own rules (mixed key sets, typed keys) say what is wrong
+        return _build_material(checks, m, path)
+    checks.check_keys(m, path, MODEL_KEYS[model_of(m)])
+    return _build_material(checks, m, path)

@@ -74,13 +74,22 @@ def exchange_cases():
     for alpha in (0.01, 0.3, 0.8):
         for smith in SMITH:
             rec = metal(alpha, smith, tint=(0.9, 0.8, 0.7))
-            cases.append(("metal", rec, lambda o, i, a=alpha, s=smith: ref.metal_eval(o, i, COPPER_ETA, COPPER_K, (0.9, 0.8, 0.7), a, s),
-                          lambda o, i, a=alpha: ref.conductor_pdf(o, i, a), alpha))
+            cases.append(
+                (
+                    "metal",
+                    rec,
+                    lambda o, i, a=alpha, s=smith: ref.metal_eval(o, i, COPPER_ETA, COPPER_K, (0.9, 0.8, 0.7), a, s),
+                    lambda o, i, a=alpha: ref.conductor_pdf(o, i, a),
+                    alpha,
+                )
+            )
     for roughness, smith, nonlinear in ((0.3, "correlated", False), (0.6, "separable", True), (0.1, "separable", False)):
         m = coat_material(roughness, smith=smith, nonlinear=nonlinear)
         rec = bsdf.coated_params(DIFFUSE, 1.5, roughness, (0.9, 0.9, 1.0), nonlinear, smith)
         a = float(np.float32(roughness) ** 2)
-        ev = lambda o, i, a=a, m=m, s=smith, nl=nonlinear: ref.coated_rough_eval(o, i, DIFFUSE, (0.9, 0.9, 1.0), 1.5, a, m.coat_transmittance, m.coat_internal, s, nl)
+        ev = lambda o, i, a=a, m=m, s=smith, nl=nonlinear: ref.coated_rough_eval(
+            o, i, DIFFUSE, (0.9, 0.9, 1.0), 1.5, a, m.coat_transmittance, m.coat_internal, s, nl
+        )
         cases.append(("coated_diffuse", rec, ev, None, a))
     for nonlinear in (False, True):
         rec = bsdf.coated_params(DIFFUSE, 1.5, 0.0, (1.0, 1.0, 1.0), nonlinear)
@@ -301,7 +310,9 @@ def test_coated_diffuse_albedo_matches_a_quadrature_of_its_float64_eval(probe, r
                 f = lambda d, c=c: ref.coated_smooth_eval(np.broadcast_to(wo, d.shape), d, diffuse, 1.5)[:, c]
                 extra = tint[c] * ref.fresnel_dielectric(np.array([wo[2]]), 1.0, 1.5)[0]
             else:
-                f = lambda d, c=c: ref.coated_rough_eval(np.broadcast_to(wo, d.shape), d, diffuse, tint, 1.5, a, m.coat_transmittance, m.coat_internal)[:, c]
+                f = lambda d, c=c: ref.coated_rough_eval(
+                    np.broadcast_to(wo, d.shape), d, diffuse, tint, 1.5, a, m.coat_transmittance, m.coat_internal
+                )[:, c]
                 extra = 0.0
             albedo = cell_integrals(f, 10**8).sum() + extra
             assert abs(mean[c] - albedo) < FURNACE_Z * se[c] + 2e-4, (c, mean[c], albedo)
@@ -318,8 +329,11 @@ def test_separable_smith_differs_from_the_correlated_term_by_the_known_ratio(pro
     wo = np.array([direction(t) for t in thetas for _ in thetas])
     wi = np.array([direction(t, 180.0) for _ in thetas for t in thetas])
     wo, wi = f32(wo), f32(wi)
-    for lobe, make in (("metal", lambda s: metal(alpha, s)), ("conductor", lambda s: bsdf.params(alpha=alpha, smith=SMITH[s])),
-                       ("gltf", lambda s: bsdf.params(alpha=alpha, colour=(0.5, 0.5, 0.5), metallic=1.0, smith=SMITH[s]))):
+    for lobe, make in (
+        ("metal", lambda s: metal(alpha, s)),
+        ("conductor", lambda s: bsdf.params(alpha=alpha, smith=SMITH[s])),
+        ("gltf", lambda s: bsdf.params(alpha=alpha, colour=(0.5, 0.5, 0.5), metallic=1.0, smith=SMITH[s])),
+    ):
         ratio = probe.eval(lobe, make("separable"), wo, wi)[:, 0] / probe.eval(lobe, make("correlated"), wo, wi)[:, 0]
         lam_o, lam_i = ref.smith_lambda(wo, alpha), ref.smith_lambda(wi, alpha)
         want = (1 + lam_o + lam_i) / ((1 + lam_o) * (1 + lam_i))
