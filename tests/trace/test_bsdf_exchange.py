@@ -307,12 +307,11 @@ def test_coated_diffuse_albedo_matches_a_quadrature_of_its_float64_eval(probe, r
         a = float(np.float32(roughness) ** 2)
         for c in range(3):
             if roughness == 0:
-                f = lambda d, c=c: ref.coated_smooth_eval(np.broadcast_to(wo, d.shape), d, diffuse, 1.5)[:, c]
+                f = lambda d, c=c, kd=diffuse: ref.coated_smooth_eval(np.broadcast_to(wo, d.shape), d, kd, 1.5)[:, c]
                 extra = tint[c] * ref.fresnel_dielectric(np.array([wo[2]]), 1.0, 1.5)[0]
             else:
-                f = lambda d, c=c: ref.coated_rough_eval(
-                    np.broadcast_to(wo, d.shape), d, diffuse, tint, 1.5, a, m.coat_transmittance, m.coat_internal
-                )[:, c]
+                coat_args = (diffuse, tint, 1.5, a, m.coat_transmittance, m.coat_internal)
+                f = lambda d, c=c, args=coat_args: ref.coated_rough_eval(np.broadcast_to(wo, d.shape), d, *args)[:, c]
                 extra = 0.0
             albedo = cell_integrals(f, 10**8).sum() + extra
             assert abs(mean[c] - albedo) < FURNACE_Z * se[c] + 2e-4, (c, mean[c], albedo)
