@@ -80,3 +80,23 @@ def test_a_coated_diffuse_shows_its_albedo(roughness, smith):
         args = (diffuse, tint, 1.5, alpha, m.coat_transmittance, m.coat_internal, smith)
         albedo = normal_albedo(lambda d: ref.coated_rough_eval(wo(d), d, *args))
     assert (np.abs(mean - ENV * albedo) < 4.5 * se + 2e-4).all(), (mean, ENV * albedo, se)
+
+
+@pytest.mark.parametrize(
+    "material, stand_in",
+    [
+        ({"type": "conductor", "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.5, 2.1], "roughness": 0.3}, None),
+        ({"type": "coated_diffuse", "diffuse": [0.7, 0.35, 0.1], "roughness": 0.2}, {"diffuse": [0.7, 0.35, 0.1]}),
+        ({"type": "thin_dielectric", "ior": 1.5}, {"diffuse": [0, 0, 0], "transparency": 1.0, "ior": 1.0}),
+    ],
+)
+def test_whitted_draws_each_type_as_its_documented_stand_in(material, stand_in):
+    """docs/materials.md: a conductor as Lambert of its normal reflectance, a coated diffuse as Lambert of its base, a
+    thin sheet as clear glass of IOR 1; the same image (to float32 rounding of kd) as the stand-in as a seed material."""
+    if stand_in is None:
+        eta, k = np.array(material["eta"]), np.array(material["k"])
+        stand_in = {"diffuse": (((eta - 1) ** 2 + k**2) / ((eta + 1) ** 2 + k**2)).tolist()}
+    lit = lambda m: {**sphere_scene(m), "lights": [{"type": "point", "position": [2, 3, 4]}], "background": [0.2, 0.3, 0.4]}
+    a = clrender.render(lit(material), integrator="whitted")
+    b = clrender.render(lit(stand_in), integrator="whitted")
+    assert np.abs(a - b).max() < 1e-6 and a.max() > 0
