@@ -13,6 +13,7 @@ import pytest
 from clrender.trace import bsdf
 
 from tests.reference import mitsuba_scenes
+from tests.reference.ztest import two_sample_z
 
 pytestmark = pytest.mark.slow
 COPPER_ETA, COPPER_K = [0.200438, 0.924033, 1.10221], [3.91295, 2.45285, 2.14219]
@@ -158,6 +159,28 @@ def exchange_scene(material: dict, lights=(), environment=(0.6, 0.7, 0.9)) -> di
     return scene
 
 
+K, SPP, MAX_DEPTH = 4, 64, 6  # renders per side, paths per pixel each, clrender's bounces (Mitsuba's max_depth 8)
+
+
+def mitsuba_renders(scene: dict) -> np.ndarray:
+    """(K, H, W, 3): Mitsuba's path tracer (LLVM variant), one render per seed."""
+    reason = mitsuba_scenes.unavailable("llvm_ad_rgb")
+    if reason:
+        pytest.skip(reason)
+    mi, loaded = mitsuba_scenes.load(scene, variant="llvm_ad_rgb", spp=SPP, max_depth=MAX_DEPTH)
+    return np.stack([mitsuba_scenes.render_loaded(mi, loaded, spp=SPP, seed=s) for s in range(K)])
+
+
+def clrender_renders(scene: dict, device) -> np.ndarray:
+    from clrender import Renderer
+    from clrender.scene.scene import Scene
+    from clrender.trace.tracer import Tracer
+
+    loaded = Scene.from_dict(scene)
+    tracer = Tracer(loaded, device=device)
+    return np.stack([Renderer(loaded, tracer=tracer, integrator="path", spp=SPP, max_depth=MAX_DEPTH, seed=s).run().image for s in range(K)])
+
+
 RENDER_CASES = {
     "roughconductor": {"type": "conductor", "eta": COPPER_ETA, "k": COPPER_K, "roughness": 0.4, "smith": "separable"},
     "conductor": {"type": "conductor", "eta": COPPER_ETA, "k": COPPER_K},
@@ -169,20 +192,14 @@ RENDER_CASES = {
 
 @pytest.mark.parametrize("name", list(RENDER_CASES))
 def test_each_lobe_renders_as_mitsuba_renders_it(device, name):
-    from tests.reference.ztest import two_sample_z
-    from tests.trace.test_mitsuba_reference import clrender_path_renders, mitsuba_renders
-
     scene = exchange_scene(RENDER_CASES[name])
-    result = two_sample_z(clrender_path_renders(scene, device), mitsuba_renders(scene))
+    result = two_sample_z(clrender_renders(scene, device), mitsuba_renders(scene))
     assert result.passed, result.report()
 
 
 def test_the_spot_light_renders_as_mitsubas_spot(device):
-    from tests.reference.ztest import two_sample_z
-    from tests.trace.test_mitsuba_reference import clrender_path_renders, mitsuba_renders
-
     spot = {"type": "spot", "position": [1.0, 2.5, 1.0], "direction": [-1.0, -2.2, -1.0], "cutoff_angle": 30.0, "beam_width": 15.0}
     spot.update(intensity=6.0, color=[1.0, 0.9, 0.8])
     scene = exchange_scene(RENDER_CASES["roughplastic"], lights=[spot], environment=None)
-    result = two_sample_z(clrender_path_renders(scene, device), mitsuba_renders(scene))
+    result = two_sample_z(clrender_renders(scene, device), mitsuba_renders(scene))
     assert result.passed, result.report()
