@@ -3,7 +3,7 @@
  * At every surface vertex the material picks ONE component at random with its own weight (the
  * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
  * kernels/bsdf.h), then
- *   - next-event estimation: a shadow ray to every point and directional light, to one point of every
+ *   - next-event estimation: a shadow ray to every point, spot and directional light, to one point of every
  *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
  *     one direction of the environment (the constant one: cosine-weighted about the shading normal; an
  *     image map: by its luminance x solid angle, kernels/envmap.h);
