@@ -337,7 +337,7 @@ def test_separable_smith_differs_from_the_correlated_term_by_the_known_ratio(pro
         lam_o, lam_i = ref.smith_lambda(wo, alpha), ref.smith_lambda(wi, alpha)
         want = (1 + lam_o + lam_i) / ((1 + lam_o) * (1 + lam_i))
         np.testing.assert_allclose(ratio, want, rtol=1e-4)
-    assert ratio[0] == pytest.approx(1.0, abs=1e-6) and ratio.min() < 0.6  # both at 89 degrees: 0.55
+    assert ratio[0] == pytest.approx(1.0, abs=1e-6) and ratio.min() < 0.2  # both at 89 degrees: 0.13
     rough = lambda s: bsdf.params(alpha=alpha, eta=1.5, smith=SMITH[s])  # reflection and transmission, either side
     rng = np.random.default_rng(12)
     wo, wi = f32(sphere(rng, 4000)), f32(sphere(rng, 4000))
