@@ -23,10 +23,17 @@ import numpy as np
 # ---- tracing (kernels/common.h, shade.h, sampling.h, trace.cl)
 PATH_LEN = 8  # object ids recorded along each pixel's path (edge detection): IdRecord.path
 
-LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2}  # Light.type
+LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2, "spot": 3}  # Light.type
+SPOT_PROFILES = {"mitsuba": 0, "pbrt": 1}  # Light.spot_profile: Mitsuba 3's linear-in-angle falloff, pbrt-v4's smoothstep
 LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: the seed's model, or physical (scene/lights.py)
 BSDF_LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric": 3, "gltf": 4}  # kernels/bsdf.h's lobe codes
-MATERIAL_MODELS = {"seed": 0, "gltf": 1}  # Material.model: the Whitted keys, or glTF's metallic-roughness ones
+# the lobes of issue 36 (docs/materials.md): a conductor with complex Fresnel (GGX, and its delta mirror), Mitsuba's
+# plastic / roughplastic (a diffuse base under a dielectric coat, smooth and GGX), a thin dielectric sheet (delta)
+BSDF_LOBES.update({"metal": 5, "metal_smooth": 6, "coated_diffuse": 7, "coated_diffuse_smooth": 8, "thin_dielectric": 9})
+# Material.model: the Whitted keys, glTF's metallic-roughness ones, or a `type = ...` material of issue 36
+MATERIAL_MODELS = {"seed": 0, "gltf": 1, "conductor": 2, "coated_diffuse": 3, "thin_dielectric": 4}
+SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-shadowing G2, or Mitsuba's G1(wo) G1(wi)
+COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
@@ -182,6 +189,17 @@ MATERIAL_DTYPE = np.dtype(
         ("alpha_mode", "<i4"),  # ALPHA_MODES code
         ("alpha_cutoff", "<f4"),  # mask: a point whose alpha is below this is not there
         ("double_sided", "<i4"),  # 0: camera rays do not see the back faces (glTF doubleSided false; kernels/alpha.h)
+        # the `type = ...` materials (scene/materials.py, docs/materials.md); kd is the coated diffuse's base
+        ("smith", "<i4"),  # SMITH_MODELS code, every GGX lobe of the path tracer
+        ("eta", "<f4", 3),  # conductor: real part of the complex IOR, per channel
+        ("k", "<f4", 3),  # conductor: imaginary part (extinction), per channel
+        ("tint", "<f4", 3),  # specular reflectance (Mitsuba's specular_reflectance)
+        ("transmit_tint", "<f4", 3),  # thin dielectric: specular transmittance
+        ("lobe_ior", "<f4"),  # coat / thin sheet IOR, inside over outside (the Whitted stand-in keeps `ior`)
+        ("nonlinear", "<i4"),  # coated diffuse: 1 for Mitsuba's nonlinear internal scattering
+        ("coat_weight", "<f4"),  # coated diffuse: Mitsuba's specular_sampling_weight, mean(tint) / (mean(kd) + mean(tint))
+        ("coat_internal", "<f4"),  # coated diffuse: internal diffuse reflectance of the coat (fdr_int, or the rough coat's)
+        ("coat_transmittance", "<f4", COAT_TABLE_RES),  # rough coat: external transmittance at cos = i / (RES - 1)
     ]
 )
 MATERIAL = Record("Material", MATERIAL_DTYPE)
@@ -200,6 +218,12 @@ LIGHT_DTYPE = np.dtype(
         ("colour", "<f4", 3),  # linear RGB
         ("edge_a", "<f4", 3),  # area light: the parallelogram's edges from the corner
         ("edge_b", "<f4", 3),
+        # spot light: position, and `direction` its unit axis; the cone's half-angles in radians and their cosines
+        ("spot_cutoff", "<f4"),  # light stops beyond this angle from the axis
+        ("spot_beam", "<f4"),  # full intensity within it
+        ("spot_cos_cutoff", "<f4"),
+        ("spot_cos_beam", "<f4"),
+        ("spot_profile", "<i4"),  # SPOT_PROFILES code
     ]
 )
 LIGHT = Record("Light", LIGHT_DTYPE)
@@ -287,7 +311,24 @@ AOV_DTYPE = padded([("normal", "<f4", 3), ("depth", "<f4"), ("albedo", "<f4", 3)
 AOV = Record("AovRecord", AOV_DTYPE)
 
 # the BSDF probe kernels' lobe parameters (tests only: clrender/trace/bsdf.py, kernels/bsdf_probe.cl)
-BSDF_PROBE_DTYPE = padded([("colour", "<f4", 3), ("alpha", "<f4"), ("eta", "<f4"), ("metallic", "<f4")], 32)
+# (then the issue 36 lobes' parameters, BsdfParams' fields of the same names; smith and nonlinear as 0.0 / 1.0)
+BSDF_PROBE_DTYPE = np.dtype(
+    [
+        ("colour", "<f4", 3),
+        ("alpha", "<f4"),
+        ("eta", "<f4"),
+        ("metallic", "<f4"),
+        ("smith", "<f4"),
+        ("nonlinear", "<f4"),
+        ("eta3", "<f4", 3),
+        ("k3", "<f4", 3),
+        ("tint", "<f4", 3),
+        ("transmit_tint", "<f4", 3),
+        ("coat_weight", "<f4"),
+        ("coat_internal", "<f4"),
+        ("coat_transmittance", "<f4", COAT_TABLE_RES),
+    ]
+)
 BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)
 
 # ---- the path tracer (kernels/path.cl; packed by trace/path.py)
@@ -376,6 +417,9 @@ SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)
 DEFINES = {
     "PATH_LEN": PATH_LEN,
     **{f"LIGHT_{name.upper()}": code for name, code in LIGHT_TYPES.items()},
+    **{f"SPOT_PROFILE_{name.upper()}": code for name, code in SPOT_PROFILES.items()},
+    **{f"SMITH_{name.upper()}": code for name, code in SMITH_MODELS.items()},
+    "COAT_TABLE_RES": COAT_TABLE_RES,
     **{f"MATERIAL_MODEL_{name.upper()}": code for name, code in MATERIAL_MODELS.items()},
     **{f"BSDF_{name.upper()}": code for name, code in BSDF_LOBES.items()},
     **{f"LIGHT_FALLOFF_{name.upper()}": code for name, code in LIGHT_FALLOFFS.items()},

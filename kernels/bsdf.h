@@ -22,6 +22,8 @@
  *   - GGX roughness is the Trowbridge-Reitz width `alpha` everywhere (isotropic).  glTF and Disney's
  *     perceptual roughness r maps to alpha = r^2: ggx_alpha_from_roughness.  alpha is clamped below at
  *     GGX_ALPHA_MIN: an exact mirror is a delta lobe, not a GGX one.
+ *   - Masking-shadowing: every GGX lobe takes `smith` (SMITH_CORRELATED: the height-correlated G2 of glTF and
+ *     pbrt, the default; SMITH_SEPARABLE: G1(wo) G1(wi), as Mitsuba's rough plugins).
  *
  * Lobe codes (BSDF_LAMBERT, ...) come from clrender/layout.py's BSDF_LOBES. */
 #ifndef CLRENDER_BSDF_H
@@ -38,6 +40,15 @@ typedef struct {
     float alpha;    /* GGX width of the conductor, rough dielectric and glTF lobes (not the perceptual roughness) */
     float eta;      /* dielectrics: IOR inside (-z) / IOR outside (+z) */
     float metallic; /* glTF: 0 dielectric ... 1 metal */
+    int smith;      /* SMITH_CORRELATED or SMITH_SEPARABLE: the GGX lobes' masking-shadowing term */
+    /* the lobes of issue 36 (metal*, coated_diffuse*, thin_dielectric); colour is the coated diffuse's base */
+    float3 eta3, k3;      /* metal: complex IOR eta + i k per channel */
+    float3 tint;          /* specular reflectance: metal, coat, thin sheet */
+    float3 transmit_tint; /* thin sheet: specular transmittance */
+    int nonlinear;        /* coat: Mitsuba's nonlinear internal scattering */
+    float coat_weight;    /* coat: specular sampling weight, mean(tint) / (mean(diffuse) + mean(tint)) */
+    float coat_internal;  /* coat: internal diffuse reflectance */
+    __global const float *coat_transmittance; /* rough coat: COAT_TABLE_RES values of the external transmittance */
 } BsdfParams;
 
 typedef struct {
@@ -158,6 +169,23 @@ INLINE float ggx_g2(float3 wo, float3 wi, float alpha) {
     return den > 0.0f ? 2.0f * co * ci / den : 0.0f;
 }
 
+/* Mitsuba's separable masking-shadowing G1(wo) G1(wi) (its rough plugins' MicrofacetDistribution::G). */
+INLINE float ggx_g2_separable(float3 wo, float3 wi, float alpha) { return ggx_g1(wo, alpha) * ggx_g1(wi, alpha); }
+
+/* A GGX reflection's D G / (4 cos_o) (f cos_i with F = 1) and its sampling weight G / G1(wo) for a wi drawn from the
+ * visible normals of wo, with either masking-shadowing term.  wo.z > 0, wi.z > 0, h = unit(wo + wi). */
+INLINE float ggx_reflection_value(float3 wo, float3 wi, float3 h, float alpha, int smith) {
+    if (smith == SMITH_SEPARABLE) return ggx_d(h, alpha) * ggx_g2_separable(wo, wi, alpha) / (4.0f * wo.z);
+    float den = ggx_r(wo, alpha) * wi.z + ggx_r(wi, alpha) * wo.z;
+    return ggx_d(h, alpha) * wi.z / (2.0f * den);
+}
+
+INLINE float ggx_reflection_weight(float3 wo, float3 wi, float alpha, int smith) {
+    if (smith == SMITH_SEPARABLE) return ggx_g1(wi, alpha);
+    float ro = ggx_r(wo, alpha), ri = ggx_r(wi, alpha);
+    return wi.z * (wo.z + ro) / (ro * wi.z + ri * wo.z);
+}
+
 /* A microfacet normal from the distribution of normals visible from w (w.z > 0), D_w(h) =
  * G1(w) max(0, w . h) D(h) / w.z: Heitz 2018, "Sampling the GGX distribution of visible normals". */
 INLINE float3 ggx_sample_vndf(float3 w, float alpha, float2 u) {
@@ -179,10 +207,11 @@ INLINE float ggx_reflection_pdf(float3 wo, float3 h, float alpha) { return ggx_d
 
 /* ---- GGX conductor: f = F D G2 / (4 cos_o cos_i), F Schlick's with an RGB F0 at |wo . h|.
  * eval = F D G2 / (4 cos_o) = F D cos_i / (2 (R_o cos_i + R_i cos_o)); weight = F G2 / G1(wo). */
-INLINE float3 conductor_eval(float3 wo, float3 wi, float3 f0, float alpha) {
+INLINE float3 conductor_eval(float3 wo, float3 wi, float3 f0, float alpha, int smith) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
     alpha = max_f(alpha, GGX_ALPHA_MIN);
     float3 h = unit(wo + wi);
+    if (smith == SMITH_SEPARABLE) return fresnel_schlick(f0, dot3(wo, h)) * ggx_reflection_value(wo, wi, h, alpha, smith);
     float den = ggx_r(wo, alpha) * wi.z + ggx_r(wi, alpha) * wo.z;
     return fresnel_schlick(f0, dot3(wo, h)) * (ggx_d(h, alpha) * wi.z / (2.0f * den));
 }
@@ -192,7 +221,7 @@ INLINE float conductor_pdf(float3 wo, float3 wi, float alpha) {
     return ggx_reflection_pdf(wo, unit(wo + wi), max_f(alpha, GGX_ALPHA_MIN));
 }
 
-INLINE BsdfSample conductor_sample(float3 wo, float2 u2, float3 f0, float alpha) {
+INLINE BsdfSample conductor_sample(float3 wo, float2 u2, float3 f0, float alpha, int smith) {
     BsdfSample s = no_sample();
     if (wo.z <= 0.0f) return s;
     alpha = max_f(alpha, GGX_ALPHA_MIN);
@@ -203,6 +232,7 @@ INLINE BsdfSample conductor_sample(float3 wo, float2 u2, float3 f0, float alpha)
     s.wi = wi;
     s.pdf = ggx_reflection_pdf(wo, h, alpha);
     s.weight = fresnel_schlick(f0, dot3(wo, h)) * (wi.z * (wo.z + ro) / (ro * wi.z + ri * wo.z)); /* F G2 / G1(wo) */
+    if (smith == SMITH_SEPARABLE) s.weight = fresnel_schlick(f0, dot3(wo, h)) * ggx_g1(wi, alpha);
     return s;
 }
 
@@ -264,13 +294,14 @@ INLINE float3 fresnel_side(float3 wo, float3 wi, float eta) {
  *   transmission: f = (1 - F) D G2 |wi.h| |wo.h| eta_o^2 / (|cos_o| |cos_i| (eta_i wi.h + eta_o wo.h)^2)
  * (the radiance form: eta_o^2 in the numerator).  Sampling: h from the visible normals of wo (flipped to +z),
  * reflect with probability F, else refract.  eta = 1 is sampled as the smooth lobe (straight through, delta). */
-INLINE float3 rough_dielectric_eval(float3 wo, float3 wi, float eta, float alpha) {
+INLINE float3 rough_dielectric_eval(float3 wo, float3 wi, float eta, float alpha, int smith) {
     float3 h;
     float eta_o, eta_i, len2, cos_t;
     if (!dielectric_half(wo, wi, eta, &h, &eta_o, &eta_i, &len2)) return (float3)(0.0f);
     alpha = max_f(alpha, GGX_ALPHA_MIN);
     float co = abs_f(wo.z), ci = abs_f(wi.z);
     float d_g2_over_co = ggx_d(h, alpha) * 2.0f * ci / (ggx_r(wo, alpha) * ci + ggx_r(wi, alpha) * co); /* D G2 / cos_o */
+    if (smith == SMITH_SEPARABLE) d_g2_over_co = ggx_d(h, alpha) * ggx_g2_separable(wo, wi, alpha) / co;
     float f = fresnel_dielectric(dot3(fresnel_side(wo, wi, eta), h), eta, &cos_t);
     if (wo.z * wi.z > 0.0f) return (float3)(f * d_g2_over_co * 0.25f);
     float jacobian = abs_f(dot3(wi, h)) * abs_f(dot3(wo, h)) * eta_o * eta_o / len2;
@@ -289,7 +320,7 @@ INLINE float rough_dielectric_pdf(float3 wo, float3 wi, float eta, float alpha) 
     return (1.0f - f) * visible * 2.0f * abs_f(dot3(wo, h)) * dh_dwi;
 }
 
-INLINE BsdfSample rough_dielectric_sample(float3 wo, float u1, float2 u2, float eta, float alpha) {
+INLINE BsdfSample rough_dielectric_sample(float3 wo, float u1, float2 u2, float eta, float alpha, int smith) {
     BsdfSample s = no_sample();
     if (wo.z == 0.0f) return s;
     bool index_matched = eta == 1.0f; /* no interface: light passes straight through, a delta (h is undefined) */
@@ -310,6 +341,7 @@ INLINE BsdfSample rough_dielectric_sample(float3 wo, float u1, float2 u2, float 
     float co = abs_f(wo.z), ci = abs_f(wi.z), ro = ggx_r(wo, alpha);
     s.wi = wi;
     s.weight = (float3)(ci * (co + ro) / (ro * ci + ggx_r(wi, alpha) * co) / (eta_rel * eta_rel)); /* G2 / G1(wo) / eta^2 */
+    if (smith == SMITH_SEPARABLE) s.weight = (float3)(ggx_g1(wi, alpha) / (eta_rel * eta_rel));
     s.pdf = rough_dielectric_pdf(wo, wi, eta, alpha); /* from wi, as the integrator's MIS will see it */
     if (!(s.pdf > 0.0f)) return no_sample();
     return s;
@@ -338,12 +370,13 @@ INLINE float gltf_specular_probability(float3 wo, float3 base, float metallic) {
     return clamp(e_s / (e_s + e_d), GLTF_LOBE_PROB_MIN, 1.0f - GLTF_LOBE_PROB_MIN);
 }
 
-INLINE float3 gltf_eval(float3 wo, float3 wi, float3 base, float metallic, float alpha) {
+INLINE float3 gltf_eval(float3 wo, float3 wi, float3 base, float metallic, float alpha, int smith) {
     if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
     alpha = max_f(alpha, GGX_ALPHA_MIN);
     float3 h = unit(wo + wi);
     float c = dot3(wo, h);
     float specular = ggx_d(h, alpha) * wi.z / (2.0f * (ggx_r(wo, alpha) * wi.z + ggx_r(wi, alpha) * wo.z)); /* D G2 / (4 cos_o) */
+    if (smith == SMITH_SEPARABLE) specular = ggx_reflection_value(wo, wi, h, alpha, smith);
     float f_d = GLTF_DIELECTRIC_F0 + (1.0f - GLTF_DIELECTRIC_F0) * pow5(1.0f - c);
     float3 dielectric = (1.0f - f_d) * base * (wi.z * M_1_PI_F) + (float3)(f_d * specular);
     float3 metal = fresnel_schlick(base, c) * specular;
@@ -356,7 +389,7 @@ INLINE float gltf_pdf(float3 wo, float3 wi, float3 base, float metallic, float a
     return p_spec * conductor_pdf(wo, wi, alpha) + (1.0f - p_spec) * lambert_pdf(wo, wi);
 }
 
-INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float metallic, float alpha) {
+INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float metallic, float alpha, int smith) {
     BsdfSample s = no_sample();
     if (wo.z <= 0.0f) return s;
     float p_spec = gltf_specular_probability(wo, base, metallic);
@@ -366,16 +399,21 @@ INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float
     if (!(pdf > 0.0f)) return s;
     s.wi = wi;
     s.pdf = pdf;
-    s.weight = gltf_eval(wo, wi, base, metallic, alpha) / pdf;
+    s.weight = gltf_eval(wo, wi, base, metallic, alpha, smith) / pdf;
     return s;
 }
+
+#include "bsdf_exchange.h" /* the lobes Mitsuba and pbrt scenes need: metal, coated diffuse, thin dielectric */
 
 /* ---- dispatch by lobe code */
 INLINE float3 bsdf_eval(int lobe, BsdfParams p, float3 wo, float3 wi) {
     if (lobe == BSDF_LAMBERT) return lambert_eval(wo, wi, p.colour);
-    if (lobe == BSDF_CONDUCTOR) return conductor_eval(wo, wi, p.colour, p.alpha);
-    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_eval(wo, wi, p.eta, p.alpha);
-    if (lobe == BSDF_GLTF) return gltf_eval(wo, wi, p.colour, p.metallic, p.alpha);
+    if (lobe == BSDF_CONDUCTOR) return conductor_eval(wo, wi, p.colour, p.alpha, p.smith);
+    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_eval(wo, wi, p.eta, p.alpha, p.smith);
+    if (lobe == BSDF_GLTF) return gltf_eval(wo, wi, p.colour, p.metallic, p.alpha, p.smith);
+    if (lobe == BSDF_METAL) return metal_eval(wo, wi, p);
+    if (lobe == BSDF_COATED_DIFFUSE) return coated_eval(wo, wi, p);
+    if (lobe == BSDF_COATED_DIFFUSE_SMOOTH) return coated_smooth_eval(wo, wi, p);
     return (float3)(0.0f); /* BSDF_DIELECTRIC: delta lobes only */
 }
 
@@ -384,15 +422,23 @@ INLINE float bsdf_pdf(int lobe, BsdfParams p, float3 wo, float3 wi) {
     if (lobe == BSDF_CONDUCTOR) return conductor_pdf(wo, wi, p.alpha);
     if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_pdf(wo, wi, p.eta, p.alpha);
     if (lobe == BSDF_GLTF) return gltf_pdf(wo, wi, p.colour, p.metallic, p.alpha);
+    if (lobe == BSDF_METAL) return conductor_pdf(wo, wi, p.alpha);
+    if (lobe == BSDF_COATED_DIFFUSE) return coated_pdf(wo, wi, p);
+    if (lobe == BSDF_COATED_DIFFUSE_SMOOTH) return coated_smooth_pdf(wo, wi, p);
     return 0.0f;
 }
 
 INLINE BsdfSample bsdf_sample(int lobe, BsdfParams p, float3 wo, float u1, float2 u2) {
     if (lobe == BSDF_LAMBERT) return lambert_sample(wo, u2, p.colour);
-    if (lobe == BSDF_CONDUCTOR) return conductor_sample(wo, u2, p.colour, p.alpha);
+    if (lobe == BSDF_CONDUCTOR) return conductor_sample(wo, u2, p.colour, p.alpha, p.smith);
     if (lobe == BSDF_DIELECTRIC) return dielectric_sample(wo, u1, p.eta);
-    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_sample(wo, u1, u2, p.eta, p.alpha);
-    if (lobe == BSDF_GLTF) return gltf_sample(wo, u1, u2, p.colour, p.metallic, p.alpha);
+    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_sample(wo, u1, u2, p.eta, p.alpha, p.smith);
+    if (lobe == BSDF_GLTF) return gltf_sample(wo, u1, u2, p.colour, p.metallic, p.alpha, p.smith);
+    if (lobe == BSDF_METAL) return metal_sample(wo, u2, p);
+    if (lobe == BSDF_METAL_SMOOTH) return metal_smooth_sample(wo, p);
+    if (lobe == BSDF_COATED_DIFFUSE) return coated_sample(wo, u1, u2, p);
+    if (lobe == BSDF_COATED_DIFFUSE_SMOOTH) return coated_smooth_sample(wo, u1, u2, p);
+    if (lobe == BSDF_THIN_DIELECTRIC) return thin_dielectric_sample(wo, u1, p);
     return no_sample();
 }
 

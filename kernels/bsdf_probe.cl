@@ -14,6 +14,15 @@ INLINE BsdfParams bsdf_params(__global const BsdfProbeParams *r) {
     p.alpha = r->alpha;
     p.eta = r->eta;
     p.metallic = r->metallic;
+    p.smith = (int)r->smith;
+    p.nonlinear = (int)r->nonlinear;
+    p.eta3 = vload3(0, r->eta3);
+    p.k3 = vload3(0, r->k3);
+    p.tint = vload3(0, r->tint);
+    p.transmit_tint = vload3(0, r->transmit_tint);
+    p.coat_weight = r->coat_weight;
+    p.coat_internal = r->coat_internal;
+    p.coat_transmittance = r->coat_transmittance;
     return p;
 }
 

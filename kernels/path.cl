@@ -3,7 +3,7 @@
  * At every surface vertex the material picks ONE component at random with its own weight (the
  * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
  * kernels/bsdf.h), then
- *   - next-event estimation: a shadow ray to every point and directional light, to one point of every
+ *   - next-event estimation: a shadow ray to every point, spot and directional light, to one point of every
  *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
  *     one direction of the environment (the constant one: cosine-weighted about the shading normal; an
  *     image map: by its luminance x solid angle, kernels/envmap.h);
@@ -25,6 +25,7 @@
 #include "envmap.h"
 #include "texture.h"
 #include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
+#include "spot.h"
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
@@ -150,6 +151,27 @@ INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722
  * match of the two lobes' widths). */
 INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)), GGX_ALPHA_MIN); }
 
+/* A `type = ...` material (MATERIAL_MODEL_CONDUCTOR and after): one lobe of bsdf_exchange.h, its parameters from the
+ * record; roughness 0 is the lobe's smooth (delta) form. */
+INLINE Component exchange_component(Component c, const Shading *m) {
+    __global const Material *g = m->g;
+    bool smooth = !(m->roughness > 0.0f);
+    c.bsdf.alpha = ggx_alpha_from_roughness(m->roughness);
+    c.bsdf.eta = g->lobe_ior;
+    c.bsdf.eta3 = vload3(0, g->eta);
+    c.bsdf.k3 = vload3(0, g->k);
+    c.bsdf.tint = vload3(0, g->tint);
+    c.bsdf.transmit_tint = vload3(0, g->transmit_tint);
+    c.bsdf.nonlinear = g->nonlinear;
+    c.bsdf.coat_weight = g->coat_weight;
+    c.bsdf.coat_internal = g->coat_internal;
+    c.bsdf.coat_transmittance = g->coat_transmittance;
+    if (m->model == MATERIAL_MODEL_CONDUCTOR) c.lobe = smooth ? BSDF_METAL_SMOOTH : BSDF_METAL;
+    else if (m->model == MATERIAL_MODEL_COATED_DIFFUSE) c.lobe = smooth ? BSDF_COATED_DIFFUSE_SMOOTH : BSDF_COATED_DIFFUSE;
+    else c.lobe = BSDF_THIN_DIELECTRIC;
+    return c;
+}
+
 /* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
  * throughput is not rescaled).  docs/materials.md states the rule. */
 INLINE Component pick_component(const Shading *m, float u) {
@@ -160,6 +182,8 @@ INLINE Component pick_component(const Shading *m, float u) {
     c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
     c.bsdf.metallic = m->metallic;
     c.bsdf.colour = m->kd;
+    c.bsdf.smith = m->g->smith;
+    if (m->model >= MATERIAL_MODEL_CONDUCTOR) return exchange_component(c, m);
     if (m->model == MATERIAL_MODEL_GLTF) {
         float alpha = ggx_alpha_from_roughness(m->roughness);
         c.bsdf.alpha = alpha;
@@ -192,14 +216,14 @@ INLINE Component pick_component(const Shading *m, float u) {
 }
 
 INLINE bool component_is_delta(Component c) {
-    return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC;
+    return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_METAL_SMOOTH || c.lobe == BSDF_THIN_DIELECTRIC;
 }
 
 /* f * |cos| of the component, local frame (delta components: 0). */
 INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
     if (component_is_delta(c)) return (float3)(0.0f);
     float3 f = bsdf_eval(c.lobe, c.bsdf, wo, wi);
-    if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha);
+    if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED);
     return f;
 }
 
@@ -222,7 +246,8 @@ INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) 
     }
     if (c.glossy.x < 0.0f) return bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
     /* the Lambert + glossy sum: one lobe's direction, the sum's value over the mixture pdf */
-    BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha) : lambert_sample(wo, u2, c.bsdf.colour);
+    BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED)
+                                      : lambert_sample(wo, u2, c.bsdf.colour);
     if (!(s.pdf > 0.0f)) return no_sample();
     s.pdf = component_pdf(c, wo, s.wi);
     if (!(s.pdf > 0.0f)) return no_sample();
@@ -330,6 +355,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
         if (!(dist > 0.0f)) return (float3)(0.0f);
         wi = d / dist;
         if (physical && L->type == LIGHT_POINT) scale = 1.0f / (dist * dist);
+        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -wi) / (dist * dist); /* always physical */
         if (physical && L->type == LIGHT_AREA) { /* a two-sided emitter of radiance I c, sampled by area */
             float3 nl = cross3(ea, eb);
             float area = norm(nl);

@@ -20,6 +20,7 @@
 #include "envmap.h"
 #include "texture.h"
 #include "alpha.h" /* ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) */
+#include "spot.h"
 
 #ifndef WRITE_AOV
 #define WRITE_AOV 0 /* 1: the render kernel also writes the primary hit's AOVs (renderer.py, --aov) */
@@ -226,6 +227,7 @@ INLINE float point_light(const SceneView *sc, const ShadingPoint *pt, __global c
                is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
             falloff = min_f(falloff, MAX_FALLOFF);
         }
+        if (light->type == LIGHT_SPOT) falloff *= spot_profile(light, -l); /* a point light times its cone */
     }
     float T = 1.0f;
     if (dot3(pt->n, l) > 0.0f) {

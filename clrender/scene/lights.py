@@ -11,15 +11,21 @@ radiance, so the sum estimates the irradiance E = I * integral of
 cos(theta) cos(theta_light) / r^2 over the light (two-sided emitter); the
 surface then reflects E with the energy-conserving BRDF kd/pi + ks (s+8)/(8 pi)
 (n.h)^s (kernels/shade.h, blinn_phong).
+
+A spot light is always physical: a point light at `position` whose radiant intensity towards d is
+c*I*profile(d) (W/sr; I at the axis `direction`), falling off as 1/r^2; profile is Mitsuba 3's (1 within
+beam_width of the axis, linear in the angle down to 0 at cutoff_angle) or pbrt-v4's (smoothstep in the
+cosine between cutoff_angle and beam_width, pbrt's coneangle and coneangle - conedelta): kernels/spot.h.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import LIGHT_DTYPE, LIGHT_TYPES
+from ..layout import LIGHT_DTYPE, LIGHT_TYPES, SPOT_PROFILES
 from ..layout import LIGHT_FALLOFFS as FALLOFFS
 from .checks import MAX_AREA_SAMPLES, RADIANCE_LIMIT, Checks, TypeReader
 
@@ -28,7 +34,7 @@ __all__ = ["FALLOFFS", "LIGHT_READERS", "LIGHT_TYPES", "Light", "read_light"]
 
 @dataclass(frozen=True)
 class Light:
-    type: str = "point"  # "point", "directional" or "area"
+    type: str = "point"  # "point", "directional", "area" or "spot"
     position: tuple = (0.0, 0.0, 0.0)  # point light position, or an area light's corner
     direction: tuple = (0.0, -1.0, 0.0)  # directional light: the direction light travels
     edge_a: tuple = (1.0, 0.0, 0.0)  # area light: first edge vector from the corner
@@ -37,6 +43,9 @@ class Light:
     intensity: float = 1.0  # see the module docstring for units
     samples: int = 5  # area light: samples per side (n x n stratified), the seed's 5
     falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
+    cutoff_angle: float = 20.0  # spot: degrees from the axis where its light stops (Mitsuba's default)
+    beam_width: float = 15.0  # spot: degrees from the axis within which it is at full intensity
+    profile: str = "mitsuba"  # spot: "mitsuba" or "pbrt" (kernels/spot.h)
 
     def pack(self) -> np.ndarray:
         """The light's record (layout.LIGHT_DTYPE, the kernels' `Light`), field by field."""
@@ -50,6 +59,10 @@ class Light:
         record["colour"] = self.color
         record["edge_a"] = self.edge_a
         record["edge_b"] = self.edge_b
+        cutoff, beam = math.radians(self.cutoff_angle), math.radians(self.beam_width)
+        record["spot_cutoff"], record["spot_beam"] = cutoff, beam
+        record["spot_cos_cutoff"], record["spot_cos_beam"] = math.cos(cutoff), math.cos(beam)
+        record["spot_profile"] = SPOT_PROFILES[self.profile]
         return record
 
 
@@ -75,11 +88,25 @@ def _area(checks: Checks, l: dict, path: str) -> dict:
     return args
 
 
+def _spot(checks: Checks, l: dict, path: str) -> dict:
+    args = {"position": checks.vec3(l, "position", path), "direction": checks.vec3(l, "direction", path, kind="vector")}
+    args["cutoff_angle"] = checks.number(l, "cutoff_angle", path, Light.cutoff_angle, low=0.0, high=180.0, positive=True)
+    args["beam_width"] = checks.number(l, "beam_width", path, 0.75 * args["cutoff_angle"], low=0.0, high=180.0)
+    if args["beam_width"] > args["cutoff_angle"]:
+        checks.fail(f"{path}.beam_width", f"{args['beam_width']:g} is wider than cutoff_angle {args['cutoff_angle']:g}; allowed: 0 to cutoff_angle")
+    args["profile"] = checks.choice(l, "profile", path, Light.profile, tuple(SPOT_PROFILES))
+    if l.get("falloff", "inverse_square") != "inverse_square":
+        checks.fail(f"{path}.falloff", f"{l['falloff']!r}: a spot light is physical; allowed: 'inverse_square'")
+    args["falloff"] = "inverse_square"
+    return args
+
+
 # Each light type: its keys (the common ones and its own) and what it reads of its own.
 LIGHT_READERS = {
     "point": TypeReader((*COMMON_KEYS, "position"), _point),
     "directional": TypeReader((*COMMON_KEYS, "direction"), _directional),
     "area": TypeReader((*COMMON_KEYS, "corner", "edge_a", "edge_b", "samples"), _area),
+    "spot": TypeReader((*COMMON_KEYS, "position", "direction", "cutoff_angle", "beam_width", "profile"), _spot),
 }
 
 

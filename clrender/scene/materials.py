@@ -10,7 +10,12 @@ tracer), and nothing else of it.
 Textures (scene/textures.py) modulate the parameters per hit: `diffuse_texture` (seed) or `base_color_texture`
 multiplies kd / base colour, `metallic_roughness_texture` metallic (B) and roughness (G), `emissive_texture` the
 emission; `occlusion_texture` darkens only the albedo AOV and the Whitted ambient term; `normal_texture` tilts
-the shading normal (docs/materials.md)."""
+the shading normal (docs/materials.md).
+
+A material with `type = "conductor"`, `"coated_diffuse"` or `"thin_dielectric"` is one of the lobes Mitsuba and pbrt
+scenes need (kernels/bsdf_exchange.h, docs/materials.md); the Whitted integrator draws it with a stand-in: a
+conductor as Lambert with kd = tint x F(normal incidence), a coated diffuse as Lambert with kd = its diffuse, a thin
+dielectric as fully transparent with IOR 1 (light passes straight through)."""
 
 from __future__ import annotations
 
@@ -18,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import ALPHA_MODES, MATERIAL_DTYPE, MATERIAL_MODELS, TEXTURE_SLOTS
+from ..layout import ALPHA_MODES, COAT_TABLE_RES, MATERIAL_DTYPE, MATERIAL_MODELS, SMITH_MODELS, TEXTURE_SLOTS
+from . import coat
 from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
 from .textures import TextureRef, read_ref
 
@@ -46,6 +52,15 @@ class Material:
     alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
     alpha_cutoff: float = 0.5
     double_sided: bool = True  # False: camera rays look past back faces (glTF's doubleSided false, docs/materials.md)
+    # the `type = ...` materials (docs/materials.md); roughness above is theirs too (0: the smooth, delta form)
+    kind: str = ""  # "" (the model follows from the keys), "conductor", "coated_diffuse" or "thin_dielectric"
+    smith: str = "correlated"  # GGX masking-shadowing: "correlated" (height-correlated G2) or "separable" (Mitsuba's)
+    eta: tuple = (0.0, 0.0, 0.0)  # conductor: complex IOR eta + i k per channel; (0, 1): F = 1, a perfect mirror
+    k: tuple = (1.0, 1.0, 1.0)
+    tint: tuple = (1.0, 1.0, 1.0)  # specular reflectance (Mitsuba's specular_reflectance)
+    transmittance: tuple = (1.0, 1.0, 1.0)  # thin dielectric: specular transmittance
+    lobe_ior: float = 1.5  # coat / thin sheet IOR, inside over outside
+    nonlinear: bool = False  # coated diffuse: Mitsuba's nonlinear internal scattering
 
     @property
     def base_color_or_kd(self) -> tuple:
@@ -53,7 +68,37 @@ class Material:
 
     @property
     def model(self) -> str:
+        if self.kind:
+            return self.kind
         return "seed" if self.base_color is None else "gltf"
+
+    @property
+    def smith_code(self) -> int:
+        return SMITH_MODELS[self.smith]
+
+    @property
+    def transmit_tint(self) -> tuple:
+        return self.transmittance
+
+    @property
+    def coat_weight(self) -> float:
+        return coat.sampling_weight(self.diffuse, self.tint)
+
+    def _coat(self) -> tuple:
+        """(external transmittance table, internal reflectance) of a coated diffuse; zeros otherwise."""
+        if self.kind != "coated_diffuse":
+            return np.zeros(COAT_TABLE_RES), 0.0
+        if self.roughness == 0.0:
+            return np.zeros(COAT_TABLE_RES), coat.fresnel_diffuse_reflectance(1.0 / self.lobe_ior)
+        return coat.rough_coat(float(self.lobe_ior), float(np.float32(self.roughness) ** 2), self.smith == "separable")
+
+    @property
+    def coat_transmittance(self) -> np.ndarray:
+        return self._coat()[0]
+
+    @property
+    def coat_internal(self) -> float:
+        return self._coat()[1]
 
     @property
     def kd(self) -> tuple:
@@ -109,6 +154,7 @@ RECORD_NAMES = {
     "tex_coord": "texture_coords",
     "tex_transform": "texture_transforms",
     "alpha_mode": "alpha_mode_code",
+    "smith": "smith_code",
 }
 DEFAULT_MATERIAL = Material()
 
@@ -143,9 +189,64 @@ def _alpha(checks: Checks, a, path: str) -> dict:
     )
 
 
+# The `type = ...` materials: each type's own keys (with COMMON_KEYS; docs/materials.md)
+COMMON_KEYS = ("type", "emission", "emissive_texture", "alpha", "double_sided")
+TYPE_KEYS = {
+    "conductor": ("eta", "k", "roughness", "tint", "smith"),
+    "coated_diffuse": ("diffuse", "diffuse_texture", "ior", "roughness", "tint", "nonlinear", "smith"),
+    "thin_dielectric": ("ior", "tint", "transmittance"),
+}
+TYPES = ("seed", "gltf", *TYPE_KEYS)  # `type`: today's two models by name, or one of the lobes above
+
+
+def _typed_material(checks: Checks, m: dict, path: str, kind: str, common: dict) -> Material:
+    """A `type = "conductor" | "coated_diffuse" | "thin_dielectric"` material, with the Whitted stand-in's keys."""
+    checks.check_keys(m, path, (*COMMON_KEYS, *TYPE_KEYS[kind]))
+    d = DEFAULT_MATERIAL
+    args = dict(kind=kind, tint=checks.vec3(m, "tint", path, d.tint, kind="colour"))
+    if "smith" in TYPE_KEYS[kind]:
+        args["smith"] = checks.choice(m, "smith", path, d.smith, tuple(SMITH_MODELS))
+        args["roughness"] = checks.number(m, "roughness", path, 0.0, low=0.0, high=1.0)
+    if kind == "conductor":
+        args["eta"] = checks.vec3(m, "eta", path, d.eta, kind="colour")
+        args["k"] = checks.vec3(m, "k", path, d.k, kind="colour")
+        f0 = coat.conductor_normal_reflectance(args["eta"], args["k"])
+        args["diffuse"] = tuple(t * f for t, f in zip(args["tint"], f0))  # the Whitted stand-in
+    else:
+        args["lobe_ior"] = checks.number(m, "ior", path, d.lobe_ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True)
+    if kind == "coated_diffuse":
+        args["diffuse"] = checks.vec3(m, "diffuse", path, (0.5, 0.5, 0.5), kind="colour")
+        args["nonlinear"] = checks.boolean(m, "nonlinear", path, d.nonlinear)
+        common.update(_refs(checks, m, path, {"diffuse_texture": "base_color_texture"}))
+        if args["lobe_ior"] == 1.0 and args["roughness"] > 0:
+            checks.fail(f"{path}.ior", "1 leaves a rough coat without an interface; allowed: any other IOR")
+    if kind == "thin_dielectric":
+        args.update(diffuse=(0.0, 0.0, 0.0), transparency=1.0)  # the Whitted stand-in: straight through (ior 1)
+        args["transmittance"] = checks.vec3(m, "transmittance", path, d.transmittance, kind="colour")
+    return Material(**args, **common)
+
+
 def _build_material(checks: Checks, m: dict, path: str) -> Material:
     d = DEFAULT_MATERIAL
+    kind = checks.choice(m, "type", path, "", TYPES) if "type" in m else ""
+    if kind in TYPE_KEYS:
+        common = dict(
+            emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
+            **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
+            **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
+            double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
+        )
+        return _typed_material(checks, m, path, kind, common)
     seed, gltf = [k for k in SEED_KEYS if k in m], [k for k in GLTF_KEYS if k in m]
+    if kind == "seed" and gltf:
+        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key in a seed material; allowed: {', '.join(SEED_KEYS)}")
+    if kind == "gltf" and seed:
+        checks.fail(f"{path}.{seed[0]}", f"a Whitted key in a gltf material; allowed: {', '.join(GLTF_KEYS)}")
+    typed = [k for k in ("eta", "k", "tint", "transmittance", "nonlinear") if k in m]
+    if typed:
+        checks.fail(f"{path}.{typed[0]}", f"belongs to a `type` material; allowed types: {', '.join(TYPE_KEYS)}")
+    if "smith" in m and not (gltf or kind == "gltf"):
+        checks.fail(f"{path}.smith", "applies to GGX materials only; allowed on metallic-roughness and `type` materials")
     if seed and gltf:
         sets = f"{', '.join(SEED_KEYS)} or {', '.join(GLTF_KEYS)}"
         checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key beside the Whitted key {seed[0]!r}; a material uses one set: {sets}")
@@ -156,7 +257,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
         double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
     )
-    if gltf:
+    if gltf or kind == "gltf":
         slots = ("base_color", "metallic_roughness", "occlusion", "normal")
         common.update(_refs(checks, m, path, {f"{s}_texture": f"{s}_texture" for s in slots}))
         occlusion = common.get("occlusion_texture")
@@ -167,6 +268,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
             metallic=checks.number(m, "metallic", path, d.metallic, low=0.0, high=1.0),
             roughness=checks.number(m, "roughness", path, d.roughness, low=0.0, high=1.0),
             transmission=checks.number(m, "transmission", path, d.transmission, low=0.0, high=1.0),
+            smith=checks.choice(m, "smith", path, d.smith, tuple(SMITH_MODELS)),
             **common,
         )
     return Material(
@@ -181,9 +283,34 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
-MATERIAL_READER = TypeReader((*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha", "double_sided"), _build_material)
+MATERIAL_READER = TypeReader(
+    (*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha", "double_sided", "type", "smith")
+    + ("eta", "k", "tint", "transmittance", "nonlinear"),
+    _build_material,
+)
+
+
+# Each model's keys: an unknown key is refused naming those of the model the table is (its `type`, else glTF's when it
+# has a metallic-roughness key, else the seed's); MATERIAL_READER declares their union.
+_SHARED = ("emission", "emissive_texture", "alpha", "double_sided", "type")
+MODEL_KEYS = {
+    "seed": (*SEED_KEYS, "ior", *_SHARED),
+    "gltf": (*GLTF_KEYS, "ior", "smith", *_SHARED),
+    **{kind: (*COMMON_KEYS, *keys) for kind, keys in TYPE_KEYS.items()},
+}
+
+
+def model_of(m: dict) -> str:
+    """The model a material table is, for its key check (a bad `type` is refused when it is read)."""
+    kind = m.get("type")
+    if isinstance(kind, str) and kind in MODEL_KEYS:
+        return kind
+    return "gltf" if any(k in m for k in GLTF_KEYS) and not any(k in m for k in SEED_KEYS) else "seed"
 
 
 def read_material(checks: Checks, m, path: str) -> Material:
     checks.table(m, path)
-    return MATERIAL_READER.read(checks, m, path)
+    if set(m) <= set(MATERIAL_READER.keys):  # the model's own rules (mixed key sets, typed keys) say what is wrong
+        return _build_material(checks, m, path)
+    checks.check_keys(m, path, MODEL_KEYS[model_of(m)])
+    return _build_material(checks, m, path)

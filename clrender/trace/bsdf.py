@@ -12,6 +12,12 @@ Lobes and their parameters (`params`):
   dielectric        eta = IOR inside (-z) / outside (+z); smooth: delta lobes, eval and pdf are 0
   rough_dielectric  eta, alpha
   gltf              colour = base colour, metallic, alpha = roughness^2 (gltf_params converts)
+and the lobes of kernels/bsdf_exchange.h (issue 36):
+  metal, metal_smooth      eta3, k3 (complex IOR per channel), tint, alpha
+  coated_diffuse(_smooth)  colour = diffuse base, eta = coat IOR, tint, alpha, nonlinear, coat_weight,
+                           coat_internal, coat_transmittance (coated_params computes them as scenes do)
+  thin_dielectric          eta, tint, transmit_tint
+Every GGX lobe takes smith: 0 height-correlated, 1 separable.
 """
 
 from __future__ import annotations
@@ -26,7 +32,7 @@ from ..layout import BSDF_PROBE_DTYPE
 from .tracer import global_size, trace_defines
 from .work_layout import work_layout
 
-PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s: colour.rgb, alpha, eta, metallic, 0, 0
+PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s (layout.BSDF_PROBE_DTYPE)
 PROBE = "bsdf_probe.cl"
 
 
@@ -35,22 +41,42 @@ def bsdf_defines() -> dict:
     return trace_defines()
 
 
-def params(colour=(1.0, 1.0, 1.0), alpha=0.5, eta=1.5, metallic=0.0) -> np.ndarray:
-    """Parameter records, (n, PARAM_FLOATS) float32, broadcast over any array arguments (colour: (..., 3))."""
-    colour = np.asarray(colour, np.float64)
-    alpha, eta, metallic = (np.asarray(v, np.float64) for v in (alpha, eta, metallic))
-    shape = np.broadcast_shapes(colour.shape[:-1], alpha.shape, eta.shape, metallic.shape)
-    out = np.zeros((*shape, PARAM_FLOATS), np.float32)
-    out[..., 0:3] = colour
-    out[..., 3] = alpha
-    out[..., 4] = eta
-    out[..., 5] = metallic
-    return out.reshape(-1, PARAM_FLOATS)
+def params(colour=(1.0, 1.0, 1.0), alpha=0.5, eta=1.5, metallic=0.0, **more) -> np.ndarray:
+    """Parameter records, (n, PARAM_FLOATS) float32, broadcast over any array arguments (colour: (..., 3)).  `more`:
+    the other BsdfProbeParams fields by name (smith, eta3, k3, tint, transmit_tint, nonlinear, coat_*); tint and
+    transmit_tint default to 1."""
+    values = {"colour": colour, "alpha": alpha, "eta": eta, "metallic": metallic, "tint": (1.0, 1.0, 1.0), "transmit_tint": (1.0, 1.0, 1.0)}
+    values.update(more)
+    arrays = {name: np.asarray(v, np.float64) for name, v in values.items()}
+    field_shape = lambda name: BSDF_PROBE_DTYPE.fields[name][0].shape
+    shape = np.broadcast_shapes(*(a.shape[: a.ndim - len(field_shape(name))] for name, a in arrays.items()))
+    out = np.zeros(shape, BSDF_PROBE_DTYPE)
+    for name, a in arrays.items():
+        out[name] = a
+    return out.reshape(-1).view(np.float32).reshape(-1, PARAM_FLOATS)
 
 
 def gltf_params(base_colour=(1.0, 1.0, 1.0), metallic=0.0, roughness=0.5) -> np.ndarray:
     """A glTF metallic-roughness record: alpha = roughness^2 (the glTF / Disney convention)."""
     return params(colour=base_colour, alpha=np.square(np.asarray(roughness, np.float64)), metallic=metallic)
+
+
+def coated_params(diffuse=(0.5, 0.5, 0.5), ior=1.5, roughness=0.0, tint=(1.0, 1.0, 1.0), nonlinear=False, smith="correlated"):
+    """A coated diffuse's record as a scene's `type = "coated_diffuse"` material packs it (scene/coat.py's tables)."""
+    from ..scene.materials import Material  # the scene's packing: the weight, internal reflectance and table
+
+    m = Material(kind="coated_diffuse", diffuse=tuple(diffuse), lobe_ior=ior, roughness=roughness, tint=tuple(tint), nonlinear=nonlinear, smith=smith)
+    return params(
+        colour=diffuse,
+        alpha=max(np.float32(roughness) ** 2, 1e-4),
+        eta=ior,
+        tint=tint,
+        smith=m.smith_code,
+        nonlinear=float(nonlinear),
+        coat_weight=m.coat_weight,
+        coat_internal=m.coat_internal,
+        coat_transmittance=m.coat_transmittance,
+    )
 
 
 def _rows(v) -> np.ndarray:

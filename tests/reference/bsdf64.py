@@ -213,3 +213,133 @@ def conductor_albedo_f1(theta_o, alpha, theta_nodes=48, phi_nodes=512):
     with np.errstate(divide="ignore", invalid="ignore"):
         g = np.where(ok, ggx_d(h, alpha) * smith_g2(np.broadcast_to(wo, wi.shape), wi, alpha) * wo_h / wo[2], 0.0)
     return float(np.sum(g * np.sin(th) * theta_w[:, None]) * (2 * np.pi / phi_nodes))
+
+
+# ---- the lobes of issue 36 (kernels/bsdf_exchange.h)
+def smith_g_separable(wo, wi, alpha):
+    """Mitsuba's rough plugins' masking-shadowing: G1(wo) G1(wi)."""
+    return smith_g1(wo, alpha) * smith_g1(wi, alpha)
+
+
+def fresnel_conductor(cos_i, eta, k):
+    """Unpolarised reflectance of a conductor of complex IOR n = eta + i k, from the Fresnel equations with a complex
+    refraction angle: cos_t = sqrt(1 - sin_i^2 / n^2), r_s = (cos_i - n cos_t) / (cos_i + n cos_t),
+    r_p = (n cos_i - cos_t) / (n cos_i + cos_t), F = (|r_s|^2 + |r_p|^2) / 2.  cos_i (...), eta and k broadcast."""
+    n = np.asarray(eta, np.float64) + 1j * np.asarray(k, np.float64)
+    c = np.asarray(cos_i, np.complex128)
+    cos_t = np.sqrt(1 - (1 - c**2) / n**2)
+    r_s = (c - n * cos_t) / (c + n * cos_t)
+    r_p = (n * c - cos_t) / (n * c + cos_t)
+    return (np.abs(r_s) ** 2 + np.abs(r_p) ** 2) / 2
+
+
+def _g(wo, wi, alpha, smith):
+    return smith_g_separable(wo, wi, alpha) if smith == "separable" else smith_g2(wo, wi, alpha)
+
+
+def metal_eval(wo, wi, eta, k, tint, alpha, smith="correlated"):
+    """tint F(wo.h) D G / (4 cos_o cos_i) times cos_i, F the complex Fresnel per channel."""
+    up = _upper(wo, wi)
+    h = normalize(wo + wi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = fresnel_conductor(dot(wo, h)[..., None], eta, k) * np.asarray(tint, np.float64)
+        value = f * (ggx_d(h, alpha) * _g(wo, wi, alpha, smith) / (4 * wo[..., 2]))[..., None]
+    return np.where(up[..., None], value, 0.0)
+
+
+def coat_fdr(eta):
+    """Mitsuba's fresnel_diffuse_reflectance fit (Egan and Hilgeman 1973 below 1, d'Eon and Irving 2011 above)."""
+    if eta < 1:
+        return -1.4399 * eta**2 + 0.7099 * eta + 0.6681 + 0.0636 / eta
+    x = 1 / eta
+    return 0.919317 - 3.4793 * x + 6.75335 * x**2 - 7.80989 * x**3 + 4.98554 * x**4 - 1.36881 * x**5
+
+
+def coated_smooth_eval(wo, wi, diffuse, eta, nonlinear=False):
+    """Mitsuba's plastic, its diffuse part: base / (1 - fdr_int) (1 - F(cos_o)) (1 - F(cos_i)) / (pi eta^2) times cos_i."""
+    fdr = coat_fdr(1 / eta)
+    d = np.asarray(diffuse, np.float64)
+    base = d / (1 - (d * fdr if nonlinear else fdr))
+    t = lambda w: 1 - fresnel_dielectric(np.clip(w[..., 2], 0, 1), 1.0, eta)
+    value = base * (t(wo) * t(wi) * wi[..., 2] / (np.pi * eta**2))[..., None]
+    return np.where(_upper(wo, wi)[..., None], value, 0.0)
+
+
+def coated_smooth_specular_probability(cos_o, diffuse, tint, eta):
+    w = np.mean(tint) / (np.mean(diffuse) + np.mean(tint))
+    f = fresnel_dielectric(cos_o, 1.0, eta)
+    return f * w / (f * w + (1 - f) * (1 - w))
+
+
+def rough_interface(mu, eta, alpha, smith, transmit, theta_nodes=64, phi_nodes=128):
+    """What light arriving at cos mu (from the side of index 1, the other side's index eta) leaves by the rough interface's
+    reflection (transmit False) or transmission (True), single scattering: the integral over microfacet normals h of
+    (F or 1 - F)(wi.h) G(wi, wo) D(h) max(0, wi.h) / mu with wo the mirror or refracted direction, by Gauss-Legendre in
+    theta_h (panels graded towards alpha) and phi_h, rather than Mitsuba's quadrature of the visible-normal sampler's
+    square.  Mitsuba's roughplastic tabulates 1 - this (transmit) and uses 2 mean(R(mu; 1 / eta) mu) (reflection)."""
+    edges = [0.0]
+    t = alpha / 8
+    while t < np.pi / 2:
+        edges.append(t)
+        t *= 2
+    edges.append(np.pi / 2)
+    x, w = np.polynomial.legendre.leggauss(theta_nodes)
+    th = np.concatenate([(a + b) / 2 + (b - a) / 2 * x for a, b in zip(edges[:-1], edges[1:])])
+    tw = np.concatenate([(b - a) / 2 * w for a, b in zip(edges[:-1], edges[1:])])
+    ph = (np.arange(phi_nodes) + 0.5) * 2 * np.pi / phi_nodes
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    h = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1)
+    wi = np.array([np.sqrt(1 - mu * mu), 0.0, mu])
+    c = h @ wi
+    f = fresnel_dielectric(np.clip(c, 0, 1), 1.0, eta)
+    if transmit:
+        cos_t = np.sqrt(np.maximum(0.0, 1 - (1 - c**2) / eta**2))
+        wo = -wi / eta + (c / eta - cos_t)[..., None] * h
+        ok, value = (wo[..., 2] < 0) & (c > 0), 1 - f
+    else:
+        wo = 2 * c[..., None] * h - wi
+        ok, value = (wo[..., 2] > 0) & (c > 0), f
+    wi_b = np.broadcast_to(wi, wo.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = _g(wi_b, wo, alpha, smith)
+        integrand = np.where(ok, value * g * ggx_d(h, alpha) * c / mu, 0.0)
+    return float(np.sum(integrand * np.sin(T) * tw[:, None]) * 2 * np.pi / phi_nodes)
+
+
+def coated_rough_eval(wo, wi, diffuse, tint, eta, alpha, table, internal, smith="correlated", nonlinear=False):
+    """Mitsuba's roughplastic: tint F(wo.h) D G / (4 cos_o cos_i) + base / (1 - internal) T(cos_o) T(cos_i) / (pi eta^2),
+    times cos_i; T the lerp of `table` (transmittance at cos = i / (len - 1)) as Mitsuba's lerp_gather does."""
+    up = _upper(wo, wi)
+    h = normalize(wo + wi)
+    d = np.asarray(diffuse, np.float64)
+    base = d / (1 - (d * internal if nonlinear else internal))
+    n = len(table)
+
+    def lerp(c):
+        x = np.clip(c, 0, 1) * (n - 1)
+        i = np.minimum(x.astype(np.int64), n - 2)
+        return (1 - (x - i)) * table[i] + (x - i) * table[i + 1]
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = fresnel_dielectric(np.clip(dot(wo, h), 0, 1), 1.0, eta)
+        spec = np.asarray(tint, np.float64) * (f * ggx_d(h, alpha) * _g(wo, wi, alpha, smith) / (4 * wo[..., 2]))[..., None]
+        diff = base * (lerp(wo[..., 2]) * lerp(wi[..., 2]) * wi[..., 2] / (np.pi * eta**2))[..., None]
+    return np.where(up[..., None], spec + diff, 0.0)
+
+
+def thin_dielectric_reflectance(cos_i, eta):
+    """A thin sheet's reflectance with its inter-reflections: R' = R + T^2 R / (1 - R^2), T = 1 - R."""
+    r = fresnel_dielectric(np.abs(cos_i), 1.0, eta)
+    return r + (1 - r) ** 2 * r / (1 - r**2)
+
+
+def spot_profile(cos_theta, cutoff_deg, beam_deg, profile):
+    """Mitsuba 3's spot falloff (linear in the angle between beam_width and cutoff_angle) or pbrt-v4's
+    (smoothstep of the cosine between cos cutoff and cos beam)."""
+    c = np.asarray(cos_theta, np.float64)
+    cutoff, beam = np.radians(cutoff_deg), np.radians(beam_deg)
+    if profile == "pbrt":
+        t = np.clip((c - np.cos(cutoff)) / (np.cos(beam) - np.cos(cutoff)), 0, 1)
+        return t * t * (3 - 2 * t)
+    theta = np.arccos(np.clip(c, -1, 1))
+    return np.where(theta < cutoff, np.where(theta <= beam, 1.0, (cutoff - theta) / (cutoff - beam)), 0.0)

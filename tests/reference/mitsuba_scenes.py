@@ -262,6 +262,8 @@ def bitmap(spec: dict, *, srgb: bool, flip_v: bool = False) -> dict:
 def bsdf(material: dict, exact: bool = True, textures: dict | None = None, planted: str = "") -> dict:
     """A Mitsuba BSDF dict for one clrender material (the table in the module docstring); `textures` is the
     scene's `[textures]` table, for `diffuse_texture` (kd must then be white: Mitsuba's bitmap has no scale)."""
+    if material.get("type") in ("conductor", "coated_diffuse", "thin_dielectric"):
+        return exchange_bsdf(material)
     if "diffuse_texture" in material:
         kd = material.get("diffuse", (1.0, 1.0, 1.0))
         rest = set(material) - {"diffuse", "diffuse_texture"}
@@ -284,6 +286,32 @@ def bsdf(material: dict, exact: bool = True, textures: dict | None = None, plant
         principled = {"type": "principled", "base_color": rgb(base), "metallic": metallic, "roughness": roughness}
         return {"type": "twosided", "material": principled}
     return seed_bsdf(material)
+
+
+def exchange_bsdf(material: dict) -> dict:
+    """A `type = ...` material (docs/materials.md) as the Mitsuba plugin it follows: roughness^2 is Mitsuba's alpha;
+    `smith` must be "separable" for a rough one (Mitsuba's only term)."""
+    kind, r = material["type"], float(material.get("roughness", 0.0))
+    if r > 0 and material.get("smith", "correlated") != "separable":
+        raise NotImplementedError("Mitsuba's rough plugins use the separable Smith G: give smith = 'separable'")
+    tint = rgb(material.get("tint", (1.0, 1.0, 1.0)))
+    if kind == "conductor":
+        out = {"eta": rgb(material.get("eta", (0.0, 0.0, 0.0))), "k": rgb(material.get("k", (1.0, 1.0, 1.0))), "specular_reflectance": tint}
+        out.update({"type": "roughconductor", "distribution": "ggx", "alpha": r * r} if r > 0 else {"type": "conductor"})
+        return out
+    ior = float(material.get("ior", 1.5))
+    if kind == "thin_dielectric":
+        return {
+            "type": "thindielectric",
+            "int_ior": ior,
+            "ext_ior": 1.0,
+            "specular_reflectance": tint,
+            "specular_transmittance": rgb(material.get("transmittance", (1.0, 1.0, 1.0))),
+        }
+    out = {"int_ior": ior, "ext_ior": 1.0, "diffuse_reflectance": rgb(material.get("diffuse", (0.5, 0.5, 0.5))), "specular_reflectance": tint}
+    out["nonlinear"] = bool(material.get("nonlinear", False))
+    out.update({"type": "roughplastic", "distribution": "ggx", "alpha": r * r} if r > 0 else {"type": "plastic"})
+    return out
 
 
 def seed_bsdf(material: dict) -> dict:
@@ -323,6 +351,21 @@ def light_emitter(light: dict) -> dict:
         return {"type": "directional", "direction": list(map(float, light["direction"])), "irradiance": rgb(c * (1.0 if physical else math.pi))}
     if kind == "point":
         return {"type": "point", "position": list(map(float, light["position"])), "intensity": rgb(c * (1.0 if physical else math.pi))}
+    if kind == "spot":  # Mitsuba's profile only (pbrt's smoothstep is not Mitsuba's)
+        if light.get("profile", "mitsuba") != "mitsuba":
+            raise NotImplementedError("Mitsuba's spot has its own falloff only: profile = 'mitsuba'")
+        import mitsuba as mi
+
+        p, d = np.asarray(light["position"], float), np.asarray(light["direction"], float)
+        up = [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 * np.linalg.norm(d) else [1.0, 0.0, 0.0]
+        cutoff = float(light.get("cutoff_angle", 20.0))
+        return {
+            "type": "spot",
+            "to_world": mi.ScalarTransform4f().look_at(origin=p.tolist(), target=(p + d).tolist(), up=up),
+            "intensity": rgb(c),
+            "cutoff_angle": cutoff,
+            "beam_width": float(light.get("beam_width", 0.75 * cutoff)),
+        }
     corner, a, b = (np.asarray(light[k], float) for k in ("corner", "edge_a", "edge_b"))
     normal = np.cross(a, b)
     area = float(np.linalg.norm(normal))

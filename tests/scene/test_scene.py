@@ -69,7 +69,7 @@ def test_rotation_turns_x_into_y_about_z(tmp_path):
         ({"materials": {"glass": {"ior": 0}}}, ["materials.glass.ior", "> 0"]),
         ({"materials": {"glass": {"ior": -1.5}}}, ["materials.glass.ior"]),
         ({"materials": {"m": {"transparency": 1.5}}}, ["materials.m.transparency", "<= 1"]),
-        ({"lights": [{"type": "spot"}]}, ["lights[0].type", "'spot'"]),
+        ({"lights": [{"type": "laser"}]}, ["lights[0].type", "'laser'", "'spot'"]),
         ({"lights": [{"type": "point"}]}, ["lights[0].position", "required"]),
         ({"cameras": [{"position": [0, 0, 0], "look_at": [0, 0, 0]}]}, ["cameras[0].look_at"]),
         ({"widht": 3}, ["widht", "unknown key"]),

@@ -12,7 +12,7 @@ import pytest
 from clrender.errors import UsageError
 from clrender.scene.camera import CAMERA_READER
 from clrender.scene.lights import LIGHT_READERS
-from clrender.scene.materials import MATERIAL_READER
+from clrender.scene.materials import MATERIAL_READER, MODEL_KEYS
 from clrender.scene.scene import ENVIRONMENT_READER, OBJECT_READERS, TOP_KEYS, Scene
 from clrender.scene.textures import TEXTURE_READER
 
@@ -88,7 +88,8 @@ def refused_keys(data) -> list:
 @pytest.mark.parametrize(
     "data, reader_keys",
     [({"zz": 1}, TOP_KEYS), ({"environment": {"zz": 1}}, ENVIRONMENT_READER.keys), ({"cameras": [{"zz": 1}]}, CAMERA_READER.keys)]
-    + [({"materials": {"m": {"zz": 1}}}, MATERIAL_READER.keys), ({"textures": {"t": {"file": "t.png", "zz": 1}}}, TEXTURE_READER.keys)]
+    + [({"materials": {"m": {"zz": 1}}}, MODEL_KEYS["seed"]), ({"textures": {"t": {"file": "t.png", "zz": 1}}}, TEXTURE_READER.keys)]
+    + [({"materials": {"m": {"type": kind, "zz": 1}}}, keys) for kind, keys in MODEL_KEYS.items()]
     + [({"lights": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in LIGHT_READERS.items()]
     + [({"objects": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in OBJECT_READERS.items()],
     ids=lambda value: value if isinstance(value, str) else None,
