@@ -25,6 +25,8 @@ def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
         name = p.get("filename")
         if not isinstance(name, str):
             p.fail(f'shape "{p.type}" needs a filename')
+        if not scene_file(reader.doc.folder, name, reader.root, f"{p.where}: filename").is_file():
+            p.fail(f'shape "{p.type}" file {name!r} does not exist')
         if not flip:
             return [{"type": "mesh", "file": name, "matrix": matrix.tolist(), "smooth": smooth, "material": material}]
         from .scene import load_mesh_file
