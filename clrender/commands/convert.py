@@ -23,7 +23,14 @@ def add_parser(sub):
     p.add_argument("scene", metavar="SCENE", help="a Mitsuba 3 .xml or pbrt-v4 .pbrt scene file")
     p.add_argument("-o", "--output", required=True, help="the TOML scene to write")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE", help="a Mitsuba scene's $NAME parameter (repeatable)")
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a Mitsuba scene's $NAME parameter (repeatable; wins over <default>)",
+    )
     p.add_argument("--approximate", action="store_true", help="write documented stand-ins for what clrender cannot read (listed on one line)")
     p.set_defaults(run=run)
 
