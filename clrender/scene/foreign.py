@@ -4,7 +4,8 @@ A foreign reader turns its file into the scene dict a TOML scene is (so it is ch
 the render settings the file asks for (`Foreign`, mitsuba_plugins.py): Mitsuba 3's XML (`.xml`,
 mitsuba_plugins.read_mitsuba) and pbrt-v4's files (`.pbrt`, clrender.scene.pbrt.read_pbrt where that module
 exists).  `defines` are the command line's `-D name=value` (Mitsuba's `$name` parameters); `approximate`
-renders what cannot be read with documented stand-ins instead of refusing it.
+renders what cannot be read with documented stand-ins instead of refusing it.  scene.py's `Scene.from_file`
+makes the Scene (imports go one way: scene.py imports this module, never the reverse).
 """
 
 from __future__ import annotations
@@ -48,15 +49,3 @@ def read_foreign(path, defines: dict | None = None, approximate: bool = False, a
 
     result = pbrt.read_pbrt(path, defines)
     return result if hasattr(result, "scene") else Foreign(result)
-
-
-def load_foreign(path, defines: dict | None = None, approximate: bool = False, allow_outside: bool = True):
-    """A Scene of a foreign file, carrying the file's render settings and the stand-ins used."""
-    from .scene import Scene
-
-    path = Path(path)
-    foreign = read_foreign(path, defines, approximate, allow_outside)
-    scene = Scene.from_dict(foreign.scene, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
-    scene.render_settings = dict(foreign.settings)
-    scene.substitutions = list(foreign.substitutions)
-    return scene

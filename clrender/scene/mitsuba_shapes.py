@@ -29,11 +29,7 @@ def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
             p.fail(f'shape "{p.type}" file {name!r} does not exist')
         if not flip:
             return [{"type": "mesh", "file": name, "matrix": matrix.tolist(), "smooth": smooth, "material": material}]
-        from .scene import load_mesh_file
-
-        path = scene_file(reader.doc.folder, name, reader.root, f"{p.where}: filename")
-        tm = load_mesh_file(path, f"{p.where}: filename", root=reader.root)
-        return [_inline(MeshArrays(np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64)), matrix, material, smooth, flip)]
+        return [_inline(_file_mesh(reader, p, name), matrix, material, smooth, flip)]
     if p.type == "serialized":
         name = p.get("filename")
         if not isinstance(name, str):
@@ -47,6 +43,24 @@ def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
     if p.type == "cylinder":
         mesh = _cylinder(reader, p, mesh)
     return [_inline(mesh, matrix, material, p.type == "cylinder" and smooth, flip)]
+
+
+def _file_mesh(reader, p, name: str) -> MeshArrays:
+    """A mesh file's triangles read here (to be written inline, reversed), through confine.py as scene.py reads them."""
+    import trimesh
+
+    from ..errors import UsageError
+    from .confine import trimesh_resolver
+
+    path = scene_file(reader.doc.folder, name, reader.root, f"{p.where}: filename")
+    resolver = None if reader.root is None else trimesh_resolver(path, reader.root)
+    try:
+        tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
+    except Exception as exc:  # trimesh raises many kinds for malformed files
+        raise UsageError(f"{p.where}: cannot parse mesh {name!r} ({type(exc).__name__})") from None
+    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0 or not np.isfinite(tm.vertices).all():
+        p.fail(f"mesh {name!r} has no triangles, or NaN or infinite vertices")
+    return MeshArrays(np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64))
 
 
 def _inline(mesh: MeshArrays, matrix, material, smooth, flip) -> dict:

@@ -192,10 +192,10 @@ class Scene:
         `defines`, the `-D name=value` parameters, and `approximate`); mesh paths are relative to its folder (see
         `from_dict` for allow_outside)."""
         path = Path(path)
-        from .foreign import is_foreign, load_foreign
+        from .foreign import is_foreign
 
         if is_foreign(path):
-            return load_foreign(path, defines, approximate, allow_outside)
+            return _load_foreign(path, defines, approximate, allow_outside)
         if path.suffix.lower() in (".gltf", ".glb"):
             return _load_gltf(path, allow_outside=allow_outside)
         if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh, framed and lit by framing.py
@@ -445,6 +445,16 @@ def _load_gltf(path, allow_outside: bool = True) -> Scene:
     path = Path(path)
     root = None if allow_outside else path.parent
     return Scene.from_dict(gltf.scene_dict(path, root), base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
+
+
+def _load_foreign(path: Path, defines, approximate: bool, allow_outside: bool) -> Scene:
+    """A Scene of another renderer's file (foreign.py), carrying the file's render settings and the stand-ins used."""
+    from .foreign import read_foreign
+
+    foreign = read_foreign(path, defines, approximate, allow_outside)
+    scene = Scene.from_dict(foreign.scene, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
+    scene.render_settings, scene.substitutions = dict(foreign.settings), list(foreign.substitutions)
+    return scene
 
 
 # ---------------------------------------------------------------------- objects

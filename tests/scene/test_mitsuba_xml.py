@@ -390,3 +390,44 @@ def test_convert_writes_a_toml_scene_that_reads_back(tmp_path, capsys):
     for a, b in zip(direct.objects, converted.objects):
         np.testing.assert_array_equal(a.vertices, b.vertices)
     assert converted.materials[converted.objects[1].material].emission == (1.0, 1.0, 1.0)
+
+
+def test_flip_normals_on_a_mesh_file_reverses_its_winding(tmp_path):
+    (tmp_path / "sq.obj").write_text(SQUARE_OBJ)
+    shape = '<shape type="obj"><string name="filename" value="sq.obj"/><boolean name="flip_normals" value="{}"/></shape>'
+    plain, flipped = (Scene.from_file(write(tmp_path, shape.format(v))).objects[0] for v in ("false", "true"))
+    np.testing.assert_array_equal(flipped.faces, plain.faces[:, ::-1])
+
+
+def test_the_files_settings_apply_where_the_command_line_gives_none(tmp_path):
+    from clrender.cli import build_parser
+    from clrender.commands.render import foreign_settings, settings_from_args
+
+    path = write(
+        tmp_path,
+        '<default name="spp" value="8"/><integrator type="path"><integer name="max_depth" value="5"/></integrator>'
+        '<sensor type="perspective"><sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>'
+        '<film type="hdrfilm"><rfilter type="tent"/></film></sensor>',
+    )
+    scene = Scene.from_file(path, defines={"spp": "32"})
+    args = build_parser().parse_args(["render", str(path)])
+    s = foreign_settings(args, settings_from_args(args), scene)
+    assert (s.integrator, s.spp, s.max_depth, s.pixel_filter) == ("path", 32, 3, "tent")
+    args = build_parser().parse_args(["render", str(path), "--spp", "2", "--max-depth", "1", "--pixel-filter", "box"])
+    s = foreign_settings(args, settings_from_args(args), scene)
+    assert (s.integrator, s.spp, s.max_depth, s.pixel_filter) == ("path", 2, 1, "box")
+
+
+def test_cli_approximate_lists_the_stand_ins_on_one_line(tmp_path, capsys):
+    path = write(
+        tmp_path,
+        '<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>'
+        '<shape type="sphere"><bsdf type="hair"/></shape><emitter type="constant"/>',
+    )
+    out = tmp_path / "out.png"
+    code, stdout, err = run_cli(capsys, "render", str(path), "--approximate", "--spp", "1", "-o", str(out))
+    assert code == 0 and out.exists(), err
+    (line,) = [w for w in err.splitlines() if w.startswith("warning:")]
+    assert line.startswith("warning: 1 stand-ins:") and 'bsdf "hair"' in line
+    code, _, err = run_cli(capsys, "render", "refract1", "-D", "a=1", "-o", str(tmp_path / "x.png"))
+    assert code == 2 and "-D and --approximate are for foreign scene files" in err
