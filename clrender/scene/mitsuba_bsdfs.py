@@ -225,6 +225,8 @@ def fit_to_build(m: dict, p, reader) -> dict:
         m = {k: v for k, v in m.items() if k != "smith"}
     if "type" not in m or "type" in keys:
         return m
+    if _perfect_mirror(m):  # Mitsuba's material "none" (η 0): reflectance 1 at every angle, today's Whitted mirror exactly
+        return {"diffuse": [0.0, 0.0, 0.0], "mirror": 1.0}
     reader.refuse(p, f'bsdf "{p.type}" needs the {m["type"]} lobe, which this build of clrender does not have yet')
     kind = m["type"]
     if kind == "conductor":
@@ -236,6 +238,11 @@ def fit_to_build(m: dict, p, reader) -> dict:
     if kind == "coated_diffuse":
         return {"diffuse": m["diffuse"], "specular": [0.04] * 3, "shininess": min(1e5, 2 / _roughness_alpha(m["roughness"]) ** 2 - 2)}
     return {"base_color": m["tint"], "metallic": 0.0, "roughness": 0.0, "transmission": 1.0, "ior": 1.0}
+
+
+def _perfect_mirror(m: dict) -> bool:
+    """A smooth conductor of η 0 and k > 0 with a white tint: the Fresnel term is 1 at every angle."""
+    return m["type"] == "conductor" and m["roughness"] == 0 and m["tint"] == [1.0] * 3 and all(e == 0 and k > 0 for e, k in zip(m["eta"], m["k"]))
 
 
 def _roughness_alpha(r: float) -> float:

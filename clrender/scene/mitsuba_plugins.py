@@ -31,7 +31,16 @@ DEFAULT_BSDF = {"diffuse": [0.5, 0.5, 0.5]}  # a shape without a bsdf: Mitsuba's
 PATH_DEPTH_UNLIMITED = 1024  # Mitsuba's max_depth -1 (no limit): clrender's deepest path (renderer.PATH_DEPTH_LIMIT)
 # parameters every plugin of a kind may carry that change nothing clrender draws (read and ignored)
 IGNORED = {
-    "sensor": ("near_clip", "far_clip", "shutter_open", "shutter_close", "srf", "principal_point_offset_x", "principal_point_offset_y"),
+    "sensor": (
+        "near_clip",
+        "far_clip",
+        "shutter_open",
+        "shutter_close",
+        "srf",
+        "principal_point_offset_x",
+        "principal_point_offset_y",
+        "focus_distance",
+    ),
     "film": ("pixel_format", "component_format", "file_format", "banner", "sample_border", "compensate", "high_quality_edges"),
     "sampler": ("seed", "jitter", "dimension", "scramble_type"),
     "rfilter": ("radius", "stddev", "lobes"),

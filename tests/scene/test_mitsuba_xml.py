@@ -431,3 +431,18 @@ def test_cli_approximate_lists_the_stand_ins_on_one_line(tmp_path, capsys):
     assert line.startswith("warning: 1 stand-ins:") and 'bsdf "hair"' in line
     code, _, err = run_cli(capsys, "render", "refract1", "-D", "a=1", "-o", str(tmp_path / "x.png"))
     assert code == 2 and "-D and --approximate are for foreign scene files" in err
+
+
+def test_what_this_build_renders_of_the_contract(tmp_path):
+    """Mitsuba's default conductor ("none": η 0, Fresnel 1 at every angle) is today's perfect mirror exactly; a
+    named metal needs the conductor lobe: refused until the build has it, a glTF metal under --approximate."""
+    from clrender.scene.materials import MATERIAL_READER
+
+    if "type" in MATERIAL_READER.keys:
+        pytest.skip("this build has the contract's lobes")
+    f = read(tmp_path, '<shape type="sphere"><bsdf type="conductor"/></shape>')
+    assert f.scene["materials"]["bsdf1"] == {"diffuse": [0.0, 0.0, 0.0], "mirror": 1.0}
+    gold = '<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>'
+    assert "needs the conductor lobe" in refused(tmp_path, gold)
+    stand_in = read(tmp_path, gold, approximate=True).scene["materials"]["bsdf1"]
+    assert stand_in["metallic"] == 1.0 and stand_in["base_color"][0] > stand_in["base_color"][2]  # gold: red over blue

@@ -1,7 +1,8 @@
 """One Mitsuba 3 XML file rendered by Mitsuba and by clrender (`Scene.from_file`), compared by the block z-test.
 
 The scene is the Cornell box as Mitsuba's tutorial writes it: OBJ walls, `twosided` `diffuse` BSDFs by `ref`,
-an `area` emitter on a `rectangle`, two `cube` boxes, a `dielectric` sphere, a `perspective` sensor with
+an `area` emitter on a `rectangle`, a `cube`, a `dielectric` sphere, a `conductor` sphere (Mitsuba's default
+`none`, a perfect mirror), a `perspective` sensor with
 `fov_axis` x, `$spp` and `<default>`; the file's `max_depth` 8 is clrender's 6.  Mitsuba loads the very file
 (mi.load_file); the test is tests/reference/ztest.py (8 x 8 blocks, K = 4 renders a side, Šidák at alpha 0.01).
 Slow, and skipped without Mitsuba.
@@ -52,6 +53,10 @@ CBOX = """<scene version="3.0.0">
     <shape type="sphere">
         <point name="center" x="-0.4" y="-0.65" z="0.3"/><float name="radius" value="0.35"/>
         <bsdf type="dielectric"/>
+    </shape>
+    <shape type="sphere">
+        <transform name="to_world"><scale value="0.25"/><translate x="0.45" y="-0.15" z="0.2"/></transform>
+        <bsdf type="conductor"/>
     </shape>
 </scene>
 """
