@@ -7,7 +7,7 @@ out-of-gamut values to 0 as it warns).  Rounded to 6 significant digits.  tests/
 checks a few entries against the installed Mitsuba.  "none" is Mitsuba's perfect mirror (η 0, k 1: the
 Fresnel term is 1 at every angle).
 
-IORS is Mitsuba's table of named indices of refraction (src/core/… `ior.h`), as `int_ior`/`ext_ior` take
+IORS is Mitsuba's table of named indices of refraction (its `ior.h`), as `int_ior`/`ext_ior` take
 them; a dielectric's relative η is int_ior / ext_ior.
 """
 

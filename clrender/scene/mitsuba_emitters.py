@@ -43,6 +43,17 @@ def directional(reader, e):
 
 
 def spot(reader, e):
+    light = spot_light(reader, e)
+    if e.child("texture") is not None:
+        reader.refuse(e, 'emitter "spot" with a projected texture is not supported', "no texture")
+    if "spot" not in LIGHT_READERS:
+        reader.refuse(e, 'emitter "spot" needs the spot light, which this build of clrender does not have yet', "left out")
+        return
+    reader.out["lights"].append(light)
+
+
+def spot_light(reader, e) -> dict:
+    """The spot light contract's dict: Mitsuba's cone (`cutoff_angle`, `beam_width`, degrees) and its falloff profile."""
     rgb, _ = reader.colour(e, "intensity", 1.0, texture=False)
     cutoff = reader.scalar(e, "cutoff_angle", 20.0)
     light = {
@@ -56,12 +67,7 @@ def spot(reader, e):
         "intensity": 1.0,
         "falloff": "inverse_square",
     }
-    if e.child("texture") is not None:
-        reader.refuse(e, 'emitter "spot" with a projected texture is not supported', "no texture")
-    if "spot" not in LIGHT_READERS:
-        reader.refuse(e, 'emitter "spot" needs the spot light, which this build of clrender does not have yet', "left out")
-        return
-    reader.out["lights"].append(light)
+    return light
 
 
 def constant(reader, e):

@@ -446,3 +446,64 @@ def test_what_this_build_renders_of_the_contract(tmp_path):
     assert "needs the conductor lobe" in refused(tmp_path, gold)
     stand_in = read(tmp_path, gold, approximate=True).scene["materials"]["bsdf1"]
     assert stand_in["metallic"] == 1.0 and stand_in["base_color"][0] > stand_in["base_color"][2]  # gold: red over blue
+
+
+def test_spot_maps_to_the_contract(tmp_path):
+    from clrender.scene.mitsuba_emitters import spot_light
+    from clrender.scene.mitsuba_plugins import Reader
+
+    doc = Document(
+        write(
+            tmp_path,
+            '<emitter type="spot"><rgb name="intensity" value="4"/><float name="cutoff_angle" value="30"/>'
+            '<transform name="to_world"><lookat origin="1, 2, 3" target="1, 0, 3" up="0, 0, 1"/></transform></emitter>',
+        )
+    )
+    light = spot_light(Reader(doc, False), doc.scene.children[0][1])
+    assert light == {
+        "type": "spot",
+        "position": [1, 2, 3],
+        "direction": pytest.approx([0, -1, 0]),
+        "cutoff_angle": 30,
+        "beam_width": 22.5,  # Mitsuba's default: 3/4 of the cutoff
+        "profile": "mitsuba",
+        "color": [4.0] * 3,
+        "intensity": 1.0,
+        "falloff": "inverse_square",
+    }
+
+
+def test_textures(tmp_path):
+    from PIL import Image
+
+    from clrender.scene.textures import srgb_to_linear
+
+    Image.new("RGB", (4, 4), (200, 100, 50)).save(tmp_path / "wood.png")
+    f = read(
+        tmp_path,
+        '<shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">'
+        '<string name="filename" value="wood.png"/><string name="wrap_mode" value="mirror"/><string name="filter_type" value="nearest"/>'
+        '<transform name="to_uv"><scale x="4" y="2"/><translate x="0.5"/></transform></texture></bsdf></shape>'
+        '<shape type="rectangle"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
+        '<rgb name="color0" value="0.8, 0.1, 0.1"/><rgb name="color1" value="0.1, 0.1, 0.8"/></texture></bsdf></shape>',
+    )
+    wood, checker = (f.scene["materials"][o["material"]] for o in f.scene["objects"])
+    assert wood == {"diffuse": [1.0] * 3, "diffuse_texture": {"texture": "texture1", "offset": [0.5, 0.0], "scale": [4.0, 2.0]}}
+    assert f.scene["textures"]["texture1"] == {"file": "wood.png", "wrap_s": "mirrored_repeat", "wrap_t": "mirrored_repeat", "filter": "nearest"}
+    baked = f.scene["textures"][checker["diffuse_texture"]]
+    assert baked["filter"] == "nearest" and baked["wrap_s"] == "repeat"
+    texels = srgb_to_linear(np.asarray(Image.open(baked["file"]), float) / 255)
+    # Mitsuba: color0 where frac(u) > 0.5 equals frac(v) > 0.5: the top-left and bottom-right texels
+    np.testing.assert_allclose(texels[0, 0], [0.8, 0.1, 0.1], atol=0.004)
+    np.testing.assert_allclose(texels[1, 1], [0.8, 0.1, 0.1], atol=0.004)
+    np.testing.assert_allclose(texels[0, 1], [0.1, 0.1, 0.8], atol=0.004)
+    Scene.from_file(tmp_path / "scene.xml")  # the textures read
+
+
+def test_confined_scene_reads_nothing_outside_its_folder(tmp_path):
+    (tmp_path / "sq.obj").write_text(SQUARE_OBJ)
+    (tmp_path / "inner").mkdir()
+    path = write(tmp_path / "inner", '<shape type="obj"><string name="filename" value="../sq.obj"/></shape>')
+    Scene.from_file(path)  # a local file may climb out
+    with pytest.raises(UsageError, match="outside the scene folder"):
+        Scene.from_file(path, allow_outside=False)
