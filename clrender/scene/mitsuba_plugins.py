@@ -45,7 +45,7 @@ IGNORED = {
     "sampler": ("seed", "jitter", "dimension", "scramble_type"),
     "rfilter": ("radius", "stddev", "lobes"),
     "integrator": ("samples_per_pass", "timeout", "emitter_samples", "bsdf_samples"),
-    "shape": ("id",),
+    "emitter": ("sampling_weight",),  # how often light sampling picks it: noise, not the image
 }
 
 
