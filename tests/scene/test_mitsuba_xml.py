@@ -507,3 +507,16 @@ def test_confined_scene_reads_nothing_outside_its_folder(tmp_path):
     Scene.from_file(path)  # a local file may climb out
     with pytest.raises(UsageError, match="outside the scene folder"):
         Scene.from_file(path, allow_outside=False)
+
+
+def test_convert_writes_a_large_mesh_beside_the_scene(tmp_path, capsys):
+    from clrender.scene.mitsuba_meshes import uv_sphere, write_serialized
+
+    write_serialized(tmp_path / "ball.serialized", [uv_sphere(24, 48)])
+    path = write(tmp_path, '<shape type="serialized"><string name="filename" value="ball.serialized"/></shape>')
+    code, out, err = run_cli(capsys, "convert", str(path), "-o", str(tmp_path / "ball.toml"))
+    assert code == 0, err
+    assert (tmp_path / "ball_mesh1.ply").exists() and "vertices" not in (tmp_path / "ball.toml").read_text()
+    direct, converted = Scene.from_file(path).objects[0], Scene.from_file(tmp_path / "ball.toml").objects[0]
+    np.testing.assert_allclose(converted.vertices, direct.vertices, rtol=1e-6)
+    np.testing.assert_array_equal(converted.faces, direct.faces)
