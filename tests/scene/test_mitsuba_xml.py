@@ -143,9 +143,22 @@ def test_include_splices_the_file(tmp_path):
         ("<shape type='sphere'>", "not valid XML"),
     ],
 )
-def test_bad_input_is_one_line(tmp_path, text, expected):
+def test_bad_input_is_one_line(tmp_path, text, expected, capsys):
     (tmp_path.parent / "outside.xml").write_text('<scene version="3.0.0"/>')
     assert expected in refused(tmp_path, text)
+    out = tmp_path / "out.png"
+    code, stdout, err = run_cli(capsys, "render", str(tmp_path / "scene.xml"), "-o", str(out))
+    assert code == 2 and not out.exists() and stdout == "" and err.count("\n") == 1 and expected in err
+
+
+def test_a_pbrt_file_without_the_pbrt_reader_is_one_line(tmp_path):
+    import importlib.util
+
+    if importlib.util.find_spec("clrender.scene.pbrt") is not None:
+        pytest.skip("this build reads pbrt-v4 files (tests/scene for the pbrt reader)")
+    (tmp_path / "s.pbrt").write_text('WorldBegin\nShape "sphere"\n')
+    with pytest.raises(UsageError, match="pbrt-v4 scenes are not readable by this build"):
+        Scene.from_file(tmp_path / "s.pbrt")
 
 
 def test_include_cycle_refused(tmp_path):
@@ -421,11 +434,11 @@ def test_the_files_settings_apply_where_the_command_line_gives_none(tmp_path):
 def test_cli_approximate_lists_the_stand_ins_on_one_line(tmp_path, capsys):
     path = write(
         tmp_path,
-        '<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>'
+        '<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="$size"/><integer name="height" value="8"/></film></sensor>'
         '<shape type="sphere"><bsdf type="hair"/></shape><emitter type="constant"/>',
     )
     out = tmp_path / "out.png"
-    code, stdout, err = run_cli(capsys, "render", str(path), "--approximate", "--spp", "1", "-o", str(out))
+    code, stdout, err = run_cli(capsys, "render", str(path), "--approximate", "-D", "size=8", "--spp", "1", "-o", str(out))
     assert code == 0 and out.exists(), err
     (line,) = [w for w in err.splitlines() if w.startswith("warning:")]
     assert line.startswith("warning: 1 stand-ins:") and 'bsdf "hair"' in line
