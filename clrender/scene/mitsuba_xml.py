@@ -327,10 +327,7 @@ class Document:
             if el.tag in OBJECT_TAGS:
                 if el.tag == "scene":
                     raise UsageError(f"{el.where}: <scene> inside a scene")
-                if p.tag == "scene" or el.attrs.get("id") is None:
-                    p.children.append((name, self.plugin(el)))
-                else:  # a named object inside another: Mitsuba makes it there, and its id is a handle
-                    p.children.append((name, self.plugin(el)))
+                p.children.append((name, self.plugin(el)))  # an object with an id nested in another is made there; refs share it
             elif el.tag == "ref":
                 p.children.append((name, self._ref(el)))
             elif el.tag in PROPERTY_TAGS:
