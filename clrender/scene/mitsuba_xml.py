@@ -23,6 +23,7 @@ from ..errors import UsageError, shown
 
 MAX_XML_BYTES = 64 * 2**20  # a scene file (its meshes live in other files)
 MAX_INCLUDE_DEPTH = 16
+MAX_XML_DEPTH = 64  # elements nested in one another (the readers recurse once a level)
 # the tags that make a plugin object; volumes and media are refused by name (mitsuba_plugins.py)
 OBJECT_TAGS = ("scene", "shape", "bsdf", "texture", "emitter", "sensor", "film", "rfilter", "sampler", "integrator", "medium", "phase", "volume")
 PROPERTY_TAGS = ("float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform")
@@ -88,6 +89,8 @@ def _parse_file(path: Path, shown_name: str) -> Element:
     stack: list = []
 
     def start(tag, attrs):
+        if len(stack) >= MAX_XML_DEPTH:
+            raise UsageError(f"{shown_name}:{parser.CurrentLineNumber}: elements nested more than {MAX_XML_DEPTH} deep")
         el = Element(tag, dict(attrs), parser.CurrentLineNumber, shown_name)
         (stack[-1].children if stack else root).append(el)
         stack.append(el)

@@ -141,6 +141,7 @@ def test_include_splices_the_file(tmp_path):
         ('<shape type="sphere"><ref id="nothing"/></shape>', "ref 'nothing' names no object"),
         ('<medium type="homogeneous"/>', "volumes and media are not supported"),
         ("<shape type='sphere'>", "not valid XML"),
+        ("<shape type='instance'>" * 100 + "</shape>" * 100, "nested more than 64 deep"),
     ],
 )
 def test_bad_input_is_one_line(tmp_path, text, expected, capsys):
@@ -159,6 +160,13 @@ def test_a_pbrt_file_without_the_pbrt_reader_is_one_line(tmp_path):
     (tmp_path / "s.pbrt").write_text('WorldBegin\nShape "sphere"\n')
     with pytest.raises(UsageError, match="pbrt-v4 scenes are not readable by this build"):
         Scene.from_file(tmp_path / "s.pbrt")
+
+
+def test_entity_declarations_refused(tmp_path):
+    """No entity expansion at all (a billion-laughs file is refused at its first declaration)."""
+    (tmp_path / "scene.xml").write_text('<!DOCTYPE scene [<!ENTITY a "aaaa"><!ENTITY b "&a;&a;">]>\n<scene version="3.0.0">&b;</scene>')
+    with pytest.raises(UsageError, match="scene.xml:1: entity declarations are not allowed"):
+        read_mitsuba(tmp_path / "scene.xml")
 
 
 def test_include_cycle_refused(tmp_path):
