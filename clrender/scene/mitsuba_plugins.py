@@ -150,6 +150,7 @@ class Reader:
             if not self.out[key]:
                 del self.out[key]
         self.settings.setdefault("integrator", "path")  # Mitsuba's default integrator
+        self.settings.setdefault("spp", 4)  # Mitsuba's default sampler: independent, 4 samples a pixel
         self.settings.setdefault("max_depth", PATH_DEPTH_UNLIMITED)
 
     # ------------------------------------------------------------------ integrator, sensor, film
@@ -202,7 +203,10 @@ class Reader:
         self.out["cameras"].append(camera)
 
     def film(self, f: Plugin | None, first: bool) -> tuple[int, int]:
-        if f is None:
+        if f is None:  # Mitsuba's default film: hdrfilm 768 x 576, gaussian filter
+            if first:
+                self.out["width"], self.out["height"] = 768, 576
+                self.settings.setdefault("pixel_filter", "gaussian")
             return 768, 576
         width, height = int(f.get("width", 768)), int(f.get("height", 576))
         if any(f.has(k) for k in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")):

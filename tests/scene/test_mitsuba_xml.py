@@ -541,3 +541,9 @@ def test_convert_writes_a_large_mesh_beside_the_scene(tmp_path, capsys):
     direct, converted = Scene.from_file(path).objects[0], Scene.from_file(tmp_path / "ball.toml").objects[0]
     np.testing.assert_allclose(converted.vertices, direct.vertices, rtol=1e-6)
     np.testing.assert_array_equal(converted.faces, direct.faces)
+
+
+def test_mitsubas_defaults_without_integrator_sampler_or_film(tmp_path):
+    f = read(tmp_path, '<sensor type="perspective"/>')
+    assert f.settings == {"integrator": "path", "spp": 4, "max_depth": 1024, "pixel_filter": "gaussian"}
+    assert (f.scene["width"], f.scene["height"]) == (768, 576)
