@@ -547,3 +547,23 @@ def test_mitsubas_defaults_without_integrator_sampler_or_film(tmp_path):
     f = read(tmp_path, '<sensor type="perspective"/>')
     assert f.settings == {"integrator": "path", "spp": 4, "max_depth": 1024, "pixel_filter": "gaussian"}
     assert (f.scene["width"], f.scene["height"]) == (768, 576)
+
+
+def test_orthographic_height_matches_mitsubas_film(tmp_path):
+    """Mitsuba renders a unit emissive sphere under `scale 2` then `lookat` on an 80 x 40 film: its pixel height is
+    the 2 / ortho_height x 40 the mapping predicts (and its width the same pixels: square pixels)."""
+    from tests.reference import mitsuba_scenes
+
+    if mitsuba_scenes.unavailable("scalar_rgb"):
+        pytest.skip(mitsuba_scenes.unavailable("scalar_rgb"))
+    mi = mitsuba_scenes.load_mitsuba("scalar_rgb")
+    path = write(
+        tmp_path,
+        '<integrator type="direct"/><sensor type="orthographic"><transform name="to_world"><scale value="2"/>'
+        '<lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform><sampler type="independent"><integer name="sample_count" value="4"/></sampler>'
+        '<film type="hdrfilm"><integer name="width" value="80"/><integer name="height" value="40"/><rfilter type="box"/></film></sensor>'
+        '<shape type="sphere"><bsdf type="diffuse"/><emitter type="area"/></shape>',
+    )
+    img = np.array(mi.render(mi.load_file(str(path))))[..., 0]
+    predicted = 2 / read_mitsuba(path).scene["cameras"][0]["ortho_height"] * 40
+    assert abs((img[:, 40] > 0.5).sum() - predicted) <= 1 and abs((img[20] > 0.5).sum() - predicted) <= 1
