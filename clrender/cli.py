@@ -56,7 +56,7 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
 
 def build_parser() -> ArgumentParser:
-    from .commands import convolve, devices, render, splat
+    from .commands import convert, convolve, devices, render, splat
 
     parser = ArgumentParser(
         prog="clrender",
@@ -75,7 +75,7 @@ def build_parser() -> ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
     sub.required = True
-    for module in (render, convolve, splat, devices):
+    for module in (render, convert, convolve, splat, devices):
         module.add_parser(sub)
     return parser
 

@@ -118,7 +118,10 @@ def add_parser(sub):
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
-        "--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter, help="weighting of a pixel's samples (box: plain average)"
+        "--pixel-filter",
+        choices=("box", "tent", "gaussian"),
+        default=None,
+        help=f"weighting of a pixel's samples (box: plain average) (default: a foreign scene file's, else {d.pixel_filter})",
     )
     p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
     p.add_argument(
@@ -167,8 +170,8 @@ def add_parser(sub):
     p.add_argument(
         "--integrator",
         choices=INTEGRATORS,
-        default=d.integrator,
-        help="whitted: the classic ray tracer; path: physically based path tracing (docs/materials.md) (default: whitted)",
+        default=None,
+        help="whitted: the classic ray tracer; path: physically based path tracing (docs/materials.md) (default: a foreign scene's, else whitted)",
     )
     p.add_argument(
         "--spp", type=int, default=None, help=f"path: paths per pixel per pass (default: N x N from --samples, or {PATH_DEFAULT_SPP} without it)"
@@ -180,7 +183,26 @@ def add_parser(sub):
         metavar="SECONDS",
         help="path: repeat whole-image passes of --spp paths while time is left (default: one pass)",
     )
-    p.add_argument("--max-depth", type=int, default=d.max_depth, help="mirror/refraction bounces (path: bounces after the first hit)")
+    p.add_argument(
+        "--max-depth",
+        type=int,
+        default=None,
+        help=f"mirror/refraction bounces (path: bounces after the first hit) (default: a foreign scene file's, else {d.max_depth})",
+    )
+    # foreign scene files (Mitsuba 3 .xml, pbrt-v4 .pbrt: clrender/scene/foreign.py, docs/scene-formats.md)
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a Mitsuba scene's $NAME parameter (repeatable; wins over <default>)",
+    )
+    p.add_argument(
+        "--approximate",
+        action="store_true",
+        help="a foreign scene file: render what clrender cannot read with documented stand-ins (listed on one line) instead of refusing it",
+    )
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
@@ -292,8 +314,9 @@ def settings_from_args(args) -> RenderSettings:
         values.setdefault(key, getattr(d, key) if value is None else value)
     if "samples" not in explicit:  # the default depends on --aa: 1 without anti-aliasing, else 4
         values["samples"] = 1 if values["aa"] == "none" else 4
+    integrator = d.integrator if args.integrator is None else args.integrator
     spp = args.spp
-    if spp is None and args.integrator == "path" and "samples" not in explicit:
+    if spp is None and integrator == "path" and "samples" not in explicit:
         spp = PATH_DEFAULT_SPP
     if args.aov is not None:
         from ..trace.aov import parse_aov_list
@@ -303,10 +326,10 @@ def settings_from_args(args) -> RenderSettings:
         width=args.width,
         height=args.height,
         light_samples=args.light_samples,
-        pixel_filter=args.pixel_filter,
+        pixel_filter=d.pixel_filter if args.pixel_filter is None else args.pixel_filter,
         contrast=args.contrast,
-        max_depth=args.max_depth,
-        integrator=args.integrator,
+        max_depth=d.max_depth if args.max_depth is None else args.max_depth,
+        integrator=integrator,
         spp=0 if spp is None else spp,
         time_budget=args.time_budget,
         fresnel=args.fresnel,
@@ -317,6 +340,39 @@ def settings_from_args(args) -> RenderSettings:
         device=args.device,
         **values,
     )
+
+
+def load_scene(args):
+    """The scene SCENE names; a foreign file (.xml, .pbrt) with the -D values, and --approximate's stand-ins
+    said on one line."""
+    from ..scene.foreign import is_foreign, parse_defines
+    from ..scene.scene import Scene
+
+    defines = parse_defines(getattr(args, "defines", []))
+    if not is_foreign(args.scene):
+        if defines or getattr(args, "approximate", False):
+            raise UsageError("-D and --approximate are for foreign scene files (Mitsuba .xml, pbrt .pbrt)")
+        return Scene.load(args.scene)
+    scene = Scene.from_file(args.scene, defines=defines, approximate=args.approximate)
+    if scene.substitutions:
+        warn(f"{len(scene.substitutions)} stand-ins: " + "; ".join(scene.substitutions))
+    return scene
+
+
+def foreign_settings(args, settings, scene):
+    """A foreign file's own settings (its integrator, spp, depth, pixel filter) where the command line gives none."""
+    own = scene.render_settings
+    if not own:
+        return settings
+    from dataclasses import replace
+
+    given = {
+        "integrator": args.integrator is not None,
+        "spp": args.spp is not None or args.samples is not None,
+        "max_depth": args.max_depth is not None,
+        "pixel_filter": args.pixel_filter is not None,
+    }
+    return replace(settings, **{k: v for k, v in own.items() if k in given and not given[k]})
 
 
 def run(args):
@@ -355,7 +411,7 @@ def _render(args):
     from .. import memory
     from ..image.files import check_distinct_outputs, check_output_path, write_display_image
     from ..outputs import output_set
-    from ..scene.scene import Scene, bundled_scenes
+    from ..scene.scene import bundled_scenes
 
     if args.list:
         if args.scene is None:
@@ -395,7 +451,8 @@ def _render(args):
 
         settings = replace(settings, aovs=requested_aovs + tuple(a for a in AUX_AOVS if a not in requested_aovs))
     start = time.perf_counter()
-    scene = Scene.load(args.scene)
+    scene = load_scene(args)
+    settings = foreign_settings(args, settings, scene)
     load_seconds = time.perf_counter() - start
     # the scene's own width and height where not given; bad values are refused, then pointless ones warned about
     size = settings.validate(scene)

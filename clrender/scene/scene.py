@@ -173,6 +173,8 @@ class Scene:
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
     featured_camera: int = 1  # the view the scene is made for, marked * by `render --list` (not a default: --camera is 1 unless given)
+    render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, pixel_filter
+    substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
 
     @property
     def seed_camera(self) -> int:
@@ -185,9 +187,15 @@ class Scene:
 
     # ------------------------------------------------------------------ loading
     @classmethod
-    def from_file(cls, path, allow_outside: bool = True) -> Scene:
-        """Read a TOML scene file (or a glTF file); mesh paths are relative to its folder (see `from_dict` for allow_outside)."""
+    def from_file(cls, path, allow_outside: bool = True, defines: dict | None = None, approximate: bool = False) -> Scene:
+        """Read a TOML scene file (or a glTF file, a Mitsuba 3 `.xml` or a pbrt-v4 `.pbrt` file: foreign.py, which take
+        `defines`, the `-D name=value` parameters, and `approximate`); mesh paths are relative to its folder (see
+        `from_dict` for allow_outside)."""
         path = Path(path)
+        from .foreign import is_foreign
+
+        if is_foreign(path):
+            return _load_foreign(path, defines, approximate, allow_outside)
         if path.suffix.lower() in (".gltf", ".glb"):
             return _load_gltf(path, allow_outside=allow_outside)
         if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh, framed and lit by framing.py
@@ -236,6 +244,8 @@ class Scene:
             return _load_gltf(path)
         if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh with the default camera and lights
             return _load_mesh_scene(path)
+        if path.suffix.lower() in (".xml", ".pbrt"):  # another renderer's scene file (foreign.py)
+            return cls.from_file(path)
         if path.suffix == ".toml" or path.exists():
             return cls.from_file(path)
         files = f"a .toml scene file, a .gltf/.glb file or a mesh file ({', '.join(MESH_SUFFIXES)})"
@@ -437,6 +447,16 @@ def _load_gltf(path, allow_outside: bool = True) -> Scene:
     return Scene.from_dict(gltf.scene_dict(path, root), base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
 
 
+def _load_foreign(path: Path, defines, approximate: bool, allow_outside: bool) -> Scene:
+    """A Scene of another renderer's file (foreign.py), carrying the file's render settings and the stand-ins used."""
+    from .foreign import read_foreign
+
+    foreign = read_foreign(path, defines, approximate, allow_outside)
+    scene = Scene.from_dict(foreign.scene, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
+    scene.render_settings, scene.substitutions = dict(foreign.settings), list(foreign.substitutions)
+    return scene
+
+
 # ---------------------------------------------------------------------- objects
 def material_ref(checks: Checks, o, path, materials):
     name = o.get("material", "default")
@@ -521,6 +541,9 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         checks.fail(f"{path}.scale", f"{show(o.get('scale'))}: each factor must be {MIN_LENGTH:g} to {COORD_LIMIT:g} in magnitude (negative mirrors)")
     rotate = checks.vec3(o, "rotate", path, (0.0, 0.0, 0.0))
     translate = checks.vec3(o, "translate", path, (0.0, 0.0, 0.0))
+    given_matrix = _given_matrix(checks, o, path) if "matrix" in o else None  # instead of scale, rotate and translate
+    if "uvs" in o and "vertices" not in o:
+        checks.fail(f"{path}.uvs", "goes with inline 'vertices' (a file's or generator's mesh brings its own)")
     smooth = checks.boolean(o, "smooth", path, False)
     material = material_ref(checks, o, path, materials)
     if not build:
@@ -552,7 +575,7 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         cache[key] = (tm, source)
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
-    matrix = transform_matrix(translate, rotate, scale)
+    matrix = transform_matrix(translate, rotate, scale) if given_matrix is None else given_matrix
     points = np.asarray(tm.vertices, np.float64)  # what matrix places: the mesh's own, or a glTF node's world ones
     if key is not None:  # one array object for every copy (payload.py ships it once)
         points = cache.setdefault(("local", key), points)
@@ -630,7 +653,25 @@ def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
 class _InlineMesh:
     vertices: np.ndarray  # (N, 3) float64
     faces: np.ndarray  # (M, 3) int64
+    uv0: np.ndarray | None = None  # (N, 2) the `uvs` key, glTF's convention
     normals = None  # computed (shading_normals) when smooth
+    uv1 = colours = tangents = None
+
+
+def _given_matrix(checks: Checks, o, path) -> np.ndarray:
+    """`matrix`: a 4 x 4 object-to-world matrix (rows; the last row 0 0 0 1), instead of scale, rotate and translate."""
+    m = o.get("matrix")
+    for key in ("scale", "rotate", "translate"):
+        if key in o:
+            checks.fail(f"{path}.{key}", "give either 'matrix' or scale, rotate and translate")
+    if not (isinstance(m, list) and len(m) == 4 and all(isinstance(r, list) and len(r) == 4 and all(is_number(x) for x in r) for r in m)):
+        checks.fail(f"{path}.matrix", f"expected 4 rows of 4 numbers, got {show(m)}")
+    a = np.array(m, np.float64)
+    if not np.isfinite(a).all() or np.abs(a).max() > COORD_LIMIT or not np.allclose(a[3], [0, 0, 0, 1]):
+        checks.fail(f"{path}.matrix", f"expected finite numbers within {COORD_LIMIT:g} and a last row of 0 0 0 1, got {show(m)}")
+    if abs(np.linalg.det(a[:3, :3])) < MIN_LENGTH**3:
+        checks.fail(f"{path}.matrix", "is singular (it would flatten the mesh)")
+    return a
 
 
 def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
@@ -644,7 +685,19 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     for i, f in enumerate(faces):
         if not (isinstance(f, list) and len(f) == 3 and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(points) for k in f)):
             checks.fail(f"{path}.faces[{i}]", f"{show(f)}: expected 3 vertex indices from 0 to {len(points) - 1}")
-    return _InlineMesh(points, np.array(faces, np.int64))
+    uvs = None
+    if "uvs" in o:
+        given = o["uvs"]
+        if not (
+            isinstance(given, list)
+            and len(given) == len(points)
+            and all(isinstance(u, list) and len(u) == 2 and all(is_number(x) for x in u) for u in given)
+        ):
+            checks.fail(f"{path}.uvs", f"expected one pair of numbers per vertex ({len(points)})")
+        uvs = np.array(given, np.float64)
+        if not np.isfinite(uvs).all():
+            checks.fail(f"{path}.uvs", "expected finite numbers")
+    return _InlineMesh(points, np.array(faces, np.int64), uvs)
 
 
 def _check_placed_box(checks: Checks, points, box, matrix, path):
@@ -718,7 +771,24 @@ OBJECT_READERS = {
     "quad": TypeReader(("type", "corner", "edge_a", "edge_b", "material"), _quad),
     "plane": TypeReader(("type", "point", "normal", "size", "material"), _plane),
     "mesh": TypeReader(
-        ("type", "file", "generator", "vertices", "faces", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive"), _mesh
+        (
+            "type",
+            "file",
+            "generator",
+            "vertices",
+            "faces",
+            "uvs",
+            "params",
+            "translate",
+            "rotate",
+            "scale",
+            "matrix",
+            "smooth",
+            "material",
+            "node",
+            "primitive",
+        ),
+        _mesh,
     ),
 }
 
