@@ -192,6 +192,11 @@ class Scene:
             return _load_gltf(path, allow_outside=allow_outside)
         if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh, framed and lit by framing.py
             return _load_mesh_scene(path, allow_outside=allow_outside)
+        if path.suffix.lower() == ".pbrt":  # a pbrt-v4 scene, read into a scene dict by pbrt.py
+            from .pbrt import read_pbrt
+
+            data = read_pbrt(path, allow_outside=allow_outside)
+            return cls.from_dict(data, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
         where = escape(str(path))
         if not path.is_file():
             raise UsageError(f"scene file {shorten(where, 200)!r} does not exist")
@@ -236,7 +241,7 @@ class Scene:
             return _load_gltf(path)
         if path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh with the default camera and lights
             return _load_mesh_scene(path)
-        if path.suffix == ".toml" or path.exists():
+        if path.suffix in (".toml", ".pbrt") or path.exists():
             return cls.from_file(path)
         files = f"a .toml scene file, a .gltf/.glb file or a mesh file ({', '.join(MESH_SUFFIXES)})"
         raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or {files}")
