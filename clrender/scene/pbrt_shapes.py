@@ -65,15 +65,25 @@ def _faces(faces, points, normals, ctm, reverse):
     return faces
 
 
-def emit_mesh(reader, d, state, points, faces, normals=None, smooth=False):
+def emit_mesh(reader, d, state, points, faces, normals=None, smooth=False, uv=None):
     if len(faces) == 0:
         return
     world = reader.to_world(state.ctm)
     vertices = points @ world[:3, :3].T + world[:3, 3]
     faces = _faces(faces, points, normals, state.ctm, state.reverse)
-    reader.objects.append(
-        {"type": "mesh", "vertices": vertices.tolist(), "faces": faces.tolist(), "material": reader.material_for(state), "smooth": bool(smooth)}
-    )
+    obj = {"type": "mesh", "vertices": vertices.tolist(), "faces": faces.tolist(), "material": reader.material_for(state), "smooth": bool(smooth)}
+    if uv is not None:  # pbrt-v4's image textures read (u, 1 - v) of an image stored top row first: glTF's v is 1 - v
+        obj["uvs"] = np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1).tolist()
+    reader.objects.append(obj)
+
+
+def _uv(p, count):
+    if "uv" not in p:
+        return None
+    uv = _array(p["uv"], "point2", 2, "uv")
+    if len(uv) != count:
+        fail(p["uv"].where, f'"uv": {len(uv)} pairs for {count} points; allowed: one a point')
+    return uv
 
 
 MESH_PARAMS = ("P", "indices", "N", "uv", "S", "faceIndices", "alpha")
@@ -94,7 +104,7 @@ def _trianglemesh(reader, d, state):
     normals = _array(p["N"], "normal", 3, "N") if "N" in p else None
     if normals is not None and len(normals) != len(points):
         fail(p["N"].where, f'"N": {len(normals)} normals for {len(points)} points; allowed: one a point')
-    emit_mesh(reader, d, state, points, faces, normals, smooth=normals is not None)
+    emit_mesh(reader, d, state, points, faces, normals, smooth=normals is not None, uv=_uv(p, len(points)))
 
 
 def _bilinearmesh(reader, d, state):
@@ -111,7 +121,7 @@ def _bilinearmesh(reader, d, state):
     normals = _array(p["N"], "normal", 3, "N") if "N" in p else None
     if normals is not None and len(normals) != len(points):
         fail(p["N"].where, f'"N": {len(normals)} normals for {len(points)} points; allowed: one a point')
-    emit_mesh(reader, d, state, points, faces, normals, smooth=normals is not None)
+    emit_mesh(reader, d, state, points, faces, normals, smooth=normals is not None, uv=_uv(p, len(points)))
 
 
 def _plymesh(reader, d, state):

@@ -636,6 +636,8 @@ class _InlineMesh:
     vertices: np.ndarray  # (N, 3) float64
     faces: np.ndarray  # (M, 3) int64
     normals = None  # computed (shading_normals) when smooth
+    uv0: np.ndarray | None = None  # (N, 2) texture coordinates (`uvs`, glTF's convention), or None
+    uv1 = colours = tangents = None
 
 
 def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
@@ -649,7 +651,16 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     for i, f in enumerate(faces):
         if not (isinstance(f, list) and len(f) == 3 and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(points) for k in f)):
             checks.fail(f"{path}.faces[{i}]", f"{show(f)}: expected 3 vertex indices from 0 to {len(points) - 1}")
-    return _InlineMesh(points, np.array(faces, np.int64))
+    uvs = o.get("uvs")
+    if uvs is not None and (not isinstance(uvs, list) or len(uvs) != len(points)):
+        checks.fail(f"{path}.uvs", f"expected {len(points)} [u, v] pairs, one a vertex")
+    if uvs is not None:
+        ok = lambda uv: isinstance(uv, list) and len(uv) == 2 and all(is_number(x) and abs(x) <= COORD_LIMIT for x in uv)  # noqa: E731
+        bad = [i for i, uv in enumerate(uvs) if not ok(uv)]
+        if bad:
+            checks.fail(f"{path}.uvs[{bad[0]}]", f"{show(uvs[bad[0]])}: expected [u, v], each within {COORD_LIMIT:g}")
+        uvs = np.array(uvs, np.float64)
+    return _InlineMesh(points, np.array(faces, np.int64), uvs)
 
 
 def _check_placed_box(checks: Checks, points, box, matrix, path):
@@ -723,7 +734,9 @@ OBJECT_READERS = {
     "quad": TypeReader(("type", "corner", "edge_a", "edge_b", "material"), _quad),
     "plane": TypeReader(("type", "point", "normal", "size", "material"), _plane),
     "mesh": TypeReader(
-        ("type", "file", "generator", "vertices", "faces", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive"), _mesh
+        ("type", "file", "generator", "vertices", "faces", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive")
+        + ("uvs",),
+        _mesh,
     ),
 }
 

@@ -14,6 +14,7 @@ import pytest
 from clrender.errors import UsageError
 from clrender.scene.pbrt import read_pbrt, read_pbrt_file
 from clrender.scene.scene import Scene
+
 from tests.clitools import run_cli
 
 TRIANGLE = 'Shape "trianglemesh" "point3 P" [1 0 0  0 1 0  0 0 1] "integer indices" [0 1 2]\n'
@@ -48,7 +49,7 @@ def test_transform_is_column_major_and_concat_multiplies_on_the_right(tmp_path):
 
 
 def test_world_begin_resets_the_transform_and_coordinate_systems_are_named(tmp_path):
-    text = "Translate 9 9 9\nWorldBegin\nTranslate 0 5 0\nCoordinateSystem \"up\"\nTranslate 0 100 0\nCoordSysTransform \"up\"\n" + TRIANGLE
+    text = 'Translate 9 9 9\nWorldBegin\nTranslate 0 5 0\nCoordinateSystem "up"\nTranslate 0 100 0\nCoordSysTransform "up"\n' + TRIANGLE
     vertices, _ = only_mesh(read_pbrt(write(tmp_path, text)))
     np.testing.assert_allclose(vertices[0], [-1, 5, 0])
 
@@ -121,7 +122,7 @@ def test_fov_spans_the_shorter_side(tmp_path):
 
 
 def test_look_at_gives_clrenders_camera_in_the_mirrored_world(tmp_path):
-    data = read_pbrt(write(tmp_path, "LookAt 1 2 3  1 2 -7  0 1 0\nCamera \"perspective\"\nWorldBegin\n"))
+    data = read_pbrt(write(tmp_path, 'LookAt 1 2 3  1 2 -7  0 1 0\nCamera "perspective"\nWorldBegin\n'))
     camera = data["cameras"][0]
     np.testing.assert_allclose(camera["position"], [-1, 2, 3], atol=1e-12)
     np.testing.assert_allclose(camera["look_at"], [-1, 2, 2], atol=1e-12)
@@ -147,7 +148,8 @@ def test_materials_map_onto_the_contract(tmp_path):
         'MakeNamedMaterial "pick" "string type" "mix" "string materials" ["gold" "pane"] "float amount" 1\n'
     )
     m = read_pbrt(write(tmp_path, text))["materials"]
-    assert m["gold"] == {"type": "conductor", "eta": [0.143, 0.3753, 1.442], "k": [3.983, 2.3856, 1.6034], "roughness": pytest.approx(0.1**0.5), "tint": [1.0] * 3}
+    gold = {"type": "conductor", "eta": [0.143, 0.3753, 1.442], "k": [3.983, 2.3856, 1.6034], "roughness": pytest.approx(0.1**0.5), "tint": [1.0] * 3}
+    assert m["gold"] == gold  # alpha = sqrt(0.01) = 0.1 = r^2
     assert m["raw"]["roughness"] == pytest.approx(0.3)  # alpha = 0.09 = r^2
     assert m["raw"]["eta"] == [0.201, 0.9237, 1.1022]  # pbrt's default metal: copper
     assert m["coat"] == {"type": "coated_diffuse", "diffuse": [0.2, 0.3, 0.4], "ior": 1.5, "roughness": 0.0, "tint": [1.0] * 3, "nonlinear": False}
@@ -221,8 +223,8 @@ def test_approximate_substitutes_and_lists(tmp_path):
         ("WorldBegin\nTranslate 1 2x 3\n", "scene.pbrt:2: '2x' is not a number"),
         ('WorldBegin\nShape "plymesh" "string filename" "nothere.ply"\n', "'nothere.ply' does not exist"),
         ('WorldBegin\nShape "sphere" "float radius" "big\n', "scene.pbrt:2: unterminated string"),
-        ('WorldBegin\nShape "trianglemesh" "point3 P" [0 0 0 1 0 0\nWorldBegin\n', "scene.pbrt:2: parameter \"point3 P\": unterminated bracket"),
-        ('WorldBegin\nShape "sphere" "float radius" [1\n', "scene.pbrt:2: parameter \"float radius\": unterminated bracket"),
+        ('WorldBegin\nShape "trianglemesh" "point3 P" [0 0 0 1 0 0\nWorldBegin\n', 'scene.pbrt:2: parameter "point3 P": unterminated bracket'),
+        ('WorldBegin\nShape "sphere" "float radius" [1\n', 'scene.pbrt:2: parameter "float radius": unterminated bracket'),
         ('WorldBegin\nMakeNamedMedium "fog" "string type" "homogeneous"\n', "MakeNamedMedium (participating media) is not supported"),
         ('WorldBegin\nShape "sphere" "float radius" 1 "float bogus" 2\n', 'parameter "bogus" is not supported'),
         ('WorldBegin\nNamedMaterial "nope"\n', 'NamedMaterial "nope" is not defined'),
@@ -369,3 +371,18 @@ def test_cornell_box_renders_the_same_bits_as_its_toml(tmp_path):
     b = render(toml, integrator="path", spp=4, seed=3)
     assert a.mean() > 0.01  # the light reaches the box
     assert np.array_equal(a, b)
+
+
+def test_image_texture_and_uv_reach_the_mesh(tmp_path):
+    from PIL import Image
+
+    Image.new("RGB", (2, 2), (255, 0, 0)).save(tmp_path / "red.png")
+    text = 'WorldBegin\nTexture "t" "spectrum" "imagemap" "string filename" "red.png" "string wrap" "clamp"\n'
+    text += 'Material "diffuse" "texture reflectance" "t"\n'
+    text += 'Shape "trianglemesh" "point3 P" [1 0 0  0 1 0  0 0 1] "integer indices" [0 1 2] "point2 uv" [0 0  1 0  0.25 1]\n'
+    path = write(tmp_path, text)
+    data = read_pbrt(path)
+    assert data["textures"] == {"t": {"file": "red.png", "wrap_s": "clamp_to_edge", "wrap_t": "clamp_to_edge", "filter": "linear"}}
+    assert data["materials"][data["objects"][0]["material"]] == {"diffuse": [1.0, 1.0, 1.0], "diffuse_texture": "t"}
+    mesh = Scene.from_file(path).objects[0]
+    np.testing.assert_array_equal(mesh.uvs, [[0, 1], [1, 1], [0.25, 0]])  # pbrt's (u, v) is glTF's (u, 1 - v)
