@@ -12,8 +12,12 @@ The mapping onto clrender's scene dict is pbrt.py.
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import UsageError
 from .checks import shorten
@@ -119,7 +123,8 @@ def _label(path: Path) -> str:
 
 
 def tokenize(text: str, label: str) -> list:
-    """The tokens of one file's text; `label` names it in messages."""
+    """The tokens of one file's text; `label` names it in messages.  A bracketed list of plain numbers (a mesh's
+    points and indices, nearly all of a big file) is read in one step as an "array" token between its brackets."""
     tokens, i, line, n = [], 0, 1, len(text)
     while i < n:
         c = text[i]
@@ -131,30 +136,52 @@ def tokenize(text: str, label: str) -> list:
         elif c == "#":
             end = text.find("\n", i)
             i = n if end < 0 else end
-        elif c in "[]":
+        elif c == "[":
+            i, line = _bracket(text, i, label, line, tokens)
+        elif c == "]":
             tokens.append(Token(c, c, f"{label}:{line}"))
             i += 1
         elif c == '"':
             i, value = _string(text, i, label, line)
             tokens.append(Token("str", value, f"{label}:{line}"))
         else:
-            j = i
-            while j < n and text[j] not in ' \t\r\n\f\v,[]"#':
-                j += 1
-            word = text[i:j]
-            where = f"{label}:{line}"
-            if word[0].isalpha():
-                tokens.append(Token("id", word, where))
-            else:
-                try:
-                    number = float(word)
-                except ValueError:
-                    fail(where, f"{shorten(word, 40)!r} is not a number")
-                if number != number or abs(number) == float("inf"):
-                    fail(where, f"{shorten(word, 40)!r}: allowed: finite numbers")
-                tokens.append(Token("num", number, where))
-            i = j
+            match = _WORD.match(text, i)
+            tokens.append(_word(match.group(), f"{label}:{line}"))
+            i = match.end()
     return tokens
+
+
+_WORD = re.compile(r'[^\s,\[\]"#]+')
+
+
+def _word(word: str, where: str) -> Token:
+    if word[0].isalpha():
+        return Token("id", word, where)
+    try:
+        number = float(word)
+    except ValueError:
+        fail(where, f"{shorten(word, 40)!r} is not a number")
+    if not math.isfinite(number):
+        fail(where, f"{shorten(word, 40)!r}: allowed: finite numbers")
+    return Token("num", number, where)
+
+
+def _bracket(text: str, i: int, label: str, line: int, tokens: list):
+    """Tokens of a "[": the bracket, and when plain numbers and then "]" follow, an "array" token of them."""
+    where = f"{label}:{line}"
+    tokens.append(Token("[", "[", where))
+    end = text.find("]", i + 1)
+    body = text[i + 1 : end] if end > 0 else ""
+    if end > 0 and not any(ch in body for ch in '"#[') and body.strip():
+        try:
+            values = np.array(body.replace(",", " ").split(), np.float64)
+        except ValueError:
+            return i + 1, line  # a word in it: token by token, which names the bad one
+        if not np.isfinite(values).all():
+            fail(where, "a number in the list is not finite; allowed: finite numbers")
+        tokens.append(Token("array", values.tolist(), where))
+        return end, line + body.count("\n")
+    return i + 1, line
 
 
 _ESCAPES = {"n": "\n", "t": "\t", "b": "\b", "f": "\f", "r": "\r", "\\": "\\", '"': '"', "'": "'"}
@@ -256,6 +283,11 @@ class Parser:
                 fail(decl.where, f'parameter "{decl.value}" has no value')
             values, pos = _value(tokens, pos, decl)
             kind = parts[0]
+            if len(values) == 1 and values[0].kind == "array":
+                if kind in ("string", "texture", "bool"):
+                    fail(values[0].where, f'parameter "{decl.value}": numbers; allowed: {"true or false" if kind == "bool" else "quoted strings"}')
+                directive.params[parts[1]] = Param(kind, parts[1], values[0].value, decl.where)
+                continue
             want = "str" if kind in ("string", "texture") else "bool" if kind == "bool" else ("num" if kind != "spectrum" else None)
             for v in values:
                 if want == "bool":
@@ -274,6 +306,8 @@ class Parser:
 def _value(tokens: list, pos: int, decl: Token):
     """(the value tokens of one parameter, the position after them): one token or a bracketed list."""
     token = tokens[pos]
+    if token.kind == "[" and pos + 2 < len(tokens) and tokens[pos + 1].kind == "array":
+        return [tokens[pos + 1]], pos + 3  # the "]" the tokenizer found after it
     if token.kind == "[":
         start, pos = token, pos + 1
         values = []
@@ -294,6 +328,10 @@ def _value(tokens: list, pos: int, decl: Token):
 
 def _numbers(tokens: list, pos: int, count: int, directive: Token):
     bracket = pos < len(tokens) and tokens[pos].kind == "["
+    if bracket and pos + 1 < len(tokens) and tokens[pos + 1].kind == "array":
+        if len(tokens[pos + 1].value) != count:
+            fail(directive.where, f"{directive.value} expects {count} numbers, got {len(tokens[pos + 1].value)}")
+        return tokens[pos + 1].value, pos + 3
     pos += bracket
     numbers = []
     while len(numbers) < count:

@@ -1,6 +1,7 @@
 """pbrt-v4 Shape directives as clrender objects (docs/scene-formats-pbrt.md).
 
-Every triangle shape is written as an inline `mesh` (world-space `vertices` and `faces`): pbrt's transforms
+Every triangle shape is written as an inline `mesh` (world-space `vertices` and `faces`, numpy arrays: a dict
+made in Python may hold them, and a big mesh is then checked as whole arrays): pbrt's transforms
 are arbitrary 4×4 matrices and the mirror into clrender's world (pbrt.MIRROR) reverses winding, neither of
 which a `file` mesh's translate/rotate/scale can say.  Which way a surface faces follows pbrt-v4's rule
 (shapes.cpp: with normals `N` a triangle faces them; otherwise its winding's normal, turned over when
@@ -71,9 +72,9 @@ def emit_mesh(reader, d, state, points, faces, normals=None, smooth=False, uv=No
     world = reader.to_world(state.ctm)
     vertices = points @ world[:3, :3].T + world[:3, 3]
     faces = _faces(faces, points, normals, state.ctm, state.reverse)
-    obj = {"type": "mesh", "vertices": vertices.tolist(), "faces": faces.tolist(), "material": reader.material_for(state), "smooth": bool(smooth)}
+    obj = {"type": "mesh", "vertices": vertices, "faces": faces, "material": reader.material_for(state), "smooth": bool(smooth)}
     if uv is not None:  # pbrt-v4's image textures read (u, 1 - v) of an image stored top row first: glTF's v is 1 - v
-        obj["uvs"] = np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1).tolist()
+        obj["uvs"] = np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1)
     reader.objects.append(obj)
 
 

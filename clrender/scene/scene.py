@@ -643,6 +643,8 @@ class _InlineMesh:
 def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     """`vertices` (points) and `faces` (triples of vertex indices) given in the scene itself."""
     vertices, faces = o.get("vertices"), o.get("faces")
+    if isinstance(vertices, np.ndarray):  # a dict made in Python (a pbrt file's meshes): checked as whole arrays
+        return _array_mesh(checks, o, path)
     if not isinstance(vertices, list) or not vertices or len(vertices) > 3 * MAX_TRIANGLES:
         checks.fail(f"{path}.vertices", f"expected a non-empty list of at most {3 * MAX_TRIANGLES} points")
     if not isinstance(faces, list) or not faces or len(faces) > MAX_TRIANGLES:
@@ -661,6 +663,27 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
             checks.fail(f"{path}.uvs[{bad[0]}]", f"{show(uvs[bad[0]])}: expected [u, v], each within {COORD_LIMIT:g}")
         uvs = np.array(uvs, np.float64)
     return _InlineMesh(points, np.array(faces, np.int64), uvs)
+
+
+def _array_mesh(checks: Checks, o, path) -> _InlineMesh:
+    """Inline `vertices` (N, 3), `faces` (M, 3) and optional `uvs` (N, 2) given as numpy arrays, as a dict made in
+    Python may (pbrt.py's meshes): the same checks as lists get, on whole arrays, and no per-value count."""
+    points, faces, uvs = o["vertices"], o.get("faces"), o.get("uvs")
+    if points.ndim != 2 or points.shape[1] != 3 or not 0 < len(points) <= 3 * MAX_TRIANGLES or points.dtype.kind not in "fiu":
+        checks.fail(f"{path}.vertices", f"expected an array of at most {3 * MAX_TRIANGLES} points (N, 3)")
+    points = points.astype(np.float64)
+    if not np.all(np.abs(points) <= COORD_LIMIT):
+        checks.fail(f"{path}.vertices", f"a point is not finite or out of range; allowed: -{COORD_LIMIT:g} to {COORD_LIMIT:g}")
+    shaped = isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3 and faces.dtype.kind in "iu"
+    if not shaped or not 0 < len(faces) <= MAX_TRIANGLES:
+        checks.fail(f"{path}.faces", f"expected an integer array of at most {MAX_TRIANGLES} triples of vertex indices (M, 3)")
+    if faces.min() < 0 or faces.max() >= len(points):
+        checks.fail(f"{path}.faces", f"a vertex index is out of range; allowed: 0 to {len(points) - 1}")
+    if uvs is not None:
+        if not isinstance(uvs, np.ndarray) or uvs.shape != (len(points), 2) or not np.all(np.abs(uvs) <= COORD_LIMIT):
+            checks.fail(f"{path}.uvs", f"expected an array of {len(points)} finite [u, v] pairs, one a vertex")
+        uvs = uvs.astype(np.float64)
+    return _InlineMesh(points, faces.astype(np.int64), uvs)
 
 
 def _check_placed_box(checks: Checks, points, box, matrix, path):

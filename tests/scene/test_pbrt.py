@@ -30,7 +30,7 @@ def write(tmp_path, text, name="scene.pbrt"):
 def only_mesh(data):
     meshes = [o for o in data["objects"] if o["type"] == "mesh"]
     assert len(meshes) == 1
-    return np.array(meshes[0]["vertices"]), meshes[0]["faces"]
+    return meshes[0]["vertices"], meshes[0]["faces"]
 
 
 def test_transforms_compose_in_pbrts_order(tmp_path):
@@ -39,7 +39,7 @@ def test_transforms_compose_in_pbrts_order(tmp_path):
     vertices, faces = only_mesh(data)
     # (0,1,0) -> (0,1,0) -> (-1,0,0) -> (0,2,3); (0,0,1) -> (0,0,1) -> (0,0,1) -> (1,2,4)
     np.testing.assert_allclose(vertices, [[-1, 4, 3], [0, 2, 3], [-1, 2, 4]], atol=1e-12)
-    assert faces == [[2, 1, 0]]  # the mirror reverses the winding; the reader reverses it back
+    assert faces.tolist() == [[2, 1, 0]]  # the mirror reverses the winding; the reader reverses it back
 
 
 def test_transform_is_column_major_and_concat_multiplies_on_the_right(tmp_path):
@@ -62,9 +62,9 @@ def test_attributes_scope_transform_and_material_transform_blocks_only_the_trans
     text += 'TransformBegin\nNamedMaterial "red"\nTranslate 0 7 0\nTransformEnd\n' + TRIANGLE
     data = read_pbrt(write(tmp_path, text))
     first, second, third = data["objects"]
-    assert first["material"] == "red" and first["vertices"][0] == [-1, 1, 0]
-    assert second["material"] == "default" and second["vertices"][0] == [-1, 0, 0]
-    assert third["material"] == "red" and third["vertices"][0] == [-1, 0, 0]
+    assert first["material"] == "red" and first["vertices"][0].tolist() == [-1, 1, 0]
+    assert second["material"] == "default" and second["vertices"][0].tolist() == [-1, 0, 0]
+    assert third["material"] == "red" and third["vertices"][0].tolist() == [-1, 0, 0]
     assert data["materials"]["red"] == {"diffuse": [1.0, 0.0, 0.0]}
     assert data["materials"]["default"] == {"diffuse": [0.5, 0.5, 0.5]}  # pbrt's default material
 
@@ -73,7 +73,7 @@ def test_instances_place_the_definition_by_the_instance_transform(tmp_path):
     text = 'WorldBegin\nObjectBegin "tri"\nTranslate 0 0 10\n' + TRIANGLE + 'ObjectEnd\nTranslate 0 3 0\nObjectInstance "tri"\n'
     text += 'Translate 0 3 0\nObjectInstance "tri"\n'
     objects = read_pbrt(write(tmp_path, text))["objects"]
-    assert [o["vertices"][0] for o in objects] == [[-1, 3, 10], [-1, 6, 10]]
+    assert [o["vertices"][0].tolist() for o in objects] == [[-1, 3, 10], [-1, 6, 10]]
 
 
 def test_includes_are_relative_to_the_scene_and_imports_too(tmp_path):
@@ -386,3 +386,58 @@ def test_image_texture_and_uv_reach_the_mesh(tmp_path):
     assert data["materials"][data["objects"][0]["material"]] == {"diffuse": [1.0, 1.0, 1.0], "diffuse_texture": "t"}
     mesh = Scene.from_file(path).objects[0]
     np.testing.assert_array_equal(mesh.uvs, [[0, 1], [1, 1], [0.25, 0]])  # pbrt's (u, v) is glTF's (u, 1 - v)
+
+
+def test_plymesh_is_read_relative_to_the_scene_and_mirrored(tmp_path):
+    import trimesh
+
+    (tmp_path / "meshes").mkdir()
+    trimesh.Trimesh([[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2]], process=False).export(tmp_path / "meshes" / "tri.ply")
+    data = read_pbrt(write(tmp_path, 'WorldBegin\nTranslate 0 0 5\nShape "plymesh" "string filename" "meshes/tri.ply"\n'))
+    vertices, faces = only_mesh(data)
+    np.testing.assert_array_equal(vertices, [[-1, 0, 5], [0, 1, 5], [0, 0, 6]])
+    assert faces.tolist() == [[2, 1, 0]]
+
+
+def test_a_big_mesh_is_read_as_arrays_past_the_dicts_value_count(tmp_path):
+    """320,000 triangles over 40,401 points: 1.08 M numbers, more than the 1 M values a TOML scene may hold
+    (checks.MAX_VALUES), read in well under a second."""
+    n = 200
+    u, v = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
+    points = np.stack([u.ravel(), v.ravel(), np.zeros(u.size)], 1) / n
+    quads = (np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]).ravel()
+    faces = np.concatenate([np.stack([quads, quads + 1, quads + n + 2], 1), np.stack([quads, quads + n + 2, quads + n + 1], 1)])
+    faces = np.tile(faces, (4, 1))
+    text = 'WorldBegin\nShape "trianglemesh" "point3 P" [' + " ".join(map(repr, points.ravel().tolist())) + '] "integer indices" ['
+    text += " ".join(map(str, faces.ravel().tolist())) + "]\n"
+    scene = Scene.from_file(write(tmp_path, text))
+    assert len(scene.objects[0].faces) == len(faces)
+    np.testing.assert_array_equal(scene.objects[0].vertices[:, 0], -points[:, 0])
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"vertices": np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]])}, "not finite or out of range"),
+        ({"faces": np.array([[0, 1, 3]])}, "a vertex index is out of range"),
+        ({"faces": np.array([[0.0, 1.0, 2.0]])}, "expected an integer array"),
+        ({"uvs": np.zeros((2, 2))}, "expected an array of 3 finite [u, v] pairs"),
+    ],
+)
+def test_array_meshes_are_checked(change, message):
+    mesh = {"type": "mesh", "vertices": np.eye(3), "faces": np.array([[0, 1, 2]]), **change}
+    with pytest.raises(UsageError) as info:
+        Scene.from_dict({"objects": [mesh]})
+    assert message in str(info.value)
+
+
+def test_array_and_list_meshes_are_the_same_mesh():
+    lists = {"type": "mesh", "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "faces": [[0, 1, 2]], "uvs": [[0, 0], [1, 0], [0, 1]]}
+    arrays = {key: np.array(value) if isinstance(value, list) else value for key, value in lists.items()}
+    a, b = (Scene.from_dict({"objects": [m]}).objects[0] for m in (lists, arrays))
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces) and np.array_equal(a.uvs, b.uvs)
+
+
+def test_a_missing_scene_file_is_one_line(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "render", str(tmp_path / "nothere.pbrt"), "-o", str(tmp_path / "x.png"))
+    assert code == 2 and "nothere.pbrt" in err and "does not exist" in err and err.strip().count("\n") == 0
