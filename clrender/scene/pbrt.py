@@ -72,7 +72,12 @@ class _State:
     ctm: np.ndarray
     reverse: bool = False
     material: str = "default"
-    area: dict | None = None  # {"L": rgb, "twosided": bool, "where": ...} of an AreaLightSource
+    area: dict | None = None  # {"emission": rgb} of an AreaLightSource
+    instance: np.ndarray | None = None  # in an ObjectInstance: its transform (ctm is then the definition's)
+
+    @property
+    def full_ctm(self) -> np.ndarray:
+        return self.ctm if self.instance is None else self.instance @ self.ctm
 
 
 class _Reader:
@@ -85,6 +90,7 @@ class _Reader:
         self.textures, self.image_textures = {}, {}
         self.objects, self.lights, self.environment = [], [], None
         self.definitions, self.defining = {}, None  # ObjectBegin name -> [(directive, state)]
+        self.instanced = {}  # (id of a definition's Shape, flipped) -> its arrays, shared by every ObjectInstance
         self.camera, self.film = None, {}
         self.settings, self.substitutions = {}, []
         self.counter = 0
@@ -358,7 +364,7 @@ class _Reader:
         if d.args[0] not in self.definitions:
             fail(d.where, f'ObjectInstance "{d.args[0]}" is not defined (ObjectBegin) before it')
         for shape_directive, state in self.definitions[d.args[0]]:
-            shape(self, shape_directive, replace(state, ctm=self.state.ctm @ state.ctm))
+            shape(self, shape_directive, replace(state, instance=self.state.ctm.copy()))
 
     # ------------------------------------------------------------------ the dict
     def material_for(self, state: _State) -> str:

@@ -69,12 +69,20 @@ def _faces(faces, points, normals, ctm, reverse):
 def emit_mesh(reader, d, state, points, faces, normals=None, smooth=False, uv=None):
     if len(faces) == 0:
         return
-    world = reader.to_world(state.ctm)
-    vertices = points @ world[:3, :3].T + world[:3, 3]
-    faces = _faces(faces, points, normals, state.ctm, state.reverse)
-    obj = {"type": "mesh", "vertices": vertices, "faces": faces, "material": reader.material_for(state), "smooth": bool(smooth)}
-    if uv is not None:  # pbrt-v4's image textures read (u, 1 - v) of an image stored top row first: glTF's v is 1 - v
-        obj["uvs"] = np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1)
+    faces = _faces(faces, points, normals, state.full_ctm, state.reverse)
+    uvs = None if uv is None else np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1)  # pbrt-v4 reads images at (u, 1 - v)
+    obj = {"type": "mesh", "material": reader.material_for(state), "smooth": bool(smooth)}
+    if state.instance is None:  # world-space vertices
+        world = reader.to_world(state.ctm)
+        obj.update(vertices=points @ world[:3, :3].T + world[:3, 3], faces=faces)
+    else:  # an instance: the definition's arrays, made once (per winding), placed by the instance's matrix
+        key = (id(d), bool(np.linalg.det(state.full_ctm[:3, :3]) > 0))  # the winding _faces chose depends on this alone
+        if key not in reader.instanced:
+            local = points @ state.ctm[:3, :3].T + state.ctm[:3, 3]
+            reader.instanced[key] = {"vertices": local, "faces": faces}
+        obj.update(reader.instanced[key], matrix=reader.to_world(state.instance))
+    if uvs is not None:
+        obj["uvs"] = reader.instanced.setdefault((id(d), "uvs"), uvs) if state.instance is not None else uvs
     reader.objects.append(obj)
 
 
@@ -147,7 +155,7 @@ def _sphere(reader, d, state):
     full = reader.number(d, p.get("zmin"), -radius) <= -radius and reader.number(d, p.get("zmax"), radius) >= radius
     if not full or reader.number(d, p.get("phimax"), 360.0) < 360:
         reader.unsupported(d, 'a partial Shape "sphere" (zmin, zmax, phimax)', ("whole spheres",), "the whole sphere")
-    world = reader.to_world(state.ctm)
+    world = reader.to_world(state.full_ctm)
     stretch = np.linalg.svd(world[:3, :3], compute_uv=False)
     if stretch.max() - stretch.min() > 1e-9 * stretch.max():
         what = 'Shape "sphere" under a non-uniform scale (an ellipsoid)'

@@ -526,11 +526,14 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         checks.fail(f"{path}.scale", f"{show(o.get('scale'))}: each factor must be {MIN_LENGTH:g} to {COORD_LIMIT:g} in magnitude (negative mirrors)")
     rotate = checks.vec3(o, "rotate", path, (0.0, 0.0, 0.0))
     translate = checks.vec3(o, "translate", path, (0.0, 0.0, 0.0))
+    given_matrix = _given_matrix(checks, o, path)  # `matrix`: instead of scale, rotate and translate
     smooth = checks.boolean(o, "smooth", path, False)
     material = material_ref(checks, o, path, materials)
     if not build:
         return None
     key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
+    if given_matrix is not None and isinstance(o.get("vertices"), np.ndarray):  # arrays placed by a matrix: shared by identity
+        key = ("arrays", id(o["vertices"]), id(o["faces"]), id(o.get("uvs")))
     cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
     placed = None  # a glTF node: (mesh index, the mesh's own vertices, the node's world matrix)
     if gltf_node is not None:  # nodes sharing a mesh share its vertices; each node's world ones are read as before
@@ -557,7 +560,7 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         cache[key] = (tm, source)
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
-    matrix = transform_matrix(translate, rotate, scale)
+    matrix = transform_matrix(translate, rotate, scale) if given_matrix is None else given_matrix
     points = np.asarray(tm.vertices, np.float64)  # what matrix places: the mesh's own, or a glTF node's world ones
     if key is not None:  # one array object for every copy (payload.py ships it once)
         points = cache.setdefault(("local", key), points)
@@ -622,6 +625,23 @@ def _vertex_attributes(tm):
     return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
 
 
+def _given_matrix(checks: Checks, o, path) -> np.ndarray | None:
+    """A mesh's `matrix` (4x4, row-major: vertices = M[:3, :3] @ v + M[:3, 3]; its last row 0, 0, 0, 1), or None."""
+    if "matrix" not in o:
+        return None
+    if any(k in o for k in ("translate", "rotate", "scale")):
+        checks.fail(f"{path}.matrix", "give either 'matrix' or 'translate', 'rotate' and 'scale'")
+    try:
+        m = np.array(o["matrix"], np.float64)
+    except (TypeError, ValueError, OverflowError):
+        m = None
+    if m is None or m.shape != (4, 4) or isinstance(o["matrix"], str) or not np.all(np.abs(m) <= COORD_LIMIT):
+        checks.fail(f"{path}.matrix", f"expected 4 rows of 4 finite numbers within {COORD_LIMIT:g}, got {show(o['matrix'])}")
+    if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
+        checks.fail(f"{path}.matrix", "its last row must be [0, 0, 0, 1] and its 3x3 part invertible")
+    return m
+
+
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
     """What an object's object-space mesh is made from: equal keys, equal meshes (None: inline vertices)."""
     if file is not None:
@@ -643,8 +663,11 @@ class _InlineMesh:
 def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     """`vertices` (points) and `faces` (triples of vertex indices) given in the scene itself."""
     vertices, faces = o.get("vertices"), o.get("faces")
-    if isinstance(vertices, np.ndarray):  # a dict made in Python (a pbrt file's meshes): checked as whole arrays
-        return _array_mesh(checks, o, path)
+    if isinstance(vertices, np.ndarray):  # a dict made in Python (a pbrt file's meshes): checked as whole arrays, once
+        key = ("array mesh", id(vertices), id(o.get("faces")), id(o.get("uvs")))
+        if key not in checks.shapes:
+            checks.shapes[key] = _array_mesh(checks, o, path)
+        return checks.shapes[key]
     if not isinstance(vertices, list) or not vertices or len(vertices) > 3 * MAX_TRIANGLES:
         checks.fail(f"{path}.vertices", f"expected a non-empty list of at most {3 * MAX_TRIANGLES} points")
     if not isinstance(faces, list) or not faces or len(faces) > MAX_TRIANGLES:
@@ -758,7 +781,7 @@ OBJECT_READERS = {
     "plane": TypeReader(("type", "point", "normal", "size", "material"), _plane),
     "mesh": TypeReader(
         ("type", "file", "generator", "vertices", "faces", "params", "translate", "rotate", "scale", "smooth", "material", "node", "primitive")
-        + ("uvs",),
+        + ("uvs", "matrix"),
         _mesh,
     ),
 }

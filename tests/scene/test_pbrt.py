@@ -69,11 +69,17 @@ def test_attributes_scope_transform_and_material_transform_blocks_only_the_trans
     assert data["materials"]["default"] == {"diffuse": [0.5, 0.5, 0.5]}  # pbrt's default material
 
 
-def test_instances_place_the_definition_by_the_instance_transform(tmp_path):
+def test_instances_place_the_definition_by_the_instance_transform_and_share_it(tmp_path):
     text = 'WorldBegin\nObjectBegin "tri"\nTranslate 0 0 10\n' + TRIANGLE + 'ObjectEnd\nTranslate 0 3 0\nObjectInstance "tri"\n'
-    text += 'Translate 0 3 0\nObjectInstance "tri"\n'
-    objects = read_pbrt(write(tmp_path, text))["objects"]
-    assert [o["vertices"][0].tolist() for o in objects] == [[-1, 3, 10], [-1, 6, 10]]
+    text += 'Translate 0 3 0\nObjectInstance "tri"\nScale -1 1 1\nObjectInstance "tri"\n'
+    path = write(tmp_path, text)
+    objects = read_pbrt(path)["objects"]
+    assert objects[0]["vertices"] is objects[1]["vertices"] and objects[0]["faces"] is objects[1]["faces"]  # one array, two matrices
+    assert objects[2]["faces"].tolist() == [[0, 1, 2]]  # a mirroring instance keeps the file's winding (two mirrors)
+    meshes = Scene.from_file(path).objects
+    assert [m.vertices[0].tolist() for m in meshes] == [[-1, 3, 10], [-1, 6, 10], [1, 6, 10]]
+    assert meshes[0].shape_key == meshes[1].shape_key != meshes[2].shape_key
+    assert meshes[0].local_vertices is meshes[1].local_vertices  # clrender's instancing: one object-space mesh
 
 
 def test_includes_are_relative_to_the_scene_and_imports_too(tmp_path):
@@ -441,3 +447,26 @@ def test_array_and_list_meshes_are_the_same_mesh():
 def test_a_missing_scene_file_is_one_line(tmp_path, capsys):
     code, _, err = run_cli(capsys, "render", str(tmp_path / "nothere.pbrt"), "-o", str(tmp_path / "x.png"))
     assert code == 2 and "nothere.pbrt" in err and "does not exist" in err and err.strip().count("\n") == 0
+
+
+@pytest.mark.parametrize(
+    "matrix, message",
+    [
+        ([[1, 0, 0], [0, 1, 0], [0, 0, 1]], "expected 4 rows of 4 finite numbers"),
+        ([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]], "its last row must be [0, 0, 0, 1]"),
+        ([[0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "invertible"),
+        ([[float("nan"), 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "finite"),
+    ],
+)
+def test_mesh_matrix_is_checked(matrix, message):
+    mesh = {"type": "mesh", "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "faces": [[0, 1, 2]], "matrix": matrix}
+    with pytest.raises(UsageError) as info:
+        Scene.from_dict({"objects": [mesh]})
+    assert message in str(info.value)
+
+
+def test_mesh_matrix_places_the_mesh():
+    matrix = [[0, -2, 0, 1], [2, 0, 0, 2], [0, 0, 2, 3], [0, 0, 0, 1]]  # a quarter turn about z, doubled, then moved
+    mesh = {"type": "mesh", "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "faces": [[0, 1, 2]], "matrix": matrix}
+    placed = Scene.from_dict({"objects": [mesh]}).objects[0].vertices
+    np.testing.assert_array_equal(placed, [[1, 4, 3], [-1, 2, 3], [1, 2, 5]])
