@@ -94,6 +94,7 @@ class _Reader:
         self.camera, self.film = None, {}
         self.settings, self.substitutions = {}, []
         self.counter = 0
+        self.emitting = {}  # (material, emission) -> the name of that material emitting
 
     # ------------------------------------------------------------------ plumbing
     def resolve(self, name: str, what: str) -> Path:
@@ -371,9 +372,11 @@ class _Reader:
         """The name of the state's material, with the area light's emission when one is active."""
         if state.area is None:
             return state.material
-        name = f"{state.material}+emission{len(self.materials)}"
-        self.materials[name] = {**self.materials[state.material], "emission": state.area["emission"]}
-        return name
+        key = (state.material, tuple(state.area["emission"]))  # one material for every shape under the same light
+        if key not in self.emitting:
+            name = self.emitting[key] = f"{state.material}+emission{len(self.emitting) + 1}"
+            self.materials[name] = {**self.materials[state.material], "emission": state.area["emission"]}
+        return self.emitting[key]
 
     def finish(self) -> PbrtFile:
         if self.stack:

@@ -470,3 +470,14 @@ def test_mesh_matrix_places_the_mesh():
     mesh = {"type": "mesh", "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "faces": [[0, 1, 2]], "matrix": matrix}
     placed = Scene.from_dict({"objects": [mesh]}).objects[0].vertices
     np.testing.assert_array_equal(placed, [[1, 4, 3], [-1, 2, 3], [1, 2, 5]])
+
+
+def test_render_list_shows_the_one_camera(tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "render", str(write(tmp_path, "WorldBegin\n" + TRIANGLE)), "--list")
+    assert code == 0 and "* --camera 1" in out
+
+
+def test_shapes_under_one_area_light_share_one_emitting_material(tmp_path):
+    text = 'WorldBegin\nAreaLightSource "diffuse" "rgb L" [1 1 1]\n' + TRIANGLE * 3
+    data = read_pbrt(write(tmp_path, text))
+    assert len({o["material"] for o in data["objects"]}) == 1 and len(data["materials"]) == 2
