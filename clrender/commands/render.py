@@ -90,7 +90,7 @@ def add_parser(sub):
         "scene",
         metavar="SCENE",
         nargs="?",
-        help="bundled scene name (see --list), or a .toml scene file, a .gltf/.glb glTF 2.0 file or a triangle mesh file (.obj, .ply, .stl, .off)",
+        help="bundled scene name (see --list), or a .toml scene file, a .gltf/.glb glTF file, a .pbrt file or a mesh file (.obj, .ply, .stl, .off)",
     )
     p.add_argument(
         "positional_args",
