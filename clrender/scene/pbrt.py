@@ -230,7 +230,8 @@ class _Reader:
             kind = "perspective"
         p = self.params(d, ("fov", "lensradius", "focaldistance"))
         self.camera = (kind, {k: self.number(d, v, 0.0) for k, v in p.items()}, self.state.ctm.copy(), d)
-        self.coords["camera"] = np.linalg.inv(self.state.ctm)
+        if abs(np.linalg.det(self.state.ctm[:3, :3])) > 0:
+            self.coords["camera"] = np.linalg.inv(self.state.ctm)
 
     def _Film(self, d):
         p = self.params(d, ("xresolution", "yresolution", "filename", "diagonal", "savefp16"))
@@ -395,9 +396,11 @@ class _Reader:
         """clrender's camera of pbrt's: its frame mirrored into clrender's world, pbrt's fov (of the image's
         shorter side) as the vertical fov."""
         kind, p, camera_from_world, d = self.camera or ("perspective", {}, np.eye(4), None)
+        det = np.linalg.det(camera_from_world[:3, :3])
+        if not det > 0:
+            what = "mirrors the image" if det < 0 else "is singular (a zero scale)"
+            raise UsageError(f"{d.where if d else self.path}: Camera: its transform {what}; allowed: an invertible transform without a reflection")
         world = MIRROR @ np.linalg.inv(camera_from_world)
-        if np.linalg.det(camera_from_world[:3, :3]) < 0:
-            raise UsageError(f"{d.where if d else self.path}: Camera: its transform mirrors the image; allowed: a transform without a reflection")
         position = world[:3, 3]
         forward = world[:3, 2] / np.linalg.norm(world[:3, 2])
         up = world[:3, 1] / np.linalg.norm(world[:3, 1])
@@ -405,7 +408,7 @@ class _Reader:
         if kind == "orthographic":
             camera.update(projection="orthographic", ortho_height=2.0 if width >= height else 2.0 * height / width)
         else:
-            fov = p.get("fov", 90.0) or 90.0
+            fov = p.get("fov", 90.0)
             if width < height:  # pbrt's fov spans the shorter side, here the width
                 fov = math.degrees(2 * math.atan(math.tan(math.radians(fov) / 2) * height / width))
             camera["fov"] = fov

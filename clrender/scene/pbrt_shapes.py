@@ -38,10 +38,10 @@ def _array(p, kind, width, where_name):
     return np.asarray(values, np.float64).reshape(-1, width)
 
 
-def _indices(p, count, per, points):
+def _indices(p, count, per, points, where):
     if p is None:
         if points != per:
-            fail("", f"without indices a shape needs exactly {per} points")
+            fail(where, f'without "integer indices" a shape needs exactly {per} points, got {points}')
         return np.arange(per).reshape(1, per)
     if p.type != "integer":
         fail(p.where, f'"indices": expected integer, got {p.type}')
@@ -109,7 +109,7 @@ def _trianglemesh(reader, d, state):
     if "P" not in p:
         fail(d.where, 'Shape "trianglemesh" needs "point3 P"')
     points = _array(p["P"], "point3", 3, "P")
-    faces = _indices(p.get("indices"), len(points), 3, len(points))
+    faces = _indices(p.get("indices"), len(points), 3, len(points), d.where)
     normals = _array(p["N"], "normal", 3, "N") if "N" in p else None
     if normals is not None and len(normals) != len(points):
         fail(p["N"].where, f'"N": {len(normals)} normals for {len(points)} points; allowed: one a point')
@@ -125,7 +125,7 @@ def _bilinearmesh(reader, d, state):
     if "P" not in p:
         fail(d.where, 'Shape "bilinearmesh" needs "point3 P"')
     points = _array(p["P"], "point3", 3, "P")
-    quads = _indices(p.get("indices"), len(points), 4, len(points))
+    quads = _indices(p.get("indices"), len(points), 4, len(points), d.where)
     faces = np.concatenate([quads[:, [0, 1, 3]], quads[:, [0, 3, 2]]])
     normals = _array(p["N"], "normal", 3, "N") if "N" in p else None
     if normals is not None and len(normals) != len(points):
@@ -173,6 +173,8 @@ def _disk(reader, d, state):
     _alpha(reader, d, p)
     h, r, ri = (reader.number(d, p.get(k), v) for k, v in (("height", 0.0), ("radius", 1.0), ("innerradius", 0.0)))
     phimax = min(reader.number(d, p.get("phimax"), 360.0), 360.0)
+    if not phimax > 0:
+        fail(d.where, f'Shape "disk": phimax {phimax:g}; allowed: more than 0 (degrees)')
     if r <= 0 or not 0 <= ri < r:
         fail(d.where, f'Shape "disk": radius {r:g}, innerradius {ri:g}; allowed: 0 <= innerradius < radius')
     n = max(3, math.ceil(DISK_SEGMENTS * phimax / 360))

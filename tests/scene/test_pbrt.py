@@ -236,6 +236,15 @@ def test_approximate_substitutes_and_lists(tmp_path):
         ('WorldBegin\nNamedMaterial "nope"\n', 'NamedMaterial "nope" is not defined'),
         ("WorldBegin\nAttributeEnd\n", "AttributeEnd without a matching AttributeBegin"),
         ('WorldBegin\nInclude "scene.pbrt"\n', "includes itself"),
+        ('Scale 0 0 0\nCamera "perspective"\nWorldBegin\n', "scene.pbrt:2: Camera: its transform is singular"),
+        ('Scale -1 1 1\nCamera "perspective"\nWorldBegin\n', "scene.pbrt:2: Camera: its transform mirrors the image"),
+        ('WorldBegin\nShape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 1 0  1 1 0]\n', 'scene.pbrt:2: without "integer indices"'),
+        ('WorldBegin\nShape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 1 0] "integer indices" [0 1 3]\n', '"indices": 3 values'),
+        ('WorldBegin\nShape "disk" "float phimax" 0\n', 'scene.pbrt:2: Shape "disk": phimax 0'),
+        ('Integrator "path" "integer maxdepth" 0\nWorldBegin\n', 'scene.pbrt:1: Integrator "maxdepth" 0'),
+        ('WorldBegin\nLightSource "infinite" "string filename" "sky.exr"\n', '"filename" (an equal-area octahedral map) is not'),
+        ('WorldBegin\nAreaLightSource "diffuse" "bool twosided" true\n', 'AreaLightSource "twosided" true is not supported'),
+        ('WorldBegin\nMaterial "mix" "string materials" ["default" "default"] "float amount" 0.5\n', 'Material "mix" with amount 0.5 is not'),
     ],
 )
 def test_bad_input_is_one_line(tmp_path, text, message):
