@@ -363,6 +363,8 @@ class _Reader:
     def _ObjectInstance(self, d):
         from .pbrt_shapes import shape
 
+        if self.defining is not None:
+            fail(d.where, "ObjectInstance inside ObjectBegin (pbrt-v4 refuses nested instances too)")
         if d.args[0] not in self.definitions:
             fail(d.where, f'ObjectInstance "{d.args[0]}" is not defined (ObjectBegin) before it')
         for shape_directive, state in self.definitions[d.args[0]]:

@@ -236,6 +236,8 @@ def test_approximate_substitutes_and_lists(tmp_path):
         ('WorldBegin\nNamedMaterial "nope"\n', 'NamedMaterial "nope" is not defined'),
         ("WorldBegin\nAttributeEnd\n", "AttributeEnd without a matching AttributeBegin"),
         ('WorldBegin\nInclude "scene.pbrt"\n', "includes itself"),
+        ('WorldBegin\nObjectBegin "a"\nObjectEnd\nObjectBegin "b"\nObjectInstance "a"\n', "scene.pbrt:5: ObjectInstance inside ObjectBegin"),
+        ('WorldBegin\nObjectInstance "a"\n', 'scene.pbrt:2: ObjectInstance "a" is not defined'),
         ('Scale 0 0 0\nCamera "perspective"\nWorldBegin\n', "scene.pbrt:2: Camera: its transform is singular"),
         ('Scale -1 1 1\nCamera "perspective"\nWorldBegin\n', "scene.pbrt:2: Camera: its transform mirrors the image"),
         ('WorldBegin\nShape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 1 0  1 1 0]\n', 'scene.pbrt:2: without "integer indices"'),
