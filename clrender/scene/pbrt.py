@@ -125,7 +125,7 @@ class _Reader:
             fail(p.where, f'parameter "{p.name}": expected one float, got {p.type} with {len(p.values)} values')
         return float(p.values[0])
 
-    def colour(self, p, default, kind="colour"):
+    def colour(self, p, default):
         """An RGB triple from an rgb, spectrum or blackbody parameter (or one float: grey)."""
         if p is None or not hasattr(p, "values"):
             return list(default)
