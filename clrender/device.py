@@ -34,6 +34,8 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
     cl = None
     _IMPORT_ERROR = exc
 
+register_pip_runtimes()  # before any OpenCL call of the process, by us or by the caller
+
 INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
 FAST_HINT = "install Intel's OpenCL CPU runtime (the `fast` extra) with: pip install intel-opencl-rt intel-cmplr-lib-rt"
 
@@ -162,8 +164,7 @@ def _describe(dev) -> str:
 
 
 def _platforms() -> list:
-    """Every OpenCL platform, after making the loader see a pip-installed Intel runtime (drivers.py)."""
-    register_pip_runtimes()
+    """Every OpenCL platform (a pip-installed Intel runtime among them: drivers.py, at import)."""
     try:
         return cl.get_platforms()
     except cl.Error:

@@ -5,10 +5,10 @@ Two CPU drivers install from PyPI:
 - Intel's OpenCL CPU runtime (the `fast` extra: `intel-opencl-rt`, `intel-cmplr-lib-rt`), whose package
   puts `libintelocl.so` in the environment's `lib/` and an ICD file that names its build machine's path.
 
-`register_pip_runtimes()` makes the loader see Intel's runtime: before the first OpenCL call (the loader
-reads `OCL_ICD_VENDORS` then, not at import) it writes a folder of ICD files, one line each (a library's
-path), under the user's cache folder, keeps the ICD files the loader read before, and points
-`OCL_ICD_VENDORS` at the folder. A variable already set by the user is left alone, unless it names no
+`register_pip_runtimes()` makes the loader see Intel's runtime; `clrender.device` calls it when it is
+imported, before the process's first OpenCL call (the loader reads `OCL_ICD_VENDORS` then, once). It
+writes a folder of ICD files, one line each (a library's path), under the user's cache folder, keeps the
+ICD files the loader read before, and points `OCL_ICD_VENDORS` at the folder. A variable already set by the user is left alone, unless it names no
 Intel runtime and one is installed, in which case that folder's files are kept beside it.
 `tools/intel_opencl.py` prints the same as an `export` line for a shell.
 """
@@ -25,7 +25,11 @@ SYSTEM_VENDORS = Path("/etc/OpenCL/vendors")
 
 
 def find_intel_library() -> Path | None:
-    """libintelocl.so from the installed intel-opencl-rt, else from this environment's lib/."""
+    """libintelocl.so in this environment's lib/ (where the pip packages put it), else from intel-opencl-rt's file list."""
+    for prefix in dict.fromkeys((sys.prefix, sys.base_prefix)):
+        path = Path(prefix) / "lib" / INTEL_LIBRARY
+        if path.is_file():
+            return path.resolve()
     from importlib import metadata
 
     try:
@@ -36,10 +40,6 @@ def find_intel_library() -> Path | None:
                     return path
     except metadata.PackageNotFoundError:
         pass
-    for prefix in dict.fromkeys((sys.prefix, sys.base_prefix)):
-        path = Path(prefix) / "lib" / INTEL_LIBRARY
-        if path.is_file():
-            return path.resolve()
     return None
 
 

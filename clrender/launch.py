@@ -65,6 +65,9 @@ class Kernel:
         if kernel.num_args != len(params):
             raise RuntimeError(f"kernel {kernel.function_name}: the driver reports {kernel.num_args} arguments, its source declares {len(params)}")
         self.kernel = kernel
+        # held so bound() can make the kernel again: Intel's runtime invalidates a program whose last Python
+        # handle is released although its kernels live on (PoCL keeps it), and kernel.program then fails
+        self.program = kernel.program
         self.params = params
         self.name = kernel.function_name
         self._records = {record.c_name: record.dtype for record in records()}
@@ -124,7 +127,7 @@ class BoundKernel:
 
     def __init__(self, kernel: Kernel):
         self.spec = kernel
-        self.kernel = cl.Kernel(kernel.kernel.program, kernel.name)
+        self.kernel = cl.Kernel(kernel.program, kernel.name)
         self.index = {p.name: (i, p) for i, p in enumerate(kernel.params)}
         self.values: dict = {}  # what each argument was last set to (kept: an object's id is not reused)
 

@@ -69,6 +69,8 @@ def print_file_cameras(text: str) -> None:
         data = gltf.scene_dict(path)
     elif path.suffix.lower() in MESH_SUFFIXES:  # a bare mesh: framing.py's camera
         data = {"description": scene.description, "cameras": [{"name": CAMERA_NAME}]}
+    elif path.suffix.lower() == ".pbrt":  # a pbrt-v4 file: its one camera
+        data = {"cameras": [{}]}
     else:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     print_scene_cameras(scene.name, data)
@@ -88,7 +90,7 @@ def add_parser(sub):
         "scene",
         metavar="SCENE",
         nargs="?",
-        help="bundled scene name (see --list), or a .toml scene file, a .gltf/.glb glTF 2.0 file or a triangle mesh file (.obj, .ply, .stl, .off)",
+        help="bundled scene name (see --list), or a .toml scene file, a .gltf/.glb glTF file, a .pbrt file or a mesh file (.obj, .ply, .stl, .off)",
     )
     p.add_argument(
         "positional_args",

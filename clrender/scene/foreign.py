@@ -2,15 +2,13 @@
 
 A foreign reader turns its file into the scene dict a TOML scene is (so it is checked the same way) plus
 the render settings the file asks for (`Foreign`, mitsuba_plugins.py): Mitsuba 3's XML (`.xml`,
-mitsuba_plugins.read_mitsuba) and pbrt-v4's files (`.pbrt`, clrender.scene.pbrt.read_pbrt where that module
-exists).  `defines` are the command line's `-D name=value` (Mitsuba's `$name` parameters); `approximate`
+mitsuba_plugins.read_mitsuba) and pbrt-v4's files (`.pbrt`, pbrt.read_pbrt_file).  `defines` are the command line's `-D name=value` (Mitsuba's `$name` parameters); `approximate`
 renders what cannot be read with documented stand-ins instead of refusing it.  scene.py's `Scene.from_file`
 makes the Scene (imports go one way: scene.py imports this module, never the reverse).
 """
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 from ..errors import UsageError, shown
@@ -42,10 +40,8 @@ def read_foreign(path, defines: dict | None = None, approximate: bool = False, a
         from .mitsuba_plugins import read_mitsuba
 
         return read_mitsuba(path, defines, approximate, allow_outside)
-    if importlib.util.find_spec("clrender.scene.pbrt") is None:
-        raise UsageError(f"{shown(str(path))}: pbrt-v4 scenes are not readable by this build of clrender")
-    from . import pbrt
     from .mitsuba_plugins import Foreign
+    from .pbrt import read_pbrt_file
 
-    result = pbrt.read_pbrt(path, defines)
-    return result if hasattr(result, "scene") else Foreign(result)
+    pbrt = read_pbrt_file(path, defines, approximate, allow_outside)
+    return Foreign(pbrt.scene, pbrt.settings, pbrt.substitutions)

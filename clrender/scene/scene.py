@@ -541,7 +541,7 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         checks.fail(f"{path}.scale", f"{show(o.get('scale'))}: each factor must be {MIN_LENGTH:g} to {COORD_LIMIT:g} in magnitude (negative mirrors)")
     rotate = checks.vec3(o, "rotate", path, (0.0, 0.0, 0.0))
     translate = checks.vec3(o, "translate", path, (0.0, 0.0, 0.0))
-    given_matrix = _given_matrix(checks, o, path) if "matrix" in o else None  # instead of scale, rotate and translate
+    given_matrix = _given_matrix(checks, o, path)  # `matrix`: instead of scale, rotate and translate
     if "uvs" in o and "vertices" not in o:
         checks.fail(f"{path}.uvs", "goes with inline 'vertices' (a file's or generator's mesh brings its own)")
     smooth = checks.boolean(o, "smooth", path, False)
@@ -549,6 +549,8 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     if not build:
         return None
     key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
+    if given_matrix is not None and isinstance(o.get("vertices"), np.ndarray):  # arrays placed by a matrix: shared by identity
+        key = ("arrays", id(o["vertices"]), id(o["faces"]), id(o.get("uvs")))
     cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
     placed = None  # a glTF node: (mesh index, the mesh's own vertices, the node's world matrix)
     if gltf_node is not None:  # nodes sharing a mesh share its vertices; each node's world ones are read as before
@@ -640,6 +642,23 @@ def _vertex_attributes(tm):
     return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
 
 
+def _given_matrix(checks: Checks, o, path) -> np.ndarray | None:
+    """A mesh's `matrix` (4x4, row-major: vertices = M[:3, :3] @ v + M[:3, 3]; its last row 0, 0, 0, 1), or None."""
+    if "matrix" not in o:
+        return None
+    if any(k in o for k in ("translate", "rotate", "scale")):
+        checks.fail(f"{path}.matrix", "give either 'matrix' or 'translate', 'rotate' and 'scale'")
+    try:
+        m = np.array(o["matrix"], np.float64)
+    except (TypeError, ValueError, OverflowError):
+        m = None
+    if m is None or m.shape != (4, 4) or isinstance(o["matrix"], str) or not np.all(np.abs(m) <= COORD_LIMIT):
+        checks.fail(f"{path}.matrix", f"expected 4 rows of 4 finite numbers within {COORD_LIMIT:g}, got {show(o['matrix'])}")
+    if not np.array_equal(m[3], [0, 0, 0, 1]) or not abs(np.linalg.det(m[:3, :3])) > 0:
+        checks.fail(f"{path}.matrix", "its last row must be [0, 0, 0, 1] and its 3x3 part invertible")
+    return m
+
+
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
     """What an object's object-space mesh is made from: equal keys, equal meshes (None: inline vertices)."""
     if file is not None:
@@ -653,30 +672,19 @@ def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
 class _InlineMesh:
     vertices: np.ndarray  # (N, 3) float64
     faces: np.ndarray  # (M, 3) int64
-    uv0: np.ndarray | None = None  # (N, 2) the `uvs` key, glTF's convention
+    uv0: np.ndarray | None = None  # (N, 2) texture coordinates (`uvs`, glTF's convention), or None
     normals = None  # computed (shading_normals) when smooth
     uv1 = colours = tangents = None
-
-
-def _given_matrix(checks: Checks, o, path) -> np.ndarray:
-    """`matrix`: a 4 x 4 object-to-world matrix (rows; the last row 0 0 0 1), instead of scale, rotate and translate."""
-    m = o.get("matrix")
-    for key in ("scale", "rotate", "translate"):
-        if key in o:
-            checks.fail(f"{path}.{key}", "give either 'matrix' or scale, rotate and translate")
-    if not (isinstance(m, list) and len(m) == 4 and all(isinstance(r, list) and len(r) == 4 and all(is_number(x) for x in r) for r in m)):
-        checks.fail(f"{path}.matrix", f"expected 4 rows of 4 numbers, got {show(m)}")
-    a = np.array(m, np.float64)
-    if not np.isfinite(a).all() or np.abs(a).max() > COORD_LIMIT or not np.allclose(a[3], [0, 0, 0, 1]):
-        checks.fail(f"{path}.matrix", f"expected finite numbers within {COORD_LIMIT:g} and a last row of 0 0 0 1, got {show(m)}")
-    if abs(np.linalg.det(a[:3, :3])) < MIN_LENGTH**3:
-        checks.fail(f"{path}.matrix", "is singular (it would flatten the mesh)")
-    return a
 
 
 def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     """`vertices` (points) and `faces` (triples of vertex indices) given in the scene itself."""
     vertices, faces = o.get("vertices"), o.get("faces")
+    if isinstance(vertices, np.ndarray):  # a dict made in Python (a pbrt file's meshes): checked as whole arrays, once
+        key = ("array mesh", id(vertices), id(o.get("faces")), id(o.get("uvs")))
+        if key not in checks.shapes:
+            checks.shapes[key] = _array_mesh(checks, o, path)
+        return checks.shapes[key]
     if not isinstance(vertices, list) or not vertices or len(vertices) > 3 * MAX_TRIANGLES:
         checks.fail(f"{path}.vertices", f"expected a non-empty list of at most {3 * MAX_TRIANGLES} points")
     if not isinstance(faces, list) or not faces or len(faces) > MAX_TRIANGLES:
@@ -685,19 +693,37 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     for i, f in enumerate(faces):
         if not (isinstance(f, list) and len(f) == 3 and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(points) for k in f)):
             checks.fail(f"{path}.faces[{i}]", f"{show(f)}: expected 3 vertex indices from 0 to {len(points) - 1}")
-    uvs = None
-    if "uvs" in o:
-        given = o["uvs"]
-        if not (
-            isinstance(given, list)
-            and len(given) == len(points)
-            and all(isinstance(u, list) and len(u) == 2 and all(is_number(x) for x in u) for u in given)
-        ):
-            checks.fail(f"{path}.uvs", f"expected one pair of numbers per vertex ({len(points)})")
-        uvs = np.array(given, np.float64)
-        if not np.isfinite(uvs).all():
-            checks.fail(f"{path}.uvs", "expected finite numbers")
+    uvs = o.get("uvs")
+    if uvs is not None and (not isinstance(uvs, list) or len(uvs) != len(points)):
+        checks.fail(f"{path}.uvs", f"expected {len(points)} [u, v] pairs, one a vertex")
+    if uvs is not None:
+        ok = lambda uv: isinstance(uv, list) and len(uv) == 2 and all(is_number(x) and abs(x) <= COORD_LIMIT for x in uv)  # noqa: E731
+        bad = [i for i, uv in enumerate(uvs) if not ok(uv)]
+        if bad:
+            checks.fail(f"{path}.uvs[{bad[0]}]", f"{show(uvs[bad[0]])}: expected [u, v], each within {COORD_LIMIT:g}")
+        uvs = np.array(uvs, np.float64)
     return _InlineMesh(points, np.array(faces, np.int64), uvs)
+
+
+def _array_mesh(checks: Checks, o, path) -> _InlineMesh:
+    """Inline `vertices` (N, 3), `faces` (M, 3) and optional `uvs` (N, 2) given as numpy arrays, as a dict made in
+    Python may (pbrt.py's meshes): the same checks as lists get, on whole arrays, and no per-value count."""
+    points, faces, uvs = o["vertices"], o.get("faces"), o.get("uvs")
+    if points.ndim != 2 or points.shape[1] != 3 or not 0 < len(points) <= 3 * MAX_TRIANGLES or points.dtype.kind not in "fiu":
+        checks.fail(f"{path}.vertices", f"expected an array of at most {3 * MAX_TRIANGLES} points (N, 3)")
+    points = points.astype(np.float64)
+    if not np.all(np.abs(points) <= COORD_LIMIT):
+        checks.fail(f"{path}.vertices", f"a point is not finite or out of range; allowed: -{COORD_LIMIT:g} to {COORD_LIMIT:g}")
+    shaped = isinstance(faces, np.ndarray) and faces.ndim == 2 and faces.shape[1] == 3 and faces.dtype.kind in "iu"
+    if not shaped or not 0 < len(faces) <= MAX_TRIANGLES:
+        checks.fail(f"{path}.faces", f"expected an integer array of at most {MAX_TRIANGLES} triples of vertex indices (M, 3)")
+    if faces.min() < 0 or faces.max() >= len(points):
+        checks.fail(f"{path}.faces", f"a vertex index is out of range; allowed: 0 to {len(points) - 1}")
+    if uvs is not None:
+        if not isinstance(uvs, np.ndarray) or uvs.shape != (len(points), 2) or not np.all(np.abs(uvs) <= COORD_LIMIT):
+            checks.fail(f"{path}.uvs", f"expected an array of {len(points)} finite [u, v] pairs, one a vertex")
+        uvs = uvs.astype(np.float64)
+    return _InlineMesh(points, faces.astype(np.int64), uvs)
 
 
 def _check_placed_box(checks: Checks, points, box, matrix, path):
