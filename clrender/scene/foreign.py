@@ -3,8 +3,9 @@
 A foreign reader turns its file into the scene dict a TOML scene is (so it is checked the same way) plus
 the render settings the file asks for (`Foreign`, mitsuba_plugins.py): Mitsuba 3's XML (`.xml`,
 mitsuba_plugins.read_mitsuba) and pbrt-v4's files (`.pbrt`, pbrt.read_pbrt_file).  `defines` are the
-command line's `-D name=value` (Mitsuba's `$name` parameters); `approximate` renders what cannot be read with documented stand-ins instead of refusing it.  scene.py's `Scene.from_file`
-makes the Scene (imports go one way: scene.py imports this module, never the reverse).
+command line's `-D name=value` (Mitsuba's `$name` parameters); `approximate` renders what cannot be read
+with documented stand-ins instead of refusing it.  scene.py's `Scene.from_file` makes the Scene (imports
+go one way: scene.py imports this module, never the reverse).
 """
 
 from __future__ import annotations
