@@ -36,19 +36,19 @@ def _bool(text: str) -> bool:
 
 
 def print_scene_list(scenes: dict) -> None:
-    """Each bundled scene's description and cameras, its featured camera marked '*' (read from the
+    """Each bundled scene's description and cameras, its default camera marked '*' (read from the
     TOML alone: no mesh is built)."""
     import tomllib
 
     for name, path in scenes.items():
         print_scene_cameras(name, tomllib.loads(path.read_text()))
-    print("(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)")
+    print("(* the scene's default view, rendered when --camera is not given: the one it was made for; --camera picks any)")
 
 
 def print_scene_cameras(name: str, data: dict) -> None:
-    """A scene dict's description and its cameras, by number and name, the featured one marked '*'."""
+    """A scene dict's description and its cameras, by number and name, the default one marked '*'."""
     print(f"{name}: {data.get('description', '')}".rstrip(": "))
-    featured = data.get("featured_camera", data.get("seed_camera", 1))  # seed_camera: its old name
+    featured = data.get("default_camera", data.get("featured_camera", data.get("seed_camera", 1)))  # featured_camera, seed_camera: its old names
     for number, camera in enumerate(data.get("cameras", [{}]), start=1):
         mark = "*" if number == featured else " "
         print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
@@ -103,7 +103,10 @@ def add_parser(sub):
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument(
-        "--camera", type=int, default=None, help=f"camera number, 1 = canonical; --list marks each scene's featured view with * (default: {d.camera})"
+        "--camera",
+        type=int,
+        default=None,
+        help="camera number, 1 = the scene's first; --list marks each scene's default view with * (default: the scene's default_camera, else 1)",
     )
     p.add_argument(
         "--width", type=positive_int, default=None, help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)"
@@ -114,7 +117,7 @@ def add_parser(sub):
         default=None,
         help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)",
     )
-    p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: {d.aa})")
+    p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: the scene's aa, else {d.aa})")
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
@@ -522,7 +525,9 @@ def _render(args):
         if "resample" in t:
             parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
         sys.stderr.write(
-            f"{scene.name}: {s.width}x{s.height}, {primitive_count(renderer.tracer, scene)}, {result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n"
+            f"{scene.name}: {s.width}x{s.height}, {primitive_count(renderer.tracer, scene)}, {result.rays / 1e6:.2f} M rays; "
+            + ", ".join(parts)
+            + "\n"
         )
     return 0
 

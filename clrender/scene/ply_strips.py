@@ -36,19 +36,88 @@ def strip_faces(indices) -> np.ndarray:
     return f[proper]
 
 
+# PLY's scalar types as numpy's (both the old names and the sized ones)
+TYPES = {
+    **dict.fromkeys(("char", "int8"), "i1"),
+    **dict.fromkeys(("uchar", "uint8"), "u1"),
+    **dict.fromkeys(("short", "int16"), "i2"),
+    **dict.fromkeys(("ushort", "uint16"), "u2"),
+    **dict.fromkeys(("int", "int32"), "i4"),
+    **dict.fromkeys(("uint", "uint32"), "u4"),
+    **dict.fromkeys(("float", "float32"), "f4"),
+    **dict.fromkeys(("double", "float64"), "f8"),
+}
+
+
+def _header(file):
+    """(format, [(element name, count, [(property name, type, list count type or None)])]) of a PLY header."""
+    if file.readline().strip() != b"ply":
+        raise ValueError("not a PLY file")
+    fmt, elements = None, []
+    for _ in range(10000):
+        words = file.readline().decode("ascii", "replace").split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "end_header":
+            return fmt, elements
+        if words[0] == "format":
+            fmt = words[1]
+        elif words[0] == "element":
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property" and words[1] == "list":
+            elements[-1][2].append((words[4], TYPES[words[3]], TYPES[words[2]]))
+        elif words[0] == "property":
+            elements[-1][2].append((words[2], TYPES[words[1]], None))
+    raise ValueError("no end_header")
+
+
+def _read_element(file, fmt: str, count: int, properties, tokens):
+    """One element's rows: a structured array when every property is a scalar, else a list of dicts."""
+    if fmt == "ascii":
+        rows = []
+        for _ in range(count):
+            row = {}
+            for name, kind, list_kind in properties:
+                n = int(next(tokens)) if list_kind else 1
+                values = np.array([next(tokens) for _ in range(n)], np.float64 if kind.startswith("f") else np.int64)
+                row[name] = values if list_kind else values[0]
+            rows.append(row)
+        return rows
+    order = "<" if fmt == "binary_little_endian" else ">"
+    if all(list_kind is None for _, _, list_kind in properties):
+        dtype = np.dtype([(name, order + kind) for name, kind, _ in properties])
+        return np.frombuffer(file.read(dtype.itemsize * count), dtype, count)
+    rows = []
+    for _ in range(count):
+        row = {}
+        for name, kind, list_kind in properties:
+            n = int(np.frombuffer(file.read(np.dtype(list_kind).itemsize), order + list_kind)[0]) if list_kind else 1
+            values = np.frombuffer(file.read(n * np.dtype(kind).itemsize), order + kind, n)
+            row[name] = values if list_kind else values[0]
+        rows.append(row)
+    return rows
+
+
 def read_tristrips(path: Path):
-    """A trimesh.Trimesh of a PLY file's vertices and its `tristrips` element, or None when it has none."""
+    """A trimesh.Trimesh of a PLY file's vertices and its `tristrips` element, or None when it has none (or has
+    faces too: trimesh reads those).  trimesh itself refuses a binary file whose strips differ in length."""
     import trimesh
-    from trimesh.exchange import ply
 
     with open(path, "rb") as file:
-        elements, is_ascii, _ = ply._parse_header(file)
-        if "tristrips" not in elements or "vertex" not in elements:
-            return None
-        (ply._ply_ascii if is_ascii else ply._ply_binary)(elements, file)
-    vertex = elements["vertex"]["data"]  # trimesh's parser: a dict of arrays per property (a structured array for some files)
-    vertices = np.stack([np.asarray(vertex[axis], np.float64).ravel() for axis in "xyz"], axis=1)
-    rows = elements["tristrips"]["data"]["vertex_indices"]  # one row (a list of indices) per strip element
-    parts = [strip_faces(np.asarray(row, np.int64).ravel()) for row in rows]
+        fmt, elements = _header(file)
+        names = [e[0] for e in elements]
+        if "tristrips" not in names or "vertex" not in names or any(e[0] == "face" and e[1] > 0 for e in elements):
+            return None  # faces (or nothing to read): trimesh's reader
+        tokens = iter(file.read().split()) if fmt == "ascii" else None
+        read = {}
+        for name, count, properties in elements[: max(names.index("tristrips"), names.index("vertex")) + 1]:
+            read[name] = _read_element(file, fmt, count, properties, tokens)
+    vertex = read["vertex"]
+    vertices = (
+        np.array([[row[a] for a in "xyz"] for row in vertex], np.float64)
+        if isinstance(vertex, list)
+        else np.stack([vertex[a].astype(np.float64) for a in "xyz"], axis=1)
+    )
+    parts = [strip_faces(row["vertex_indices"]) for row in read["tristrips"]]
     faces = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
     return trimesh.Trimesh(vertices, faces, process=False)

@@ -301,10 +301,8 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
         if "featured_camera" in data:
             checks.fail("seed_camera", "is the old name of featured_camera; give only featured_camera")
         data = {("featured_camera" if k == "seed_camera" else k): v for k, v in data.items()}
-    if "default_camera" in data:  # the key's newer name: the camera `render` uses without --camera
-        if "featured_camera" in data:
-            checks.fail("default_camera", "and featured_camera are one setting (featured_camera is its older name); give only default_camera")
-        data = {("featured_camera" if k == "default_camera" else k): v for k, v in data.items()}
+    if "default_camera" in data and "featured_camera" in data:  # one setting: the camera `render` uses without --camera
+        checks.fail("default_camera", "and featured_camera are one setting (featured_camera is its older name); give only default_camera")
     checks.check_keys(data, "", TOP_KEYS)
     data = _expand_model_files(checks, data)
     scene = Scene(name=checks.name(data.get("name", name), "name"))
@@ -318,7 +316,8 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     cameras = checks.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
     scene.cameras = [read_camera(checks, c, f"cameras[{i}]") for i, c in enumerate(cameras)]
     scene.description = checks.name(data["description"], "description") if "description" in data else ""
-    scene.featured_camera = checks.integer(data, "featured_camera", "", 1, low=1, high=len(scene.cameras))
+    camera_key = "default_camera" if "default_camera" in data else "featured_camera"
+    scene.featured_camera = checks.integer(data, camera_key, "", 1, low=1, high=len(scene.cameras))
     scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
@@ -439,10 +438,10 @@ UP_AXES = {"y": (0.0, 0.0, 0.0), "z": (-90.0, 0.0, 0.0), "x": (0.0, 0.0, 90.0)}
 
 def _load_mesh_scene(path, allow_outside: bool = True, up: str = "y", smooth: bool | None = None) -> Scene:
     """A scene of one mesh file, in its own material (an OBJ's .mtl, as a TOML `file =` object reads it) or else
-    the default grey, seen and lit by framing.py's camera and lights (a glTF file's own cameras and lights are read
-    by _load_gltf instead); allow_outside=False reads only files (an OBJ's materials) inside the file's folder.
-`up` ("y", "z" or "x"): the file's up axis, turned to +y (a Z-up file's front, -y, then faces the camera);
-`smooth`: interpolated vertex normals (None: framing.py's default, flat)."""
+        the default grey, seen and lit by framing.py's camera and lights (a glTF file's own cameras and lights are read
+        by _load_gltf instead); allow_outside=False reads only files (an OBJ's materials) inside the file's folder.
+    `up` ("y", "z" or "x"): the file's up axis, turned to +y (a Z-up file's front, -y, then faces the camera);
+    `smooth`: interpolated vertex normals (None: framing.py's default, flat)."""
     from . import framing
 
     path = Path(path)
@@ -815,10 +814,13 @@ def load_mesh_file(path: Path, what: str, root=None):
         raise UsageError(f"{what}: mesh file {str(path)!r} does not exist")
     try:
         from .confine import trimesh_resolver
+        from .ply_strips import read_tristrips  # triangle strips, which trimesh does not read
 
         # a confined scene's mesh reads its materials, images and buffers through confine.py too
         resolver = None if root is None else trimesh_resolver(path, root)
-        tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
+        tm = read_tristrips(path) if path.suffix.lower() == ".ply" else None
+        if tm is None:
+            tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
     except Exception as exc:  # trimesh raises many kinds for malformed files
         # On undecodable text trimesh reaches for an optional encoding guesser (charset_normalizer):
         # the missing module is trimesh's detail, the file is the user's problem.
@@ -830,14 +832,6 @@ def load_mesh_file(path: Path, what: str, root=None):
         else:
             reason = first_line(str(exc)) or type(exc).__name__
         raise UsageError(f"{what}: cannot parse mesh {shown(path)} as {kind} ({one_line(reason, MAX_SHOWN)})") from None
-    if path.suffix.lower() == ".ply" and (not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0):
-        from .ply_strips import read_tristrips  # triangle strips, which trimesh does not read
-
-        try:
-            strips = read_tristrips(path)
-        except Exception as exc:  # trimesh's parser raises many kinds for malformed files
-            raise UsageError(f"{what}: cannot parse the triangle strips of {shown(path)} ({one_line(str(exc) or type(exc).__name__, MAX_SHOWN)})") from None
-        tm = tm if strips is None else strips
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise UsageError(f"{what}: mesh {str(path)!r} has no triangles")
     faces = np.asarray(tm.faces)

@@ -58,7 +58,9 @@ def test_env_keeps_a_scenes_own_lights(tmp_path):
 
 def test_env_intensity_without_env_changes_the_scenes_own_map(tmp_path):
     write_hdr(tmp_path / "sky.hdr")
-    (tmp_path / "s.toml").write_text('[environment]\nfile = "sky.hdr"\nintensity = 2\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
+    (tmp_path / "s.toml").write_text(
+        '[environment]\nfile = "sky.hdr"\nintensity = 2\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n'
+    )
     scene = staging.load(str(tmp_path / "s.toml"), Stage(env_intensity=0.5, env_rotation=-30.0))
     assert (scene.environment_map.intensity, scene.environment_map.rotation) == (0.5, -30.0)
     with pytest.raises(UsageError, match="has none: give one with --env"):
