@@ -414,7 +414,7 @@ def _render(args):
     from .. import memory
     from ..image.files import check_distinct_outputs, check_output_path, write_display_image
     from ..outputs import output_set
-    from ..scene.scene import Scene, bundled_scenes
+    from ..scene.scene import bundled_scenes
 
     if args.list:
         if args.scene is None:

@@ -3,8 +3,8 @@
 `Stage` holds the options (--env, --env-intensity, --env-rotation, --ground, --up, --smooth) and `load`
 reads the scene with them (docs/scene-format.md, "Product shots"):
 
-- `env`: an equirectangular .hdr/.exr map (or a bundled one by name: `studio`, tools/studio_hdr.py) becomes the scene's `[environment]` (file, intensity, rotation, as
-  the TOML table reads them). A file without lights of its own (a bare mesh, a glTF without
+- `env`: an equirectangular .hdr/.exr map (or a bundled one by name: `studio`, made by tools/studio_hdr.py)
+  becomes the scene's `[environment]` (file, intensity, rotation, as the TOML table reads them). A file without lights of its own (a bare mesh, a glTF without
   KHR_lights_punctual) loses framing.py's key light and constant fill: the map lights it alone.
   `env_intensity` and `env_rotation` without `env` change the scene's own map.
 - `ground`: a square, neutral grey (0.5) diffuse plane under the bounding box of every object, 100 times the
@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .checks import Checks
-from .environment import ENVIRONMENT_READER, EnvironmentMap, ROTATION_LIMIT
+from .environment import ENVIRONMENT_READER, ROTATION_LIMIT, EnvironmentMap
 from .materials import Material
 
 GROUND_MATERIAL = "ground"  # the plane's material: grey 0.5, diffuse in both integrators

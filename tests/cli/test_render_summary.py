@@ -3,6 +3,7 @@
 from types import SimpleNamespace
 
 from clrender.commands.render import primitive_count
+
 from tests.scenetools import copies_scene
 
 

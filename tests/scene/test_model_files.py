@@ -6,6 +6,7 @@ import pytest
 
 from clrender.errors import UsageError
 from clrender.scene.scene import Scene
+
 from tests.gltftools import QUAD, gltf_file, png_bytes, textured_quad
 
 RED = {"name": "red paint", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.2, 0.1, 1.0], "metallicFactor": 0.25, "roughnessFactor": 0.4}}

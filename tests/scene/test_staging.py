@@ -8,6 +8,7 @@ import trimesh
 from clrender.errors import UsageError
 from clrender.scene import staging
 from clrender.scene.staging import GROUND_ALBEDO, GROUND_GAP, GROUND_SIZE, Stage
+
 from tests.clitools import run_cli
 
 
