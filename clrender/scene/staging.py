@@ -4,8 +4,9 @@
 reads the scene with them (docs/scene-format.md, "Product shots"):
 
 - `env`: an equirectangular .hdr/.exr map (or a bundled one by name: `studio`, made by tools/studio_hdr.py)
-  becomes the scene's `[environment]` (file, intensity, rotation, as the TOML table reads them). A file without lights of its own (a bare mesh, a glTF without
-  KHR_lights_punctual) loses framing.py's key light and constant fill: the map lights it alone.
+  becomes the scene's `[environment]` (file, intensity, rotation, as the TOML table reads them). A file without
+  lights of its own (a bare mesh, a glTF without KHR_lights_punctual) loses framing.py's key light and constant
+  fill: the map lights it alone.
   `env_intensity` and `env_rotation` without `env` change the scene's own map.
 - `ground`: a square, neutral grey (0.5) diffuse plane under the bounding box of every object, 100 times the
   box's diagonal across, a ten-thousandth of the diagonal below its lowest point (coplanar faces would fight).

@@ -64,3 +64,16 @@ def test_the_whitted_tracer_warns_that_an_environment_map_lights_nothing(tmp_pat
     said = RenderSettings().pointless(scene)
     assert "the environment map lights nothing under the Whitted integrator (rays that escape show it); use --integrator path" in said
     assert not any("environment map" in m for m in RenderSettings(integrator="path", spp=1).pointless(scene))
+
+
+@pytest.mark.slow  # two kernel variants' compiles on a cold cache
+def test_a_path_traced_miss_shows_the_background():
+    """Camera rays that meet nothing see `background` under both integrators (the path tracer used to draw black)."""
+    import numpy as np
+
+    import clrender
+
+    data = {"background": [0.2, 0.3, 0.4], "width": 8, "height": 6, "objects": [{"type": "sphere", "center": [0, 0, 5], "radius": 1}]}
+    for integrator, extra in (("whitted", {}), ("path", {"spp": 1})):
+        image = clrender.Renderer(Scene.from_dict(data), integrator=integrator, **extra).run().image
+        assert np.all(image == np.float32([0.2, 0.3, 0.4])), integrator
