@@ -220,7 +220,12 @@ def add_stage_arguments(p) -> None:
     """--env, --env-intensity, --env-rotation, --ground, --up, --smooth: a model set up for a product shot (scene/staging.py)."""
     from ..scene.staging import UP_CHOICES
 
-    p.add_argument("--env", default=None, metavar="FILE", help="light the scene with this equirectangular .hdr/.exr map, or `studio`, the bundled one (default: the scene's own environment)")
+    p.add_argument(
+        "--env",
+        default=None,
+        metavar="FILE",
+        help="light the scene with this equirectangular .hdr/.exr map, or `studio`, the bundled one (default: the scene's own environment)",
+    )
     p.add_argument("--env-intensity", type=float, default=None, metavar="X", help="scale of the map's radiance, >= 0 (default: 1)")
     p.add_argument("--env-rotation", type=float, default=None, metavar="DEGREES", help="turn the map about +y (default: 0)")
     p.add_argument("--ground", action="store_true", help="add a grey (0.5) plane under the scene's bounding box (default: none)")
