@@ -94,6 +94,6 @@ def test_help_says_what_things_are_not_whose():
     gauss = subparser("splat", "gauss").format_help()
     assert "{scale-lum,all}" in gauss and "scale-lum: log-scales and a per-splat luminance factor only (old name: seed)" in " ".join(gauss.split())
     render = subparser("render").format_help()
-    assert "default view" in " ".join(render.split())
+    assert "marks each scene's own view with *" in " ".join(render.split())
     for text in (gauss, render):
         assert "seed's" not in text and "seed-style" not in text and "the seed" not in text
