@@ -387,7 +387,7 @@ def auto_exposure_wanted(args) -> bool:
 
 def display_from_args(args, output=None):
     """The display transform of PNG/JPEG outputs (clrender/image/tonemap.py), its exposure 0 where it is
-    automatic (set from the image once rendered: `auto_display`); a warning when the one output named is a float
+    automatic (`_render` sets it from the image once rendered and denoised); a warning when the one output named is a float
     file, which stays scene-linear."""
     from ..image.files import FLOAT_EXTENSIONS
     from ..image.tonemap import DisplaySettings
