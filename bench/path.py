@@ -26,8 +26,9 @@ light's is a radiant intensity (W/sr) -> a point emitter.  wizard_cat's lights u
 (pi I c cos(theta) at every distance: no physical light does that), so the bench makes them physical for BOTH
 renderers (`physical_lights`, a bench-only mapping): the directional light's irradiance pi c I, the area
 light's radiance chosen so that its irradiance at camera 3's look-at point (the cat) is what falloff "none"
-gives there; both renderers then draw the same physical scene.  `background` and `ambient` are Whitted's and not
-drawn.  The metal of the Cornell box is Mitsuba's native `principled` here (metallic 1: the same D, F and
+gives there; both renderers then draw the same physical scene.  `ambient` is Whitted's and not drawn; `background`
+is the path tracer's constant environment (wizard_cat has no [environment]), given to both.  The metal of the
+Cornell box is Mitsuba's native `principled` here (metallic 1: the same D, F and
 alpha, separable Smith G instead of the height-correlated G2: the same cost, not the same function; the
 reference tests use the exact lobe).
 """
@@ -115,6 +116,12 @@ def wizard_cat_dict(camera: int = 3) -> dict:
         "lights": lights,
         "objects": objects,
     }
+
+
+def wizard_cat_path_dict(camera: int = 3) -> dict:
+    """wizard_cat_dict with its background as the constant environment, as clrender's path tracer sees a scene
+    without [environment] (bench whitted keeps wizard_cat_dict: Mitsuba's `direct` would be lit by it)."""
+    return {**wizard_cat_dict(camera), "environment": {"color": list(wizard_cat_scene(camera).environment)}}
 
 
 def agreement_line(ours: list, theirs: list, block: int = 16) -> str:
@@ -216,7 +223,7 @@ def main(argv=None):
     pixels = args.size * args.size
     rows, agreement = [], []
     for name in args.scenes:
-        scene = path_scenes.cornell_box(args.size) if name == "cornell_box" else wizard_cat_dict(3)
+        scene = path_scenes.cornell_box(args.size) if name == "cornell_box" else wizard_cat_path_dict(3)
         measured, renders = {}, {}
         if have_clrender:
             first, compile_s, wall, cpu, images = time_clrender(name, args.size, args.spp, args.max_depth, args.runs)

@@ -36,19 +36,19 @@ def _bool(text: str) -> bool:
 
 
 def print_scene_list(scenes: dict) -> None:
-    """Each bundled scene's description and cameras, its featured camera marked '*' (read from the
+    """Each bundled scene's description and cameras, its default camera marked '*' (read from the
     TOML alone: no mesh is built)."""
     import tomllib
 
     for name, path in scenes.items():
         print_scene_cameras(name, tomllib.loads(path.read_text()))
-    print("(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)")
+    print("(* the scene's default view, rendered when --camera is not given: the one it was made for; --camera picks any)")
 
 
 def print_scene_cameras(name: str, data: dict) -> None:
-    """A scene dict's description and its cameras, by number and name, the featured one marked '*'."""
+    """A scene dict's description and its cameras, by number and name, the default one marked '*'."""
     print(f"{name}: {data.get('description', '')}".rstrip(": "))
-    featured = data.get("featured_camera", data.get("seed_camera", 1))  # seed_camera: its old name
+    featured = data.get("default_camera", data.get("featured_camera", data.get("seed_camera", 1)))  # featured_camera, seed_camera: its old names
     for number, camera in enumerate(data.get("cameras", [{}]), start=1):
         mark = "*" if number == featured else " "
         print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
@@ -105,7 +105,10 @@ def add_parser(sub):
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument(
-        "--camera", type=int, default=None, help=f"camera number, 1 = canonical; --list marks each scene's featured view with * (default: {d.camera})"
+        "--camera",
+        type=int,
+        default=None,
+        help="camera number, 1 = the scene's first; --list marks each scene's own view with * (default: the scene's own, else 1)",
     )
     p.add_argument(
         "--width", type=positive_int, default=None, help="image width (default: the scene's, or kept to its aspect ratio when only --height is given)"
@@ -116,7 +119,7 @@ def add_parser(sub):
         default=None,
         help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)",
     )
-    p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: {d.aa})")
+    p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: the scene's aa, else {d.aa})")
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
@@ -151,10 +154,11 @@ def add_parser(sub):
     )
     p.add_argument(
         "--exposure",
-        type=float,
-        default=0.0,
+        type=exposure_value,
+        default=None,
         metavar="STOPS",
-        help="PNG/JPEG: multiply the linear image by 2**STOPS before the tone curve; EXR stays as rendered (default: 0)",
+        help="PNG/JPEG: multiply the linear image by 2**STOPS before the tone curve, or auto: darken only as far as brings the "
+        "97th percentile of luminance to 1 (docs/display.md); EXR stays as rendered (default: auto with --integrator path, else 0)",
     )
     p.add_argument(
         "--tonemap",
@@ -168,6 +172,7 @@ def add_parser(sub):
         help="path: denoise the image with Intel Open Image Denoise, using the albedo and normal AOVs (needs clrender[denoise])",
     )
     p.add_argument("--noisy-out", default=None, metavar="PATH", help="with --denoise: also write the image before denoising (default: not written)")
+    add_stage_arguments(p)
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument(
         "--integrator",
@@ -233,6 +238,46 @@ def add_parser(sub):
     add_cluster_arguments(p)
     add_turntable_arguments(p)
     p.set_defaults(run=run)
+
+
+def add_stage_arguments(p) -> None:
+    """--env, --env-intensity, --env-rotation, --ground, --up, --smooth: a model set up for a product shot (scene/staging.py)."""
+    from ..scene.staging import UP_CHOICES
+
+    p.add_argument(
+        "--env",
+        default=None,
+        metavar="FILE",
+        help="light the scene with this equirectangular .hdr/.exr map, or `studio`, the bundled one (default: the scene's own environment)",
+    )
+    p.add_argument("--env-intensity", type=float, default=None, metavar="X", help="scale of the map's radiance, >= 0 (default: 1)")
+    p.add_argument("--env-rotation", type=float, default=None, metavar="DEGREES", help="turn the map about +y (default: 0)")
+    p.add_argument("--ground", action="store_true", help="add a grey (0.5) plane under the scene's bounding box (default: none)")
+    p.add_argument("--up", default=None, metavar="AXIS", help=f"a bare mesh file's up axis, {'|'.join(UP_CHOICES)} (default: y)")
+    p.add_argument("--smooth", action="store_true", help="a bare mesh file: interpolate vertex normals (default: flat faces)")
+
+
+def stage_from_args(args):
+    from ..scene.staging import Stage
+
+    names = ("env", "env_intensity", "env_rotation", "ground", "up", "smooth")
+    return Stage(**{name: getattr(args, name) for name in names if getattr(args, name, None) is not None})
+
+
+def scene_defaults(args, settings, scene):
+    """The scene's own camera and anti-aliasing (its `default_camera` and `aa` keys) where the command line gives
+    neither (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted integrator."""
+    from dataclasses import replace
+
+    given = len(args.positional_args)
+    changes = {}
+    if args.camera is None and given < 1:
+        changes["camera"] = scene.featured_camera
+    if scene.aa is not None and args.aa is None and given < 2 and settings.integrator == "whitted":
+        changes["aa"] = scene.aa
+        if args.samples is None and given < 4:  # the default follows the mode, as settings_from_args has it
+            changes["samples"] = 1 if scene.aa == "none" else 4
+    return replace(settings, **changes)
 
 
 def positive_int(text: str) -> int:
@@ -347,6 +392,7 @@ def settings_from_args(args) -> RenderSettings:
 def load_scene(args):
     """The scene SCENE names; a foreign file (.xml, .pbrt) with the -D values, and --approximate's stand-ins
     said on one line."""
+    from ..scene import staging
     from ..scene.foreign import is_foreign, parse_defines
     from ..scene.scene import Scene
 
@@ -354,8 +400,9 @@ def load_scene(args):
     if not is_foreign(args.scene):
         if defines or getattr(args, "approximate", False):
             raise UsageError("-D and --approximate are for foreign scene files (Mitsuba .xml, pbrt .pbrt)")
-        return Scene.load(args.scene)
-    scene = Scene.from_file(args.scene, defines=defines, approximate=args.approximate)
+        return staging.load(args.scene, stage_from_args(args))
+    read = lambda text: Scene.from_file(text, defines=defines, approximate=args.approximate)  # noqa: E731
+    scene = staging.load(args.scene, stage_from_args(args), read)
     if scene.substitutions:
         warn(f"{len(scene.substitutions)} stand-ins: " + "; ".join(scene.substitutions))
     return scene
@@ -382,14 +429,33 @@ def run(args):
         return _render(args)
 
 
+def exposure_value(text: str):
+    """argparse type of --exposure: a number of stops, or "auto"."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of stops; allowed: a number from -64 to 64, or auto") from None
+
+
+def auto_exposure_wanted(args) -> bool:
+    """--exposure auto, given or by default (path-traced renders: their radiance has no fixed white)."""
+    exposure = getattr(args, "exposure", None)
+    return exposure == "auto" or (exposure is None and getattr(args, "integrator", "whitted") == "path")
+
+
 def display_from_args(args, output=None):
-    """The display transform of PNG/JPEG outputs (clrender/image/tonemap.py); a warning when the one
-    output named is a float file, which stays scene-linear."""
+    """The display transform of PNG/JPEG outputs (clrender/image/tonemap.py), its exposure 0 where it is
+    automatic (`_render` sets it from the image once rendered and denoised); a warning when the one output named is a float
+    file, which stays scene-linear."""
     from ..image.files import FLOAT_EXTENSIONS
     from ..image.tonemap import DisplaySettings
 
-    display = DisplaySettings(exposure=getattr(args, "exposure", 0.0), tonemap=getattr(args, "tonemap", "clamp"))
-    if output is not None and Path(output).suffix.lower() in FLOAT_EXTENSIONS and display != DisplaySettings():
+    exposure = getattr(args, "exposure", None)
+    display = DisplaySettings(exposure=0.0 if exposure in (None, "auto") else exposure, tonemap=getattr(args, "tonemap", "clamp"))
+    given = display != DisplaySettings() or exposure == "auto"
+    if output is not None and Path(output).suffix.lower() in FLOAT_EXTENSIONS and given:
         warn(f"--exposure and --tonemap change nothing in {Path(output).name}: float outputs stay scene-linear")
     return display
 
@@ -429,6 +495,8 @@ def _render(args):
     if args.turntable is not None or args.video:  # K frames into a folder (commands/turntable.py)
         from .turntable import run_turntable
 
+        if args.exposure == "auto":
+            raise UsageError("--exposure auto sets each image's own exposure, so a turntable's frames would flicker; give STOPS")
         return run_turntable(args, settings, display_from_args(args))
     output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
     display = display_from_args(args, output)
@@ -454,7 +522,7 @@ def _render(args):
         settings = replace(settings, aovs=requested_aovs + tuple(a for a in AUX_AOVS if a not in requested_aovs))
     start = time.perf_counter()
     scene = load_scene(args)
-    settings = foreign_settings(args, settings, scene)
+    settings = scene_defaults(args, foreign_settings(args, settings, scene), scene)
     load_seconds = time.perf_counter() - start
     # the scene's own width and height where not given; bad values are refused, then pointless ones warned about
     size = settings.validate(scene)
@@ -487,6 +555,12 @@ def _render(args):
         image = filters.apply(image, *args.filter)
         noisy = filters.apply(noisy, *args.filter) if noisy_out is not None else noisy
     aovs = {name: result.aovs[name] for name in requested_aovs}
+    if auto_exposure_wanted(args):
+        from dataclasses import replace
+
+        from ..image.tonemap import auto_exposure
+
+        display = replace(display, exposure=auto_exposure(image))
     from ..trace.aov import write_exr
     from ..trace.edges import overlay_edges
 
@@ -507,12 +581,27 @@ def _render(args):
     if not args.quiet:
         s = renderer.settings
         t = result.timings
-        parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        parts = [f"exposure {display.exposure:+.2f} (auto)"] if auto_exposure_wanted(args) and display.exposure else []
+        parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
         if denoise_seconds is not None:
             parts.append(f"denoise {denoise_seconds:.2f}s")
         if "resample" in t:
             parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
         sys.stderr.write(
-            f"{scene.name}: {s.width}x{s.height}, {renderer.tracer.n_prims} primitives, {result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n"
+            f"{scene.name}: {s.width}x{s.height}, {primitive_count(renderer.tracer, scene)}, {result.rays / 1e6:.2f} M rays; "
+            + ", ".join(parts)
+            + "\n"
         )
     return 0
+
+
+def primitive_count(tracer, scene) -> str:
+    """The summary's count: the flat part's primitives, and with instancing the instances and the triangles they place."""
+    n_instances = getattr(tracer, "n_instances", 0)
+    if not n_instances:
+        return f"{tracer.n_prims} primitives"
+    shapes = len(tracer.instances.shapes)
+    return (
+        f"{tracer.n_prims} primitives + {n_instances} instances of {shapes} mesh{'es' if shapes > 1 else ''} "
+        f"({scene.triangle_count:,} triangles and {scene.sphere_count} spheres in all)"
+    )

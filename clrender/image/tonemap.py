@@ -96,6 +96,25 @@ def agx(rgb: np.ndarray) -> np.ndarray:
     return display**2.2
 
 
+# `--exposure auto` (the default of path-traced PNG/JPEG): never brighter than as rendered; darker, by the stops
+# that bring the AUTO_PERCENTILE-th percentile of luminance down to AUTO_WHITE, when more of the image than the
+# rest would clip (docs/display.md, "Automatic exposure").
+AUTO_PERCENTILE = 97.0  # at most 3% of the pixels (light sources, highlights, the brightest sky) reach white
+AUTO_WHITE = 1.0  # where the clamp curve clips
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB primaries
+
+
+def auto_exposure(linear_rgb: np.ndarray) -> float:
+    """The stops of `--exposure auto` for an (H, W, 3) scene-linear image: min(0, -log2(P / AUTO_WHITE)), P the
+    AUTO_PERCENTILE-th percentile of the finite pixels' luminance (0 for an image with none), at least -64."""
+    luminance = np.asarray(linear_rgb, np.float64).reshape(-1, 3) @ LUMINANCE
+    luminance = luminance[np.isfinite(luminance)]
+    if not luminance.size:
+        return 0.0
+    p = float(np.percentile(luminance, AUTO_PERCENTILE))
+    return 0.0 if not p > AUTO_WHITE else max(-64.0, -float(np.log2(p / AUTO_WHITE)))
+
+
 def _mat(rgb: np.ndarray, m: np.ndarray) -> np.ndarray:
     """Each pixel's RGB times the 3x3 matrix m (m @ rgb per pixel), in float64."""
     return np.asarray(rgb, np.float64) @ m.T

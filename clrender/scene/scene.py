@@ -172,7 +172,9 @@ class Scene:
     textures: list = field(default_factory=list)  # decoded textures (textures.TextureImage) the materials index
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
-    featured_camera: int = 1  # the view the scene is made for, marked * by `render --list` (not a default: --camera is 1 unless given)
+    featured_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
+    aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
+    default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, pixel_filter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
 
@@ -294,6 +296,8 @@ TOP_KEYS = (
     "name",
     "description",
     "featured_camera",
+    "default_camera",
+    "aa",
     "textures",
 )
 # `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
@@ -307,7 +311,10 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
         if "featured_camera" in data:
             checks.fail("seed_camera", "is the old name of featured_camera; give only featured_camera")
         data = {("featured_camera" if k == "seed_camera" else k): v for k, v in data.items()}
+    if "default_camera" in data and "featured_camera" in data:  # one setting: the camera `render` uses without --camera
+        checks.fail("default_camera", "and featured_camera are one setting (featured_camera is its older name); give only default_camera")
     checks.check_keys(data, "", TOP_KEYS)
+    data = _expand_model_files(checks, data)
     scene = Scene(name=checks.name(data.get("name", name), "name"))
     scene.width = checks.integer(data, "width", "", 640, low=1, high=MAX_SIDE)
     scene.height = checks.integer(data, "height", "", 480, low=1, high=MAX_SIDE)
@@ -319,7 +326,9 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     cameras = checks.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
     scene.cameras = [read_camera(checks, c, f"cameras[{i}]") for i, c in enumerate(cameras)]
     scene.description = checks.name(data["description"], "description") if "description" in data else ""
-    scene.featured_camera = checks.integer(data, "featured_camera", "", 1, low=1, high=len(scene.cameras))
+    camera_key = "default_camera" if "default_camera" in data else "featured_camera"
+    scene.featured_camera = checks.integer(data, camera_key, "", 1, low=1, high=len(scene.cameras))
+    scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
         checks.fail("materials", f"{len(materials)} materials; allowed: at most {MAX_MATERIALS}")
@@ -337,6 +346,8 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
             scene.environment_map = env
         else:
             scene.environment = env
+    else:  # no [environment]: the path tracer's rays that meet nothing see `background`, as the Whitted tracer's do
+        scene.environment = scene.background
     objects = []
     triangles = 0
     for i, o in enumerate(entries):
@@ -349,6 +360,48 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.objects = objects
     _adopt_file_materials(checks, scene)
     return scene
+
+
+def _expand_model_files(checks: Checks, data: dict) -> dict:
+    """A mesh object whose `file` is a glTF file, with neither `node` nor `material`, becomes one object per
+    primitive of the file, each in the file's own material (renamed FILE:NAME, its textures FILE:texture_N),
+    placed by its node and then by the object's own scale, rotate and translate: the model as the file made it.
+    Naming a `material` keeps the old meaning (every triangle of the file in that material)."""
+    entries = data.get("objects")
+    if not isinstance(entries, list) or not any(_is_model_file(o) for o in entries):
+        return data
+    data = dict(data)
+    materials, texture_specs = dict(checks.table(data.get("materials", {}), "materials")), dict(checks.table(data.get("textures", {}), "textures"))
+    objects = []
+    for i, o in enumerate(entries):
+        if not _is_model_file(o):
+            objects.append(o)
+            continue
+        model = gltf.scene_dict(_mesh_path(checks, o["file"], f"objects[{i}].file"), root=checks.root)
+        prefix = f"{o['file']}:"
+        for name, spec in model["textures"].items():
+            texture_specs[prefix + name] = {**spec, "file": o["file"]}
+        for name, table in model["materials"].items():
+            materials[prefix + name] = {k: ({**v, "texture": prefix + v["texture"]} if k.endswith("_texture") else v) for k, v in table.items()}
+        own = {k: v for k, v in o.items() if k != "smooth"}  # its transform; any other key is refused by the mesh reader as before
+        for part in model["objects"]:
+            material = "default" if part["material"] == "default" else prefix + part["material"]
+            smooth = o["smooth"] if not isinstance(o.get("smooth", False), bool) else part["smooth"] or o.get("smooth", False)
+            objects.append({**part, **own, "material": material, "smooth": smooth})
+    data.update(objects=objects, materials=materials, textures=texture_specs)
+    return data
+
+
+def _is_model_file(o) -> bool:
+    """A mesh object naming a whole glTF file and no material (_expand_model_files)."""
+    return (
+        isinstance(o, dict)
+        and o.get("type") == "mesh"
+        and isinstance(o.get("file"), str)
+        and o["file"].lower().endswith((".gltf", ".glb"))
+        and "node" not in o
+        and "material" not in o
+    )
 
 
 def _adopt_file_materials(checks: Checks, scene) -> None:
@@ -389,10 +442,16 @@ MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 SCENE_FILES = f"allowed: a .toml scene, a .gltf/.glb file or a triangle mesh file ({', '.join(MESH_SUFFIXES)})"
 
 
-def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
+# `up` of a bare mesh file: the rotation that turns that axis of the file into +y (the framing's up), about x or z
+UP_AXES = {"y": (0.0, 0.0, 0.0), "z": (-90.0, 0.0, 0.0), "x": (0.0, 0.0, 90.0)}
+
+
+def _load_mesh_scene(path, allow_outside: bool = True, up: str = "y", smooth: bool | None = None) -> Scene:
     """A scene of one mesh file, in its own material (an OBJ's .mtl, as a TOML `file =` object reads it) or else
-    the default grey, seen and lit by framing.py's camera and lights (a glTF file's own cameras and lights are read
-    by _load_gltf instead); allow_outside=False reads only files (an OBJ's materials) inside the file's folder."""
+        the default grey, seen and lit by framing.py's camera and lights (a glTF file's own cameras and lights are read
+        by _load_gltf instead); allow_outside=False reads only files (an OBJ's materials) inside the file's folder.
+    `up` ("y", "z" or "x"): the file's up axis, turned to +y (a Z-up file's front, -y, then faces the camera);
+    `smooth`: interpolated vertex normals (None: framing.py's default, flat)."""
     from . import framing
 
     path = Path(path)
@@ -405,6 +464,8 @@ def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail("mesh", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
     vertices = np.asarray(tm.vertices, np.float64)
+    if up != "y":
+        vertices = vertices @ transform_matrix(rotate_degrees=UP_AXES[up])[:3, :3].T
     _check_placed(checks, vertices, "mesh")
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     if not np.linalg.norm(hi - lo) >= MIN_LENGTH:  # the camera's distance follows the size: float32 needs some
@@ -413,12 +474,13 @@ def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
         checks.fail("mesh", "no triangle has an area (all are lines or points); allowed: a mesh with at least one proper triangle")
     rig = framing.rig(lo, hi, settings)
     normals = None
-    if settings.smooth:
+    smooth = settings.smooth if smooth is None else smooth
+    if smooth:
         from .meshes import shading_normals
 
         normals = shading_normals(vertices, tm.faces)
     uvs, _, _, _ = _vertex_attributes(tm)  # an OBJ's vt, for its map_Kd
-    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", settings.smooth, source=path.name, uvs=uvs)
+    mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", smooth, source=path.name, uvs=uvs)
     mesh.file_material = textures.mtl_material(tm)  # an OBJ's .mtl, as a TOML `file =` object gets it
 
     def fields(table: dict) -> dict:  # a scene dict's table as dataclass fields: lists as tuples, no `name`
@@ -434,6 +496,7 @@ def _load_mesh_scene(path, allow_outside: bool = True) -> Scene:
         objects=[mesh],
         name=shorten(escape(path.stem), MAX_NAME) or "scene",
         description=f"{shorten(escape(path.name), 100)}: {len(tm.faces)} triangles, framed and lit by default",
+        default_lighting=True,
     )
     _adopt_file_materials(checks, scene)
     return scene
@@ -443,8 +506,13 @@ def _load_gltf(path, allow_outside: bool = True) -> Scene:
     """A Scene of a glTF file (gltf.py reads it into a scene dict), checked as any scene file is;
     allow_outside=False reads only files (its buffers) inside the file's folder."""
     path = Path(path)
+    from . import framing
+
     root = None if allow_outside else path.parent
-    return Scene.from_dict(gltf.scene_dict(path, root), base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
+    data = gltf.scene_dict(path, root)
+    scene = Scene.from_dict(data, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
+    scene.default_lighting = data["lights"] == framing.lighting(data["cameras"][0])["lights"]  # the file brought none
+    return scene
 
 
 def _load_foreign(path: Path, defines, approximate: bool, allow_outside: bool) -> Scene:
@@ -842,10 +910,13 @@ def load_mesh_file(path: Path, what: str, root=None):
         raise UsageError(f"{what}: mesh file {str(path)!r} does not exist")
     try:
         from .confine import trimesh_resolver
+        from .ply_strips import read_tristrips  # triangle strips, which trimesh does not read
 
         # a confined scene's mesh reads its materials, images and buffers through confine.py too
         resolver = None if root is None else trimesh_resolver(path, root)
-        tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
+        tm = read_tristrips(path) if path.suffix.lower() == ".ply" else None
+        if tm is None:
+            tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
     except Exception as exc:  # trimesh raises many kinds for malformed files
         # On undecodable text trimesh reaches for an optional encoding guesser (charset_normalizer):
         # the missing module is trimesh's detail, the file is the user's problem.

@@ -163,6 +163,8 @@ class RenderSettings:
             said.append(f"camera {self.camera} has a lens (aperture > 0) and --aa none traces one ray a pixel: its blur is noise; use --aa full")
         if not scene.lights and scene.environment_map is None:  # a map is seen where rays escape (mirrors, glass)
             said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
+        if scene.environment_map is not None:  # escaping rays show it, but only lights and the ambient term shade
+            said.append("the environment map lights nothing under the Whitted integrator (rays that escape show it); use --integrator path")
         return said
 
     def _pointless_for_paths(self, scene: Scene) -> list[str]:

@@ -72,8 +72,8 @@ def test_zero_width_from_python_is_refused_not_taken_as_the_scenes():
 @pytest.mark.parametrize(
     "extra, says",
     [
-        (["--samples", "3"], "3 x 3 samples have no effect with --aa none"),
-        (["--thickness", "2"], "--thickness has no effect with --aa none"),
+        (["--aa", "none", "--samples", "3"], "3 x 3 samples have no effect with --aa none"),
+        (["--aa", "none", "--thickness", "2"], "--thickness has no effect with --aa none"),
         (["--aa", "full", "--thickness", "2"], "--thickness has no effect with --aa full"),
     ],
 )
@@ -138,7 +138,7 @@ def test_render_prints_every_written_path(tmp_path, capsys):
     assert code == 0 and out.split() == [str(tmp_path / "r.png"), str(edges)]
 
 
-def test_list_shows_descriptions_and_cameras_with_the_featured_one_marked(capsys):
+def test_list_shows_descriptions_and_cameras_with_the_default_one_marked(capsys):
     code, out, err = run(capsys, "render", "--list")
     assert code == 0 and err == ""
     blocks = re.split(r"\n(?=\S)", out.strip())
@@ -151,12 +151,12 @@ def test_list_shows_descriptions_and_cameras_with_the_featured_one_marked(capsys
         assert head == f"{name}: {data['description']}" and len(data["description"]) > 20
         assert len(cameras) == len(data["cameras"])
         marked = [c for c in cameras if c.lstrip().startswith("*")]
-        assert len(marked) == 1 and f"--camera {data['featured_camera']} " in marked[0]
+        assert len(marked) == 1 and f"--camera {data['default_camera']} " in marked[0]
         for number, (line, camera) in enumerate(zip(cameras, data["cameras"]), start=1):
             assert f"--camera {number}  {camera['name']}" in line
     # the original report's edge-AA run of wizard_cat used camera 3 (docs/benchmarks.md, bench aa)
     assert "* --camera 3" in listed["wizard_cat"]
-    assert out.rstrip().endswith("(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)")
+    assert out.rstrip().endswith("(* the scene's default view, rendered when --camera is not given: the one it was made for; --camera picks any)")
 
 
 # ------------------------------------------------------------------ splat commands

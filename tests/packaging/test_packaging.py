@@ -21,7 +21,7 @@ def test_wheel_contains_kernels_and_scenes(tmp_path):
         assert f"clrender/kernels/{cl_file.name}" in names
     for header in (ROOT / "kernels").glob("*.h"):
         assert f"clrender/kernels/{header.name}" in names
-    for scene in (ROOT / "scenes").glob("*.toml"):
+    for scene in [*(ROOT / "scenes").glob("*.toml"), *(ROOT / "scenes").glob("*.hdr")]:  # the scenes, and `--env studio`'s map
         assert f"clrender/scenes/{scene.name}" in names
     assert "clrender/cli.py" in names
     assert any(n.endswith("entry_points.txt") for n in names)

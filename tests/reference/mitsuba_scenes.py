@@ -55,7 +55,8 @@ intensity (W/sr) -> `point` intensity, an area light's c*I is radiance -> a `rec
 facing edge_a x edge_b (clrender's area light emits from both faces; Mitsuba's rectangle from one).  Falloff
 "none" has no physical counterpart (no 1/pi, no 1/r^2): it is given the physical light that makes a Lambert
 surface as bright as clrender's Whitted render does at unit distance: directional irradiance pi c I, point
-intensity pi c I, area radiance pi c I / area.  `background` and `ambient` are Whitted's and not drawn.
+intensity pi c I, area radiance pi c I / area.  `ambient` is Whitted's and not drawn; `background`, in a scene
+without `environment`, is the constant environment (docs/scene-format.md).
 """
 
 from __future__ import annotations
@@ -451,6 +452,8 @@ def to_mitsuba(
         },
     }
     env = scene.get("environment")
+    if env is None and any(scene.get("background", (0, 0, 0))):  # docs/scene-format.md: then background is the environment
+        env = {"color": scene["background"]}
     if env is not None and "file" in env:
         out["environment"] = {
             "type": "envmap",

@@ -17,7 +17,7 @@ What it renders:
   a triangle emits from its front face, the side its normal (v1 - v0) x (v2 - v0) points to (a
   quad: edge_a x edge_b), a sphere outwards. Other material keys (specular, mirror, glass, metal)
   are refused;
-* `environment.color`: the constant radiance of every ray that hits nothing (absent: black);
+* `environment.color`: the constant radiance of every ray that hits nothing (absent: `background`, else black);
 * `lights`: `point` and `directional`, with `color` c and `intensity` I by docs/shading.md: with
   falloff "inverse_square" a point light gives irradiance c*I*cos/r^2 and a directional one
   c*I*cos, reflected by kd/pi; with "none" (the default, the classic model) either gives c*I*kd*cos,
@@ -171,7 +171,9 @@ def build_world(scene: dict) -> World:
         spheres=sph,
         sph_kd=np.array(sph_kd, np.float64).reshape(-1, 3),
         sph_le=sph_le,
-        environment=_vec(scene.get("environment", {}).get("color", (0, 0, 0)), "environment.color"),
+        environment=_vec(scene.get("environment", {}).get("color", (0, 0, 0)), "environment.color")
+        if "environment" in scene
+        else _vec(scene.get("background", (0, 0, 0)), "background"),  # no environment: the background is one
         points=points,
         directions=directions,
         emit_prim=np.concatenate([t_emit, -1 - s_emit]),

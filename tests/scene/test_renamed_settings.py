@@ -50,16 +50,16 @@ def test_errors_name_the_new_key():
 def test_bundled_scenes_use_the_new_key():
     for name, path in bundled_scenes().items():
         data = tomllib.loads(path.read_text())
-        assert "featured_camera" in data and "seed_camera" not in data, name
+        assert "default_camera" in data and "featured_camera" not in data and "seed_camera" not in data, name
         assert "seed" not in path.read_text().replace("seed = ", ""), name  # only the RNG's `seed = N`
 
 
-@pytest.mark.parametrize("key", ["featured_camera", "seed_camera"])
+@pytest.mark.parametrize("key", ["default_camera", "featured_camera", "seed_camera"])
 def test_list_marks_the_featured_camera_under_either_name(tmp_path, capsys, key):
     print_scene_list({"s": scene_toml(tmp_path, f"{key} = 2")})
     out = capsys.readouterr().out.splitlines()
     assert out[:3] == ["s: two cameras", "    --camera 1  one", "  * --camera 2  two"]
-    assert out[3] == "(* the scene's featured view: the one it was made for; --camera picks any, 1 when not given)"
+    assert out[3] == "(* the scene's default view, rendered when --camera is not given: the one it was made for; --camera picks any)"
 
 
 # ------------------------------------------------------------------ --learn scale-lum
@@ -94,6 +94,6 @@ def test_help_says_what_things_are_not_whose():
     gauss = subparser("splat", "gauss").format_help()
     assert "{scale-lum,all}" in gauss and "scale-lum: log-scales and a per-splat luminance factor only (old name: seed)" in " ".join(gauss.split())
     render = subparser("render").format_help()
-    assert "featured view" in " ".join(render.split())
+    assert "marks each scene's own view with *" in " ".join(render.split())
     for text in (gauss, render):
         assert "seed's" not in text and "seed-style" not in text and "the seed" not in text
