@@ -142,6 +142,7 @@ typedef struct {
     float3 glossy;       /* the seed model's diffuse+glossy component: the glossy lobe's colour ks */
     float glossy_alpha;  /* and its GGX width; glossy.x < 0: no glossy lobe */
     float glossy_prob;   /* probability of sampling the glossy lobe rather than the Lambert one */
+    float3 tint;         /* glTF glass: transmitted light times base_color (KHR_materials_transmission); else 1 */
 } Component;
 
 INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
@@ -157,6 +158,7 @@ INLINE Component pick_component(const Shading *m, float u) {
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
     c.glossy_prob = 0.0f;
+    c.tint = (float3)(1.0f);
     c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
     c.bsdf.metallic = m->metallic;
     c.bsdf.colour = m->kd;
@@ -166,6 +168,7 @@ INLINE Component pick_component(const Shading *m, float u) {
         float transmit = m->transmission * (1.0f - m->metallic);
         if (u < transmit) {
             c.lobe = m->roughness > 0.0f ? BSDF_ROUGH_DIELECTRIC : BSDF_DIELECTRIC;
+            c.tint = m->base_color;
             return c;
         }
         c.lobe = BSDF_GLTF;
@@ -195,10 +198,17 @@ INLINE bool component_is_delta(Component c) {
     return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC;
 }
 
+/* glTF glass's tint on a pair of directions: base_color through the surface (wo, wi on opposite sides), 1 on
+ * reflection (the extension tints only the BTDF; Fresnel reflection stays white). */
+INLINE bool component_tinted(Component c, float3 wo, float3 wi) {
+    return (c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC) && wo.z * wi.z < 0.0f;
+}
+
 /* f * |cos| of the component, local frame (delta components: 0). */
 INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
     if (component_is_delta(c)) return (float3)(0.0f);
     float3 f = bsdf_eval(c.lobe, c.bsdf, wo, wi);
+    if (component_tinted(c, wo, wi)) f *= c.tint;
     if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha);
     return f;
 }
@@ -220,7 +230,11 @@ INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) 
         s.delta = 1;
         return s;
     }
-    if (c.glossy.x < 0.0f) return bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
+    if (c.glossy.x < 0.0f) {
+        BsdfSample s = bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
+        if (component_tinted(c, wo, s.wi)) s.weight *= c.tint;
+        return s;
+    }
     /* the Lambert + glossy sum: one lobe's direction, the sum's value over the mixture pdf */
     BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha) : lambert_sample(wo, u2, c.bsdf.colour);
     if (!(s.pdf > 0.0f)) return no_sample();

@@ -29,7 +29,8 @@ What is mapped, and why each pair is the same function:
   written out, as kernels/bsdf.h does: GGX D with alpha = roughness^2, Smith's height-correlated G2,
   Schlick's F at |wo.h| with F0 = base colour (metal) and 0.04 (the dielectric layer), mixed by `metallic`.
 - `transmission` 1 with `ior`, `roughness` 0 -> `dielectric` with int_ior = ior, ext_ior = 1: a smooth
-  interface, exact unpolarised Fresnel in both, radiance scaled by 1/eta^2 on refraction in both.
+  interface, exact unpolarised Fresnel in both, radiance scaled by 1/eta^2 on refraction in both; a
+  `base_color` -> its `specular_transmittance` (KHR_materials_transmission tints the BTDF, not the reflection).
 - sphere `center`, `radius` -> `sphere` (analytic in both); `quad` (corner, edge_a, edge_b), `triangle` and
   `mesh` (vertices, faces; normals: smooth) -> a Mitsuba `Mesh` of the same triangles, the same winding (a
   quad is [c, c+a, c+a+b], [c, c+a+b, c+b], as clrender builds it).
@@ -275,7 +276,10 @@ def bsdf(material: dict, exact: bool = True, textures: dict | None = None, plant
             raise NotImplementedError(
                 "only smooth glass (transmission 1, roughness 0) is mapped: Mitsuba's roughdielectric uses the separable Smith G"
             )
-        return {"type": "dielectric", "int_ior": float(material.get("ior", 1.5)), "ext_ior": 1.0}
+        glass = {"type": "dielectric", "int_ior": float(material.get("ior", 1.5)), "ext_ior": 1.0}
+        if "base_color" in material:  # KHR_materials_transmission: the BTDF times base colour, reflection white
+            glass["specular_transmittance"] = rgb(material["base_color"])
+        return glass
     if any(k in material for k in GLTF_KEYS):
         base = material.get("base_color", (1.0, 1.0, 1.0))
         metallic, roughness = float(material.get("metallic", 1.0)), float(material.get("roughness", 1.0))
