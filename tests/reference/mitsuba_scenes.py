@@ -13,14 +13,9 @@ What is mapped, and why each pair is the same function:
 - `max_depth` (bounces after the primary hit) -> `path` with max_depth + 2, `hide_emitters` false: Mitsuba
   counts the camera segment and the segment to the light, so our 0 (direct light only) is its 2.
 - `environment.color` -> a `constant` emitter of that radiance: every escaping direction, camera rays too.
-- `environment.file` (an absolute path), `intensity`, `rotation` -> `envmap` with `scale` = intensity and
-  `to_world` = rotate(+y, rotation): the same direction <-> (u, v) mapping (docs/scene-format.md), but Mitsuba
-  interpolates bilinearly between texels at u = (j + 0.5) / W and v = i / (H - 1) where clrender's texels are
-  constant over [j/W, (j+1)/W) x [i/H, (i+1)/H).  So Mitsuba gets `mitsuba_envmap(pixels)`: each column
-  repeated ENV_UPSAMPLE times and ENV_UPSAMPLE H + 1 rows at v = i / (ENV_UPSAMPLE H), a row on one of
-  clrender's row edges the mean of the two rows it divides: every bilinear ramp is then centred on an edge
-  of clrender's texels and integrates to the same light, but for the variation of the integrand across a
-  ramp 1 / (ENV_UPSAMPLE W) wide (second order).  Directly seen, the two maps differ within those ramps.
+- `environment.file` (an absolute path), `intensity`, `rotation` -> `envmap` of the same pixels with `scale` =
+  intensity and `to_world` = rotate(+y, rotation): the same direction <-> (u, v) mapping and the same bilinear
+  lookup between texels at u = (j + 0.5) / W and v = i / (H - 1) (docs/scene-format.md).
 - material `emission` -> an `area` emitter on the shape, that radiance: one-sided in both, emitted on the side
   of the geometric normal (cross(v1 - v0, v2 - v0) for a triangle, outwards on a sphere).
 - seed `diffuse` kd alone -> `twosided(diffuse)` of reflectance kd: Lambert kd / pi; clrender's integrator
@@ -415,7 +410,7 @@ def to_mitsuba(
     if env is not None and "file" in env:
         out["environment"] = {
             "type": "envmap",
-            "bitmap": mi.Bitmap(mitsuba_envmap(read_image(env["file"]))),
+            "bitmap": mi.Bitmap(read_image(env["file"])),
             "scale": float(env.get("intensity", 1.0)),
             "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], float(env.get("rotation", 0.0))),
         }
@@ -441,26 +436,12 @@ def to_mitsuba(
     return out
 
 
-ENV_UPSAMPLE = 8  # Mitsuba's texels per clrender texel along each axis (mitsuba_envmap)
-
-
 def read_image(path) -> np.ndarray:
     """(H, W, 3) float32 linear RGB of an image file, by OpenImageIO (grey copied to RGB, alpha dropped)."""
     import OpenImageIO as oiio
 
     pixels = np.asarray(oiio.ImageBuf(str(path)).get_pixels(oiio.FLOAT), np.float32)
     return np.repeat(pixels, 3, axis=2) if pixels.shape[2] == 1 else pixels[..., :3]
-
-
-def mitsuba_envmap(pixels, s: int = ENV_UPSAMPLE) -> np.ndarray:
-    """A map for Mitsuba's bilinear `envmap` whose light equals clrender's piecewise-constant `pixels` (module docstring)."""
-    h = pixels.shape[0]
-    fine = np.repeat(np.asarray(pixels, np.float32), s, axis=1)
-    rows = np.arange(s * h + 1)
-    out = fine[np.minimum(rows // s, h - 1)].copy()
-    edges = rows[(rows % s == 0) & (rows > 0) & (rows < s * h)]
-    out[edges] = 0.5 * (fine[edges // s - 1] + fine[edges // s])
-    return out
 
 
 def load(
