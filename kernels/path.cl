@@ -25,12 +25,16 @@
 #include "envmap.h"
 #include "texture.h"
 #include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
+#include "film.h"  /* the reconstruction filters of SPLAT_FILTER */
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
 #define SHADOW_T_SHRINK 0.9999f
+#ifndef SPLAT_RADIUS
+#define SPLAT_RADIUS 0 /* 0: each pixel the filtered mean of its own samples; R > 0: (2R + 1)^2 splat slots (film.h) */
+#endif
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
 #endif
@@ -559,8 +563,28 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
 #endif
 }
 
+#if SPLAT_RADIUS
+#define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
+#define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE)
+/* A sample at `off` in its pixel, of radiance L, added to slot (dy, dx) as (f L, f), f the filter's weight about the
+ * centre of the pixel dy - R rows and dx - R columns away (clrender/trace/film.py gathers the slots). */
+INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
+    float wx[SPLAT_SIDE], wy[SPLAT_SIDE];
+    for (int k = 0; k < SPLAT_SIDE; ++k) {
+        wx[k] = film_weight(SPLAT_FILTER, off.x - 0.5f - (float)(k - SPLAT_RADIUS));
+        wy[k] = film_weight(SPLAT_FILTER, off.y - 0.5f - (float)(k - SPLAT_RADIUS));
+    }
+    for (int dy = 0; dy < SPLAT_SIDE; ++dy)
+        for (int dx = 0; dx < SPLAT_SIDE; ++dx) {
+            float f = wy[dy] * wx[dx];
+            splats[dy * SPLAT_SIDE + dx] += (float4)(f * L, f);
+        }
+}
+#endif
+
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
- * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
+ * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
+ * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const Instance *instances, __global const BvhNode *top, int n_instances,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
@@ -588,6 +612,10 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     FirstHit first;
+#if SPLAT_RADIUS
+    float4 splats[SPLAT_SLOTS];
+    for (int k = 0; k < SPLAT_SLOTS; ++k) splats[k] = (float4)(0.0f);
+#endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
         Rng rng = make_rng(params.seed, (uint)pixel, sample);
@@ -598,13 +626,21 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
         Ray r = camera_ray(camera, sx, sy, &rng);
         float weight = pixel_filter_weight(params.pixel_filter, off);
         FirstHit fh;
+#if SPLAT_RADIUS
+        splat_sample(splats, off, path_radiance(&s, r, &rng, &fh, &visits, &rays));
+#else
         sum += weight * path_radiance(&s, r, &rng, &fh, &visits, &rays);
+#endif
         weight_sum += weight;
         normal_sum += weight * fh.normal;
         albedo_sum += weight * fh.albedo;
         if (s_i == 0) first = fh;
     }
+#if SPLAT_RADIUS
+    for (int k = 0; k < SPLAT_SLOTS; ++k) colour_out[gid * SPLAT_SLOTS + k] = splats[k];
+#else
     colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
+#endif
     if (params.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
     stats_out[gid] = (uint2)(visits, rays);
 }

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
+from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument
 
@@ -119,6 +120,12 @@ def add_parser(sub):
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
         "--pixel-filter", choices=("box", "tent", "gaussian"), default=d.pixel_filter, help="weighting of a pixel's samples (box: plain average)"
+    )
+    p.add_argument(
+        "--rfilter",
+        choices=("box", "tent", "gaussian"),
+        default=d.rfilter,
+        help="path tracer: the film's reconstruction filter, Mitsuba's (box: a pixel's own samples; tent, gaussian: splatted across pixels)",
     )
     p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
     p.add_argument(
@@ -304,6 +311,7 @@ def settings_from_args(args) -> RenderSettings:
         height=args.height,
         light_samples=args.light_samples,
         pixel_filter=args.pixel_filter,
+        rfilter=args.rfilter,
         contrast=args.contrast,
         max_depth=args.max_depth,
         integrator=args.integrator,
@@ -409,6 +417,7 @@ def _render(args):
             filters=len(args.filter),
             extra_images=(edges_out is not None) + 2 * args.denoise,  # denoise: its output and the noisy copy
             attributes=scene.has_vertex_attributes,
+            splat_slots=film.slots(settings.rfilter),
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )
