@@ -38,6 +38,9 @@
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
 #endif
+#ifndef ENV_BSDF
+#define ENV_BSDF 1 /* 0 (tests only): after a non-delta vertex only NEE finds an environment map (no MIS) */
+#endif
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -407,6 +410,10 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
     if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
+#if !ENV_BSDF
+    *rays += 1;
+    return component_eval(c, wo, to_local(fr, wi)) * le * (visible(s, f, wi, INF_T, rng, visits) / env_pdf);
+#endif
     return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, rng, visits, rays);
 }
 
@@ -471,6 +478,7 @@ INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool 
     if (s->env.m.width > 0) {
         le = env_eval(&s->env, d, &env_pdf);
         if (!ENV_NEE) env_pdf = 0.0f;
+        if (!ENV_BSDF && !prev_delta) le = (float3)(0.0f);
     } else {
         env_pdf = max_f(dot3(prev_n, d), 0.0f) * M_1_PI_F;
         le = vload3(0, s->p.environment);

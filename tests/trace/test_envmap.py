@@ -118,13 +118,15 @@ def renderer(scene: dict, folder, device, **settings) -> Renderer:
     return Renderer(loaded, tracer=Tracer(loaded, device=device), **settings)
 
 
-def renders(scene: dict, folder, device, seeds, env_nee: bool = True, **settings) -> np.ndarray:
-    """(K, H, W, 3) float64 path renders, one per seed; env_nee False builds the kernel without the map's NEE."""
+def renders(scene: dict, folder, device, seeds, env_nee: bool = True, env_bsdf: bool = True, **settings) -> np.ndarray:
+    """(K, H, W, 3) float64 path renders, one per seed; env_nee False builds the kernel without the map's NEE, env_bsdf
+    False without its BSDF rays (after a non-delta vertex only NEE finds the map, unweighted)."""
     out = []
     for seed in seeds:
         r = renderer(scene, folder, device, integrator="path", seed=seed, **settings)
-        if not env_nee:
-            r.kernel = r.tracer.device.kernel("path.cl", "render_path", {**r.tracer.defines, "WRITE_AOV": 0, "ENV_NEE": 0})
+        if not (env_nee and env_bsdf):
+            switches = {"ENV_NEE": int(env_nee), "ENV_BSDF": int(env_bsdf)}
+            r.kernel = r.tracer.device.kernel("path.cl", "render_path", {**r.tracer.defines, "WRITE_AOV": 0, **switches})
         out.append(r.run().image.astype(np.float64))
     return np.array(out)
 
@@ -207,6 +209,26 @@ def test_mis_with_the_maps_nee_equals_bsdf_sampling_alone(tmp_path, device):
     assert result.passed, result.report()
     # and the map's NEE helps: the MIS image is less noisy
     assert mis.var(axis=0).mean() < 0.5 * bsdf.var(axis=0).mean()
+
+
+@pytest.mark.slow  # a kernel variant of its own to build
+def test_the_maps_nee_alone_equals_bsdf_sampling_alone(tmp_path, device):
+    """The sampler's density is the one it samples by, and positive wherever the bilinear radiance is: NEE alone
+    (ENV_BSDF=0: piecewise-constant density over the cells, bilinear radiance) and BSDF rays alone (ENV_NEE=0)
+    estimate one image of a diffuse sphere under a map with black patches, sharp texels and a black pole
+    (tests/reference/ztest.py's block z-test, alpha 0.01 with Šidák's correction)."""
+    rng = np.random.default_rng(17)
+    pixels = rng.uniform(0.0, 1.0, (8, 16, 3)) ** 3
+    pixels[0] = 0.0  # a black top row: the cells next to it are lit by one row only
+    pixels[4, 2:6] = 0.0
+    pixels[3, 10] = 12.0  # one sharp bright texel: its light is a bilinear tent, sampled by four flat cells
+    write_map(tmp_path / "patchy.exr", pixels)
+    scene = sphere_scene({"diffuse": [0.8, 0.8, 0.8]}, 16, {"file": "patchy.exr", "rotation": 15}, position=(0, 1.5, 4.5))
+    settings = dict(spp=64, max_depth=2)
+    nee = renders(scene, tmp_path, device, (31, 32, 33, 34), env_bsdf=False, **settings)
+    bsdf = renders(scene, tmp_path, device, (41, 42, 43, 44), env_nee=False, **settings)
+    result = two_sample_z(nee, bsdf, block=4)
+    assert result.passed, result.report()
 
 
 # ---------------------------------------------------------------------- the sampler
