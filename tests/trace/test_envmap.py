@@ -258,6 +258,19 @@ def test_env_lookup_is_bilinear_between_texel_centres_as_mitsuba_reads_a_map(pat
     np.testing.assert_allclose(radiance[centres], 1.5 * env.texels.reshape(-1, 3), rtol=1e-3, atol=1e-5)
 
 
+def test_a_one_row_map_is_read_as_two_equal_rows(device):
+    """v = i / (H - 1) needs two rows: a one-row map varies along u only, bilinearly, and its density integrates to 1."""
+    texels = np.array([[[1.0, 2.0, 3.0], [4.0, 0.0, 1.0], [0.5, 0.5, 0.5]]], np.float32)
+    rng = np.random.default_rng(2)
+    u, v = rng.random(512), rng.random(512)
+    probe = EnvProbe(device, EnvironmentMap(texels))
+    radiance, _ = probe.eval(uv_direction(u, v))
+    np.testing.assert_allclose(radiance, bilinear64(np.repeat(texels, 2, axis=0), u, v), rtol=2e-4, atol=1e-4)
+    np.testing.assert_allclose(radiance, bilinear64(np.repeat(texels, 2, axis=0), u, 0 * v), rtol=2e-4, atol=1e-4)
+    dirs, _, pdf = probe.sample(rng.random((4096, 2)))
+    assert np.all(np.isfinite(dirs)) and np.all(pdf > 0)
+
+
 def test_env_samples_follow_the_cell_weights_times_solid_angle(patchy_map, device):
     env, n = patchy_map, 1 << 18
     h, w = env.height, env.width
