@@ -30,6 +30,9 @@ RENDER_BYTES_PER_PIXEL = 176  # image, path ids, shadow, frame and device copies
 EDGE_AA_BYTES_PER_PIXEL = 144  # edge_detect adds the ID/colour comparisons, mask and resample buffers
 AOV_BYTES_PER_PIXEL = 80  # kernel AOV record (8 floats) and the EXR channels
 FILTER_BYTES_PER_PIXEL = 6 * 12  # convolution working copies of an RGB float image
+# the path tracer's --rfilter tent/gaussian: each splat slot's float4 on the device, its host copy and the copy in
+# image order; plus the gathered float64 sums and a float64 slot in flight (trace/film.py)
+SPLAT_BYTES_PER_SLOT, SPLAT_BYTES_PER_PIXEL = 3 * 16, 64
 BYTES_PER_TRIANGLE = 420  # the mesh and its vertex normals, the BVH build, the device arrays (docs/bvh.md, "Memory")
 # a textured or vertex-coloured scene's triangles also carry uvs, colours and tangents (layout.VertexAttributes,
 # 132 bytes, gathered per mesh) on the device
@@ -176,10 +179,20 @@ def require(need: int, what: str, max_memory: int | None = None) -> None:
 
 
 def render_bytes(
-    width: int, height: int, triangles: int = 0, *, aa: str = "none", aovs: int = 0, filters: int = 0, extra_images: int = 0, attributes: bool = False
+    width: int,
+    height: int,
+    triangles: int = 0,
+    *,
+    aa: str = "none",
+    aovs: int = 0,
+    filters: int = 0,
+    extra_images: int = 0,
+    attributes: bool = False,
+    splat_slots: int = 1,
 ) -> int:
     """Peak bytes of one render with these settings (see the table at the top); attributes: the triangles carry
-    uvs, vertex colours and tangents (a textured or vertex-coloured scene)."""
+    uvs, vertex colours and tangents (a textured or vertex-coloured scene); splat_slots: the path tracer's splat
+    slots per pixel (trace/film.slots; 1 for a box film)."""
     per_pixel = RENDER_BYTES_PER_PIXEL
     if aa == "edge_detect":
         per_pixel += EDGE_AA_BYTES_PER_PIXEL
@@ -188,6 +201,8 @@ def render_bytes(
     if filters:
         per_pixel += FILTER_BYTES_PER_PIXEL
     per_pixel += 16 * extra_images  # an extra written image: its pixels and the 8-bit copy
+    if splat_slots > 1:  # a path tracer's reconstruction filter wider than a pixel (trace/film.py)
+        per_pixel += SPLAT_BYTES_PER_SLOT * splat_slots + SPLAT_BYTES_PER_PIXEL
     per_triangle = BYTES_PER_TRIANGLE + ATTRIBUTE_BYTES_PER_TRIANGLE * attributes
     return BASE_BYTES + width * height * per_pixel + triangles * per_triangle
 

@@ -26,14 +26,21 @@
 #include "texture.h"
 #include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
 #include "spot.h"
+#include "film.h"  /* the reconstruction filters of SPLAT_FILTER */
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
 #define SHADOW_T_SHRINK 0.9999f
+#ifndef SPLAT_RADIUS
+#define SPLAT_RADIUS 0 /* 0: each pixel the filtered mean of its own samples; R > 0: (2R + 1)^2 splat slots (film.h) */
+#endif
 #ifndef ENV_NEE
 #define ENV_NEE 1 /* 0 (tests only): no next-event estimation of an environment map, BSDF rays alone find it */
+#endif
+#ifndef ENV_BSDF
+#define ENV_BSDF 1 /* 0 (tests only): after a non-delta vertex only NEE finds an environment map (no MIS) */
 #endif
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
@@ -143,6 +150,7 @@ typedef struct {
     float3 glossy;       /* the seed model's diffuse+glossy component: the glossy lobe's colour ks */
     float glossy_alpha;  /* and its GGX width; glossy.x < 0: no glossy lobe */
     float glossy_prob;   /* probability of sampling the glossy lobe rather than the Lambert one */
+    float3 tint;         /* glTF glass: transmitted light times base_color (KHR_materials_transmission); else 1 */
 } Component;
 
 INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
@@ -179,6 +187,7 @@ INLINE Component pick_component(const Shading *m, float u) {
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
     c.glossy_prob = 0.0f;
+    c.tint = (float3)(1.0f);
     c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
     c.bsdf.metallic = m->metallic;
     c.bsdf.colour = m->kd;
@@ -190,6 +199,7 @@ INLINE Component pick_component(const Shading *m, float u) {
         float transmit = m->transmission * (1.0f - m->metallic);
         if (u < transmit) {
             c.lobe = m->roughness > 0.0f ? BSDF_ROUGH_DIELECTRIC : BSDF_DIELECTRIC;
+            c.tint = m->base_color;
             return c;
         }
         c.lobe = BSDF_GLTF;
@@ -219,10 +229,17 @@ INLINE bool component_is_delta(Component c) {
     return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_METAL_SMOOTH || c.lobe == BSDF_THIN_DIELECTRIC;
 }
 
+/* glTF glass's tint on a pair of directions: base_color through the surface (wo, wi on opposite sides), 1 on
+ * reflection (the extension tints only the BTDF; Fresnel reflection stays white). */
+INLINE bool component_tinted(Component c, float3 wo, float3 wi) {
+    return (c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC) && wo.z * wi.z < 0.0f;
+}
+
 /* f * |cos| of the component, local frame (delta components: 0). */
 INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
     if (component_is_delta(c)) return (float3)(0.0f);
     float3 f = bsdf_eval(c.lobe, c.bsdf, wo, wi);
+    if (component_tinted(c, wo, wi)) f *= c.tint;
     if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED);
     return f;
 }
@@ -244,7 +261,11 @@ INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) 
         s.delta = 1;
         return s;
     }
-    if (c.glossy.x < 0.0f) return bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
+    if (c.glossy.x < 0.0f) {
+        BsdfSample s = bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
+        if (component_tinted(c, wo, s.wi)) s.weight *= c.tint;
+        return s;
+    }
     /* the Lambert + glossy sum: one lobe's direction, the sum's value over the mixture pdf */
     BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED)
                                       : lambert_sample(wo, u2, c.bsdf.colour);
@@ -415,6 +436,10 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
     if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
+#if !ENV_BSDF
+    *rays += 1;
+    return component_eval(c, wo, to_local(fr, wi)) * le * (visible(s, f, wi, INF_T, rng, visits) / env_pdf);
+#endif
     return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, rng, visits, rays);
 }
 
@@ -479,6 +504,7 @@ INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool 
     if (s->env.m.width > 0) {
         le = env_eval(&s->env, d, &env_pdf);
         if (!ENV_NEE) env_pdf = 0.0f;
+        if (!ENV_BSDF && !prev_delta) le = (float3)(0.0f);
     } else {
         env_pdf = max_f(dot3(prev_n, d), 0.0f) * M_1_PI_F;
         le = vload3(0, s->p.environment);
@@ -571,8 +597,28 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
 #endif
 }
 
+#if SPLAT_RADIUS
+#define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
+#define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE)
+/* A sample at `off` in its pixel, of radiance L, added to slot (dy, dx) as (f L, f), f the filter's weight about the
+ * centre of the pixel dy - R rows and dx - R columns away (clrender/trace/film.py gathers the slots). */
+INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
+    float wx[SPLAT_SIDE], wy[SPLAT_SIDE];
+    for (int k = 0; k < SPLAT_SIDE; ++k) {
+        wx[k] = film_weight(SPLAT_FILTER, off.x - 0.5f - (float)(k - SPLAT_RADIUS));
+        wy[k] = film_weight(SPLAT_FILTER, off.y - 0.5f - (float)(k - SPLAT_RADIUS));
+    }
+    for (int dy = 0; dy < SPLAT_SIDE; ++dy)
+        for (int dx = 0; dx < SPLAT_SIDE; ++dx) {
+            float f = wy[dy] * wx[dx];
+            splats[dy * SPLAT_SIDE + dx] += (float4)(f * L, f);
+        }
+}
+#endif
+
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
- * sequence (progressive passes continue it).  colour_out gets the filtered mean. */
+ * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
+ * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const Instance *instances, __global const BvhNode *top, int n_instances,
                           __global const VertexNormals *normals, __global const ObjectRecord *objects,
@@ -600,6 +646,10 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     FirstHit first;
+#if SPLAT_RADIUS
+    float4 splats[SPLAT_SLOTS];
+    for (int k = 0; k < SPLAT_SLOTS; ++k) splats[k] = (float4)(0.0f);
+#endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
         Rng rng = make_rng(params.seed, (uint)pixel, sample);
@@ -610,13 +660,21 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
         Ray r = camera_ray(camera, sx, sy, &rng);
         float weight = pixel_filter_weight(params.pixel_filter, off);
         FirstHit fh;
+#if SPLAT_RADIUS
+        splat_sample(splats, off, path_radiance(&s, r, &rng, &fh, &visits, &rays));
+#else
         sum += weight * path_radiance(&s, r, &rng, &fh, &visits, &rays);
+#endif
         weight_sum += weight;
         normal_sum += weight * fh.normal;
         albedo_sum += weight * fh.albedo;
         if (s_i == 0) first = fh;
     }
+#if SPLAT_RADIUS
+    for (int k = 0; k < SPLAT_SLOTS; ++k) colour_out[gid * SPLAT_SLOTS + k] = splats[k];
+#else
     colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
+#endif
     if (params.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
     stats_out[gid] = (uint2)(visits, rays);
 }

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
+from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument
 
@@ -127,6 +128,12 @@ def add_parser(sub):
         choices=("box", "tent", "gaussian"),
         default=None,
         help=f"weighting of a pixel's samples (box: plain average) (default: a foreign scene file's, else {d.pixel_filter})",
+    )
+    p.add_argument(
+        "--rfilter",
+        choices=("box", "tent", "gaussian"),
+        default=None,
+        help=f"path tracer: the film's reconstruction filter (default: the scene file's, else {d.rfilter}), Mitsuba's (box: a pixel's own samples; tent, gaussian: splatted across pixels)",
     )
     p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
     p.add_argument(
@@ -374,6 +381,7 @@ def settings_from_args(args) -> RenderSettings:
         height=args.height,
         light_samples=args.light_samples,
         pixel_filter=d.pixel_filter if args.pixel_filter is None else args.pixel_filter,
+        rfilter=d.rfilter if args.rfilter is None else args.rfilter,
         contrast=args.contrast,
         max_depth=d.max_depth if args.max_depth is None else args.max_depth,
         integrator=integrator,
@@ -409,7 +417,8 @@ def load_scene(args):
 
 
 def foreign_settings(args, settings, scene):
-    """A foreign file's own settings (its integrator, spp, depth, pixel filter) where the command line gives none."""
+    """A foreign file's own settings (its integrator, spp, depth, reconstruction filter) where the command line gives
+    none; the filter only for the path tracer (the Whitted integrator averages each pixel's own samples)."""
     own = scene.render_settings
     if not own:
         return settings
@@ -419,9 +428,12 @@ def foreign_settings(args, settings, scene):
         "integrator": args.integrator is not None,
         "spp": args.spp is not None or args.samples is not None,
         "max_depth": args.max_depth is not None,
-        "pixel_filter": args.pixel_filter is not None,
+        "rfilter": args.rfilter is not None,
     }
-    return replace(settings, **{k: v for k, v in own.items() if k in given and not given[k]})
+    settings = replace(settings, **{k: v for k, v in own.items() if k in given and not given[k] and k != "rfilter"})
+    if "rfilter" in own and not given["rfilter"] and settings.integrator == "path":
+        settings = replace(settings, rfilter=own["rfilter"])
+    return settings
 
 
 def run(args):
@@ -536,6 +548,7 @@ def _render(args):
             filters=len(args.filter),
             extra_images=(edges_out is not None) + 2 * args.denoise,  # denoise: its output and the noisy copy
             attributes=scene.has_vertex_attributes,
+            splat_slots=film.slots(settings.rfilter),
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )

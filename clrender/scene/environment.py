@@ -7,14 +7,19 @@ would), giving d, then
     u = atan2(d.x, -d.z) / (2 pi), wrapped into [0, 1);   v = acos(d.y) / pi
 so v = 0 (the image's top row) is straight up (+y), and the left edge u = 0 looks along -z, u = 1/4 along +x,
 u = 1/2 along +z.  Back: theta = pi v, phi = 2 pi u, d = (sin theta sin phi, cos theta, -sin theta cos phi).
-Texel (row i, column j) of a W x H map covers u in [j/W, (j+1)/W) and v in [i/H, (i+1)/H) with constant
-radiance (a nearest lookup: what is sampled is exactly what is seen), times `intensity`.  A solid angle is
-d omega = 2 pi^2 sin(theta) du dv.
+The radiance (times `intensity`) is bilinear between texel centres, at Mitsuba's envmap sample positions:
+texel (row i, column j) of a W x H map sits at u = (j + 1/2) / W (wrapping around: the column right of the
+last is the first) and v = i / (H - 1) (the first row straight up, the last straight down; a one-row map is
+read as two equal rows).  A solid angle is d omega = 2 pi^2 sin(theta) du dv.
 
-Sampling: texel weights w = luminance x sin(theta at the row's centre) (the sin makes a texel's
-probability its share of the sphere's light, not of the image); a row by the marginal CDF over rows, a
-column by that row's conditional CDF, a uniform point inside the texel.  The density over (u, v) is
-p = w / mean(w) (constant over a texel), and over solid angle p / (2 pi^2 sin theta).
+Sampling is piecewise constant over the (H - 1) x W cells between four texel centres: cell (i, j) spans
+u in [(j + 1/2) / W, (j + 3/2) / W) (wrapping) and v in [i / (H - 1), (i + 1) / (H - 1)), with weight
+w = mean luminance of its four texels x sin(theta at the cell's middle row), so a cell is picked wherever
+any of its texels is bright (the density is positive wherever the radiance is).  A row by the marginal CDF
+over rows, a column by that row's conditional CDF, a uniform point inside the cell.  The density over
+(u, v) is p = w / mean(w) (constant over a cell), and over solid angle p / (2 pi^2 sin theta): the
+evaluated radiance is bilinear while the density is not, and the kernels weigh NEE and BSDF rays by this
+density, the one they sample by.
 """
 
 from __future__ import annotations
@@ -59,29 +64,36 @@ class EnvironmentMap:
 class Distribution:
     """What the kernels read of a map (trace/envmap.py uploads it)."""
 
-    texels: np.ndarray  # (H * W, 4) float32: RGB radiance times intensity, and the texel's density over (u, v)
-    marginal: np.ndarray  # (H + 1,) float32 running sum of the rows' probabilities, 0 ... 1
-    conditional: np.ndarray  # (H, W + 1) float32 running sums of each row's texels' probabilities, 0 ... 1
+    texels: np.ndarray  # (H * W, 4) float32: RGB radiance times intensity, and the density over (u, v) of the cell
+    # whose top-left texel it is (0 on the last row)
+    marginal: np.ndarray  # (H,) float32 running sum of the H - 1 cell rows' probabilities, 0 ... 1
+    conditional: np.ndarray  # (H - 1, W + 1) float32 running sums of each cell row's probabilities, 0 ... 1
     sampled: bool  # False for a black map: nothing to sample, nothing to see
+    width: int  # of the texels as uploaded: a one-row map is uploaded as two equal rows
+    height: int
 
 
-def row_sin_theta(height: int) -> np.ndarray:
-    """sin(theta) at each row's centre, float64."""
-    return np.sin(np.pi * (np.arange(height) + 0.5) / height)
+def cell_sin_theta(height: int) -> np.ndarray:
+    """sin(theta) at the middle of each of the height - 1 cell rows, float64."""
+    return np.sin(np.pi * (np.arange(height - 1) + 0.5) / (height - 1))
 
 
 def distribution(env: EnvironmentMap) -> Distribution:
-    """The map's texels and its sampling CDFs (module docstring), built in float64 and stored in float32."""
-    h, w = env.height, env.width
-    radiance = env.texels.astype(np.float64) * env.intensity
-    weight = (radiance @ np.array(LUMINANCE)) * row_sin_theta(h)[:, None]  # (H, W)
+    """The map's texels and its sampling CDFs over the cells between texel centres (module docstring), built in
+    float64 and stored in float32."""
+    rgb = env.texels if env.height > 1 else np.repeat(env.texels, 2, axis=0)
+    h, w = rgb.shape[:2]
+    radiance = rgb.astype(np.float64) * env.intensity
+    lum = radiance @ np.array(LUMINANCE)  # (H, W)
+    corners = lum[:-1] + lum[1:]
+    weight = 0.25 * (corners + np.roll(corners, -1, axis=1)) * cell_sin_theta(h)[:, None]  # (H - 1, W)
     total = weight.sum()
     texels = np.zeros((h * w, 4), np.float32)
     texels[:, :3] = radiance.reshape(-1, 3)
-    marginal = np.zeros(h + 1, np.float64)
-    conditional = np.zeros((h, w + 1), np.float64)
+    marginal = np.zeros(h, np.float64)
+    conditional = np.zeros((h - 1, w + 1), np.float64)
     if total > 0:
-        texels[:, 3] = (weight / weight.mean()).ravel()
+        texels[: (h - 1) * w, 3] = (weight / weight.mean()).ravel()
         rows = weight.sum(axis=1)
         marginal[1:] = np.cumsum(rows) / total
         nonzero = rows > 0
@@ -89,7 +101,7 @@ def distribution(env: EnvironmentMap) -> Distribution:
         conditional[~nonzero, 1:] = np.arange(1, w + 1) / w  # never picked; a uniform row keeps the CDF valid
         marginal[-1] = 1.0  # the searches never run past the end
         conditional[:, -1] = 1.0
-    return Distribution(texels, marginal.astype(np.float32), conditional.astype(np.float32), bool(total > 0))
+    return Distribution(texels, marginal.astype(np.float32), conditional.astype(np.float32), bool(total > 0), w, h)
 
 
 def map_bytes(width: int, height: int, channels: int) -> int:

@@ -54,7 +54,7 @@ class Foreign:
     """What a foreign scene file became: the scene dict, its render settings, and the stand-ins used."""
 
     scene: dict
-    settings: dict = field(default_factory=dict)  # integrator, spp, max_depth, pixel_filter (RenderSettings names)
+    settings: dict = field(default_factory=dict)  # integrator, spp, max_depth, rfilter (RenderSettings names)
     substitutions: list = field(default_factory=list)  # "scene.xml:41: bsdf 'hair' -> grey diffuse", under --approximate
 
 
@@ -206,7 +206,7 @@ class Reader:
         if f is None:  # Mitsuba's default film: hdrfilm 768 x 576, gaussian filter
             if first:
                 self.out["width"], self.out["height"] = 768, 576
-                self.settings.setdefault("pixel_filter", "gaussian")
+                self.settings.setdefault("rfilter", "gaussian")
             return 768, 576
         width, height = int(f.get("width", 768)), int(f.get("height", 576))
         if any(f.has(k) for k in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")):
@@ -217,11 +217,11 @@ class Reader:
             if r.type not in FILTERS:
                 self.refuse(r, f'rfilter "{r.type}" is not supported (supported: {", ".join(FILTERS)})', "gaussian")
             if first:
-                self.settings["pixel_filter"] = FILTERS.get(r.type, "gaussian")
+                self.settings["rfilter"] = FILTERS.get(r.type, "gaussian")
             self.check_used(r)
         if first:
             self.out["width"], self.out["height"] = width, height
-            self.settings.setdefault("pixel_filter", "gaussian")  # Mitsuba's default reconstruction filter
+            self.settings.setdefault("rfilter", "gaussian")  # Mitsuba's default reconstruction filter
         self.check_used(f)
         return width, height
 

@@ -47,7 +47,7 @@ IGNORED = ("Accelerator", "ColorSpace", "Option", "WorldEnd", "TransformTimes") 
 @dataclass
 class PbrtFile:
     scene: dict  # the scene dict (Scene.from_dict)
-    settings: dict  # render settings the file gives (RenderSettings names): integrator, max_depth, spp, pixel_filter
+    settings: dict  # render settings the file gives (RenderSettings names): integrator, max_depth, spp, rfilter
     substitutions: list = field(default_factory=list)  # with approximate=True: what was substituted, one string each
 
 
@@ -268,7 +268,7 @@ class _Reader:
             self.unsupported(d, f'PixelFilter "{kind}"', SUPPORTED["PixelFilter"], "box")
             kind = "box"
         self.params(d, ("xradius", "yradius", "sigma"))
-        self.settings["pixel_filter"] = FILTERS[kind]
+        self.settings["rfilter"] = FILTERS[kind]
 
     # ------------------------------------------------------------------ materials and textures
     def _Material(self, d):

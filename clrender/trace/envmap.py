@@ -12,21 +12,21 @@ import math
 import numpy as np
 
 from ..layout import ENV_MAP_DTYPE
-from ..scene.environment import EnvironmentMap, distribution
+from ..scene.environment import Distribution, EnvironmentMap, distribution
 from .tracer import global_size, trace_defines
 from .work_layout import work_layout
 
 PROBE = "envmap_probe.cl"
 
 
-def record(env: EnvironmentMap | None, sampled: bool = False) -> np.ndarray:
-    """The EnvMap record (layout.ENV_MAP_DTYPE) of `env`; width 0 for None."""
+def record(env: EnvironmentMap | None, d: Distribution | None = None) -> np.ndarray:
+    """The EnvMap record (layout.ENV_MAP_DTYPE) of `env` uploaded as `d`; width 0 for None."""
     r = np.zeros((), ENV_MAP_DTYPE)
     if env is not None:
         angle = math.radians(env.rotation)
-        r["width"], r["height"] = env.width, env.height
+        r["width"], r["height"] = d.width, d.height
         r["cos_rotation"], r["sin_rotation"] = math.cos(angle), math.sin(angle)
-        r["sampled"] = sampled
+        r["sampled"] = d.sampled
     return r
 
 
@@ -37,7 +37,7 @@ def upload(device, env: EnvironmentMap | None) -> dict:
         return dict(env_map=record(None), **{name: device.to_device(placeholder) for name in ("env_texels", "env_marginal", "env_conditional")})
     d = distribution(env)
     return dict(
-        env_map=record(env, d.sampled),
+        env_map=record(env, d),
         env_texels=device.to_device(d.texels),
         env_marginal=device.to_device(d.marginal),
         env_conditional=device.to_device(d.conditional),

@@ -23,6 +23,7 @@ from ..errors import require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
+from . import film
 from .aov import AOV_NAMES
 from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
 
@@ -68,6 +69,7 @@ class RenderSettings:
     # meshes that several objects place stored once and placed per hit (clrender/trace/instancing.py);
     # None: when that saves at least instancing.AUTO_MIN_TRIANGLES triangles (docs/bvh.md, "Instancing")
     instancing: bool | None = None
+    rfilter: str = "box"  # path: the film's reconstruction filter, "box" (a pixel's own samples), "tent" or "gaussian" (trace/film.py)
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
@@ -102,6 +104,13 @@ class RenderSettings:
         )
         require(_name_in(s.sampler, SAMPLERS), f"unknown sampler {v(s.sampler)}; allowed: {', '.join(SAMPLERS)}")
         require(_name_in(s.pixel_filter, PIXEL_FILTERS), f"unknown pixel filter {v(s.pixel_filter)}; allowed: {', '.join(PIXEL_FILTERS)}")
+        require(_name_in(s.rfilter, film.FILTERS), f"unknown reconstruction filter {v(s.rfilter)}; allowed: {', '.join(film.FILTERS)}")
+        require(
+            s.rfilter == "box" or s.integrator == "path",
+            f"--rfilter {s.rfilter} is the path tracer's film (--integrator path); "
+            "Whitted anti-aliasing weighs a pixel's own samples by --pixel-filter",
+        )
+        require(s.rfilter == "box" or s.pixel_filter == "box", f"give --rfilter {s.rfilter} or --pixel-filter {s.pixel_filter}, not both")
         require(_whole(s.samples) and 1 <= s.samples <= 64, f"samples {v(s.samples)} must be an integer from 1 to 64 (N x N per pixel)")
         require(_real(s.thickness) and math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {v(s.thickness)} must be a real number >= 0")
         require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
@@ -271,7 +280,7 @@ class Renderer:
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.kernel = dev.kernel("path.cl", "render_path", defines)
+            self.kernel = dev.kernel("path.cl", "render_path", {**defines, **film.defines(s.rfilter)})
         else:
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
@@ -302,7 +311,8 @@ class Renderer:
         are first_sample ... first_sample + spp - 1 of each pixel's sequence (sampler and n are the settings')."""
         t, dev = self.tracer, self.tracer.device
         k, L = len(pixels), max(self.n_lights, 1)
-        out = {name: dev.empty(k * size) for name, size in (("colour_out", 16), ("ids_out", ID_RECORD_DTYPE.itemsize), ("stats_out", 8))}
+        slots = film.slots(self.settings.rfilter) if self.settings.integrator == "path" else 1
+        out = {name: dev.empty(k * size) for name, size in (("colour_out", 16 * slots), ("ids_out", ID_RECORD_DTYPE.itemsize), ("stats_out", 8))}
         shadow = dev.empty(k * 4 * L)
         if record:  # background pixels never write their shadow entries (the path tracer none): all lights visible
             cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
@@ -326,7 +336,12 @@ class Renderer:
             extra = dict(params=params, shadow_out=shadow, env_map=self.env["env_map"], env_texels=self.env["env_texels"])
         local = t.layout.local_size
         self.kernel(dev.queue, global_size(k, local), (local,), **geometry, **scene, **extra, **out)
-        host = (np.empty((k, 4), np.float32), np.empty(k, ID_RECORD_DTYPE), np.empty((k, L), np.float32), np.empty((k, 2), np.uint32))
+        host = (
+            np.empty((k, 4) if slots == 1 else (k, slots, 4), np.float32),
+            np.empty(k, ID_RECORD_DTYPE),
+            np.empty((k, L), np.float32),
+            np.empty((k, 2), np.uint32),
+        )
         for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):
             cl.enqueue_copy(dev.queue, array, buf)
         aov_host = None
@@ -362,7 +377,7 @@ class Renderer:
         start, passes, total, weight, first = time.perf_counter(), 0, 0.0, 0.0, None
         while True:
             out = self._pass(tiles, s.sampler, s.samples, passes == 0, "trace" if passes == 0 else f"pass {passes + 1}", passes * self.spp)
-            colour = out[0].astype(np.float64)
+            colour = out[0].astype(np.float64) if s.rfilter == "box" else self._gathered(out[0], tiles)
             total = total + colour[:, :3] * colour[:, 3:]
             weight = weight + colour[:, 3:]
             first = first or out
@@ -370,8 +385,18 @@ class Renderer:
             spent = time.perf_counter() - start
             if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
                 break
-        mean = first[0][:, :3] if passes == 1 else (total / weight).astype(np.float32)
+        mean = first[0][:, :3] if passes == 1 and s.rfilter == "box" else (total / weight).astype(np.float32)
         return [mean, *first[1:]], passes
+
+    def _gathered(self, splats: np.ndarray, tiles) -> np.ndarray:
+        """A pass's splat slots (tile order) gathered by the film's filter (trace/film.py): (k, 4) float64 colours in
+        tile order, the sum of weighted radiance over the sum of weights and that sum."""
+        s = self.settings
+        order = np.concatenate(tiles)
+        image_order = np.empty_like(splats)
+        image_order[order] = splats
+        sums = film.gather(image_order, s.width, s.height, s.rfilter).reshape(-1, 4)[order]
+        return np.concatenate([sums[:, :3] / sums[:, 3:], sums[:, 3:]], axis=1)
 
     def run(self) -> RenderResult:
         s = self.settings

@@ -13,14 +13,9 @@ What is mapped, and why each pair is the same function:
 - `max_depth` (bounces after the primary hit) -> `path` with max_depth + 2, `hide_emitters` false: Mitsuba
   counts the camera segment and the segment to the light, so our 0 (direct light only) is its 2.
 - `environment.color` -> a `constant` emitter of that radiance: every escaping direction, camera rays too.
-- `environment.file` (an absolute path), `intensity`, `rotation` -> `envmap` with `scale` = intensity and
-  `to_world` = rotate(+y, rotation): the same direction <-> (u, v) mapping (docs/scene-format.md), but Mitsuba
-  interpolates bilinearly between texels at u = (j + 0.5) / W and v = i / (H - 1) where clrender's texels are
-  constant over [j/W, (j+1)/W) x [i/H, (i+1)/H).  So Mitsuba gets `mitsuba_envmap(pixels)`: each column
-  repeated ENV_UPSAMPLE times and ENV_UPSAMPLE H + 1 rows at v = i / (ENV_UPSAMPLE H), a row on one of
-  clrender's row edges the mean of the two rows it divides: every bilinear ramp is then centred on an edge
-  of clrender's texels and integrates to the same light, but for the variation of the integrand across a
-  ramp 1 / (ENV_UPSAMPLE W) wide (second order).  Directly seen, the two maps differ within those ramps.
+- `environment.file` (an absolute path), `intensity`, `rotation` -> `envmap` of the same pixels with `scale` =
+  intensity and `to_world` = rotate(+y, rotation): the same direction <-> (u, v) mapping and the same bilinear
+  lookup between texels at u = (j + 0.5) / W and v = i / (H - 1) (docs/scene-format.md).
 - material `emission` -> an `area` emitter on the shape, that radiance: one-sided in both, emitted on the side
   of the geometric normal (cross(v1 - v0, v2 - v0) for a triangle, outwards on a sphere).
 - seed `diffuse` kd alone -> `twosided(diffuse)` of reflectance kd: Lambert kd / pi; clrender's integrator
@@ -29,7 +24,8 @@ What is mapped, and why each pair is the same function:
   written out, as kernels/bsdf.h does: GGX D with alpha = roughness^2, Smith's height-correlated G2,
   Schlick's F at |wo.h| with F0 = base colour (metal) and 0.04 (the dielectric layer), mixed by `metallic`.
 - `transmission` 1 with `ior`, `roughness` 0 -> `dielectric` with int_ior = ior, ext_ior = 1: a smooth
-  interface, exact unpolarised Fresnel in both, radiance scaled by 1/eta^2 on refraction in both.
+  interface, exact unpolarised Fresnel in both, radiance scaled by 1/eta^2 on refraction in both; a
+  `base_color` -> its `specular_transmittance` (KHR_materials_transmission tints the BTDF, not the reflection).
 - sphere `center`, `radius` -> `sphere` (analytic in both); `quad` (corner, edge_a, edge_b), `triangle` and
   `mesh` (vertices, faces; normals: smooth) -> a Mitsuba `Mesh` of the same triangles, the same winding (a
   quad is [c, c+a, c+a+b], [c, c+a+b, c+b], as clrender builds it).
@@ -278,7 +274,10 @@ def bsdf(material: dict, exact: bool = True, textures: dict | None = None, plant
             raise NotImplementedError(
                 "only smooth glass (transmission 1, roughness 0) is mapped: Mitsuba's roughdielectric uses the separable Smith G"
             )
-        return {"type": "dielectric", "int_ior": float(material.get("ior", 1.5)), "ext_ior": 1.0}
+        glass = {"type": "dielectric", "int_ior": float(material.get("ior", 1.5)), "ext_ior": 1.0}
+        if "base_color" in material:  # KHR_materials_transmission: the BTDF times base colour, reflection white
+            glass["specular_transmittance"] = rgb(material["base_color"])
+        return glass
     if any(k in material for k in GLTF_KEYS):
         base = material.get("base_color", (1.0, 1.0, 1.0))
         metallic, roughness = float(material.get("metallic", 1.0)), float(material.get("roughness", 1.0))
@@ -457,7 +456,7 @@ def to_mitsuba(
     if env is not None and "file" in env:
         out["environment"] = {
             "type": "envmap",
-            "bitmap": mi.Bitmap(mitsuba_envmap(read_image(env["file"]))),
+            "bitmap": mi.Bitmap(read_image(env["file"])),
             "scale": float(env.get("intensity", 1.0)),
             "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], float(env.get("rotation", 0.0))),
         }
@@ -483,26 +482,12 @@ def to_mitsuba(
     return out
 
 
-ENV_UPSAMPLE = 8  # Mitsuba's texels per clrender texel along each axis (mitsuba_envmap)
-
-
 def read_image(path) -> np.ndarray:
     """(H, W, 3) float32 linear RGB of an image file, by OpenImageIO (grey copied to RGB, alpha dropped)."""
     import OpenImageIO as oiio
 
     pixels = np.asarray(oiio.ImageBuf(str(path)).get_pixels(oiio.FLOAT), np.float32)
     return np.repeat(pixels, 3, axis=2) if pixels.shape[2] == 1 else pixels[..., :3]
-
-
-def mitsuba_envmap(pixels, s: int = ENV_UPSAMPLE) -> np.ndarray:
-    """A map for Mitsuba's bilinear `envmap` whose light equals clrender's piecewise-constant `pixels` (module docstring)."""
-    h = pixels.shape[0]
-    fine = np.repeat(np.asarray(pixels, np.float32), s, axis=1)
-    rows = np.arange(s * h + 1)
-    out = fine[np.minimum(rows // s, h - 1)].copy()
-    edges = rows[(rows % s == 0) & (rows > 0) & (rows < s * h)]
-    out[edges] = 0.5 * (fine[edges // s - 1] + fine[edges // s])
-    return out
 
 
 def load(

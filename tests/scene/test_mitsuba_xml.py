@@ -433,10 +433,10 @@ def test_the_files_settings_apply_where_the_command_line_gives_none(tmp_path):
     scene = Scene.from_file(path, defines={"spp": "32"})
     args = build_parser().parse_args(["render", str(path)])
     s = foreign_settings(args, settings_from_args(args), scene)
-    assert (s.integrator, s.spp, s.max_depth, s.pixel_filter) == ("path", 32, 3, "tent")
-    args = build_parser().parse_args(["render", str(path), "--spp", "2", "--max-depth", "1", "--pixel-filter", "box"])
+    assert (s.integrator, s.spp, s.max_depth, s.rfilter) == ("path", 32, 3, "tent")
+    args = build_parser().parse_args(["render", str(path), "--spp", "2", "--max-depth", "1", "--rfilter", "box"])
     s = foreign_settings(args, settings_from_args(args), scene)
-    assert (s.integrator, s.spp, s.max_depth, s.pixel_filter) == ("path", 2, 1, "box")
+    assert (s.integrator, s.spp, s.max_depth, s.rfilter) == ("path", 2, 1, "box")
 
 
 def test_cli_approximate_lists_the_stand_ins_on_one_line(tmp_path, capsys):
@@ -545,7 +545,7 @@ def test_convert_writes_a_large_mesh_beside_the_scene(tmp_path, capsys):
 
 def test_mitsubas_defaults_without_integrator_sampler_or_film(tmp_path):
     f = read(tmp_path, '<sensor type="perspective"/>')
-    assert f.settings == {"integrator": "path", "spp": 4, "max_depth": 1024, "pixel_filter": "gaussian"}
+    assert f.settings == {"integrator": "path", "spp": 4, "max_depth": 1024, "rfilter": "gaussian"}
     assert (f.scene["width"], f.scene["height"]) == (768, 576)
 
 

@@ -221,8 +221,8 @@ def test_clrenders_path_tracer_matches_mitsuba(name, device):
 @pytest.mark.slow
 def test_a_diffuse_sphere_under_an_environment_map_matches_mitsuba(device, tmp_path):
     """A generated 16 x 8 HDR map (smooth sky, a bright patch 20x the rest), turned 30 degrees and scaled 1.5,
-    lighting a Lambert sphere (albedo 0.6) that fills the view (the map is never seen directly, where the two
-    lookups differ: mitsuba_scenes.mitsuba_envmap).  32 x 32, K = 4 renders of 64 spp a side, max_depth 6."""
+    lighting a Lambert sphere (albedo 0.6) that fills the view (the map is never seen directly here;
+    test_envmap.py compares it seen directly).  32 x 32, K = 4 renders of 64 spp a side, max_depth 6."""
     import OpenImageIO as oiio
 
     mitsuba_or_skip(LLVM)
