@@ -133,7 +133,8 @@ def add_parser(sub):
         "--rfilter",
         choices=("box", "tent", "gaussian"),
         default=None,
-        help=f"path tracer: the film's reconstruction filter (default: the scene file's, else {d.rfilter}), Mitsuba's (box: a pixel's own samples; tent, gaussian: splatted across pixels)",
+        help=f"path tracer: the film's reconstruction filter, Mitsuba's (box: a pixel's own samples; tent, gaussian: "
+        f"splatted across pixels; default: a scene file's own, else {d.rfilter})",
     )
     p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
     p.add_argument(
