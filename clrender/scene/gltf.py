@@ -213,11 +213,9 @@ def _buffer(doc: Document, index: int, buf, binary) -> bytes:
         from urllib.parse import unquote
 
         file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: buffers[{index}].uri")
-        if not file.is_file():
-            doc.fail(f"buffers[{index}].uri: file {str(file)!r} does not exist")
         from .. import memory
 
-        size = file_size(file, f"{doc.path}: buffers[{index}].uri")
+        size = file_size(file, f"{doc.path}: buffers[{index}].uri: file")  # missing, or a FIFO: refused
         memory.require(memory.BASE_BYTES + size, f"{doc.path}: buffers[{index}] ({size} bytes)")  # before it is read
         data = file.read_bytes()
     length = buf.get("byteLength")
@@ -766,9 +764,7 @@ def image_bytes(path, index: int, root=None) -> bytes | Path:
         from urllib.parse import unquote
 
         file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: {where}.uri")
-        if not file.is_file():
-            doc.fail(f"{where}.uri: image file {str(file)!r} does not exist")
-        return regular_file(file, f"{doc.path}: {where}.uri")  # the path: the decoder reads its header before its pixels
+        return regular_file(file, f"{doc.path}: {where}.uri: image file")  # the path: the decoder reads its header before its pixels
     if "bufferView" not in image:
         doc.fail(f"{where} has neither a uri nor a bufferView")
     view = doc.item("bufferViews", image["bufferView"])
