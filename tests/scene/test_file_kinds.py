@@ -31,7 +31,7 @@ def obj_with(tmp_path, *, mtl="newmtl a\nKd 1 1 1\nmap_Kd t.png\n"):
     return tmp_path / "q.obj"
 
 
-def cli_child(args, timeout=60):
+def cli_child(args, timeout=30):
     """`clrender ARGS` as a child process, killed after `timeout` s (a read that blocks forever fails the test)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     try:
@@ -59,21 +59,27 @@ def test_an_obj_whose_mtllib_or_map_kd_is_a_fifo_is_refused(tmp_path, fifo):
     assert not out.exists()
 
 
-def test_a_fifo_texture_glTF_image_or_environment_map_is_refused(tmp_path):
-    """The other files a scene names: a TOML texture, a glTF image uri and an environment map, each a FIFO."""
+@pytest.mark.parametrize("kind", ["texture", "gltf image", "environment map"])
+def test_a_fifo_texture_gltf_image_or_environment_map_is_refused(tmp_path, kind):
+    """The other files a scene names: a TOML texture, a glTF image uri and an environment map, each a FIFO
+    (in a child process with a timeout: the read blocked forever)."""
     os.mkfifo(tmp_path / "f.png")
     os.mkfifo(tmp_path / "f.exr")
-    toml = tmp_path / "s.toml"
-    toml.write_text(
-        '[textures.t]\nfile = "f.png"\n[materials.m]\ndiffuse_texture = "t"\n'
-        '[[objects]]\ntype = "quad"\ncorner = [-1, -1, -3]\nedge_a = [2, 0, 0]\nedge_b = [0, 2, 0]\nmaterial = "m"\n'
-    )
-    env = tmp_path / "e.toml"
-    env.write_text('[environment]\nfile = "f.exr"\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
-    gltf = textured_quad(tmp_path, MATERIAL, [{"uri": "f.png"}])
-    for scene in (toml, gltf, env):
-        with pytest.raises(UsageError, match=r"is not a regular file \(a FIFO\); allowed: regular files"):
-            Scene.from_file(scene)
+    if kind == "texture":
+        scene = tmp_path / "s.toml"
+        scene.write_text(
+            '[textures.t]\nfile = "f.png"\n[materials.m]\ndiffuse_texture = "t"\n'
+            '[[objects]]\ntype = "quad"\ncorner = [-1, -1, -3]\nedge_a = [2, 0, 0]\nedge_b = [0, 2, 0]\nmaterial = "m"\n'
+        )
+    elif kind == "gltf image":
+        scene = textured_quad(tmp_path, MATERIAL, [{"uri": "f.png"}])
+    else:
+        scene = tmp_path / "e.toml"
+        scene.write_text('[environment]\nfile = "f.exr"\n[[objects]]\ntype = "sphere"\ncenter = [0, 0, -3]\nradius = 1\n')
+    out = tmp_path / "out.exr"
+    result = cli_child(["render", str(scene), "--integrator", "path", "--spp", "1", "--width", "8", "--height", "8", "-o", str(out)])
+    assert_refused(result, "is not a regular file (a FIFO); allowed: regular files")
+    assert not out.exists()
 
 
 def test_a_sparse_3gb_gltf_image_is_refused_before_it_is_read(tmp_path):

@@ -67,9 +67,14 @@ def test_an_obj_kd_above_one_is_clamped_with_a_warning(tmp_path):
 
 def test_no_throughput_gives_a_nan_pixel():
     """A Scene whose material is made past the reader (base colour 1e6, the red team's value) at --max-depth 64:
-    every pixel finite (before the BETA_LIMIT guard every pixel was NaN).  A closed white environment keeps
-    every path bouncing."""
-    scene = Scene.from_dict(scene_dict({"base_color": [1, 1, 1], "roughness": 1.0}))
+    every pixel finite (before the BETA_LIMIT guard, NaN).  The camera sits inside a glowing rough sphere, so
+    every path keeps bouncing and its throughput grows by 1e6 a bounce."""
+    data = {
+        "cameras": [{"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 60}],
+        "materials": {"m": {"base_color": [1, 1, 1], "roughness": 1.0, "emission": [1, 1, 1]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 5, "material": "m"}],
+    }
+    scene = Scene.from_dict(data)
     scene.materials["m"] = dataclasses.replace(scene.materials["m"], base_color=(1e6, 1e6, 1e6))
     image = clrender.Renderer(scene, integrator="path", samples=2, width=8, height=8, max_depth=64).run().image
     assert np.isfinite(image).all()
