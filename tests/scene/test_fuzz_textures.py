@@ -3,8 +3,9 @@ with one short line (a UsageError) or renders every pixel finite, in the Whitted
 
 The strategies write tiny images into the fuzz folder: 8- and 16-bit PNGs, float ("F") and 32-bit integer
 ("I") TIFFs whose texels are drawn from NaN, +-inf, negatives, 2e9 and values at 0 and 1; EXR environment
-maps of the same values; and materials whose reflectances, factors, emission and texture transforms sit at,
-just over and far over their limits (docs/scene-format.md, "Limits").
+maps of the same values; and materials whose reflectances, factors, emission, alpha, double_sided and texture
+transforms sit at, just over and far over their limits (docs/scene-format.md, "Limits").  Half the examples
+draw only allowed values, so that they get as far as rendering.
 
 Long run:  pytest tests/scene/test_fuzz_textures.py --hypothesis-profile=long
 """
@@ -132,6 +133,14 @@ def textured_scenes(draw, folder):
                 material[key] = draw(st.sampled_from(pool))
     if draw(st.booleans()):
         material["emission"] = [draw(st.sampled_from(AT_LIMITS if hostile else ALLOWED_RADIANCE)) for _ in range(3)]
+    if draw(st.booleans()):  # coverage, times the colour texture's alpha
+        alpha = {"mode": draw(st.sampled_from(["opaque", "mask", "blend"] + ["dither"] * hostile))}
+        for key in ("cutoff", "factor"):
+            if draw(st.booleans()):
+                alpha[key] = draw(st.sampled_from(pool))
+        material["alpha"] = alpha
+    if draw(st.booleans()):
+        material["double_sided"] = draw(st.sampled_from([True, False] + ["no"] * hostile))
     if draw(st.booleans()):
         material["ior"] = draw(st.sampled_from([0.01, 1.0, 1.5, 100.0] + [1e-3, 101.0] * hostile))
     data = {
