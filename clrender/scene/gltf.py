@@ -46,8 +46,11 @@ nothing in the file is dropped without being listed here:
 Anything malformed is a UsageError naming the file and what was wrong.  Counts
 (accessor elements, triangles, vertices read) are checked against the limits
 before anything is read or allocated, every buffer file is found through
-confine.scene_file (a confined scene reads nothing outside its folder), and
-node transforms are computed once per file (doc.worlds), so loading is linear.
+confine.scene_file (a confined scene reads nothing outside its folder) and is a
+regular file whose size fits memory before it is read, the mesh objects the drawn
+nodes make are counted from the node list (node_order) against checks.MAX_OBJECTS
+before any node's matrix or mesh is read, and node transforms are computed once
+per file (doc.worlds), so loading is linear.
 """
 
 from __future__ import annotations
