@@ -9,7 +9,10 @@ The figures are bytes per pixel and per triangle measured as peak RSS growth
     dense mesh, load + BVH + trace     ~360 B/triangle (1 M smooth triangles: 454 MB peak for a 64 x 64 render;
                                        a flat 1 M-triangle PLY: 477 MB; before the Tracer dropped its host
                                        copies, 2026-11-24: ~670 B, and 1.16 GB for the PLY)
-    textures                           32 B/texel (a 2048 x 2048 texture: 128 MiB), checked as each is decoded
+    textures                           decoding peaks at 35 B/texel (a 3000 x 3000 PNG, sRGB), then the scene's
+                                       copy, the packed buffer and the device's hold 48: 56 B/texel, checked
+                                       with BASE_BYTES as each is decoded and again with the render
+    --denoise (OIDN, quality high)     742 B/pixel peak RSS growth (1024 x 1024), beside the render
 
 Each constant below rounds its figure up.  A job whose estimate exceeds the
 memory available now or --max-memory is refused with the figure (exit 2)
@@ -37,7 +40,8 @@ BYTES_PER_TRIANGLE = 420  # the mesh and its vertex normals, the BVH build, the 
 # a textured or vertex-coloured scene's triangles also carry uvs, colours and tangents (layout.VertexAttributes,
 # 132 bytes, gathered per mesh) on the device
 ATTRIBUTE_BYTES_PER_TRIANGLE = 140
-TEXEL_BYTES = 16 + 16  # a texture's float4 texel on the device and its decoded host copy (scene/textures.py)
+TEXEL_BYTES = 56  # a texture's float4 texel: decoding's peak plus the device copy (scene/textures.py; table above)
+DENOISE_BYTES_PER_PIXEL = 768  # Open Image Denoise's U-Net working memory (image/denoise.py; table above)
 BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 
@@ -189,10 +193,13 @@ def render_bytes(
     extra_images: int = 0,
     attributes: bool = False,
     splat_slots: int = 1,
+    denoise: bool = False,
+    texels: int = 0,
 ) -> int:
     """Peak bytes of one render with these settings (see the table at the top); attributes: the triangles carry
     uvs, vertex colours and tangents (a textured or vertex-coloured scene); splat_slots: the path tracer's splat
-    slots per pixel (trace/film.slots; 1 for a box film)."""
+    slots per pixel (trace/film.slots; 1 for a box film); denoise: OIDN runs on the image; texels: the scene's
+    texture texels (held through the render)."""
     per_pixel = RENDER_BYTES_PER_PIXEL
     if aa == "edge_detect":
         per_pixel += EDGE_AA_BYTES_PER_PIXEL
@@ -203,8 +210,9 @@ def render_bytes(
     per_pixel += 16 * extra_images  # an extra written image: its pixels and the 8-bit copy
     if splat_slots > 1:  # a path tracer's reconstruction filter wider than a pixel (trace/film.py)
         per_pixel += SPLAT_BYTES_PER_SLOT * splat_slots + SPLAT_BYTES_PER_PIXEL
+    per_pixel += DENOISE_BYTES_PER_PIXEL * denoise
     per_triangle = BYTES_PER_TRIANGLE + ATTRIBUTE_BYTES_PER_TRIANGLE * attributes
-    return BASE_BYTES + width * height * per_pixel + triangles * per_triangle
+    return BASE_BYTES + width * height * per_pixel + triangles * per_triangle + texels * TEXEL_BYTES
 
 
 def triangles_bytes(triangles: int) -> int:

@@ -29,6 +29,7 @@
 #include "film.h"  /* the reconstruction filters of SPLAT_FILTER */
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
+#define BETA_LIMIT 1e18f /* a path's throughput past this ends it (no pixel may be inf or NaN) */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
@@ -575,7 +576,9 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
             if (!(rng_next(rng) < q)) break;
             beta /= q;
         }
-        if (!(max3(beta) > 0.0f)) break;
+        /* ends a path of no throughput, or a NaN or runaway one: reflectances <= 1 keep beta near 1, and
+         * BETA_LIMIT times the largest radiance a scene allows (1e12) stays inside float32 */
+        if (!(max3(beta) > 0.0f && max3(beta) < BETA_LIMIT)) break;
         prev_delta = bs.delta != 0;
         prev_pdf = bs.pdf;
         prev_n = f.n_shade;

@@ -550,6 +550,8 @@ def _render(args):
             extra_images=(edges_out is not None) + 2 * args.denoise,  # denoise: its output and the noisy copy
             attributes=scene.has_vertex_attributes,
             splat_slots=film.slots(settings.rfilter),
+            denoise=args.denoise,
+            texels=sum(t.pixels.shape[0] * t.pixels.shape[1] for t in scene.textures),
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )

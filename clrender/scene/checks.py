@@ -26,7 +26,9 @@ from ..errors import UsageError, escaped
 COORD_LIMIT = 1e6  # |x| of every coordinate and vector component, radius and plane size (scene units)
 MIN_LENGTH = 1e-6  # shortest radius, edge, direction or scale factor
 RELATIVE_PRECISION = 1e-5  # a length must be >= this x the distance of its object from the origin (float32 resolves it)
-RADIANCE_LIMIT = 1e6  # colours (background, ambient, diffuse, specular, light colour) and light intensity
+RADIANCE_LIMIT = 1e6  # colours (background, ambient, light colour, emission) and light intensity
+ALBEDO_LIMIT = 1.0  # reflectances (diffuse, specular, base_color): glTF's [0, 1], so no lobe returns more than it receives
+UV_LIMIT = 1e6  # |u|, |v| of a texture coordinate: times a texture transform (<= 1e6) it stays inside float32
 SHININESS_LIMIT = 1e6  # Blinn-Phong exponent
 IOR_RANGE = (0.01, 100.0)  # index of refraction
 FOV_RANGE = (1e-3, 179.0)  # vertical field of view, degrees
@@ -157,8 +159,8 @@ class Checks:
         return value
 
     def vec3(self, data, key, path, default=None, *, kind="point"):
-        """Three numbers.  kind: "point" (|x| <= COORD_LIMIT), "colour" (0 to RADIANCE_LIMIT),
-        "vector" (|x| <= COORD_LIMIT and length >= MIN_LENGTH)."""
+        """Three numbers.  kind: "point" (|x| <= COORD_LIMIT), "colour" (0 to RADIANCE_LIMIT), "albedo" (0 to
+        ALBEDO_LIMIT), "vector" (|x| <= COORD_LIMIT and length >= MIN_LENGTH)."""
         value = data.get(key, default)
         full = f"{path}.{key}" if path else key
         if value is None:
@@ -168,9 +170,11 @@ class Checks:
         vec = tuple(as_float(v) for v in value)
         if not all(math.isfinite(v) for v in vec):
             self.fail(full, f"expected finite numbers, got {show(value)}")
-        if kind == "colour":
-            if not all(0.0 <= v <= RADIANCE_LIMIT for v in vec):
-                self.fail(full, f"{show(value)} is out of range; allowed: 0 to {RADIANCE_LIMIT:g} per channel")
+        if kind in ("colour", "albedo"):
+            top = RADIANCE_LIMIT if kind == "colour" else ALBEDO_LIMIT
+            if not all(0.0 <= v <= top for v in vec):
+                what = "" if kind == "colour" else " (a reflectance: a surface returns at most the light it receives)"
+                self.fail(full, f"{show(value)} is out of range; allowed: 0 to {top:g} per channel{what}")
         elif not all(abs(v) <= COORD_LIMIT for v in vec):
             self.fail(full, f"{show(value)} is out of range; allowed: -{COORD_LIMIT:g} to {COORD_LIMIT:g}")
         elif kind == "vector" and math.hypot(*vec) < MIN_LENGTH:

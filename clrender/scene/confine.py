@@ -11,6 +11,8 @@ rule lives in one place.
 from __future__ import annotations
 
 import errno
+import os
+import stat
 from pathlib import Path
 
 from ..errors import UsageError, shown
@@ -34,11 +36,16 @@ def scene_file(folder, name: str, root, what: str) -> Path:
     return resolved
 
 
-def trimesh_resolver(mesh_path: Path, root):
+def trimesh_resolver(mesh_path: Path, root, refusals: list | None = None):
     """A trimesh resolver for `mesh_path` that reads only files inside `root` (through `scene_file`) as
-    well as inside the mesh's own folder (trimesh's rule).  A refusal is a UsageError, which is the
-    ValueError trimesh expects of a resolver, so trimesh tries its other spellings of the name and then raises it."""
+    well as inside the mesh's own folder (trimesh's rule), and only regular files whose size fits (`asset_bytes`:
+    a FIFO named by `mtllib` or `map_Kd` would block the read forever).  A refusal is a UsageError, which is the
+    ValueError trimesh expects of a resolver, so trimesh tries its other spellings of the name and then raises it;
+    trimesh's OBJ reader then drops the asset, so the size and kind refusals are also appended to `refusals`, for
+    the caller to raise once trimesh returns (scene.load_mesh_file)."""
     import trimesh
+
+    refusals = [] if refusals is None else refusals
 
     class Confined(trimesh.resolvers.FilePathResolver):
         def absolute(self, name: str) -> Path:
@@ -48,4 +55,67 @@ def trimesh_resolver(mesh_path: Path, root):
         def namespaced(self, namespace: str):
             return Confined(str(Path(self.parent) / namespace))
 
-    return Confined(str(mesh_path))
+        def get(self, name: str):
+            for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):  # trimesh's spellings
+                try:
+                    path = self.absolute(candidate)
+                except ValueError:
+                    continue
+                if os.path.lexists(path):
+                    try:
+                        return read_asset(path, f"{mesh_path}: {shown(name.strip())}")
+                    except UsageError as exc:
+                        refusals.append(exc)
+                        raise
+            return super().get(name)  # trimesh's own error for a name that is missing or escapes the folder
+
+    resolver = Confined(str(mesh_path))
+    resolver.refusals = refusals
+    return resolver
+
+
+MAX_MTL_BYTES = 64 << 20  # a material library is text: a few kB, 64 MiB is far past any real one
+
+
+def read_asset(path: Path, what: str) -> bytes:
+    """The bytes of a file a mesh file names (an OBJ's .mtl or map_Kd image), checked before they are read:
+    a regular file; a .mtl at most MAX_MTL_BYTES; an image whose header says it fits the texture limits and
+    memory (its bytes and its decoded texels), so that a 3 GB file is refused from its header alone."""
+    size = file_size(path, what)
+    if path.suffix.lower() == ".mtl":
+        if size > MAX_MTL_BYTES:
+            raise UsageError(f"{what}: material file of {size} bytes; allowed: at most {MAX_MTL_BYTES >> 20} MiB")
+    else:
+        from .textures import image_header
+
+        width, height = image_header(path, what)
+        from .. import memory
+
+        memory.require(size + width * height * memory.TEXEL_BYTES, f"{what}: texture ({width} x {height})")
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def regular_file(path, what: str) -> Path:
+    """`path`, refused (UsageError naming `what`) unless it is a regular file, symlinks followed: a FIFO, a
+    device or a socket would block a read forever or never end, and a folder is not a file.  Checked with
+    os.stat, which opens nothing; returns the path."""
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError) as exc:  # missing, a broken link, a NUL byte
+        reason = "does not exist" if isinstance(exc, FileNotFoundError) else f"cannot be read ({type(exc).__name__})"
+        raise UsageError(f"{what}: {shown(str(path))} {reason}") from None
+    if not stat.S_ISREG(mode):
+        raise UsageError(f"{what}: {shown(str(path))} is not a regular file ({_kind(mode)}); allowed: regular files")
+    return path
+
+
+def _kind(mode: int) -> str:
+    kinds = {stat.S_ISFIFO: "a FIFO", stat.S_ISDIR: "a folder", stat.S_ISCHR: "a device", stat.S_ISBLK: "a device", stat.S_ISSOCK: "a socket"}
+    return next((name for test, name in kinds.items() if test(mode)), "not a plain file")
+
+
+def file_size(path, what: str) -> int:
+    """The size in bytes of a regular file (regular_file's refusals), read from os.stat before any byte is."""
+    return os.stat(regular_file(path, what)).st_size

@@ -140,9 +140,10 @@ def load_texels(path: Path, what: str) -> np.ndarray:
     `what` for a missing, damaged or unsuitable file."""
     from .. import memory
     from ..image.files import probe_image, read_image
+    from .confine import regular_file
 
     try:
-        info = probe_image(path)
+        info = probe_image(regular_file(path, "environment map"))  # a FIFO would block the read forever
         if info.nchannels not in CHANNELS:
             raise UsageError(f"image {str(path)!r} has {info.nchannels} channels; allowed: 1 (grey), 3 (RGB) or 4 (RGBA, alpha ignored)")
         memory.require(memory.BASE_BYTES + map_bytes(info.width, info.height, info.nchannels), f"environment map {info.width}x{info.height}")

@@ -46,8 +46,11 @@ nothing in the file is dropped without being listed here:
 Anything malformed is a UsageError naming the file and what was wrong.  Counts
 (accessor elements, triangles, vertices read) are checked against the limits
 before anything is read or allocated, every buffer file is found through
-confine.scene_file (a confined scene reads nothing outside its folder), and
-node transforms are computed once per file (doc.worlds), so loading is linear.
+confine.scene_file (a confined scene reads nothing outside its folder) and is a
+regular file whose size fits memory before it is read, the mesh objects the drawn
+nodes make are counted from the node list (node_order) against checks.MAX_OBJECTS
+before any node's matrix or mesh is read, and node transforms are computed once
+per file (doc.worlds), so loading is linear.
 """
 
 from __future__ import annotations
@@ -64,8 +67,8 @@ import numpy as np
 
 from ..errors import UsageError
 from . import framing
-from .checks import COORD_LIMIT, MAX_NAME, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, escape, shorten, show
-from .confine import scene_file
+from .checks import COORD_LIMIT, MAX_NAME, MAX_OBJECTS, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, UV_LIMIT, escape, shorten, show
+from .confine import file_size, regular_file, scene_file
 
 GLB_MAGIC = b"glTF"
 CHUNK_JSON, CHUNK_BIN = 0x4E4F534A, 0x004E4942
@@ -213,8 +216,10 @@ def _buffer(doc: Document, index: int, buf, binary) -> bytes:
         from urllib.parse import unquote
 
         file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: buffers[{index}].uri")
-        if not file.is_file():
-            doc.fail(f"buffers[{index}].uri: file {str(file)!r} does not exist")
+        from .. import memory
+
+        size = file_size(file, f"{doc.path}: buffers[{index}].uri: file")  # missing, or a FIFO: refused
+        memory.require(memory.BASE_BYTES + size, f"{doc.path}: buffers[{index}] ({size} bytes)")  # before it is read
         data = file.read_bytes()
     length = buf.get("byteLength")
     if isinstance(length, bool) or not isinstance(length, int) or not 0 <= length <= len(data):
@@ -300,25 +305,39 @@ def local_matrix(doc: Document, index: int) -> np.ndarray:
     return m
 
 
-def world_matrices(doc: Document) -> dict:
-    """Node index -> 4x4 world transform, for every node of the default scene (or of all root nodes)."""
+def world_matrices(doc: Document, order: list | None = None) -> dict:
+    """Node index -> 4x4 world transform, for every node of the default scene (or of all root nodes), in
+    `node_order`'s order (given, or walked here)."""
+    out = {}
+    for index, parent in node_order(doc) if order is None else order:
+        out[index] = doc.worlds[index] = _times(doc, index, np.eye(4) if parent is None else out[parent])
+    return out
+
+
+def node_order(doc: Document) -> list:
+    """(node, its parent or None) for every node of the default scene (or of all root nodes), depth first,
+    parents before children: the tree walked and checked without a matrix computed, so that limits on what
+    the nodes draw are checked before the work they bound (scene_dict).  Linear in the number of nodes."""
     nodes = _nodes(doc)
     scenes = doc.json.get("scenes")
     if scenes:
         roots = doc.item("scenes", doc.json.get("scene", 0)).get("nodes", [])
     else:  # no scenes: every node that is nobody's child is a root
-        roots = [i for i in range(len(nodes)) if i not in _parents(doc)]
+        parents = _parents(doc)
+        roots = [i for i in range(len(nodes)) if i not in parents]
     if not isinstance(roots, list):
         doc.fail("scenes[].nodes must be a list of node indices")
-    out = {}
-    stack = [(r, np.eye(4)) for r in reversed(roots)]
+    order, seen = [], set()
+    stack = [(r, None) for r in reversed(roots)]
     while stack:
         index, parent = stack.pop()
-        if index in out:
+        if index in seen:
             doc.fail(f"nodes[{index}] is reached twice (the node hierarchy must be a tree)")
-        out[index] = doc.worlds[index] = _times(doc, index, parent)
-        stack.extend((c, out[index]) for c in reversed(_children(doc, index)))
-    return out
+        doc.item("nodes", index)
+        seen.add(index)
+        order.append((index, parent))
+        stack.extend((c, index) for c in reversed(_children(doc, index)))
+    return order
 
 
 def _times(doc: Document, index: int, parent: np.ndarray) -> np.ndarray:
@@ -547,6 +566,8 @@ def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vert
         uv = accessor(doc, attributes[name], f"{where}.{name}", "VEC2", (5126, 5121, 5123))
         if len(uv) != n_vertices or not np.isfinite(uv).all():
             doc.fail(f"{where}.{name}: {len(uv)} finite coordinates needed, one per POSITION ({n_vertices})")
+        if np.abs(uv).max(initial=0.0) > UV_LIMIT:  # times a texture transform's scale it would overflow float32
+            doc.fail(f"{where}.{name}: a coordinate of {np.abs(uv).max():.6g}; allowed: -{UV_LIMIT:g} to {UV_LIMIT:g}")
         out.append(uv)
     colours = None
     if "COLOR_0" in attributes:
@@ -728,9 +749,9 @@ def _textures(doc: Document, path: Path, materials: dict) -> dict:
 
 
 @_malformed_is_usage_error
-def image_bytes(path, index: int, root=None) -> bytes:
-    """The encoded bytes of images[index] of a glTF file: a data URI, a GLB bufferView, or a file beside it
-    (found through confine.scene_file: a confined scene reads none outside its folder)."""
+def image_bytes(path, index: int, root=None) -> bytes | Path:
+    """The encoded bytes of images[index] of a glTF file (a data URI, a GLB bufferView), or the path of a file
+    beside it, unread (found through confine.scene_file: a confined scene reads none outside its folder)."""
     doc = read_document(path, root)
     image = doc.item("images", index)
     where = f"images[{index}]"
@@ -746,9 +767,7 @@ def image_bytes(path, index: int, root=None) -> bytes:
         from urllib.parse import unquote
 
         file = scene_file(doc.path.parent, unquote(uri), doc.root, f"{doc.path}: {where}.uri")
-        if not file.is_file():
-            doc.fail(f"{where}.uri: image file {str(file)!r} does not exist")
-        return file.read_bytes()
+        return regular_file(file, f"{doc.path}: {where}.uri: image file")  # the path: the decoder reads its header before its pixels
     if "bufferView" not in image:
         doc.fail(f"{where} has neither a uri nor a bufferView")
     view = doc.item("bufferViews", image["bufferView"])
@@ -840,6 +859,20 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
     return out
 
 
+def _check_object_count(doc: Document, order: list) -> None:
+    """Refuse a file whose drawn nodes make more mesh objects (one per triangle primitive) than a scene may hold
+    (checks.MAX_OBJECTS), from the node list alone: nothing is read or multiplied for a file that is refused."""
+    count = 0
+    for index, _ in order:
+        mesh = doc.json["nodes"][index].get("mesh")
+        if mesh is not None:
+            prims = doc.item("meshes", mesh).get("primitives", [])
+            count += sum(_triangle_primitive(doc, mesh, p) is not None for p in range(len(prims) if isinstance(prims, list) else 0))
+            if count > MAX_OBJECTS:
+                made = f"the nodes up to this one make more than {MAX_OBJECTS} mesh objects (one per triangle primitive)"
+                doc.fail(f"nodes[{index}]: {made}; allowed: at most {MAX_OBJECTS}")
+
+
 @_malformed_is_usage_error
 def scene_dict(path, root=None) -> dict:
     """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder.
@@ -852,7 +885,9 @@ def scene_dict(path, root=None) -> dict:
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     aspect = None
     triangles = vertices = 0
-    for index, matrix in world_matrices(doc).items():
+    order = node_order(doc)
+    _check_object_count(doc, order)  # before any node's matrix or mesh is read
+    for index, matrix in world_matrices(doc, order).items():
         node = doc.item("nodes", index)
         if "mesh" in node:
             mesh = doc.item("meshes", node["mesh"])

@@ -264,7 +264,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         if occlusion is not None and not 0.0 <= occlusion.strength <= 1.0:
             checks.fail(f"{path}.occlusion_texture.strength", f"{occlusion.strength:g} is out of range; allowed: 0 to 1")
         return Material(
-            base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="colour"),
+            base_color=checks.vec3(m, "base_color", path, (1.0, 1.0, 1.0), kind="albedo"),
             metallic=checks.number(m, "metallic", path, d.metallic, low=0.0, high=1.0),
             roughness=checks.number(m, "roughness", path, d.roughness, low=0.0, high=1.0),
             transmission=checks.number(m, "transmission", path, d.transmission, low=0.0, high=1.0),
@@ -272,8 +272,8 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
             **common,
         )
     return Material(
-        diffuse=checks.vec3(m, "diffuse", path, d.diffuse, kind="colour"),
-        specular=checks.vec3(m, "specular", path, d.specular, kind="colour"),
+        diffuse=checks.vec3(m, "diffuse", path, d.diffuse, kind="albedo"),
+        specular=checks.vec3(m, "specular", path, d.specular, kind="albedo"),
         shininess=checks.number(m, "shininess", path, d.shininess, low=0.0, high=SHININESS_LIMIT),
         mirror=checks.number(m, "mirror", path, d.mirror, low=0.0, high=1.0),
         transparency=checks.number(m, "transparency", path, d.transparency, low=0.0, high=1.0),

@@ -49,6 +49,7 @@ from .checks import (  # noqa: F401
     RELATIVE_PRECISION,
     SEED_RANGE,
     SHININESS_LIMIT,
+    UV_LIMIT,
     Checks,
     TypeReader,
     as_float,
@@ -706,7 +707,7 @@ def _vertex_attributes(tm):
     if uv is None or np.shape(uv) != (len(tm.vertices), 2):
         return None, None, None, None
     uv = np.asarray(uv, np.float64)
-    uv = np.where(np.isfinite(uv), uv, 0.0)
+    uv = np.where(np.isfinite(uv) & (np.abs(uv) <= UV_LIMIT), uv, 0.0)  # as glTF's are bounded (gltf.primitive_attributes)
     return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
 
 
@@ -912,11 +913,16 @@ def load_mesh_file(path: Path, what: str, root=None):
         from .confine import trimesh_resolver
         from .ply_strips import read_tristrips  # triangle strips, which trimesh does not read
 
-        # a confined scene's mesh reads its materials, images and buffers through confine.py too
-        resolver = None if root is None else trimesh_resolver(path, root)
+        # a mesh reads its materials and images through confine.py too: regular files of a bounded size, and
+        # in a confined scene only inside its folder
+        resolver = trimesh_resolver(path, root)
         tm = read_tristrips(path) if path.suffix.lower() == ".ply" else None
         if tm is None:
             tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
+        if resolver.refusals:  # trimesh drops an asset its resolver refused; the refusal still stands
+            raise resolver.refusals[0]
+    except UsageError:
+        raise
     except Exception as exc:  # trimesh raises many kinds for malformed files
         # On undecodable text trimesh reaches for an optional encoding guesser (charset_normalizer):
         # the missing module is trimesh's detail, the file is the user's problem.

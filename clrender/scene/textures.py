@@ -21,8 +21,9 @@ import numpy as np
 
 from ..errors import UsageError, shown
 from ..layout import TEXTURE_DTYPE, TEXTURE_SLOTS, WRAP_MODES
-from ..memory import TEXEL_BYTES  # a float4 on the device and the decoded host copy
+from ..memory import BASE_BYTES, TEXEL_BYTES  # what decoding one texel peaks at (memory.py)
 from .checks import Checks, TypeReader, show
+from .confine import regular_file
 
 MAX_TEXTURE_SIDE = 16384  # texels along either side of one texture
 MAX_TEXTURES = 1024  # textures of one scene (distinct images times colour spaces)
@@ -185,9 +186,22 @@ def _image_source(checks: Checks, spec: TextureSpec, path: str):
         from . import gltf
 
         return gltf.image_bytes(file, spec.image, checks.root), f"{spec.file} image {spec.image}"
-    if not file.is_file():
-        checks.fail(f"{path}.file", f"texture file {shown(str(file))} does not exist")
-    return file, spec.file
+    return regular_file(file, f"{checks.where}: {path}.file: texture file"), spec.file  # missing, or a FIFO: refused
+
+
+def image_header(path: Path, what: str) -> tuple[int, int]:
+    """(width, height) of an image file from its header alone (Pillow reads no pixels to open it), refused
+    when it is not an image Pillow reads or is past MAX_TEXTURE_SIDE."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            width, height = image.size
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
+        raise UsageError(f"{what}: not an image clrender reads ({type(exc).__name__}); allowed: PNG, JPEG or any image Pillow decodes") from None
+    if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
+        raise UsageError(f"{what}: image is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
+    return width, height
 
 
 def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
@@ -202,7 +216,7 @@ def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
         if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
             raise UsageError(f"texture {shown(what)} is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
         if require is not None:
-            require(width * height * TEXEL_BYTES, f"texture {shown(what)} ({width} x {height})")
+            require(BASE_BYTES + width * height * TEXEL_BYTES, f"texture {shown(what)} ({width} x {height})")
         if image.mode in ("P", "PA", "1"):
             image = image.convert("RGBA")
         if image.mode not in CHANNELS:
@@ -213,7 +227,20 @@ def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
         raise
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
         raise UsageError(f"texture {shown(what)} cannot be decoded ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
-    return _linear_rgba(raw, srgb)
+    with np.errstate(all="ignore"):  # a float image's NaN or inf is refused just below, not warned about
+        rgba = _linear_rgba(raw, srgb)
+    check_texels(rgba, what)
+    return rgba
+
+
+def check_texels(rgba: np.ndarray, what: str) -> None:
+    """Refuse decoded texels outside [0, 1]: a float or 32-bit integer image (TIFF "F" or "I") is taken as it
+    is stored, so its NaN, inf, negative or huge values would reach the shading (a colour texture multiplies a
+    base colour that is at most 1, a data texture a factor in [0, 1] or a normal's components)."""
+    bad = ~((rgba >= 0.0) & (rgba <= 1.0))  # NaN fails both
+    if bad.any():
+        value = rgba[bad][0]
+        raise UsageError(f"texture {shown(what)} holds the value {value:g} after decoding; allowed: 0 to 1 (8- and 16-bit images always are)")
 
 
 def _linear_rgba(raw: np.ndarray, srgb: bool) -> np.ndarray:
@@ -281,7 +308,13 @@ def mtl_material(tm) -> dict | None:
     for key, name, n in (("kd", "diffuse", 3), ("ks", "specular", 3), ("ke", "emission", 3), ("ns", "shininess", 1), ("d", "transparency", 1)):
         value = floats(key, n)
         if value is not None:
-            value = [min(max(v, 0.0), 1e6) for v in value]
+            top = 1.0 if name in ("diffuse", "specular") else 1e6  # checks.py's ALBEDO_LIMIT and RADIANCE_LIMIT
+            if name in ("diffuse", "specular") and max(value) > top:
+                from ..errors import warn
+
+                name_shown = shown(str(getattr(material, "name", "")))
+                warn(f"material {name_shown}: {key.capitalize()} {max(value):g} clamped to {top:g} (a reflectance is at most 1)")
+            value = [min(max(v, 0.0), top) for v in value]
             keys[name] = value[0] if n == 1 else tuple(value)
     if "transparency" in keys:
         keys["transparency"] = 1.0 - min(keys["transparency"], 1.0)

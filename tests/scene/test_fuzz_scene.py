@@ -141,7 +141,7 @@ def test_a_tiny_sphere_at_the_eye_is_refused_or_renders_finite():
 
 def test_bright_but_allowed_values_render_finite():
     data = sphere_scene(material="hot")
-    data.update(ambient=[1e6] * 3, background=[1e6] * 3, materials={"hot": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}})
+    data.update(ambient=[1e6] * 3, background=[1e6] * 3, materials={"hot": {"diffuse": [1] * 3, "specular": [1] * 3}})  # reflectances stop at 1
     data["lights"] = [{"type": "point", "position": [2, 2, 0], "intensity": 1e6, "color": [1e6] * 3, "falloff": "inverse_square"}]
     image = render_tiny(Scene.from_dict(data))
     assert np.isfinite(image).all() and image.max() > 1e6
@@ -506,7 +506,7 @@ def test_a_light_touching_the_surface_it_lights_stays_finite(height):
 
     data = {
         "cameras": [{"position": [0, 1, 0], "look_at": [0, -1, 0], "up": [0, 0, -1]}],
-        "materials": {"white": {"diffuse": [1e6] * 3, "specular": [1e6] * 3}},
+        "materials": {"white": {"diffuse": [1] * 3, "specular": [1] * 3}},  # reflectances stop at 1 (checks.ALBEDO_LIMIT)
         "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 10, "material": "white"}],
         "lights": [{"type": "point", "position": [0, height, 0], "falloff": "inverse_square", "intensity": 1e6, "color": [1e6] * 3}],
     }
