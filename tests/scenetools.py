@@ -1,5 +1,5 @@
 """Scenes and files that several test folders build: copies of one mesh file (instancing), an alpha checker
-texture (alpha testing)."""
+texture (alpha testing); one Mitsuba XML file rendered by both renderers (the scene-format tests)."""
 
 import numpy as np
 import trimesh
@@ -41,3 +41,29 @@ def copies_scene(tmp_path, copies: int, material: dict | None = None) -> Scene:
         "objects": objects,
     }
     return Scene.from_dict(data, base_dir=tmp_path)
+
+
+def xml_against_mitsuba(path, device, *, spp: int, k: int = 4, defines: dict | None = None):
+    """The block z-test (tests/reference/ztest.py) of `k` renders a side of one Mitsuba XML file: Mitsuba loads the
+    very file (mi.load_file), clrender reads it with Scene.from_file and renders with the file's own settings.
+    Skips without Mitsuba."""
+    import pytest
+
+    from clrender import Renderer
+    from clrender.trace.tracer import Tracer
+
+    from tests.reference import mitsuba_scenes
+    from tests.reference.ztest import two_sample_z
+
+    variant = "llvm_ad_rgb" if not mitsuba_scenes.unavailable("llvm_ad_rgb") else "scalar_rgb"
+    reason = mitsuba_scenes.unavailable(variant)
+    if reason:
+        pytest.skip(reason)
+    mi = mitsuba_scenes.load_mitsuba(variant)
+    loaded = mi.load_file(str(path), **(defines or {}))
+    theirs = np.stack([mitsuba_scenes.render_loaded(mi, loaded, spp=spp, seed=100 + s) for s in range(k)])
+    scene = Scene.from_file(path, defines=defines)
+    own = dict(scene.render_settings, spp=spp)
+    tracer = Tracer(scene, device=device)
+    ours = np.stack([Renderer(scene, tracer=tracer, seed=s, **own).run().image for s in range(k)])
+    return two_sample_z(ours, theirs)
