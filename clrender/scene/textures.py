@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -196,6 +197,28 @@ def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
     (alpha never).  UsageError for what cannot be decoded, an unsupported mode, or a size past the limits."""
     from PIL import Image, UnidentifiedImageError
 
+    with _own_size_limit(Image):
+        return _decode(Image, UnidentifiedImageError, data, srgb=srgb, what=what, require=require)
+
+
+@contextmanager
+def _own_size_limit(Image):
+    """Pillow's decompression-bomb guard off while clrender decodes (MAX_TEXTURE_SIDE and memory.require are the
+    limits, checked on the header's size before any texel is decoded): Pillow would warn past 89.5 M texels and
+    refuse past 179 M, under the 16384^2 the docs allow.  Scoped: Image.MAX_IMAGE_PIXELS is restored after."""
+    import warnings
+
+    kept = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = kept
+
+
+def _decode(Image, UnidentifiedImageError, data, *, srgb: bool, what: str, require) -> np.ndarray:
     try:
         image = Image.open(io.BytesIO(data) if isinstance(data, bytes) else Path(data))
         width, height = image.size
