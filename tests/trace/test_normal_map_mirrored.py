@@ -39,7 +39,9 @@ def gltf(tmp_path, with_tangent: bool):
         blob += a.tobytes()
         offset += a.nbytes
     kinds = [(5126, "VEC3"), (5126, "VEC3"), (5126, "VEC2"), (5123, "SCALAR"), (5126, "VEC4")]
-    accessors = [{"bufferView": i, "componentType": c, "count": 6 if t == "SCALAR" else 4, "type": t} for i, (c, t) in enumerate(kinds[: len(arrays)])]
+    accessors = [
+        {"bufferView": i, "componentType": c, "count": 6 if t == "SCALAR" else 4, "type": t} for i, (c, t) in enumerate(kinds[: len(arrays)])
+    ]
     attributes = {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, **({"TANGENT": 4} if with_tangent else {})}
     png = io.BytesIO()
     Image.fromarray(np.broadcast_to(texel_code(), (2, 2, 3)).copy()).save(png, format="PNG")
@@ -63,7 +65,10 @@ def gltf(tmp_path, with_tangent: bool):
         "extensions": {"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": math.pi}]}},
         "meshes": [{"primitives": [{"attributes": attributes, "indices": 3, "material": 0}]}],
         "materials": [
-            {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}, "normalTexture": {"index": 0}}
+            {
+                "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+                "normalTexture": {"index": 0},
+            }
         ],
         "textures": [{"source": 0}],
         "images": [{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}],
