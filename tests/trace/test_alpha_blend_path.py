@@ -63,3 +63,25 @@ def test_instanced_blend_path_render_at_the_default_layout(tmp_path):
     assert r.tracer.defines.get("INSTANCED") == 1
     image = r.run().image
     assert np.isfinite(image).all() and image.max() > 0
+
+
+@pytest.mark.slow
+def test_alpha_variant_private_memory_stays_near_the_plain_one():
+    """Defect 0's cause: each inlined closest_hit holds its own traversal stacks, and the ALPHA_TEST variant's
+    look-past loop had two call sites in every visibility test plus a private copy of the 256-byte Material, so
+    the instanced path kernel's private memory doubled (Intel's CL_KERNEL_PRIVATE_MEM_SIZE: 985,984 B without
+    ALPHA_TEST, 2,001,664 B with; now 1,003,392 B), which PoCL's stack could not hold at 64-item groups.  The
+    variant may cost a little more, never a second copy of the stacks."""
+    import pyopencl as cl
+
+    from clrender.device import get_device
+    from clrender.trace.tracer import trace_defines
+
+    dev = get_device()
+    sizes = []
+    for extra in ({}, {"ALPHA_TEST": 1}):
+        kernel = dev.program("path.cl", {**trace_defines(instanced=True), "WRITE_AOV": 0, **extra}).render_path
+        sizes.append(kernel.get_work_group_info(cl.kernel_work_group_info.PRIVATE_MEM_SIZE, dev.device))
+    if sizes[0] == 0:
+        pytest.skip(f"{dev.name} reports no private memory size")
+    assert sizes[1] <= 1.25 * sizes[0], sizes
