@@ -54,10 +54,9 @@ INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, 
     *alpha = 1.0f;
     if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
     *alpha = gm->alpha;
-    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) {
-        Material m = *gm;
-        *alpha *= slot_texel(tv, &m, TEXTURE_BASE_COLOR, hit_data(g, h), h.u, h.v).w;
-    }
+    /* read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed
+     * PoCL's stack at 64-item groups (issue 38, defect 0; docs/materials.md#alpha-modes) */
+    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) *alpha *= material_texel(tv, gm, TEXTURE_BASE_COLOR, hit_data(g, h), h.u, h.v).w;
     return gm;
 }
 

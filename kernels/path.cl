@@ -287,9 +287,10 @@ INLINE float power_heuristic(float a, float b) {
  * for a camera ray, culled back faces (alpha.h). */
 INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, bool camera, Rng *rng, uint *visits) {
 #if LOOK_PAST
-    for (int k = 0; k < ALPHA_LAYERS; ++k) {
+    /* one closest_hit call site (each inlined copy holds its own traversal stacks): the last layer is kept */
+    for (int k = 0;; ++k) {
         Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
-        if (h.id < 0) return h;
+        if (h.id < 0 || k == ALPHA_LAYERS) return h;
         t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
 #if CULL_BACKFACES
         if (camera && back_culled(&s->geo, h, r.o, r.d)) continue;
@@ -300,8 +301,9 @@ INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, bool ca
         return h;
 #endif
     }
-#endif
+#else
     return closest_hit(&s->geo, r, t_min, t_max, visits);
+#endif
 }
 
 /* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..package_data import data_dir
-from . import environment, gltf, textures
+from . import environment, gltf, obj_mtl, textures
 from .camera import Camera, read_camera
 
 # The limits and the shared checks live in checks.py (every reader imports them); named here too for older callers.
@@ -424,7 +424,11 @@ def _adopt_file_materials(checks: Checks, scene) -> None:
             continue
         adopted.add(name)
         ref = None
-        if image is not None:
+        if isinstance(image, Path):  # an OBJ's map_Kd, checked by obj_mtl: decoded from its file
+            pixels = textures.decode(image, srgb=True, what=f"{obj.source} map_Kd", require=require)
+            ref = textures.TextureRef(texture=name, index=len(scene.textures))
+            scene.textures.append(textures.TextureImage(pixels, source=f"{obj.source} map_Kd"))
+        elif image is not None:
             buffer = io.BytesIO()
             try:
                 image.save(buffer, format="PNG")
@@ -482,7 +486,8 @@ def _load_mesh_scene(path, allow_outside: bool = True, up: str = "y", smooth: bo
         normals = shading_normals(vertices, tm.faces)
     uvs, _, _, _ = _vertex_attributes(tm)  # an OBJ's vt, for its map_Kd
     mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", smooth, source=path.name, uvs=uvs)
-    mesh.file_material = textures.mtl_material(tm)  # an OBJ's .mtl, as a TOML `file =` object gets it
+    # an OBJ's .mtl, as a TOML `file =` object gets it
+    mesh.file_material = textures.mtl_material(tm, tm.metadata.get(obj_mtl.METADATA_KEY, False))
 
     def fields(table: dict) -> dict:  # a scene dict's table as dataclass fields: lists as tuples, no `name`
         return {k: tuple(v) if isinstance(v, list) else v for k, v in table.items() if k != "name"}
@@ -693,7 +698,7 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     mesh.uvs, mesh.uvs1, mesh.colours, mesh.tangents = uvs, uvs1, colours, tangents
     mesh.shape_key, mesh.local_vertices, mesh.to_world = key, local_vertices, to_world
     if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
-        mesh.file_material = textures.mtl_material(tm)
+        mesh.file_material = textures.mtl_material(tm, tm.metadata.get(obj_mtl.METADATA_KEY, False))
     return mesh
 
 
@@ -909,6 +914,7 @@ def load_mesh_file(path: Path, what: str, root=None):
 
     if not path.is_file():
         raise UsageError(f"{what}: mesh file {str(path)!r} does not exist")
+    maps = obj_mtl.mtl_maps(path, root, what)  # an OBJ's map_Kd files checked before trimesh reads them
     try:
         from .confine import trimesh_resolver
         from .ply_strips import read_tristrips  # triangle strips, which trimesh does not read
@@ -942,4 +948,6 @@ def load_mesh_file(path: Path, what: str, root=None):
         raise UsageError(f"{what}: mesh {shown(path)} has face index {bad}; allowed: 0 to {len(tm.vertices) - 1} (its vertices)")
     if not np.isfinite(tm.vertices).all():
         raise UsageError(f"{what}: mesh {str(path)!r} has NaN or infinite vertices")
+    if path.suffix.lower() == ".obj":
+        tm.metadata[obj_mtl.METADATA_KEY] = maps  # None: no .mtl, so no material (textures.mtl_material)
     return tm

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -210,6 +211,42 @@ def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
     (alpha never).  UsageError for what cannot be decoded, an unsupported mode, or a size past the limits."""
     from PIL import Image, UnidentifiedImageError
 
+    with _own_size_limit(Image):
+        return _decode(Image, UnidentifiedImageError, data, srgb=srgb, what=what, require=require)
+
+
+@contextmanager
+def _own_size_limit(Image):
+    """Pillow's decompression-bomb guard off while clrender decodes (MAX_TEXTURE_SIDE and memory.require are the
+    limits, checked on the header's size before any texel is decoded): Pillow would warn past 89.5 M texels and
+    refuse past 179 M, under the 16384^2 the docs allow.  Scoped: Image.MAX_IMAGE_PIXELS is restored after."""
+    import warnings
+
+    kept = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = kept
+
+
+def check_header(path: Path, what: str) -> None:
+    """UsageError unless `path` opens as an image within MAX_TEXTURE_SIDE a side (its header only: nothing decoded)."""
+    from PIL import Image, UnidentifiedImageError
+
+    with _own_size_limit(Image):
+        try:
+            with Image.open(path) as image:
+                width, height = image.size
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+            raise UsageError(f"{what} cannot be decoded ({type(exc).__name__}); allowed: an image file Pillow reads") from None
+    if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
+        raise UsageError(f"{what} is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
+
+
+def _decode(Image, UnidentifiedImageError, data, *, srgb: bool, what: str, require) -> np.ndarray:
     try:
         image = Image.open(io.BytesIO(data) if isinstance(data, bytes) else Path(data))
         width, height = image.size
@@ -285,7 +322,7 @@ def pack(images: list) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------------ OBJ materials
-def mtl_material(tm) -> dict | None:
+def mtl_material(tm, maps=False) -> dict | None:
     """The material a mesh file brings through trimesh (an OBJ's .mtl), as Material keyword arguments plus the
     `image` trimesh decoded for map_Kd (a PIL image) under "image"; None when it brings none.  The rule: Kd is
     the diffuse colour, Ks the specular colour, Ns the Blinn-Phong exponent, 1 - d the transparency, Ke the
@@ -319,6 +356,13 @@ def mtl_material(tm) -> dict | None:
     if "transparency" in keys:
         keys["transparency"] = 1.0 - min(keys["transparency"], 1.0)
     image = getattr(material, "image", None)
+    name = str(getattr(material, "name", "") or "material")
+    if maps is not False:  # an OBJ (obj_mtl.mtl_maps): no .mtl, no material; map_Kd from the file clrender checked
+        if maps is None:
+            return None
+        # the named material's checked file; else trimesh's own image only when the .mtl has map_Kd files (an atlas
+        # of several), never its placeholder for a material without one
+        image = maps.maps.get(name) or (image if maps.maps else None)
     if not keys and image is None:
         return None
-    return {**keys, "image": image, "name": str(getattr(material, "name", "") or "material")}
+    return {**keys, "image": image, "name": name}

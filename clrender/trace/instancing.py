@@ -86,6 +86,23 @@ def inverse_affine(matrix: np.ndarray) -> np.ndarray:
     return inv
 
 
+# An object whose placing matrix is this close to singular stays flat (scene.py placed its vertices in float64):
+# its inverse, which carries rays into object space in float32, would overflow or lose the copy (a node scaled
+# by 0 along an axis, or by 1e-30); the flat scene renders it as any other mesh.  Singular values of the linear
+# part must lie in [INSTANCE_SCALE_MIN, 1 / INSTANCE_SCALE_MIN] and within INSTANCE_CONDITION_MAX of each other.
+INSTANCE_SCALE_MIN = 1e-6
+INSTANCE_CONDITION_MAX = 1e6
+
+
+def instanceable(to_world) -> bool:
+    """Whether an object placed by `to_world` may be an instance (see INSTANCE_SCALE_MIN)."""
+    m = np.asarray(to_world, np.float64)[:3, :3]
+    if not np.isfinite(m).all():
+        return False
+    sv = np.linalg.svd(m, compute_uv=False)
+    return bool(sv.min() >= INSTANCE_SCALE_MIN and sv.max() <= 1 / INSTANCE_SCALE_MIN and sv.max() <= INSTANCE_CONDITION_MAX * sv.min())
+
+
 def emissive(scene: Scene, obj) -> bool:
     """Whether an object's material emits: such objects stay flat, where the path tracer's emitter list
     (clrender/trace/path.py) finds each of their triangles in world space."""
@@ -98,7 +115,8 @@ def find_instances(scene: Scene, min_copies: int = MIN_COPIES) -> Instances:
     (objects of emissive materials stay flat: `emissive`)."""
     by_key: dict = {}
     for oid, obj in enumerate(scene.objects):
-        if isinstance(obj, Mesh) and obj.shape_key is not None and obj.to_world is not None and not emissive(scene, obj):
+        placed = isinstance(obj, Mesh) and obj.shape_key is not None and obj.to_world is not None
+        if placed and not emissive(scene, obj) and instanceable(obj.to_world):
             by_key.setdefault(obj.shape_key, []).append(oid)
     shapes, rows, flat, matrices = [], [], set(range(len(scene.objects))), {}
     base = 0

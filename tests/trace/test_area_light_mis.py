@@ -1,0 +1,64 @@
+"""The path tracer's MIS between NEE and BSDF sampling for a physical parallelogram area light (kernels/path.cl
+light_sample and area_lights_on_ray): a BSDF-sampled ray that meets the light weights itself against the light's
+area pdf converted to solid angle, dist^2 / (A cos).  Both weights must use the same pdfs to sum to 1; with dist in
+place of dist^2 they do not, and the floor's radiance is biased.  Reference: Lambert's exact irradiance of a
+polygon (tests/trace/test_area_light.py's lambert_irradiance, numpy), averaged over each pixel's area (the box
+filter) on a 4 x 4 grid; the floor (kd = 1) shows E / pi.  One bounce (max_depth 1) lets BSDF rays from the
+floor reach the light; the floor sees nothing else (the light is not geometry, the sky is black)."""
+
+import numpy as np
+
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+
+from tests.trace.test_area_light import SIZE, lambert_irradiance
+
+# A large light high above (behind the camera, which looks down from under it): its solid-angle pdf dist^2 / (A cos)
+# is small, so BSDF sampling takes most of the MIS weight, and dist (4 and more) is far from dist^2: the wrong pdf
+# puts 49 % more light on the floor.
+LIGHT = dict(type="area", corner=[-5.0, 4.0, -5.0], edge_a=[10.0, 0, 0], edge_b=[0, 0, 10.0], intensity=2.0, falloff="inverse_square")
+CAMERA = dict(position=[0, 2, 0], look_at=[0, 0, 0], up=[0, 0, -1], fov=50)
+SUB = 4  # sub-pixel grid of the reference
+
+
+def floor_points(sub):
+    """Floor points (y = 0) under the camera straight above (image up = -z) at pixel positions (i + s) / SIZE."""
+    half = np.tan(np.radians(CAMERA["fov"]) / 2) * CAMERA["position"][1]
+    s = (np.arange(SIZE * sub) + 0.5) / (SIZE * sub) * 2 - 1
+    x = np.broadcast_to(s[None, :] * half, (SIZE * sub, SIZE * sub))
+    z = np.broadcast_to(s[:, None] * half, (SIZE * sub, SIZE * sub))
+    return np.stack([x, np.zeros_like(x), z], axis=-1)
+
+
+def light_seen(points):
+    """Whether the ray from the camera to each floor point crosses the light's parallelogram."""
+    eye = np.array(CAMERA["position"], float)
+    c, a, b = (np.array(LIGHT[k], float) for k in ("corner", "edge_a", "edge_b"))
+    n = np.cross(a, b)
+    d = points - eye
+    t = ((c - eye) @ n) / (d @ n)
+    q = eye + t[..., None] * d - c
+    # q = u a + v b: solve in the plane by least squares on the 3 components
+    m = np.stack([a, b], axis=1)
+    uv = np.linalg.lstsq(m, q.reshape(-1, 3).T, rcond=None)[0].T.reshape(*q.shape[:-1], 2)
+    return (t > 0) & (t < 1) & (uv >= 0).all(-1) & (uv <= 1).all(-1)
+
+
+def test_bsdf_rays_meeting_an_area_light_are_weighted_by_the_solid_angle_pdf():
+    scene = Scene.from_dict(
+        {
+            "width": SIZE,
+            "height": SIZE,
+            "cameras": [CAMERA],
+            "materials": {"white": {"diffuse": [1, 1, 1], "specular": [0, 0, 0]}},
+            "lights": [LIGHT],
+            "objects": [{"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"}],
+        }
+    )
+    image = Renderer(scene, integrator="path", spp=64, max_depth=1, seed=5).run().image[..., 0].astype(np.float64)
+    fine = floor_points(SUB)
+    reference = (lambert_irradiance(fine, LIGHT) / np.pi).reshape(SIZE, SUB, SIZE, SUB).mean(axis=(1, 3))
+    clear = ~light_seen(fine).reshape(SIZE, SUB, SIZE, SUB).any(axis=(1, 3))  # pixels that never see the light itself
+    assert clear.all() and reference.min() > 0.1
+    ratio = image[clear].sum() / reference[clear].sum()
+    assert abs(ratio - 1) < 0.02, ratio  # 1.0009 measured; dist for dist^2: 1.487
