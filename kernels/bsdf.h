@@ -403,7 +403,8 @@ INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float
     return s;
 }
 
-#include "bsdf_exchange.h" /* the lobes Mitsuba and pbrt scenes need: metal, coated diffuse, thin dielectric */
+/* the lobes Mitsuba and pbrt scenes need: metal, coated diffuse, thin dielectric */
+#include "bsdf_exchange.h"
 
 /* ---- dispatch by lobe code */
 INLINE float3 bsdf_eval(int lobe, BsdfParams p, float3 wo, float3 wi) {

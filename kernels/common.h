@@ -18,7 +18,8 @@
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 
-#include "layout.h" /* checks clrender/layout.py's header (values and record structs) came with the build */
+/* checks clrender/layout.py's header (values and record structs) came with the build */
+#include "layout.h"
 
 /* The traversal's build knobs come from the host (clrender.trace.tracer.trace_defines), never from defaults here:
  * USE_BVH (0: test every primitive), MAX_DEPTH (longest mirror/refraction chain a kernel supports),

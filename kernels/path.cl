@@ -24,9 +24,11 @@
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
-#include "alpha.h" /* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
+/* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
+#include "alpha.h"
 #include "spot.h"
-#include "film.h"  /* the reconstruction filters of SPLAT_FILTER */
+/* the reconstruction filters of SPLAT_FILTER */
+#include "film.h"
 
 #define RR_DEPTH 3          /* Russian roulette from this many bounces on */
 #define BETA_LIMIT 1e18f /* a path's throughput past this ends it (no pixel may be inf or NaN) */

@@ -4,7 +4,8 @@
 #ifndef CLRENDER_SAMPLING_H
 #define CLRENDER_SAMPLING_H
 
-#include "layout.h" /* the PIXEL_FILTER_* codes */
+/* the PIXEL_FILTER_* codes */
+#include "layout.h"
 #include "rng.h"
 
 /* Bit reversal by a byte table: compilers turn the shift-and-mask idiom into

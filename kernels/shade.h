@@ -19,7 +19,8 @@
 #include "shaft.h"
 #include "envmap.h"
 #include "texture.h"
-#include "alpha.h" /* ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) */
+/* ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) */
+#include "alpha.h"
 #include "spot.h"
 
 #ifndef WRITE_AOV

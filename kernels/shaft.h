@@ -20,7 +20,8 @@
 
 #include "common.h"
 #include "intersect.h"
-#include "packet.h" /* triangle_test8: two candidate blocks against a ray at once (hit_block_pair) */
+/* triangle_test8: two candidate blocks against a ray at once (hit_block_pair) */
+#include "packet.h"
 
 #ifndef SHADOW_SHAFTS
 #error "SHADOW_SHAFTS is missing: build trace.cl with clrender.trace.tracer.trace_defines()"

@@ -28,7 +28,8 @@
  * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
  * CPU), so PoCL runs 8 SIMD lanes per splat.
  */
-#include "layout.h" /* SPLAT_TILE, SPLAT_EPS (the background's weight), the records */
+/* SPLAT_TILE, SPLAT_EPS (the background's weight), the records */
+#include "layout.h"
 
 #ifndef BLEND_NORMALIZED
 #define BLEND_NORMALIZED 0

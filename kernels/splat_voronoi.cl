@@ -17,7 +17,8 @@
  */
 #pragma OPENCL FP_CONTRACT OFF
 
-#include "layout.h" /* VORONOI_STRIP: pixels per work-item of the grid kernel */
+/* VORONOI_STRIP: pixels per work-item of the grid kernel */
+#include "layout.h"
 
 #ifndef K
 #define K 8                  /* soft model: sites blended per pixel */

@@ -42,3 +42,15 @@ def test_widening_factors_are_named_not_bare(path):
     code = re.sub(r"/\*.*?\*/", "", path.read_text(), flags=re.S)
     uses = [line.strip() for line in code.splitlines() if re.search(r"(?<![\w.])1\.000000[24]f", line) and not line.lstrip().startswith("#define")]
     assert not uses, f"{path.name}: bare widening factors in {uses}"
+
+
+@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
+def test_every_include_is_seen_by_the_binary_cache(path):
+    """pyopencl's binary cache rebuilds a program when a header it includes changes, but it finds the headers with
+    its own pattern, which takes no comment after the file name: an `#include "x.h" /* ... */` line leaves x.h
+    untracked, and an edit to x.h alone then runs the old binary."""
+    from pyopencl.cache import C_INCLUDE_RE
+
+    lines = [line for line in path.read_text().split("\n") if re.match(r"\s*#\s*include\b", line)]
+    unseen = [line for line in lines if not C_INCLUDE_RE.match(line.encode())]
+    assert not unseen, f"{path.name}: includes the binary cache does not see (put the comment on the line above): {unseen}"
