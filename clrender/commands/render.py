@@ -422,7 +422,7 @@ def _render(args):
         from ..image.denoise import denoise_result
 
         start = time.perf_counter()
-        image = denoise_result(result)
+        image = denoise_result(result).image
         denoise_seconds = time.perf_counter() - start
     if args.filter:  # after denoising: OIDN is trained on the renderer's own noise, not on filtered images
         image = filters.apply(image, *args.filter)
@@ -449,6 +449,8 @@ def _render(args):
         s = renderer.settings
         t = result.timings
         parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        if s.integrator == "path":  # what a --time-budget reached
+            parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
         if denoise_seconds is not None:
             parts.append(f"denoise {denoise_seconds:.2f}s")
         if "resample" in t:

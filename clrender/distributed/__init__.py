@@ -179,3 +179,9 @@ def turntable(scene, settings: RenderSettings | None = None, frames: int = 36, c
             images[k] = image
             bar.update()
     return images
+
+
+def __getattr__(name):  # submodules load on first use: clrender.distributed.X after a plain `import clrender`
+    from .. import _submodule
+
+    return _submodule(__name__, name)

@@ -14,12 +14,12 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import pyopencl as cl
 
-from ..errors import require, value_shown, warn
+from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -29,6 +29,9 @@ from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
 AA_MODES = ("none", "full", "edge_detect")
 INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
 MAX_SPP = 1 << 20  # paths per pixel in one pass
+# a pixel's paths are numbered by a 32-bit counter (the kernels' random numbers are keyed by it): --time-budget
+# stops before a pass would number a path past it (2**32 paths a pixel, 4096 passes at MAX_SPP)
+SAMPLE_INDEX_LIMIT = 1 << 32
 PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much sooner)
 LIGHT_SAMPLERS = ("stratified", "random")
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
@@ -213,6 +216,7 @@ class RenderResult:
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
     aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/trace/aov.py)
     samples_per_pixel: int = 0  # path integrator: paths per pixel over all passes (0 for Whitted renders)
+    passes: int = 0  # path integrator: whole-image passes run (more than one only under a time budget)
 
     @property
     def ids(self) -> np.ndarray:
@@ -236,11 +240,18 @@ class RenderResult:
 
         return srgb8(self.image, DisplaySettings(exposure=exposure, tonemap=tonemap))
 
+    def save(self, path, exposure: float = 0.0, tonemap: str = "clamp", overwrite: bool = True):
+        """Write the image: EXR, HDR and PFM scene-linear, PNG/JPEG after the display transform
+        (as srgb8); returns the path written."""
+        from ..image.files import DisplaySettings, write_display_image
+
+        return write_display_image(path, self.image, overwrite=overwrite, display=DisplaySettings(exposure=exposure, tonemap=tonemap))
+
 
 class Renderer:
     def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):
         self.scene = Scene.load(scene) if not isinstance(scene, Scene) else scene
-        self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
+        self.settings = settings_with(settings, overrides).validate(self.scene)
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
@@ -359,7 +370,7 @@ class Renderer:
         s = self.settings
         start, passes, total, weight, first = time.perf_counter(), 0, 0.0, 0.0, None
         while True:
-            out = self._pass(tiles, s.sampler, s.samples, passes == 0, "trace" if passes == 0 else f"pass {passes + 1}", passes * self.spp)
+            out = self._pass(tiles, s.sampler, s.samples, passes == 0, self._pass_label(passes, time.perf_counter() - start), passes * self.spp)
             colour = out[0].astype(np.float64)
             total = total + colour[:, :3] * colour[:, 3:]
             weight = weight + colour[:, 3:]
@@ -368,8 +379,18 @@ class Renderer:
             spent = time.perf_counter() - start
             if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
                 break
+            if (passes + 1) * self.spp > SAMPLE_INDEX_LIMIT:
+                warn(f"--time-budget stopped at {passes * self.spp} paths a pixel: a pixel's paths are numbered below 2**32")
+                break
         mean = first[0][:, :3] if passes == 1 else (total / weight).astype(np.float32)
         return [mean, *first[1:]], passes
+
+    def _pass_label(self, passes: int, spent: float) -> str:
+        """The progress bar's words for a pass: with a time budget, which pass and the seconds left."""
+        budget = self.settings.time_budget
+        if budget is None:
+            return "trace"
+        return f"pass {passes + 1}, {max(budget - spent, 0.0):.0f}s left"
 
     def run(self) -> RenderResult:
         s = self.settings
@@ -395,6 +416,7 @@ class Renderer:
             image.reshape(H, W, 3), records["path"], records["facet"], shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays)
         )
         result.samples_per_pixel = passes * self.spp if s.integrator == "path" else 0
+        result.passes = passes if s.integrator == "path" else 0
         if s.aa == "edge_detect":
             self._resample_edges(result)
         if s.aovs:
@@ -447,6 +469,17 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
+
+
+def settings_with(settings, overrides: dict) -> RenderSettings:
+    """`settings` (a RenderSettings or None for the defaults) with the keyword overrides; UsageError for anything else."""
+    if not (settings is None or isinstance(settings, RenderSettings)):
+        raise UsageError(f"settings {value_shown(settings)} is not allowed; allowed: a clrender.RenderSettings or None (keywords set single values)")
+    names = [f.name for f in fields(RenderSettings)]
+    unknown = [k for k in overrides if k not in names]
+    if unknown:
+        raise UsageError(f"unknown render setting {unknown[0]!r}; allowed: {', '.join(names)}")
+    return replace(settings or RenderSettings(), **overrides)
 
 
 def instancing_for(scene: Scene, settings: RenderSettings) -> bool:
