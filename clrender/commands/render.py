@@ -26,6 +26,11 @@ EXAMPLES = """examples:
 """
 
 
+# setup phases of RenderResult.timings besides load, bvh and compile, named in the summary when they take this long
+SETUP_PHASES = ("geometry", "attributes", "textures", "upload", "emitters")
+SHOWN_PHASE_SECONDS = 0.1
+
+
 def _bool(text: str) -> bool:
     low = text.lower()
     if low in ("true", "1", "yes", "on"):
@@ -448,7 +453,9 @@ def _render(args):
     if not args.quiet:
         s = renderer.settings
         t = result.timings
-        parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        parts = [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s"]
+        parts += [f"{name} {t[name]:.2f}s" for name in SETUP_PHASES if t.get(name, 0.0) >= SHOWN_PHASE_SECONDS]
+        parts += [f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
         if s.integrator == "path":  # what a --time-budget reached
             parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
         if denoise_seconds is not None:

@@ -211,7 +211,9 @@ class RenderResult:
     facets: np.ndarray  # (H, W) int32 primitive id of the primary hit on a flat-shaded mesh, else -1
     shadow: np.ndarray  # (H, W, L) float32 visible fraction of each light at the primary hit
     edge_mask: np.ndarray | None  # (H, W) bool pixels resampled by edge-only AA
-    timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
+    # seconds: "bvh", the other setup phases ("attributes", "textures", "geometry", "upload", "emitters"), "compile",
+    # "trace", "edges", "resample"
+    timings: dict = field(default_factory=dict)
     node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
     aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/trace/aov.py)
@@ -255,6 +257,7 @@ class Renderer:
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
+        start = time.perf_counter()
         self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)
         self.params = self._params()
@@ -263,7 +266,7 @@ class Renderer:
         from .envmap import upload
 
         self.env = upload(dev, self.scene.environment_map)  # the env_* kernel arguments (a placeholder without a map)
-        start = time.perf_counter()
+        self.setup_seconds = {"upload": time.perf_counter() - start}  # camera, lights, environment map and its distribution
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
         # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
         defines = {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)}
@@ -277,11 +280,15 @@ class Renderer:
         if s.integrator == "path":
             from .path import emitters
 
+            start = time.perf_counter()
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
+            self.setup_seconds["emitters"] = time.perf_counter() - start
+            start = time.perf_counter()
             self.kernel = dev.kernel("path.cl", "render_path", defines)
         else:
+            start = time.perf_counter()
             self.kernel = dev.kernel("trace.cl", "render", defines)
         self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
         self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
@@ -395,7 +402,8 @@ class Renderer:
     def run(self) -> RenderResult:
         s = self.settings
         H, W = s.height, s.width
-        timings = {"bvh": self.tracer.bvh_seconds, "compile": self.compile_seconds}
+        # every setup phase (docs/command-line.md, "Timings"): the tracer's and the renderer's, then the kernels' compile
+        timings = {"bvh": self.tracer.bvh_seconds, **self.tracer.setup_seconds, **self.setup_seconds, "compile": self.compile_seconds}
         tiles = list(self.tiles())
         order = np.concatenate(tiles)
         first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
