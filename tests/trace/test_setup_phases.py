@@ -12,6 +12,7 @@ import clrender.trace.tracer as tracer_module
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
+
 from tests.clitools import run_cli
 
 CARD_OBJ = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
