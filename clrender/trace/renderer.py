@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 import pyopencl as cl
 
+from ..device import compile_notice
 from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
@@ -268,15 +269,9 @@ class Renderer:
         self.env = upload(dev, self.scene.environment_map)  # the env_* kernel arguments (a placeholder without a map)
         self.setup_seconds = {"upload": time.perf_counter() - start}  # camera, lights, environment map and its distribution
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
-        # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
-        defines = {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)}
-        # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
-        # (kernels/alpha.h); scenes without them keep the kernels they had
-        if any(m.alpha_mode != "opaque" for m in self.scene.materials.values()):
-            defines["ALPHA_TEST"] = 1
-        # ... and single-sided materials (glTF doubleSided false) hide their back faces from camera rays
-        if not all(m.double_sided for m in self.scene.materials.values()):
-            defines["CULL_BACKFACES"] = 1
+        materials = self.scene.materials.values()
+        alpha_test, cull = any(m.alpha_mode != "opaque" for m in materials), not all(m.double_sided for m in materials)
+        defines = render_defines(self.tracer.defines, self.write_aov, alpha_test, cull)
         if s.integrator == "path":
             from .path import emitters
 
@@ -285,13 +280,12 @@ class Renderer:
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
             self.setup_seconds["emitters"] = time.perf_counter() - start
-            start = time.perf_counter()
-            self.kernel = dev.kernel("path.cl", "render_path", defines)
-        else:
-            start = time.perf_counter()
-            self.kernel = dev.kernel("trace.cl", "render", defines)
-        self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
-        self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
+        start = time.perf_counter()
+        with compile_notice(dev):  # a line on stderr when the build is slow (a cold cache)
+            file, name = ("path.cl", "render_path") if s.integrator == "path" else ("trace.cl", "render")
+            self.kernel = dev.kernel(file, name, defines)
+            self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
+            self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
     def _params(self) -> np.ndarray:
@@ -477,6 +471,21 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
+
+
+def render_defines(tracer_defines: dict, write_aov: bool, alpha_test: bool, cull_backfaces: bool) -> dict:
+    """The render kernel's -D variant (both integrators): the Tracer's, and
+    - WRITE_AOV: renders without AOVs build and run the kernel with the AOV writes compiled out;
+    - ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+      (kernels/alpha.h); scenes without them keep the kernels they had;
+    - CULL_BACKFACES: single-sided materials (glTF doubleSided false) hide their back faces from camera rays.
+    clrender/warmup.py builds every combination of them."""
+    defines = {**tracer_defines, "WRITE_AOV": int(write_aov)}
+    if alpha_test:
+        defines["ALPHA_TEST"] = 1
+    if cull_backfaces:
+        defines["CULL_BACKFACES"] = 1
+    return defines
 
 
 def settings_with(settings, overrides: dict) -> RenderSettings:
