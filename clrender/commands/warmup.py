@@ -22,7 +22,7 @@ def add_parser(sub):
     )
     add_device_argument(p)
     p.add_argument("--list", action="store_true", help="print the variants and compile nothing")
-    p.add_argument("--only", metavar="TEXT", default=None, help="only the variants whose description contains TEXT")
+    p.add_argument("--only", metavar="TEXT", default=None, help="only the variants whose description contains TEXT (default: every variant)")
     p.set_defaults(run=run)
 
 
