@@ -132,7 +132,20 @@ def test_the_set_up_commands_are_the_readmes_first_code_block_and_ci_runs_the_se
 
 def collected(*args):
     proc = subprocess.run(
-        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:randomly", *args, "tests/docs/test_docs_commands.py"],
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "--collect-only",
+            "-q",
+            "--noconftest",
+            "-p",
+            "no:randomly",
+            "-p",
+            "no:cacheprovider",
+            *args,
+            "tests/docs/test_docs_commands.py",
+        ],
         cwd=ROOT,
         capture_output=True,
         text=True,
