@@ -85,3 +85,13 @@ def test_a_fast_build_or_quiet_says_nothing(device, slow_build, capsys, monkeypa
     device.build("__kernel void k(void) {}", "k.cl")
     time.sleep(0.1)
     assert capsys.readouterr().err == ""
+
+
+def test_python_m_clrender_warmup_is_the_subcommand(capsys):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "clrender.warmup", "--list"], capture_output=True, text=True, timeout=120)
+    code, out, err = run_cli(capsys, "warmup", "--list")
+    assert proc.returncode == code == 0, proc.stderr
+    assert proc.stdout == out
