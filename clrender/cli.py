@@ -1,4 +1,4 @@
-"""`clrender` command line: subcommands render, convolve, splat {gauss,render,sweep,voronoi}, devices.
+"""`clrender` command line: subcommands render, convolve, splat {gauss,render,sweep,voronoi}, devices, warmup.
 
 Errors are one line on stderr, `clrender: <what was wrong and what is
 allowed>`: exit 2 for bad input (UsageError), 1 for a failure at run time
@@ -56,7 +56,7 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
 
 def build_parser() -> ArgumentParser:
-    from .commands import convert, convolve, devices, render, splat
+    from .commands import convert, convolve, devices, render, splat, warmup
 
     parser = ArgumentParser(
         prog="clrender",
@@ -75,7 +75,7 @@ def build_parser() -> ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
     sub.required = True
-    for module in (render, convert, convolve, splat, devices):
+    for module in (render, convert, convolve, splat, devices, warmup):
         module.add_parser(sub)
     return parser
 

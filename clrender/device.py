@@ -15,6 +15,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -84,7 +86,7 @@ class Device:
         options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
         start = time.perf_counter()
         try:
-            with library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
+            with compile_notice(self), library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
                 prg = cl.Program(self.context, source).build(options=options)
         except cl.RuntimeError as exc:
             logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
@@ -140,6 +142,38 @@ class Device:
             raise UsageError(
                 f"{what} needs {nbytes / 2**20:.0f} MiB but the device {self.name!r} allows at most {limit / 2**20:.0f} MiB in one buffer"
             )
+
+
+COMPILE_NOTICE_SECONDS = 1.5  # a build still running after this long is a cold one: say so, once a process
+_compile_notice = {"said": False, "open": 0}
+
+
+@contextlib.contextmanager
+def compile_notice(device: Device):
+    """Around a kernel build: if it is still running after COMPILE_NOTICE_SECONDS, one line on stderr (once a
+    process, not under -q) saying that kernels are being compiled, so a cold start does not look like a hang.
+    A build from pyopencl's binary cache ends before the line is due; nested uses start one timer."""
+    from . import progress
+
+    if _compile_notice["said"] or _compile_notice["open"] or progress.SHOW is False:
+        yield
+        return
+
+    def say():
+        if not _compile_notice["said"] and progress.SHOW is not False:
+            _compile_notice["said"] = True
+            sys.stderr.write(f"clrender: compiling kernels for {device.name} (first run; cached afterwards)...\n")
+            sys.stderr.flush()
+
+    timer = threading.Timer(COMPILE_NOTICE_SECONDS, say)
+    timer.daemon = True
+    _compile_notice["open"] += 1
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+        _compile_notice["open"] -= 1
 
 
 def build_options(defines: dict | None = None) -> list[str]:

@@ -347,7 +347,7 @@ PATH_PARAMS_DTYPE = np.dtype(
         ("width", "<i4"),
         ("height", "<i4"),
         ("spp", "<i4"),  # paths per pixel in this pass
-        ("first_sample", "<i4"),  # index of the pass's first path in each pixel's sequence (passes * spp)
+        ("first_sample", "<u4"),  # index of the pass's first path in each pixel's sequence (passes * spp; below 2**32)
         ("seed", "<u4"),
         ("max_depth", "<i4"),  # bounces after the primary hit
         ("sampler", "<i4"),  # SAMPLERS code: pixel positions when spp is samples_per_side^2

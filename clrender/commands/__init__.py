@@ -9,3 +9,9 @@ def add_device_argument(p) -> None:
         help="OpenCL device, a substring of '<platform>: <device>' as 'clrender devices' lists them "
         "(default: $CLRENDER_DEVICE, else PoCL's CPU device)",
     )
+
+
+def __getattr__(name):  # submodules load on first use: clrender.commands.X after a plain `import clrender`
+    from .. import _submodule
+
+    return _submodule(__name__, name)

@@ -27,6 +27,11 @@ EXAMPLES = """examples:
 """
 
 
+# setup phases of RenderResult.timings besides load, bvh and compile, named in the summary when they take this long
+SETUP_PHASES = ("geometry", "attributes", "textures", "upload", "emitters")
+SHOWN_PHASE_SECONDS = 0.1
+
+
 def _bool(text: str) -> bool:
     low = text.lower()
     if low in ("true", "1", "yes", "on"):
@@ -565,7 +570,7 @@ def _render(args):
         from ..image.denoise import denoise_result
 
         start = time.perf_counter()
-        image = denoise_result(result)
+        image = denoise_result(result).image
         denoise_seconds = time.perf_counter() - start
     if args.filter:  # after denoising: OIDN is trained on the renderer's own noise, not on filtered images
         image = filters.apply(image, *args.filter)
@@ -598,7 +603,11 @@ def _render(args):
         s = renderer.settings
         t = result.timings
         parts = [f"exposure {display.exposure:+.2f} (auto)"] if auto_exposure_wanted(args) and display.exposure else []
-        parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s", f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s"]
+        parts += [f"{name} {t[name]:.2f}s" for name in SETUP_PHASES if t.get(name, 0.0) >= SHOWN_PHASE_SECONDS]
+        parts += [f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+        if s.integrator == "path":  # what a --time-budget reached
+            parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
         if denoise_seconds is not None:
             parts.append(f"denoise {denoise_seconds:.2f}s")
         if "resample" in t:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import time
 import uuid
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -54,6 +54,7 @@ class _SceneSummary:
 
     n_prims: int
     bvh_seconds: float = 0.0
+    setup_seconds: dict = field(default_factory=dict)  # the workers' setup phases are not sent back
 
 
 def _client(client):
@@ -84,6 +85,7 @@ class DistributedRenderer(Renderer):
         self.n_lights = len(self.scene.lights)
         self.tracer = _SceneSummary(n_prims=self.scene.triangle_count + self.scene.sphere_count)
         self.compile_seconds = 0.0
+        self.setup_seconds = {}
         self.payload = split(self.scene)
         self.task_log: list[dict] = []  # one entry per finished task: worker pid, setup and compute seconds
         self.first_result_seconds = None  # from run() to the first tile back on the client
@@ -179,3 +181,9 @@ def turntable(scene, settings: RenderSettings | None = None, frames: int = 36, c
             images[k] = image
             bar.update()
     return images
+
+
+def __getattr__(name):  # submodules load on first use: clrender.distributed.X after a plain `import clrender`
+    from .. import _submodule
+
+    return _submodule(__name__, name)

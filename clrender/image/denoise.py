@@ -53,7 +53,7 @@ def denoise(image: np.ndarray, albedo=None, normal=None, settings: DenoiseSettin
     """The denoised (H, W, 3) float32 linear image; albedo and normal (H, W, 3) are the auxiliary images."""
     s = settings or DenoiseSettings()
     pyoidn = require_oidn()
-    color = np.ascontiguousarray(np.maximum(np.nan_to_num(np.asarray(image, np.float32)), 0.0))  # OIDN takes HDR >= 0
+    color = np.ascontiguousarray(np.maximum(np.nan_to_num(rgb_image(image, "the image to denoise")), 0.0))  # OIDN takes HDR >= 0
     if not s.use_aux:
         albedo = normal = None
     if normal is not None and albedo is None:
@@ -68,8 +68,27 @@ def denoise(image: np.ndarray, albedo=None, normal=None, settings: DenoiseSettin
     return np.asarray(out, np.float32)
 
 
-def denoise_result(result, settings: DenoiseSettings | None = None) -> np.ndarray:
-    """A path-traced RenderResult's image, denoised with its albedo and normal AOVs
-    (render with `aovs=("albedo", "normal")`)."""
-    albedo, normal = aux_images(result.aovs)
-    return denoise(result.image, albedo, normal, settings)
+def rgb_image(image, name: str) -> np.ndarray:
+    """`image` as float32 (H, W, 3) linear RGB; UsageError naming its shape or type otherwise."""
+    try:
+        a = np.asarray(image)
+    except (ValueError, TypeError):  # a ragged list
+        raise UsageError(f"{name} must be an (H, W, 3) array of real numbers; got a ragged sequence") from None
+    if a.dtype.kind not in "iuf":
+        raise UsageError(f"{name} must be real numbers; got an array of {a.dtype} of shape {a.shape}")
+    if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] < 1 or a.shape[1] < 1:
+        raise UsageError(f"{name} has shape {a.shape}; allowed: (H, W, 3), linear RGB")
+    return a.astype(np.float32, copy=False)
+
+
+def denoise_result(result, settings: DenoiseSettings | None = None):
+    """A copy of a path-traced RenderResult whose image is denoised with its albedo and normal AOVs
+    (render with `aovs=("albedo", "normal")`): it shows, converts (`.srgb8()`) and saves (`.save(path)`)
+    like any render result; its timings gain "denoise"."""
+    from dataclasses import replace
+    from time import perf_counter
+
+    start = perf_counter()
+    albedo, normal = aux_images(getattr(result, "aovs", None) or {})
+    image = denoise(result.image, albedo, normal, settings)
+    return replace(result, image=image, timings={**result.timings, "denoise": perf_counter() - start})

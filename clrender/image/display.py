@@ -50,16 +50,16 @@ def png_bytes(image, *, linear: bool = True) -> bytes:
 
 def show(image, *, linear: bool = True, title: str | None = None):
     """Show an image array (linear RGB by default; linear=False for stored values, masks need
-    neither) or anything with `_repr_png_` (RenderResult, splat results).  Returns what it shows
-    with: an IPython Image, a matplotlib Figure, or the Path of the PNG it wrote."""
+    neither) or anything with `_repr_png_` (RenderResult, splat results).  Under Jupyter it displays the
+    picture and returns None (so `show(x)` as a cell's last line shows it once); elsewhere it returns
+    the matplotlib Figure, or the Path of the PNG it wrote."""
     png = image._repr_png_() if hasattr(image, "_repr_png_") else png_bytes(image, linear=linear)
     ipython = _ipython()
     if ipython is not None:
         from IPython.display import Image, display
 
-        shown = Image(data=png)
-        display(shown)
-        return shown
+        display(Image(data=png))
+        return None
     import matplotlib
 
     if matplotlib.get_backend().lower() not in ("agg", "pdf", "ps", "svg", "cairo", "template"):

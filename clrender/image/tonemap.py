@@ -35,9 +35,10 @@ class DisplaySettings:
     tonemap: Tonemap = Tonemap.CLAMP  # the curve; clamp keeps the historic output bit for bit
 
     def __post_init__(self):
-        if not np.isfinite(self.exposure) or abs(self.exposure) > 64:
+        real = isinstance(self.exposure, (int, float, np.integer, np.floating)) and not isinstance(self.exposure, (bool, np.bool_))
+        if not real or not np.isfinite(self.exposure) or abs(self.exposure) > 64:
             raise UsageError(f"exposure {self.exposure!r} is not allowed; allowed: a number of stops from -64 to 64")
-        if self.tonemap not in TONEMAPS:
+        if not isinstance(self.tonemap, str) or self.tonemap not in TONEMAPS:
             raise UsageError(f"tonemap {self.tonemap!r} is not allowed; allowed: {'|'.join(TONEMAPS)}")
         object.__setattr__(self, "tonemap", Tonemap(self.tonemap))
 

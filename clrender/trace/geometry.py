@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..device import aligned_zeros
-from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE
+from ..layout import MATERIAL_DTYPE, OBJECT_DTYPE, PRIM_SLOT_DTYPE, SPHERE_SLOT_DTYPE, TEXTURE_SLOTS, VERTEX_ATTRIBUTES_DTYPE
 from ..scene.scene import Mesh, Scene, Sphere
 
 CHUNK = 1 << 18  # triangles gathered at a time: float64 temporaries of ~19 MB, not 72 B per triangle at once
@@ -65,12 +65,22 @@ class Primitives:
                 out[first + lo : first + min(lo + CHUNK, len(f))] = n[f[lo : lo + CHUNK]].astype(np.float32)
             first += len(f)
 
-    def triangle_attributes_into(self, out: np.ndarray) -> None:
-        """Write every triangle's VertexAttributes record into out[id] (uvs zeros and colours ones where none)."""
+    def triangle_attributes_into(self, out: np.ndarray, tangents: list | None = None) -> None:
+        """Write every triangle's VertexAttributes record into out[id] (uvs zeros and colours ones where none).
+        tangents: per mesh, whether a normal map reads its tangents (None: each mesh's material says); tangents
+        are generated from the UVs only there (zeros elsewhere: nothing reads them)."""
         first = 0
-        for m in self.mesh_objects:
-            out[first : first + len(m.faces)] = _attributes(m)
+        if tangents is None:
+            normal_mapped = self.normal_mapped_materials()
+            tangents = [m.material in normal_mapped for m in self.mesh_objects]
+        for m, needs_tangents in zip(self.mesh_objects, tangents):
+            out[first : first + len(m.faces)] = _attributes(m, needs_tangents)
             first += len(m.faces)
+
+    def normal_mapped_materials(self) -> set:
+        """The names of the materials with a normal map (layout.TEXTURE_SLOTS "normal"), which read tangents."""
+        slot = TEXTURE_SLOTS["normal"]
+        return {name for name, record in zip(self.material_names, self.materials) if record["textures"][slot] >= 0}
 
     def bounds(self):
         """Per-primitive axis-aligned bounds (lo, hi), each (N, 3) float32, conservatively rounded."""
@@ -113,14 +123,15 @@ def flatten(scene: Scene) -> Primitives:
     return Primitives(meshes, smooth, mesh_objects, spheres, object_of, objects, materials, names, textures, scene.has_vertex_attributes)
 
 
-def _attributes(mesh: Mesh) -> np.ndarray:
-    """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without)."""
+def _attributes(mesh: Mesh, needs_tangents: bool = True) -> np.ndarray:
+    """A mesh's VertexAttributes records, one a face: its uvs (zeros without) and colours (ones without), and
+    its tangents where it has them or, when a normal map needs them, from its UVs (vertex_tangents)."""
     out = np.zeros(len(mesh.faces), VERTEX_ATTRIBUTES_DTYPE)
     out["colour"] = 1.0
     for name, values in (("uv", mesh.uvs), ("uv1", mesh.uvs1), ("colour", mesh.colours), ("tangent", mesh.tangents)):
         if values is not None:
             out[name] = np.asarray(values)[mesh.faces]
-    if mesh.tangents is None and mesh.uvs is not None:
+    if mesh.tangents is None and mesh.uvs is not None and needs_tangents:
         normals = mesh.vertex_normals if mesh.smooth and mesh.vertex_normals is not None else None
         out["tangent"] = vertex_tangents(mesh.vertices, mesh.faces, np.asarray(mesh.uvs), normals)
     return out

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
 from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, PIXEL_FILTERS, SAMPLERS, TEXTURE_SLOTS
 from .geometry import Primitives
 
@@ -57,6 +58,9 @@ def path_params(renderer, k: int, first_sample: int, record: bool) -> np.ndarray
     p["environment"] = renderer.scene.environment
     p["n_work"], p["n_prims"], p["n_lights"], p["n_emitters"] = k, renderer.tracer.n_prims, renderer.n_lights, renderer.n_emitters
     p["width"], p["height"] = s.width, s.height
+    if not 0 <= first_sample <= (1 << 32) - renderer.spp:  # renderer.SAMPLE_INDEX_LIMIT: the kernels' sample counter is 32-bit
+        allowed = f"0 to 2**32 - spp ({renderer.spp}), a pixel's paths are numbered below 2**32"
+        raise UsageError(f"first sample {first_sample} is not allowed; allowed: {allowed}")
     p["spp"], p["first_sample"], p["seed"], p["max_depth"] = renderer.spp, first_sample, s.seed, s.max_depth
     p["sampler"], p["samples_per_side"], p["pixel_filter"] = SAMPLERS[s.sampler], s.samples, PIXEL_FILTERS[s.pixel_filter]
     p["record"] = record

@@ -14,12 +14,13 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import pyopencl as cl
 
-from ..errors import require, value_shown, warn
+from ..device import compile_notice
+from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
 from ..progress import progress
 from ..scene.scene import Scene
@@ -30,6 +31,9 @@ from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
 AA_MODES = ("none", "full", "edge_detect")
 INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
 MAX_SPP = 1 << 20  # paths per pixel in one pass
+# a pixel's paths are numbered by a 32-bit counter (the kernels' random numbers are keyed by it): --time-budget
+# stops before a pass would number a path past it (2**32 paths a pixel, 4096 passes at MAX_SPP)
+SAMPLE_INDEX_LIMIT = 1 << 32
 PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much sooner)
 LIGHT_SAMPLERS = ("stratified", "random")
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
@@ -219,11 +223,14 @@ class RenderResult:
     facets: np.ndarray  # (H, W) int32 primitive id of the primary hit on a flat-shaded mesh, else -1
     shadow: np.ndarray  # (H, W, L) float32 visible fraction of each light at the primary hit
     edge_mask: np.ndarray | None  # (H, W) bool pixels resampled by edge-only AA
-    timings: dict = field(default_factory=dict)  # seconds: "bvh", "compile", "trace", "edges", "resample"
+    # seconds: "bvh", the other setup phases ("attributes", "textures", "geometry", "upload", "emitters"), "compile",
+    # "trace", "edges", "resample"
+    timings: dict = field(default_factory=dict)
     node_visits: int = 0  # BVH nodes visited (or primitives tested without a BVH), all rays
     rays: int = 0  # rays traced (camera, reflected, refracted, shadow)
     aovs: dict = field(default_factory=dict)  # name -> (H, W[, 3]) array for each of settings.aovs (clrender/trace/aov.py)
     samples_per_pixel: int = 0  # path integrator: paths per pixel over all passes (0 for Whitted renders)
+    passes: int = 0  # path integrator: whole-image passes run (more than one only under a time budget)
 
     @property
     def ids(self) -> np.ndarray:
@@ -247,14 +254,22 @@ class RenderResult:
 
         return srgb8(self.image, DisplaySettings(exposure=exposure, tonemap=tonemap))
 
+    def save(self, path, exposure: float = 0.0, tonemap: str = "clamp", overwrite: bool = True):
+        """Write the image: EXR, HDR and PFM scene-linear, PNG/JPEG after the display transform
+        (as srgb8); returns the path written."""
+        from ..image.files import DisplaySettings, write_display_image
+
+        return write_display_image(path, self.image, overwrite=overwrite, display=DisplaySettings(exposure=exposure, tonemap=tonemap))
+
 
 class Renderer:
     def __init__(self, scene, settings: RenderSettings | None = None, tracer: Tracer | None = None, **overrides):
         self.scene = Scene.load(scene) if not isinstance(scene, Scene) else scene
-        self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
+        self.settings = settings_with(settings, overrides).validate(self.scene)
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
+        start = time.perf_counter()
         self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
         self.n_lights = len(self.scene.lights)
         self.params = self._params()
@@ -263,28 +278,26 @@ class Renderer:
         from .envmap import upload
 
         self.env = upload(dev, self.scene.environment_map)  # the env_* kernel arguments (a placeholder without a map)
-        start = time.perf_counter()
+        self.setup_seconds = {"upload": time.perf_counter() - start}  # camera, lights, environment map and its distribution
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
-        # a -D variant: renders without AOVs build and run the kernel with the AOV writes compiled out
-        defines = {**self.tracer.defines, "WRITE_AOV": int(self.write_aov)}
-        # a -D variant: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
-        # (kernels/alpha.h); scenes without them keep the kernels they had
-        if any(m.alpha_mode != "opaque" for m in self.scene.materials.values()):
-            defines["ALPHA_TEST"] = 1
-        # ... and single-sided materials (glTF doubleSided false) hide their back faces from camera rays
-        if not all(m.double_sided for m in self.scene.materials.values()):
-            defines["CULL_BACKFACES"] = 1
+        materials = self.scene.materials.values()
+        alpha_test, cull = any(m.alpha_mode != "opaque" for m in materials), not all(m.double_sided for m in materials)
+        defines = render_defines(self.tracer.defines, self.write_aov, alpha_test, cull)
         if s.integrator == "path":
             from .path import emitters
 
+            start = time.perf_counter()
             records, index_of = emitters(self.tracer.primitives)
             self.n_emitters = len(records)
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.kernel = dev.kernel("path.cl", "render_path", {**defines, **film.defines(s.rfilter)})
-        else:
-            self.kernel = dev.kernel("trace.cl", "render", defines)
-        self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
-        self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
+            self.setup_seconds["emitters"] = time.perf_counter() - start
+            defines = {**defines, **film.defines(s.rfilter)}  # a reconstruction filter wider than a pixel splats
+        start = time.perf_counter()
+        with compile_notice(dev):  # a line on stderr when the build is slow (a cold cache)
+            file, name = ("path.cl", "render_path") if s.integrator == "path" else ("trace.cl", "render")
+            self.kernel = dev.kernel(file, name, defines)
+            self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
+            self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
     def _params(self) -> np.ndarray:
@@ -376,7 +389,7 @@ class Renderer:
         s = self.settings
         start, passes, total, weight, first = time.perf_counter(), 0, 0.0, 0.0, None
         while True:
-            out = self._pass(tiles, s.sampler, s.samples, passes == 0, "trace" if passes == 0 else f"pass {passes + 1}", passes * self.spp)
+            out = self._pass(tiles, s.sampler, s.samples, passes == 0, self._pass_label(passes, time.perf_counter() - start), passes * self.spp)
             colour = out[0].astype(np.float64) if s.rfilter == "box" else self._gathered(out[0], tiles)
             total = total + colour[:, :3] * colour[:, 3:]
             weight = weight + colour[:, 3:]
@@ -385,8 +398,18 @@ class Renderer:
             spent = time.perf_counter() - start
             if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
                 break
+            if (passes + 1) * self.spp > SAMPLE_INDEX_LIMIT:
+                warn(f"--time-budget stopped at {passes * self.spp} paths a pixel: a pixel's paths are numbered below 2**32")
+                break
         mean = first[0][:, :3] if passes == 1 and s.rfilter == "box" else (total / weight).astype(np.float32)
         return [mean, *first[1:]], passes
+
+    def _pass_label(self, passes: int, spent: float) -> str:
+        """The progress bar's words for a pass: with a time budget, which pass and the seconds left."""
+        budget = self.settings.time_budget
+        if budget is None:
+            return "trace"
+        return f"pass {passes + 1}, {max(budget - spent, 0.0):.0f}s left"
 
     def _gathered(self, splats: np.ndarray, tiles) -> np.ndarray:
         """A pass's splat slots (tile order) gathered by the film's filter (trace/film.py): (k, 4) float64 colours in
@@ -401,7 +424,8 @@ class Renderer:
     def run(self) -> RenderResult:
         s = self.settings
         H, W = s.height, s.width
-        timings = {"bvh": self.tracer.bvh_seconds, "compile": self.compile_seconds}
+        # every setup phase (docs/command-line.md, "Timings"): the tracer's and the renderer's, then the kernels' compile
+        timings = {"bvh": self.tracer.bvh_seconds, **self.tracer.setup_seconds, **self.setup_seconds, "compile": self.compile_seconds}
         tiles = list(self.tiles())
         order = np.concatenate(tiles)
         first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
@@ -422,6 +446,7 @@ class Renderer:
             image.reshape(H, W, 3), records["path"], records["facet"], shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays)
         )
         result.samples_per_pixel = passes * self.spp if s.integrator == "path" else 0
+        result.passes = passes if s.integrator == "path" else 0
         if s.aa == "edge_detect":
             self._resample_edges(result)
         if s.aovs:
@@ -474,6 +499,32 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
+
+
+def render_defines(tracer_defines: dict, write_aov: bool, alpha_test: bool, cull_backfaces: bool) -> dict:
+    """The render kernel's -D variant (both integrators): the Tracer's, and
+    - WRITE_AOV: renders without AOVs build and run the kernel with the AOV writes compiled out;
+    - ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
+      (kernels/alpha.h); scenes without them keep the kernels they had;
+    - CULL_BACKFACES: single-sided materials (glTF doubleSided false) hide their back faces from camera rays.
+    clrender/warmup.py builds every combination of them."""
+    defines = {**tracer_defines, "WRITE_AOV": int(write_aov)}
+    if alpha_test:
+        defines["ALPHA_TEST"] = 1
+    if cull_backfaces:
+        defines["CULL_BACKFACES"] = 1
+    return defines
+
+
+def settings_with(settings, overrides: dict) -> RenderSettings:
+    """`settings` (a RenderSettings or None for the defaults) with the keyword overrides; UsageError for anything else."""
+    if not (settings is None or isinstance(settings, RenderSettings)):
+        raise UsageError(f"settings {value_shown(settings)} is not allowed; allowed: a clrender.RenderSettings or None (keywords set single values)")
+    names = [f.name for f in fields(RenderSettings)]
+    unknown = [k for k in overrides if k not in names]
+    if unknown:
+        raise UsageError(f"unknown render setting {unknown[0]!r}; allowed: {', '.join(names)}")
+    return replace(settings or RenderSettings(), **overrides)
 
 
 def instancing_for(scene: Scene, settings: RenderSettings) -> bool:

@@ -186,11 +186,13 @@ class Tracer:
         self.layout: WorkLayout = work_layout(self.device.device)
         self.use_bvh = bool(use_bvh)
         self.builder = builder
+        setup_start = time.perf_counter()
         self.instances = find_instances(self.scene) if instancing else None
         if self.instances is not None and not self.instances.shapes:
             self.instances = None  # no mesh is placed twice: the flat scene, as without instancing
         self.bvh = None
         self.bvh_seconds = 0.0
+        self.setup_seconds = {}  # seconds of each other setup phase: "attributes", "textures", "geometry" (the rest)
         self.top_wide = False  # _top: the instances' top tree in wide nodes (kernels' TOP_WIDE)
         dev = self.device
         # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
@@ -237,12 +239,16 @@ class Tracer:
         any_attributes = self.primitives.any_attributes or (shapes is not None and self.scene.has_vertex_attributes)
         attributes = np.zeros(max(n_data, 1) if any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
         attributes["colour"] = 1.0
-        for part, at in ((self.primitives, 0), (shapes, n)):
+        start = time.perf_counter()
+        for part, at, tangents in ((self.primitives, 0, None), (shapes, n, self._shape_tangents())):
             if part is not None and any_attributes:
-                part.triangle_attributes_into(attributes[at:])
+                part.triangle_attributes_into(attributes[at:], tangents)
+        self.setup_seconds["attributes"] = time.perf_counter() - start  # uvs, colours and the normal maps' tangents
         self.attributes = dev.to_device(attributes)
         del attributes
+        start = time.perf_counter()
         records, texels = pack_textures(self.primitives.textures or [])
+        self.setup_seconds["textures"] = time.perf_counter() - start
         self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
         self.objects = dev.to_device(self.primitives.objects)
         self.materials = dev.to_device(self.primitives.materials)
@@ -250,6 +256,16 @@ class Tracer:
         self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
         self._bound = {}  # the query kernels' own copies, arguments kept between calls (launch.BoundKernel)
+        named = self.bvh_seconds + sum(self.setup_seconds.values())
+        # the rest: flattening the scene, vertex normals, packing and uploading the buffers
+        self.setup_seconds["geometry"] = max(time.perf_counter() - setup_start - named, 0.0)
+
+    def _shape_tangents(self) -> list | None:
+        """Per instanced shape, whether a normal map reads its tangents: when any object placing it has a normal-mapped material."""
+        if self.instances is None:
+            return None
+        mapped = {name for name, m in self.scene.materials.items() if m.normal_texture is not None}
+        return [any(self.scene.objects[o].material in mapped for o in shape.objects) for shape in self.instances.shapes]
 
     top_wide_leaf_size = 1  # instances per leaf lane of a wide top tree: one, whose lane box is its own
 

@@ -123,9 +123,43 @@ def test_the_set_up_commands_are_the_readmes_first_code_block_and_ci_runs_the_se
     assert first[1][:1] == ["sh"] and MARKER not in first[1], "the set-up commands make venvs: not runnable here"
     assert len(lines) == 2
     assert lines[0].startswith("python3 -m venv .venv && .venv/bin/pip install -q . && ")
-    ci = ROOT / ".ci" / "run"
-    if ci.exists():
-        assert lines[1] in ci.read_text().splitlines()
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert lines[1] in ci
+    assert lines[1].endswith("-m pytest -q"), "the README's test command names no marker: setup.cfg's addopts pick the fast suite"
+    slow = ".venv/bin/python -m pytest -q -m slow"
+    assert slow in ci and ci.index(slow) > ci.index(lines[1]), ".ci/run runs the slow tests after the README's command"
+
+
+def collected(*args):
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "--collect-only",
+            "-q",
+            "--noconftest",
+            "-p",
+            "no:randomly",
+            "-p",
+            "no:cacheprovider",
+            *args,
+            "tests/docs/test_docs_commands.py",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return [line for line in proc.stdout.splitlines() if "::" in line]
+
+
+def test_a_plain_pytest_run_deselects_the_slow_tests_and_minus_m_slow_selects_them():
+    """The README's command (no -m) runs the fast suite; `-m slow`, as .ci/run passes it, overrides the default."""
+    plain, slow = collected(), collected("-m", "slow")
+    assert plain and not any("test_runnable_commands_run" in test for test in plain)
+    assert slow and all("test_runnable_commands_run" in test for test in slow)
 
 
 def test_readme_is_short():

@@ -81,8 +81,9 @@ def test_show_displays_inline_under_ipython(monkeypatch):
     monkeypatch.setitem(sys.modules, "IPython.display", display)
     mask = np.eye(3, dtype=bool)
     result = clrender.show(mask)
-    assert shown == [result] and result[0] == "Image"
-    assert decode(result[1]).tolist() == (np.eye(3) * 255).astype(int).tolist()
+    assert result is None, "a cell's last line would show a returned Image a second time"
+    assert len(shown) == 1 and shown[0][0] == "Image"
+    assert decode(shown[0][1]).tolist() == (np.eye(3) * 255).astype(int).tolist()
 
 
 def test_show_without_any_display_writes_a_png(monkeypatch, tmp_path):

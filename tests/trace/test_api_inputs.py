@@ -2,6 +2,7 @@
 ray arrays of any leading shape (results come back in it), the Tracer's scene argument, every
 RenderSettings field; and it warns (RenderWarning) where the command line prints a `warning:` line."""
 
+import re
 import sys
 import warnings
 
@@ -286,3 +287,32 @@ def test_the_command_line_prints_each_warning_once_as_a_warning_line(tmp_path, c
         "warning: 3 x 3 samples have no effect with --aa none (one ray through each pixel centre); use --aa full or edge_detect\n"
         "warning: scene 'dark' has no lights: only the ambient term and the background will show\n"
     )
+
+
+# ------------------------------------------------------------------ foreign exceptions (issue 38, item 11)
+@pytest.mark.parametrize(
+    "exposure, tonemap, shown",
+    [("1", "clamp", "exposure '1' is not allowed"), (True, "clamp", "exposure True"), (0.0, ["agx"], "tonemap ['agx'] is not allowed")],
+)
+def test_srgb8_refuses_a_bad_exposure_or_tone_curve_in_one_usage_error(exposure, tonemap, shown):
+    result = clrender.RenderResult(np.zeros((1, 1, 3), np.float32), None, None, None, None)
+    with pytest.raises(UsageError, match=f"^{re.escape(shown)}.*allowed: ") as caught:
+        result.srgb8(exposure=exposure, tonemap=tonemap)
+    assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("settings, shown", [("fast", "settings 'fast' is not allowed"), ({"spp": 4}, "settings '{'spp': 4}'")])
+def test_renderer_refuses_settings_that_are_not_render_settings(settings, shown):
+    with pytest.raises(UsageError, match=re.escape(shown) + ".*allowed: a clrender.RenderSettings or None"):
+        clrender.Renderer(SPHERE, settings=settings)
+
+
+def test_renderer_refuses_an_unknown_keyword_setting_naming_it():
+    with pytest.raises(UsageError, match=r"unknown render setting 'sppp'; allowed: width, height, "):
+        clrender.Renderer(SPHERE, sppp=4)
+
+
+@pytest.mark.parametrize("image, shown", [(np.zeros((4, 5), np.float32), "(4, 5)"), (np.zeros((4, 5, 4), np.float32), "(4, 5, 4)")])
+def test_denoise_refuses_an_image_that_is_not_h_w_3(image, shown):
+    with pytest.raises(UsageError, match=re.escape(f"the image to denoise has shape {shown}; allowed: (H, W, 3)")):
+        clrender.denoise(image)

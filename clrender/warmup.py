@@ -1,0 +1,87 @@
+"""Every kernel variant a render can build, compiled ahead of time: `clrender warmup` or `python -m clrender.warmup`.
+
+A render builds its kernels from kernels/*.cl with -D defines (clrender/device.py), once a process, and
+pyopencl keeps the binaries on disk, so only the first render of each variant waits for the compiler
+(10 to 60 s each on a CPU runtime).  CI images and cluster nodes run this once to fill that cache.
+
+The variants are the combinations a render can reach, made by the functions the renderer itself calls
+(trace_defines, render_defines) with the device's work layout:
+- the Tracer: with or without a BVH; flat, instanced, or instanced with a wide top tree (BVH only);
+- each integrator's render kernel (trace.cl `render`, path.cl `render_path`) for each of those, with or
+  without AOV writes, alpha testing and back-face culling;
+- the ray queries' build of trace.cl (the Tracer's defines alone) for each Tracer variant;
+- the BVH builder (bvh_build.cl).
+"""
+
+from __future__ import annotations
+
+import itertools
+import sys
+import time
+from dataclasses import dataclass
+
+from .device import Device
+
+# (use_bvh, instanced, top_wide): the Tracer states; a wide top tree needs a BVH (Tracer._top)
+TRACER_STATES = ((True, False, False), (True, True, False), (True, True, True), (False, False, False), (False, True, False))
+INTEGRATOR_KERNELS = {"whitted": ("trace.cl", "render"), "path": ("path.cl", "render_path")}
+
+
+@dataclass(frozen=True)
+class Variant:
+    label: str  # what it is for, in words (`clrender warmup --list` prints these; --only matches them)
+    filename: str  # kernels/<filename>
+    defines: tuple  # the -D defines, sorted (name, value) pairs: Device.program's cache key
+
+    def build(self, device: Device) -> None:
+        device.program(self.filename, dict(self.defines))
+
+
+def variants(device: Device) -> list[Variant]:
+    """Every variant a render on `device` can build, in the order warmup compiles them."""
+    from .trace.renderer import render_defines
+    from .trace.tracer import trace_defines
+    from .trace.work_layout import work_layout
+
+    rays_per_item = work_layout(device.device).rays_per_item
+    out = [Variant("bvh builder", "bvh_build.cl", tuple(sorted(bvh_build_defines().items())))]
+    for use_bvh, instanced, top_wide in TRACER_STATES:
+        tracer = trace_defines(use_bvh=use_bvh, instanced=instanced, top_wide=top_wide, rays_per_item=rays_per_item)
+        shape = f"{'bvh' if use_bvh else 'no bvh'}, {'flat' if not instanced else 'instanced, wide top' if top_wide else 'instanced'}"
+        out.append(Variant(f"ray queries, {shape}", "trace.cl", tuple(sorted(tracer.items()))))
+        for integrator, (filename, _) in INTEGRATOR_KERNELS.items():
+            for aov, alpha, cull in itertools.product((False, True), repeat=3):
+                flags = ", ".join(word for word, on in (("aovs", aov), ("alpha test", alpha), ("back-face culling", cull)) if on) or "plain"
+                defines = render_defines(tracer, aov, alpha, cull)
+                out.append(Variant(f"{integrator}, {shape}, {flags}", filename, tuple(sorted(defines.items()))))
+    return out
+
+
+def bvh_build_defines() -> dict:
+    """The -D defines trace/bvh.py's device builder uses (its default bin count)."""
+    import inspect
+
+    from .trace import bvh
+
+    bins = inspect.signature(bvh.build_bvh).parameters["bins"].default
+    return dict(BINS=bins, BUILD_STACK=bvh.BUILD_STACK)
+
+
+def warm(device: Device, chosen: list[Variant], out=None) -> list[tuple[Variant, float]]:
+    """Build each variant (from pyopencl's cache when it has it), with a progress bar; print and return its seconds."""
+    from .progress import progress
+
+    seconds = []
+    for variant in progress(chosen, desc="compiling", unit="variant"):
+        start = time.perf_counter()
+        variant.build(device)
+        took = time.perf_counter() - start
+        seconds.append((variant, took))
+        print(f"{took:7.2f}s  {variant.label}", file=out or sys.stdout, flush=True)
+    return seconds
+
+
+if __name__ == "__main__":  # python -m clrender.warmup [options]: the same as `clrender warmup [options]`
+    from .cli import main
+
+    sys.exit(main(["warmup", *sys.argv[1:]]))

@@ -1,0 +1,97 @@
+"""Kernel compiles: `clrender warmup` builds the very programs renders use, and a slow build says so on stderr once."""
+
+import time
+import types
+
+import pytest
+
+import clrender.device as device_module
+from clrender import progress
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+
+from tests.clitools import run_cli
+
+SPHERE = {
+    "width": 4,
+    "height": 3,
+    "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1}],
+    "lights": [{"type": "point", "position": [0, 5, 0]}],
+}
+
+
+def test_warmup_lists_every_variant_a_render_can_reach(capsys):
+    """1 BVH builder; 5 Tracer states (BVH or not x flat, instanced, instanced with a wide top tree, which needs a
+    BVH), each with the ray queries' build and 2 integrators x 2^3 flag sets (AOVs, alpha test, culling): 86."""
+    code, out, err = run_cli(capsys, "warmup", "--list")
+    assert code == 0, err
+    labels = out.splitlines()
+    assert len(labels) == 1 + 5 * (1 + 2 * 8) == len(set(labels))
+    assert sum(label.startswith("path, ") for label in labels) == 40 and sum(label.startswith("whitted, ") for label in labels) == 40
+    assert "path, bvh, instanced, wide top, aovs, alpha test, back-face culling" in labels
+    assert not any("no bvh, instanced, wide top" in label for label in labels)
+
+
+def test_warmup_refuses_an_only_that_matches_nothing(capsys):
+    code, out, err = run_cli(capsys, "warmup", "--only", "nonesuch")
+    assert code == 2 and err == "clrender: --only 'nonesuch' matches no variant; `clrender warmup --list` names them\n" and out == ""
+
+
+def test_warmup_builds_the_program_a_render_then_uses(device, capsys, monkeypatch):
+    """On a fresh Device (its own program cache), warming one variant leaves the render nothing of trace.cl to build."""
+    monkeypatch.setattr(device_module, "_DEVICES", {})
+    code, out, err = run_cli(capsys, "-q", "warmup", "--only", "whitted, bvh, flat, plain")
+    assert code == 0, err
+    assert out.endswith("s  whitted, bvh, flat, plain\n") and len(out.splitlines()) == 1
+    fresh = device_module.get_device()
+    warmed = {key for key in fresh._programs if key[0] == "trace.cl"}
+    assert len(warmed) == 1
+    Renderer(Scene.from_dict(SPHERE), device=None).run()
+    rendered = {key for key in fresh._programs if key[0] == "trace.cl" and ("WRITE_AOV", 0) in key[1]}
+    assert rendered == warmed
+
+
+@pytest.fixture
+def slow_build(monkeypatch):
+    """cl.Program whose build takes 0.3 s; the notice due after 0.05 s; no notice said yet in this process."""
+
+    class Program:
+        def __init__(self, context, source):
+            pass
+
+        def build(self, options):
+            time.sleep(0.3)
+            return self
+
+    monkeypatch.setattr(device_module, "cl", types.SimpleNamespace(Program=Program, RuntimeError=RuntimeError))
+    monkeypatch.setattr(device_module, "COMPILE_NOTICE_SECONDS", 0.05)
+    monkeypatch.setattr(device_module, "_compile_notice", {"said": False, "open": 0})
+    monkeypatch.setattr(progress, "SHOW", None)
+
+
+def test_a_slow_build_says_once_that_kernels_are_compiling(device, slow_build, capsys):
+    for _ in range(2):
+        device.build("__kernel void k(void) {}", "k.cl")
+    time.sleep(0.1)  # a late timer would have fired by now
+    err = capsys.readouterr().err
+    assert err == f"clrender: compiling kernels for {device.name} (first run; cached afterwards)...\n"
+
+
+def test_a_fast_build_or_quiet_says_nothing(device, slow_build, capsys, monkeypatch):
+    monkeypatch.setattr(device_module, "COMPILE_NOTICE_SECONDS", 5.0)  # a cached build ends before the notice is due
+    device.build("__kernel void k(void) {}", "k.cl")
+    monkeypatch.setattr(device_module, "COMPILE_NOTICE_SECONDS", 0.05)
+    monkeypatch.setattr(progress, "SHOW", False)  # -q
+    device.build("__kernel void k(void) {}", "k.cl")
+    time.sleep(0.1)
+    assert capsys.readouterr().err == ""
+
+
+def test_python_m_clrender_warmup_is_the_subcommand(capsys):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "clrender.warmup", "--list"], capture_output=True, text=True, timeout=120)
+    code, out, err = run_cli(capsys, "warmup", "--list")
+    assert proc.returncode == code == 0, proc.stderr
+    assert proc.stdout == out
