@@ -42,7 +42,7 @@ def trimesh_resolver(mesh_path: Path, root, refusals: list | None = None):
     a FIFO named by `mtllib` or `map_Kd` would block the read forever).  A refusal is a UsageError, which is the
     ValueError trimesh expects of a resolver, so trimesh tries its other spellings of the name and then raises it;
     trimesh's OBJ reader then drops the asset, so the size and kind refusals are also appended to `refusals`, for
-    the caller to raise once trimesh returns (scene.load_mesh_file)."""
+    the caller to raise once trimesh returns (mesh_files.load_mesh_file)."""
     import trimesh
 
     refusals = [] if refusals is None else refusals

@@ -53,20 +53,11 @@ def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
 
 
 def _file_mesh(reader, p, name: str) -> MeshArrays:
-    """A mesh file's triangles read here (to be written inline, reversed), through confine.py as scene.py reads them."""
-    import trimesh
-
-    from ..errors import UsageError
-    from .confine import trimesh_resolver
+    """A mesh file's triangles read here (to be written inline, reversed), checked as scene.py reads mesh files."""
+    from .mesh_files import load_mesh_file
 
     path = scene_file(reader.doc.folder, name, reader.root, f"{p.where}: filename")
-    resolver = None if reader.root is None else trimesh_resolver(path, reader.root)
-    try:
-        tm = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
-    except Exception as exc:  # trimesh raises many kinds for malformed files
-        raise UsageError(f"{p.where}: cannot parse mesh {name!r} ({type(exc).__name__})") from None
-    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0 or not np.isfinite(tm.vertices).all():
-        p.fail(f"mesh {name!r} has no triangles, or NaN or infinite vertices")
+    tm = load_mesh_file(path, f"{p.where}: filename", root=reader.root)
     return MeshArrays(np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64))
 
 

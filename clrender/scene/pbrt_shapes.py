@@ -134,7 +134,7 @@ def _bilinearmesh(reader, d, state):
 
 
 def _plymesh(reader, d, state):
-    from .scene import load_mesh_file
+    from .mesh_files import load_mesh_file
 
     p = reader.params(d, ("filename", "displacement", "edgelength", "alpha"))
     _alpha(reader, d, p)

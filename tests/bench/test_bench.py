@@ -121,6 +121,7 @@ def test_path_bench_lights_wizard_cat_physically_as_bright_at_the_cat():
         assert irradiance == pytest.approx(math.pi * old.intensity, rel=0.01)
 
 
+@pytest.mark.slow  # a bench subprocess: minutes on a cold kernel cache
 def test_rays_harness_compares_end_to_end_queries_with_embree_at_equal_threads(tmp_path):
     """`bench rays --peer embree`: the user queries of clrender and Embree (two threads each) on the same rays,
     clrender's ratio per ray kind, and Mrays/s against the batch size; an unknown peer is refused (exit 2)."""

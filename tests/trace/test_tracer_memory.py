@@ -43,6 +43,13 @@ print(json.dumps(dict(triangles=len(f), growth=status("VmHWM:") - base, peak=sta
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/status")
 def test_a_tracer_over_400k_triangles_stays_under_300_bytes_a_triangle():
+    from clrender.device import get_device
+    from clrender.errors import RenderFailure
+
+    try:  # PoCL's buffers are host memory, what the peak measures; PoCL 3.0 compiles nothing on some CPUs (AMD Zen 5)
+        get_device("portable").build("__kernel void probe(__global int *a) { a[0] = 1; }", "probe")
+    except RenderFailure as exc:
+        pytest.skip(str(exc))
     run = subprocess.run([sys.executable, "-c", SCRIPT, "400000"], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-2000:]
     got = json.loads(run.stdout.strip().splitlines()[-1])
