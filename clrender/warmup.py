@@ -82,6 +82,6 @@ def warm(device: Device, chosen: list[Variant], out=None) -> list[tuple[Variant,
 
 
 if __name__ == "__main__":  # python -m clrender.warmup [options]: the same as `clrender warmup [options]`
-    from .cli import main
+    import importlib  # the command line by name: run as a script only, so the library imports nothing of it
 
-    sys.exit(main(["warmup", *sys.argv[1:]]))
+    sys.exit(importlib.import_module("clrender.cli").main(["warmup", *sys.argv[1:]]))

@@ -270,13 +270,6 @@ def add_stage_arguments(p) -> None:
     p.add_argument("--smooth", action="store_true", help="a bare mesh file: interpolate vertex normals (default: flat faces)")
 
 
-def stage_from_args(args):
-    from ..scene.staging import Stage
-
-    names = ("env", "env_intensity", "env_rotation", "ground", "up", "smooth")
-    return Stage(**{name: getattr(args, name) for name in names if getattr(args, name, None) is not None})
-
-
 def scene_defaults(args, settings, scene):
     """The scene's own camera and anti-aliasing (its `default_camera` and `aa` keys) where the command line gives
     neither (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted integrator."""
@@ -414,9 +407,9 @@ def load_scene(args):
     if not is_foreign(args.scene):
         if defines or getattr(args, "approximate", False):
             raise UsageError("-D and --approximate are for foreign scene files (Mitsuba .xml, pbrt .pbrt)")
-        return staging.load(args.scene, stage_from_args(args))
+        return staging.load(args.scene, staging.Stage.from_args(args))
     read = lambda text: Scene.from_file(text, defines=defines, approximate=args.approximate)  # noqa: E731
-    scene = staging.load(args.scene, stage_from_args(args), read)
+    scene = staging.load(args.scene, staging.Stage.from_args(args), read)
     if scene.substitutions:
         warn(f"{len(scene.substitutions)} stand-ins: " + "; ".join(scene.substitutions))
     return scene

@@ -245,9 +245,8 @@ def run_turntable(args, settings, display=None) -> int:
         for name in args.filter:
             filters.parse(name)
     from ..scene import staging
-    from .render import stage_from_args
 
-    scene = staging.load(args.scene, stage_from_args(args)) if hasattr(args, "env") else Scene.load(args.scene)  # --env, --ground, --up
+    scene = staging.load(args.scene, staging.Stage.from_args(args)) if hasattr(args, "env") else Scene.load(args.scene)  # --env, --ground, --up
     # every check before anything is created: a refused option leaves no folder behind
     paths = frame_paths(args.output, Path(args.scene).stem, k_frames)
     new_folder = paths[0].parent if args.output is None or "{" not in args.output else None

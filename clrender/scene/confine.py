@@ -16,6 +16,7 @@ import stat
 from pathlib import Path
 
 from ..errors import UsageError, shown
+from .image_files import image_header
 
 
 def scene_file(folder, name: str, root, what: str) -> Path:
@@ -86,8 +87,6 @@ def read_asset(path: Path, what: str) -> bytes:
         if size > MAX_MTL_BYTES:
             raise UsageError(f"{what}: material file of {size} bytes; allowed: at most {MAX_MTL_BYTES >> 20} MiB")
     else:
-        from .textures import image_header
-
         width, height = image_header(path, what)
         from .. import memory
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import UsageError, shown
-from .confine import scene_file
-from .textures import check_header
+from .confine import read_asset, regular_file, scene_file
+from .image_files import image_header
 
 METADATA_KEY = "clrender_mtl_maps"  # where load_mesh_file leaves mtl_maps' answer on the trimesh mesh
 CHUNK = 1 << 20  # the OBJ is scanned for "mtllib" in pieces of this many bytes (it may be large)
@@ -51,10 +51,10 @@ def mtl_maps(obj_path: Path, root, what: str) -> MtlMaps | None:
     if name is None:
         return None
     mtl = scene_file(obj_path.parent, name, root, f"{what}: mtllib")
-    if not mtl.is_file():
+    if not mtl.exists():
         return None
     maps, material = {}, None
-    for line in mtl.read_text("utf-8", "replace").splitlines():
+    for line in read_asset(mtl, f"{what}: mtllib {shown(name)}").decode("utf-8", "replace").splitlines():
         split = line.strip().split()
         if len(split) <= 1:
             continue
@@ -64,8 +64,8 @@ def mtl_maps(obj_path: Path, root, what: str) -> MtlMaps | None:
         elif key == "map_kd" and material is not None:
             file_name = line[line.lower().index("map_kd") + 6 :].strip()
             path = scene_file(mtl.parent, file_name, root, f"{what}: {name} map_Kd")
-            if not path.is_file():
-                raise UsageError(f"{what}: {name}: map_Kd {shown(file_name)} does not exist or is not a regular file; allowed: an image file")
-            check_header(path, f"{what}: {name} map_Kd {shown(file_name)}")
+            if not path.exists():
+                raise UsageError(f"{what}: {name}: map_Kd {shown(file_name)} does not exist; allowed: an image file")
+            image_header(regular_file(path, f"{what}: {name} map_Kd {shown(file_name)}"), f"{what}: {name} map_Kd {shown(file_name)}")
             maps[material] = path
     return MtlMaps(maps)

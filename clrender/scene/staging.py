@@ -46,6 +46,12 @@ class Stage:
     def given(self) -> bool:
         return self != Stage()
 
+    @classmethod
+    def from_args(cls, args) -> Stage:
+        """The staging a command line asks for (`clrender render`'s --env, --ground, --up, ... options)."""
+        names = ("env", "env_intensity", "env_rotation", "ground", "up", "smooth")
+        return cls(**{name: getattr(args, name) for name in names if getattr(args, name, None) is not None})
+
 
 def load(text: str, stage: Stage, read=None):
     """The scene SCENE names (`read(text)`, by default Scene.load), set up as `stage` says; UsageError for a value

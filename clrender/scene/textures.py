@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import io
 import math
-from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -25,8 +24,8 @@ from ..layout import TEXTURE_DTYPE, TEXTURE_SLOTS, WRAP_MODES
 from ..memory import BASE_BYTES, TEXEL_BYTES  # what decoding one texel peaks at (memory.py)
 from .checks import Checks, TypeReader, show
 from .confine import regular_file
+from .image_files import MAX_TEXTURE_SIDE, image_header, own_size_limit  # noqa: F401 - image_header: the readers' header check
 
-MAX_TEXTURE_SIDE = 16384  # texels along either side of one texture
 MAX_TEXTURES = 1024  # textures of one scene (distinct images times colour spaces)
 FILTERS = ("linear", "nearest")  # bilinear, or the nearest texel (glTF magFilter 9729 / 9728)
 COLOUR_SLOTS = ("base_color", "emissive")  # sRGB-decoded; the other slots are data
@@ -190,60 +189,14 @@ def _image_source(checks: Checks, spec: TextureSpec, path: str):
     return regular_file(file, f"{checks.where}: {path}.file: texture file"), spec.file  # missing, or a FIFO: refused
 
 
-def image_header(path: Path, what: str) -> tuple[int, int]:
-    """(width, height) of an image file from its header alone (Pillow reads no pixels to open it), refused
-    when it is not an image Pillow reads or is past MAX_TEXTURE_SIDE."""
-    from PIL import Image, UnidentifiedImageError
-
-    try:
-        with Image.open(path) as image:
-            width, height = image.size
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
-        raise UsageError(f"{what}: not an image clrender reads ({type(exc).__name__}); allowed: PNG, JPEG or any image Pillow decodes") from None
-    if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
-        raise UsageError(f"{what}: image is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
-    return width, height
-
-
 def decode(data, *, srgb: bool, what: str, require=None) -> np.ndarray:
     """Linear float32 texels (H, W, 4) of an encoded image (bytes or a path): 1 channel is grey, 2 grey and
     alpha, 3 RGB, 4 RGBA (alpha 1 when absent); 8- and 16-bit values are normalised, sRGB-decoded when `srgb`
     (alpha never).  UsageError for what cannot be decoded, an unsupported mode, or a size past the limits."""
     from PIL import Image, UnidentifiedImageError
 
-    with _own_size_limit(Image):
+    with own_size_limit(Image):
         return _decode(Image, UnidentifiedImageError, data, srgb=srgb, what=what, require=require)
-
-
-@contextmanager
-def _own_size_limit(Image):
-    """Pillow's decompression-bomb guard off while clrender decodes (MAX_TEXTURE_SIDE and memory.require are the
-    limits, checked on the header's size before any texel is decoded): Pillow would warn past 89.5 M texels and
-    refuse past 179 M, under the 16384^2 the docs allow.  Scoped: Image.MAX_IMAGE_PIXELS is restored after."""
-    import warnings
-
-    kept = Image.MAX_IMAGE_PIXELS
-    Image.MAX_IMAGE_PIXELS = None
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            yield
-    finally:
-        Image.MAX_IMAGE_PIXELS = kept
-
-
-def check_header(path: Path, what: str) -> None:
-    """UsageError unless `path` opens as an image within MAX_TEXTURE_SIDE a side (its header only: nothing decoded)."""
-    from PIL import Image, UnidentifiedImageError
-
-    with _own_size_limit(Image):
-        try:
-            with Image.open(path) as image:
-                width, height = image.size
-        except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
-            raise UsageError(f"{what} cannot be decoded ({type(exc).__name__}); allowed: an image file Pillow reads") from None
-    if not (1 <= width <= MAX_TEXTURE_SIDE and 1 <= height <= MAX_TEXTURE_SIDE):
-        raise UsageError(f"{what} is {width} x {height}; allowed: 1 to {MAX_TEXTURE_SIDE} texels a side")
 
 
 def _decode(Image, UnidentifiedImageError, data, *, srgb: bool, what: str, require) -> np.ndarray:

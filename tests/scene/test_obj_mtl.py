@@ -46,7 +46,7 @@ def test_map_kd_outside_a_confined_folder_is_refused(tmp_path):
 
 def test_map_kd_that_is_not_an_image_is_refused(tmp_path):
     (tmp_path / "notes.png").write_text("not an image at all\n")
-    with pytest.raises(UsageError, match="cannot be decoded"):
+    with pytest.raises(UsageError, match="not an image"):
         Scene.from_file(obj_with_map(tmp_path, "notes.png"))
 
 
