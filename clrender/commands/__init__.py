@@ -11,6 +11,23 @@ def add_device_argument(p) -> None:
     )
 
 
+def add_foreign_arguments(p, doing: str = "render") -> None:
+    """-D and --approximate, for another renderer's scene file (Mitsuba 3 .xml, pbrt-v4 .pbrt: scene/foreign.py)."""
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a Mitsuba scene's $NAME parameter (repeatable; wins over <default>)",
+    )
+    p.add_argument(
+        "--approximate",
+        action="store_true",
+        help=f"a foreign scene file: {doing} what clrender cannot read with documented stand-ins (listed on one line) instead of refusing it",
+    )
+
+
 def __getattr__(name):  # submodules load on first use: clrender.commands.X after a plain `import clrender`
     from .. import _submodule
 

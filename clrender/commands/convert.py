@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError, shown
+from . import add_foreign_arguments
 
 INLINE_VERTICES = 1000  # larger inline meshes go to a PLY file beside the scene (TOML is slow to read)
 EXAMPLES = "example:\n  clrender convert cbox.xml -o cbox.toml\n  clrender render cbox.toml --integrator path --spp 64"
@@ -25,15 +26,7 @@ def add_parser(sub):
     p.add_argument("scene", metavar="SCENE", help="a Mitsuba 3 .xml or pbrt-v4 .pbrt scene file")
     p.add_argument("-o", "--output", required=True, help="the TOML scene to write")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    p.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a Mitsuba scene's $NAME parameter (repeatable; wins over <default>)",
-    )
-    p.add_argument("--approximate", action="store_true", help="write documented stand-ins for what clrender cannot read (listed on one line)")
+    add_foreign_arguments(p, "write")
     p.set_defaults(run=run)
 
 

@@ -13,7 +13,7 @@ from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
 from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
-from . import add_device_argument
+from . import add_device_argument, add_foreign_arguments
 
 PATH_DEFAULT_SPP = 64  # --integrator path without --spp or --samples
 
@@ -210,19 +210,7 @@ def add_parser(sub):
         help=f"mirror/refraction bounces (path: bounces after the first hit) (default: a foreign scene file's, else {d.max_depth})",
     )
     # foreign scene files (Mitsuba 3 .xml, pbrt-v4 .pbrt: clrender/scene/foreign.py, docs/scene-formats.md)
-    p.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a Mitsuba scene's $NAME parameter (repeatable; wins over <default>)",
-    )
-    p.add_argument(
-        "--approximate",
-        action="store_true",
-        help="a foreign scene file: render what clrender cannot read with documented stand-ins (listed on one line) instead of refusing it",
-    )
+    add_foreign_arguments(p)
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")

@@ -188,12 +188,9 @@ def gltf_pdf(wo, wi, base_colour, metallic, roughness):
     return p * conductor_pdf(wo, wi, alpha) + (1 - p) * lambert_pdf(wo, wi)
 
 
-# ---- directional albedo of the GGX conductor with F = 1, by quadrature of the formula
-def conductor_albedo_f1(theta_o, alpha, theta_nodes=48, phi_nodes=512):
-    """integral over the hemisphere of f(wo, wi) cos theta_i dwi with F = 1 (what single scattering keeps),
-    as an integral over half vectors (dwi = 4 |wo.h| dwh): D(h) G2 |wo.h| / cos_o over h with wi.z > 0.
-    theta_h in Gauss-Legendre panels spaced geometrically from alpha / 8 (D's scale is alpha) to pi / 2,
-    phi_h by the trapezoid rule (periodic)."""
+def graded_panels(alpha, theta_nodes):
+    """Gauss-Legendre nodes and weights in theta over panels spaced geometrically from alpha / 8 (a microfacet
+    distribution's scale is alpha) to pi / 2."""
     edges = [0.0]
     t = alpha / 8
     while t < np.pi / 2:
@@ -201,8 +198,18 @@ def conductor_albedo_f1(theta_o, alpha, theta_nodes=48, phi_nodes=512):
         t *= 2
     edges.append(np.pi / 2)
     x, w = np.polynomial.legendre.leggauss(theta_nodes)
-    thetas = np.concatenate([(a + b) / 2 + (b - a) / 2 * x for a, b in zip(edges[:-1], edges[1:])])
-    theta_w = np.concatenate([(b - a) / 2 * w for a, b in zip(edges[:-1], edges[1:])])
+    nodes = np.concatenate([(a + b) / 2 + (b - a) / 2 * x for a, b in zip(edges[:-1], edges[1:])])
+    weights = np.concatenate([(b - a) / 2 * w for a, b in zip(edges[:-1], edges[1:])])
+    return nodes, weights
+
+
+# ---- directional albedo of the GGX conductor with F = 1, by quadrature of the formula
+def conductor_albedo_f1(theta_o, alpha, theta_nodes=48, phi_nodes=512):
+    """integral over the hemisphere of f(wo, wi) cos theta_i dwi with F = 1 (what single scattering keeps),
+    as an integral over half vectors (dwi = 4 |wo.h| dwh): D(h) G2 |wo.h| / cos_o over h with wi.z > 0.
+    theta_h in Gauss-Legendre panels spaced geometrically from alpha / 8 (D's scale is alpha) to pi / 2,
+    phi_h by the trapezoid rule (periodic)."""
+    thetas, theta_w = graded_panels(alpha, theta_nodes)
     phis = (np.arange(phi_nodes) + 0.5) * (2 * np.pi / phi_nodes)
     th, ph = np.meshgrid(thetas, phis, indexing="ij")
     h = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], axis=-1)
@@ -277,15 +284,7 @@ def rough_interface(mu, eta, alpha, smith, transmit, theta_nodes=64, phi_nodes=1
     (F or 1 - F)(wi.h) G(wi, wo) D(h) max(0, wi.h) / mu with wo the mirror or refracted direction, by Gauss-Legendre in
     theta_h (panels graded towards alpha) and phi_h, rather than Mitsuba's quadrature of the visible-normal sampler's
     square.  Mitsuba's roughplastic tabulates 1 - this (transmit) and uses 2 mean(R(mu; 1 / eta) mu) (reflection)."""
-    edges = [0.0]
-    t = alpha / 8
-    while t < np.pi / 2:
-        edges.append(t)
-        t *= 2
-    edges.append(np.pi / 2)
-    x, w = np.polynomial.legendre.leggauss(theta_nodes)
-    th = np.concatenate([(a + b) / 2 + (b - a) / 2 * x for a, b in zip(edges[:-1], edges[1:])])
-    tw = np.concatenate([(b - a) / 2 * w for a, b in zip(edges[:-1], edges[1:])])
+    th, tw = graded_panels(alpha, theta_nodes)
     ph = (np.arange(phi_nodes) + 0.5) * 2 * np.pi / phi_nodes
     T, P = np.meshgrid(th, ph, indexing="ij")
     h = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1)
