@@ -1,5 +1,8 @@
 """Scenes and files that several test folders build: copies of one mesh file (instancing), an alpha checker
-texture (alpha testing); one Mitsuba XML file rendered by both renderers (the scene-format tests)."""
+texture (alpha testing); flat white surfaces for camera tests; an HDR file; one Mitsuba XML file rendered by both
+renderers (the scene-format tests)."""
+
+import math
 
 import numpy as np
 import trimesh
@@ -67,3 +70,46 @@ def xml_against_mitsuba(path, device, *, spp: int, k: int = 4, defines: dict | N
     tracer = Tracer(scene, device=device)
     ours = np.stack([Renderer(scene, tracer=tracer, seed=s, **own).run().image for s in range(k)])
     return two_sample_z(ours, theirs)
+
+
+# ---------------------------------------------------------------------- camera tests: surfaces that show exactly 1
+WHITE = {"diffuse": [1, 1, 1], "specular": [0, 0, 0], "emission": [1, 1, 1]}
+# A light of intensity 0: the Whitted images are ambient x diffuse = 1 on a surface, 0 elsewhere (no "no lights" warning)
+DARK_LIGHT = {"type": "directional", "direction": [0, 0, -1], "intensity": 0}
+
+
+def flat_scene(objects, camera, size=(64, 64)):
+    """Surfaces that show exactly 1 (Whitted: ambient 1 x white; path: emission 1) on black."""
+    return Scene.from_dict(
+        {
+            "width": size[0],
+            "height": size[1],
+            "ambient": [1, 1, 1],
+            "cameras": [camera],
+            "materials": {"white": WHITE},
+            "lights": [DARK_LIGHT],
+            "objects": [{**o, "material": "white"} for o in objects],
+        }
+    )
+
+
+def square(centre, half):
+    """An axis-aligned square facing +z (towards a camera on +z)."""
+    x, y, z = centre
+    return {"type": "quad", "corner": [x - half, y - half, z], "edge_a": [2 * half, 0, 0], "edge_b": [0, 2 * half, 0]}
+
+
+def pixels_per_unit(fov, height):
+    """Pixels per unit of the perspective image plane at distance 1."""
+    return height / (2 * math.tan(math.radians(fov) / 2))
+
+
+def write_hdr(path, value=2.0, size=(8, 16)):
+    import OpenImageIO as oiio
+
+    pixels = np.full((*size, 3), value, np.float32)
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(size[1], size[0], 3, "float"))
+    out.write_image(pixels)
+    out.close()
+    return path

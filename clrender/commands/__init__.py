@@ -28,6 +28,22 @@ def add_foreign_arguments(p, doing: str = "render") -> None:
     )
 
 
+def scene_defaults(args, settings, scene):
+    """The scene's own camera and anti-aliasing (its `default_camera` and `aa` keys) where the command line gives
+    neither (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted integrator."""
+    from dataclasses import replace
+
+    given = len(args.positional_args)
+    changes = {}
+    if args.camera is None and given < 1:
+        changes["camera"] = scene.featured_camera
+    if scene.aa is not None and args.aa is None and given < 2 and settings.integrator == "whitted":
+        changes["aa"] = scene.aa
+        if args.samples is None and given < 4:  # the default follows the mode, as settings_from_args has it
+            changes["samples"] = 1 if scene.aa == "none" else 4
+    return replace(settings, **changes)
+
+
 def __getattr__(name):  # submodules load on first use: clrender.commands.X after a plain `import clrender`
     from .. import _submodule
 

@@ -13,7 +13,7 @@ from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
 from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
-from . import add_device_argument, add_foreign_arguments
+from . import add_device_argument, add_foreign_arguments, scene_defaults
 
 PATH_DEFAULT_SPP = 64  # --integrator path without --spp or --samples
 
@@ -256,22 +256,6 @@ def add_stage_arguments(p) -> None:
     p.add_argument("--ground", action="store_true", help="add a grey (0.5) plane under the scene's bounding box (default: none)")
     p.add_argument("--up", default=None, metavar="AXIS", help=f"a bare mesh file's up axis, {'|'.join(UP_CHOICES)} (default: y)")
     p.add_argument("--smooth", action="store_true", help="a bare mesh file: interpolate vertex normals (default: flat faces)")
-
-
-def scene_defaults(args, settings, scene):
-    """The scene's own camera and anti-aliasing (its `default_camera` and `aa` keys) where the command line gives
-    neither (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted integrator."""
-    from dataclasses import replace
-
-    given = len(args.positional_args)
-    changes = {}
-    if args.camera is None and given < 1:
-        changes["camera"] = scene.featured_camera
-    if scene.aa is not None and args.aa is None and given < 2 and settings.integrator == "whitted":
-        changes["aa"] = scene.aa
-        if args.samples is None and given < 4:  # the default follows the mode, as settings_from_args has it
-            changes["samples"] = 1 if scene.aa == "none" else 4
-    return replace(settings, **changes)
 
 
 def positive_int(text: str) -> int:

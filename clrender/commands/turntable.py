@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import RenderFailure, UsageError, first_line, shown
 from ..outputs import check_file_output, check_writable
+from . import scene_defaults
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv")
 
@@ -247,6 +248,7 @@ def run_turntable(args, settings, display=None) -> int:
     from ..scene import staging
 
     scene = staging.load(args.scene, staging.Stage.from_args(args)) if hasattr(args, "env") else Scene.load(args.scene)  # --env, --ground, --up
+    settings = scene_defaults(args, settings, scene) if hasattr(args, "positional_args") else settings  # as a single render has them
     # every check before anything is created: a refused option leaves no folder behind
     paths = frame_paths(args.output, Path(args.scene).stem, k_frames)
     new_folder = paths[0].parent if args.output is None or "{" not in args.output else None

@@ -10,7 +10,7 @@ import textwrap
 
 import pytest
 
-from tests.docs.test_docs_commands import DOCS, ROOT, code_blocks
+from tests.docstools import DOCS, ROOT, code_blocks
 
 DOTTED = re.compile(r"(?<![\w./])clrender(?:\.[A-Za-z_]\w*)+")
 INLINE = re.compile(r"`([^`\n]+)`")

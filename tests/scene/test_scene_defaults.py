@@ -55,7 +55,7 @@ def test_background_is_the_path_tracers_environment_when_the_scene_names_none():
 
 
 def test_the_whitted_tracer_warns_that_an_environment_map_lights_nothing(tmp_path):
-    from tests.scene.test_staging import write_hdr
+    from tests.scenetools import write_hdr
 
     write_hdr(tmp_path / "sky.hdr")
     scene = Scene.from_dict(

@@ -10,17 +10,7 @@ from clrender.scene import staging
 from clrender.scene.staging import GROUND_ALBEDO, GROUND_GAP, GROUND_SIZE, Stage
 
 from tests.clitools import run_cli
-
-
-def write_hdr(path, value=2.0, size=(8, 16)):
-    import OpenImageIO as oiio
-
-    pixels = np.full((*size, 3), value, np.float32)
-    out = oiio.ImageOutput.create(str(path))
-    out.open(str(path), oiio.ImageSpec(size[1], size[0], 3, "float"))
-    out.write_image(pixels)
-    out.close()
-    return path
+from tests.scenetools import write_hdr
 
 
 def box_file(tmp_path, extents=(1.0, 2.0, 4.0), name="box.ply"):

@@ -5,6 +5,8 @@ import numpy as np
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
 
+from tests.reference.polygon_light import lambert_irradiance
+
 SIZE = 24
 LIGHT = dict(type="area", corner=[-0.6, 1.5, -0.4], edge_a=[1.2, 0, 0], edge_b=[0, 0.3, 0.8], intensity=2.0)
 CAMERA = dict(position=[0, 6, 0], look_at=[0, 0, 0], up=[0, 0, -1], fov=50)
@@ -55,23 +57,6 @@ def quadrature(points, light, inverse_square=False):
             term = term * area * np.abs(v @ normal / area) / r / r**2
         out[i] = light["intensity"] * term.mean(axis=1)
     return out
-
-
-def lambert_irradiance(points, light):
-    """Exact irradiance from a uniform polygon of radiance I (Lambert's formula)."""
-    a, b = np.array(light["edge_a"], float), np.array(light["edge_b"], float)
-    c = np.array(light["corner"], float)
-    corners = [c, c + a, c + a + b, c + b]
-    total = np.zeros(points.shape[:2])
-    for k in range(4):
-        u = corners[k] - points
-        w = corners[(k + 1) % 4] - points
-        u /= np.linalg.norm(u, axis=-1, keepdims=True)
-        w /= np.linalg.norm(w, axis=-1, keepdims=True)
-        cr = np.cross(u, w)
-        gamma = np.arccos(np.clip((u * w).sum(-1), -1, 1))
-        total += gamma * cr[..., 1] / np.linalg.norm(cr, axis=-1)
-    return light["intensity"] * np.abs(total) / 2
 
 
 def render_floor(scene, device, **settings):

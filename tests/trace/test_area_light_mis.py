@@ -11,7 +11,9 @@ import numpy as np
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
 
-from tests.trace.test_area_light import SIZE, lambert_irradiance
+from tests.reference.polygon_light import lambert_irradiance
+
+SIZE = 24  # pixels a side
 
 # A large light high above (behind the camera, which looks down from under it): its solid-angle pdf dist^2 / (A cos)
 # is small, so BSDF sampling takes most of the MIS weight, and dist (4 and more) is far from dist^2: the wrong pdf

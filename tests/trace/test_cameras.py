@@ -13,36 +13,7 @@ from clrender.scene.scene import Scene
 from clrender.trace.renderer import render
 
 from tests.gltftools import gltf_file
-
-WHITE = {"diffuse": [1, 1, 1], "specular": [0, 0, 0], "emission": [1, 1, 1]}
-# A light of intensity 0: the Whitted images are ambient x diffuse = 1 on a surface, 0 elsewhere (no "no lights" warning)
-DARK_LIGHT = {"type": "directional", "direction": [0, 0, -1], "intensity": 0}
-
-
-def flat_scene(objects, camera, size=(64, 64)):
-    """Surfaces that show exactly 1 (Whitted: ambient 1 x white; path: emission 1) on black."""
-    return Scene.from_dict(
-        {
-            "width": size[0],
-            "height": size[1],
-            "ambient": [1, 1, 1],
-            "cameras": [camera],
-            "materials": {"white": WHITE},
-            "lights": [DARK_LIGHT],
-            "objects": [{**o, "material": "white"} for o in objects],
-        }
-    )
-
-
-def square(centre, half):
-    """An axis-aligned square facing +z (towards a camera on +z)."""
-    x, y, z = centre
-    return {"type": "quad", "corner": [x - half, y - half, z], "edge_a": [2 * half, 0, 0], "edge_b": [0, 2 * half, 0]}
-
-
-def pixels_per_unit(fov, height):
-    """Pixels per unit of the perspective image plane at distance 1."""
-    return height / (2 * math.tan(math.radians(fov) / 2))
+from tests.scenetools import flat_scene, pixels_per_unit, square
 
 
 # ------------------------------------------------------------------ a pinhole is unchanged

@@ -419,7 +419,7 @@ def test_a_map_seen_directly_and_through_smooth_glass_matches_mitsuba_by_blocks(
     """A 32 x 16 random HDR map behind a smooth glass sphere (IOR 1.5) that fills half the view, 64 x 64: clrender's
     path tracer and Mitsuba's (llvm_ad_rgb, `envmap` of the same EXR), K = 4 renders of 64 spp a side, max_depth 6,
     the block z-test of tests/reference/ztest.py (alpha 0.01, Šidák); the nearest lookup failed 43 of 900 blocks."""
-    from tests.trace.test_mitsuba_reference import K, clrender_path_renders, mitsuba_or_skip, mitsuba_renders
+    from tests.mitsubatools import K, clrender_path_renders, mitsuba_or_skip, mitsuba_renders
 
     mitsuba_or_skip("llvm_ad_rgb")
     rng = np.random.default_rng(23)

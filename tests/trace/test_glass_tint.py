@@ -70,8 +70,8 @@ def test_tinted_glass_matches_mitsubas_dielectric_with_specular_transmittance(de
     """A smooth sphere of base colour (1, 0.3, 0.3) over a diffuse floor in a constant environment, and a white one
     beside it: Mitsuba's `dielectric` with `specular_transmittance` (tests/reference/mitsuba_scenes.py), 64 x 64,
     K = 4 renders of 64 spp a side, max_depth 6, the block z-test at alpha 0.01."""
+    from tests.mitsubatools import K, clrender_path_renders, mitsuba_or_skip, mitsuba_renders
     from tests.reference.ztest import two_sample_z
-    from tests.trace.test_mitsuba_reference import K, clrender_path_renders, mitsuba_or_skip, mitsuba_renders
 
     mitsuba_or_skip("llvm_ad_rgb")
     scene = path_scenes.scene(

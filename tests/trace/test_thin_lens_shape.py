@@ -11,7 +11,7 @@ import pytest
 
 from clrender.trace.renderer import render
 
-from tests.trace.test_cameras import flat_scene, pixels_per_unit, square
+from tests.scenetools import flat_scene, pixels_per_unit, square
 
 FOV, SIZE, APERTURE, DEPTH, FOCUS = 30.0, 64, 1.0, 10.0, 5.0
 
