@@ -190,6 +190,7 @@ def check(data, integrator: str, max_depth: int, folder) -> None:
     assert image.shape == (6, 8, 3) and np.isfinite(image).all(), data
 
 
+@pytest.mark.slow  # renders both integrators per example: 84 s under the ci profile with a cold kernel cache
 @FUZZ
 @given(data=st.data())
 def test_textured_scenes_are_refused_cleanly_or_render_finite(data, texture_dir):
