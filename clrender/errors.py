@@ -138,3 +138,16 @@ def value_shown(value) -> str:
 def one_line(message: str, limit: int = 4 * MAX_SHOWN) -> str:
     """A whole message made safe for one terminal line."""
     return cut(escaped(message), limit)
+
+
+def real_array(value, name: str):
+    """`value` as a numpy array of real numbers (integers or floats, not bool, complex, text or objects), or UsageError."""
+    import numpy as np  # here, not at the top: the command line's parser imports this module before anything heavy
+
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError):  # a ragged list
+        raise UsageError(f"{name} must be an array of real numbers; got a ragged sequence") from None
+    if a.dtype.kind not in "iuf":
+        raise UsageError(f"{name} must be real numbers; got an array of {a.dtype} of shape {a.shape}")
+    return a

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import RenderFailure, UsageError
+from ..errors import RenderFailure, UsageError, real_array
 
 INSTALL_HINT = "--denoise needs Intel Open Image Denoise: pip install 'clrender[denoise]' (the pyoidn wheel)"
 AUX_AOVS = ("albedo", "normal")  # the AOVs OIDN takes beside the beauty
@@ -70,12 +70,7 @@ def denoise(image: np.ndarray, albedo=None, normal=None, settings: DenoiseSettin
 
 def rgb_image(image, name: str) -> np.ndarray:
     """`image` as float32 (H, W, 3) linear RGB; UsageError naming its shape or type otherwise."""
-    try:
-        a = np.asarray(image)
-    except (ValueError, TypeError):  # a ragged list
-        raise UsageError(f"{name} must be an (H, W, 3) array of real numbers; got a ragged sequence") from None
-    if a.dtype.kind not in "iuf":
-        raise UsageError(f"{name} must be real numbers; got an array of {a.dtype} of shape {a.shape}")
+    a = real_array(image, name)
     if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] < 1 or a.shape[1] < 1:
         raise UsageError(f"{name} has shape {a.shape}; allowed: (H, W, 3), linear RGB")
     return a.astype(np.float32, copy=False)

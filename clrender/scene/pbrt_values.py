@@ -18,6 +18,8 @@ import math
 
 import numpy as np
 
+from .mitsuba_xml import rotate as axis_rotation
+
 METAL_ETA_K = {
     "Ag": ((0.1553, 0.1167, 0.1384), (4.8284, 3.1222, 2.1469)),
     "Al": ((1.6575, 0.8804, 0.5212), (9.2238, 6.2695, 4.837)),
@@ -76,18 +78,11 @@ def scale(x, y, z) -> np.ndarray:
 
 
 def rotate(degrees, x, y, z) -> np.ndarray | None:
-    """Rotation by `degrees` about the axis (x, y, z) (Rodrigues' formula, as pbrt's Rotate); None for a zero axis."""
-    axis = np.array([x, y, z], np.float64)
-    length = np.linalg.norm(axis)
-    if length == 0:
+    """Rotation by `degrees` about the axis (x, y, z), as pbrt's Rotate (Mitsuba's, the same Rodrigues formula);
+    None for a zero axis."""
+    if not any((x, y, z)):
         return None
-    a = axis / length
-    theta = math.radians(degrees)
-    c, s = math.cos(theta), math.sin(theta)
-    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    m = np.eye(4)
-    m[:3, :3] = c * np.eye(3) + s * k + (1 - c) * np.outer(a, a)
-    return m
+    return axis_rotation((x, y, z), degrees)
 
 
 def look_at(eye, look, up) -> np.ndarray | None:

@@ -24,7 +24,7 @@ from ..layout import TEXTURE_DTYPE, TEXTURE_SLOTS, WRAP_MODES
 from ..memory import BASE_BYTES, TEXEL_BYTES  # what decoding one texel peaks at (memory.py)
 from .checks import Checks, TypeReader, show
 from .confine import regular_file
-from .image_files import MAX_TEXTURE_SIDE, image_header, own_size_limit  # noqa: F401 - image_header: the readers' header check
+from .image_files import MAX_TEXTURE_SIDE, own_size_limit
 
 MAX_TEXTURES = 1024  # textures of one scene (distinct images times colour spaces)
 FILTERS = ("linear", "nearest")  # bilinear, or the nearest texel (glTF magFilter 9729 / 9728)

@@ -32,7 +32,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..device import Device, get_device
-from ..errors import UsageError, shown, value_shown
+from ..errors import UsageError, real_array, shown, value_shown
 from ..launch import Kernel
 from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
 from ..scene.scene import Mesh, Scene
@@ -72,17 +72,6 @@ def _kind(value) -> str:
     if isinstance(value, (tuple, list)):
         return f"a {type(value).__name__} of {len(value)} items"
     return "None" if value is None else f"{type(value).__name__} {shown(value)}"
-
-
-def real_array(value, name: str) -> np.ndarray:
-    """`value` as an array of real numbers (integers or floats, not bool, complex, text or objects), or UsageError."""
-    try:
-        a = np.asarray(value)
-    except (ValueError, TypeError):  # a ragged list
-        raise UsageError(f"{name} must be an array of real numbers; got a ragged sequence") from None
-    if a.dtype.kind not in "iuf":
-        raise UsageError(f"{name} must be real numbers; got an array of {a.dtype} of shape {a.shape}")
-    return a
 
 
 def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
