@@ -103,6 +103,22 @@ def uv_sphere(rings: int = SPHERE_SEGMENTS[0], segments: int = SPHERE_SEGMENTS[1
     return MeshArrays(v, np.array(faces, np.int64))
 
 
+EMITTER_SPHERE_SEGMENTS = (16, 32)  # an emitting sphere's mesh: rings, segments (992 triangles)
+
+
+def mesh_area(mesh: MeshArrays) -> float:
+    t = mesh.vertices[mesh.faces]
+    return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
+
+
+def emitter_sphere() -> MeshArrays:
+    """A unit sphere for a sphere that emits, widened to the sphere's area 4 pi so the light keeps its power: the path
+    tracer light-samples emissive triangles but finds an analytic sphere's light only by BSDF rays (a small bright
+    sphere, as in Veach's MIS scene, is then all fireflies).  Read by the Mitsuba and pbrt readers alike."""
+    mesh = uv_sphere(*EMITTER_SPHERE_SEGMENTS)
+    return MeshArrays(mesh.vertices * math.sqrt(4 * math.pi / mesh_area(mesh)), mesh.faces, mesh.uvs)
+
+
 PRIMITIVES = {"rectangle": rectangle, "cube": cube, "disk": disk, "cylinder": cylinder}
 
 

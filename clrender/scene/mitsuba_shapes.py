@@ -13,14 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .confine import scene_file
-from .mitsuba_meshes import PRIMITIVES, MeshArrays, read_serialized, uv_sphere
-
-EMITTER_SPHERE_SEGMENTS = (16, 32)  # an emitting sphere's mesh: rings, segments (992 triangles)
-
-
-def mesh_area(mesh: MeshArrays) -> float:
-    t = mesh.vertices[mesh.faces]
-    return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
+from .mitsuba_meshes import PRIMITIVES, MeshArrays, emitter_sphere, read_serialized, uv_sphere
 
 
 def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
@@ -95,10 +88,8 @@ def _cylinder(reader, p, mesh: MeshArrays) -> MeshArrays:
 
 
 def _sphere(reader, p, matrix, material, flip, emits: bool = False) -> dict:
-    """clrender's analytic sphere where to_world is a similarity, else a UV sphere.  An emitting sphere is always
-    the mesh: the path tracer samples emissive triangles for next-event estimation but finds analytic spheres'
-    light only by BSDF rays (Veach's MIS scene, small bright spheres over glossy plates, is all fireflies
-    without it); the mesh is widened to the sphere's area, so the light keeps its power."""
+    """clrender's analytic sphere where to_world is a similarity, else a UV sphere; an emitting sphere is always
+    a mesh (mitsuba_meshes.emitter_sphere)."""
     center = np.asarray(p.get("center", (0.0, 0.0, 0.0)), np.float64)
     radius = reader.scalar(p, "radius", 1.0)
     m3 = matrix[:3, :3]
@@ -109,9 +100,7 @@ def _sphere(reader, p, matrix, material, flip, emits: bool = False) -> dict:
     if not emits and np.allclose(gram, s2 * np.eye(3), rtol=1e-6, atol=1e-9 * s2):
         c = matrix[:3, :3] @ center + matrix[:3, 3]
         return {"type": "sphere", "center": c.tolist(), "radius": float(radius * np.sqrt(s2)), "material": material}
-    mesh = uv_sphere(*EMITTER_SPHERE_SEGMENTS) if emits else uv_sphere()
-    if emits:
-        mesh = MeshArrays(mesh.vertices * np.sqrt(4 * np.pi / mesh_area(mesh)), mesh.faces, mesh.uvs)
+    mesh = emitter_sphere() if emits else uv_sphere()
     local = np.eye(4)
     local[:3, :3] *= radius
     local[:3, 3] = center

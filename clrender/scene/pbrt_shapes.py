@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from .mitsuba_meshes import emitter_sphere
 from .pbrt_parse import fail
 
 MAX_PBRT_TRIANGLES = 10_000_000
@@ -162,6 +163,10 @@ def _sphere(reader, d, state):
         reader.unsupported(d, what, ("spheres under rotation and uniform scale",), "a sphere of the mean scale")
     if state.reverse and state.area is not None:
         reader.unsupported(d, "an emitting sphere under ReverseOrientation", ("spheres that emit outwards",), "outward emission")
+    if state.area is not None:  # an emitting sphere is a mesh the path tracer light-samples (mitsuba_meshes.emitter_sphere)
+        unit = emitter_sphere()
+        emit_mesh(reader, d, state, unit.vertices * radius, unit.faces, normals=unit.vertices, smooth=True)
+        return
     reader.objects.append(
         {"type": "sphere", "center": world[:3, 3].tolist(), "radius": float(radius * stretch.mean()), "material": reader.material_for(state)}
     )

@@ -492,3 +492,18 @@ def test_shapes_under_one_area_light_share_one_emitting_material(tmp_path):
     text = 'WorldBegin\nAreaLightSource "diffuse" "rgb L" [1 1 1]\n' + TRIANGLE * 3
     data = read_pbrt(write(tmp_path, text))
     assert len({o["material"] for o in data["objects"]}) == 1 and len(data["materials"]) == 2
+
+
+def test_an_emitting_sphere_is_a_mesh_of_the_spheres_area_facing_out(tmp_path):
+    """The path tracer light-samples emissive triangles, not analytic spheres: an area-lit sphere becomes a closed
+    mesh of area 4 pi r^2 (so it keeps its power), every face turned away from the centre; a plain one stays a sphere."""
+    lamp = 'AttributeBegin\nAreaLightSource "diffuse" "rgb L" [5 5 5]\nShape "sphere" "float radius" 0.5\nAttributeEnd\n'
+    text = "WorldBegin\nTranslate 1 2 3\n" + lamp + 'Shape "sphere"\n'
+    lit, plain = read_pbrt(write(tmp_path, text))["objects"]
+    assert plain["type"] == "sphere"
+    points, faces = np.asarray(lit["vertices"], np.float64), np.asarray(lit["faces"])
+    a, b, c = (points[faces[:, i]] for i in range(3))
+    normals = np.cross(b - a, c - a)
+    assert 0.5 * np.linalg.norm(normals, axis=1).sum() == pytest.approx(4 * math.pi * 0.25, rel=1e-9)
+    centre = points.mean(axis=0)
+    assert np.all(np.einsum("ij,ij->i", (a + b + c) / 3 - centre, normals) > 0)
