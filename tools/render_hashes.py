@@ -17,6 +17,8 @@ Each line is `ITEM VARIANT SHA256`; a hash covers the arrays' dtype, shape and b
   without the shadow edges);
 - `splat-gauss`: a Gaussian-splat render of 300 generated splats in both blends, and the gradients
   of a fixed loss;
+- `path:SCENE`: path-traced renders (4 spp) of every bundled scene, with AOVs, and with the tent filter;
+  `path:assets`: bench/assets.py's textured torus, gold sphere and checker floor under an HDR sky;
 - `voronoi`: a Voronoi splat of a small generated photo (grid and naive search, with Lloyd steps and
   soft-Voronoi training), its nearest-site index and image.
 """
@@ -72,6 +74,25 @@ def aovs(chosen):
         yield f"edges:{scene}", "thick-2.5", digest(edge_mask(result.path_ids, thickness=2.5, shadow=result.shadow))
         yield f"edges:{scene}", "no-shadow-edges", digest(edge_mask(result.path_ids, thickness=1.0, shadow=result.shadow, shadow_edges=False))
         yield f"edges:{scene}", "ids-only", digest(edge_mask(result.path_ids, thickness=0.0))
+
+
+def paths(chosen):
+    from clrender import Renderer
+
+    for scene in (s for s in SCENES if f"path:{s}" in chosen):
+        for name, extra in (("box", {}), ("aovs", {"aovs": ("depth", "normal", "albedo")}), ("tent", {"rfilter": "tent"})):
+            result = Renderer(scene, width=64, height=48, integrator="path", spp=4, seed=7, **extra).run()
+            yield f"path:{scene}", name, digest(result.image, *(result.aovs[k] for k in sorted(result.aovs)))
+    if "path:assets" in chosen:
+        import tempfile
+
+        from bench.assets import picture_scenes
+        from clrender.scene.scene import Scene
+
+        with tempfile.TemporaryDirectory() as folder:
+            scene = Scene.from_dict(picture_scenes(Path(folder), 64, 48, 256)[0])
+            result = Renderer(scene, integrator="path", spp=4, max_depth=6, seed=7).run()
+        yield "path:assets", "box", digest(result.image)
 
 
 def gauss_params(n: int, width: int, height: int, blend: str):
@@ -130,8 +151,13 @@ def voronoi(chosen):
         yield "voronoi", name, digest(result.index, result.image)
 
 
-GROUPS = {"render": renders, "aov": aovs, "edges": aovs, "splat-gauss": splat_gauss, "voronoi": voronoi}
-ITEMS = [f"render:{s}" for s in SCENES] + [f"{k}:{s}" for s in AOV_SCENES for k in ("aov", "edges")] + ["splat-gauss", "voronoi"]
+GROUPS = {"render": renders, "path": paths, "aov": aovs, "edges": aovs, "splat-gauss": splat_gauss, "voronoi": voronoi}
+ITEMS = (
+    [f"render:{s}" for s in SCENES]
+    + [f"path:{s}" for s in (*SCENES, "assets")]
+    + [f"{k}:{s}" for s in AOV_SCENES for k in ("aov", "edges")]
+    + ["splat-gauss", "voronoi"]
+)
 
 
 def main(argv=None) -> int:
