@@ -29,6 +29,8 @@
 #ifndef CLRENDER_BSDF_H
 #define CLRENDER_BSDF_H
 
+#include "mathf.h"
+
 
 #define GGX_ALPHA_MIN 1e-4f       /* smallest GGX alpha: D peaks at 1 / (pi alpha^2), 3.2e7, far from float overflow */
 #define GLTF_DIELECTRIC_F0 0.04f  /* glTF 2.0 Appendix B: F0 of the dielectric layer, ((1 - ior) / (1 + ior))^2, ior 1.5 */
@@ -129,7 +131,7 @@ INLINE float lambert_pdf(float3 wo, float3 wi) { return (wo.z > 0.0f && wi.z > 0
 
 INLINE float3 cosine_hemisphere(float2 u) {
     float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y;
-    return (float3)(r * cos(phi), r * sin(phi), sqrt(max_f(0.0f, 1.0f - u.x)));
+    return (float3)(r * COS(phi), r * SIN(phi), sqrt(max_f(0.0f, 1.0f - u.x)));
 }
 
 INLINE BsdfSample lambert_sample(float3 wo, float2 u2, float3 albedo) {
@@ -194,7 +196,7 @@ INLINE float3 ggx_sample_vndf(float3 w, float alpha, float2 u) {
     float3 t1 = lensq > 0.0f ? (float3)(-wh.y, wh.x, 0.0f) / sqrt(lensq) : (float3)(1.0f, 0.0f, 0.0f);
     float3 t2 = cross3(wh, t1);
     float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y; /* a point on the projected disk ... */
-    float p1 = r * cos(phi), p2 = r * sin(phi);
+    float p1 = r * COS(phi), p2 = r * SIN(phi);
     float s = 0.5f * (1.0f + wh.z); /* ... warped to the visible half of it */
     p2 = (1.0f - s) * sqrt(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;
     float3 nh = p1 * t1 + p2 * t2 + sqrt(max_f(0.0f, 1.0f - p1 * p1 - p2 * p2)) * wh; /* onto the hemisphere */
@@ -367,7 +369,7 @@ INLINE float gltf_specular_probability(float3 wo, float3 base, float metallic) {
     float e_s = (1.0f - metallic) * f_d + metallic * mean3(fresnel_schlick(base, wo.z));
     float e_d = (1.0f - metallic) * (1.0f - f_d) * mean3(base);
     if (!(e_d > 0.0f)) return 1.0f;
-    return clamp(e_s / (e_s + e_d), GLTF_LOBE_PROB_MIN, 1.0f - GLTF_LOBE_PROB_MIN);
+    return CLAMP(e_s / (e_s + e_d), GLTF_LOBE_PROB_MIN, 1.0f - GLTF_LOBE_PROB_MIN);
 }
 
 INLINE float3 gltf_eval(float3 wo, float3 wi, float3 base, float metallic, float alpha, int smith) {

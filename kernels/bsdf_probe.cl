@@ -4,6 +4,8 @@
  *   wo, wi  float4 per item (xyz, unused); wo read at i * wo_stride (stride 0: one shared by all)
  *   u       float4 per item: (u1, u2.x, u2.y, unused)
  * Build with clrender.trace.bsdf.bsdf_defines() (common.h's traversal knobs). */
+#define DET_MATH 1 /* as path.cl: the lobes the path tracer runs */
+#include "mathf.h"
 #include "common.h"
 #include "rng.h"
 #include "bsdf.h"

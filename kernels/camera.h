@@ -9,6 +9,7 @@
 
 #include "common.h"
 #include "rng.h"
+#include "mathf.h"
 
 /* A uniform point of the unit disc from u in [0,1)^2, by Shirley and Chiu's concentric map (pbrt-v4's
  * SampleUniformDiskConcentric): squares to rings, so stratified u stay stratified on the lens. */
@@ -21,7 +22,7 @@ INLINE float2 sample_disk_concentric(float2 u) {
     } else {
         r = o.y; theta = M_PI_F / 2.0f - (M_PI_F / 4.0f) * (o.x / o.y);
     }
-    return r * (float2)(cos(theta), sin(theta));
+    return r * (float2)(COS(theta), SIN(theta));
 }
 
 /* The primary ray through image point (sx, sy), each from -1 (left, bottom) to 1 (right, top).  A pinhole

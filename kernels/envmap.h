@@ -9,6 +9,7 @@
 #define ENVMAP_H
 
 #include "common.h"
+#include "mathf.h"
 
 #define ENV_INV_2PI2 0.0506605918f /* 1 / (2 pi^2): d omega = 2 pi^2 sin(theta) du dv */
 
@@ -40,7 +41,7 @@ INLINE float3 env_to_world(EnvMap m, float3 l) {
 INLINE float2 env_uv(EnvMap m, float3 d, float *sin_theta) {
     float3 l = env_to_local(m, d);
     float r = sqrt(l.x * l.x + l.z * l.z); /* theta by atan2, not acos(y): exact near the poles too */
-    float u = atan2(l.x, -l.z) * (0.5f * M_1_PI_F), v = atan2(r, l.y) * M_1_PI_F;
+    float u = ATAN2(l.x, -l.z) * (0.5f * M_1_PI_F), v = ATAN2(r, l.y) * M_1_PI_F;
     if (u < 0.0f) u += 1.0f;
     *sin_theta = r / norm(l);
     return (float2)(u, v);
@@ -104,11 +105,11 @@ INLINE float3 env_sample(const EnvView *e, float2 u, float3 *radiance, float *pd
     float uu = ((float)col + 0.5f + du) / (float)e->m.width;
     if (uu >= 1.0f) uu -= 1.0f;
     float theta = M_PI_F * ((float)row + dv) / (float)(e->m.height - 1), phi = 2.0f * M_PI_F * uu;
-    float sin_theta = sin(theta);
+    float sin_theta = SIN(theta);
     int cell = row * e->m.width + col;
     *radiance = env_bilinear(e, cell, (float2)(du, dv));
     *pdf = sin_theta > 0.0f ? e->texels[cell].w * ENV_INV_2PI2 / sin_theta : 0.0f;
-    return env_to_world(e->m, (float3)(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi)));
+    return env_to_world(e->m, (float3)(sin_theta * SIN(phi), COS(theta), -sin_theta * COS(phi)));
 }
 
 #endif

@@ -1,5 +1,7 @@
 /* Test-only kernels: envmap.h's sampler and lookup over batches, for tests through clrender/trace/envmap.py
  * (EnvProbe).  Build with clrender.trace.tracer.trace_defines() (common.h's traversal knobs). */
+#define DET_MATH 1 /* as path.cl: the lookups the path tracer runs */
+#include "mathf.h"
 #include "common.h"
 #include "envmap.h"
 

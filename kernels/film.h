@@ -6,6 +6,8 @@
 #ifndef FILM_H
 #define FILM_H
 
+#include "mathf.h"
+
 #define FILM_FILTER_TENT 1         /* f(x) = max(0, 1 - |x| / r), r = 1 px (Mitsuba's `tent`) */
 #define FILM_FILTER_GAUSSIAN 2     /* f(x) = max(0, exp(-x^2 / (2 s^2)) - exp(-r^2 / (2 s^2))), s = 0.5 px, r = 4 s */
 #define FILM_TENT_RADIUS 1.0f
@@ -16,7 +18,7 @@
 INLINE float film_weight(int filter, float x) {
     if (filter == FILM_FILTER_TENT) return fmax(0.0f, 1.0f - fabs(x) / FILM_TENT_RADIUS);
     float alpha = -1.0f / (2.0f * FILM_GAUSSIAN_STDDEV * FILM_GAUSSIAN_STDDEV);
-    return fmax(0.0f, exp(alpha * x * x) - exp(alpha * FILM_GAUSSIAN_RADIUS * FILM_GAUSSIAN_RADIUS));
+    return fmax(0.0f, EXP(alpha * x * x) - EXP(alpha * FILM_GAUSSIAN_RADIUS * FILM_GAUSSIAN_RADIUS));
 }
 
 #endif

@@ -25,7 +25,7 @@
  *   acos_det, asin_det <= 3 ulp
  *   pow_det            <= 2 + 2 |y ln x| ulp (exp(y log x): log's error grows with y); C99's special cases.
  *                      Not used by the path tracer.
- *   floor_det, clamp_det, sqrt_det, load3  exact (clamp_det: fmin(fmax(x, lo), hi), a NaN x gives lo). */
+ *   floor_det, clamp_det, sqrt_det  exact (clamp_det: fmin(fmax(x, lo), hi), a NaN x gives lo). */
 #ifndef CLRENDER_MATHF_H
 #define CLRENDER_MATHF_H
 
@@ -65,9 +65,6 @@ INLINE float sqrt_det(float x) { return __builtin_sqrtf(x); }
 #else
 INLINE float sqrt_det(float x) { return sqrt(x); }
 #endif
-
-/* vload3(0, p) as three loads (PoCL calls vload3 out of line) */
-#define load3(p) ((float3)((p)[0], (p)[1], (p)[2]))
 
 /* 2/pi's bits, 32 a word, after a zero word (Payne-Hanek reads a 96-bit window starting up to 31 bits early) */
 __constant uint MF_TWO_OVER_PI[9] = {0u,          0xA2F9836Eu, 0x4E441529u, 0xFC2757D1u, 0xF534DDC0u,

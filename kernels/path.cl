@@ -16,6 +16,8 @@
  * kd I c cos(theta), as the Whitted integrator draws it; they are not surfaces, so only NEE finds them.
  * max_depth counts bounces after the primary hit (0: direct light only); Mitsuba's is max_depth + 2.
  * Shadow rays see every surface as opaque: light reaches through glass by BSDF sampling (caustics). */
+#define DET_MATH 1 /* mathf.h's functions, no contraction: the same bits on every driver (docs/math.md) */
+#include "mathf.h"
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"

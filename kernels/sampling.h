@@ -7,6 +7,7 @@
 /* the PIXEL_FILTER_* codes */
 #include "layout.h"
 #include "rng.h"
+#include "mathf.h"
 
 /* Bit reversal by a byte table: compilers turn the shift-and-mask idiom into
  * an llvm.bitreverse intrinsic that some OpenCL implementations (Oclgrind)
@@ -94,7 +95,7 @@ INLINE float pixel_filter_weight(int filter, float2 off) {
     float dx = off.x - 0.5f, dy = off.y - 0.5f;
     if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + TENT_FLOOR;
     if (filter == PIXEL_FILTER_GAUSSIAN)
-        return exp(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
+        return EXP(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
     return 1.0f;
 }
 

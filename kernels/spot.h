@@ -8,6 +8,8 @@
 #ifndef CLRENDER_SPOT_H
 #define CLRENDER_SPOT_H
 
+#include "mathf.h"
+
 INLINE float spot_profile(__global const Light *L, float3 d) {
     float cos_theta = dot3(d, unit(vload3(0, L->direction)));
     if (L->spot_profile == SPOT_PROFILE_PBRT) {
@@ -18,7 +20,7 @@ INLINE float spot_profile(__global const Light *L, float3 d) {
     }
     if (!(cos_theta > L->spot_cos_cutoff)) return 0.0f;
     if (cos_theta >= L->spot_cos_beam) return 1.0f;
-    return (L->spot_cutoff - acos(cos_theta)) / (L->spot_cutoff - L->spot_beam);
+    return (L->spot_cutoff - ACOS(cos_theta)) / (L->spot_cutoff - L->spot_beam);
 }
 
 #endif
