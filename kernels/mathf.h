@@ -17,7 +17,7 @@
  *
  * Error bounds, against float64 (ulp: of the float32 nearest the exact value; measured by
  * tests/kernels/test_mathf.py over each function's whole range, and stated there):
- *   sin_det, cos_det   <= 2 ulp where |result| >= 2^-12, else <= 2^-35 absolute; any finite x (Payne-Hanek
+ *   sin_det, cos_det   <= 2.5 ulp where |result| >= 2^-12, else <= 2^-35 absolute; any finite x (Payne-Hanek
  *                      reduction past |x| = 256), NaN for +-inf and NaN
  *   exp_det            <= 2 ulp (denormal results: <= 1 ulp of the smallest denormal); +inf past 88.72, 0 below -103.98
  *   log_det            <= 2 ulp; -inf at +-0, NaN below 0, denormals exact in their exponent
