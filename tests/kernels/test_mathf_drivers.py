@@ -68,7 +68,7 @@ def test_mathf_same_bits_on_oclgrind(device, tmp_path):
 
     not_oclgrind(device)
     exec(PROBE_ARGS, namespace := {})
-    args = namespace["probe_args"](1 << 10)
+    args = namespace["probe_args"](1 << 9)
     here = np.concatenate([evaluate(name, a, b, device=device) for name, (a, b) in args.items()])
     out = tmp_path / "probe.npy"
     code = (
