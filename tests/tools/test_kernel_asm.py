@@ -72,8 +72,8 @@ def test_builtin_sin_is_a_call_and_mathf_is_not(device):
     assert functions_or_skip(device, 1)["probe_sin"].call_count == 0
 
 
-# Calls render_path may keep: Intel's runtime divides the 16 lanes' unsigned integers (pixel index to x and y,
-# the sample's stratum row and column) by a library routine.  No float math.
+# Calls render_path may keep: Intel's runtime divides 16 lanes' integers by a library routine (the pixel index
+# to x and y, once a work-item, before the sample loop).  No float math.
 ALLOWED_IN_PATH = {"__ocl_svml_z0_idiv16", "__ocl_svml_z0_irem16", "__ocl_svml_z0_udiv16", "__ocl_svml_z0_urem16"}
 
 
