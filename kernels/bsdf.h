@@ -114,7 +114,7 @@ INLINE float fresnel_dielectric(float cos_i, float eta, float *cos_t) {
         *cos_t = 0.0f;
         return 1.0f;
     }
-    float ct = sqrt(cos2_t);
+    float ct = SQRT(cos2_t);
     float r_parallel = (eta * cos_i - ct) / (eta * cos_i + ct);
     float r_perpendicular = (cos_i - eta * ct) / (cos_i + eta * ct);
     *cos_t = ct;
@@ -130,8 +130,8 @@ INLINE float3 lambert_eval(float3 wo, float3 wi, float3 albedo) {
 INLINE float lambert_pdf(float3 wo, float3 wi) { return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * M_1_PI_F : 0.0f; }
 
 INLINE float3 cosine_hemisphere(float2 u) {
-    float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y;
-    return (float3)(r * COS(phi), r * SIN(phi), sqrt(max_f(0.0f, 1.0f - u.x)));
+    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y;
+    return (float3)(r * COS(phi), r * SIN(phi), SQRT(max_f(0.0f, 1.0f - u.x)));
 }
 
 INLINE BsdfSample lambert_sample(float3 wo, float2 u2, float3 albedo) {
@@ -158,7 +158,7 @@ INLINE float ggx_d(float3 h, float alpha) {
     return a2 / (M_PI_F * den * den);
 }
 
-INLINE float ggx_r(float3 w, float alpha) { return sqrt(w.z * w.z + alpha * alpha * sin2_of(w)); }
+INLINE float ggx_r(float3 w, float alpha) { return SQRT(w.z * w.z + alpha * alpha * sin2_of(w)); }
 
 INLINE float ggx_g1(float3 w, float alpha) {
     float c = abs_f(w.z);
@@ -193,13 +193,13 @@ INLINE float ggx_reflection_weight(float3 wo, float3 wi, float alpha, int smith)
 INLINE float3 ggx_sample_vndf(float3 w, float alpha, float2 u) {
     float3 wh = unit((float3)(alpha * w.x, alpha * w.y, w.z)); /* stretch to the hemisphere configuration */
     float lensq = wh.x * wh.x + wh.y * wh.y;
-    float3 t1 = lensq > 0.0f ? (float3)(-wh.y, wh.x, 0.0f) / sqrt(lensq) : (float3)(1.0f, 0.0f, 0.0f);
+    float3 t1 = lensq > 0.0f ? (float3)(-wh.y, wh.x, 0.0f) / SQRT(lensq) : (float3)(1.0f, 0.0f, 0.0f);
     float3 t2 = cross3(wh, t1);
-    float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y; /* a point on the projected disk ... */
+    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y; /* a point on the projected disk ... */
     float p1 = r * COS(phi), p2 = r * SIN(phi);
     float s = 0.5f * (1.0f + wh.z); /* ... warped to the visible half of it */
-    p2 = (1.0f - s) * sqrt(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;
-    float3 nh = p1 * t1 + p2 * t2 + sqrt(max_f(0.0f, 1.0f - p1 * p1 - p2 * p2)) * wh; /* onto the hemisphere */
+    p2 = (1.0f - s) * SQRT(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;
+    float3 nh = p1 * t1 + p2 * t2 + SQRT(max_f(0.0f, 1.0f - p1 * p1 - p2 * p2)) * wh; /* onto the hemisphere */
     return unit((float3)(alpha * nh.x, alpha * nh.y, max_f(0.0f, nh.z)));          /* unstretch */
 }
 
@@ -275,7 +275,7 @@ INLINE int dielectric_half(float3 wo, float3 wi, float eta, float3 *h, float *et
     float3 v = reflect ? wo + wi : *eta_o * wo + *eta_i * wi;
     *len2 = dot3(v, v);
     if (!(*len2 > 0.0f)) return 0;
-    v = v / sqrt(*len2);
+    v = v / SQRT(*len2);
     *h = v.z < 0.0f ? -v : v;
     bool facing = dot3(wo, *h) * wo.z > 0.0f && dot3(wi, *h) * wi.z > 0.0f;
     return facing;

@@ -18,8 +18,8 @@
 INLINE float fresnel_conductor(float cos_i, float eta, float k) {
     float c2 = cos_i * cos_i, s2 = 1.0f - c2, s4 = s2 * s2;
     float temp = eta * eta - k * k - s2;
-    float a2_b2 = sqrt(max_f(0.0f, temp * temp + 4.0f * k * k * eta * eta));
-    float a = sqrt(max_f(0.0f, 0.5f * (a2_b2 + temp)));
+    float a2_b2 = SQRT(max_f(0.0f, temp * temp + 4.0f * k * k * eta * eta));
+    float a = SQRT(max_f(0.0f, 0.5f * (a2_b2 + temp)));
     float term1 = a2_b2 + c2, term2 = 2.0f * cos_i * a;
     float term3 = a2_b2 * c2 + s4, term4 = term2 * s2;
     bool grazing_match = !(term1 + term2 > 0.0f) || !(term3 + term4 > 0.0f); /* eta = 1, k = 0 at cos 0: the limit 1 */

@@ -40,7 +40,7 @@ INLINE float3 env_to_world(EnvMap m, float3 l) {
 /* The map's (u, v) of a unit world direction; sin_theta gets sin of its polar angle. */
 INLINE float2 env_uv(EnvMap m, float3 d, float *sin_theta) {
     float3 l = env_to_local(m, d);
-    float r = sqrt(l.x * l.x + l.z * l.z); /* theta by atan2, not acos(y): exact near the poles too */
+    float r = SQRT(l.x * l.x + l.z * l.z); /* theta by atan2, not acos(y): exact near the poles too */
     float u = ATAN2(l.x, -l.z) * (0.5f * M_1_PI_F), v = ATAN2(r, l.y) * M_1_PI_F;
     if (u < 0.0f) u += 1.0f;
     *sin_theta = r / norm(l);
