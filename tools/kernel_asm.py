@@ -156,8 +156,13 @@ def pocl_objects(kernel: str) -> list[Path]:
 
 
 def kernel_of(function: str) -> str:
-    """The kernel a function of Intel's object belongs to: `__Vectorized_.render_path` -> render_path."""
-    return function.split(".", 1)[1] if function.startswith("__Vectorized_.") else function
+    """The kernel a compiled function belongs to: Intel's `__Vectorized_.render_path`, PoCL's
+    `_pocl_kernel_render_path_workgroup` -> render_path."""
+    if function.startswith("__Vectorized_."):
+        return function.split(".", 1)[1]
+    if function.startswith("_pocl_kernel_"):
+        return re.sub(r"_workgroup(_fast)?$", "", function[len("_pocl_kernel_") :])
+    return function
 
 
 def build_sample_programs(size: int = 8):
@@ -177,11 +182,15 @@ def report(device, only=("*",)) -> list[tuple[str, str, FunctionAsm]]:
     """(program file, function, its FunctionAsm) for each kernel function of every program `device` built."""
     rows = []
     for (filename, _defines), program in device._programs.items():
+        names = set(program.kernel_names.split(";"))
         functions = program_functions(program)
-        names = set(program.kernel_names.split(";")) if functions is not None else set()
-        if functions is None:
-            continue
-        for name, fn in sorted(functions.items()):
+        if functions is None and "portable computing language" in device.name.lower():
+            functions = {}  # PoCL: the newest cached build of each kernel (the last variant built)
+            for name in names:
+                found = pocl_objects(name)
+                if found:
+                    functions.update(disassemble(found[0].read_bytes()))
+        for name, fn in sorted((functions or {}).items()):
             if kernel_of(name) in names and any(fnmatch.fnmatch(kernel_of(name), p) for p in only):
                 rows.append((filename, name, fn))
     return rows
