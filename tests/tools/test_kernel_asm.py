@@ -47,6 +47,11 @@ def test_calls_and_registers_parsed_from_objdump():
     assert dict(plain.calls) == {"floorf": 1} and plain.widest == "xmm" and plain.vector_regs == {2, 3}
 
 
+def test_compiled_functions_map_to_their_kernel():
+    for compiled in ("render_path", "__Vectorized_.render_path", "_pocl_kernel_render_path_workgroup", "_pocl_kernel_render_path_workgroup_fast"):
+        assert kernel_asm.kernel_of(compiled) == "render_path"
+
+
 SOURCE = """
 #define DET_MATH {det}
 #include "mathf.h"
