@@ -93,7 +93,7 @@ PLANTED = [
     (
         # the sampler draws from the whole projected disk, not the visible half (Heitz 2018's warp of t2 dropped)
         "vndf_without_the_visible_warp",
-        "p2 = (1.0f - s) * sqrt(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;",
+        "p2 = (1.0f - s) * SQRT(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;",
         "p2 = p2;",
         ("conductor", bsdf.params(alpha=0.8), 60.0),
     ),
