@@ -11,8 +11,8 @@
  *     give 2.5 ulp for / and 3 ulp for sqrt unless the program is built with
  *     -cl-fp32-correctly-rounded-divide-sqrt (docs/math.md).
  *
- * Build switch DET_MATH (0 or undefined: off).  The shared headers (camera.h, sampling.h, envmap.h, spot.h,
- * texture.h) call SIN, COS, EXP, ATAN2, ACOS, FLOOR, CLAMP, which are these functions in a DET_MATH program
+ * Build switch DET_MATH (0 or undefined: off).  The headers shared with the Whitted kernels (camera.h, sampling.h,
+ * envmap.h, spot.h) call SIN, COS, EXP, ATAN2, ACOS, SQRT, which are these functions in a DET_MATH program
  * and the builtins otherwise, so the Whitted kernels (trace.cl, which does not define DET_MATH) keep their bits.
  *
  * Error bounds, against float64 (ulp: of the float32 nearest the exact value; measured by
