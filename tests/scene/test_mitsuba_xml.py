@@ -402,6 +402,15 @@ def test_hide_emitters_and_rr_depth_become_render_settings(tmp_path):
         assert (s.hide_emitters, s.rr_depth) == expected
 
 
+def test_convert_writes_settings_without_flags_as_render_settings(tmp_path, capsys):
+    path = write(tmp_path, '<integrator type="path"><boolean name="hide_emitters" value="true"/><integer name="rr_depth" value="3"/></integrator>')
+    code, out, err = run_cli(capsys, "convert", str(path), "-o", str(tmp_path / "s.toml"))
+    assert code == 0, err
+    comment = (tmp_path / "s.toml").read_text().splitlines()[1]
+    assert comment.endswith("--spp 4; RenderSettings(rr_depth=2, hide_emitters=True) (no command-line flags)"), comment
+    assert "--hide-emitters" not in comment
+
+
 def test_emitters(tmp_path):
     f = read(
         tmp_path,
