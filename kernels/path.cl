@@ -32,7 +32,13 @@
 /* the reconstruction filters of SPLAT_FILTER */
 #include "film.h"
 
-#define RR_DEPTH 3          /* Russian roulette from this many bounces on */
+#ifndef RR_DEPTH
+#define RR_DEPTH 3          /* Russian roulette from this many bounces on (RenderSettings.rr_depth; Mitsuba's rr_depth - 1) */
+#endif
+#ifndef HIDE_EMITTERS
+#define HIDE_EMITTERS 0 /* 1: camera rays look past emitting triangles and see no area light or environment (Mitsuba's hide_emitters) */
+#endif
+#define HIDDEN_LAYERS 16 /* HIDE_EMITTERS: emitting triangles a camera ray looks past at most; the next one shows */
 #define BETA_LIMIT 1e18f /* a path's throughput past this ends it (no pixel may be inf or NaN) */
 #define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
@@ -549,14 +555,27 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
     float3 radiance = (float3)(0.0f), beta = (float3)(1.0f), prev_n = (float3)(0.0f);
     float prev_pdf = 0.0f;
     bool prev_delta = true; /* the camera ray: every light it meets counts whole */
+    float t_min = 0.0f;
+#if HIDE_EMITTERS
+    int hidden = 0;
+#endif
     for (int depth = 0;; ++depth) {
-        Hit h = seen_hit(s, r, 0.0f, INF_T, depth == 0, rng, visits);
+        Hit h = seen_hit(s, r, t_min, INF_T, depth == 0, rng, visits);
         *rays += 1;
-        radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
+#if HIDE_EMITTERS
+        if (depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
+            t_min = h.t; /* the camera ray again, past this emitting triangle */
+            depth = -1;
+            continue;
+        }
+        t_min = 0.0f;
+#endif
+        bool shown = !HIDE_EMITTERS || depth > 0; /* emission this vertex may add */
+        if (shown) radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
         if (h.id < 0) {
             float mis;
             float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
-            radiance += beta * le * mis;
+            if (shown) radiance += beta * le * mis;
             if (depth == 0) *first = first_hit_of(s, 0, 0, 1.0f, h);
             break;
         }
@@ -565,7 +584,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         Shading m = shading_at(s, &f, h, &occlusion);
         normal_map(s, &m, &f, h, r.d);
         if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
-        radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
+        if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
         Component c = pick_component(&m, rng_next(rng));
         Frame fr = component_frame(c, &f);

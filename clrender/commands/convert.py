@@ -69,6 +69,9 @@ def _mesh_files(scene: dict, output: Path, overwrite: bool) -> dict:
     return scene
 
 
+NO_FLAG = ("hide_emitters", "rr_depth")  # render settings a foreign file may set that the command line cannot
+
+
 def run(args):
     from ..outputs import check_file_output, write_file
     from ..scene.foreign import is_foreign, parse_defines, read_foreign
@@ -81,7 +84,9 @@ def run(args):
     source = Path(args.scene)
     foreign = read_foreign(source, parse_defines(args.defines), args.approximate)
     Scene.from_dict(foreign.scene, base_dir=source.parent, where=str(source), name=source.stem)  # refused now, not when rendered
-    options = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in foreign.settings.items())
+    options = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in foreign.settings.items() if k not in NO_FLAG)
+    settings = ", ".join(f"{k}={v!r}" for k, v in foreign.settings.items() if k in NO_FLAG)
+    options += f"; RenderSettings({settings}) (no command-line flags)" if settings else ""
     comments = [f"converted from {source.name} by clrender convert", f"its render settings: {options}"]
     scene = _rebase(foreign.scene, source.parent, output.parent)
     if foreign.substitutions:

@@ -388,8 +388,9 @@ def load_scene(args):
 
 
 def foreign_settings(args, settings, scene):
-    """A foreign file's own settings (its integrator, spp, depth, reconstruction filter) where the command line gives
-    none; the filter only for the path tracer (the Whitted integrator averages each pixel's own samples)."""
+    """A foreign file's own settings (its integrator, spp, depth, reconstruction filter, hidden emitters, Russian
+    roulette depth) where the command line gives none; the last three only for the path tracer (the Whitted
+    integrator averages each pixel's own samples and has neither)."""
     own = scene.render_settings
     if not own:
         return settings
@@ -400,10 +401,13 @@ def foreign_settings(args, settings, scene):
         "spp": args.spp is not None or args.samples is not None,
         "max_depth": args.max_depth is not None,
         "rfilter": args.rfilter is not None,
+        "hide_emitters": False,  # no flags: only a scene file sets them
+        "rr_depth": False,
     }
-    settings = replace(settings, **{k: v for k, v in own.items() if k in given and not given[k] and k != "rfilter"})
-    if "rfilter" in own and not given["rfilter"] and settings.integrator == "path":
-        settings = replace(settings, rfilter=own["rfilter"])
+    path_only = ("rfilter", "hide_emitters", "rr_depth")
+    settings = replace(settings, **{k: v for k, v in own.items() if k in given and not given[k] and k not in path_only})
+    if settings.integrator == "path":
+        settings = replace(settings, **{k: own[k] for k in path_only if k in own and not given[k]})
     return settings
 
 

@@ -168,9 +168,10 @@ class Reader:
         else:
             self.settings["max_depth"] = depth - 2  # Mitsuba counts the camera segment and the emitter's; clrender counts bounces after the first hit
         self.settings["integrator"] = "path"
-        p.get("rr_depth")  # Russian roulette is unbiased: its start changes noise, not the image
+        if p.has("rr_depth"):  # Mitsuba counts the primary hit as depth 1 when it starts Russian roulette
+            self.settings["rr_depth"] = max(0, int(p.get("rr_depth")) - 1)
         if p.get("hide_emitters", False):
-            self.refuse(p, "integrator hide_emitters = true is not supported", "emitters shown")
+            self.settings["hide_emitters"] = True
         self.check_used(p)
 
     def sensor(self, p: Plugin):

@@ -74,6 +74,8 @@ class RenderSettings:
     # None: when that saves at least instancing.AUTO_MIN_TRIANGLES triangles (docs/bvh.md, "Instancing")
     instancing: bool | None = None
     rfilter: str = "box"  # path: the film's reconstruction filter, "box" (a pixel's own samples), "tent" or "gaussian" (trace/film.py)
+    hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
+    rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: the kernel's (3)
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
@@ -122,10 +124,14 @@ class RenderSettings:
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
         depth_limit = PATH_DEPTH_LIMIT if s.integrator == "path" else MAX_DEPTH_LIMIT  # the path tracer keeps no ray stack
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
+        require(
+            s.rr_depth is None or (_whole(s.rr_depth) and 0 <= s.rr_depth <= PATH_DEPTH_LIMIT),
+            f"rr depth {v(s.rr_depth)} must be from 0 to {PATH_DEPTH_LIMIT}, or None for the path tracer's own",
+        )
         require(_name_in(s.bvh_builder, BUILDERS), f"unknown BVH builder {v(s.bvh_builder)}; allowed: {', '.join(BUILDERS)}")
         require(_whole(s.seed) and 0 <= s.seed < 2**32, f"seed {v(s.seed)} must be from 0 to 2**32-1")
         require(_whole(s.tile_size) and s.tile_size >= 1, f"tile size {v(s.tile_size)} must be a whole number >= 1")
-        for name in ("shadow_edges", "fresnel", "bvh"):
+        for name in ("shadow_edges", "fresnel", "bvh", "hide_emitters"):
             require(isinstance(getattr(s, name), (bool, np.bool_)), f"{name} {v(getattr(s, name))} must be True or False")
         require(
             s.instancing is None or isinstance(s.instancing, (bool, np.bool_)),
@@ -149,7 +155,8 @@ class RenderSettings:
             **{k: int(getattr(s, k)) for k in ("samples", "spp", "light_samples", "max_depth", "seed", "tile_size")},
             time_budget=None if s.time_budget is None else float(s.time_budget),
             **{k: float(getattr(s, k)) for k in ("thickness", "contrast")},
-            **{k: bool(getattr(s, k)) for k in ("shadow_edges", "fresnel", "bvh")},
+            **{k: bool(getattr(s, k)) for k in ("shadow_edges", "fresnel", "bvh", "hide_emitters")},
+            rr_depth=None if s.rr_depth is None else int(s.rr_depth),
         )
         if not _on_a_dask_worker():  # a worker re-checks the client's settings: the client has warned already
             for message in s.pointless(scene):
@@ -165,6 +172,8 @@ class RenderSettings:
             return self._pointless_for_paths(scene)
         if self.spp or self.time_budget is not None:
             said.append("--spp and --time-budget have no effect with --integrator whitted (they set the path tracer's samples)")
+        if self.hide_emitters or self.rr_depth is not None:
+            said.append("hide_emitters and rr_depth have no effect with --integrator whitted (they are the path tracer's)")
         if self.aa == "none" and self.samples != 1:
             said.append(
                 f"{self.samples} x {self.samples} samples have no effect with --aa none "
@@ -292,6 +301,10 @@ class Renderer:
             self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
             self.setup_seconds["emitters"] = time.perf_counter() - start
             defines = {**defines, **film.defines(s.rfilter)}  # a reconstruction filter wider than a pixel splats
+            if s.hide_emitters:
+                defines["HIDE_EMITTERS"] = 1
+            if s.rr_depth is not None:
+                defines["RR_DEPTH"] = s.rr_depth
         start = time.perf_counter()
         with compile_notice(dev):  # a line on stderr when the build is slow (a cold cache)
             file, name = ("path.cl", "render_path") if s.integrator == "path" else ("trace.cl", "render")

@@ -382,6 +382,35 @@ def test_max_depth_is_mitsubas_minus_two(tmp_path, mitsuba, ours):
     assert "max_depth 1" in refused(tmp_path, '<integrator type="path"><integer name="max_depth" value="1"/></integrator>')
 
 
+def test_hide_emitters_and_rr_depth_become_render_settings(tmp_path):
+    """hide_emitters as written; rr_depth one less (Mitsuba's depth counter is already 1 at the primary hit when it
+    tests rr_depth; clrender's is 0), absent when the file does not write it; the command line applies both to the
+    path tracer only."""
+    from clrender.cli import build_parser
+    from clrender.commands.render import foreign_settings, settings_from_args
+
+    plain = read(tmp_path, '<integrator type="path"/>')
+    assert "hide_emitters" not in plain.settings and "rr_depth" not in plain.settings
+    text = '<integrator type="{}"><boolean name="hide_emitters" value="true"/><integer name="rr_depth" value="{}"/></integrator>'
+    for kind, rr, ours in (("path", 5, 4), ("direct", 1, 0), ("path", 0, 0)):
+        f = read(tmp_path, text.format(kind, rr))
+        assert (f.settings["hide_emitters"], f.settings["rr_depth"]) == (True, ours)
+    path = write(tmp_path, text.format("path", 3))
+    for argv, expected in (([], (True, 2)), (["--integrator", "whitted"], (False, None))):
+        args = build_parser().parse_args(["render", str(path), *argv])
+        s = foreign_settings(args, settings_from_args(args), Scene.from_file(path))
+        assert (s.hide_emitters, s.rr_depth) == expected
+
+
+def test_convert_writes_settings_without_flags_as_render_settings(tmp_path, capsys):
+    path = write(tmp_path, '<integrator type="path"><boolean name="hide_emitters" value="true"/><integer name="rr_depth" value="3"/></integrator>')
+    code, out, err = run_cli(capsys, "convert", str(path), "-o", str(tmp_path / "s.toml"))
+    assert code == 0, err
+    comment = (tmp_path / "s.toml").read_text().splitlines()[1]
+    assert comment.endswith("--spp 4; RenderSettings(rr_depth=2, hide_emitters=True) (no command-line flags)"), comment
+    assert "--hide-emitters" not in comment
+
+
 def test_emitters(tmp_path):
     f = read(
         tmp_path,
