@@ -48,7 +48,7 @@ class TextureSlot:
     name: str  # the slot; the scene key and Material attribute are f"{name}_texture"
     parameters: tuple  # what the texel changes, each with its channels: ("kd", "rgb") scales kd by the texel's rgb
     colour: bool  # texels sRGB-decoded (a colour), else linear (data)
-    gltf: str  # the glTF material's textureInfo: "pbrMetallicRoughness.baseColorTexture", "emissiveTexture", ...
+    gltf: str  # the glTF material's textureInfo key path: "pbrMetallicRoughness.baseColorTexture", ...; "" for none
     strength: str = ""  # the textureInfo key of the slot's strength (TextureRef.strength), "" for none
     models: str = "gltf"  # the scene materials whose tables take the key: "gltf", or "all" (every model)
     alias: str = ""  # the key the seed model (and coated_diffuse) reads the slot by, "" for none

@@ -685,9 +685,12 @@ def _material(doc: Document, index: int) -> dict:
     if mode != "OPAQUE":
         cutoff = float(_numbers(doc, [item.get("alphaCutoff", 0.5)], 1, f"{where}.alphaCutoff")[0])
         out["alpha"] = {"mode": mode.lower(), "cutoff": min(max(cutoff, 0.0), 1.0), "factor": min(max(float(factor[3]), 0.0), 1.0)}
-    for slot in TEXTURE_SLOT_TABLE:  # each slot's textureInfo, where layout's table says it is
-        table, name = (pbr, slot.gltf.split(".")[1]) if "." in slot.gltf else (item, slot.gltf)
-        if name in table:
+    for slot in TEXTURE_SLOT_TABLE:  # each slot's textureInfo, at the key path layout's table gives
+        *tables, name = slot.gltf.split(".")
+        table = item
+        for key in tables:
+            table = table.get(key, {}) if isinstance(table, dict) else {}
+        if slot.gltf and isinstance(table, dict) and name in table:
             key = f"{slot.name}_texture"
             out[key], extra = _texture_info(doc, table[name], f"{where}.{name}")
             if slot.strength:

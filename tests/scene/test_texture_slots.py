@@ -64,13 +64,18 @@ def test_the_scene_readers_take_their_slots_from_the_table():
 
 def test_gltf_reads_each_slot_at_the_key_the_table_names():
     """A glTF material with a textureInfo at every slot's key (and its strength key) reads as every slot."""
-    item = {"pbrMetallicRoughness": {}}
-    for i, slot in enumerate(TEXTURE_SLOT_TABLE):
-        table, key = (item["pbrMetallicRoughness"], slot.gltf.split(".")[1]) if "." in slot.gltf else (item, slot.gltf)
+    item = {}
+    read = [(i, slot) for i, slot in enumerate(TEXTURE_SLOT_TABLE) if slot.gltf]  # "": a slot glTF has no key for
+    for i, slot in read:
+        *tables, key = slot.gltf.split(".")
+        table = item
+        for name in tables:
+            table = table.setdefault(name, {})
         table[key] = {"index": i, **({slot.strength: 0.25} if slot.strength else {})}
     doc = Document(Path("table.gltf"), {"materials": [item], "textures": [{"source": 0}] * len(TEXTURE_SLOT_TABLE)}, [])
     out = _material(doc, 0)
-    for i, slot in enumerate(TEXTURE_SLOT_TABLE):
+    assert len(read) == 5
+    for i, slot in read:
         ref = out[f"{slot.name}_texture"]
         assert ref["texture"] == f"texture_{i}"
         assert ref.get("strength", 1.0) == (0.25 if slot.strength else 1.0)
