@@ -37,9 +37,38 @@ COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's 
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
-# a material's texture slots (Material.textures[slot]; kernels/texture.h): colour ones hold sRGB-decoded texels,
-# data ones linear values
-TEXTURE_SLOTS = {"base_color": 0, "metallic_roughness": 1, "emissive": 2, "occlusion": 3, "normal": 4}
+
+
+@dataclass(frozen=True)
+class TextureSlot:
+    """A material's texture slot: what its texels scale.  TEXTURE_SLOT_TABLE is read by the scene readers (the scene
+    key `{name}_texture` and Material attribute, textures.py's colour spaces, gltf.py's keys) and by the kernels'
+    one rule, kernels/surface.h's material_at (layout.DEFINES names each slot TEXTURE_{NAME})."""
+
+    name: str  # the slot; the scene key and Material attribute are f"{name}_texture"
+    parameters: tuple  # what the texel changes, each with its channels: ("kd", "rgb") scales kd by the texel's rgb
+    colour: bool  # texels sRGB-decoded (a colour), else linear (data)
+    gltf: str  # the glTF material's textureInfo key path: "pbrMetallicRoughness.baseColorTexture", ...; "" for none
+    strength: str = ""  # the textureInfo key of the slot's strength (TextureRef.strength), "" for none
+    models: str = "gltf"  # the scene materials whose tables take the key: "gltf", or "all" (every model)
+    alias: str = ""  # the key the seed model (and coated_diffuse) reads the slot by, "" for none
+
+
+TEXTURE_SLOT_TABLE = (
+    TextureSlot(
+        "base_color",
+        (("kd", "rgb"), ("base_color", "rgb"), ("alpha", "a")),
+        colour=True,
+        gltf="pbrMetallicRoughness.baseColorTexture",
+        alias="diffuse_texture",
+    ),
+    TextureSlot("metallic_roughness", (("metallic", "b"), ("roughness", "g")), colour=False, gltf="pbrMetallicRoughness.metallicRoughnessTexture"),
+    TextureSlot("emissive", (("emission", "rgb"),), colour=True, gltf="emissiveTexture", models="all"),
+    TextureSlot("occlusion", (("occlusion", "r"),), colour=False, gltf="occlusionTexture", strength="strength"),
+    TextureSlot("normal", (("normal", "rgb"),), colour=False, gltf="normalTexture", strength="scale"),
+)
+# Material.textures[slot] (and tex_coord, tex_transform) by slot name
+TEXTURE_SLOTS = {slot.name: code for code, slot in enumerate(TEXTURE_SLOT_TABLE)}
 ALPHA_MODES = {"opaque": 0, "mask": 1, "blend": 2}  # Material.alpha_mode: glTF's alphaMode (kernels/alpha.h, both integrators)
 WRAP_MODES = {"repeat": 10497, "clamp_to_edge": 33071, "mirrored_repeat": 33648}  # Texture.wrap_s/t: glTF's sampler codes
 

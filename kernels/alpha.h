@@ -2,7 +2,7 @@
  * glTF alphaMode: a point's coverage alpha (the material's factor times its base colour
  * texture's alpha there) and what a ray does with it.
  *   MASK:  the point is there where alpha >= alphaCutoff, else every ray (camera, bounce, shadow) goes on past it.
- *   BLEND: the path tracer keeps the point with probability alpha (stochastic transparency, alpha_kept); the
+ *   BLEND: the path tracer keeps the point with probability alpha (stochastic transparency, point_kept); the
  *          Whitted integrator, which draws no random numbers for its rays, blends instead: a camera or bounce
  *          ray sees alpha x the surface + (1 - alpha) x what lies behind it, and a shadow ray crossing the point
  *          keeps (1 - alpha) + alpha x transparency of the light (docs/materials.md).
@@ -14,6 +14,7 @@
 #include "common.h"
 #include "intersect.h"
 #include "texture.h"
+#include "surface.h"
 #include "rng.h"
 
 #ifndef ALPHA_TEST
@@ -24,15 +25,6 @@
 #endif
 #define LOOK_PAST (ALPHA_TEST || CULL_BACKFACES) /* camera rays may be traced again past a hit */
 #define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
-
-/* The texture view for hit h's records (here, where intersect.h and texture.h meet): an instance's tangents
- * are turned to world space by its object_to_world (texture.h normal_mapped). */
-INLINE TextureView hit_texture_view(TextureView tv, const Geometry *g, Hit h) {
-#if INSTANCED
-    if (h.instance >= 0) tv.tangent_to_world = &g->instances[h.instance].object_to_world[0][0];
-#endif
-    return tv;
-}
 
 #if CULL_BACKFACES
 /* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
@@ -48,34 +40,29 @@ INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
 #endif
 
 #if ALPHA_TEST
-/* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup). */
+/* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup; kernels/surface.h's
+ * coverage_at). */
 INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
     __global const Material *gm = &g->materials[g->objects[hit_object(g, h)].material];
     *alpha = 1.0f;
     if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
-    *alpha = gm->alpha;
     /* read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed
      * PoCL's stack at 64-item groups (issue 38, defect 0; docs/materials.md#alpha-modes) */
-    if (gm->textures[TEXTURE_BASE_COLOR] >= 0) *alpha *= material_texel(tv, gm, TEXTURE_BASE_COLOR, hit_data(g, h), h.u, h.v).w;
+    *alpha = coverage_at(tv, gm, hit_data(g, h), h.u, h.v);
     return gm;
 }
 
-/* The fraction of a ray's light that hit h's point stops by coverage (MASK: 1 where alpha >= cutoff, else 0;
- * BLEND: alpha; OPAQUE: 1). */
-INLINE float hit_opacity(const Geometry *g, TextureView tv, Hit h) {
+/* Whether hit h's point stops a ray, and in *opacity the share of the ray's light it stops.  MASK: there (1) where
+ * alpha >= cutoff, else not (0).  BLEND: for the path tracer (rng not null) there with probability alpha, the
+ * uniform number drawn only for BLEND, so MASK scenes use no random dimensions; for the Whitted integrator (rng
+ * null) there with opacity alpha when alpha > 0.  OPAQUE: there, 1. */
+INLINE bool point_kept(const Geometry *g, TextureView tv, Hit h, Rng *rng, float *opacity) {
     float a;
     __global const Material *gm = hit_coverage(g, tv, h, &a);
-    if (gm->alpha_mode == ALPHA_MASK) return a >= gm->alpha_cutoff ? 1.0f : 0.0f;
-    return a;
-}
-
-/* Whether hit h's point is there for one stochastic ray (the path tracer): MASK by the cutoff, BLEND with
- * probability alpha (the uniform number drawn only for BLEND, so MASK scenes use no random dimensions). */
-INLINE bool alpha_kept(const Geometry *g, TextureView tv, Hit h, Rng *rng) {
-    float a;
-    __global const Material *gm = hit_coverage(g, tv, h, &a);
-    if (gm->alpha_mode == ALPHA_OPAQUE) return true;
-    return gm->alpha_mode == ALPHA_MASK ? a >= gm->alpha_cutoff : rng_next(rng) < a;
+    if (gm->alpha_mode == ALPHA_MASK) a = a >= gm->alpha_cutoff ? 1.0f : 0.0f;
+    else if (gm->alpha_mode == ALPHA_BLEND && rng) return rng_next(rng) < a;
+    *opacity = a;
+    return a > 0.0f;
 }
 
 /* Fraction of light reaching t_max along the shadow ray r (Whitted): each point met in turn passes
@@ -86,12 +73,40 @@ INLINE float alpha_transmittance(const Geometry *g, TextureView tv, Ray r, float
     for (int k = 0; k < ALPHA_LAYERS && T > 0.0f; ++k) {
         Hit h = closest_hit(g, r, t_min, t_max, visits);
         if (h.id < 0) return T;
-        float opacity = hit_opacity(g, tv, h);
+        float opacity;
+        point_kept(g, tv, h, 0, &opacity);
         T *= (1.0f - opacity) + opacity * hit_transparency(g, h);
         t_min = h.t; /* hits are in (t_min, t_max): this one is left out next */
     }
     return T > 0.0f ? T * transmittance(g, r, t_min, t_max, false, visits) : 0.0f;
 }
 #endif
+
+/* The first point along r in (t_min, t_max) that a ray stops at, for both integrators: closest_hit, looking past
+ * alpha-rejected points (point_kept; rng and *opacity as there) and, for a camera ray, culled back faces, through
+ * ALPHA_LAYERS of them; the next hit is kept whatever it is (opacity 1).  One closest_hit call site: each inlined
+ * copy holds its own traversal stacks. */
+INLINE Hit seen_hit(const Geometry *g, TextureView tv, Ray r, float t_min, float t_max, bool camera, Rng *rng, float *opacity,
+                    uint *visits) {
+    *opacity = 1.0f;
+#if LOOK_PAST
+    for (int k = 0;; ++k) {
+        Hit h = closest_hit(g, r, t_min, t_max, visits);
+        if (h.id < 0) return h;
+        if (k == ALPHA_LAYERS) { *opacity = 1.0f; return h; }
+        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
+#if CULL_BACKFACES
+        if (camera && back_culled(g, h, r.o, r.d)) continue;
+#endif
+#if ALPHA_TEST
+        if (point_kept(g, tv, h, rng, opacity)) return h;
+#else
+        return h;
+#endif
+    }
+#else
+    return closest_hit(g, r, t_min, t_max, visits);
+#endif
+}
 
 #endif

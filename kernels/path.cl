@@ -26,7 +26,9 @@
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
-/* ALPHA_TEST, ALPHA_LAYERS, alpha_kept */
+/* surface_at, material_at: the surface pipeline the Whitted integrator shares */
+#include "surface.h"
+/* ALPHA_TEST, seen_hit: what rays look past */
 #include "alpha.h"
 #include "spot.h"
 /* the reconstruction filters of SPLAT_FILTER */
@@ -66,91 +68,6 @@ typedef struct {
     PathParams p;
 } PathScene;
 
-/* A surface point as the integrator needs it. */
-typedef struct {
-    float3 p, p_err;  /* the point and its float32 error bound (offset_origin) */
-    float3 n_geo;     /* unit geometric normal, on the side the ray came from */
-    float3 n_shade;   /* unit shading normal, on the same side */
-    bool front;       /* the ray met the primitive's front (its normal's side: outward, or the winding's) */
-    int material;
-} Surface;
-
-INLINE Surface surface_at(const PathScene *s, Ray r, Hit h) {
-    Surface f;
-    ObjectRecord obj = s->geo.objects[hit_object(&s->geo, h)];
-    f.material = obj.material;
-    bool sphere;
-    f.p = hit_surface(&s->geo, h, r.o, r.d, &f.p_err, &f.n_geo, &sphere);
-    f.n_shade = f.n_geo;
-    if (!sphere) {
-        if (obj.smooth) {
-            __global const float *vn = &s->normals[hit_data(&s->geo, h)].normal[0][0];
-            float3 n0 = vload3(0, vn), n1 = vload3(1, vn), n2 = vload3(2, vn);
-#if INSTANCED
-            if (h.instance >= 0) vertex_normals_to_world(s->geo.instances + h.instance, &n0, &n1, &n2);
-#endif
-            f.n_shade = unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
-        }
-    }
-    f.front = dot3(r.d, f.n_geo) < 0.0f;
-    if (!f.front) { f.n_geo = -f.n_geo; f.n_shade = -f.n_shade; }
-    if (dot3(f.n_shade, r.d) >= 0.0f) f.n_shade = f.n_geo; /* an interpolated normal facing away: flat */
-    return f;
-}
-
-/* What shading reads of the material at a hit, its textures and vertex colours applied: these fields alone, filled
- * from the Material record where it lies (a private copy of the whole 256-byte record per hit, arrays and all, cost
- * the path tracer 4-5 % of its CPU time: docs/benchmarks.md); `g` is the record, for its texture slots. */
-typedef struct {
-    float3 kd, ks, base_color, emission;
-    float shininess, mirror, transparency, ior, metallic, roughness, transmission;
-    int model; /* a MATERIAL_MODELS code */
-    __global const Material *g;
-} Shading;
-
-/* The material at hit h with texture.h's apply_textures rule (kd and base_color times the colour texture and the
- * vertex colour, metallic times B and roughness times G of the metallic-roughness texture, emission times the
- * emissive texture); *occlusion: glTF's ambient occlusion there (the albedo AOV only: a path tracer finds
- * occlusion by itself). */
-INLINE Shading shading_at(const PathScene *s, const Surface *f, Hit h, float *occlusion) {
-    __global const Material *g = &s->geo.materials[f->material];
-    Shading m;
-    m.g = g;
-    m.kd = vload3(0, g->kd); m.ks = vload3(0, g->ks);
-    m.base_color = vload3(0, g->base_color); m.emission = vload3(0, g->emission);
-    m.shininess = g->shininess; m.mirror = g->mirror; m.transparency = g->transparency; m.ior = g->ior;
-    m.metallic = g->metallic; m.roughness = g->roughness; m.transmission = g->transmission;
-    m.model = g->model;
-    TextureView tv = s->tex;
-    bool vertex_colours = s->geo.objects[hit_object(&s->geo, h)].vertex_colours;
-    int prim = hit_data(&s->geo, h);
-    if (vertex_colours || g->textures[TEXTURE_BASE_COLOR] >= 0) {
-        float3 colour = vertex_colours ? hit_colour(tv, prim, h.u, h.v) : (float3)(1.0f);
-        if (g->textures[TEXTURE_BASE_COLOR] >= 0) colour *= material_texel(tv, g, TEXTURE_BASE_COLOR, prim, h.u, h.v).xyz;
-        m.kd *= colour;
-        m.base_color *= colour;
-    }
-    if (g->textures[TEXTURE_METALLIC_ROUGHNESS] >= 0) {
-        float4 mr = material_texel(tv, g, TEXTURE_METALLIC_ROUGHNESS, prim, h.u, h.v);
-        m.metallic *= mr.z;
-        m.roughness *= mr.y;
-    }
-    if (g->textures[TEXTURE_EMISSIVE] >= 0) m.emission *= material_texel(tv, g, TEXTURE_EMISSIVE, prim, h.u, h.v).xyz;
-    *occlusion = 1.0f;
-    if (g->textures[TEXTURE_OCCLUSION] >= 0)
-        *occlusion = 1.0f + g->occlusion_strength * (material_texel(tv, g, TEXTURE_OCCLUSION, prim, h.u, h.v).x - 1.0f);
-    return m;
-}
-
-/* The surface's shading normal tilted by the material's normal map, if it has one (texture.h). */
-INLINE void normal_map(const PathScene *s, const Shading *m, Surface *f, Hit h, float3 d) {
-    if (m->g->textures[TEXTURE_NORMAL] < 0) return;
-    int prim = hit_data(&s->geo, h);
-    float3 texel = material_texel(s->tex, m->g, TEXTURE_NORMAL, prim, h.u, h.v).xyz;
-    f->n_shade = normal_from_texel(hit_texture_view(s->tex, &s->geo, h), texel, m->g->normal_scale, prim, h.u, h.v, f->n_shade,
-                                   f->front, d);
-}
-
 /* ---------------------------------------------------------------- materials
  * The component a vertex uses: a lobe of bsdf.h with its parameters, or a delta mirror. */
 #define LOBE_MIRROR (-1)
@@ -172,7 +89,7 @@ INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)
 
 /* A `type = ...` material (MATERIAL_MODEL_CONDUCTOR and after): one lobe of bsdf_exchange.h, its parameters from the
  * record; roughness 0 is the lobe's smooth (delta) form. */
-INLINE Component exchange_component(Component c, const Shading *m) {
+INLINE Component exchange_component(Component c, const MaterialPoint *m) {
     __global const Material *g = m->g;
     bool smooth = !(m->roughness > 0.0f);
     c.bsdf.alpha = ggx_alpha_from_roughness(m->roughness);
@@ -193,7 +110,7 @@ INLINE Component exchange_component(Component c, const Shading *m) {
 
 /* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
  * throughput is not rescaled).  docs/materials.md states the rule. */
-INLINE Component pick_component(const Shading *m, float u) {
+INLINE Component pick_component(const MaterialPoint *m, float u) {
     Component c;
     c.glossy = (float3)(-1.0f);
     c.glossy_alpha = 1.0f;
@@ -293,36 +210,14 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* The first point along r in (t_min, t_max) that is there: closest_hit, looking past alpha-rejected points and,
- * for a camera ray, culled back faces (alpha.h). */
-INLINE Hit seen_hit(const PathScene *s, Ray r, float t_min, float t_max, bool camera, Rng *rng, uint *visits) {
-#if LOOK_PAST
-    /* one closest_hit call site (each inlined copy holds its own traversal stacks): the last layer is kept */
-    for (int k = 0;; ++k) {
-        Hit h = closest_hit(&s->geo, r, t_min, t_max, visits);
-        if (h.id < 0 || k == ALPHA_LAYERS) return h;
-        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
-#if CULL_BACKFACES
-        if (camera && back_culled(&s->geo, h, r.o, r.d)) continue;
-#endif
-#if ALPHA_TEST
-        if (alpha_kept(&s->geo, s->tex, h, rng)) return h;
-#else
-        return h;
-#endif
-    }
-#else
-    return closest_hit(&s->geo, r, t_min, t_max, visits);
-#endif
-}
-
 /* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */
 INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, Rng *rng, uint *visits) {
     float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
     Ray sr = make_ray(origin, wi);
     float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
 #if ALPHA_TEST
-    return seen_hit(s, sr, 0.0f, t_max, false, rng, visits).id < 0 ? 1.0f : 0.0f;
+    float opacity;
+    return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0 ? 1.0f : 0.0f;
 #else
     return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
 #endif
@@ -354,12 +249,12 @@ INLINE int pick_emitter(const PathScene *s, float u) {
 }
 
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
- * one-sided): its material's emission, times its emissive texture there. */
+ * one-sided): kernels/surface.h's emission_of its material there. */
 INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
     __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
-    float3 le = vload3(0, gm->emission);
-    if (gm->textures[TEXTURE_EMISSIVE] < 0) return le;
-    return le * material_texel(s->tex, gm, TEXTURE_EMISSIVE, prim, u, v).xyz;
+    float2 uv[2] = {(float2)(0.0f), (float2)(0.0f)};
+    if (material_textured(gm)) surface_uvs(s->tex, prim, u, v, uv);
+    return emission_of(s->tex, gm, uv);
 }
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
@@ -500,7 +395,7 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
 
 /* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
-INLINE float3 emission_met(const PathScene *s, const Surface *f, const Shading *m, Hit h, float3 d, bool prev_delta,
+INLINE float3 emission_met(const PathScene *s, const Surface *f, const MaterialPoint *m, Hit h, float3 d, bool prev_delta,
                           float prev_pdf) {
     float3 le = m->emission;
     if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
@@ -540,13 +435,13 @@ typedef struct {
     int object;
 } FirstHit;
 
-INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Shading *m, float occlusion, Hit h) {
+INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const MaterialPoint *m, Hit h) {
     FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
     if (h.id < 0) return fh;
     fh.object = hit_object(&s->geo, h);
     fh.normal = f->n_shade;
     fh.depth = h.t;
-    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? m->base_color : m->kd) * occlusion;
+    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? m->base_color : m->kd) * m->occlusion;
     return fh;
 }
 
@@ -560,7 +455,8 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
     int hidden = 0;
 #endif
     for (int depth = 0;; ++depth) {
-        Hit h = seen_hit(s, r, t_min, INF_T, depth == 0, rng, visits);
+        float opacity;
+        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, depth == 0, rng, &opacity, visits);
         *rays += 1;
 #if HIDE_EMITTERS
         if (depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
@@ -576,14 +472,12 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
             float mis;
             float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
             if (shown) radiance += beta * le * mis;
-            if (depth == 0) *first = first_hit_of(s, 0, 0, 1.0f, h);
+            if (depth == 0) *first = first_hit_of(s, 0, 0, h);
             break;
         }
-        Surface f = surface_at(s, r, h);
-        float occlusion;
-        Shading m = shading_at(s, &f, h, &occlusion);
-        normal_map(s, &m, &f, h, r.d);
-        if (depth == 0) *first = first_hit_of(s, &f, &m, occlusion, h);
+        Surface f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
+        MaterialPoint m = material_at(s->tex, s->geo.materials, &f);
+        if (depth == 0) *first = first_hit_of(s, &f, &m, h);
         if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
         Component c = pick_component(&m, rng_next(rng));

@@ -19,6 +19,7 @@
 #include "shaft.h"
 #include "envmap.h"
 #include "texture.h"
+#include "surface.h"
 /* ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) */
 #include "alpha.h"
 #include "spot.h"
@@ -418,64 +419,22 @@ INLINE void push_ray(RayStack *s, float3 o, float medium, float3 d, int depth, f
     ++s->n;
 }
 
-#if LOOK_PAST
-/* The first point along (o, d) that a Whitted ray stops at, past MASK-rejected (and alpha 0) points and, for a
- * camera ray, culled back faces (alpha.h), through ALPHA_LAYERS of them; *opacity: the share of the ray's light
- * it stops (hit_opacity: BLEND's alpha, else 1). */
-INLINE Hit whitted_hit(const SceneView *sc, float3 o, float3 d, bool camera, float *opacity, uint *visits) {
-    Ray r = make_ray(o, d);
-    float t_min = 0.0f;
-    for (int k = 0; k < ALPHA_LAYERS; ++k) {
-        Hit h = closest_hit(&sc->geo, r, t_min, INF_T, visits);
-        if (h.id < 0) return h;
-        t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
-#if CULL_BACKFACES
-        if (camera && back_culled(&sc->geo, h, o, d)) continue;
-#endif
-#if ALPHA_TEST
-        *opacity = hit_opacity(&sc->geo, sc->tex, h);
-        if (*opacity > 0.0f) return h;
-#else
-        return h;
-#endif
-    }
-    *opacity = 1.0f;
-    return closest_hit(&sc->geo, r, t_min, INF_T, visits);
-}
-#endif
-
-/* A smooth triangle's normal at hit h, interpolated from its vertex normals. */
-INLINE float3 smooth_normal(const SceneView *sc, Hit h) {
-    __global const VertexNormals *vn = sc->normals + hit_data(&sc->geo, h);
-    float3 n0 = vload3(0, vn->normal[0]), n1 = vload3(0, vn->normal[1]), n2 = vload3(0, vn->normal[2]);
-#if INSTANCED
-    if (h.instance >= 0) vertex_normals_to_world(sc->geo.instances + h.instance, &n0, &n1, &n2);
-#endif
-    return unit((1.0f - h.u - h.v) * n0 + h.u * n1 + h.v * n2);
-}
-
-/* The shading point of hit h of ray (o, d) on object `obj` of material m, its normals turned to face
- * the ray.  Returns whether the ray met the front face; *sphere: whether it met a sphere. */
-INLINE bool shading_point(const SceneView *sc, Hit h, float3 o, float3 d, ObjectRecord obj, const Material *m,
-                          ShadingPoint *pt, bool *sphere) {
-    pt->p = hit_surface(&sc->geo, h, o, d, &pt->p_err, &pt->n_geo, sphere);
-    pt->n = pt->n_geo;
-    if (obj.smooth && !*sphere) pt->n = smooth_normal(sc, h);
-    bool front_face = dot3(d, pt->n_geo) < 0.0f;
-    if (!front_face) { pt->n_geo = -pt->n_geo; pt->n = -pt->n; }
-    if (dot3(pt->n, d) >= 0.0f) pt->n = pt->n_geo; /* interpolated normal points away: fall back */
-    pt->v = -d;
-    pt->kd = vload3(0, m->kd);
-    pt->ks = vload3(0, m->ks);
-    pt->shininess = m->shininess;
-    pt->slot = h.slot;
-    return front_face;
+/* The Whitted view of surface point f with material m (kernels/surface.h), hit h: what the lights shade. */
+INLINE ShadingPoint shading_point(const Surface *f, const MaterialPoint *m, Hit h) {
+    ShadingPoint pt;
+    pt.p = f->p; pt.p_err = f->p_err;
+    pt.n = f->n_shade; pt.n_geo = f->n_geo;
+    pt.v = -f->d;
+    pt.kd = m->kd; pt.ks = m->ks;
+    pt.shininess = m->shininess;
+    pt.slot = h.slot;
+    return pt;
 }
 
 /* What the surface at pt passes on from a ray along d of weight w in `medium`: mirror reflection, then
  * the transparent part, refracted or (total internal reflection) all reflected; pushed as rays of
  * depth + 1. */
-INLINE void bounce(const SceneView *sc, RayStack *stack, const ShadingPoint *pt, const Material *m, bool front_face,
+INLINE void bounce(const SceneView *sc, RayStack *stack, const ShadingPoint *pt, const MaterialPoint *m, bool front_face,
                    float3 d, float3 w, float medium, int depth) {
     float transparency = m->transparency, mirror = m->mirror, ior = m->ior;
     float3 w_reflect = w * (1.0f - transparency) * mirror;
@@ -516,12 +475,8 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         float3 o = stack.o[stack.n].xyz, d = stack.d[stack.n].xyz, w = stack.w[stack.n].xyz;
         float medium = stack.o[stack.n].w;
         int depth = (int)stack.d[stack.n].w;
-#if LOOK_PAST
-        float opacity = 1.0f;
-        Hit h = whitted_hit(sc, o, d, depth == 0, &opacity, visits);
-#else
-        Hit h = closest_hit(&sc->geo, make_ray(o, d), 0.0f, INF_T, visits);
-#endif
+        float opacity; /* BLEND's share of the ray the point stops (alpha.h seen_hit) */
+        Hit h = seen_hit(&sc->geo, sc->tex, make_ray(o, d), 0.0f, INF_T, depth == 0, 0, &opacity, visits);
         *rays += 1;
         int object = hit_object(&sc->geo, h);
         if (ids && n_ids < PATH_LEN) ids->path[n_ids++] = object;
@@ -530,30 +485,19 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
             first_hit = false;
             continue;
         }
-        ObjectRecord obj = sc->geo.objects[object];
-        Material m = sc->geo.materials[obj.material];
-        float occlusion = 1.0f; /* darkens the ambient term and the albedo AOV only (glTF's occlusionTexture) */
-        if (obj.vertex_colours || material_textured(&m)) { /* textures modulate kd (texture.h) */
-            apply_textures(sc->tex, &m, hit_data(&sc->geo, h), h.u, h.v, obj.vertex_colours);
-            occlusion = material_occlusion(sc->tex, &m, hit_data(&sc->geo, h), h.u, h.v);
-        }
-        ShadingPoint pt;
-        bool sphere;
-        bool front_face = shading_point(sc, h, o, d, obj, &m, &pt, &sphere);
-        if (m.textures[TEXTURE_NORMAL] >= 0)
-            pt.n = normal_mapped(hit_texture_view(sc->tex, &sc->geo, h), &m, hit_data(&sc->geo, h), h.u, h.v, pt.n, front_face, d);
-#if LOOK_PAST
+        Surface f = surface_at(&sc->geo, sc->normals, sc->tex, h, o, d);
+        MaterialPoint m = material_at(sc->tex, sc->geo.materials, &f);
+        ShadingPoint pt = shading_point(&f, &m, h);
         if (opacity < 1.0f) { /* BLEND: what lies behind the point, 1 - alpha of the ray, on the same footing */
             push_ray(&stack, offset_origin(pt.p, pt.p_err, -pt.n_geo), medium, d, depth, w * (1.0f - opacity));
             w *= opacity;
         }
-#endif
-        if (ids && first_hit && !obj.smooth && !sphere) ids->facet = h.id;
+        if (ids && first_hit && !f.smooth && !f.sphere) ids->facet = h.id;
 #if WRITE_AOV
         if (first_hit && sc->aov) {
             vstore3(pt.n, 0, sc->aov->normal);
             sc->aov->depth = h.t;
-            vstore3(pt.kd * occlusion, 0, sc->aov->albedo);
+            vstore3(pt.kd * m.occlusion, 0, sc->aov->albedo);
         }
 #endif
         /* a perfect mirror or fully clear glass shows none of its own shading: skip the shadow rays,
@@ -561,11 +505,11 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
         float3 surface_weight = w * (1.0f - m.transparency) * (1.0f - m.mirror);
         __global float *shadow_here = first_hit ? shadow : 0;
         if (max3(surface_weight) > 0.0f || shadow_here) {
-            float3 surface = sc->ambient * (pt.kd * occlusion) + direct_light(sc, pt, rng, shadow_here, visits, rays);
+            float3 surface = sc->ambient * (pt.kd * m.occlusion) + direct_light(sc, pt, rng, shadow_here, visits, rays);
             colour += surface_weight * surface;
         }
         first_hit = false;
-        if (depth < sc->max_depth) bounce(sc, &stack, &pt, &m, front_face, d, w, medium, depth);
+        if (depth < sc->max_depth) bounce(sc, &stack, &pt, &m, f.front, d, w, medium, depth);
     }
     if (ids)
         for (int k = n_ids; k < PATH_LEN; ++k) ids->path[k] = -1;

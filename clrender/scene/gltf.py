@@ -66,6 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..layout import TEXTURE_SLOT_TABLE
 from . import framing
 from .checks import COORD_LIMIT, MAX_NAME, MAX_OBJECTS, MAX_SIDE, MAX_TRIANGLES, MIN_LENGTH, UV_LIMIT, escape, shorten, show
 from .confine import file_size, regular_file, scene_file
@@ -684,20 +685,19 @@ def _material(doc: Document, index: int) -> dict:
     if mode != "OPAQUE":
         cutoff = float(_numbers(doc, [item.get("alphaCutoff", 0.5)], 1, f"{where}.alphaCutoff")[0])
         out["alpha"] = {"mode": mode.lower(), "cutoff": min(max(cutoff, 0.0), 1.0), "factor": min(max(float(factor[3]), 0.0), 1.0)}
-    infos = {
-        "base_color_texture": (pbr, "baseColorTexture"),
-        "metallic_roughness_texture": (pbr, "metallicRoughnessTexture"),
-        "emissive_texture": (item, "emissiveTexture"),
-        "occlusion_texture": (item, "occlusionTexture"),
-        "normal_texture": (item, "normalTexture"),
-    }
-    for key, (table, name) in infos.items():
-        if name in table:
+    for slot in TEXTURE_SLOT_TABLE:  # each slot's textureInfo, at the key path layout's table gives
+        *tables, name = slot.gltf.split(".")
+        table = item
+        for key in tables:
+            table = table.get(key, {}) if isinstance(table, dict) else {}
+        if slot.gltf and isinstance(table, dict) and name in table:
+            key = f"{slot.name}_texture"
             out[key], extra = _texture_info(doc, table[name], f"{where}.{name}")
-            if name == "occlusionTexture":
-                out[key]["strength"] = min(max(extra.get("strength", 1.0), 0.0), 1.0)
-            if name == "normalTexture":
-                out[key]["strength"] = extra.get("scale", 1.0)
+            if slot.strength:
+                out[key]["strength"] = extra.get(slot.strength, 1.0)
+    occlusion = out.get("occlusion_texture")
+    if occlusion is not None:  # glTF: strength in [0, 1]
+        occlusion["strength"] = min(max(occlusion["strength"], 0.0), 1.0)
     return out
 
 

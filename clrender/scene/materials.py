@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layout import ALPHA_MODES, COAT_TABLE_RES, MATERIAL_DTYPE, MATERIAL_MODELS, SMITH_MODELS, TEXTURE_SLOTS
+from ..layout import ALPHA_MODES, COAT_TABLE_RES, MATERIAL_DTYPE, MATERIAL_MODELS, SMITH_MODELS, TEXTURE_SLOT_TABLE, TEXTURE_SLOTS
 from . import coat
 from .checks import IOR_RANGE, SHININESS_LIMIT, Checks, TypeReader
 from .textures import TextureRef, read_ref
@@ -42,12 +42,12 @@ class Material:
     roughness: float = 0.5  # glTF perceptual roughness r, 0 to 1; GGX alpha = r^2
     transmission: float = 0.0  # fraction of the dielectric part that is transmitted (KHR_materials_transmission)
     emission: tuple = (0.0, 0.0, 0.0)  # emitted radiance of the front faces, W/(m^2 sr) per channel (path tracer)
-    # textures by layout.TEXTURE_SLOTS slot (None: none); base_color_texture is the seed model's diffuse_texture
-    base_color_texture: TextureRef | None = None  # times kd / base colour (sRGB-decoded)
-    metallic_roughness_texture: TextureRef | None = None  # B times metallic, G times roughness (linear)
-    emissive_texture: TextureRef | None = None  # times emission (sRGB-decoded)
-    occlusion_texture: TextureRef | None = None  # R: ambient occlusion (linear)
-    normal_texture: TextureRef | None = None  # tangent-space normals (linear; glTF's normalTexture)
+    # one per layout.TEXTURE_SLOT_TABLE slot, which says what it scales (None: none)
+    base_color_texture: TextureRef | None = None
+    metallic_roughness_texture: TextureRef | None = None
+    emissive_texture: TextureRef | None = None
+    occlusion_texture: TextureRef | None = None
+    normal_texture: TextureRef | None = None
     alpha: float = 1.0  # coverage, times the base colour texture's alpha (docs/materials.md#alpha)
     alpha_mode: str = "opaque"  # "opaque", "mask" (there where alpha >= alpha_cutoff) or "blend" (there with probability alpha)
     alpha_cutoff: float = 0.5
@@ -160,17 +160,11 @@ DEFAULT_MATERIAL = Material()
 
 
 # ------------------------------------------------------------------ reading
-SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "diffuse_texture")
-GLTF_KEYS = (
-    "base_color",
-    "metallic",
-    "roughness",
-    "transmission",
-    "base_color_texture",
-    "metallic_roughness_texture",
-    "occlusion_texture",
-    "normal_texture",
-)
+# the texture keys, from layout.TEXTURE_SLOT_TABLE: a slot's own key, read by its models; its seed-model alias
+SLOT_KEYS = {model: {f"{s.name}_texture": f"{s.name}_texture" for s in TEXTURE_SLOT_TABLE if s.models == model} for model in ("gltf", "all")}
+ALIAS_KEYS = {s.alias: f"{s.name}_texture" for s in TEXTURE_SLOT_TABLE if s.alias}
+SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", *ALIAS_KEYS)
+GLTF_KEYS = ("base_color", "metallic", "roughness", "transmission", *SLOT_KEYS["gltf"])
 
 
 def _refs(checks: Checks, m: dict, path: str, keys: dict) -> dict:
@@ -190,7 +184,7 @@ def _alpha(checks: Checks, a, path: str) -> dict:
 
 
 # The `type = ...` materials: each type's own keys (with COMMON_KEYS; docs/materials.md)
-COMMON_KEYS = ("type", "emission", "emissive_texture", "alpha", "double_sided")
+COMMON_KEYS = ("type", "emission", *SLOT_KEYS["all"], "alpha", "double_sided")
 TYPE_KEYS = {
     "conductor": ("eta", "k", "roughness", "tint", "smith"),
     "coated_diffuse": ("diffuse", "diffuse_texture", "ior", "roughness", "tint", "nonlinear", "smith"),
@@ -217,7 +211,7 @@ def _typed_material(checks: Checks, m: dict, path: str, kind: str, common: dict)
     if kind == "coated_diffuse":
         args["diffuse"] = checks.vec3(m, "diffuse", path, (0.5, 0.5, 0.5), kind="colour")
         args["nonlinear"] = checks.boolean(m, "nonlinear", path, d.nonlinear)
-        common.update(_refs(checks, m, path, {"diffuse_texture": "base_color_texture"}))
+        common.update(_refs(checks, m, path, ALIAS_KEYS))
         if args["lobe_ior"] == 1.0 and args["roughness"] > 0:
             checks.fail(f"{path}.ior", "1 leaves a rough coat without an interface; allowed: any other IOR")
     if kind == "thin_dielectric":
@@ -232,7 +226,7 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
     if kind in TYPE_KEYS:
         common = dict(
             emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
-            **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
+            **_refs(checks, m, path, SLOT_KEYS["all"]),
             **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
             double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
         )
@@ -253,13 +247,12 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
     common = dict(
         ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
         emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
-        **_refs(checks, m, path, {"emissive_texture": "emissive_texture"}),
+        **_refs(checks, m, path, SLOT_KEYS["all"]),
         **(_alpha(checks, m["alpha"], f"{path}.alpha") if "alpha" in m else {}),
         double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
     )
     if gltf or kind == "gltf":
-        slots = ("base_color", "metallic_roughness", "occlusion", "normal")
-        common.update(_refs(checks, m, path, {f"{s}_texture": f"{s}_texture" for s in slots}))
+        common.update(_refs(checks, m, path, SLOT_KEYS["gltf"]))
         occlusion = common.get("occlusion_texture")
         if occlusion is not None and not 0.0 <= occlusion.strength <= 1.0:
             checks.fail(f"{path}.occlusion_texture.strength", f"{occlusion.strength:g} is out of range; allowed: 0 to 1")
@@ -277,14 +270,14 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
         shininess=checks.number(m, "shininess", path, d.shininess, low=0.0, high=SHININESS_LIMIT),
         mirror=checks.number(m, "mirror", path, d.mirror, low=0.0, high=1.0),
         transparency=checks.number(m, "transparency", path, d.transparency, low=0.0, high=1.0),
-        **_refs(checks, m, path, {"diffuse_texture": "base_color_texture"}),
+        **_refs(checks, m, path, ALIAS_KEYS),
         **common,
     )
 
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
 MATERIAL_READER = TypeReader(
-    (*SEED_KEYS, "ior", *GLTF_KEYS, "emission", "emissive_texture", "alpha", "double_sided", "type", "smith")
+    (*SEED_KEYS, "ior", *GLTF_KEYS, "emission", *SLOT_KEYS["all"], "alpha", "double_sided", "type", "smith")
     + ("eta", "k", "tint", "transmittance", "nonlinear"),
     _build_material,
 )
@@ -292,7 +285,7 @@ MATERIAL_READER = TypeReader(
 
 # Each model's keys: an unknown key is refused naming those of the model the table is (its `type`, else glTF's when it
 # has a metallic-roughness key, else the seed's); MATERIAL_READER declares their union.
-_SHARED = ("emission", "emissive_texture", "alpha", "double_sided", "type")
+_SHARED = ("emission", *SLOT_KEYS["all"], "alpha", "double_sided", "type")
 MODEL_KEYS = {
     "seed": (*SEED_KEYS, "ior", *_SHARED),
     "gltf": (*GLTF_KEYS, "ior", "smith", *_SHARED),

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError, shown
-from ..layout import TEXTURE_DTYPE, TEXTURE_SLOTS, WRAP_MODES
+from ..layout import TEXTURE_DTYPE, TEXTURE_SLOT_TABLE, TEXTURE_SLOTS, WRAP_MODES
 from ..memory import BASE_BYTES, TEXEL_BYTES  # what decoding one texel peaks at (memory.py)
 from .checks import Checks, TypeReader, show
 from .confine import regular_file
@@ -28,7 +28,7 @@ from .image_files import MAX_TEXTURE_SIDE, own_size_limit
 
 MAX_TEXTURES = 1024  # textures of one scene (distinct images times colour spaces)
 FILTERS = ("linear", "nearest")  # bilinear, or the nearest texel (glTF magFilter 9729 / 9728)
-COLOUR_SLOTS = ("base_color", "emissive")  # sRGB-decoded; the other slots are data
+COLOUR_SLOTS = tuple(slot.name for slot in TEXTURE_SLOT_TABLE if slot.colour)  # sRGB-decoded; the other slots are data
 # Pillow's modes and how many channels they hold; palette images are expanded first
 CHANNELS = {"L": 1, "I": 1, "I;16": 1, "F": 1, "LA": 2, "RGB": 3, "RGBA": 4}
 

@@ -1,4 +1,4 @@
-"""glTF BLEND in the path tracer (kernels/alpha.h alpha_kept): a point is kept with probability alpha, for camera
+"""glTF BLEND in the path tracer (kernels/alpha.h point_kept): a point is kept with probability alpha, for camera
 and shadow rays alike, and the instanced variant with a BLEND material runs at the default work layout
 (issue 38: defect 0, a segfault on PoCL, and the behaviour "keeps a point with probability alpha").
 

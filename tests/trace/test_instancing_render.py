@@ -262,7 +262,7 @@ def test_the_command_line_sets_instancing():
 def test_normal_mapped_instances_turn_their_tangents_to_world_space(device, tmp_path):
     """Two copies of a uv-mapped card with a uniform normal map tilted 30 degrees towards +u, one turned about its
     normal and stretched: the instance's tangents are the mesh's, turned by object_to_world per hit
-    (TextureView.tangent_to_world), and shade as the flat copies' world tangents do.  Without the turn the turned
+    (kernels/surface.h tangent_frame), and shade as the flat copies' world tangents do.  Without the turn the turned
     copy's shading would differ (checked below by its brightness range)."""
     import math
 

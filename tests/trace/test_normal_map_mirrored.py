@@ -1,4 +1,4 @@
-"""Normal maps on mirrored UVs (kernels/texture.h normal_from_texel): the tangent's handedness w = -1 flips the
+"""Normal maps on mirrored UVs (kernels/surface.h tangent_frame, normal_map): the tangent's handedness w = -1 flips the
 bitangent.  A glTF quad facing +z whose u runs along -x (mirrored) and whose v runs down the image along -y, with
 a normal map tilting the normal 30 degrees "up the image" (+Y of tangent space, the texture's green): the mapped
 normal must tilt towards world +y whatever the mirror, so under a light leaning to +y the Whitted image is
