@@ -95,3 +95,30 @@ def test_python_m_clrender_warmup_is_the_subcommand(capsys):
     code, out, err = run_cli(capsys, "warmup", "--list")
     assert proc.returncode == code == 0, proc.stderr
     assert proc.stdout == out
+
+
+def test_every_variant_the_suite_builds_ahead_is_one_warmup_lists(capsys):
+    from tests.conftest import SUITE_VARIANTS
+
+    code, out, err = run_cli(capsys, "warmup", "--list")
+    assert code == 0 and SUITE_VARIANTS and set(SUITE_VARIANTS) <= set(out.splitlines())
+
+
+def test_warmup_refuses_jobs_below_one(capsys):
+    code, out, err = run_cli(capsys, "warmup", "--jobs", "0")
+    assert code == 2 and err.startswith("clrender: ") and "--jobs" in err and "1 or more" in err and out == ""
+
+
+@pytest.mark.slow
+def test_warmup_on_two_processes_builds_what_a_render_then_loads(device, capsys, monkeypatch):
+    """The processes fill pyopencl's cache; the parent then loads each program and prints the processes' build seconds."""
+    monkeypatch.setattr(device_module, "_DEVICES", {})
+    code, out, err = run_cli(capsys, "-q", "warmup", "--only", "ray queries, bvh", "--jobs", "2")
+    assert code == 0, err
+    assert [line.split("s  ", 1)[1] for line in out.splitlines()] == [
+        "ray queries, bvh, flat",
+        "ray queries, bvh, instanced",
+        "ray queries, bvh, instanced, wide top",
+    ]
+    fresh = device_module.get_device()
+    assert sum(key[0] == "trace.cl" for key in fresh._programs) == 3
