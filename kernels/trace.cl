@@ -1,5 +1,14 @@
 /* Tracing kernels: whole-pixel rendering, and plain ray queries for the
  * Tracer API and the benchmarks.  Variants: -DUSE_BVH=0|1, -DMAX_DEPTH=n. */
+/* A program holds the render kernel or the ray queries, never both: a render build (clrender/trace/
+ * renderer.py render_defines, which always passes -DWRITE_AOV; shade.h defaults it, hence the test
+ * before any include) compiles `render` alone, the Tracer's build everything else.  Each compile is
+ * then a part of the work (the queries' packets and shafts, or the shading). */
+#ifdef WRITE_AOV
+#define RENDER_BUILD 1
+#else
+#define RENDER_BUILD 0
+#endif
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"
@@ -8,11 +17,7 @@
 #include "shade.h"
 #include "packet.h"
 
-/* A program holds the render kernel or the ray queries, never both: a render build (clrender/trace/
- * renderer.py render_defines, which always sets WRITE_AOV) compiles `render` alone, the Tracer's build
- * everything else.  Each compile is then about half the work (the queries' packets and shafts, or the
- * shading), and the kernels each build holds are unchanged. */
-#ifdef WRITE_AOV
+#if RENDER_BUILD
 /* The pixels `pixels[0 .. params.n_work)` of one launch (RenderParams, clrender/layout.py): each pixel's
  * samples traced and filtered into colour_out, their BVH visits and rays into stats_out; with
  * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
