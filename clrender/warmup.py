@@ -67,18 +67,45 @@ def bvh_build_defines() -> dict:
     return dict(BINS=bins, BUILD_STACK=bvh.BUILD_STACK)
 
 
-def warm(device: Device, chosen: list[Variant], out=None) -> list[tuple[Variant, float]]:
-    """Build each variant (from pyopencl's cache when it has it), with a progress bar; print and return its seconds."""
+def warm(device: Device, chosen: list[Variant], out=None, jobs: int = 1, spec: str | None = None) -> list[tuple[Variant, float]]:
+    """Build each variant (from pyopencl's cache when it has it), with a progress bar; print and return its seconds.
+
+    A driver's compiler runs on one core, so with `jobs` > 1 the variants are built by that many fresh
+    processes at once (`spec`: the --device they open, the one `device` was made from). They fill
+    pyopencl's cache on disk, from which `device` then loads each program in a fraction of a second;
+    the seconds are then the processes' build times."""
     from .progress import progress
 
+    built = _build_in_processes(chosen, jobs, spec) if jobs > 1 and len(chosen) > 1 else {}
     seconds = []
-    for variant in progress(chosen, desc="compiling", unit="variant"):
+    for variant in chosen if built else progress(chosen, desc="compiling", unit="variant"):
         start = time.perf_counter()
         variant.build(device)
-        took = time.perf_counter() - start
+        took = built.get(variant, time.perf_counter() - start)
         seconds.append((variant, took))
         print(f"{took:7.2f}s  {variant.label}", file=out or sys.stdout, flush=True)
     return seconds
+
+
+def _build_in_processes(chosen: list[Variant], jobs: int, spec: str | None) -> dict[Variant, float]:
+    """Build `chosen` in `jobs` spawned processes (a fork would inherit the parent's OpenCL state); their seconds."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from .progress import progress
+
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {pool.submit(_build_one, spec, v.filename, v.defines): v for v in chosen}
+        done = progress(as_completed(futures), total=len(futures), desc=f"compiling on {jobs} processes", unit="variant")
+        return {futures[future]: future.result() for future in done}
+
+
+def _build_one(spec: str | None, filename: str, defines: tuple) -> float:
+    from .device import get_device
+
+    start = time.perf_counter()
+    get_device(spec).program(filename, dict(defines))
+    return time.perf_counter() - start
 
 
 if __name__ == "__main__":  # python -m clrender.warmup [options]: the same as `clrender warmup [options]`

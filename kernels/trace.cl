@@ -1,5 +1,14 @@
 /* Tracing kernels: whole-pixel rendering, and plain ray queries for the
  * Tracer API and the benchmarks.  Variants: -DUSE_BVH=0|1, -DMAX_DEPTH=n. */
+/* A program holds the render kernel or the ray queries, never both: a render build (clrender/trace/
+ * renderer.py render_defines, which always passes -DWRITE_AOV; shade.h defaults it, hence the test
+ * before any include) compiles `render` alone, the Tracer's build everything else.  Each compile is
+ * then a part of the work (the queries' packets and shafts, or the shading). */
+#ifdef WRITE_AOV
+#define RENDER_BUILD 1
+#else
+#define RENDER_BUILD 0
+#endif
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"
@@ -8,6 +17,7 @@
 #include "shade.h"
 #include "packet.h"
 
+#if RENDER_BUILD
 /* The pixels `pixels[0 .. params.n_work)` of one launch (RenderParams, clrender/layout.py): each pixel's
  * samples traced and filtered into colour_out, their BVH visits and rays into stats_out; with
  * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
@@ -56,6 +66,8 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     colour_out[gid] = (float4)(sum / weight_sum, 1.0f);
     stats_out[gid] = (uint2)(visits, rays);
 }
+
+#else /* the Tracer's build: ray queries, sample offsets and the test kernels */
 
 /* Sample offsets in [0,1)^2 of pixel `pixels[i]`, for tests and plots. */
 __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler, int samples_per_side,
@@ -335,4 +347,4 @@ __kernel void specular_power(int n, __global const float *x, __global const floa
     if (gid >= n) return;
     out[gid] = pow_unit(x[gid], s[gid]);
 }
-
+#endif

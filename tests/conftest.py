@@ -55,8 +55,73 @@ def rng():
     return np.random.default_rng(12345)
 
 
+# The slowest kernel builds a whole run of the suite makes: (kernels/ file, its -D defines where they differ from
+# the Tracer's defaults), the slowest first.  A driver's compiler uses one core, so a run of many tests builds these
+# first on every core at once (clrender/warmup.py, --jobs): on an empty pyopencl cache, as in CI, that halves their
+# compile time on two cores, and on a warm cache each loads in a fraction of a second.  A build missing here is
+# still made when a test needs it; tests/cli/test_warmup.py checks that every define named here is one the kernels read.
+SUITE_BUILDS = (
+    ("path.cl", {"INSTANCED": 1, "TOP_WIDE": 1, "WRITE_AOV": 0}),
+    ("path.cl", {"ALPHA_TEST": 1, "WRITE_AOV": 0}),
+    ("trace.cl", {"ALPHA_TEST": 1, "WRITE_AOV": 0}),
+    ("trace.cl", {"STACK_SIZE": 2, "WIDE_STACK_SIZE": 8}),
+    ("trace.cl", {"BVH_WIDTH": 4, "WIDE_STACK_SIZE": 190}),
+    ("trace.cl", {"CULL_BACKFACES": 1, "WRITE_AOV": 0}),
+    ("path.cl", {"SPLAT_FILTER": 1, "SPLAT_RADIUS": 1, "WRITE_AOV": 0}),
+    ("path.cl", {"SPLAT_FILTER": 2, "SPLAT_RADIUS": 2, "WRITE_AOV": 0}),
+    ("trace.cl", {"WRITE_AOV": 0}),
+    ("trace.cl", {"BVH_WIDTH": 4, "STACK_SIZE": 2, "WIDE_STACK_SIZE": 4}),
+    ("trace.cl", {"BVH_WIDTH": 4, "COUNT_PRIM_TESTS": 1, "WIDE_STACK_SIZE": 190}),
+    ("trace.cl", {"RAY_PACKETS": 0}),
+    ("path.cl", {"ENV_BSDF": 1, "ENV_NEE": 0, "WRITE_AOV": 0}),
+    ("trace.cl", {"BVH_WIDTH": 2, "WIDE_STACK_SIZE": 190}),
+    ("path.cl", {"CULL_BACKFACES": 1, "WRITE_AOV": 0}),
+    ("trace.cl", {"INSTANCED": 1, "TOP_WIDE": 1, "WRITE_AOV": 0}),
+    ("trace.cl", {"BVH_WIDTH": 4, "USE_BVH": 0, "WIDE_STACK_SIZE": 190}),
+    ("trace.cl", {"USE_BVH": 0, "WRITE_AOV": 0}),
+    ("trace.cl", {"BVH_WIDTH": 2, "COUNT_PRIM_TESTS": 1, "WIDE_STACK_SIZE": 190}),
+    ("trace.cl", {"WRITE_AOV": 1}),
+    ("trace.cl", {"USE_BVH": 0}),
+    ("trace.cl", {"BVH_WIDTH": 2, "STACK_SIZE": 2, "WIDE_STACK_SIZE": 4}),
+    ("path.cl", {"WRITE_AOV": 1}),
+    ("trace.cl", {}),
+    ("path.cl", {"WRITE_AOV": 0}),
+    ("trace.cl", {"BVH_WIDTH": 4, "STACK_SIZE": 2, "USE_BVH": 0, "WIDE_STACK_SIZE": 4}),
+)
+WARM_AHEAD = {"seconds": 0.0, "count": 0}
+
+
+def suite_builds(dev) -> list:
+    """SUITE_BUILDS as clrender.warmup Variants for `dev` (the Tracer's defines for its work layout, then each entry's)."""
+    from clrender.trace.tracer import trace_defines
+    from clrender.trace.work_layout import work_layout
+    from clrender.warmup import Variant
+
+    base = trace_defines(rays_per_item=work_layout(dev.device).rays_per_item)
+    return [Variant(f"{name} {diff}", name, tuple(sorted({**base, **diff}.items()))) for name, diff in SUITE_BUILDS]
+
+
+def pytest_collection_finish(session):
+    if len(session.items) < 100 or session.config.option.collectonly or os.environ.get("CLRENDER_TEST_WARMUP") == "0":
+        return
+    if len(TEST_DEVICES) > 1 or (os.cpu_count() or 1) < 2:
+        return
+    import io
+    import time
+
+    from clrender.warmup import warm
+
+    start = time.perf_counter()
+    dev = get_device()
+    warm(dev, suite_builds(dev), out=io.StringIO(), jobs=os.cpu_count())
+    WARM_AHEAD.update(seconds=time.perf_counter() - start, count=len(SUITE_BUILDS))
+
+
 def pytest_terminal_summary(terminalreporter, config):
     """pytest-randomly shows its seed in the header, which -q hides: say it last, where a failure is read."""
+    if WARM_AHEAD["seconds"] > 10:
+        count, seconds = WARM_AHEAD["count"], WARM_AHEAD["seconds"]
+        terminalreporter.write_line(f"{count} kernel variants built ahead on {os.cpu_count()} processes in {seconds:.0f} s")
     seed = getattr(config.option, "randomly_seed", None)
     if config.pluginmanager.hasplugin("randomly") and isinstance(seed, int):
         terminalreporter.write_line(f"tests in random order: replay with --randomly-seed={seed} (-p no:randomly: file order)")

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from ..errors import UsageError
 from . import add_device_argument
+from .render import positive_int
 
 EXAMPLES = """examples:
   clrender warmup                       # every variant (minutes: 10-60 s each on a CPU runtime; cached afterwards)
   clrender warmup --list                # the variants, without compiling
   clrender warmup --only "path, bvh, flat"   # the variants whose description contains the text
+  clrender warmup --jobs 8              # eight compiles at once (each driver's compiler uses one core)
 """
 
 
@@ -23,6 +25,7 @@ def add_parser(sub):
     add_device_argument(p)
     p.add_argument("--list", action="store_true", help="print the variants and compile nothing")
     p.add_argument("--only", metavar="TEXT", default=None, help="only the variants whose description contains TEXT (default: every variant)")
+    p.add_argument("--jobs", type=positive_int, default=1, metavar="N", help="compile N variants at once, in N processes (default: 1)")
     p.set_defaults(run=run)
 
 
@@ -38,7 +41,7 @@ def run(args):
         for variant in chosen:
             print(variant.label)
         return 0
-    seconds = warm(device, chosen)
+    seconds = warm(device, chosen, jobs=args.jobs, spec=args.device)
     if not args.quiet:
         slowest = max(seconds, key=lambda pair: pair[1])
         import sys

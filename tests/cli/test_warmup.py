@@ -95,3 +95,34 @@ def test_python_m_clrender_warmup_is_the_subcommand(capsys):
     code, out, err = run_cli(capsys, "warmup", "--list")
     assert proc.returncode == code == 0, proc.stderr
     assert proc.stdout == out
+
+
+def test_every_define_the_suite_builds_ahead_is_one_the_kernels_read():
+    """A renamed define would leave conftest.SUITE_BUILDS compiling variants no test uses."""
+    from clrender.device import kernel_dir
+
+    from tests.conftest import SUITE_BUILDS
+
+    source = "".join(path.read_text() for path in kernel_dir().glob("*.[ch]*"))
+    named = {name for _, diff in SUITE_BUILDS for name in diff}
+    assert named and not {name for name in named if name not in source}
+
+
+def test_warmup_refuses_jobs_below_one(capsys):
+    code, out, err = run_cli(capsys, "warmup", "--jobs", "0")
+    assert code == 2 and err.startswith("clrender: ") and "--jobs" in err and "1 or more" in err and out == ""
+
+
+@pytest.mark.slow
+def test_warmup_on_two_processes_builds_what_a_render_then_loads(device, capsys, monkeypatch):
+    """The processes fill pyopencl's cache; the parent then loads each program and prints the processes' build seconds."""
+    monkeypatch.setattr(device_module, "_DEVICES", {})
+    code, out, err = run_cli(capsys, "-q", "warmup", "--only", "ray queries, bvh", "--jobs", "2")
+    assert code == 0, err
+    assert [line.split("s  ", 1)[1] for line in out.splitlines()] == [
+        "ray queries, bvh, flat",
+        "ray queries, bvh, instanced",
+        "ray queries, bvh, instanced, wide top",
+    ]
+    fresh = device_module.get_device()
+    assert sum(key[0] == "trace.cl" for key in fresh._programs) == 3

@@ -191,7 +191,8 @@ def test_render_hashes_prints_one_hash_line_per_item_the_same_each_run():
     assert len(items) == len(rows)  # one line per item
     for aov in ("depth", "normal", "albedo", "id", "edges"):
         assert ("aov:refract1", aov) in items
-    assert {r[0] for r in rows} == {"render:refract1", "aov:refract1", "edges:refract1", "splat-gauss", "voronoi"}
+    assert {r[0] for r in rows} == {"render:refract1", "path:refract1", "aov:refract1", "edges:refract1", "splat-gauss", "voronoi"}
+    assert {r[1] for r in rows if r[0] == "path:refract1"} == {"box", "aovs", "tent"}
     assert {r[1] for r in rows if r[0] == "render:refract1"} == {"none", "full", "edge_detect"}
     assert len({r[2] for r in rows if r[0] == "splat-gauss"}) == 4  # both blends' images and gradients differ
 
