@@ -20,6 +20,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from .errors import RenderFailure
+
 CACHE_FORMAT = 1  # the file's own layout
 WORKLOAD_VERSION = 1  # bump when WORKLOAD changes: older numbers then measure something else
 WORKLOAD = {  # the bundled refract1 scene, about 0.2 s and 0.1 s a run on one core (compile time apart)
@@ -77,7 +79,7 @@ def load() -> dict[str, Speed]:
     path = cache_path()
     try:
         raw = path.read_bytes()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # no cache yet
         return {}
     except OSError as exc:
         return _ignored(path, exc.strerror or str(exc))
@@ -103,16 +105,23 @@ def lookup(dev) -> Speed | None:
 
 
 def save(dev, speed: Speed) -> None:
-    """Store `speed` for `dev`, keeping the other entries (an unreadable file is replaced); written atomically."""
+    """Store `speed` for `dev`, keeping the other entries (an unreadable file is replaced); written atomically.
+    A cache folder that cannot be written is a RenderFailure (one line, exit 1)."""
     speeds = load()
     speeds[key(dev)] = speed
     path = cache_path()
-    path.parent.mkdir(parents=True, exist_ok=True)
     data = {"format": CACHE_FORMAT, "speeds": {k: {"path": s.path, "whitted": s.whitted} for k, s in sorted(speeds.items())}}
-    fd, staging = tempfile.mkstemp(dir=path.parent, prefix=".device-speed-")
-    with os.fdopen(fd, "w") as f:
-        json.dump(data, f, indent=1)
-    os.replace(staging, path)
+    staging = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, staging = tempfile.mkstemp(dir=path.parent, prefix=".device-speed-")
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=1)
+        os.replace(staging, path)
+    except OSError as exc:
+        if staging is not None and os.path.exists(staging):
+            os.unlink(staging)
+        raise RenderFailure(f"cannot write the device speed cache {path}: {exc.strerror or exc}") from exc
 
 
 def measure(spec: str, runs: int = RUNS) -> Speed:

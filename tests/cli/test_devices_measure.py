@@ -83,3 +83,12 @@ def test_a_corrupt_cache_file_is_one_line_on_stderr_and_the_listing_still_comes(
     code, out, err = run_cli(capsys, "devices", "--measure")  # measuring rewrites it
     assert code == 0 and all("Msamples/s" in line for line in _cpu_lines(out, names).values())
     assert device_speed.load() != {}
+
+
+def test_a_cache_folder_that_cannot_be_written_is_one_line_and_exit_1(capsys, fake_speeds):
+    folder = device_speed.cache_path().parent
+    folder.parent.mkdir(parents=True)
+    folder.write_text("a file where the cache folder goes")
+    code, out, err = run_cli(capsys, "devices", "--measure")
+    assert code == 1 and "Traceback" not in err
+    assert err.count("\n") == 1 and err.startswith(f"clrender: cannot write the device speed cache {folder / 'device-speed.json'}: "), err
