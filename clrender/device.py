@@ -1,9 +1,10 @@
 """OpenCL device selection and the per-process cache of built programs.
 
-The default is the PoCL CPU device, chosen by name rather than "the first
-platform found", because a machine may have several OpenCL platforms.
-`CLRENDER_DEVICE` or `--device` picks another by a substring of
-"<platform name>: <device name>" (case-insensitive), e.g. "nvidia" or "gpu".
+The default is the fastest CPU driver found, by the rule of `_ranked_cpus` (docs/command-line.md,
+"Devices"): Intel's OpenCL CPU runtime, then PoCL, then other CPU drivers, unless cached measurements
+(`clrender devices --measure`, clrender/device_speed.py) show another more than SPEED_MARGIN faster; the
+first of those that compiles a probe kernel.  `CLRENDER_DEVICE` or `--device` picks another by a substring
+of "<platform name>: <device name>" (case-insensitive), e.g. "nvidia" or "gpu".
 
 Programs are built once per process for each (file, defines) pair and their
 kernels fetched once; variants are chosen with -D options, never by pasting
@@ -231,26 +232,74 @@ def _is_pocl_cpu(dev) -> bool:
     return "portable computing language" in dev.platform.name.lower() and bool(dev.type & cl.device_type.CPU)
 
 
+def _is_intel_cpu(dev) -> bool:
+    return "intel" in dev.platform.name.lower() and bool(dev.type & cl.device_type.CPU)
+
+
+SPEED_MARGIN = 1.10  # a measured driver displaces the static order's first only when this much faster (noise apart)
+
+
+def _static_rank(dev) -> int:
+    """Intel's runtime 0 (0.72x PoCL's CPU time on render_path: issue 35), PoCL 1, any other CPU driver 2."""
+    return 0 if _is_intel_cpu(dev) else 1 if _is_pocl_cpu(dev) else 2
+
+
+def _speeds(cpus: list) -> list:
+    """The cached speed (device_speed.Speed) of each device, None where it was not measured."""
+    from . import device_speed
+
+    cached = device_speed.load()
+    return [cached.get(device_speed.key(d)) for d in cpus] if cached else [None] * len(cpus)
+
+
+def _ranked_cpus(devices: list) -> list:
+    """The CPU devices, the default's candidates first: the static order (_static_rank; the loader's order
+    among equals), except that the fastest measured device moves to the front when the static first was
+    measured too and the other's score is more than SPEED_MARGIN times its own."""
+    cpus = sorted((d for d in devices if d.type & cl.device_type.CPU), key=_static_rank)
+    speeds = _speeds(cpus)
+    if not cpus or speeds[0] is None:
+        return cpus
+    best = max(range(len(cpus)), key=lambda i: (speeds[i].score if speeds[i] else -1.0, -i))
+    if speeds[best].score > SPEED_MARGIN * speeds[0].score:
+        cpus.insert(0, cpus.pop(best))
+    return cpus
+
+
 def _default_cpu(devices: list):
-    """PoCL's CPU device, if it can compile for this CPU; else the first other CPU device that can.
+    """The first of _ranked_cpus(devices) that can compile for this CPU.
 
     PoCL 3.0 (the newest on PyPI) compiles with LLVM 14, which names the host CPU for its code generator
     and does not know AMD's Zen 5 (family 26): there every build fails with "unknown target CPU
     'generic'". A one-line probe build tells, before any work is done on the device."""
-    pocl = [d for d in devices if _is_pocl_cpu(d)]
-    others = [d for d in devices if d.type & cl.device_type.CPU and not _is_pocl_cpu(d)]
-    if not pocl and not others:
+    candidates = _ranked_cpus(devices)
+    if not candidates:
         found = "; ".join(_describe(d) for d in devices)
         raise UsageError(
             f"the PoCL CPU device was not found (available: {found}); {INSTALL_HINT}, or choose a device with --device / CLRENDER_DEVICE"
         )
     failures = []
-    for dev in pocl + others:
+    for dev in candidates:
         reason = _cannot_compile(dev)
         if reason is None:
             return dev
         failures.append(f"{_describe(dev)}: {reason}")
     raise RenderFailure(f"no OpenCL CPU device can compile kernels here ({'; '.join(failures)}); {FAST_HINT}, or choose a device with --device")
+
+
+def cpu_devices() -> list:
+    """Every OpenCL CPU device visible to this process, in the loader's order."""
+    if cl is None:
+        return []
+    return [d for p in _platforms() for d in p.get_devices() if d.type & cl.device_type.CPU]
+
+
+def default_device_name(spec: str | None = None) -> str:
+    """'<platform>: <device>' of the device get_device(spec) would pick now (chosen afresh, not the process's cached one)."""
+    if spec is None:
+        spec = os.environ.get("CLRENDER_DEVICE") or None
+    with _signal_handlers_kept():
+        return _describe(_pick(spec))
 
 
 _PROBE = "__kernel void probe(__global int *a) { a[get_global_id(0)] = 1; }"
@@ -270,7 +319,7 @@ _DEVICES: dict[str, Device] = {}
 
 
 def get_device(spec: str | None = None) -> Device:
-    """The Device for `spec` (default: $CLRENDER_DEVICE, else PoCL's CPU), made once per process."""
+    """The Device for `spec` (default: $CLRENDER_DEVICE, else the fastest CPU driver: _default_cpu), made once per process."""
     if spec is None:
         spec = os.environ.get("CLRENDER_DEVICE") or None
     key = spec or ""

@@ -1,6 +1,7 @@
 """Shared fixtures: every test that runs a kernel takes `device`.
 
-Devices: `device` is PoCL's CPU unless $CLRENDER_DEVICE names another (a substring of "<platform>: <device>").
+Devices: `device` is the default CPU driver (docs/command-line.md, "Devices") unless $CLRENDER_DEVICE names another
+(a substring of "<platform>: <device>").
 $CLRENDER_TEST_DEVICES, a comma-separated list of such substrings, runs every test that takes `device` once per
 device listed (ids `[dev-nvidia]`, ...), e.g. CLRENDER_TEST_DEVICES=nvidia,portable on a GPU machine.  Tests that
 reach a device implicitly (Renderer() without a device, `python -m clrender` in a subprocess) follow
@@ -44,7 +45,7 @@ def pytest_generate_tests(metafunc):
 
 @pytest.fixture(scope="session")
 def device(request):
-    """The Device for this test: one of $CLRENDER_TEST_DEVICES, else $CLRENDER_DEVICE, else PoCL's CPU."""
+    """The Device for this test: one of $CLRENDER_TEST_DEVICES, else $CLRENDER_DEVICE, else the default CPU driver."""
     return get_device(getattr(request, "param", None))
 
 

@@ -7,7 +7,7 @@ def add_device_argument(p) -> None:
         "--device",
         default=None,
         help="OpenCL device, a substring of '<platform>: <device>' as 'clrender devices' lists them "
-        "(default: $CLRENDER_DEVICE, else PoCL's CPU device)",
+        "(default: $CLRENDER_DEVICE, else the fastest CPU driver: 'clrender devices --help')",
     )
 
 

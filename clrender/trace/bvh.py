@@ -15,7 +15,7 @@ float4 each in the kernel::
 Builders:
 
 * ``sah`` -- binned surface area heuristic, built on the OpenCL device
-  (kernels/bvh_build.cl; clrender.device.get_device(), PoCL's CPU by default):
+  (kernels/bvh_build.cl; clrender.device.get_device(), the fastest CPU driver by default):
   ``bins`` bins over the centroid bounds of each node, along all three axes,
   best cut by SAH cost.  Nodes larger than ``sah_samples`` primitives evaluate
   their bins on an evenly strided sample of that many primitives (the cut then

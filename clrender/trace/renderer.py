@@ -68,7 +68,7 @@ class RenderSettings:
     bvh: bool = True  # False tests every primitive for every ray (the benchmark's baseline)
     bvh_builder: str = "sah"  # "sah" (binned surface-area heuristic) or "median" (the seed's)
     tile_size: int = 128  # tiles are tile_size x tile_size pixels per kernel launch
-    device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else PoCL's CPU
+    device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else the fastest CPU driver
     aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
     # meshes that several objects place stored once and placed per hit (clrender/trace/instancing.py);
     # None: when that saves at least instancing.AUTO_MIN_TRIANGLES triangles (docs/bvh.md, "Instancing")

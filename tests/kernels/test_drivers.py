@@ -35,13 +35,21 @@ def test_without_intels_runtime_the_loader_is_left_alone(tmp_path, monkeypatch):
 
 
 def _fake(platform: str, kind=cl.device_type.CPU):
-    return SimpleNamespace(platform=SimpleNamespace(name=platform), name="cpu", type=kind)
+    return SimpleNamespace(platform=SimpleNamespace(name=platform, version="1.0"), name="cpu", driver_version="1.0", type=kind)
 
 
-def test_the_default_is_pocl_where_it_compiles(monkeypatch):
+def test_the_default_is_intels_runtime_where_both_compile_and_nothing_is_measured(monkeypatch):
     pocl, intel = _fake("Portable Computing Language"), _fake("Intel(R) OpenCL")
     monkeypatch.setattr(device_module, "_cannot_compile", lambda dev: None)
-    assert device_module._default_cpu([intel, pocl]) is pocl
+    monkeypatch.setattr(device_module, "_speeds", lambda cpus: [None] * len(cpus))
+    assert device_module._default_cpu([pocl, intel]) is intel  # the faster (docs/command-line.md, "Devices")
+
+
+def test_the_default_is_pocl_where_it_is_the_only_cpu_driver(monkeypatch):
+    pocl, gpu = _fake("Portable Computing Language"), _fake("NVIDIA CUDA", cl.device_type.GPU)
+    monkeypatch.setattr(device_module, "_cannot_compile", lambda dev: None)
+    monkeypatch.setattr(device_module, "_speeds", lambda cpus: [None] * len(cpus))
+    assert device_module._default_cpu([gpu, pocl]) is pocl
 
 
 def test_the_default_falls_back_to_another_cpu_driver_when_pocl_cannot_compile_for_this_cpu(monkeypatch):
