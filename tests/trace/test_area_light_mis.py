@@ -86,7 +86,8 @@ STRATEGIES = {"mis": {}, "nee": {"AREA_BSDF": 0}, "bsdf": {"AREA_NEE": 0}}
 def reference_total():
     quad = {"type": "quad", "corner": LIGHT["corner"], "edge_a": LIGHT["edge_a"], "edge_b": LIGHT["edge_b"], "material": "lamp"}
     lamp = {"diffuse": [0, 0, 0], "emission": [LIGHT["intensity"]] * 3}
-    scene = {**SCENE, "lights": [], "materials": {**SCENE["materials"], "lamp": lamp}, "objects": [FLOOR, quad]}
+    materials = {"white": {"diffuse": [1, 1, 1]}, "lamp": lamp}  # Lambert: specular 0 is clrender's spelling of none
+    scene = {**SCENE, "lights": [], "materials": materials, "objects": [FLOOR, quad]}
     ref = pathtracer.render(scene, spp=256, max_depth=1, seed=3)
     return ref.image[..., 0].sum(), np.sqrt((ref.stderr[..., 0] ** 2).sum())
 
