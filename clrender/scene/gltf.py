@@ -49,8 +49,9 @@ before anything is read or allocated, every buffer file is found through
 confine.scene_file (a confined scene reads nothing outside its folder) and is a
 regular file whose size fits memory before it is read, the mesh objects the drawn
 nodes make are counted from the node list (node_order) against checks.MAX_OBJECTS
-before any node's matrix or mesh is read, and node transforms are computed once
-per file (doc.worlds), so loading is linear.
+before any node's matrix or mesh is read, node transforms are computed once
+per file (doc.worlds) and each primitive's accessors are read once (doc.primitives),
+so loading is linear.
 """
 
 from __future__ import annotations
