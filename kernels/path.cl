@@ -55,6 +55,12 @@
 #ifndef ENV_BSDF
 #define ENV_BSDF 1 /* 0 (tests only): after a non-delta vertex only NEE finds an environment map (no MIS) */
 #endif
+#ifndef AREA_NEE
+#define AREA_NEE 1 /* 0 (tests only): no next-event estimation of physical area lights, BSDF rays alone find them */
+#endif
+#ifndef AREA_BSDF
+#define AREA_BSDF 1 /* 0 (tests only): after a non-delta vertex only NEE finds a physical area light (no MIS) */
+#endif
 
 /* What a path sees: the geometry, the lights, the emissive triangles and the environment. */
 typedef struct {
@@ -293,6 +299,8 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
             if (!(light_pdf < INFINITY)) return (float3)(0.0f);
             scale = 1.0f / light_pdf;
             mis = power_heuristic(light_pdf, component_pdf(c, wo, to_local(fr, wi)));
+            if (!AREA_NEE) return (float3)(0.0f);
+            if (!AREA_BSDF) mis = 1.0f;
         }
     }
     float3 fc = component_eval(c, wo, to_local(fr, wi));
@@ -385,9 +393,9 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
         if (L->type != LIGHT_AREA || L->falloff != LIGHT_FALLOFF_INVERSE_SQUARE) continue;
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
         float t = hit_parallelogram(r, vload3(0, L->position), ea, eb, t_max);
-        if (t == INF_T) continue;
+        if (t == INF_T || (!AREA_BSDF && !prev_delta)) continue;
         float3 nl = cross3(ea, eb); /* |nl| is the area */
-        float mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, t * t / abs_f(dot3(nl, r.d))); /* dist^2 / (A cos) */
+        float mis = prev_delta || !AREA_NEE ? 1.0f : power_heuristic(prev_pdf, t * t / abs_f(dot3(nl, r.d))); /* dist^2 / (A cos) */
         sum += mis * L->intensity * vload3(0, L->colour);
     }
     return sum;

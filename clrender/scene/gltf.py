@@ -49,8 +49,9 @@ before anything is read or allocated, every buffer file is found through
 confine.scene_file (a confined scene reads nothing outside its folder) and is a
 regular file whose size fits memory before it is read, the mesh objects the drawn
 nodes make are counted from the node list (node_order) against checks.MAX_OBJECTS
-before any node's matrix or mesh is read, and node transforms are computed once
-per file (doc.worlds), so loading is linear.
+before any node's matrix or mesh is read, node transforms are computed once
+per file (doc.worlds) and each primitive's accessors are read once (doc.primitives),
+so loading is linear.
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ import base64
 import functools
 import json
 import math
+import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -109,6 +111,9 @@ class Document:
     root: Path | None = None  # a confined scene's folder: every file the document reads must lie inside it
     parents: dict | None = None  # node -> its parent, built once (see node_world_matrix)
     worlds: dict = field(default_factory=dict)  # node -> 4x4 world transform, each computed once
+    # (mesh, primitive) -> what its accessors hold, read once however many nodes place it (_read_primitive)
+    primitives: dict = field(default_factory=dict)
+    drawn: set = field(default_factory=set)  # (node, primitive) that scene_dict found to have area (has_area)
 
     def fail(self, message: str):
         raise UsageError(f"{self.path}: {message}")
@@ -146,7 +151,15 @@ def read_document(path, root=None) -> Document:
     if not path.is_file():
         raise UsageError(f"glTF file {str(path)!r} does not exist")
     stat = path.stat()
-    return _read_document(path.resolve(), stat.st_mtime_ns, stat.st_size, None if root is None else Path(root).resolve())
+    key = (str(path), None if root is None else str(root), os.getcwd())  # resolving took a third of a node's loading
+    if key not in _RESOLVED:
+        if len(_RESOLVED) > 64:
+            _RESOLVED.clear()
+        _RESOLVED[key] = (path.resolve(), None if root is None else Path(root).resolve())
+    return _read_document(_RESOLVED[key][0], stat.st_mtime_ns, stat.st_size, _RESOLVED[key][1])
+
+
+_RESOLVED: dict = {}  # (path, root, working folder) -> the two resolved
 
 
 @functools.lru_cache(maxsize=4)
@@ -426,7 +439,36 @@ def _faces(doc: Document, prim: dict, n_vertices: int, where: str):
 
 
 def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix: np.ndarray):
-    """(vertices, faces, normals or None) of one primitive in world space, or None for points and lines."""
+    """(vertices, faces, normals or None) of one primitive in world space, or None for points and lines.  The
+    accessors are read once per primitive (_read_primitive); each node only multiplies them by its matrix."""
+    read = _read_primitive(doc, mesh_index, prim_index)
+    if read is None:
+        return None
+    positions, faces, n = read
+    where = f"meshes[{mesh_index}].primitives[{prim_index}]"
+    linear, shift = matrix[:3, :3], matrix[:3, 3]
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        vertices = positions @ linear.T + shift
+    if not np.isfinite(vertices).all():
+        doc.fail(f"{where}: positions times the node's transform overflow float64; allowed: finite products")
+    normals = None
+    if n is not None:
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf normals: replaced by meshes.shading_normals
+            n = n @ _normal_matrix(linear)
+            normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    return vertices, faces, normals
+
+
+def _read_primitive(doc: Document, mesh_index: int, prim_index: int):
+    """(POSITION, faces, NORMAL or None) of a triangle primitive as the file holds them, checked; None for
+    points and lines.  Kept in doc.primitives: 100,000 nodes placing one mesh read it once, not 300,000 times."""
+    key = (mesh_index, prim_index)
+    if key not in doc.primitives:
+        doc.primitives[key] = _read_primitive_once(doc, mesh_index, prim_index)
+    return doc.primitives[key]
+
+
+def _read_primitive_once(doc: Document, mesh_index: int, prim_index: int):
     mesh = doc.item("meshes", mesh_index)
     prims = mesh.get("primitives")
     where = f"meshes[{mesh_index}].primitives[{prim_index}]"
@@ -442,20 +484,15 @@ def primitive_triangles(doc: Document, mesh_index: int, prim_index: int, matrix:
     if not np.isfinite(positions).all():  # before any arithmetic: inf x 0 would warn and give NaN
         doc.fail(f"{where}: POSITION holds NaN or infinite values; allowed: finite numbers")
     faces = _faces(doc, prim, len(positions), where)
-    linear, shift = matrix[:3, :3], matrix[:3, 3]
-    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
-        vertices = positions @ linear.T + shift
-    if not np.isfinite(vertices).all():
-        doc.fail(f"{where}: positions times the node's transform overflow float64; allowed: finite products")
-    normals = None
+    n = None
     if "NORMAL" in attributes:
         n = accessor(doc, attributes["NORMAL"], f"{where}.attributes.NORMAL", "VEC3")
         if n.shape != positions.shape:
             doc.fail(f"{where}: NORMAL must be VEC3 with one normal per position")
-        with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf normals: replaced by meshes.shading_normals
-            n = n @ _normal_matrix(linear)
-            normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    return vertices, faces, normals
+    for array in (positions, faces, n):
+        if array is not None:
+            array.flags.writeable = False  # shared by every node that places the primitive
+    return positions, faces, n
 
 
 def _normal_matrix(linear: np.ndarray) -> np.ndarray:
@@ -526,7 +563,8 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
     parts = [p for p in parts if p is not None]
     if not parts or not sum(len(f) for _, f, _ in parts):
         doc.fail(f"nodes[{node}]: its mesh has no triangles")
-    if not any(has_area(v, f) for v, f, _ in parts):
+    drawn = any((node, p) in doc.drawn for p in chosen)  # scene_dict's has_area, not computed again
+    if not drawn and not any(has_area(v, f) for v, f, _ in parts):
         doc.fail(f"nodes[{node}]: all its triangles have zero area (its world transform is scaled to zero); allowed: a node that is drawn")
     offsets = np.cumsum([0] + [len(v) for v, _, _ in parts])
     vertices = np.concatenate([v for v, _, _ in parts])
@@ -555,7 +593,17 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
 
 def primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vertices: int):
     """(TEXCOORD_0, TEXCOORD_1, COLOR_0 RGB, TANGENT) of a triangle primitive, each (n_vertices, 2, 3 or 4) float64
-    or None."""
+    or None; read once per primitive (doc.primitives), read-only."""
+    key = (mesh_index, prim_index, "attributes")
+    if key not in doc.primitives:
+        doc.primitives[key] = _primitive_attributes(doc, mesh_index, prim_index, n_vertices)
+        for array in doc.primitives[key]:
+            if array is not None:
+                array.flags.writeable = False
+    return doc.primitives[key]
+
+
+def _primitive_attributes(doc: Document, mesh_index: int, prim_index: int, n_vertices: int):
     prim = doc.item("meshes", mesh_index)["primitives"][prim_index]
     attributes = prim["attributes"]
     where = f"meshes[{mesh_index}].primitives[{prim_index}].attributes"
@@ -596,14 +644,18 @@ def node_shape(path, node: int, primitive: int | None = None, root=None) -> tupl
     mesh_index = doc.item("nodes", node).get("mesh")
     count = len(doc.item("meshes", mesh_index).get("primitives", []))
     chosen = [primitive] if primitive is not None else range(count)
-    parts = [primitive_triangles(doc, mesh_index, p, np.eye(4)) for p in chosen]
-    return mesh_index, np.concatenate([v for v, _, _ in (p for p in parts if p is not None)]), node_world_matrix(doc, node)
+    key = (mesh_index, primitive, "own")  # the same array for every node of this mesh
+    if key not in doc.primitives:
+        parts = [primitive_triangles(doc, mesh_index, p, np.eye(4)) for p in chosen]
+        doc.primitives[key] = np.concatenate([v for v, _, _ in (p for p in parts if p is not None)])
+    return mesh_index, doc.primitives[key], node_world_matrix(doc, node)
 
 
 def has_area(vertices: np.ndarray, faces: np.ndarray) -> bool:
     """Whether any triangle has an area: a node scaled to zero (as files hide nodes) draws nothing."""
     tri = vertices[faces]
-    return bool(np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])))
+    a, b = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]  # np.cross's products, without its per-call overhead
+    return bool(np.any(a[:, [1, 2, 0]] * b[:, [2, 0, 1]] - a[:, [2, 0, 1]] * b[:, [1, 2, 0]]))
 
 
 def _triangle_count(doc: Document, mesh_index: int, prim_index: int) -> int:
@@ -904,6 +956,7 @@ def scene_dict(path, root=None) -> dict:
                 tri = primitive_triangles(doc, node["mesh"], p, matrix)
                 if tri is None or not len(tri[1]) or not has_area(tri[0], tri[1]):
                     continue  # points and lines; a node scaled to zero (files hide nodes that way) draws nothing
+                doc.drawn.add((index, p))
                 lo, hi = np.minimum(lo, tri[0].min(axis=0)), np.maximum(hi, tri[0].max(axis=0))
                 material = mesh["primitives"][p].get("material")
                 if material is not None:

@@ -21,6 +21,8 @@ def shape_objects(reader, p, matrix: np.ndarray, material: str) -> list:
     smooth = not bool(p.get("face_normals", False))
     if p.type == "sphere":
         return [_sphere(reader, p, matrix, material, flip, emits=bool(p.nested("emitter")))]
+    if p.type in ("obj", "ply", "serialized") and np.linalg.det(matrix[:3, :3]) < 0:
+        flip = not flip  # Mitsuba's mesh faces its world winding; clrender reverses a mirrored mesh's (scene.mirrored_faces)
     if p.type in ("obj", "ply"):
         name = p.get("filename")
         if not isinstance(name, str):

@@ -77,11 +77,13 @@ def emit_mesh(reader, d, state, points, faces, normals=None, smooth=False, uv=No
         world = reader.to_world(state.ctm)
         obj.update(vertices=points @ world[:3, :3].T + world[:3, 3], faces=faces)
     else:  # an instance: the definition's arrays, made once (per winding), placed by the instance's matrix
-        key = (id(d), bool(np.linalg.det(state.full_ctm[:3, :3]) > 0))  # the winding _faces chose depends on this alone
+        matrix = reader.to_world(state.instance)
+        mirrors = bool(np.linalg.det(matrix[:3, :3]) < 0)  # the scene reverses such a copy's winding (scene.mirrored_faces): undone here
+        key = (id(d), bool(np.linalg.det(state.full_ctm[:3, :3]) > 0), mirrors)  # the winding depends on these alone
         if key not in reader.instanced:
             local = points @ state.ctm[:3, :3].T + state.ctm[:3, 3]
-            reader.instanced[key] = {"vertices": local, "faces": faces}
-        obj.update(reader.instanced[key], matrix=reader.to_world(state.instance))
+            reader.instanced[key] = {"vertices": local, "faces": faces[:, [0, 2, 1]] if mirrors else faces}
+        obj.update(reader.instanced[key], matrix=matrix)
     if uvs is not None:
         obj["uvs"] = reader.instanced.setdefault((id(d), "uvs"), uvs) if state.instance is not None else uvs
     reader.objects.append(obj)

@@ -13,6 +13,7 @@ checks.py.  Imports go one way: this module imports gltf.py (which reads a glTF 
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 import tomllib
@@ -692,6 +693,8 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
         mesh_index, own, node_matrix = placed
         key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
         local_vertices = cache.setdefault(("gltf mesh", key), own)
+    if np.linalg.det(np.asarray(to_world, np.float64)[:3, :3]) < 0:  # a mirror: the winding reversed (mirrored_faces)
+        faces = cache.setdefault(("mirrored faces", key), mirrored_faces(faces)) if key is not None else mirrored_faces(faces)
     if key is None:
         mesh = Mesh(vertices, faces, None if normals is None else _place_normals((points, normals, matrix)), material, smooth, source)
     else:  # world vertices (and normals) made on first read: the instanced Tracer never reads them
@@ -701,6 +704,14 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
         mesh.file_material = textures.mtl_material(tm, tm.metadata.get(obj_mtl.METADATA_KEY, False))
     return mesh
+
+
+def mirrored_faces(faces: np.ndarray) -> np.ndarray:
+    """The faces of a mesh placed by a mirroring matrix (determinant < 0), winding reversed, so that its front
+    stays the side the object-space winding's normal points to, carried by the inverse transpose (glTF: "the
+    determinant of the node's global transform defines the winding order"; pbrt's transformSwapsHandedness;
+    the instanced kernels' normal_to_world).  Swapping the 2nd and 3rd corner keeps each face's first vertex."""
+    return np.ascontiguousarray(np.asarray(faces)[:, [0, 2, 1]])
 
 
 def _vertex_attributes(tm):
@@ -734,10 +745,16 @@ def _given_matrix(checks: Checks, o, path) -> np.ndarray | None:
     return m
 
 
+@functools.lru_cache(maxsize=256)
+def _resolved(file: str, cwd: str) -> str:
+    """A file's resolved path, once per name and working folder (a 100,000-node glTF names its file 100,000 times)."""
+    return str(Path(file).resolve())
+
+
 def _shape_key(o, file, gltf_node, gen, params) -> tuple | None:
     """What an object's object-space mesh is made from: equal keys, equal meshes (None: inline vertices)."""
     if file is not None:
-        return ("file", str(Path(file).resolve()), gltf_node)
+        return ("file", _resolved(str(file), os.getcwd()), gltf_node)
     if gen is not None:
         return ("generator", gen, repr(sorted(params.items())))
     return None

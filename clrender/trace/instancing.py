@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..layout import INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_NORMALS_DTYPE, WIDE_NODE8
-from ..scene.scene import Mesh, Scene
+from ..scene.scene import Mesh, Scene, mirrored_faces
 
 MIN_COPIES = 2  # a shape used once is left in the flat part of the scene: instancing it saves nothing
 # renders (RenderSettings.instancing None) instance by themselves when the copies beyond each shape's first
@@ -124,7 +124,8 @@ def find_instances(scene: Scene, min_copies: int = MIN_COPIES) -> Instances:
         if len(oids) < min_copies:
             continue
         first = scene.objects[oids[0]]
-        shape = Shape(key, first.local_vertices, first.faces, base, list(oids))
+        faces = mirrored_faces(first.faces) if np.linalg.det(first.to_world[:3, :3]) < 0 else first.faces  # object space
+        shape = Shape(key, first.local_vertices, faces, base, list(oids))
         base += len(first.faces)
         for oid in oids:
             to_world = scene.objects[oid].to_world

@@ -378,6 +378,38 @@ new_cameras = st.sampled_from(
 )
 
 
+def declared_keys(section: str, table: dict) -> list:
+    """The keys the reader of a table of `section` accepts (its declaration, so keys added later are fuzzed too)."""
+    from clrender.scene.camera import CAMERA_READER
+    from clrender.scene.lights import LIGHT_READERS
+    from clrender.scene.materials import MATERIAL_READER
+    from clrender.scene.scene import ENVIRONMENT_READER, OBJECT_READERS, TOP_KEYS
+    from clrender.scene.textures import TEXTURE_READER
+
+    if section in ("lights", "objects"):
+        readers = LIGHT_READERS if section == "lights" else OBJECT_READERS
+        kind = table.get("type")
+        chosen = [readers[kind]] if isinstance(kind, str) and kind in readers else list(readers.values())
+        return sorted(set().union(*(r.keys for r in chosen)))
+    fixed = {"": TOP_KEYS, "environment": ENVIRONMENT_READER.keys, "cameras": CAMERA_READER.keys}
+    fixed.update(materials=MATERIAL_READER.keys, textures=TEXTURE_READER.keys)
+    return sorted(fixed[section])
+
+
+def declared_tables(data: dict) -> list:
+    """(section, table) for every table of a scene dict that a reader reads, the top level first."""
+    out = [("", data)]
+    if isinstance(data.get("environment"), dict):
+        out.append(("environment", data["environment"]))
+    for section in ("materials", "textures"):
+        if isinstance(data.get(section), dict):
+            out += [(section, t) for t in data[section].values() if isinstance(t, dict)]
+    for section in ("cameras", "lights", "objects"):
+        if isinstance(data.get(section), list):
+            out += [(section, t) for t in data[section] if isinstance(t, dict)]
+    return out
+
+
 def locations(node, path=()):
     """Every (container, key) in a scene dict, depth first."""
     items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
@@ -395,6 +427,7 @@ def mutated_scenes(draw, allowed_only=False):
         ["extreme", "object", "light", "camera"]
         if allowed_only
         else ["replace", "component", "scale", "delete", "add_key", "deep", "extreme", "extreme", "extreme", "object", "light", "camera"]
+        + ["declared", "declared"]
     )
     for _ in range(draw(st.integers(1, 4))):
         op = draw(st.sampled_from(ops))
@@ -404,6 +437,10 @@ def mutated_scenes(draw, allowed_only=False):
             if isinstance(data.get(key, []), list):
                 item = copy.deepcopy(draw(strategy))
                 data.setdefault(key, []).insert(0 if op == "camera" else len(data.get(key, [])), item)
+            continue
+        if op == "declared":  # any key a reader accepts, set or replaced: covers keys no bundled scene writes
+            section, table = draw(st.sampled_from(declared_tables(data)))
+            table[draw(st.sampled_from(declared_keys(section, table)))] = draw(values | extremes | st.lists(extremes, min_size=3, max_size=3))
             continue
         if op == "add_key":
             tables = [data] + [c[k] for c, k in spots if isinstance(c[k], dict)]

@@ -7,10 +7,13 @@ filter) on a 4 x 4 grid; the floor (kd = 1) shows E / pi.  One bounce (max_depth
 floor reach the light; the floor sees nothing else (the light is not geometry, the sky is black)."""
 
 import numpy as np
+import pytest
 
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import Tracer
 
+from tests.reference import pathtracer
 from tests.reference.polygon_light import lambert_irradiance
 
 SIZE = 24  # pixels a side
@@ -46,17 +49,19 @@ def light_seen(points):
     return (t > 0) & (t < 1) & (uv >= 0).all(-1) & (uv <= 1).all(-1)
 
 
+FLOOR = {"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"}
+SCENE = {
+    "width": SIZE,
+    "height": SIZE,
+    "cameras": [CAMERA],
+    "materials": {"white": {"diffuse": [1, 1, 1], "specular": [0, 0, 0]}},
+    "lights": [LIGHT],
+    "objects": [FLOOR],
+}
+
+
 def test_bsdf_rays_meeting_an_area_light_are_weighted_by_the_solid_angle_pdf():
-    scene = Scene.from_dict(
-        {
-            "width": SIZE,
-            "height": SIZE,
-            "cameras": [CAMERA],
-            "materials": {"white": {"diffuse": [1, 1, 1], "specular": [0, 0, 0]}},
-            "lights": [LIGHT],
-            "objects": [{"type": "quad", "corner": [-5, 0, 5], "edge_a": [10, 0, 0], "edge_b": [0, 0, -10], "material": "white"}],
-        }
-    )
+    scene = Scene.from_dict(SCENE)
     image = Renderer(scene, integrator="path", spp=64, max_depth=1, seed=5).run().image[..., 0].astype(np.float64)
     fine = floor_points(SUB)
     reference = (lambert_irradiance(fine, LIGHT) / np.pi).reshape(SIZE, SUB, SIZE, SUB).mean(axis=(1, 3))
@@ -64,3 +69,39 @@ def test_bsdf_rays_meeting_an_area_light_are_weighted_by_the_solid_angle_pdf():
     assert clear.all() and reference.min() > 0.1
     ratio = image[clear].sum() / reference[clear].sum()
     assert abs(ratio - 1) < 0.02, ratio  # 1.0009 measured; dist for dist^2: 1.487
+
+
+# Against the float64 path tracer (tests/reference/pathtracer.py), which has no parallelogram lights: the light is an
+# emissive quad there, facing down (edge_a x edge_b = -y) with the light's radiance, black, above the camera (no
+# camera ray meets it; clrender's light is two-sided, but only its underside is seen from the floor).  Three of
+# clrender's estimators of one image: MIS (the default kernel), NEE alone (-DAREA_BSDF=0: BSDF rays that meet the
+# light count nothing after a non-delta vertex) and BSDF rays alone (-DAREA_NEE=0), each against the reference's MIS.
+# The image totals' difference over its standard error (K seeds of clrender, the reference's per-pixel errors) is a
+# t with K - 1 = 7 degrees of freedom: |t| > Z_MAX has probability 2e-3 when both are right.  dist for dist^2
+# shifts only the MIS total, by 49 %.
+K, SPP, Z_MAX = 8, 16, 4.8
+STRATEGIES = {"mis": {}, "nee": {"AREA_BSDF": 0}, "bsdf": {"AREA_NEE": 0}}
+
+
+def reference_total():
+    quad = {"type": "quad", "corner": LIGHT["corner"], "edge_a": LIGHT["edge_a"], "edge_b": LIGHT["edge_b"], "material": "lamp"}
+    lamp = {"diffuse": [0, 0, 0], "emission": [LIGHT["intensity"]] * 3}
+    materials = {"white": {"diffuse": [1, 1, 1]}, "lamp": lamp}  # Lambert: specular 0 is clrender's spelling of none
+    scene = {**SCENE, "lights": [], "materials": materials, "objects": [FLOOR, quad]}
+    ref = pathtracer.render(scene, spp=256, max_depth=1, seed=3)
+    return ref.image[..., 0].sum(), np.sqrt((ref.stderr[..., 0] ** 2).sum())
+
+
+@pytest.mark.parametrize("strategy", list(STRATEGIES))
+def test_an_area_light_by_mis_nee_alone_and_bsdf_rays_alone_is_the_float64_reference(device, strategy):
+    scene = Scene.from_dict(SCENE)
+    totals = []
+    for seed in range(K):
+        r = Renderer(scene, tracer=Tracer(scene, device=device), integrator="path", spp=SPP, max_depth=1, seed=seed)
+        if STRATEGIES[strategy]:
+            r.kernel = r.tracer.device.kernel("path.cl", "render_path", {**r.tracer.defines, "WRITE_AOV": 0, **STRATEGIES[strategy]})
+        totals.append(r.run().image[..., 0].astype(np.float64).sum())
+    ref, ref_se = reference_total()
+    se = np.sqrt(np.var(totals, ddof=1) / K + ref_se**2)
+    assert abs(np.mean(totals) - ref) < Z_MAX * se, (strategy, np.mean(totals), ref, se)
+    assert se < 0.01 * ref  # the test can see a 5 % bias

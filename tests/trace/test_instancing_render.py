@@ -141,11 +141,13 @@ def test_instanced_ellipsoids_shade_with_the_analytic_normals(device, tmp_path):
     assert degrees_between(wrong[facing], normal[facing]).max() > 10 * NORMAL_DEGREES  # the test tells M^-T from M
 
 
-def test_a_mirrored_instance_faces_outward(device, tmp_path):
+@pytest.mark.parametrize("instancing", [True, False])
+def test_a_mirrored_instance_faces_outward(device, tmp_path, instancing):
     """Single-sided material (camera rays cull back faces): the camera sees the near side of both ellipsoids, so
-    the front is the outside, by the inverse-transpose normal, for the mirrored copy too (depth = the analytic t)."""
+    the front is the outside, by the inverse-transpose normal, for the mirrored copy too (depth = the analytic t),
+    flat and instanced alike (issue 38, defect 7: the flat copy's world winding faced in, and was culled)."""
     scene = ellipsoid_scene(tmp_path, {"double_sided": False})
-    result = Renderer(scene, tracer=Tracer(scene, device=device, instancing=True), aovs=("depth",)).run()
+    result = Renderer(scene, tracer=Tracer(scene, device=device, instancing=instancing), aovs=("depth",)).run()
     ids, t, normal, _, d = analytic_ellipsoids(scene)
     facing = (ids >= 0) & (result.ids == ids) & (np.abs((normal * d).sum(-1)) > MIN_COS)
     assert (facing & (ids == 1)).sum() > 300
@@ -308,4 +310,33 @@ def test_gltf_nodes_sharing_a_smooth_mesh_render_as_the_flat_nodes(device, tmp_p
     assert len(find_instances(scene).records) == 2 and all(o.smooth for o in scene.objects)
     a, b = (Renderer(scene, tracer=Tracer(scene, device=device, instancing=i), width=48, height=32).run() for i in (False, True))
     assert (a.ids == 0).sum() > 100 and (a.ids == 1).sum() > 40 and np.ptp(a.image[a.ids == 1][:, 0]) > 0.05  # shading varies across it
+    assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_single_sided_gltf_copies_mirrored_or_not_render_the_same_picture_flat_and_instanced(device, tmp_path, integrator):
+    """Issue 38, defect 7: three glTF nodes of one single-sided quad (doubleSided false, the glTF default) facing the
+    camera, one mirrored in x and one in y (the glTF front stays the camera's side: the determinant reverses the
+    winding).  Flat and instanced renders at 32 x 24 show all three quads (ids against the analytic layout), and are
+    the same picture within EDGE_FRACTION (the old flat render culled the mirrored quads: 2 x ~60 of 768 pixels)."""
+    from tests.gltftools import CAMERA, LIGHT, LIGHT_NODE, gltf_file
+
+    nodes = [
+        {"mesh": 0, "translation": [-2.3, 0.0, 0.0]},
+        {"mesh": 0, "translation": [0.0, 0.0, 0.0], "scale": [-1, 1, 1]},
+        {"mesh": 0, "translation": [2.3, 0.0, 0.0], "scale": [1, -1, 1]},
+        {"camera": 0, "translation": [0, 0, 6]},
+        LIGHT_NODE,
+    ]
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1]}, "doubleSided": False}
+    camera = {**CAMERA, "perspective": {"yfov": 0.9, "aspectRatio": 32 / 24}}
+    scene = Scene.load(gltf_file(tmp_path, nodes, cameras=[camera], lights=[LIGHT], materials=[material]))
+    assert not scene.materials[scene.objects[0].material].double_sided
+    kw = dict(width=32, height=24, integrator=integrator, max_depth=2, seed=3, **({"spp": 4} if integrator == "path" else {}))
+    flat, inst = (Renderer(scene, tracer=Tracer(scene, device=device, instancing=i), **kw) for i in (False, True))
+    assert inst.tracer.n_instances == 3
+    a, b = flat.run(), inst.run()
+    # the quads span x in [-3.3, -1.3], [-1, 1], [1.3, 3.3], y in [-1, 1]: each covers about 60 pixels
+    for oid in range(3):
+        assert (a.ids == oid).sum() > 40 and (b.ids == oid).sum() > 40, (oid, (a.ids == oid).sum(), (b.ids == oid).sum())
     assert (a.ids != b.ids).mean() <= EDGE_FRACTION and disagreement(a.image, b.image) <= EDGE_FRACTION
