@@ -148,4 +148,8 @@ INLINE float3 offset_origin(float3 p, float3 p_err, float3 n) {
     return po;
 }
 
+/* A region of an arena: `arena` is one buffer, `at` a region's byte offset in it (the launch records' SceneTables,
+ * WorldRegions and OutRegions, clrender/layout.py; packed by clrender/arena.py), `type` its records. */
+#define REGION(arena, type, at) ((__global type *)((arena) + (at)))
+
 #endif
