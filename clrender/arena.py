@@ -5,8 +5,8 @@ kernels take a few arenas instead: the Tracer's scene tables, the renderer's wor
 offsets fill a record of layout.py (SceneTables, WorldRegions, OutRegions: one uint field per region, named as
 the arrays are), and the kernel turns each into a typed pointer (kernels/common.h, REGION).
 
-Every region starts at a multiple of `alignment(device)`: enough for any record or OpenCL vector, and for the
-device's sub-buffers (`Arena.region`), which let a kernel that takes the arrays one by one read them in place.
+Every region starts at a multiple of `alignment(device)`: enough for any record or OpenCL vector (and for a
+sub-buffer of the device, should a kernel take a region as a buffer of its own).
 """
 
 from __future__ import annotations
@@ -43,11 +43,6 @@ class Arena:
     buffer: object  # the cl.Buffer
     record: np.ndarray  # the regions' byte offsets, a record of the layout dtype
     sizes: dict  # each region's bytes as given
-
-    def region(self, name: str):
-        """Region `name` as a sub-buffer (a kernel argument of its own, read in place)."""
-        at = int(self.record[name])
-        return self.buffer.get_sub_region(at, max(self.sizes[name], MIN_REGION))
 
 
 def pack(device, dtype: np.dtype, arrays: dict) -> Arena:

@@ -339,6 +339,9 @@ ENV_MAP = Record("EnvMap", ENV_MAP_DTYPE)
 # (common.h, REGION).  The Tracer's scene tables (trace/tracer.py): its small per-scene records
 SCENE_TABLES_DTYPE = np.dtype([(name, "<u4") for name in ("instances", "top", "objects", "materials", "textures")])
 SCENE_TABLES = Record("SceneTables", SCENE_TABLES_DTYPE)
+# the ray-query kernels' values (trace.cl intersect_rays, occluded_rays; Tracer._query_params), passed by value
+QUERY_PARAMS_DTYPE = np.dtype([("tables", SCENE_TABLES_DTYPE), ("n_prims", "<i4"), ("n_instances", "<i4"), ("n_rays", "<i4")])
+QUERY_PARAMS = Record("QueryParams", QUERY_PARAMS_DTYPE)
 # the renderer's world: the lights, the environment map's texels and sampling distribution (trace/envmap.py), the path
 # tracer's emissive triangles and each primitive's index among them (trace/path.py)
 WORLD_REGIONS_DTYPE = np.dtype([(name, "<u4") for name in ("lights", "env_texels", "env_marginal", "env_conditional", "emitters", "emitter_of_prim")])

@@ -283,16 +283,16 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
  * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
  * object id and the nodes visited. */
 __kernel void intersect_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
-                             __global const int *prim_object, __global const Instance *instances,
-                             __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
+                             __global const int *prim_object, __global const char *tables, QueryParams params,
                              __global const float *origins, __global const float *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
-    int first = RAYS_PER_ITEM * get_global_id(0);
+    int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
-    with_instances(&g, instances, top, n_instances);
+    Geometry g = geometry(nodes, prims, prim_object, 0, 0, params.n_prims); /* closest hits need no materials */
+    with_instances(&g, REGION(tables, const Instance, params.tables.instances), REGION(tables, const BvhNode, params.tables.top),
+                   params.n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
     trace_item(&q, &g, false);
@@ -307,16 +307,16 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
 
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
 __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
-                            __global const int *prim_object, __global const ObjectRecord *objects,
-                            __global const Material *materials, __global const Instance *instances,
-                            __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
+                            __global const int *prim_object, __global const char *tables, QueryParams params,
                             __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
-    int first = RAYS_PER_ITEM * get_global_id(0);
+    int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
-    with_instances(&g, instances, top, n_instances);
+    Geometry g = geometry(nodes, prims, prim_object, REGION(tables, const ObjectRecord, params.tables.objects),
+                          REGION(tables, const Material, params.tables.materials), params.n_prims);
+    with_instances(&g, REGION(tables, const Instance, params.tables.instances), REGION(tables, const BvhNode, params.tables.top),
+                   params.n_instances);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
     trace_item(&q, &g, true);

@@ -35,7 +35,15 @@ from ..arena import pack
 from ..device import Device, get_device
 from ..errors import UsageError, real_array, shown, value_shown
 from ..launch import Kernel
-from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, SCENE_TABLES_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
+from ..layout import (
+    BVH_NODE_DTYPE,
+    INSTANCE_DTYPE,
+    PRIM_SLOT_DTYPE,
+    QUERY_PARAMS_DTYPE,
+    SCENE_TABLES_DTYPE,
+    VERTEX_ATTRIBUTES_DTYPE,
+    VERTEX_NORMALS_DTYPE,
+)
 from ..scene.scene import Mesh, Scene
 from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
@@ -209,11 +217,9 @@ class Tracer:
         records, texels = pack_textures(self.primitives.textures or [])
         self.setup_seconds["textures"] = time.perf_counter() - start
         self.texels = dev.to_device(texels)
-        # the small per-scene records as one arena (the render kernels' `tables`), each also a buffer of its own
+        # the small per-scene records as one arena: every scene kernel's `tables`, placed by a SceneTables record
         tables = dict(instances=self.instance_records, top=top, objects=self.primitives.objects, materials=self.primitives.materials)
         self.tables = pack(dev, SCENE_TABLES_DTYPE, {**tables, "textures": records})
-        self.instance_buffer, self.top = self.tables.region("instances"), self.tables.region("top")
-        self.objects, self.materials, self.textures = (self.tables.region(name) for name in ("objects", "materials", "textures"))
         # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
         self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
@@ -370,8 +376,8 @@ class Tracer:
             knl = self._bound.get(kind)
             if knl is None:  # the scene's arguments set once, the buffers' only when they are new
                 knl = self._bound[kind] = self.kernel(QUERY_KERNELS[kind]).bound()
-                knl.set(**self._geometry(), **({"objects": self.objects, "materials": self.materials} if kind == "occluded" else {}))
-            knl.set(n_rays=n, **inputs.args, **outputs.args)
+                knl.set(**self._geometry())
+            knl.set(params=self._query_params(n), **inputs.args, **outputs.args)
             layout = self.layout
             knl.enqueue(queue, global_size(-(-n // layout.rays_per_item), layout.local_size), (layout.local_size,))
             with outputs.mapped(queue, n, cl.map_flags.READ) as host:  # waits for the kernel (in-order queue)
@@ -379,16 +385,14 @@ class Tracer:
         return shape, answers
 
     def _geometry(self) -> dict:
-        """The scene's arguments, as every ray kernel takes them."""
-        return dict(
-            nodes=self.nodes,
-            prims=self.prims,
-            prim_object=self.prim_object,
-            instances=self.instance_buffer,
-            top=self.top,
-            n_instances=self.n_instances,
-            n_prims=self.n_prims,
-        )
+        """The scene's buffers, as every ray-query kernel takes them (the scene tables' regions: _query_params)."""
+        return dict(nodes=self.nodes, prims=self.prims, prim_object=self.prim_object, tables=self.tables.buffer)
+
+    def _query_params(self, n: int) -> np.ndarray:
+        """The ray-query kernels' QueryParams record for n rays."""
+        params = np.zeros((), QUERY_PARAMS_DTYPE)
+        params["tables"], params["n_prims"], params["n_instances"], params["n_rays"] = self.tables.record, self.n_prims, self.n_instances, n
+        return params
 
     def render_buffers(self) -> dict:
         """The scene's arguments, as the render kernels take them (trace.cl render, path.cl render_path): the
@@ -408,7 +412,7 @@ class Tracer:
         scene's geometry, as every ray kernel takes it."""
         layout = self.layout
         size = global_size(-(-n // layout.rays_per_item), layout.local_size)
-        return self.kernel(name)(self.device.queue, size, (layout.local_size,), n_rays=n, **self._geometry(), **args)
+        return self.kernel(name)(self.device.queue, size, (layout.local_size,), params=self._query_params(n), **self._geometry(), **args)
 
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
@@ -424,8 +428,6 @@ class Tracer:
         return self._launch(
             "occluded_rays",
             n,
-            objects=self.objects,
-            materials=self.materials,
             origins=origins,
             directions=directions,
             t_min=t_min,
