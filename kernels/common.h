@@ -14,7 +14,8 @@
  *   objects   ObjectRecord per object: material index, smooth shading flag.
  *   materials Material records.
  *   lights    Light records (type, samples, intensity, falloff, position, direction, colour, edges).
- */
+ * The small per-scene records (instances, the top tree, objects, materials, textures) reach the kernels as regions
+ * of one `tables` arena, the lights and environment as regions of the render kernels' `world` (REGION below). */
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 

@@ -42,11 +42,6 @@ class Integrator:
     @classmethod
     def check(cls, settings) -> None:
         """UsageError for settings this integrator cannot render (RenderSettings.validate calls it)."""
-        require(
-            settings.rfilter == "box" or cls.name == "path",
-            f"--rfilter {settings.rfilter} is the path tracer's film (--integrator path); "
-            "Whitted anti-aliasing weighs a pixel's own samples by --pixel-filter",
-        )
 
     @classmethod
     def pointless(cls, settings, scene) -> list[str]:
@@ -103,6 +98,14 @@ class WhittedIntegrator(Integrator):
         self.fixed["light_stratified"] = s.light_sampler == "stratified"
 
     @classmethod
+    def check(cls, settings) -> None:
+        require(
+            settings.rfilter == "box",
+            f"--rfilter {settings.rfilter} is the path tracer's film (--integrator path); "
+            "Whitted anti-aliasing weighs a pixel's own samples by --pixel-filter",
+        )
+
+    @classmethod
     def pointless(cls, s, scene) -> list[str]:
         said = []
         if s.spp or s.time_budget is not None:
@@ -150,7 +153,6 @@ class PathIntegrator(Integrator):
 
     @classmethod
     def check(cls, settings) -> None:
-        super().check(settings)
         require(
             settings.aa != "edge_detect",
             "--aa edge_detect is a Whitted feature: with --integrator path every pixel gets the same --spp "
