@@ -395,17 +395,9 @@ class Tracer:
         return params
 
     def render_buffers(self) -> dict:
-        """The scene's arguments, as the render kernels take them (trace.cl render, path.cl render_path): the
-        geometry's big buffers, and the scene tables' arena whose regions FrameParams.tables places."""
-        return dict(
-            nodes=self.nodes,
-            prims=self.prims,
-            prim_object=self.prim_object,
-            normals=self.normals,
-            attributes=self.attributes,
-            texels=self.texels,
-            tables=self.tables.buffer,
-        )
+        """The scene's arguments, as the render kernels take them (trace.cl render, path.cl render_path): the ray
+        queries' (_geometry), and the shading's per-primitive normals and attributes and the textures' texels."""
+        return dict(**self._geometry(), normals=self.normals, attributes=self.attributes, texels=self.texels)
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
         """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
