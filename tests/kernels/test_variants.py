@@ -97,7 +97,9 @@ def test_the_kernels_turn_off_what_the_variant_says(device, variant):
 
 @pytest.mark.slow
 def test_every_variant_a_render_can_reach_compiles(device):
-    """clrender warmup's list, every one built on the default driver (minutes on a cold cache: 10-117 s each)."""
+    """clrender warmup's list, every one built on the test device: PoCL's by default, both drivers with
+    CLRENDER_TEST_DEVICES=portable,intel (tests/conftest.py).  Hours on a cold cache (10-117 s a variant on
+    Intel's runtime), seconds on a warm one."""
     from clrender.warmup import variants
 
     chosen = variants(device)
