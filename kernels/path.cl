@@ -21,6 +21,7 @@
 #include "sampling.h"
 #include "camera.h"
 #include "intersect.h"
+#include "tables.h"
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
@@ -634,10 +635,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     int gid = get_global_id(0);
     if (gid >= frame.n_work) return;
     PathScene s;
-    s.geo = geometry(nodes, prims, prim_object, REGION(tables, const ObjectRecord, frame.tables.objects),
-                     REGION(tables, const Material, frame.tables.materials), frame.n_prims);
-    with_instances(&s.geo, REGION(tables, const Instance, frame.tables.instances), REGION(tables, const BvhNode, frame.tables.top),
-                   frame.n_instances);
+    s.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
     s.normals = normals; s.lights = REGION(world, const Light, frame.world.lights);
     s.emitters = REGION(world, const Emitter, frame.world.emitters);
     s.emitter_of_prim = REGION(world, const int, frame.world.emitter_of_prim);

@@ -5,6 +5,7 @@
 #include "sampling.h"
 #include "camera.h"
 #include "intersect.h"
+#include "tables.h"
 #include "shade.h"
 #include "packet.h"
 
@@ -21,10 +22,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     int gid = get_global_id(0);
     if (gid >= frame.n_work) return;
     SceneView sc;
-    sc.geo = geometry(nodes, prims, prim_object, REGION(tables, const ObjectRecord, frame.tables.objects),
-                      REGION(tables, const Material, frame.tables.materials), frame.n_prims);
-    with_instances(&sc.geo, REGION(tables, const Instance, frame.tables.instances), REGION(tables, const BvhNode, frame.tables.top),
-                   frame.n_instances);
+    sc.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
     sc.normals = normals; sc.lights = REGION(world, const Light, frame.world.lights);
     sc.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
     sc.n_lights = frame.n_lights; sc.light_samples = params.light_samples;
@@ -290,9 +288,7 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
                              __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, 0, 0, params.n_prims); /* closest hits need no materials */
-    with_instances(&g, REGION(tables, const Instance, params.tables.instances), REGION(tables, const BvhNode, params.tables.top),
-                   params.n_instances);
+    Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, false);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
     trace_item(&q, &g, false);
@@ -313,10 +309,7 @@ __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimS
                             __global int *occluded_out, __global uint *visits_out) {
     int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, REGION(tables, const ObjectRecord, params.tables.objects),
-                          REGION(tables, const Material, params.tables.materials), params.n_prims);
-    with_instances(&g, REGION(tables, const Instance, params.tables.instances), REGION(tables, const BvhNode, params.tables.top),
-                   params.n_instances);
+    Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, true);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
     trace_item(&q, &g, true);
