@@ -24,6 +24,8 @@ from .knobs import DEFAULT_KNOBS, TraceKnobs
 
 MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
 DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
+# a Tracer's attributes that are a Variant's fields of the same names
+TRACER_SWITCHES = ("use_bvh", "bvh_width", "count_prim_tests", "shadow_shafts", "ray_packets", "knobs", "top_wide")
 
 
 @dataclass(frozen=True)
@@ -48,18 +50,9 @@ class Variant:
 
     @classmethod
     def of_tracer(cls, tracer) -> Variant:
-        """The variant of a Tracer's ray queries (trace.cl)."""
-        return cls(
-            use_bvh=tracer.use_bvh,
-            bvh_width=tracer.bvh_width,
-            count_prim_tests=tracer.count_prim_tests,
-            shadow_shafts=tracer.shadow_shafts,
-            ray_packets=tracer.ray_packets,
-            knobs=tracer.knobs,
-            instanced=tracer.instances is not None,
-            top_wide=tracer.top_wide,
-            rays_per_item=tracer.layout.rays_per_item,
-        )
+        """The variant of a Tracer's ray queries (trace.cl): its switches of the same names, its instances, its layout."""
+        same = {name: getattr(tracer, name) for name in TRACER_SWITCHES}
+        return cls(**same, instanced=tracer.instances is not None, rays_per_item=tracer.layout.rays_per_item)
 
     def rendering(self, scene, write_aov: bool) -> Variant:
         """This Tracer variant as a render kernel's for `scene` (its materials' alpha and sidedness)."""
