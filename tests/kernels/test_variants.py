@@ -64,9 +64,13 @@ def test_a_render_variant_is_derived_from_its_scene_and_settings(device):
     assert np.isfinite(renderer.run().image).all()
 
 
-PROBE = """#include "trace.cl"
-__kernel void switches(__global int *out) { out[0] = SHAFTS_ON; out[1] = ITEM_PACKETS; out[2] = INSTANCE_PACKETS; }
-"""
+# the kernels' switches as #if reads them (a name left undefined counts as 0 there)
+SWITCHES = ("SHAFTS_ON", "ITEM_PACKETS", "INSTANCE_PACKETS")
+PROBE = (
+    '#include "trace.cl"\n__kernel void switches(__global int *out) {\n'
+    + "".join(f"#if {name}\n    out[{i}] = 1;\n#else\n    out[{i}] = 0;\n#endif\n" for i, name in enumerate(SWITCHES))
+    + "}\n"
+)
 
 
 @pytest.mark.slow
