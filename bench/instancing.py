@@ -122,8 +122,8 @@ def prepare(kind: str, copies: int, resolution: int, size: int, instancing: bool
     tracer = Tracer(scene, instancing=instancing)
     _, build_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    names = ("nodes", "prims", "prim_object", "normals", "objects", "materials", "instance_buffer")
-    device_bytes = sum(getattr(tracer, k).size for k in names)
+    names = ("nodes", "prims", "prim_object", "normals")
+    device_bytes = sum(getattr(tracer, k).size for k in names) + tracer.tables.buffer.size  # objects, materials, instances
     world_made = sum(bool(o.world_made) for o in scene.objects if isinstance(o, Mesh))
     o, d = primary_rays(scene, size)
     oc, dc = close_up_rays(scene, size)

@@ -100,11 +100,16 @@ def c_struct(record: Record) -> str:
     lines, at, align = [], 0, 4
     for name, (field_dtype, offset) in sorted(dtype.fields.items(), key=lambda item: item[1][1]):
         base, shape = field_dtype.base, field_dtype.shape
-        if base not in _C_TYPES:
+        if base.names is None and base not in _C_TYPES:
             raise TypeError(f"{record.c_name}.{name}: {base} has no C type here (float32, int32, uint32)")
         if offset > at:
             lines.append(f"    char _pad{at}[{offset - at}];")
-        if name in record.vectors:
+        if base.names is not None:  # a record inside a record: its struct, declared before this one
+            nested = {r.dtype: r.c_name for r in records() if not r.vectors}.get(base)
+            if nested is None:
+                raise TypeError(f"{record.c_name}.{name}: a nested record must be one declared in layout.py, of 4-byte fields only")
+            decl, dims = f"{nested} {name}", shape
+        elif name in record.vectors:
             width = shape[-1] if shape else 1
             if width not in (2, 4, 8, 16) or offset % (4 * width):
                 raise TypeError(f"{record.c_name}.{name}: a vector needs 2, 4, 8 or 16 lanes at a multiple of its size")
@@ -308,28 +313,6 @@ CAMERA_DTYPE = np.dtype(
     ]
 )
 CAMERA = Record("Camera", CAMERA_DTYPE)
-# the render kernel's values for one launch (trace/renderer.py, Renderer.launch), passed by value
-RENDER_PARAMS_DTYPE = np.dtype(
-    [
-        ("background", "<f4", 3),  # linear RGB of a ray that meets nothing
-        ("ambient", "<f4", 3),  # ambient light, times each surface's kd
-        ("n_work", "<i4"),  # pixels in this launch (work-items past it return at once)
-        ("width", "<i4"),  # the image's size in pixels
-        ("height", "<i4"),
-        ("sampler", "<i4"),  # SAMPLERS code
-        ("samples_per_side", "<i4"),  # N: N x N samples per pixel
-        ("pixel_filter", "<i4"),  # PIXEL_FILTERS code
-        ("seed", "<u4"),  # seeds every random number (kernels/rng.h)
-        ("max_depth", "<i4"),  # bounces after the primary hit
-        ("fresnel", "<i4"),  # 0: transparency splits as the seed; 1: Schlick
-        ("light_samples", "<i4"),  # > 0: every area light's samples per side; 0: each light's own
-        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light (the seed); 0: uniform random
-        ("record", "<i4"),  # 1: write the first sample's ids, shadows and AOVs
-        ("n_lights", "<i4"),
-        ("n_prims", "<i4"),
-    ]
-)
-RENDER_PARAMS = Record("RenderParams", RENDER_PARAMS_DTYPE)
 # per pixel: the object ids met along the path (depth-first order, -1 past its end), and the primary hit's facet
 # (its primitive id on a flat-shaded mesh, where the shading jumps from face to face, else -1)
 ID_RECORD_DTYPE = np.dtype([("path", "<i4", PATH_LEN), ("facet", "<i4")])
@@ -365,27 +348,6 @@ BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)
 # running sum of the shares (NEE picks one by a binary search of `cdf`), and its primitive id
 EMITTER_DTYPE = np.dtype([("v0", "<f4", 3), ("v1", "<f4", 3), ("v2", "<f4", 3), ("area", "<f4"), ("prob", "<f4"), ("cdf", "<f4"), ("prim", "<i4")])
 EMITTER = Record("Emitter", EMITTER_DTYPE)
-# the path kernel's values for one launch (Renderer._launch_path), passed by value
-PATH_PARAMS_DTYPE = np.dtype(
-    [
-        ("environment", "<f4", 3),  # radiance from every direction that meets nothing
-        ("n_work", "<i4"),  # pixels in this launch
-        ("n_prims", "<i4"),
-        ("n_lights", "<i4"),
-        ("n_emitters", "<i4"),
-        ("width", "<i4"),
-        ("height", "<i4"),
-        ("spp", "<i4"),  # paths per pixel in this pass
-        ("first_sample", "<u4"),  # index of the pass's first path in each pixel's sequence (passes * spp; below 2**32)
-        ("seed", "<u4"),
-        ("max_depth", "<i4"),  # bounces after the primary hit
-        ("sampler", "<i4"),  # SAMPLERS code: pixel positions when spp is samples_per_side^2
-        ("samples_per_side", "<i4"),
-        ("pixel_filter", "<i4"),  # PIXEL_FILTERS code
-        ("record", "<i4"),  # 1: write the first path's object id and AOVs
-    ]
-)
-PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)
 # the image-based environment light (kernels/envmap.h; packed by trace/envmap.py from scene/environment.py's map),
 # passed by value beside its texels (float4: RGB radiance times intensity, and the texel's density over (u, v)) and
 # the sampling CDFs; width 0: no map (the path tracer's constant `environment`, the Whitted background)
@@ -399,6 +361,71 @@ ENV_MAP_DTYPE = np.dtype(
     ]
 )
 ENV_MAP = Record("EnvMap", ENV_MAP_DTYPE)
+
+# ---- the render kernels' launch (kernels/trace.cl render, path.cl render_path; packed by trace/integrators.py)
+# A render kernel takes its buffers as a few arenas: one buffer each, whose regions a record below places by byte
+# offset from the buffer's start (clrender/arena.py packs them); the kernel turns each offset into a typed pointer
+# (common.h, REGION).  The Tracer's scene tables (trace/tracer.py): its small per-scene records
+SCENE_TABLES_DTYPE = np.dtype([(name, "<u4") for name in ("instances", "top", "objects", "materials", "textures")])
+SCENE_TABLES = Record("SceneTables", SCENE_TABLES_DTYPE)
+# the ray-query kernels' values (trace.cl intersect_rays, occluded_rays; Tracer._query_params), passed by value
+QUERY_PARAMS_DTYPE = np.dtype([("tables", SCENE_TABLES_DTYPE), ("n_prims", "<i4"), ("n_instances", "<i4"), ("n_rays", "<i4")])
+QUERY_PARAMS = Record("QueryParams", QUERY_PARAMS_DTYPE)
+# the renderer's world: the lights, the environment map's texels and sampling distribution (trace/envmap.py), the path
+# tracer's emissive triangles and each primitive's index among them (trace/path.py)
+WORLD_REGIONS_DTYPE = np.dtype([(name, "<u4") for name in ("lights", "env_texels", "env_marginal", "env_conditional", "emitters", "emitter_of_prim")])
+WORLD_REGIONS = Record("WorldRegions", WORLD_REGIONS_DTYPE)
+# one launch's outputs, per pixel: colour (float4; the path tracer's film: SPLAT_SLOTS of them), IdRecord, a float per
+# light of shadow (Whitted), uint2 BVH visits and rays, AovRecord (-DWRITE_AOV=1)
+OUT_REGIONS_DTYPE = np.dtype([(name, "<u4") for name in ("colour", "ids", "shadow", "stats", "aov")])
+OUT_REGIONS = Record("OutRegions", OUT_REGIONS_DTYPE)
+# what every render launch of either integrator shares: the image, its pixels' samples, the scene's counts, and where
+# the arenas' regions are
+FRAME_PARAMS_DTYPE = np.dtype(
+    [
+        ("camera", CAMERA_DTYPE),
+        ("env_map", ENV_MAP_DTYPE),  # width 0: no map (Whitted: escaping rays look it up; path: NEE samples it too)
+        ("tables", SCENE_TABLES_DTYPE),
+        ("world", WORLD_REGIONS_DTYPE),
+        ("out", OUT_REGIONS_DTYPE),
+        ("n_work", "<i4"),  # pixels in this launch (work-items past it return at once)
+        ("width", "<i4"),  # the image's size in pixels
+        ("height", "<i4"),
+        ("sampler", "<i4"),  # SAMPLERS code
+        ("samples_per_side", "<i4"),  # N: N x N samples per pixel (the path tracer: its pixel positions when spp is N^2)
+        ("pixel_filter", "<i4"),  # PIXEL_FILTERS code
+        ("seed", "<u4"),  # seeds every random number (kernels/rng.h)
+        ("max_depth", "<i4"),  # bounces after the primary hit
+        ("record", "<i4"),  # 1: write the first sample's ids, shadows and AOVs
+        ("n_lights", "<i4"),
+        ("n_prims", "<i4"),  # the flat part's primitives
+        ("n_instances", "<i4"),  # instances (read by -DINSTANCED=1 kernels)
+    ]
+)
+FRAME_PARAMS = Record("FrameParams", FRAME_PARAMS_DTYPE)
+# the Whitted kernel's launch (trace.cl render), passed by value
+WHITTED_PARAMS_DTYPE = np.dtype(
+    [
+        ("frame", FRAME_PARAMS_DTYPE),
+        ("background", "<f4", 3),  # linear RGB of a ray that meets nothing
+        ("ambient", "<f4", 3),  # ambient light, times each surface's kd
+        ("fresnel", "<i4"),  # 0: transparency splits as the seed; 1: Schlick
+        ("light_samples", "<i4"),  # > 0: every area light's samples per side; 0: each light's own
+        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light (the seed); 0: uniform random
+    ]
+)
+WHITTED_PARAMS = Record("WhittedParams", WHITTED_PARAMS_DTYPE)
+# the path kernel's launch (path.cl render_path), passed by value
+PATH_PARAMS_DTYPE = np.dtype(
+    [
+        ("frame", FRAME_PARAMS_DTYPE),
+        ("environment", "<f4", 3),  # radiance from every direction that meets nothing
+        ("n_emitters", "<i4"),
+        ("spp", "<i4"),  # paths per pixel in this pass
+        ("first_sample", "<u4"),  # index of the pass's first path in each pixel's sequence (passes * spp; below 2**32)
+    ]
+)
+PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...

@@ -4,11 +4,11 @@ A render builds its kernels from kernels/*.cl with -D defines (clrender/device.p
 pyopencl keeps the binaries on disk, so only the first render of each variant waits for the compiler
 (10 to 60 s each on a CPU runtime).  CI images and cluster nodes run this once to fill that cache.
 
-The variants are the combinations a render can reach, made by the functions the renderer itself calls
-(trace_defines, render_defines) with the device's work layout:
+The variants are the combinations a render can reach, each a trace/variant.py Variant as the Tracer and the
+renderer make it, with the device's work layout:
 - the Tracer: with or without a BVH; flat, instanced, or instanced with a wide top tree (BVH only);
 - each integrator's render kernel (trace.cl `render`, path.cl `render_path`) for each of those, with or
-  without AOV writes, alpha testing and back-face culling;
+  without AOV writes, alpha testing and back-face culling (the path tracer's box film);
 - the ray queries' build of trace.cl (the Tracer's defines alone) for each Tracer variant;
 - the BVH builder (bvh_build.cl).
 """
@@ -18,42 +18,32 @@ from __future__ import annotations
 import itertools
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import replace
 
 from .device import Device
+from .trace.variant import Variant
 
 # (use_bvh, instanced, top_wide): the Tracer states; a wide top tree needs a BVH (Tracer._top)
 TRACER_STATES = ((True, False, False), (True, True, False), (True, True, True), (False, False, False), (False, True, False))
-INTEGRATOR_KERNELS = {"whitted": ("trace.cl", "render"), "path": ("path.cl", "render_path")}
-
-
-@dataclass(frozen=True)
-class Variant:
-    label: str  # what it is for, in words (`clrender warmup --list` prints these; --only matches them)
-    filename: str  # kernels/<filename>
-    defines: tuple  # the -D defines, sorted (name, value) pairs: Device.program's cache key
-
-    def build(self, device: Device) -> None:
-        device.program(self.filename, dict(self.defines))
 
 
 def variants(device: Device) -> list[Variant]:
     """Every variant a render on `device` can build, in the order warmup compiles them."""
-    from .trace.renderer import render_defines
-    from .trace.tracer import trace_defines
+    from .trace.integrators import INTEGRATORS
     from .trace.work_layout import work_layout
 
     rays_per_item = work_layout(device.device).rays_per_item
-    out = [Variant("bvh builder", "bvh_build.cl", tuple(sorted(bvh_build_defines().items())))]
+    out = [Variant("bvh_build.cl", tracing=False, extra=tuple(sorted(bvh_build_defines().items())), label="bvh builder")]
     for use_bvh, instanced, top_wide in TRACER_STATES:
-        tracer = trace_defines(use_bvh=use_bvh, instanced=instanced, top_wide=top_wide, rays_per_item=rays_per_item)
+        tracer = Variant(use_bvh=use_bvh, instanced=instanced, top_wide=top_wide, rays_per_item=rays_per_item)
         shape = f"{'bvh' if use_bvh else 'no bvh'}, {'flat' if not instanced else 'instanced, wide top' if top_wide else 'instanced'}"
-        out.append(Variant(f"ray queries, {shape}", "trace.cl", tuple(sorted(tracer.items()))))
-        for integrator, (filename, _) in INTEGRATOR_KERNELS.items():
+        out.append(replace(tracer, label=f"ray queries, {shape}"))
+        for integrator, kind in INTEGRATORS.items():
+            filename = kind.kernel[0]
             for aov, alpha, cull in itertools.product((False, True), repeat=3):
                 flags = ", ".join(word for word, on in (("aovs", aov), ("alpha test", alpha), ("back-face culling", cull)) if on) or "plain"
-                defines = render_defines(tracer, aov, alpha, cull)
-                out.append(Variant(f"{integrator}, {shape}, {flags}", filename, tuple(sorted(defines.items()))))
+                render = replace(tracer, filename=filename, render=True, write_aov=aov, alpha_test=alpha, cull_backfaces=cull)
+                out.append(replace(render, label=f"{integrator}, {shape}, {flags}"))
     return out
 
 
@@ -76,35 +66,37 @@ def warm(device: Device, chosen: list[Variant], out=None, jobs: int = 1, spec: s
     the seconds are then the processes' build times."""
     from .progress import progress
 
-    built = _build_in_processes(chosen, jobs, spec) if jobs > 1 and len(chosen) > 1 else {}
+    built = _build_in_processes(chosen, jobs, spec) if jobs > 1 and len(chosen) > 1 else []
     seconds = []
-    for variant in chosen if built else progress(chosen, desc="compiling", unit="variant"):
+    for i, variant in enumerate(chosen if built else progress(chosen, desc="compiling", unit="variant")):
         start = time.perf_counter()
         variant.build(device)
-        took = built.get(variant, time.perf_counter() - start)
+        took = built[i] if built else time.perf_counter() - start
         seconds.append((variant, took))
         print(f"{took:7.2f}s  {variant.label}", file=out or sys.stdout, flush=True)
     return seconds
 
 
-def _build_in_processes(chosen: list[Variant], jobs: int, spec: str | None) -> dict[Variant, float]:
-    """Build `chosen` in `jobs` spawned processes (a fork would inherit the parent's OpenCL state); their seconds."""
+def _build_in_processes(chosen: list[Variant], jobs: int, spec: str | None) -> list[float]:
+    """Build `chosen` in `jobs` spawned processes (a fork would inherit the parent's OpenCL state); each one's seconds."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from .progress import progress
 
     with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {pool.submit(_build_one, spec, v.filename, v.defines): v for v in chosen}
-        done = progress(as_completed(futures), total=len(futures), desc=f"compiling on {jobs} processes", unit="variant")
-        return {futures[future]: future.result() for future in done}
+        futures = {pool.submit(_build_one, spec, variant): i for i, variant in enumerate(chosen)}
+        seconds = [0.0] * len(chosen)
+        for future in progress(as_completed(futures), total=len(futures), desc=f"compiling on {jobs} processes", unit="variant"):
+            seconds[futures[future]] = future.result()
+        return seconds
 
 
-def _build_one(spec: str | None, filename: str, defines: tuple) -> float:
+def _build_one(spec: str | None, variant: Variant) -> float:
     from .device import get_device
 
     start = time.perf_counter()
-    get_device(spec).program(filename, dict(defines))
+    variant.build(get_device(spec))
     return time.perf_counter() - start
 
 

@@ -29,7 +29,7 @@ INLINE float2 sample_disk_concentric(float2 u) {
  * perspective ray is make_ray(origin, unit(forward + sx right + sy up)), as it always was, and a pinhole
  * (aperture 0) draws no random numbers, so the images and random streams of pinhole renders are the ones
  * before lenses existed.  With a lens, two numbers of `rng` place the ray's start on the lens disc. */
-INLINE Ray camera_ray(__global const Camera *c, float sx, float sy, Rng *rng) {
+INLINE Ray camera_ray(const Camera *c, float sx, float sy, Rng *rng) {
     float3 origin = vload3(0, c->origin), forward = vload3(0, c->forward);
     float3 right = vload3(0, c->right), up = vload3(0, c->up);
     float3 d; /* towards the image point, forward component 1: origin + f d lies on the plane in focus */

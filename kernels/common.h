@@ -14,7 +14,8 @@
  *   objects   ObjectRecord per object: material index, smooth shading flag.
  *   materials Material records.
  *   lights    Light records (type, samples, intensity, falloff, position, direction, colour, edges).
- */
+ * The small per-scene records (instances, the top tree, objects, materials, textures) reach the kernels as regions
+ * of one `tables` arena, the lights and environment as regions of the render kernels' `world` (REGION below). */
 #ifndef CLRENDER_COMMON_H
 #define CLRENDER_COMMON_H
 
@@ -147,5 +148,9 @@ INLINE float3 offset_origin(float3 p, float3 p_err, float3 n) {
     po.z = offset.z > 0.0f ? next_up(po.z) : (offset.z < 0.0f ? next_down(po.z) : po.z);
     return po;
 }
+
+/* A region of an arena: `arena` is one buffer, `at` a region's byte offset in it (the launch records' SceneTables,
+ * WorldRegions and OutRegions, clrender/layout.py; packed by clrender/arena.py), `type` its records. */
+#define REGION(arena, type, at) ((__global type *)((arena) + (at)))
 
 #endif

@@ -23,6 +23,7 @@
 #include "sampling.h"
 #include "camera.h"
 #include "intersect.h"
+#include "tables.h"
 #include "bsdf.h"
 #include "envmap.h"
 #include "texture.h"
@@ -378,7 +379,7 @@ INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component
 INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                               uint *visits, uint *rays) {
     float3 sum = (float3)(0.0f);
-    for (int li = 0; li < s->p.n_lights; ++li) sum += light_sample(s, li, f, c, fr, wo, rng, visits, rays);
+    for (int li = 0; li < s->p.frame.n_lights; ++li) sum += light_sample(s, li, f, c, fr, wo, rng, visits, rays);
     sum += emitter_sample(s, f, c, fr, wo, rng, visits, rays);
     sum += environment_sample(s, f, c, fr, wo, rng, visits, rays);
     return sum;
@@ -388,7 +389,7 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
  * lights before distance t_max: their radiance, MIS-weighted against their NEE. */
 INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool prev_delta, float prev_pdf) {
     float3 sum = (float3)(0.0f);
-    for (int li = 0; li < s->p.n_lights; ++li) {
+    for (int li = 0; li < s->p.frame.n_lights; ++li) {
         __global const Light *L = &s->lights[li];
         if (L->type != LIGHT_AREA || L->falloff != LIGHT_FALLOFF_INVERSE_SQUARE) continue;
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
@@ -487,7 +488,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         MaterialPoint m = material_at(s->tex, s->geo.materials, &f);
         if (depth == 0) *first = first_hit_of(s, &f, &m, h);
         if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
-        if (depth > s->p.max_depth) break; /* the last vertex: only its emission counts */
+        if (depth > s->p.frame.max_depth) break; /* the last vertex: only its emission counts */
         Component c = pick_component(&m, rng_next(rng));
         Frame fr = component_frame(c, &f);
         float3 wo = to_local(fr, -r.d);
@@ -550,28 +551,29 @@ INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
  * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
  * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS. */
 __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
-                          __global const Instance *instances, __global const BvhNode *top, int n_instances,
-                          __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                          __global const Material *materials, __global const VertexAttributes *attributes,
-                          __global const Texture *textures, __global const float4 *texels, __global const Light *lights,
-                          __global const Camera *camera, __global const Emitter *emitters,
-                          __global const int *emitter_of_prim, __global const int *pixels, PathParams params,
-                          EnvMap env_map, __global const float4 *env_texels, __global const float *env_marginal,
-                          __global const float *env_conditional,
-                          __global float4 *colour_out, __global AovRecord *aov_out, __global IdRecord *ids_out,
-                          __global uint2 *stats_out) {
+                          __global const VertexNormals *normals, __global const VertexAttributes *attributes,
+                          __global const float4 *texels, __global const char *tables, __global const char *world,
+                          __global const int *pixels, PathParams params, __global char *out) {
+    FrameParams frame = params.frame;
     int gid = get_global_id(0);
-    if (gid >= params.n_work) return;
+    if (gid >= frame.n_work) return;
     PathScene s;
-    s.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
-    with_instances(&s.geo, instances, top, n_instances);
-    s.normals = normals; s.lights = lights; s.emitters = emitters; s.emitter_of_prim = emitter_of_prim;
-    s.env = env_view(env_map, env_texels, env_marginal, env_conditional);
-    s.tex = texture_view(attributes, textures, texels);
+    s.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
+    s.normals = normals; s.lights = REGION(world, const Light, frame.world.lights);
+    s.emitters = REGION(world, const Emitter, frame.world.emitters);
+    s.emitter_of_prim = REGION(world, const int, frame.world.emitter_of_prim);
+    s.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), REGION(world, const float, frame.world.env_marginal),
+                     REGION(world, const float, frame.world.env_conditional));
+    s.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
     s.p = params;
+    __global float4 *colour_out = REGION(out, float4, frame.out.colour);
+    __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);
+    __global uint2 *stats_out = REGION(out, uint2, frame.out.stats);
+    __global AovRecord *aov_out = REGION(out, AovRecord, frame.out.aov);
+    Camera camera = frame.camera;
     int pixel = pixels[gid];
-    float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
-    uint n = (uint)params.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
+    float px = (float)(pixel % frame.width), py = (float)(pixel / frame.width);
+    uint n = (uint)frame.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
     float3 sum = (float3)(0.0f), normal_sum = (float3)(0.0f), albedo_sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
@@ -582,13 +584,13 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
-        Rng rng = make_rng(params.seed, (uint)pixel, sample);
-        float2 off = per_pass > 1u ? pixel_sample_offset(params.sampler, s_i, n, &rng)
+        Rng rng = make_rng(frame.seed, (uint)pixel, sample);
+        float2 off = per_pass > 1u ? pixel_sample_offset(frame.sampler, s_i, n, &rng)
                                    : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, &rng);
-        float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
-        float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
-        Ray r = camera_ray(camera, sx, sy, &rng);
-        float weight = pixel_filter_weight(params.pixel_filter, off);
+        float sx = 2.0f * (px + off.x) / (float)frame.width - 1.0f;
+        float sy = 1.0f - 2.0f * (py + off.y) / (float)frame.height;
+        Ray r = camera_ray(&camera, sx, sy, &rng);
+        float weight = pixel_filter_weight(frame.pixel_filter, off);
         FirstHit fh;
 #if SPLAT_RADIUS
         splat_sample(splats, off, path_radiance(&s, r, &rng, &fh, &visits, &rays));
@@ -605,6 +607,6 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #else
     colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
 #endif
-    if (params.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
+    if (frame.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
     stats_out[gid] = (uint2)(visits, rays);
 }

@@ -1,7 +1,7 @@
 /* Tracing kernels: whole-pixel rendering, and plain ray queries for the
  * Tracer API and the benchmarks.  Variants: -DUSE_BVH=0|1, -DMAX_DEPTH=n. */
 /* A program holds the render kernel or the ray queries, never both: a render build (clrender/trace/
- * renderer.py render_defines, which always passes -DWRITE_AOV; shade.h defaults it, hence the test
+ * variant.py Variant.defines, which always passes -DWRITE_AOV; shade.h defaults it, hence the test
  * before any include) compiles `render` alone, the Tracer's build everything else.  Each compile is
  * then a part of the work (the queries' packets and shafts, or the shading). */
 #ifdef WRITE_AOV
@@ -14,53 +14,58 @@
 #include "sampling.h"
 #include "camera.h"
 #include "intersect.h"
+#include "tables.h"
 #include "shade.h"
 #include "packet.h"
 
 #if RENDER_BUILD
-/* The pixels `pixels[0 .. params.n_work)` of one launch (RenderParams, clrender/layout.py): each pixel's
- * samples traced and filtered into colour_out, their BVH visits and rays into stats_out; with
- * params.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs
- * (aov_out is unused otherwise). */
+/* The pixels `pixels[0 .. frame.n_work)` of one launch (WhittedParams, clrender/layout.py): each pixel's
+ * samples traced and filtered into out's colour region, their BVH visits and rays into its stats; with
+ * frame.record, the first sample's ids, shadows (n_lights per pixel) and, with -DWRITE_AOV=1, AOVs.
+ * The buffers: the Tracer's geometry (nodes, prims, prim_object, normals, attributes, texels) and its
+ * scene tables, the renderer's world, and one launch's outputs, as arenas placed by the record's regions. */
 __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
-                     __global const Instance *instances, __global const BvhNode *top, int n_instances,
-                     __global const VertexNormals *normals, __global const ObjectRecord *objects,
-                     __global const Material *materials, __global const VertexAttributes *attributes,
-                     __global const Texture *textures, __global const float4 *texels,
-                     __global const Light *lights, __global const Camera *camera,
-                     __global const int *pixels, RenderParams params, EnvMap env_map, __global const float4 *env_texels,
-                     __global float4 *colour_out, __global IdRecord *ids_out, __global float *shadow_out,
-                     __global uint2 *stats_out, __global AovRecord *aov_out) {
+                     __global const VertexNormals *normals, __global const VertexAttributes *attributes,
+                     __global const float4 *texels, __global const char *tables, __global const char *world,
+                     __global const int *pixels, WhittedParams params, __global char *out) {
+    FrameParams frame = params.frame;
     int gid = get_global_id(0);
-    if (gid >= params.n_work) return;
+    if (gid >= frame.n_work) return;
     SceneView sc;
-    sc.geo = geometry(nodes, prims, prim_object, objects, materials, params.n_prims);
-    with_instances(&sc.geo, instances, top, n_instances);
-    sc.normals = normals; sc.lights = lights; sc.tex = texture_view(attributes, textures, texels);
-    sc.n_lights = params.n_lights; sc.light_samples = params.light_samples;
-    sc.max_depth = params.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
+    sc.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
+    sc.normals = normals; sc.lights = REGION(world, const Light, frame.world.lights);
+    sc.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
+    sc.n_lights = frame.n_lights; sc.light_samples = params.light_samples;
+    sc.max_depth = frame.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
-    sc.env = env_view(env_map, env_texels, 0, 0); /* escaping rays look the map up; nothing samples it */
+    /* escaping rays look the map up; nothing samples it */
+    sc.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), 0, 0);
+    __global float4 *colour_out = REGION(out, float4, frame.out.colour);
+    __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);
+    __global float *shadow_out = REGION(out, float, frame.out.shadow);
+    __global uint2 *stats_out = REGION(out, uint2, frame.out.stats);
+    __global AovRecord *aov_out = REGION(out, AovRecord, frame.out.aov);
+    Camera camera = frame.camera;
 
     int pixel = pixels[gid];
-    float px = (float)(pixel % params.width), py = (float)(pixel / params.width);
-    uint n = (uint)params.samples_per_side;
+    float px = (float)(pixel % frame.width), py = (float)(pixel / frame.width);
+    uint n = (uint)frame.samples_per_side;
     float3 sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     for (uint s = 0; s < n * n; ++s) {
-        Rng rng = make_rng(params.seed, (uint)pixel, s);
-        float2 off = pixel_sample_offset(params.sampler, s, n, &rng);
-        float sx = 2.0f * (px + off.x) / (float)params.width - 1.0f;
-        float sy = 1.0f - 2.0f * (py + off.y) / (float)params.height;
-        Ray r = camera_ray(camera, sx, sy, &rng);
-        bool keep = params.record && s == 0; /* ids and shadows of the first sample */
+        Rng rng = make_rng(frame.seed, (uint)pixel, s);
+        float2 off = pixel_sample_offset(frame.sampler, s, n, &rng);
+        float sx = 2.0f * (px + off.x) / (float)frame.width - 1.0f;
+        float sy = 1.0f - 2.0f * (py + off.y) / (float)frame.height;
+        Ray r = camera_ray(&camera, sx, sy, &rng);
+        bool keep = frame.record && s == 0; /* ids and shadows of the first sample */
 #if WRITE_AOV
         sc.aov = keep ? aov_out + gid : 0; /* AOVs come from the same ray as the ids */
 #endif
-        float weight = pixel_filter_weight(params.pixel_filter, off);
+        float weight = pixel_filter_weight(frame.pixel_filter, off);
         sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + gid : 0,
-                                   keep ? shadow_out + (size_t)gid * params.n_lights : 0, &visits, &rays);
+                                   keep ? shadow_out + (size_t)gid * frame.n_lights : 0, &visits, &rays);
         weight_sum += weight;
     }
     colour_out[gid] = (float4)(sum / weight_sum, 1.0f);
@@ -288,16 +293,14 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
  * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
  * object id and the nodes visited. */
 __kernel void intersect_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
-                             __global const int *prim_object, __global const Instance *instances,
-                             __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
+                             __global const int *prim_object, __global const char *tables, QueryParams params,
                              __global const float *origins, __global const float *directions,
                              __global const float *t_min,
                              __global float *t_out, __global int *prim_out, __global int *object_out,
                              __global uint *visits_out) {
-    int first = RAYS_PER_ITEM * get_global_id(0);
+    int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, 0, 0, n_prims); /* closest hits need no materials */
-    with_instances(&g, instances, top, n_instances);
+    Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, false);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
     trace_item(&q, &g, false);
@@ -312,16 +315,13 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
 
 /* Any-hit occlusion: 1 when some surface lies at o + t d, t in (t_min, t_max), d as given. */
 __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimSlot *prims,
-                            __global const int *prim_object, __global const ObjectRecord *objects,
-                            __global const Material *materials, __global const Instance *instances,
-                            __global const BvhNode *top, int n_instances, int n_prims, int n_rays,
+                            __global const int *prim_object, __global const char *tables, QueryParams params,
                             __global const float *origins, __global const float *directions,
                             __global const float *t_min, __global const float *t_max,
                             __global int *occluded_out, __global uint *visits_out) {
-    int first = RAYS_PER_ITEM * get_global_id(0);
+    int first = RAYS_PER_ITEM * get_global_id(0), n_rays = params.n_rays;
     if (first >= n_rays) return;
-    Geometry g = geometry(nodes, prims, prim_object, objects, materials, n_prims);
-    with_instances(&g, instances, top, n_instances);
+    Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, true);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
     trace_item(&q, &g, true);

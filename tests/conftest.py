@@ -75,6 +75,10 @@ SUITE_BUILDS = (
     ("trace.cl", {"BVH_WIDTH": 4, "COUNT_PRIM_TESTS": 1, "WIDE_STACK_SIZE": 190}),
     ("trace.cl", {"RAY_PACKETS": 0}),
     ("path.cl", {"ENV_BSDF": 1, "ENV_NEE": 0, "WRITE_AOV": 0}),
+    ("path.cl", {"AREA_BSDF": 0, "WRITE_AOV": 0}),
+    ("path.cl", {"AREA_NEE": 0, "WRITE_AOV": 0}),
+    ("path.cl", {"HIDE_EMITTERS": 1, "WRITE_AOV": 0}),
+    ("path.cl", {"RR_DEPTH": 0, "WRITE_AOV": 0}),
     ("trace.cl", {"BVH_WIDTH": 2, "WIDE_STACK_SIZE": 190}),
     ("path.cl", {"CULL_BACKFACES": 1, "WRITE_AOV": 0}),
     ("trace.cl", {"INSTANCED": 1, "TOP_WIDE": 1, "WRITE_AOV": 0}),
@@ -93,13 +97,12 @@ WARM_AHEAD = {"seconds": 0.0, "count": 0}
 
 
 def suite_builds(dev) -> list:
-    """SUITE_BUILDS as clrender.warmup Variants for `dev` (the Tracer's defines for its work layout, then each entry's)."""
-    from clrender.trace.tracer import trace_defines
+    """SUITE_BUILDS as trace/variant.py Variants for `dev` (the Tracer's defines for its work layout, then each entry's)."""
+    from clrender.trace.variant import Variant
     from clrender.trace.work_layout import work_layout
-    from clrender.warmup import Variant
 
-    base = trace_defines(rays_per_item=work_layout(dev.device).rays_per_item)
-    return [Variant(f"{name} {diff}", name, tuple(sorted({**base, **diff}.items()))) for name, diff in SUITE_BUILDS]
+    per_item = work_layout(dev.device).rays_per_item
+    return [Variant(name, rays_per_item=per_item, extra=tuple(sorted(diff.items())), label=f"{name} {diff}") for name, diff in SUITE_BUILDS]
 
 
 def pytest_collection_finish(session):

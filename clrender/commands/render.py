@@ -453,7 +453,9 @@ def check_denoise(args, settings) -> None:
         raise UsageError("--noisy-out needs --denoise (without it the output is the noisy image)")
     if not args.denoise:
         return
-    if settings.integrator != "path":
+    from ..trace.integrators import integrator_type
+
+    if not integrator_type(settings.integrator).monte_carlo:
         raise UsageError(f"--denoise is for --integrator path (Monte Carlo noise); --integrator {settings.integrator} has none to remove")
     if args.turntable is not None or args.video:
         raise UsageError("--denoise is for single renders; --turntable writes the frames as rendered")
@@ -575,7 +577,7 @@ def _render(args):
         parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s"]
         parts += [f"{name} {t[name]:.2f}s" for name in SETUP_PHASES if t.get(name, 0.0) >= SHOWN_PHASE_SECONDS]
         parts += [f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
-        if s.integrator == "path":  # what a --time-budget reached
+        if result.passes:  # the path integrator's passes: what a --time-budget reached
             parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
         if denoise_seconds is not None:
             parts.append(f"denoise {denoise_seconds:.2f}s")

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..progress import progress
 from ..scene.scene import Scene
+from ..trace.integrators import make_integrator
 from ..trace.renderer import Renderer, RenderResult, RenderSettings
 from . import worker
 from .cluster import INSTALL_HINT, connect, require_dask
@@ -83,6 +84,7 @@ class DistributedRenderer(Renderer):
         self.settings = replace(settings or RenderSettings(), **overrides).validate(self.scene)
         self.client = _client(client)
         self.n_lights = len(self.scene.lights)
+        self.integrator = make_integrator(self.settings.integrator, self)  # its passes, by this _pass
         self.tracer = _SceneSummary(n_prims=self.scene.triangle_count + self.scene.sphere_count)
         self.compile_seconds = 0.0
         self.setup_seconds = {}

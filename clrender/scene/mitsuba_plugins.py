@@ -28,7 +28,7 @@ TEXTURES = ("bitmap", "checkerboard")
 INTEGRATORS = ("path", "volpath", "direct")  # volpath without media is path
 FILTERS = {"box": "box", "tent": "tent", "gaussian": "gaussian"}
 DEFAULT_BSDF = {"diffuse": [0.5, 0.5, 0.5]}  # a shape without a bsdf: Mitsuba's default diffuse
-PATH_DEPTH_UNLIMITED = 1024  # Mitsuba's max_depth -1 (no limit): clrender's deepest path (renderer.PATH_DEPTH_LIMIT)
+PATH_DEPTH_UNLIMITED = 1024  # Mitsuba's max_depth -1 (no limit): clrender's deepest path (integrators.PATH_DEPTH_LIMIT)
 # parameters every plugin of a kind may carry that change nothing clrender draws (read and ignored)
 IGNORED = {
     "sensor": (

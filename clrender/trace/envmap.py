@@ -30,18 +30,20 @@ def record(env: EnvironmentMap | None, d: Distribution | None = None) -> np.ndar
     return r
 
 
-def upload(device, env: EnvironmentMap | None) -> dict:
-    """Keyword arguments of the render kernels for `env`: env_map, env_texels, env_marginal, env_conditional."""
+def arrays(env: EnvironmentMap | None) -> tuple[np.ndarray, dict]:
+    """The EnvMap record of `env` and its host arrays by the render kernels' names: env_texels, env_marginal,
+    env_conditional (one-texel placeholders without a map)."""
     if env is None:
         placeholder = np.zeros(4, np.float32)
-        return dict(env_map=record(None), **{name: device.to_device(placeholder) for name in ("env_texels", "env_marginal", "env_conditional")})
+        return record(None), {name: placeholder for name in ("env_texels", "env_marginal", "env_conditional")}
     d = distribution(env)
-    return dict(
-        env_map=record(env, d),
-        env_texels=device.to_device(d.texels),
-        env_marginal=device.to_device(d.marginal),
-        env_conditional=device.to_device(d.conditional),
-    )
+    return record(env, d), dict(env_texels=d.texels, env_marginal=d.marginal, env_conditional=d.conditional)
+
+
+def upload(device, env: EnvironmentMap | None) -> dict:
+    """Keyword arguments of the probe kernels for `env`: env_map, env_texels, env_marginal, env_conditional."""
+    env_map, host = arrays(env)
+    return dict(env_map=env_map, **{name: device.to_device(a) for name, a in host.items()})
 
 
 class EnvProbe:

@@ -1,8 +1,8 @@
 """The path tracer's host side (kernels/path.cl): emissive triangles as a power distribution, and the
 values of one launch of `render_path`.
 
-Renderer (renderer.py) owns the settings, tiles and passes; this module knows what the path kernel
-takes beyond the Whitted kernel's buffers.
+PathIntegrator (integrators.py) owns the settings and passes; this module knows what the path kernel
+takes beyond the frame every render kernel shares.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
-from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, PIXEL_FILTERS, SAMPLERS, TEXTURE_SLOTS
+from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, TEXTURE_SLOTS
 from .geometry import Primitives
 
 
@@ -51,17 +51,14 @@ def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     return records, index_of
 
 
-def path_params(renderer, k: int, first_sample: int, record: bool) -> np.ndarray:
-    """One launch's PathParams record (renderer: a Renderer with integrator "path")."""
-    s = renderer.settings
-    p = np.zeros((), PATH_PARAMS_DTYPE)
-    p["environment"] = renderer.scene.environment
-    p["n_work"], p["n_prims"], p["n_lights"], p["n_emitters"] = k, renderer.tracer.n_prims, renderer.n_lights, renderer.n_emitters
-    p["width"], p["height"] = s.width, s.height
-    if not 0 <= first_sample <= (1 << 32) - renderer.spp:  # renderer.SAMPLE_INDEX_LIMIT: the kernels' sample counter is 32-bit
-        allowed = f"0 to 2**32 - spp ({renderer.spp}), a pixel's paths are numbered below 2**32"
+def path_params(integrator, frame: np.ndarray, first_sample: int) -> np.ndarray:
+    """One launch's PathParams record (integrator: a PathIntegrator) around `frame`, its FrameParams."""
+    spp = integrator.spp
+    if not 0 <= first_sample <= (1 << 32) - spp:  # integrators.SAMPLE_INDEX_LIMIT: the kernels' sample counter is 32-bit
+        allowed = f"0 to 2**32 - spp ({spp}), a pixel's paths are numbered below 2**32"
         raise UsageError(f"first sample {first_sample} is not allowed; allowed: {allowed}")
-    p["spp"], p["first_sample"], p["seed"], p["max_depth"] = renderer.spp, first_sample, s.seed, s.max_depth
-    p["sampler"], p["samples_per_side"], p["pixel_filter"] = SAMPLERS[s.sampler], s.samples, PIXEL_FILTERS[s.pixel_filter]
-    p["record"] = record
+    p = np.zeros((), PATH_PARAMS_DTYPE)
+    p["frame"] = frame
+    p["environment"] = integrator.renderer.scene.environment
+    p["n_emitters"], p["spp"], p["first_sample"] = integrator.n_emitters, spp, first_sample
     return p

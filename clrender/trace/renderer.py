@@ -19,22 +19,20 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 import pyopencl as cl
 
+from ..arena import alignment, offsets, pack
 from ..device import compile_notice
 from ..errors import UsageError, require, value_shown, warn
-from ..layout import AOV_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, PIXEL_FILTERS, RENDER_PARAMS_DTYPE, SAMPLERS
+from ..layout import AOV_DTYPE, FRAME_PARAMS_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, OUT_REGIONS_DTYPE, PIXEL_FILTERS, SAMPLERS, WORLD_REGIONS_DTYPE
 from ..progress import progress
 from ..scene.scene import Scene
-from . import film
+from . import film, integrators
 from .aov import AOV_NAMES
-from .tracer import BUILDERS, MAX_DEPTH_LIMIT, Tracer, global_size
+from .tracer import BUILDERS, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
-INTEGRATORS = ("whitted", "path")  # the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl)
+# the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl): integrators.py
+INTEGRATORS = tuple(integrators.INTEGRATORS)
 MAX_SPP = 1 << 20  # paths per pixel in one pass
-# a pixel's paths are numbered by a 32-bit counter (the kernels' random numbers are keyed by it): --time-budget
-# stops before a pass would number a path past it (2**32 paths a pixel, 4096 passes at MAX_SPP)
-SAMPLE_INDEX_LIMIT = 1 << 32
-PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much sooner)
 LIGHT_SAMPLERS = ("stratified", "random")
 MAX_PIXELS = 1 << 26  # 67 M pixels: beyond this the host buffers alone need many GiB
 KERNEL_AOVS = AOV_DTYPE.names  # the ones the render kernel's -DWRITE_AOV=1 variant writes: depth, normal, albedo
@@ -42,7 +40,6 @@ KERNEL_AOVS = AOV_DTYPE.names  # the ones the render kernel's -DWRITE_AOV=1 vari
 # `aov` integrator writes it (renders never hold inf; the id AOV, -1 there, tells a miss from a hit), zero normal
 # and albedo.
 AOV_MISS = np.zeros(1, AOV_DTYPE)
-THICKNESS = 1.0  # the edge mask's default disc radius (RenderSettings.thickness): another value without edge_detect is warned about
 
 
 @dataclass
@@ -57,7 +54,7 @@ class RenderSettings:
     sampler: str = "stratified"  # "uniform", "random", "stratified" or "sobol"
     samples: int = 1  # N: N x N samples per pixel when anti-aliasing
     pixel_filter: str = "box"  # how a pixel's samples are averaged: "box" (plain mean), "tent" or "gaussian"
-    thickness: float = THICKNESS  # edge_detect: radius of the disc marked around each edge pixel
+    thickness: float = integrators.THICKNESS  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
     contrast: float = 0.03  # edge_detect: a step above this between neighbours (sRGB, any channel) is an edge too; 0: IDs only (the seed)
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
@@ -103,30 +100,22 @@ class RenderSettings:
             s.time_budget is None or (_real(s.time_budget) and math.isfinite(s.time_budget) and s.time_budget > 0),
             f"time budget {v(s.time_budget)} must be a number of seconds > 0, or None",
         )
-        require(
-            not (s.integrator == "path" and s.aa == "edge_detect"),
-            "--aa edge_detect is a Whitted feature: with --integrator path every pixel gets the same --spp "
-            "(more paths only at edges would bias the image)",
-        )
         require(_name_in(s.sampler, SAMPLERS), f"unknown sampler {v(s.sampler)}; allowed: {', '.join(SAMPLERS)}")
         require(_name_in(s.pixel_filter, PIXEL_FILTERS), f"unknown pixel filter {v(s.pixel_filter)}; allowed: {', '.join(PIXEL_FILTERS)}")
         require(_name_in(s.rfilter, film.FILTERS), f"unknown reconstruction filter {v(s.rfilter)}; allowed: {', '.join(film.FILTERS)}")
-        require(
-            s.rfilter == "box" or s.integrator == "path",
-            f"--rfilter {s.rfilter} is the path tracer's film (--integrator path); "
-            "Whitted anti-aliasing weighs a pixel's own samples by --pixel-filter",
-        )
+        kind = integrators.integrator_type(s.integrator)
+        kind.check(s)
         require(s.rfilter == "box" or s.pixel_filter == "box", f"give --rfilter {s.rfilter} or --pixel-filter {s.pixel_filter}, not both")
         require(_whole(s.samples) and 1 <= s.samples <= 64, f"samples {v(s.samples)} must be an integer from 1 to 64 (N x N per pixel)")
         require(_real(s.thickness) and math.isfinite(s.thickness) and s.thickness >= 0, f"thickness {v(s.thickness)} must be a real number >= 0")
         require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
         require(_whole(s.light_samples) and 0 <= s.light_samples <= 64, f"light samples {v(s.light_samples)} must be from 0 (each light's own) to 64")
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
-        depth_limit = PATH_DEPTH_LIMIT if s.integrator == "path" else MAX_DEPTH_LIMIT  # the path tracer keeps no ray stack
+        depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(
-            s.rr_depth is None or (_whole(s.rr_depth) and 0 <= s.rr_depth <= PATH_DEPTH_LIMIT),
-            f"rr depth {v(s.rr_depth)} must be from 0 to {PATH_DEPTH_LIMIT}, or None for the path tracer's own",
+            s.rr_depth is None or (_whole(s.rr_depth) and 0 <= s.rr_depth <= integrators.PATH_DEPTH_LIMIT),
+            f"rr depth {v(s.rr_depth)} must be from 0 to {integrators.PATH_DEPTH_LIMIT}, or None for the path tracer's own",
         )
         require(_name_in(s.bvh_builder, BUILDERS), f"unknown BVH builder {v(s.bvh_builder)}; allowed: {', '.join(BUILDERS)}")
         require(_whole(s.seed) and 0 <= s.seed < 2**32, f"seed {v(s.seed)} must be from 0 to 2**32-1")
@@ -164,39 +153,10 @@ class RenderSettings:
         return s
 
     def pointless(self, scene: Scene) -> list[str]:
-        """What these (valid) settings ask for that changes nothing, or that renders only darkness, in words.
-        Judged by value: `samples` other than 1 with aa "none", `thickness` other than its default
-        without aa "edge_detect" or the edges AOV, a scene without lights."""
-        said = []
-        if self.integrator == "path":
-            return self._pointless_for_paths(scene)
-        if self.spp or self.time_budget is not None:
-            said.append("--spp and --time-budget have no effect with --integrator whitted (they set the path tracer's samples)")
-        if self.hide_emitters or self.rr_depth is not None:
-            said.append("hide_emitters and rr_depth have no effect with --integrator whitted (they are the path tracer's)")
-        if self.aa == "none" and self.samples != 1:
-            said.append(
-                f"{self.samples} x {self.samples} samples have no effect with --aa none "
-                "(one ray through each pixel centre); use --aa full or edge_detect"
-            )
-        if self.aa != "edge_detect" and self.thickness != THICKNESS and "edges" not in self.aovs:
-            said.append(f"--thickness has no effect with --aa {self.aa} (it widens the edge mask of --aa edge_detect)")
-        if self.aa == "none" and scene.camera(self.camera).aperture > 0:
-            said.append(f"camera {self.camera} has a lens (aperture > 0) and --aa none traces one ray a pixel: its blur is noise; use --aa full")
-        if not scene.lights and scene.environment_map is None:  # a map is seen where rays escape (mirrors, glass)
-            said.append(f"scene {scene.name!r} has no lights: only the ambient term and the background will show")
-        if scene.environment_map is not None:  # escaping rays show it, but only lights and the ambient term shade
-            said.append("the environment map lights nothing under the Whitted integrator (rays that escape show it); use --integrator path")
-        return said
-
-    def _pointless_for_paths(self, scene: Scene) -> list[str]:
-        said = []
-        if self.thickness != THICKNESS and "edges" not in self.aovs:
-            said.append("--thickness has no effect with --integrator path (it widens the edge mask of --aa edge_detect)")
-        emitters = any(max(m.emission) > 0 for m in scene.materials.values()) or max(scene.environment) > 0 or scene.environment_map is not None
-        if not scene.lights and not emitters:
-            said.append(f"scene {scene.name!r} has no lights, emission or environment: the path tracer will render black")
-        return said
+        """What these (valid) settings ask for that changes nothing, or that renders only darkness, in words: each
+        integrator's judgement (integrators.py), e.g. `samples` other than 1 with aa "none", `thickness` other than
+        its default without aa "edge_detect" or the edges AOV, a scene without lights."""
+        return integrators.integrator_type(self.integrator).pointless(self, scene)
 
 
 def _whole(value) -> bool:
@@ -278,57 +238,54 @@ class Renderer:
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
         dev = self.tracer.device
+        self.setup_seconds = {}  # "upload" (camera, lights, environment map and its distribution), "emitters" (path)
+        self.integrator = integrators.make_integrator(s.integrator, self)
+        extra = self.integrator.world()  # its arrays of the world arena (the path tracer's emitters)
         start = time.perf_counter()
-        self.camera = dev.to_device(self.scene.camera(s.camera).frame(s.width, s.height))
+        self.camera = self.scene.camera(s.camera).frame(s.width, s.height)  # the FrameParams' Camera record
         self.n_lights = len(self.scene.lights)
-        self.params = self._params()
         lights = np.array([light.pack() for light in self.scene.lights] or [np.zeros((), LIGHT_DTYPE)], LIGHT_DTYPE)
-        self.lights = dev.to_device(lights)
-        from .envmap import upload
+        from .envmap import arrays
 
-        self.env = upload(dev, self.scene.environment_map)  # the env_* kernel arguments (a placeholder without a map)
-        self.setup_seconds = {"upload": time.perf_counter() - start}  # camera, lights, environment map and its distribution
+        self.env_map, env = arrays(self.scene.environment_map)  # the EnvMap record (width 0 without a map) and its arrays
+        self.world = pack(dev, WORLD_REGIONS_DTYPE, dict(lights=lights, **env, **extra))
+        self.setup_seconds["upload"] = time.perf_counter() - start
         self.write_aov = any(a in KERNEL_AOVS for a in s.aovs)
-        materials = self.scene.materials.values()
-        alpha_test, cull = any(m.alpha_mode != "opaque" for m in materials), not all(m.double_sided for m in materials)
-        defines = render_defines(self.tracer.defines, self.write_aov, alpha_test, cull)
-        if s.integrator == "path":
-            from .path import emitters
-
-            start = time.perf_counter()
-            records, index_of = emitters(self.tracer.primitives)
-            self.n_emitters = len(records)
-            self.emitters, self.emitter_of_prim = dev.to_device(records), dev.to_device(index_of)
-            self.setup_seconds["emitters"] = time.perf_counter() - start
-            defines = {**defines, **film.defines(s.rfilter)}  # a reconstruction filter wider than a pixel splats
-            if s.hide_emitters:
-                defines["HIDE_EMITTERS"] = 1
-            if s.rr_depth is not None:
-                defines["RR_DEPTH"] = s.rr_depth
+        self.align = alignment(dev)
+        self.variant = self.integrator.variant(self.tracer.variant.rendering(self.scene, self.write_aov))  # its -D defines
         start = time.perf_counter()
         with compile_notice(dev):  # a line on stderr when the build is slow (a cold cache)
-            file, name = ("path.cl", "render_path") if s.integrator == "path" else ("trace.cl", "render")
-            self.kernel = dev.kernel(file, name, defines)
-            self._no_aov = dev.empty(AOV_DTYPE.itemsize)  # the unused aov_out argument
+            self.kernel = dev.kernel(self.variant.filename, self.integrator.kernel[1], self.variant.defines())
             self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
-    def _params(self) -> np.ndarray:
-        """The render kernel's RenderParams (layout.RENDER_PARAMS_DTYPE) with the values every launch shares."""
+    def frame(self, k: int, sampler: str, n: int, record: bool, out_regions: np.ndarray | None = None) -> np.ndarray:
+        """A launch's FrameParams record (layout.FRAME_PARAMS_DTYPE): k pixels of n x n samples by `sampler`, the first
+        sample's ids, shadows and AOVs written when `record`, the outputs at `out_regions` (OutRegions)."""
         s, t = self.settings, self.tracer
-        params = np.zeros((), RENDER_PARAMS_DTYPE)
-        params["background"] = self.scene.background
-        params["ambient"] = self.scene.ambient
-        params["width"], params["height"] = s.width, s.height
-        params["pixel_filter"] = PIXEL_FILTERS[s.pixel_filter]
-        params["seed"] = s.seed
-        params["max_depth"] = s.max_depth
-        params["fresnel"] = s.fresnel
-        params["light_samples"] = s.light_samples
-        params["light_stratified"] = s.light_sampler == "stratified"
-        params["n_lights"] = self.n_lights
-        params["n_prims"] = t.n_prims
-        return params
+        f = np.zeros((), FRAME_PARAMS_DTYPE)
+        f["camera"], f["env_map"], f["tables"], f["world"] = self.camera, self.env_map, t.tables.record, self.world.record
+        if out_regions is not None:
+            f["out"] = out_regions
+        f["n_work"], f["width"], f["height"] = k, s.width, s.height
+        f["sampler"], f["samples_per_side"], f["pixel_filter"] = SAMPLERS[sampler], n, PIXEL_FILTERS[s.pixel_filter]
+        f["seed"], f["max_depth"], f["record"] = s.seed, s.max_depth, record
+        f["n_lights"], f["n_prims"], f["n_instances"] = self.n_lights, t.n_prims, t.n_instances
+        return f
+
+    def _outputs(self, k: int, record: bool):
+        """One launch's output arena (uninitialised but for what the kernel may leave unwritten) and its OutRegions."""
+        dev, L = self.tracer.device, max(self.n_lights, 1)
+        aov_records = k if record and self.write_aov else 1
+        sizes = dict(colour=k * 16 * self.integrator.colour_slots, ids=k * ID_RECORD_DTYPE.itemsize, shadow=k * 4 * L, stats=k * 8)
+        regions, total = offsets(OUT_REGIONS_DTYPE, {**sizes, "aov": aov_records * AOV_DTYPE.itemsize}, self.align)
+        out = dev.empty(total)
+        if record:  # background pixels never write their shadow entries (the path tracer none): all lights visible
+            cl.enqueue_fill_buffer(dev.queue, out, np.float32(1.0), int(regions["shadow"]), k * 4 * L)
+        if record and self.write_aov:
+            cl.enqueue_fill_buffer(dev.queue, out, AOV_MISS, int(regions["aov"]), k * AOV_DTYPE.itemsize)
+        self.integrator.clear(dev, out, regions, k, record)
+        return out, regions
 
     def launch(self, pixels: np.ndarray, sampler: str, n: int, record: bool, first_sample: int = 0):
         """Trace the given pixel indices: colours (k, 3), id records (k,) of layout.ID_RECORD_DTYPE, shadow (k, L), stats (k, 2),
@@ -336,46 +293,23 @@ class Renderer:
         The path integrator's colours are (k, 4): each pixel's filtered mean, then its filter weight; its samples
         are first_sample ... first_sample + spp - 1 of each pixel's sequence (sampler and n are the settings')."""
         t, dev = self.tracer, self.tracer.device
-        k, L = len(pixels), max(self.n_lights, 1)
-        slots = film.slots(self.settings.rfilter) if self.settings.integrator == "path" else 1
-        out = {name: dev.empty(k * size) for name, size in (("colour_out", 16 * slots), ("ids_out", ID_RECORD_DTYPE.itemsize), ("stats_out", 8))}
-        shadow = dev.empty(k * 4 * L)
-        if record:  # background pixels never write their shadow entries (the path tracer none): all lights visible
-            cl.enqueue_fill_buffer(dev.queue, shadow, np.float32(1.0), 0, k * 4 * L)
-        out["aov_out"] = self._no_aov
-        if record and self.write_aov:
-            out["aov_out"] = dev.empty(k * AOV_DTYPE.itemsize)
-            cl.enqueue_fill_buffer(dev.queue, out["aov_out"], AOV_MISS, 0, k * AOV_DTYPE.itemsize)
-        geometry = dict(nodes=t.nodes, prims=t.prims, prim_object=t.prim_object, normals=t.normals, objects=t.objects, materials=t.materials)
-        geometry.update(instances=t.instance_buffer, top=t.top, n_instances=t.n_instances)  # read only by -DINSTANCED=1 kernels
-        geometry.update(attributes=t.attributes, textures=t.textures, texels=t.texels)
-        scene = dict(lights=self.lights, camera=self.camera, pixels=dev.to_device(pixels.astype(np.int32)))
-        if self.settings.integrator == "path":
-            from .path import path_params
-
-            if record:  # one object id a pixel, the rest of its id record -1
-                cl.enqueue_fill_buffer(dev.queue, out["ids_out"], np.int32(-1), 0, k * ID_RECORD_DTYPE.itemsize)
-            extra = dict(emitters=self.emitters, emitter_of_prim=self.emitter_of_prim, params=path_params(self, k, first_sample, record), **self.env)
-        else:
-            params = self.params.copy()
-            params["n_work"], params["sampler"], params["samples_per_side"], params["record"] = k, SAMPLERS[sampler], n, record
-            extra = dict(params=params, shadow_out=shadow, env_map=self.env["env_map"], env_texels=self.env["env_texels"])
+        k, slots = len(pixels), self.integrator.colour_slots
+        out, regions = self._outputs(k, record)
+        params = self.integrator.params(self.frame(k, sampler, n, record, regions), first_sample)
         local = t.layout.local_size
-        self.kernel(dev.queue, global_size(k, local), (local,), **geometry, **scene, **extra, **out)
-        host = (
-            np.empty((k, 4) if slots == 1 else (k, slots, 4), np.float32),
-            np.empty(k, ID_RECORD_DTYPE),
-            np.empty((k, L), np.float32),
-            np.empty((k, 2), np.uint32),
+        pixels = dev.to_device(pixels.astype(np.int32))
+        self.kernel(dev.queue, global_size(k, local), (local,), **t.render_buffers(), world=self.world.buffer, pixels=pixels, params=params, out=out)
+        host = dict(
+            colour=np.empty((k, 4) if slots == 1 else (k, slots, 4), np.float32),
+            ids=np.empty(k, ID_RECORD_DTYPE),
+            shadow=np.empty((k, max(self.n_lights, 1)), np.float32),
+            stats=np.empty((k, 2), np.uint32),
+            aov=np.empty(k, AOV_DTYPE) if record and self.write_aov else None,
         )
-        for array, buf in zip(host, (out["colour_out"], out["ids_out"], shadow, out["stats_out"])):
-            cl.enqueue_copy(dev.queue, array, buf)
-        aov_host = None
-        if out["aov_out"] is not self._no_aov:
-            aov_host = np.empty(k, AOV_DTYPE)
-            cl.enqueue_copy(dev.queue, aov_host, out["aov_out"])
-        colour = host[0] if self.settings.integrator == "path" else host[0][:, :3]
-        return colour, host[1], host[2][:, : self.n_lights], host[3], aov_host
+        for name, array in host.items():
+            if array is not None:
+                cl.enqueue_copy(dev.queue, array, out, src_offset=int(regions[name]))
+        return self.integrator.colour(host["colour"]), host["ids"], host["shadow"][:, : self.n_lights], host["stats"], host["aov"]
 
     def _pass(self, pixel_lists, sampler, n, record, desc, first_sample=0):
         """Trace each pixel list in turn; returns the concatenated outputs."""
@@ -394,45 +328,7 @@ class Renderer:
     @property
     def spp(self) -> int:
         """Paths per pixel in one pass of the path integrator."""
-        return self.settings.spp or self.settings.samples**2
-
-    def _path_passes(self, tiles):
-        """The path integrator's passes, each a whole image of spp paths per pixel, while the time budget lasts
-        (one pass without one): the first pass's outputs with the passes' filtered mean in place of its colours."""
-        s = self.settings
-        start, passes, total, weight, first = time.perf_counter(), 0, 0.0, 0.0, None
-        while True:
-            out = self._pass(tiles, s.sampler, s.samples, passes == 0, self._pass_label(passes, time.perf_counter() - start), passes * self.spp)
-            colour = out[0].astype(np.float64) if s.rfilter == "box" else self._gathered(out[0], tiles)
-            total = total + colour[:, :3] * colour[:, 3:]
-            weight = weight + colour[:, 3:]
-            first = first or out
-            passes += 1
-            spent = time.perf_counter() - start
-            if s.time_budget is None or spent * (passes + 1) / passes > s.time_budget:
-                break
-            if (passes + 1) * self.spp > SAMPLE_INDEX_LIMIT:
-                warn(f"--time-budget stopped at {passes * self.spp} paths a pixel: a pixel's paths are numbered below 2**32")
-                break
-        mean = first[0][:, :3] if passes == 1 and s.rfilter == "box" else (total / weight).astype(np.float32)
-        return [mean, *first[1:]], passes
-
-    def _pass_label(self, passes: int, spent: float) -> str:
-        """The progress bar's words for a pass: with a time budget, which pass and the seconds left."""
-        budget = self.settings.time_budget
-        if budget is None:
-            return "trace"
-        return f"pass {passes + 1}, {max(budget - spent, 0.0):.0f}s left"
-
-    def _gathered(self, splats: np.ndarray, tiles) -> np.ndarray:
-        """A pass's splat slots (tile order) gathered by the film's filter (trace/film.py): (k, 4) float64 colours in
-        tile order, the sum of weighted radiance over the sum of weights and that sum."""
-        s = self.settings
-        order = np.concatenate(tiles)
-        image_order = np.empty_like(splats)
-        image_order[order] = splats
-        sums = film.gather(image_order, s.width, s.height, s.rfilter).reshape(-1, 4)[order]
-        return np.concatenate([sums[:, :3] / sums[:, 3:], sums[:, 3:]], axis=1)
+        return self.integrator.spp
 
     def run(self) -> RenderResult:
         s = self.settings
@@ -441,13 +337,8 @@ class Renderer:
         timings = {"bvh": self.tracer.bvh_seconds, **self.tracer.setup_seconds, **self.setup_seconds, "compile": self.compile_seconds}
         tiles = list(self.tiles())
         order = np.concatenate(tiles)
-        first_sampler, first_n = ("uniform", 1) if s.aa != "full" else (s.sampler, s.samples)
         start = time.perf_counter()
-        passes = 1
-        if s.integrator == "path":
-            (colour, ids, shadow, stats, aov), passes = self._path_passes(tiles)
-        else:
-            colour, ids, shadow, stats, aov = self._pass(tiles, first_sampler, first_n, True, "trace")
+        (colour, ids, shadow, stats, aov), passes = self.integrator.trace(tiles)
         timings["trace"] = time.perf_counter() - start
         image = np.empty((H * W, 3), np.float32)
         records = np.empty(H * W, ID_RECORD_DTYPE)
@@ -458,8 +349,7 @@ class Renderer:
         result = RenderResult(
             image.reshape(H, W, 3), records["path"], records["facet"], shadows.reshape(H, W, self.n_lights), None, timings, int(visits), int(rays)
         )
-        result.samples_per_pixel = passes * self.spp if s.integrator == "path" else 0
-        result.passes = passes if s.integrator == "path" else 0
+        result.samples_per_pixel, result.passes = self.integrator.samples_per_pixel(passes), passes
         if s.aa == "edge_detect":
             self._resample_edges(result)
         if s.aovs:
@@ -512,21 +402,6 @@ class Renderer:
             result.node_visits += int(visits)
             result.rays += int(rays)
         result.timings["resample"] = time.perf_counter() - start
-
-
-def render_defines(tracer_defines: dict, write_aov: bool, alpha_test: bool, cull_backfaces: bool) -> dict:
-    """The render kernel's -D variant (both integrators): the Tracer's, and
-    - WRITE_AOV: renders without AOVs build and run the kernel with the AOV writes compiled out;
-    - ALPHA_TEST: alpha-tested materials (glTF MASK, BLEND) make every ray look past the points they leave out
-      (kernels/alpha.h); scenes without them keep the kernels they had;
-    - CULL_BACKFACES: single-sided materials (glTF doubleSided false) hide their back faces from camera rays.
-    clrender/warmup.py builds every combination of them."""
-    defines = {**tracer_defines, "WRITE_AOV": int(write_aov)}
-    if alpha_test:
-        defines["ALPHA_TEST"] = 1
-    if cull_backfaces:
-        defines["CULL_BACKFACES"] = 1
-    return defines
 
 
 def settings_with(settings, overrides: dict) -> RenderSettings:

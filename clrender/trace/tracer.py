@@ -31,10 +31,19 @@ import time
 import numpy as np
 import pyopencl as cl
 
+from ..arena import pack
 from ..device import Device, get_device
 from ..errors import UsageError, real_array, shown, value_shown
 from ..launch import Kernel
-from ..layout import BVH_NODE_DTYPE, INSTANCE_DTYPE, PRIM_SLOT_DTYPE, VERTEX_ATTRIBUTES_DTYPE, VERTEX_NORMALS_DTYPE
+from ..layout import (
+    BVH_NODE_DTYPE,
+    INSTANCE_DTYPE,
+    PRIM_SLOT_DTYPE,
+    QUERY_PARAMS_DTYPE,
+    SCENE_TABLES_DTYPE,
+    VERTEX_ATTRIBUTES_DTYPE,
+    VERTEX_NORMALS_DTYPE,
+)
 from ..scene.scene import Mesh, Scene
 from ..scene.textures import pack as pack_textures
 from .bvh import BUILDERS
@@ -42,11 +51,10 @@ from .geometry import Primitives, flatten, pack_slots
 from .instancing import find_instances, flat_part, instanced_object_flags, shape_meshes, two_level
 from .knobs import DEFAULT_KNOBS, TraceKnobs
 from .ray_buffers import INTERSECT_IN, INTERSECT_OUT, OCCLUDED_IN, OCCLUDED_OUT, RayBuffers
+from .variant import DEFAULT_BVH_WIDTH, Variant
 from .work_layout import WorkLayout, work_layout
 
-MAX_DEPTH_LIMIT = 16  # deepest mirror/refraction chain the kernels are built for
 QUERY_KERNELS = {"intersect": "intersect_rays", "occluded": "occluded_rays"}  # trace.cl's kernel of each ray query
-DEFAULT_BVH_WIDTH = 8  # 8-wide nodes (clrender/trace/bvh_wide.py), the fastest measured; 4; 2: the binary tree as built
 
 
 TRACER_TAKES = "a Tracer takes a Scene, a scene name, path or dict, a trimesh.Trimesh or a (vertices, faces) pair"
@@ -100,38 +108,10 @@ def global_size(n: int, local_size: int) -> tuple:
     return (max(-(-n // local_size), 1) * local_size,)
 
 
-def trace_defines(
-    *,
-    use_bvh: bool = True,
-    bvh_width: int = DEFAULT_BVH_WIDTH,
-    count_prim_tests: bool = False,
-    shadow_shafts: bool = True,
-    ray_packets: bool = True,
-    knobs: TraceKnobs = DEFAULT_KNOBS,
-    instanced: bool = False,
-    top_wide: bool = False,
-    rays_per_item: int = 8,
-) -> dict:
-    """The -D variant of kernels/trace.cl: every knob its traversal needs, from the host's values
-    (the kernels keep no defaults of their own: common.h stops a build that lacks one)."""
-    return {
-        "USE_BVH": int(use_bvh),
-        "MAX_DEPTH": MAX_DEPTH_LIMIT,
-        "STACK_SIZE": knobs.stack_size,
-        "BVH_WIDTH": bvh_width,
-        "WIDE_STACK_SIZE": knobs.wide_stack_size(max(bvh_width, 4)),
-        "COUNT_PRIM_TESTS": int(count_prim_tests),
-        "RAYS_PER_ITEM": rays_per_item,  # query rays per work-item: the device's WorkLayout
-        # area-light shadow rays through one shaft per shading point (kernels/shaft.h; wide trees only)
-        "SHADOW_SHAFTS": int(shadow_shafts),
-        "SHAFT_CANDIDATES": knobs.shaft_candidates,
-        # ray queries walk eight rays that go the same way as one packet (kernels/packet.h; wide trees only)
-        "RAY_PACKETS": int(ray_packets),
-        # meshes placed by instances, each stored once (clrender/trace/instancing.py): only when there are
-        **({"INSTANCED": 1} if instanced else {}),
-        # the instances' top tree in wide nodes (Tracer._top: wide mesh trees, more than one top node)
-        **({"TOP_WIDE": 1} if instanced and top_wide else {}),
-    }
+def trace_defines(**switches) -> dict:
+    """The -D defines of kernels/trace.cl for a Tracer's switches (variant.Variant's fields: use_bvh, bvh_width,
+    count_prim_tests, shadow_shafts, ray_packets, knobs, instanced, top_wide, rays_per_item)."""
+    return Variant(**switches).defines()
 
 
 class Tracer:
@@ -203,8 +183,6 @@ class Tracer:
         self.n_prims = n  # the flat part's; instances' primitive ids follow (instancing.py)
         self.n_instances = len(records) if self.instances is not None else 0
         self.instance_records = records
-        self.instance_buffer = dev.to_device(records)
-        self.top = dev.to_device(top)
         self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
         self.nodes = dev.adopt(nodes)
         self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
@@ -238,9 +216,10 @@ class Tracer:
         start = time.perf_counter()
         records, texels = pack_textures(self.primitives.textures or [])
         self.setup_seconds["textures"] = time.perf_counter() - start
-        self.textures, self.texels = dev.to_device(records), dev.to_device(texels)
-        self.objects = dev.to_device(self.primitives.objects)
-        self.materials = dev.to_device(self.primitives.materials)
+        self.texels = dev.to_device(texels)
+        # the small per-scene records as one arena: every scene kernel's `tables`, placed by a SceneTables record
+        tables = dict(instances=self.instance_records, top=top, objects=self.primitives.objects, materials=self.primitives.materials)
+        self.tables = pack(dev, SCENE_TABLES_DTYPE, {**tables, "textures": records})
         # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
         self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
@@ -311,18 +290,13 @@ class Tracer:
         return nodes, slots
 
     @property
+    def variant(self) -> Variant:
+        """The build of trace.cl this Tracer's queries use (variant.py)."""
+        return Variant.of_tracer(self)
+
+    @property
     def defines(self) -> dict:
-        return trace_defines(
-            use_bvh=self.use_bvh,
-            bvh_width=self.bvh_width,
-            count_prim_tests=self.count_prim_tests,
-            shadow_shafts=self.shadow_shafts,
-            ray_packets=self.ray_packets,
-            knobs=self.knobs,
-            instanced=self.instances is not None,
-            top_wide=self.top_wide,
-            rays_per_item=self.layout.rays_per_item,
-        )
+        return self.variant.defines()
 
     def kernel(self, name: str) -> Kernel:
         return self.device.kernel("trace.cl", name, self.defines)
@@ -402,8 +376,8 @@ class Tracer:
             knl = self._bound.get(kind)
             if knl is None:  # the scene's arguments set once, the buffers' only when they are new
                 knl = self._bound[kind] = self.kernel(QUERY_KERNELS[kind]).bound()
-                knl.set(**self._geometry(), **({"objects": self.objects, "materials": self.materials} if kind == "occluded" else {}))
-            knl.set(n_rays=n, **inputs.args, **outputs.args)
+                knl.set(**self._geometry())
+            knl.set(params=self._query_params(n), **inputs.args, **outputs.args)
             layout = self.layout
             knl.enqueue(queue, global_size(-(-n // layout.rays_per_item), layout.local_size), (layout.local_size,))
             with outputs.mapped(queue, n, cl.map_flags.READ) as host:  # waits for the kernel (in-order queue)
@@ -411,23 +385,26 @@ class Tracer:
         return shape, answers
 
     def _geometry(self) -> dict:
-        """The scene's arguments, as every ray kernel takes them."""
-        return dict(
-            nodes=self.nodes,
-            prims=self.prims,
-            prim_object=self.prim_object,
-            instances=self.instance_buffer,
-            top=self.top,
-            n_instances=self.n_instances,
-            n_prims=self.n_prims,
-        )
+        """The scene's buffers, as every ray-query kernel takes them (the scene tables' regions: _query_params)."""
+        return dict(nodes=self.nodes, prims=self.prims, prim_object=self.prim_object, tables=self.tables.buffer)
+
+    def _query_params(self, n: int) -> np.ndarray:
+        """The ray-query kernels' QueryParams record for n rays."""
+        params = np.zeros((), QUERY_PARAMS_DTYPE)
+        params["tables"], params["n_prims"], params["n_instances"], params["n_rays"] = self.tables.record, self.n_prims, self.n_instances, n
+        return params
+
+    def render_buffers(self) -> dict:
+        """The scene's arguments, as the render kernels take them (trace.cl render, path.cl render_path): the ray
+        queries' (_geometry), and the shading's per-primitive normals and attributes and the textures' texels."""
+        return dict(**self._geometry(), normals=self.normals, attributes=self.attributes, texels=self.texels)
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
         """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the
         scene's geometry, as every ray kernel takes it."""
         layout = self.layout
         size = global_size(-(-n // layout.rays_per_item), layout.local_size)
-        return self.kernel(name)(self.device.queue, size, (layout.local_size,), n_rays=n, **self._geometry(), **args)
+        return self.kernel(name)(self.device.queue, size, (layout.local_size,), params=self._query_params(n), **self._geometry(), **args)
 
     def launch_intersect(self, n, origins, directions, t_min, outputs) -> cl.Event:
         """Closest-hit kernel on device buffers (for benchmarks); t_min a per-ray buffer;
@@ -443,8 +420,6 @@ class Tracer:
         return self._launch(
             "occluded_rays",
             n,
-            objects=self.objects,
-            materials=self.materials,
             origins=origins,
             directions=directions,
             t_min=t_min,

@@ -155,11 +155,12 @@ def test_a_mirrored_instance_faces_outward(device, tmp_path, instancing):
     np.testing.assert_allclose(result.aovs["depth"][facing], t[facing], rtol=3e-3)
 
 
-DEVICE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes", "objects", "materials", "instance_buffer", "top")
+DEVICE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes")
 
 
 def device_bytes(tracer: Tracer) -> int:
-    return sum(getattr(tracer, name).size for name in DEVICE_BUFFERS)
+    """The scene's device buffers: the geometry's, and the scene tables' arena (objects, materials, instances, top tree)."""
+    return sum(getattr(tracer, name).size for name in DEVICE_BUFFERS) + tracer.tables.buffer.size
 
 
 def test_thirty_instances_render_in_about_one_copys_device_memory(device, tmp_path):

@@ -7,6 +7,7 @@ import types
 import numpy as np
 import pytest
 
+import clrender.trace.integrators as integrators_module
 import clrender.trace.renderer as renderer_module
 from clrender.errors import RenderWarning, UsageError
 from clrender.layout import ID_RECORD_DTYPE
@@ -34,7 +35,9 @@ def path_renderer(device, **settings):
 def ticking_clock(monkeypatch):
     """The renderer's clock reads 0.1 s later at every reading: a budget allows a known number of passes."""
     ticks = itertools.count()
-    monkeypatch.setattr(renderer_module, "time", types.SimpleNamespace(perf_counter=lambda: 0.1 * next(ticks)))
+    clock = types.SimpleNamespace(perf_counter=lambda: 0.1 * next(ticks))
+    monkeypatch.setattr(renderer_module, "time", clock)
+    monkeypatch.setattr(integrators_module, "time", clock)  # the path integrator's passes
 
 
 def fake_launch(seen):
@@ -42,7 +45,7 @@ def fake_launch(seen):
 
     def launch(self, pixels, sampler, n, record, first_sample=0):
         k = len(pixels)
-        seen.append(int(path_params(self, k, first_sample, record)["first_sample"]))
+        seen.append(int(path_params(self.integrator, self.frame(k, sampler, n, record), first_sample)["first_sample"]))
         shadow = np.ones((k, self.n_lights), np.float32)
         return np.ones((k, 4), np.float32), np.full(k, -1, ID_RECORD_DTYPE), shadow, np.zeros((k, 2), np.uint32), None
 
@@ -64,9 +67,10 @@ def test_passes_past_two_to_the_31_paths_a_pixel_keep_counting_and_stop_at_two_t
 
 def test_a_first_sample_the_kernel_cannot_number_is_refused(device):
     renderer = path_renderer(device, spp=4, width=1, height=1)
-    assert path_params(renderer, 1, 2**32 - 4, True)["first_sample"] == 2**32 - 4
+    frame = renderer.frame(1, "random", 1, True)
+    assert path_params(renderer.integrator, frame, 2**32 - 4)["first_sample"] == 2**32 - 4
     with pytest.raises(UsageError, match=r"first sample 4294967293 is not allowed; allowed: 0 to 2\*\*32 - spp \(4\)"):
-        path_params(renderer, 1, 2**32 - 3, True)
+        path_params(renderer.integrator, frame, 2**32 - 3)
 
 
 def test_the_progress_bar_of_a_budgeted_render_shows_the_seconds_left(device, ticking_clock, monkeypatch):
