@@ -106,7 +106,8 @@ def suite_builds(dev) -> list:
 
 
 def pytest_collection_finish(session):
-    if len(session.items) < 100 or session.config.option.collectonly or os.environ.get("CLRENDER_TEST_WARMUP") == "0":
+    files = {item.path for item in session.items}  # a run of the suite or much of it, not of a file or a few
+    if len(files) < 40 or session.config.option.collectonly or os.environ.get("CLRENDER_TEST_WARMUP") == "0":
         return
     if len(TEST_DEVICES) > 1 or (os.cpu_count() or 1) < 2:
         return
