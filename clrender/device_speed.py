@@ -1,6 +1,6 @@
 """How fast each OpenCL CPU driver renders on this machine: a small fixed workload, measured on request, cached.
 
-`clrender devices --measure` renders WORKLOAD on every CPU device (once to compile, not timed, then RUNS
+`clrender devices --measure` (clrender/commands/devices.py, `measure`) renders WORKLOAD on every CPU device (once to compile, not timed, then RUNS
 timed runs; the median of each), and stores the result in the user's cache folder under a key made of the
 driver's platform name and version, its driver version, the device name and the host's CPU model, so an
 upgraded driver or another CPU is measured afresh and never inherits an old number.  `clrender.device` reads
@@ -14,7 +14,6 @@ import json
 import math
 import os
 import platform
-import statistics
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -122,21 +121,3 @@ def save(dev, speed: Speed) -> None:
         if staging is not None and os.path.exists(staging):
             os.unlink(staging)
         raise RenderFailure(f"cannot write the device speed cache {path}: {exc.strerror or exc}") from exc
-
-
-def measure(spec: str, runs: int = RUNS) -> Speed:
-    """Render WORKLOAD on the device `spec` names: one untimed run (compiles), then the median of `runs` trace times."""
-    from .trace.renderer import Renderer
-
-    def median_rate(settings: dict, work) -> float:
-        Renderer("refract1", device=spec, **settings).run()  # compile; pyopencl keeps the binary for next time
-        rates = []
-        for _ in range(runs):
-            result = Renderer("refract1", device=spec, **settings).run()
-            rates.append(work(result) / max(result.timings["trace"], 1e-9) / 1e6)
-        return statistics.median(rates)
-
-    p = WORKLOAD["path"]
-    path = median_rate(p, lambda r: p["width"] * p["height"] * r.samples_per_pixel)
-    whitted = median_rate(WORKLOAD["whitted"], lambda r: r.rays)
-    return Speed(path, whitted)

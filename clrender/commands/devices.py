@@ -63,5 +63,25 @@ def measure_all() -> dict[str, str]:
             continue
         if sys.stderr.isatty():
             sys.stderr.write(f"clrender: measuring {name} (the first time compiles kernels)...\n")
-        device_speed.save(dev, device_speed.measure(name))
+        device_speed.save(dev, measure(name))
     return notes
+
+
+def measure(spec: str, runs: int = device_speed.RUNS) -> device_speed.Speed:
+    """Render device_speed.WORKLOAD on the device `spec` names: one untimed run (compiles), then the median of `runs` trace times."""
+    import statistics
+
+    from ..trace.renderer import Renderer
+
+    def median_rate(settings: dict, work) -> float:
+        Renderer("refract1", device=spec, **settings).run()  # compile; pyopencl keeps the binary for next time
+        rates = []
+        for _ in range(runs):
+            result = Renderer("refract1", device=spec, **settings).run()
+            rates.append(work(result) / max(result.timings["trace"], 1e-9) / 1e6)
+        return statistics.median(rates)
+
+    p = device_speed.WORKLOAD["path"]
+    path = median_rate(p, lambda r: p["width"] * p["height"] * r.samples_per_pixel)
+    whitted = median_rate(device_speed.WORKLOAD["whitted"], lambda r: r.rays)
+    return device_speed.Speed(path, whitted)

@@ -32,7 +32,7 @@ def fake_speeds(tmp_path, monkeypatch):
         i = names.index(spec)
         return Speed(float(i + 1), 10.0 * (i + 1))
 
-    monkeypatch.setattr(device_speed, "measure", measure)
+    monkeypatch.setattr(devices_command, "measure", measure)
     return names, measured
 
 
