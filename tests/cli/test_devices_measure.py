@@ -56,7 +56,7 @@ def test_measure_prints_one_line_per_cpu_device_with_its_numbers_and_stars_the_f
 def test_later_runs_show_the_cached_numbers_without_measuring(capsys, fake_speeds, monkeypatch):
     names, measured = fake_speeds
     run_cli(capsys, "devices", "--measure")
-    monkeypatch.setattr(device_speed, "measure", lambda *a, **k: pytest.fail("measured again"))
+    monkeypatch.setattr(devices_command, "measure", lambda *a, **k: pytest.fail("measured again"))
     code, out, err = run_cli(capsys, "devices")
     assert code == 0 and err == ""
     lines = _cpu_lines(out, names)
