@@ -18,6 +18,19 @@
 #include "shade.h"
 #include "packet.h"
 
+/* The ray kernels below take RAYS_PER_ITEM consecutive rays per work-item (an incomplete last group
+ * repeats the last ray): 8, a packet's worth, or 1 (the layout chosen per device, clrender/trace/
+ * work_layout.py).  Eight through the wide trees go as one packet when they go the same way
+ * (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
+ * one per item, and through the binary tree or without one, one by one (trace_query). */
+#if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
+#error "RAYS_PER_ITEM must be 8 (a packet's worth of rays per work-item) or 1"
+#endif
+#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks */
+/* instances: eight rays that go the same way walk the top tree and each mesh as packets (walk_instance_packet),
+ * others one at a time (walk_instances) */
+#define INSTANCE_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && INSTANCED && RAY_PACKETS)
+
 #if RENDER_BUILD
 /* The pixels `pixels[0 .. frame.n_work)` of one launch (WhittedParams, clrender/layout.py): each pixel's
  * samples traced and filtered into out's colour region, their BVH visits and rays into its stats; with
@@ -86,18 +99,6 @@ __kernel void sample_offsets(__global const int *pixels, int n_work, int sampler
     }
 }
 
-/* The ray kernels below take RAYS_PER_ITEM consecutive rays per work-item (an incomplete last group
- * repeats the last ray): 8, a packet's worth, or 1 (the layout chosen per device, clrender/trace/
- * work_layout.py).  Eight through the wide trees go as one packet when they go the same way
- * (kernels/packet.h, -DRAY_PACKETS=1), else in pairs whose walks are stepped in turn (walk_pair);
- * one per item, and through the binary tree or without one, one by one (trace_query). */
-#if RAYS_PER_ITEM != 8 && RAYS_PER_ITEM != 1
-#error "RAYS_PER_ITEM must be 8 (a packet's worth of rays per work-item) or 1"
-#endif
-#define ITEM_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && !INSTANCED) /* packets and pairs of walks */
-/* instances: eight rays that go the same way walk the top tree and each mesh as packets (walk_instance_packet),
- * others one at a time (walk_instances) */
-#define INSTANCE_PACKETS (USE_BVH && BVH_WIDTH >= 4 && RAYS_PER_ITEM == 8 && INSTANCED && RAY_PACKETS)
 
 /* Ray i of packed (x, y, z) float32 triples (the caller's arrays, uploaded as they are). */
 INLINE float3 load_xyz(__global const float *xyz, int i) { return (float3)(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]); }
