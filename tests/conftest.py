@@ -20,6 +20,8 @@ import os
 import pytest
 
 from clrender.device import get_device
+from clrender.trace.knobs import TraceKnobs
+from clrender.trace.variant import Variant
 
 TEST_DEVICES = [spec.strip() for spec in os.environ.get("CLRENDER_TEST_DEVICES", "").split(",") if spec.strip()]
 if len(TEST_DEVICES) == 1:
@@ -56,53 +58,54 @@ def rng():
     return np.random.default_rng(12345)
 
 
-# The slowest kernel builds a whole run of the suite makes: (kernels/ file, its -D defines where they differ from
-# the Tracer's defaults), the slowest first.  A driver's compiler uses one core, so a run of many tests builds these
-# first on every core at once (clrender/warmup.py, --jobs): on an empty pyopencl cache, as in CI, that halves their
-# compile time on two cores, and on a warm cache each loads in a fraction of a second.  A build missing here is
-# still made when a test needs it; tests/cli/test_warmup.py checks that every define named here is one the kernels read.
+# The slowest kernel builds a whole run of the suite makes, as clrender.trace.variant.Variant switches (the Tracer's
+# defaults otherwise; `extra`: test-only and film defines), the slowest first.  A driver's compiler uses one core, so a
+# run of many tests builds these first on every core at once (clrender/warmup.py, --jobs): on an empty pyopencl
+# cache, as in CI, that halves their compile time on two cores, and on a warm cache each loads in a fraction of a
+# second.  A build missing here is still made when a test needs it; tests/cli/test_warmup.py checks that every
+# `extra` define is one the kernels read.
+TINY_STACKS = TraceKnobs(stack_size=2)  # the stack-overflow fallback's tests
 SUITE_BUILDS = (
-    ("path.cl", {"INSTANCED": 1, "TOP_WIDE": 1, "WRITE_AOV": 0}),
-    ("path.cl", {"ALPHA_TEST": 1, "WRITE_AOV": 0}),
-    ("trace.cl", {"ALPHA_TEST": 1, "WRITE_AOV": 0}),
-    ("trace.cl", {"STACK_SIZE": 2, "WIDE_STACK_SIZE": 8}),
-    ("trace.cl", {"BVH_WIDTH": 4, "WIDE_STACK_SIZE": 190}),
-    ("trace.cl", {"CULL_BACKFACES": 1, "WRITE_AOV": 0}),
-    ("path.cl", {"SPLAT_FILTER": 1, "SPLAT_RADIUS": 1, "WRITE_AOV": 0}),
-    ("path.cl", {"SPLAT_FILTER": 2, "SPLAT_RADIUS": 2, "WRITE_AOV": 0}),
-    ("trace.cl", {"WRITE_AOV": 0}),
-    ("trace.cl", {"BVH_WIDTH": 4, "STACK_SIZE": 2, "WIDE_STACK_SIZE": 4}),
-    ("trace.cl", {"BVH_WIDTH": 4, "COUNT_PRIM_TESTS": 1, "WIDE_STACK_SIZE": 190}),
-    ("trace.cl", {"RAY_PACKETS": 0}),
-    ("path.cl", {"ENV_BSDF": 1, "ENV_NEE": 0, "WRITE_AOV": 0}),
-    ("path.cl", {"AREA_BSDF": 0, "WRITE_AOV": 0}),
-    ("path.cl", {"AREA_NEE": 0, "WRITE_AOV": 0}),
-    ("path.cl", {"HIDE_EMITTERS": 1, "WRITE_AOV": 0}),
-    ("path.cl", {"RR_DEPTH": 0, "WRITE_AOV": 0}),
-    ("trace.cl", {"BVH_WIDTH": 2, "WIDE_STACK_SIZE": 190}),
-    ("path.cl", {"CULL_BACKFACES": 1, "WRITE_AOV": 0}),
-    ("trace.cl", {"INSTANCED": 1, "TOP_WIDE": 1, "WRITE_AOV": 0}),
-    ("trace.cl", {"BVH_WIDTH": 4, "USE_BVH": 0, "WIDE_STACK_SIZE": 190}),
-    ("trace.cl", {"USE_BVH": 0, "WRITE_AOV": 0}),
-    ("trace.cl", {"BVH_WIDTH": 2, "COUNT_PRIM_TESTS": 1, "WIDE_STACK_SIZE": 190}),
-    ("trace.cl", {"WRITE_AOV": 1}),
-    ("trace.cl", {"USE_BVH": 0}),
-    ("trace.cl", {"BVH_WIDTH": 2, "STACK_SIZE": 2, "WIDE_STACK_SIZE": 4}),
-    ("path.cl", {"WRITE_AOV": 1}),
-    ("trace.cl", {}),
-    ("path.cl", {"WRITE_AOV": 0}),
-    ("trace.cl", {"BVH_WIDTH": 4, "STACK_SIZE": 2, "USE_BVH": 0, "WIDE_STACK_SIZE": 4}),
+    dict(filename="path.cl", render=True, instanced=True, top_wide=True),
+    dict(filename="path.cl", render=True, alpha_test=True),
+    dict(render=True, alpha_test=True),
+    dict(knobs=TINY_STACKS),
+    dict(bvh_width=4),
+    dict(render=True, cull_backfaces=True),
+    dict(filename="path.cl", render=True, extra=(("SPLAT_FILTER", 1), ("SPLAT_RADIUS", 1))),
+    dict(filename="path.cl", render=True, extra=(("SPLAT_FILTER", 2), ("SPLAT_RADIUS", 2))),
+    dict(render=True),
+    dict(bvh_width=4, knobs=TINY_STACKS),
+    dict(bvh_width=4, count_prim_tests=True),
+    dict(ray_packets=False),
+    dict(filename="path.cl", render=True, extra=(("ENV_BSDF", 1), ("ENV_NEE", 0))),
+    dict(filename="path.cl", render=True, extra=(("AREA_BSDF", 0),)),
+    dict(filename="path.cl", render=True, extra=(("AREA_NEE", 0),)),
+    dict(filename="path.cl", render=True, extra=(("HIDE_EMITTERS", 1),)),
+    dict(filename="path.cl", render=True, extra=(("RR_DEPTH", 0),)),
+    dict(bvh_width=2),
+    dict(filename="path.cl", render=True, cull_backfaces=True),
+    dict(render=True, instanced=True, top_wide=True),
+    dict(bvh_width=4, use_bvh=False),
+    dict(render=True, use_bvh=False),
+    dict(bvh_width=2, count_prim_tests=True),
+    dict(render=True, write_aov=True),
+    dict(use_bvh=False),
+    dict(bvh_width=2, knobs=TINY_STACKS),
+    dict(filename="path.cl", render=True, write_aov=True),
+    dict(),
+    dict(filename="path.cl", render=True),
+    dict(bvh_width=4, use_bvh=False, knobs=TINY_STACKS),
 )
 WARM_AHEAD = {"seconds": 0.0, "count": 0}
 
 
 def suite_builds(dev) -> list:
-    """SUITE_BUILDS as trace/variant.py Variants for `dev` (the Tracer's defines for its work layout, then each entry's)."""
-    from clrender.trace.variant import Variant
+    """SUITE_BUILDS as Variants for `dev` (its work layout's rays per work-item)."""
     from clrender.trace.work_layout import work_layout
 
     per_item = work_layout(dev.device).rays_per_item
-    return [Variant(name, rays_per_item=per_item, extra=tuple(sorted(diff.items())), label=f"{name} {diff}") for name, diff in SUITE_BUILDS]
+    return [Variant(**{"rays_per_item": per_item, **switches}) for switches in SUITE_BUILDS]
 
 
 def pytest_collection_finish(session):

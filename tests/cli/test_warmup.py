@@ -97,14 +97,16 @@ def test_python_m_clrender_warmup_is_the_subcommand(capsys):
     assert proc.stdout == out
 
 
-def test_every_define_the_suite_builds_ahead_is_one_the_kernels_read():
-    """A renamed define would leave conftest.SUITE_BUILDS compiling variants no test uses."""
+def test_every_build_the_suite_makes_ahead_is_a_variant_whose_extra_defines_the_kernels_read():
+    """A renamed switch or define would leave conftest.SUITE_BUILDS compiling variants no test uses."""
     from clrender.device import kernel_dir
+    from clrender.trace.variant import Variant
 
     from tests.conftest import SUITE_BUILDS
 
+    variants = [Variant(**switches) for switches in SUITE_BUILDS]  # an unknown switch is a TypeError
     source = "".join(path.read_text() for path in kernel_dir().glob("*.[ch]*"))
-    named = {name for _, diff in SUITE_BUILDS for name in diff}
+    named = {name for variant in variants for name, _ in variant.extra}
     assert named and not {name for name in named if name not in source}
 
 
