@@ -296,10 +296,13 @@ def cpu_devices() -> list:
 
 def default_device_name(spec: str | None = None) -> str:
     """'<platform>: <device>' of the device get_device(spec) would pick now (chosen afresh, not the process's cached one)."""
-    if spec is None:
-        spec = os.environ.get("CLRENDER_DEVICE") or None
     with _signal_handlers_kept():
-        return _describe(_pick(spec))
+        return _describe(_pick(_named(spec)))
+
+
+def _named(spec: str | None) -> str | None:
+    """The device `spec` names, else $CLRENDER_DEVICE's, else None: the default CPU driver."""
+    return spec if spec is not None else os.environ.get("CLRENDER_DEVICE") or None
 
 
 _PROBE = "__kernel void probe(__global int *a) { a[get_global_id(0)] = 1; }"
@@ -320,8 +323,7 @@ _DEVICES: dict[str, Device] = {}
 
 def get_device(spec: str | None = None) -> Device:
     """The Device for `spec` (default: $CLRENDER_DEVICE, else the fastest CPU driver: _default_cpu), made once per process."""
-    if spec is None:
-        spec = os.environ.get("CLRENDER_DEVICE") or None
+    spec = _named(spec)
     key = spec or ""
     if key not in _DEVICES:
         with _signal_handlers_kept():
