@@ -30,6 +30,7 @@ from .launch import Kernel, kernel_signatures
 from .layout import DEFINES as LAYOUT_DEFINES
 from .layout import c_header, c_value
 from .package_data import data_dir
+from .thread_stack import raise_default_thread_stack
 
 try:
     import pyopencl as cl
@@ -38,6 +39,7 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
     _IMPORT_ERROR = exc
 
 register_pip_runtimes()  # before any OpenCL call of the process, by us or by the caller
+raise_default_thread_stack()  # before a driver starts its worker threads (thread_stack.py)
 
 INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
 FAST_HINT = "install Intel's OpenCL CPU runtime (the `fast` extra) with: pip install intel-opencl-rt intel-cmplr-lib-rt"
