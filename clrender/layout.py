@@ -30,6 +30,8 @@ BSDF_LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric":
 # the lobes of issue 36 (docs/materials.md): a conductor with complex Fresnel (GGX, and its delta mirror), Mitsuba's
 # plastic / roughplastic (a diffuse base under a dielectric coat, smooth and GGX), a thin dielectric sheet (delta)
 BSDF_LOBES.update({"metal": 5, "metal_smooth": 6, "coated_diffuse": 7, "coated_diffuse_smooth": 8, "thin_dielectric": 9})
+# a perfect mirror (delta), and the Phong material's Lambert-plus-glossy mix (kernels/bsdf.h; docs/materials.md)
+BSDF_LOBES.update({"mirror": 10, "phong": 11})
 # Material.model: the Whitted keys, glTF's metallic-roughness ones, or a `type = ...` material of issue 36
 MATERIAL_MODELS = {"seed": 0, "gltf": 1, "conductor": 2, "coated_diffuse": 3, "thin_dielectric": 4}
 SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-shadowing G2, or Mitsuba's G1(wo) G1(wi)
@@ -323,7 +325,8 @@ AOV_DTYPE = padded([("normal", "<f4", 3), ("depth", "<f4"), ("albedo", "<f4", 3)
 AOV = Record("AovRecord", AOV_DTYPE)
 
 # the BSDF probe kernels' lobe parameters (tests only: clrender/trace/bsdf.py, kernels/bsdf_probe.cl)
-# (then the issue 36 lobes' parameters, BsdfParams' fields of the same names; smith and nonlinear as 0.0 / 1.0)
+# (then the issue 36 lobes' parameters and the Phong lobe's specular_prob, BsdfParams' fields of the same names;
+# smith and nonlinear as 0.0 / 1.0)
 BSDF_PROBE_DTYPE = np.dtype(
     [
         ("colour", "<f4", 3),
@@ -339,6 +342,7 @@ BSDF_PROBE_DTYPE = np.dtype(
         ("coat_weight", "<f4"),
         ("coat_internal", "<f4"),
         ("coat_transmittance", "<f4", COAT_TABLE_RES),
+        ("specular_prob", "<f4"),
     ]
 )
 BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)

@@ -1,4 +1,8 @@
-/* BSDF lobes for the path tracer (OpenCL C 1.2, float32).  Include after common.h and rng.h.
+/* BSDF lobes for the path tracer, and the one dispatch over them (OpenCL C 1.2, float32).  Include after common.h
+ * and rng.h.  A material (kernels/material.h) is a set of these lobes; at a vertex it picks one, a Component (a
+ * lobe code and its BsdfParams), and the integrator reaches it only through component_eval, component_pdf,
+ * component_sample and component_is_delta at the end of this file (pbrt-v4's BxDF dispatch).  bsdf_probe.cl
+ * runs the same four for the tests.
  *
  * Conventions, the same for every lobe:
  *   - Directions are unit vectors in the local shading frame, normal n = +z (make_frame, to_local,
@@ -25,7 +29,8 @@
  *   - Masking-shadowing: every GGX lobe takes `smith` (SMITH_CORRELATED: the height-correlated G2 of glTF and
  *     pbrt, the default; SMITH_SEPARABLE: G1(wo) G1(wi), as Mitsuba's rough plugins).
  *
- * Lobe codes (BSDF_LAMBERT, ...) come from clrender/layout.py's BSDF_LOBES. */
+ * Lobe codes (BSDF_LAMBERT, ...) come from clrender/layout.py's BSDF_LOBES.  Adding a lobe: its code there, its
+ * functions here, one line in each dispatch below (and component_is_delta for a delta lobe). */
 #ifndef CLRENDER_BSDF_H
 #define CLRENDER_BSDF_H
 
@@ -45,12 +50,13 @@ typedef struct {
     int smith;      /* SMITH_CORRELATED or SMITH_SEPARABLE: the GGX lobes' masking-shadowing term */
     /* the lobes of issue 36 (metal*, coated_diffuse*, thin_dielectric); colour is the coated diffuse's base */
     float3 eta3, k3;      /* metal: complex IOR eta + i k per channel */
-    float3 tint;          /* specular reflectance: metal, coat, thin sheet */
-    float3 transmit_tint; /* thin sheet: specular transmittance */
+    float3 tint;          /* specular reflectance: metal, coat, thin sheet; phong: ks, the glossy lobe's colour */
+    float3 transmit_tint; /* specular transmittance: thin sheet, dielectrics (glTF glass: its base colour); else 1 */
     int nonlinear;        /* coat: Mitsuba's nonlinear internal scattering */
     float coat_weight;    /* coat: specular sampling weight, mean(tint) / (mean(diffuse) + mean(tint)) */
     float coat_internal;  /* coat: internal diffuse reflectance */
     __global const float *coat_transmittance; /* rough coat: COAT_TABLE_RES values of the external transmittance */
+    float specular_prob;  /* phong: probability of sampling the glossy lobe rather than the Lambert one */
 } BsdfParams;
 
 typedef struct {
@@ -405,23 +411,87 @@ INLINE BsdfSample gltf_sample(float3 wo, float u1, float2 u2, float3 base, float
     return s;
 }
 
+/* ---- mirror: a perfect mirror of reflectance `colour` (the Phong material's mirror share; a delta: eval and pdf 0) */
+INLINE BsdfSample mirror_sample(float3 wo, float3 colour) {
+    BsdfSample s = no_sample();
+    if (wo.z <= 0.0f) return s;
+    s.wi = (float3)(-wo.x, -wo.y, wo.z);
+    s.weight = colour;
+    s.pdf = 1.0f;
+    s.delta = 1;
+    return s;
+}
+
+/* ---- phong: the Phong material's Lambert-plus-glossy mix, f cos = Lambert(colour = kd) + ks x the GGX conductor with
+ * F = 1 (tint = ks, alpha its width, SMITH_CORRELATED), kd + ks <= 1 per channel (material.h scales them).
+ * Sampling: the glossy lobe (visible normals) with probability specular_prob, else the cosine-weighted Lambert;
+ * pdf the mixture, a sample's weight the sum's value over that mixture pdf. */
+INLINE float3 phong_eval(float3 wo, float3 wi, BsdfParams p) {
+    float3 f = lambert_eval(wo, wi, p.colour);
+    f += p.tint * conductor_eval(wo, wi, (float3)(1.0f), p.alpha, SMITH_CORRELATED);
+    return f;
+}
+
+INLINE float phong_pdf(float3 wo, float3 wi, BsdfParams p) {
+    float pdf = lambert_pdf(wo, wi);
+    pdf = (1.0f - p.specular_prob) * pdf + p.specular_prob * conductor_pdf(wo, wi, p.alpha);
+    return pdf;
+}
+
+INLINE BsdfSample phong_sample(float3 wo, float u1, float2 u2, BsdfParams p) {
+    BsdfSample s = u1 < p.specular_prob ? conductor_sample(wo, u2, (float3)(1.0f), p.alpha, SMITH_CORRELATED)
+                                        : lambert_sample(wo, u2, p.colour);
+    if (!(s.pdf > 0.0f)) return no_sample();
+    s.pdf = phong_pdf(wo, s.wi, p);
+    if (!(s.pdf > 0.0f)) return no_sample();
+    s.weight = phong_eval(wo, s.wi, p) / s.pdf;
+    return s;
+}
+
+/* The dielectrics' specular transmittance (Mitsuba's specular_transmittance; glTF glass's base colour, which
+ * KHR_materials_transmission puts on the BTDF only): a value or weight times transmit_tint for a pair of
+ * directions through the surface, untouched on reflection. */
+INLINE float3 transmission_tinted(float3 v, float3 wo, float3 wi, BsdfParams p) { return wo.z * wi.z < 0.0f ? v * p.transmit_tint : v; }
+
 /* the lobes Mitsuba and pbrt scenes need: metal, coated diffuse, thin dielectric */
 #include "bsdf_exchange.h"
 
-/* ---- dispatch by lobe code */
-INLINE float3 bsdf_eval(int lobe, BsdfParams p, float3 wo, float3 wi) {
+/* ---------------------------------------------------------------- the dispatch
+ * The lobe a material picked at a vertex, with its parameters: what the integrator samples and evaluates. */
+typedef struct {
+    int lobe; /* a BSDF_* code */
+    BsdfParams bsdf;
+} Component;
+
+/* Delta lobes: eval and pdf are 0, their samples carry `delta`, and light sampling cannot reach them (no NEE). */
+INLINE bool component_is_delta(Component c) {
+    return c.lobe == BSDF_MIRROR || c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_METAL_SMOOTH || c.lobe == BSDF_THIN_DIELECTRIC;
+}
+
+/* The lobes whose eta is inside over outside: their frame's +z must point out of the object (material.h). */
+INLINE bool component_is_dielectric(Component c) { return c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC; }
+
+/* f * |cos theta_i| of the component, local frame (delta lobes: 0). */
+INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
+    int lobe = c.lobe;
+    BsdfParams p = c.bsdf;
     if (lobe == BSDF_LAMBERT) return lambert_eval(wo, wi, p.colour);
+    if (lobe == BSDF_PHONG) return phong_eval(wo, wi, p);
     if (lobe == BSDF_CONDUCTOR) return conductor_eval(wo, wi, p.colour, p.alpha, p.smith);
-    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_eval(wo, wi, p.eta, p.alpha, p.smith);
+    if (lobe == BSDF_ROUGH_DIELECTRIC) return transmission_tinted(rough_dielectric_eval(wo, wi, p.eta, p.alpha, p.smith), wo, wi, p);
     if (lobe == BSDF_GLTF) return gltf_eval(wo, wi, p.colour, p.metallic, p.alpha, p.smith);
     if (lobe == BSDF_METAL) return metal_eval(wo, wi, p);
     if (lobe == BSDF_COATED_DIFFUSE) return coated_eval(wo, wi, p);
     if (lobe == BSDF_COATED_DIFFUSE_SMOOTH) return coated_smooth_eval(wo, wi, p);
-    return (float3)(0.0f); /* BSDF_DIELECTRIC: delta lobes only */
+    return (float3)(0.0f); /* the delta lobes */
 }
 
-INLINE float bsdf_pdf(int lobe, BsdfParams p, float3 wo, float3 wi) {
+/* The solid-angle density of component_sample's wi (delta lobes: 0). */
+INLINE float component_pdf(Component c, float3 wo, float3 wi) {
+    int lobe = c.lobe;
+    BsdfParams p = c.bsdf;
     if (lobe == BSDF_LAMBERT) return lambert_pdf(wo, wi);
+    if (lobe == BSDF_PHONG) return phong_pdf(wo, wi, p);
     if (lobe == BSDF_CONDUCTOR) return conductor_pdf(wo, wi, p.alpha);
     if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_pdf(wo, wi, p.eta, p.alpha);
     if (lobe == BSDF_GLTF) return gltf_pdf(wo, wi, p.colour, p.metallic, p.alpha);
@@ -431,11 +501,20 @@ INLINE float bsdf_pdf(int lobe, BsdfParams p, float3 wo, float3 wi) {
     return 0.0f;
 }
 
-INLINE BsdfSample bsdf_sample(int lobe, BsdfParams p, float3 wo, float u1, float2 u2) {
+/* One direction wi from the component: u1 picks a sub-lobe or reflection vs transmission, u2 places wi. */
+INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) {
+    int lobe = c.lobe;
+    BsdfParams p = c.bsdf;
+    BsdfSample s;
     if (lobe == BSDF_LAMBERT) return lambert_sample(wo, u2, p.colour);
+    if (lobe == BSDF_PHONG) return phong_sample(wo, u1, u2, p);
+    if (lobe == BSDF_MIRROR) return mirror_sample(wo, p.colour);
     if (lobe == BSDF_CONDUCTOR) return conductor_sample(wo, u2, p.colour, p.alpha, p.smith);
-    if (lobe == BSDF_DIELECTRIC) return dielectric_sample(wo, u1, p.eta);
-    if (lobe == BSDF_ROUGH_DIELECTRIC) return rough_dielectric_sample(wo, u1, u2, p.eta, p.alpha, p.smith);
+    if (lobe == BSDF_DIELECTRIC || lobe == BSDF_ROUGH_DIELECTRIC) {
+        s = lobe == BSDF_DIELECTRIC ? dielectric_sample(wo, u1, p.eta) : rough_dielectric_sample(wo, u1, u2, p.eta, p.alpha, p.smith);
+        s.weight = transmission_tinted(s.weight, wo, s.wi, p);
+        return s;
+    }
     if (lobe == BSDF_GLTF) return gltf_sample(wo, u1, u2, p.colour, p.metallic, p.alpha, p.smith);
     if (lobe == BSDF_METAL) return metal_sample(wo, u2, p);
     if (lobe == BSDF_METAL_SMOOTH) return metal_smooth_sample(wo, p);

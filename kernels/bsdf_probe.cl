@@ -1,5 +1,6 @@
 /* Test-only kernels: the BSDF lobes of bsdf.h over batches, for tests/test_bsdf*.py through
- * clrender/trace/bsdf.py.
+ * clrender/trace/bsdf.py, through the dispatch the path tracer calls (component_eval, component_pdf,
+ * component_sample): a Component of the given lobe code and parameters.
  *   params  BsdfProbeParams records (clrender/layout.py); record i * params_stride
  *   wo, wi  float4 per item (xyz, unused); wo read at i * wo_stride (stride 0: one shared by all)
  *   u       float4 per item: (u1, u2.x, u2.y, unused)
@@ -10,7 +11,9 @@
 #include "rng.h"
 #include "bsdf.h"
 
-INLINE BsdfParams bsdf_params(__global const BsdfProbeParams *r) {
+INLINE Component probe_component(int lobe, __global const BsdfProbeParams *r) {
+    Component c;
+    c.lobe = lobe;
     BsdfParams p;
     p.colour = vload3(0, r->colour);
     p.alpha = r->alpha;
@@ -25,7 +28,9 @@ INLINE BsdfParams bsdf_params(__global const BsdfProbeParams *r) {
     p.coat_weight = r->coat_weight;
     p.coat_internal = r->coat_internal;
     p.coat_transmittance = r->coat_transmittance;
-    return p;
+    p.specular_prob = r->specular_prob;
+    c.bsdf = p;
+    return c;
 }
 
 /* out[i] = (eval(wo, wi), 0) of lobe `lobe`: f * |cos theta_i| */
@@ -33,8 +38,8 @@ __kernel void bsdf_eval_probe(int n, int lobe, __global const BsdfProbeParams *p
                               int wo_stride, __global const float4 *wi, __global float4 *out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
-    out[i] = (float4)(bsdf_eval(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz), 0.0f);
+    Component c = probe_component(lobe, params + (size_t)i * params_stride);
+    out[i] = (float4)(component_eval(c, wo[(size_t)i * wo_stride].xyz, wi[i].xyz), 0.0f);
 }
 
 /* out[i] = pdf(wo, wi), solid angle */
@@ -42,8 +47,8 @@ __kernel void bsdf_pdf_probe(int n, int lobe, __global const BsdfProbeParams *pa
                              int wo_stride, __global const float4 *wi, __global float *out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
-    out[i] = bsdf_pdf(lobe, p, wo[(size_t)i * wo_stride].xyz, wi[i].xyz);
+    Component c = probe_component(lobe, params + (size_t)i * params_stride);
+    out[i] = component_pdf(c, wo[(size_t)i * wo_stride].xyz, wi[i].xyz);
 }
 
 /* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */
@@ -51,9 +56,9 @@ __kernel void bsdf_sample_probe(int n, int lobe, __global const BsdfProbeParams 
                                 int wo_stride, __global const float4 *u, __global float4 *wi_out, __global float4 *weight_out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    BsdfParams p = bsdf_params(params + (size_t)i * params_stride);
+    Component c = probe_component(lobe, params + (size_t)i * params_stride);
     float4 ui = u[i];
-    BsdfSample s = bsdf_sample(lobe, p, wo[(size_t)i * wo_stride].xyz, ui.x, (float2)(ui.y, ui.z));
+    BsdfSample s = component_sample(c, wo[(size_t)i * wo_stride].xyz, ui.x, (float2)(ui.y, ui.z));
     wi_out[i] = (float4)(s.wi, (float)s.delta);
     weight_out[i] = (float4)(s.weight, s.pdf);
 }

@@ -29,6 +29,8 @@
 #include "texture.h"
 /* surface_at, material_at: the surface pipeline the Whitted integrator shares */
 #include "surface.h"
+/* pick_component: a material point's lobe, whose dispatch (component_eval ...) is in bsdf.h */
+#include "material.h"
 /* ALPHA_TEST, seen_hit: what rays look past */
 #include "alpha.h"
 #include "spot.h"
@@ -74,142 +76,6 @@ typedef struct {
     EnvView env;                           /* an environment map (env.m.width > 0) in place of p.environment */
     PathParams p;
 } PathScene;
-
-/* ---------------------------------------------------------------- materials
- * The component a vertex uses: a lobe of bsdf.h with its parameters, or a delta mirror. */
-#define LOBE_MIRROR (-1)
-
-typedef struct {
-    int lobe;            /* a BSDF_* code, or LOBE_MIRROR */
-    BsdfParams bsdf;
-    float3 glossy;       /* the seed model's diffuse+glossy component: the glossy lobe's colour ks */
-    float glossy_alpha;  /* and its GGX width; glossy.x < 0: no glossy lobe */
-    float glossy_prob;   /* probability of sampling the glossy lobe rather than the Lambert one */
-    float3 tint;         /* glTF glass: transmitted light times base_color (KHR_materials_transmission); else 1 */
-} Component;
-
-INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-
-/* The seed's Blinn-Phong exponent s as a GGX width: alpha = sqrt(2 / (s + 2)) (Walter et al. 2007's
- * match of the two lobes' widths). */
-INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)), GGX_ALPHA_MIN); }
-
-/* A `type = ...` material (MATERIAL_MODEL_CONDUCTOR and after): one lobe of bsdf_exchange.h, its parameters from the
- * record; roughness 0 is the lobe's smooth (delta) form. */
-INLINE Component exchange_component(Component c, const MaterialPoint *m) {
-    __global const Material *g = m->g;
-    bool smooth = !(m->roughness > 0.0f);
-    c.bsdf.alpha = ggx_alpha_from_roughness(m->roughness);
-    c.bsdf.eta = g->lobe_ior;
-    c.bsdf.eta3 = vload3(0, g->eta);
-    c.bsdf.k3 = vload3(0, g->k);
-    c.bsdf.tint = vload3(0, g->tint);
-    c.bsdf.transmit_tint = vload3(0, g->transmit_tint);
-    c.bsdf.nonlinear = g->nonlinear;
-    c.bsdf.coat_weight = g->coat_weight;
-    c.bsdf.coat_internal = g->coat_internal;
-    c.bsdf.coat_transmittance = g->coat_transmittance;
-    if (m->model == MATERIAL_MODEL_CONDUCTOR) c.lobe = smooth ? BSDF_METAL_SMOOTH : BSDF_METAL;
-    else if (m->model == MATERIAL_MODEL_COATED_DIFFUSE) c.lobe = smooth ? BSDF_COATED_DIFFUSE_SMOOTH : BSDF_COATED_DIFFUSE;
-    else c.lobe = BSDF_THIN_DIELECTRIC;
-    return c;
-}
-
-/* Pick the vertex's component with probability equal to its weight (the weights sum to 1, so the
- * throughput is not rescaled).  docs/materials.md states the rule. */
-INLINE Component pick_component(const MaterialPoint *m, float u) {
-    Component c;
-    c.glossy = (float3)(-1.0f);
-    c.glossy_alpha = 1.0f;
-    c.glossy_prob = 0.0f;
-    c.tint = (float3)(1.0f);
-    c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
-    c.bsdf.metallic = m->metallic;
-    c.bsdf.colour = m->kd;
-    c.bsdf.smith = m->g->smith;
-    if (m->model >= MATERIAL_MODEL_CONDUCTOR) return exchange_component(c, m);
-    if (m->model == MATERIAL_MODEL_GLTF) {
-        float alpha = ggx_alpha_from_roughness(m->roughness);
-        c.bsdf.alpha = alpha;
-        float transmit = m->transmission * (1.0f - m->metallic);
-        if (u < transmit) {
-            c.lobe = m->roughness > 0.0f ? BSDF_ROUGH_DIELECTRIC : BSDF_DIELECTRIC;
-            c.tint = m->base_color;
-            return c;
-        }
-        c.lobe = BSDF_GLTF;
-        c.bsdf.colour = m->base_color;
-        return c;
-    }
-    float t = m->transparency, mirror = (1.0f - t) * m->mirror;
-    if (u < t) { c.lobe = BSDF_DIELECTRIC; return c; }
-    if (u < t + mirror) { c.lobe = LOBE_MIRROR; c.bsdf.colour = (float3)(1.0f); return c; }
-    /* Lambert kd plus a glossy GGX lobe ks, scaled together where kd + ks would exceed 1 */
-    float3 kd = m->kd, ks = m->ks;
-    float3 sum = kd + ks;
-    float over = max_f(1.0f, max3(sum));
-    kd /= over; ks /= over;
-    c.lobe = BSDF_LAMBERT;
-    c.bsdf.colour = kd;
-    float lk = luminance(ks), ld = luminance(kd);
-    if (lk > 0.0f) {
-        c.glossy = ks;
-        c.glossy_alpha = alpha_from_shininess(m->shininess);
-        c.glossy_prob = lk / (lk + ld);
-    }
-    return c;
-}
-
-INLINE bool component_is_delta(Component c) {
-    return c.lobe == LOBE_MIRROR || c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_METAL_SMOOTH || c.lobe == BSDF_THIN_DIELECTRIC;
-}
-
-/* glTF glass's tint on a pair of directions: base_color through the surface (wo, wi on opposite sides), 1 on
- * reflection (the extension tints only the BTDF; Fresnel reflection stays white). */
-INLINE bool component_tinted(Component c, float3 wo, float3 wi) {
-    return (c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC) && wo.z * wi.z < 0.0f;
-}
-
-/* f * |cos| of the component, local frame (delta components: 0). */
-INLINE float3 component_eval(Component c, float3 wo, float3 wi) {
-    if (component_is_delta(c)) return (float3)(0.0f);
-    float3 f = bsdf_eval(c.lobe, c.bsdf, wo, wi);
-    if (component_tinted(c, wo, wi)) f *= c.tint;
-    if (c.glossy.x >= 0.0f) f += c.glossy * conductor_eval(wo, wi, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED);
-    return f;
-}
-
-INLINE float component_pdf(Component c, float3 wo, float3 wi) {
-    if (component_is_delta(c)) return 0.0f;
-    float pdf = bsdf_pdf(c.lobe, c.bsdf, wo, wi);
-    if (c.glossy.x >= 0.0f) pdf = (1.0f - c.glossy_prob) * pdf + c.glossy_prob * conductor_pdf(wo, wi, c.glossy_alpha);
-    return pdf;
-}
-
-INLINE BsdfSample component_sample(Component c, float3 wo, float u1, float2 u2) {
-    if (c.lobe == LOBE_MIRROR) {
-        BsdfSample s = no_sample();
-        if (wo.z <= 0.0f) return s;
-        s.wi = (float3)(-wo.x, -wo.y, wo.z);
-        s.weight = c.bsdf.colour;
-        s.pdf = 1.0f;
-        s.delta = 1;
-        return s;
-    }
-    if (c.glossy.x < 0.0f) {
-        BsdfSample s = bsdf_sample(c.lobe, c.bsdf, wo, u1, u2);
-        if (component_tinted(c, wo, s.wi)) s.weight *= c.tint;
-        return s;
-    }
-    /* the Lambert + glossy sum: one lobe's direction, the sum's value over the mixture pdf */
-    BsdfSample s = u1 < c.glossy_prob ? conductor_sample(wo, u2, (float3)(1.0f), c.glossy_alpha, SMITH_CORRELATED)
-                                      : lambert_sample(wo, u2, c.bsdf.colour);
-    if (!(s.pdf > 0.0f)) return no_sample();
-    s.pdf = component_pdf(c, wo, s.wi);
-    if (!(s.pdf > 0.0f)) return no_sample();
-    s.weight = component_eval(c, wo, s.wi) / s.pdf;
-    return s;
-}
 
 /* ---------------------------------------------------------------- lights */
 INLINE float power_heuristic(float a, float b) {
@@ -428,12 +294,6 @@ INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool 
     }
     *mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
     return le;
-}
-
-/* The component's local frame: +z on the ray's side for reflection, outward for dielectrics (bsdf.h's eta). */
-INLINE Frame component_frame(Component c, const Surface *f) {
-    bool dielectric = c.lobe == BSDF_DIELECTRIC || c.lobe == BSDF_ROUGH_DIELECTRIC;
-    return make_frame(dielectric && !f->front ? -f->n_shade : f->n_shade);
 }
 
 /* What a path's first hit tells the AOVs: the unit shading normal, the distance, the albedo (the base colour or

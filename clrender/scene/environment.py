@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import UsageError
 from .checks import RADIANCE_LIMIT, Checks, TypeReader, show
 
-LUMINANCE = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, as kernels/path.cl's luminance()
+LUMINANCE = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, as kernels/material.h's luminance()
 CHANNELS = (1, 3, 4)  # grey (copied to R, G, B), RGB, RGBA (alpha ignored)
 ROTATION_LIMIT = 360.0  # degrees either way
 # Peak bytes per texel while a map is read and prepared: the file's float32 channels (counted apart), its

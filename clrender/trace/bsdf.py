@@ -1,4 +1,5 @@
-"""The BSDF lobes of kernels/bsdf.h, evaluated and sampled on the device in batches (kernels/bsdf_probe.cl).
+"""The BSDF lobes of kernels/bsdf.h, evaluated and sampled on the device in batches (kernels/bsdf_probe.cl), through
+the dispatch the path tracer calls (component_eval, component_pdf, component_sample).
 
 For tests, the path tracer's tests among them.  Directions are in the local shading frame (normal +z) and
 both point away from the surface: wo to the viewer, wi to the light.  As in the kernels:
@@ -12,15 +13,21 @@ Lobes and their parameters (`params`):
   dielectric        eta = IOR inside (-z) / outside (+z); smooth: delta lobes, eval and pdf are 0
   rough_dielectric  eta, alpha
   gltf              colour = base colour, metallic, alpha = roughness^2 (gltf_params converts)
+  mirror            colour = reflectance; a delta, eval and pdf are 0
+  phong             colour = kd, tint = ks, alpha = the glossy lobe's GGX width, specular_prob (phong_params computes
+                    them as the kernel's Phong material does)
 and the lobes of kernels/bsdf_exchange.h (issue 36):
   metal, metal_smooth      eta3, k3 (complex IOR per channel), tint, alpha
   coated_diffuse(_smooth)  colour = diffuse base, eta = coat IOR, tint, alpha, nonlinear, coat_weight,
                            coat_internal, coat_transmittance (coated_params computes them as scenes do)
   thin_dielectric          eta, tint, transmit_tint
-Every GGX lobe takes smith: 0 height-correlated, 1 separable.
+Every GGX lobe takes smith: 0 height-correlated, 1 separable.  A dielectric's transmission (rough or smooth) is
+multiplied by transmit_tint.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pyopencl as cl
@@ -32,6 +39,7 @@ from ..layout import BSDF_PROBE_DTYPE
 from .tracer import global_size, trace_defines
 from .work_layout import work_layout
 
+LUMINANCE = (0.2126, 0.7152, 0.0722)  # kernels/material.h's luminance(): the Phong lobe's sampling split
 PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s (layout.BSDF_PROBE_DTYPE)
 PROBE = "bsdf_probe.cl"
 
@@ -59,6 +67,17 @@ def params(colour=(1.0, 1.0, 1.0), alpha=0.5, eta=1.5, metallic=0.0, **more) -> 
 def gltf_params(base_colour=(1.0, 1.0, 1.0), metallic=0.0, roughness=0.5) -> np.ndarray:
     """A glTF metallic-roughness record: alpha = roughness^2 (the glTF / Disney convention)."""
     return params(colour=base_colour, alpha=np.square(np.asarray(roughness, np.float64)), metallic=metallic)
+
+
+def phong_params(diffuse=(0.5, 0.5, 0.5), specular=(0.3, 0.3, 0.3), shininess=20.0) -> np.ndarray:
+    """A Phong material's lobe as kernels/material.h picks it: kd and ks (scaled together where kd + ks exceeds 1),
+    the glossy lobe's GGX width sqrt(2 / (shininess + 2)) and its sampling probability lum(ks) / (lum(ks) + lum(kd))."""
+    kd, ks = np.asarray(diffuse, np.float32), np.asarray(specular, np.float32)
+    over = max(1.0, float(np.max(kd + ks)))
+    kd, ks = kd / np.float32(over), ks / np.float32(over)
+    luminance = lambda c: float(np.dot(LUMINANCE, c))
+    alpha = max(math.sqrt(2.0 / (shininess + 2.0)), 1e-4)
+    return params(colour=kd, tint=ks, alpha=alpha, specular_prob=luminance(ks) / (luminance(ks) + luminance(kd)))
 
 
 def coated_params(diffuse=(0.5, 0.5, 0.5), ior=1.5, roughness=0.0, tint=(1.0, 1.0, 1.0), nonlinear=False, smith="correlated"):

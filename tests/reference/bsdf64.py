@@ -188,6 +188,37 @@ def gltf_pdf(wo, wi, base_colour, metallic, roughness):
     return p * conductor_pdf(wo, wi, alpha) + (1 - p) * lambert_pdf(wo, wi)
 
 
+# ---- the Phong material's lobe (docs/materials.md): Lambert kd plus ks times a GGX reflection with F = 1, the GGX width
+# matched to the Blinn-Phong exponent s by Walter et al. 2007 (alpha = sqrt(2 / (s + 2))); the kernel's sampling
+# convention: the glossy lobe with probability lum(ks) / (lum(ks) + lum(kd)), Rec. 709 luminance
+REC709 = np.array([0.2126, 0.7152, 0.0722])
+
+
+def phong_alpha(shininess):
+    return max(np.sqrt(2.0 / (shininess + 2.0)), 1e-4)
+
+
+def phong_eval(wo, wi, kd, ks, shininess):
+    alpha = phong_alpha(shininess)
+    up = _upper(wo, wi)
+    h = normalize(wo + wi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        glossy = (ggx_d(h, alpha) * smith_g2(wo, wi, alpha) / (4 * wo[..., 2] * wi[..., 2]))[..., None] * np.asarray(ks, np.float64)
+    f = np.asarray(kd, np.float64) / np.pi + glossy
+    return np.where(up[..., None], f * wi[..., 2:3], 0.0)
+
+
+def phong_pdf(wo, wi, kd, ks, shininess):
+    lk, ld = REC709 @ np.asarray(ks, np.float64), REC709 @ np.asarray(kd, np.float64)
+    q = lk / (lk + ld)
+    return q * conductor_pdf(wo, wi, phong_alpha(shininess)) + (1 - q) * lambert_pdf(wo, wi)
+
+
+# ---- a perfect mirror: the delta reflection about +z, reflectance `colour`, from above only
+def mirror_direction(wo):
+    return wo * np.array([-1.0, -1.0, 1.0])
+
+
 def graded_panels(alpha, theta_nodes):
     """Gauss-Legendre nodes and weights in theta over panels spaced geometrically from alpha / 8 (a microfacet
     distribution's scale is alpha) to pi / 2."""

@@ -94,6 +94,17 @@ def lobe_cases():
                 1e-5,
             )
         )
+    for kd, ks, shininess in ((BASE, (0.15, 0.3, 0.5), 5.0), ((0.5, 0.4, 0.3), (0.3, 0.3, 0.3), 50.0), ((0.1, 0.1, 0.1), (0.6, 0.5, 0.4), 500.0)):
+        cases.append(
+            (
+                "phong",
+                bsdf.phong_params(kd, ks, shininess),
+                lambda o, i, kd=kd, ks=ks, s=shininess: ref.phong_eval(o, i, f32(kd), f32(ks), s),
+                lambda o, i, kd=kd, ks=ks, s=shininess: ref.phong_pdf(o, i, f32(kd), f32(ks), s),
+                ref.phong_alpha(shininess),
+                1e-5,
+            )
+        )
     return [pytest.param(*c, id=f"{c[0]}-a{c[4]:g}-{k}") for k, c in enumerate(cases)]
 
 
@@ -134,6 +145,7 @@ SAMPLED = [
     ("rough_dielectric", bsdf.params(alpha=0.05, eta=1 / 1.5), 60.0),
     ("rough_dielectric", bsdf.params(alpha=0.3, eta=1.5), 130.0),  # wo inside the glass
     ("gltf", bsdf.gltf_params(BASE, 0.5, 0.5), 60.0),
+    ("phong", bsdf.phong_params(BASE, (0.1, 0.2, 0.3), 30.0), 50.0),
 ]
 
 
@@ -169,6 +181,7 @@ REFLECTION_LOBES = [
     ("conductor", bsdf.params(colour=F0, alpha=0.05), 1e-5),
     ("conductor", bsdf.params(colour=F0, alpha=0.5), 1e-5),
     ("gltf", bsdf.gltf_params(BASE, 0.3, 0.4), 1e-5),
+    ("phong", bsdf.phong_params(BASE, (0.1, 0.2, 0.3), 30.0), 1e-5),
 ]
 
 
@@ -317,6 +330,7 @@ def test_no_nan_at_grazing_angles_below_the_surface_or_tiny_alpha(probe):
         records += [("conductor", bsdf.params(colour=(1, 1, 1), alpha=alpha)), ("gltf", bsdf.params(colour=BASE, alpha=alpha, metallic=0.5))]
         records += [(lobe, bsdf.params(alpha=alpha, eta=eta)) for lobe in ("dielectric", "rough_dielectric") for eta in (1.0, 1.5, 1 / 1.5)]
     records += [("gltf", bsdf.params(colour=(0, 0, 0), alpha=0.3, metallic=1.0)), ("gltf", bsdf.params(colour=(0, 0, 0), alpha=0.3, metallic=0.0))]
+    records += [("mirror", bsdf.params())] + [("phong", bsdf.phong_params(BASE, (0.2, 0.2, 0.2), s)) for s in (0.0, 1e6)]
     for lobe, rec in records:
         e, p = probe.eval(lobe, rec, wo, wi), probe.pdf(lobe, rec, wo, wi)
         assert np.isfinite(e).all() and (e >= 0).all() and np.isfinite(p).all() and (p >= 0).all(), (lobe, rec)
@@ -324,6 +338,47 @@ def test_no_nan_at_grazing_angles_below_the_surface_or_tiny_alpha(probe):
             s_wi, s_w, s_p, _ = probe.sample(lobe, rec, wo, np.tile(uu, (len(wo), 1)))
             assert np.isfinite(s_wi).all() and np.isfinite(s_w).all() and (s_w >= 0).all() and np.isfinite(s_p).all() and (s_p >= 0).all()
             assert ((s_p > 0) | (s_w == 0).all(axis=1)).all(), (lobe, rec, uu)
+
+
+def test_the_mirror_reflects_about_the_normal_with_its_colour_and_has_no_density(probe):
+    """The Phong material's mirror share, a delta lobe: from above, every sample is wo mirrored about +z, weight the
+    reflectance, pdf 1 (the branch's probability), delta; from below, none; eval and pdf 0 everywhere, the mirror pair
+    included (no light sampling can reach a delta)."""
+    rng = np.random.default_rng(12)
+    colour = (0.9, 0.6, 0.3)
+    rec = bsdf.params(colour=colour)
+    wo = f32(sphere(rng, 4000))
+    wi, weight, pdf, delta = probe.sample("mirror", rec, wo, rng.random((len(wo), 3)))
+    above = wo[:, 2] > 0
+    np.testing.assert_allclose(wi[above], ref.mirror_direction(wo[above]), atol=1e-7)
+    np.testing.assert_allclose(weight[above], np.tile(f32(colour), (above.sum(), 1)), rtol=0, atol=0)
+    assert (pdf[above] == 1).all() and delta[above].all()
+    assert (pdf[~above] == 0).all() and (weight[~above] == 0).all()
+    pairs = np.concatenate([wo, wo]), np.concatenate([ref.mirror_direction(wo), f32(sphere(rng, len(wo)))])
+    assert (probe.eval("mirror", rec, *pairs) == 0).all() and (probe.pdf("mirror", rec, *pairs) == 0).all()
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.3])
+def test_a_dielectric_tints_what_it_transmits_and_not_what_it_reflects(probe, alpha):
+    """transmit_tint (glTF glass's base colour, Mitsuba's specular_transmittance) multiplies the dielectric's
+    transmission, smooth or rough, in eval and in sample weights; reflection stays as the untinted lobe's."""
+    rng = np.random.default_rng(13)
+    tint = np.array([0.9, 0.4, 0.1])
+    lobe = "rough_dielectric" if alpha > 0 else "dielectric"
+    plain, tinted = bsdf.params(alpha=alpha, eta=1.5), bsdf.params(alpha=alpha, eta=1.5, transmit_tint=tint)
+    wo, u = f32(sphere(rng, 20000)), rng.random((20000, 3))
+    wi, weight, pdf, _ = probe.sample(lobe, tinted, wo, u)
+    wi_plain, weight_plain, pdf_plain, _ = probe.sample(lobe, plain, wo, u)
+    np.testing.assert_array_equal(wi, wi_plain)
+    np.testing.assert_array_equal(pdf, pdf_plain)
+    through = wo[:, 2] * wi[:, 2] < 0
+    assert 0.3 < through.mean() < 0.95
+    np.testing.assert_allclose(weight[through], weight_plain[through] * f32(tint), rtol=1e-6)
+    np.testing.assert_array_equal(weight[~through], weight_plain[~through])
+    if alpha > 0:
+        want = ref.rough_dielectric_eval(wo, f32(wi), float(np.float32(1.5)), alpha)
+        want = np.where((wo[:, 2] * wi[:, 2] < 0)[:, None], want * f32(tint), want)
+        assert_close(probe.eval(lobe, tinted, wo, wi), want, 1e-3, 2 * F32_EPS / (alpha * np.abs(wo[:, 2:3])), "tinted eval")
 
 
 def test_the_shading_frame_is_orthonormal_and_maps_the_normal_to_z(probe):

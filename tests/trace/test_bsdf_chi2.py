@@ -32,6 +32,8 @@ def direction(theta_degrees):
 
 def case(lobe, rec, theta):
     name = f"{lobe}-a{rec[0, 3]:.3g}-eta{rec[0, 4]:.3g}-m{rec[0, 5]:.2g}-{theta:g}deg"
+    if lobe == "phong":
+        name = f"{lobe}-a{rec[0, 3]:.3g}-p{rec[0, -1]:.2g}-{theta:g}deg"
     return pytest.param(lobe, rec, theta, id=name)
 
 
@@ -43,6 +45,9 @@ FAST += [
 # wo inside the glass
 FAST += [case("rough_dielectric", bsdf.params(alpha=0.3, eta=1.5), 130.0), case("rough_dielectric", bsdf.params(alpha=0.05, eta=1.5), 100.0)]
 FAST += [case("gltf", bsdf.gltf_params(BASE, m, r), t) for m, r in ((0.0, 0.5), (1.0, 0.3), (0.5, 0.7)) for t in (30.0, 75.0)]
+# the Phong material's Lambert-plus-glossy mix: a broad and a sharp glossy lobe, a dim and a bright one
+PHONG = [((0.5, 0.4, 0.3), (0.3, 0.3, 0.3), 20.0), (BASE, (0.1, 0.1, 0.1), 300.0)]
+FAST += [case("phong", bsdf.phong_params(kd, ks, s), t) for kd, ks, s in PHONG for t in (30.0, 75.0)]
 # wider sweeps: rougher and smoother, nearer the horizon, white and black bases
 SLOW = [case("conductor", bsdf.params(colour=(1, 1, 1), alpha=a), t) for a in (0.02, 0.1, 1.0) for t in (10.0, 60.0, 88.0)]
 SLOW += [case("rough_dielectric", bsdf.params(alpha=a, eta=e), t) for e in (1.33, 2.4, 1 / 2.4) for a, t in ((0.02, 20.0), (0.5, 85.0), (0.2, 135.0))]
@@ -125,6 +130,20 @@ PLANTED = [
         "float3 wi = u1 < p_spec ?",
         "float3 wi = u1 < 0.5f ?",
         ("gltf", bsdf.gltf_params(BASE, 0.0, 0.4), 45.0),
+    ),
+    (
+        # the Phong lobe samples its glossy part half the time while its pdf weights it by specular_prob
+        "phong_lobe_choice_not_the_pdfs",
+        "BsdfSample s = u1 < p.specular_prob ?",
+        "BsdfSample s = u1 < 0.5f ?",
+        ("phong", bsdf.phong_params(BASE, (0.1, 0.1, 0.1), 20.0), 45.0),
+    ),
+    (
+        # the Phong lobe's mixture pdf without the Lambert share: samples of the diffuse part outnumber it
+        "phong_pdf_without_the_lambert_weight",
+        "pdf = (1.0f - p.specular_prob) * pdf + p.specular_prob * conductor_pdf(wo, wi, p.alpha);",
+        "pdf = pdf + p.specular_prob * conductor_pdf(wo, wi, p.alpha);",
+        ("phong", bsdf.phong_params((0.5, 0.4, 0.3), (0.3, 0.3, 0.3), 20.0), 30.0),
     ),
 ]
 
