@@ -11,7 +11,7 @@
  *     triangle or the environment adds its emission weighted against that light's strategy by the
  *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
  *   - Russian roulette from RR_DEPTH bounces on.
- * Light units are docs/shading.md's.  Lights with falloff "none" (the seed's unnormalised model) give
+ * Light units are docs/shading.md's.  Lights with falloff "none" (the unnormalised model) give
  * the irradiance pi I c cos(theta) wherever they are, so a Lambert surface of albedo kd shows
  * kd I c cos(theta), as the Whitted integrator draws it; they are not surfaces, so only NEE finds them.
  * max_depth counts bounces after the primary hit (0: direct light only); Mitsuba's is max_depth + 2.
@@ -82,7 +82,7 @@ typedef struct {
 typedef struct {
     int lobe;            /* a BSDF_* code, or LOBE_MIRROR */
     BsdfParams bsdf;
-    float3 glossy;       /* the seed model's diffuse+glossy component: the glossy lobe's colour ks */
+    float3 glossy;       /* the Phong model's diffuse+glossy component: the glossy lobe's colour ks */
     float glossy_alpha;  /* and its GGX width; glossy.x < 0: no glossy lobe */
     float glossy_prob;   /* probability of sampling the glossy lobe rather than the Lambert one */
     float3 tint;         /* glTF glass: transmitted light times base_color (KHR_materials_transmission); else 1 */
@@ -90,7 +90,7 @@ typedef struct {
 
 INLINE float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-/* The seed's Blinn-Phong exponent s as a GGX width: alpha = sqrt(2 / (s + 2)) (Walter et al. 2007's
+/* The Phong model's Blinn-Phong exponent s as a GGX width: alpha = sqrt(2 / (s + 2)) (Walter et al. 2007's
  * match of the two lobes' widths). */
 INLINE float alpha_from_shininess(float s) { return max_f(sqrt(2.0f / (s + 2.0f)), GGX_ALPHA_MIN); }
 

@@ -23,7 +23,7 @@ nothing in the file is dropped without being listed here:
   glTF intensities are photometric (candela, lux) for a Lambertian BRDF
   base_colour / pi.  Point lights fall off with the inverse square, which
   selects clrender's physical model (BRDF kd / pi); directional lights use the
-  seed's model, whose Lambert term has no 1/pi, so their intensity is divided
+  unnormalised model, whose Lambert term has no 1/pi, so their intensity is divided
   by pi: either way a surface shows (base_colour / pi) * E, as the glTF
   specification defines.
   A file without lights gets the lights a bare mesh file gets (framing.py: a key
@@ -903,7 +903,7 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
     if isinstance(intensity, bool) or not isinstance(intensity, (int, float)) or not intensity >= 0:
         doc.fail(f"{where}.intensity must be >= 0, got {intensity!r}")
     out = {"color": color.tolist(), "intensity": float(intensity)}
-    if kind == "directional":  # the seed's light model: its Lambert term has no 1/pi
+    if kind == "directional":  # the unnormalised light model: its Lambert term has no 1/pi
         out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist(), intensity=float(intensity) / math.pi)
     else:  # a spot light is drawn as a point light: its cone is not modelled
         # inverse-square falloff selects the physical model, whose Lambert BRDF is kd / pi already

@@ -175,20 +175,22 @@ class Scene:
     textures: list = field(default_factory=list)  # decoded textures (textures.TextureImage) the materials index
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
-    featured_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
+    default_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
     aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
     default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, rfilter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
 
     @property
-    def seed_camera(self) -> int:
-        """The old name of `featured_camera`, still accepted."""
-        return self.featured_camera
+    def featured_camera(self) -> int:
+        """An older name of `default_camera` (as is `seed_camera`), still accepted."""
+        return self.default_camera
 
-    @seed_camera.setter
-    def seed_camera(self, value: int) -> None:
-        self.featured_camera = value
+    @featured_camera.setter
+    def featured_camera(self, value: int) -> None:
+        self.default_camera = value
+
+    seed_camera = featured_camera
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -257,7 +259,7 @@ class Scene:
         raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or {files}")
 
     def camera(self, number: int) -> Camera:
-        """Camera `number`, counting from 1 as the seed does."""
+        """Camera `number`, counting from 1 as the command line does."""
         if not 1 <= number <= len(self.cameras):
             raise UsageError(f"camera {number} does not exist in scene {self.name!r}; allowed: 1 to {len(self.cameras)}")
         return self.cameras[number - 1]
@@ -298,11 +300,12 @@ TOP_KEYS = (
     "objects",
     "name",
     "description",
-    "featured_camera",
     "default_camera",
     "aa",
     "textures",
 )
+# Older spellings of top-level keys, still accepted: each is read as the key it names (docs/scene-format.md)
+OLD_TOP_KEYS = {"featured_camera": "default_camera", "seed_camera": "default_camera"}
 # `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
 # (environment.py; an image is what the Whitted tracer's escaping rays see too)
 ENVIRONMENT_READER = environment.ENVIRONMENT_READER
@@ -310,12 +313,7 @@ ENVIRONMENT_READER = environment.ENVIRONMENT_READER
 
 def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     checks.check_shape(data)
-    if "seed_camera" in data:  # the old name of featured_camera, still accepted
-        if "featured_camera" in data:
-            checks.fail("seed_camera", "is the old name of featured_camera; give only featured_camera")
-        data = {("featured_camera" if k == "seed_camera" else k): v for k, v in data.items()}
-    if "default_camera" in data and "featured_camera" in data:  # one setting: the camera `render` uses without --camera
-        checks.fail("default_camera", "and featured_camera are one setting (featured_camera is its older name); give only default_camera")
+    data = _renamed_keys(checks, data)
     checks.check_keys(data, "", TOP_KEYS)
     data = _expand_model_files(checks, data)
     scene = Scene(name=checks.name(data.get("name", name), "name"))
@@ -329,8 +327,7 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     cameras = checks.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
     scene.cameras = [read_camera(checks, c, f"cameras[{i}]") for i, c in enumerate(cameras)]
     scene.description = checks.name(data["description"], "description") if "description" in data else ""
-    camera_key = "default_camera" if "default_camera" in data else "featured_camera"
-    scene.featured_camera = checks.integer(data, camera_key, "", 1, low=1, high=len(scene.cameras))
+    scene.default_camera = checks.integer(data, "default_camera", "", 1, low=1, high=len(scene.cameras))
     scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
@@ -363,6 +360,16 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.objects = objects
     _adopt_file_materials(checks, scene)
     return scene
+
+
+def _renamed_keys(checks: Checks, data: dict) -> dict:
+    """`data` with each older key spelling (OLD_TOP_KEYS) under today's name; two spellings of one key are refused."""
+    for old, new in OLD_TOP_KEYS.items():
+        if old in data:
+            if new in data:
+                checks.fail(old, f"is an older name of {new}; give only {new}")
+            data = {(new if k == old else k): v for k, v in data.items()}
+    return data
 
 
 def _expand_model_files(checks: Checks, data: dict) -> dict:

@@ -83,7 +83,7 @@ class Integrator:
 
 
 class WhittedIntegrator(Integrator):
-    """The seed's Whitted tracer (kernels/shade.h): one pass of N x N samples, edge-only AA resampling after."""
+    """The Whitted tracer (kernels/shade.h): one pass of N x N samples, edge-only AA resampling after."""
 
     name = "whitted"
     kernel = ("trace.cl", "render")
