@@ -411,7 +411,7 @@ WHITTED_PARAMS_DTYPE = np.dtype(
         ("ambient", "<f4", 3),  # ambient light, times each surface's kd
         ("fresnel", "<i4"),  # 0: transparency splits by its fixed fraction; 1: Schlick
         ("light_samples", "<i4"),  # > 0: every area light's samples per side; 0: each light's own
-        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light (the seed); 0: uniform random
+        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light; 0: uniform random
     ]
 )
 WHITTED_PARAMS = Record("WhittedParams", WHITTED_PARAMS_DTYPE)

@@ -42,7 +42,7 @@ class Light:
     color: tuple = (1.0, 1.0, 1.0)  # linear RGB
     intensity: float = 1.0  # see the module docstring for units
     samples: int = 5  # area light: samples per side (n x n stratified)
-    falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
+    falloff: str = "none"  # "none" (unnormalised: no 1/r^2, no 1/pi) or "inverse_square" (physical)
     cutoff_angle: float = 20.0  # spot: degrees from the axis where its light stops (Mitsuba's default)
     beam_width: float = 15.0  # spot: degrees from the axis within which it is at full intensity
     profile: str = "mitsuba"  # spot: "mitsuba" or "pbrt" (kernels/spot.h)
