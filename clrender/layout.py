@@ -423,6 +423,7 @@ PATH_PARAMS_DTYPE = np.dtype(
         ("n_emitters", "<i4"),
         ("spp", "<i4"),  # paths per pixel in this pass
         ("first_sample", "<u4"),  # index of the pass's first path in each pixel's sequence (passes * spp; below 2**32)
+        ("rr_depth", "<i4"),  # Russian roulette from this many bounces on (RenderSettings.rr_depth; Mitsuba's rr_depth - 1)
     ]
 )
 PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)

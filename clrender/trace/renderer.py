@@ -72,7 +72,7 @@ class RenderSettings:
     instancing: bool | None = None
     rfilter: str = "box"  # path: the film's reconstruction filter, "box" (a pixel's own samples), "tent" or "gaussian" (trace/film.py)
     hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
-    rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: the kernel's (3)
+    rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: path.RR_DEPTH (3)
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
