@@ -669,13 +669,11 @@ def _shape(checks: Checks, o, path, made: dict, gltf_node) -> Shape | None:
     shape = checks.shapes.get(key)
     if shape is not None:
         return shape
-    node = None
-    if gltf_node is not None:  # nodes sharing a glTF mesh share its own vertices: the first such node's Shape stands for it
+    if gltf_node is not None:  # one node's mesh of a glTF file in its world space, and the node placing its glTF mesh
         mesh_index, own, node_matrix = gltf.node_shape(made["file"], *gltf_node, root=checks.root)
         node = (("gltf", key[1], mesh_index, gltf_node[1]), own, node_matrix)
-    if gltf_node is not None:  # one node's mesh of a glTF file, in its world space
         shape = Shape(key, gltf.node_mesh(made["file"], *gltf_node, root=checks.root), f"{o['file']} node {gltf_node[0]}", gltf=node)
-        checks.shapes.setdefault(node[0], shape)
+        checks.shapes.setdefault(node[0], shape)  # nodes sharing a glTF mesh share its own vertices: the first one's Shape
     elif "file" in made:
         shape = Shape(key, load_mesh_file(made["file"], f"{checks.where}: {path}.file", root=checks.root), o["file"])
     elif "inline" in made:
