@@ -400,7 +400,7 @@ def _expand_model_files(checks: Checks, data: dict) -> dict:
         if not _is_model_file(o):
             objects.append(o)
             continue
-        model = gltf.scene_dict(_mesh_path(checks, o["file"], f"objects[{i}].file"), root=checks.root)
+        model = gltf.scene_dict(_mesh_path(checks, o["file"], f"objects[{i}].file"), root=checks.root, keep=True)
         prefix = f"{o['file']}:"
         for name, spec in model["textures"].items():
             texture_specs[prefix + name] = {**spec, "file": o["file"]}
@@ -537,7 +537,7 @@ def _load_gltf(path, allow_outside: bool = True) -> Scene:
     from . import framing
 
     root = None if allow_outside else path.parent
-    data = gltf.scene_dict(path, root)
+    data = gltf.scene_dict(path, root, keep=True)
     scene = Scene.from_dict(data, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
     scene.default_lighting = data["lights"] == framing.lighting(data["cameras"][0])["lights"]  # the file brought none
     return scene

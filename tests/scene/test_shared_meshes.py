@@ -228,3 +228,24 @@ def test_the_scene_keeps_one_shape_a_key_and_each_mesh_says_which_shape_it_place
     np.testing.assert_array_equal(np.diag(b.instance.to_world)[:3], [-1.0, 1.0, 1.0])
     np.testing.assert_array_equal(b.faces, a.faces[:, [0, 2, 1]])
     assert all(isinstance(s, Shape) for s in checks.shapes.values())
+
+
+def test_a_gltf_scenes_nodes_are_read_once_and_place_the_same_bits(tmp_path, monkeypatch):
+    """Loading a glTF scene places each node's triangles once (scene_dict reads them for the bounds, and the
+    scene's meshes take them over), not once more per mesh object: 3 nodes of one mesh make 3 world placements
+    and the glTF mesh's own vertices once (gltf.node_shape), where it took 7.  The world vertices are the bits
+    gltf.node_mesh places on its own."""
+    from clrender.scene import gltf
+
+    from tests.gltftools import gltf_file, quaternion
+
+    nodes = [{"mesh": 0, "translation": [float(i), 0.5, -4.0], "rotation": quaternion([0, 1, 0], 20 * i)} for i in range(3)]
+    path = gltf_file(tmp_path, nodes)
+    calls = []
+    placed = gltf.primitive_triangles
+    monkeypatch.setattr(gltf, "primitive_triangles", lambda *a: calls.append(a[1:3]) or placed(*a))
+    scene = Scene.load(str(path))
+    assert len(calls) == len(nodes) + 1
+    monkeypatch.undo()
+    for i, m in enumerate(scene.objects):
+        np.testing.assert_array_equal(m.vertices, gltf.node_mesh(path, i, 0).vertices)
