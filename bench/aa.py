@@ -1,10 +1,10 @@
 """Full vs edge-only anti-aliasing: `python -m bench aa [--quick] [--out DIR]`.
 
-The seed's wizard_cat setting (a triangle mesh, a refractive Blinn-Phong
+The wizard_cat setting (a triangle mesh, a refractive Blinn-Phong
 sphere and an area light) at 400x400, stratified N=6, edge thickness 1.0:
 time (wall, and CPU seconds of this process) of `full` and `edge_detect`, the fraction of pixels resampled, and the
 RMSE of each (sRGB values in [0, 1]) against a high-sample reference.
-The seed took 3700 s (full) and 1129 s (edge) for this render.
+The original report's renderer took 3700 s (full) and 1129 s (edge) for this render.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from .common import write_table
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench aa", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="wizard_cat")
-    ap.add_argument("--camera", type=int, default=3, help="the seed's recommended view for wizard_cat")
+    ap.add_argument("--camera", type=int, default=3, help="wizard_cat's default view")
     ap.add_argument("--size", type=int, default=400)
     ap.add_argument("--samples", type=int, default=6, help="N: N x N stratified samples per pixel")
     ap.add_argument("--reference-samples", type=int, default=12, help="N of the reference render")
@@ -49,7 +49,7 @@ def main(argv=None):
     modes = {
         "none": dict(aa="none"),
         "full": dict(aa="full", samples=args.samples),
-        "edge_detect (ids only, the seed)": dict(aa="edge_detect", contrast=0.0, samples=args.samples, thickness=args.thickness),
+        "edge_detect (ids only)": dict(aa="edge_detect", contrast=0.0, samples=args.samples, thickness=args.thickness),
         "edge_detect": dict(aa="edge_detect", samples=args.samples, thickness=args.thickness),
     }
     cpu = {}

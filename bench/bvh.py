@@ -1,10 +1,10 @@
-"""BVH on/off on the seed's six scenes: `python -m bench bvh [--quick] [--runs K] [--out DIR]`.
+"""BVH on/off on the six bundled scenes: `python -m bench bvh [--quick] [--runs K] [--out DIR]`.
 
 Renders each scene with the BVH and without it (every ray tests every
 primitive) at identical settings; reports the median trace time of K runs
 (compile excluded), BVH build time, node count, nodes visited per ray and
 the speed-up, checks that both give the same object ids, and writes
-DIR/bvh.csv, DIR/bvh.md and the bar chart DIR/bvh.png (the seed's Figure C).
+DIR/bvh.csv, DIR/bvh.md and the bar chart DIR/bvh.png (the original report's Figure C).
 """
 
 from __future__ import annotations

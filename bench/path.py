@@ -17,12 +17,12 @@ spp) per wall second; the ratios are wall times against Mitsuba llvm.  `--quick`
 With both clrender and llvm: path_<scene>_pair.png (clrender left, Mitsuba right, the seed-0 renders) and a
 line per scene, the two renderers' mean brightness and a block-mean z-test over all their renders (agreement_line).
 
-wizard_cat is a Whitted scene, converted by this rule (the path tracer reads seed materials the same way):
+wizard_cat is a Whitted scene, converted by this rule (the path tracer reads Phong materials the same way):
 `diffuse` kd -> Lambert; `specular` ks with `shininess` s -> ks times a GGX conductor of reflectance 1 with
 alpha = sqrt(2 / (s + 2)), added to the Lambert lobe; `mirror` -> a smooth conductor of that weight;
 `transparency` with `ior` -> a smooth dielectric of that weight.  Lights (docs/shading.md's units): an area
 light's colour x intensity is a radiance (falloff inverse_square) -> a one-sided rectangle emitter; a point
-light's is a radiant intensity (W/sr) -> a point emitter.  wizard_cat's lights use the seed's falloff "none"
+light's is a radiant intensity (W/sr) -> a point emitter.  wizard_cat's lights use the unnormalised falloff "none"
 (pi I c cos(theta) at every distance: no physical light does that), so the bench makes them physical for BOTH
 renderers (`physical_lights`, a bench-only mapping): the directional light's irradiance pi c I, the area
 light's radiance chosen so that its irradiance at camera 3's look-at point (the cat) is what falloff "none"

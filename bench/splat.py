@@ -1,6 +1,6 @@
 """Gaussian splat fitting: `python -m bench splat [--image PATH] [--quick] [--runs K] [--out DIR]`.
 
-Measures, for 5,000 splats on a 512x512 image (the seed: one forward pass in
+Measures, for 5,000 splats on a 512x512 image (the original report: one forward pass in
 0.05 s), the median (and minimum) wall time of one forward pass and of one
 forward + backward + optimiser step, and the CPU time per call of all our
 threads (kernel compile excluded and reported apart), and the PSNR reached after 30 s and 120 s of fitting (5 s and 15 s

@@ -7,7 +7,7 @@ Kernel times are enqueue-to-finish with buffers already on the device,
 compile and a warm-up run excluded; "grid end-to-end" adds the host binning,
 uploads and the read-back.  Medians of K runs (naive: at most 3).
 
-Quality: PSNR against the image of sampled colours (the seed's), cell-mean
+Quality: PSNR against the image of sampled colours (point sampling), cell-mean
 colours, mean colours after Lloyd steps, and after soft-Voronoi training
 (the soft image itself and the hard image of the trained sites).
 

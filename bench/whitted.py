@@ -1,13 +1,13 @@
 """Whitted against Mitsuba 3's `direct` integrator at equal work: `python -m bench whitted [--quick] [--runs K] [--out DIR]`.
 
-The seed's render (wizard_cat, camera 3, 400x400, full AA N = 6: 36 stratified samples per pixel, the area
+The report's render (wizard_cat, camera 3, 400x400, full AA N = 6: 36 stratified samples per pixel, the area
 light's own 5 x 5 = 25 samples per shading point) by clrender's Whitted tracer, and the same scene, converted
-by bench/path.py's rule (`wizard_cat_dict`: lights made physical for BOTH renderers, seed materials to Lambert
+by bench/path.py's rule (`wizard_cat_dict`: lights made physical for BOTH renderers, Phong materials to Lambert
 + GGX conductor), by Mitsuba 3 `llvm_ad_rgb` with the `direct` integrator, 36 spp (`independent` sampler).
 Two variants, one row each:
   opaque  the glass sphere's transparency set to 0 in both scenes (a Blinn-Phong / Lambert + GGX ball): no
           refracted or reflected rays, so both renderers do the same kind of work, camera rays and shadow rays;
-  glass   the seed's sphere (transparency 0.75, ior 1.5): clrender follows the refracted and reflected rays
+  glass   the scene's glass sphere (transparency 0.75, ior 1.5): clrender follows the refracted and reflected rays
           (max depth 8); `direct` does not (it has no recursion), so its rays are spent on shadow rays instead.
 
 Rays, counted on both sides:
@@ -50,7 +50,7 @@ from .common import write_table
 from tests.reference import mitsuba_scenes
 
 VARIANTS = ("opaque", "glass")
-CAMERA = 3  # the seed's view of wizard_cat
+CAMERA = 3  # wizard_cat's default view
 SPHERE_MATERIAL = "glass"
 
 
@@ -232,7 +232,7 @@ def measure(variant: str, args, threads: int, out: Path) -> dict:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench whitted", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--size", type=int, default=400, help="image side in pixels (default 400, the seed's)")
+    ap.add_argument("--size", type=int, default=400, help="image side in pixels (default 400)")
     ap.add_argument("--samples", type=int, default=6, help="N: N x N samples per pixel in both renderers (default 6: 36 spp)")
     ap.add_argument("--runs", type=int, default=3, help="timed renders per renderer after the first; medians reported (default 3)")
     ap.add_argument("--bsdf-samples", type=int, default=0, help="Mitsuba direct's bsdf_samples (default 0: shadow rays only, as Whitted)")

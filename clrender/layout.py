@@ -25,15 +25,15 @@ PATH_LEN = 8  # object ids recorded along each pixel's path (edge detection): Id
 
 LIGHT_TYPES = {"point": 0, "directional": 1, "area": 2, "spot": 3}  # Light.type
 SPOT_PROFILES = {"mitsuba": 0, "pbrt": 1}  # Light.spot_profile: Mitsuba 3's linear-in-angle falloff, pbrt-v4's smoothstep
-LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: the seed's model, or physical (scene/lights.py)
+LIGHT_FALLOFFS = {"none": 0, "inverse_square": 1}  # Light.falloff: unnormalised (no 1/r^2, no 1/pi), or physical (scene/lights.py)
 BSDF_LOBES = {"lambert": 0, "conductor": 1, "dielectric": 2, "rough_dielectric": 3, "gltf": 4}  # kernels/bsdf.h's lobe codes
 # the lobes of issue 36 (docs/materials.md): a conductor with complex Fresnel (GGX, and its delta mirror), Mitsuba's
 # plastic / roughplastic (a diffuse base under a dielectric coat, smooth and GGX), a thin dielectric sheet (delta)
 BSDF_LOBES.update({"metal": 5, "metal_smooth": 6, "coated_diffuse": 7, "coated_diffuse_smooth": 8, "thin_dielectric": 9})
 # a perfect mirror (delta), and the Phong material's Lambert-plus-glossy mix (kernels/bsdf.h; docs/materials.md)
 BSDF_LOBES.update({"mirror": 10, "phong": 11})
-# Material.model: the Whitted keys, glTF's metallic-roughness ones, or a `type = ...` material of issue 36
-MATERIAL_MODELS = {"seed": 0, "gltf": 1, "conductor": 2, "coated_diffuse": 3, "thin_dielectric": 4}
+# Material.model: the Phong keys (Lambert + Blinn-Phong, mirror, glass), glTF's metallic-roughness ones, or a `type = ...` material of issue 36
+MATERIAL_MODELS = {"phong": 0, "gltf": 1, "conductor": 2, "coated_diffuse": 3, "thin_dielectric": 4}
 SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-shadowing G2, or Mitsuba's G1(wo) G1(wi)
 COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
@@ -53,7 +53,7 @@ class TextureSlot:
     gltf: str  # the glTF material's textureInfo key path: "pbrMetallicRoughness.baseColorTexture", ...; "" for none
     strength: str = ""  # the textureInfo key of the slot's strength (TextureRef.strength), "" for none
     models: str = "gltf"  # the scene materials whose tables take the key: "gltf", or "all" (every model)
-    alias: str = ""  # the key the seed model (and coated_diffuse) reads the slot by, "" for none
+    alias: str = ""  # the key the Phong model (and coated_diffuse) reads the slot by, "" for none
 
 
 TEXTURE_SLOT_TABLE = (
@@ -197,7 +197,7 @@ LEAF_BLOCK_DTYPE = np.dtype(
 LEAF_BLOCK = Record("LeafBlock", LEAF_BLOCK_DTYPE, vectors=("v0", "v1", "v2", "slot"))
 
 # ---- shading and the render kernel (kernels/shade.h, trace.cl; packed by scene/*.py, trace/renderer.py)
-# a material (scene/materials.py): the seed's Blinn-Phong colours and exponent, mirror and transparency
+# a material (scene/materials.py): the Phong model's Blinn-Phong colours and exponent, mirror and transparency
 # fractions, index of refraction; the glTF metallic-roughness parameters and emission the path tracer reads
 MATERIAL_DTYPE = np.dtype(
     [
@@ -207,7 +207,7 @@ MATERIAL_DTYPE = np.dtype(
         ("mirror", "<f4"),
         ("transparency", "<f4"),
         ("ior", "<f4"),
-        ("base_color", "<f4", 3),  # the seed model: kd
+        ("base_color", "<f4", 3),  # the Phong model: kd
         ("metallic", "<f4"),
         ("roughness", "<f4"),  # perceptual: GGX alpha = roughness^2
         ("transmission", "<f4"),
@@ -413,9 +413,9 @@ WHITTED_PARAMS_DTYPE = np.dtype(
         ("frame", FRAME_PARAMS_DTYPE),
         ("background", "<f4", 3),  # linear RGB of a ray that meets nothing
         ("ambient", "<f4", 3),  # ambient light, times each surface's kd
-        ("fresnel", "<i4"),  # 0: transparency splits as the seed; 1: Schlick
+        ("fresnel", "<i4"),  # 0: transparency splits by its fixed fraction; 1: Schlick
         ("light_samples", "<i4"),  # > 0: every area light's samples per side; 0: each light's own
-        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light (the seed); 0: uniform random
+        ("light_stratified", "<i4"),  # 1: one jittered sample per cell of an area light; 0: uniform random
     ]
 )
 WHITTED_PARAMS = Record("WhittedParams", WHITTED_PARAMS_DTYPE)
@@ -427,6 +427,7 @@ PATH_PARAMS_DTYPE = np.dtype(
         ("n_emitters", "<i4"),
         ("spp", "<i4"),  # paths per pixel in this pass
         ("first_sample", "<u4"),  # index of the pass's first path in each pixel's sequence (passes * spp; below 2**32)
+        ("rr_depth", "<i4"),  # Russian roulette from this many bounces on (RenderSettings.rr_depth; Mitsuba's rr_depth - 1)
     ]
 )
 PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)

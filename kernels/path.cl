@@ -10,8 +10,8 @@
  *   - BSDF sampling for the next direction; a BSDF ray that reaches an area light, an emissive
  *     triangle or the environment adds its emission weighted against that light's strategy by the
  *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
- *   - Russian roulette from RR_DEPTH bounces on.
- * Light units are docs/shading.md's.  Lights with falloff "none" (the seed's unnormalised model) give
+ *   - Russian roulette from params.rr_depth bounces on.
+ * Light units are docs/shading.md's.  Lights with falloff "none" (the unnormalised model) give
  * the irradiance pi I c cos(theta) wherever they are, so a Lambert surface of albedo kd shows
  * kd I c cos(theta), as the Whitted integrator draws it; they are not surfaces, so only NEE finds them.
  * max_depth counts bounces after the primary hit (0: direct light only); Mitsuba's is max_depth + 2.
@@ -37,9 +37,6 @@
 /* the reconstruction filters of SPLAT_FILTER */
 #include "film.h"
 
-#ifndef RR_DEPTH
-#define RR_DEPTH 3          /* Russian roulette from this many bounces on (RenderSettings.rr_depth; Mitsuba's rr_depth - 1) */
-#endif
 #ifndef HIDE_EMITTERS
 #define HIDE_EMITTERS 0 /* 1: camera rays look past emitting triangles and see no area light or environment (Mitsuba's hide_emitters) */
 #endif
@@ -359,7 +356,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         if (!(bs.pdf > 0.0f)) break;
         float3 wi = to_world(fr, bs.wi);
         beta *= bs.weight;
-        if (depth >= RR_DEPTH) { /* Russian roulette: continue with probability q, weighted by 1 / q */
+        if (depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
             float q = min_f(max3(beta), RR_SURVIVE_MAX);
             if (!(rng_next(rng) < q)) break;
             beta /= q;

@@ -64,7 +64,7 @@ INLINE uint owen_scramble(uint x, uint seed) {
 INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
-        /* the seed's fixed grid: (p + 0.5) / n */
+        /* the centred grid: (p + 0.5) / n */
         return (float2)((q + 0.5f) / fn, (p + 0.5f) / fn);
     }
     if (sampler == SAMPLER_RANDOM) {

@@ -37,8 +37,8 @@ typedef struct {
     int n_lights;
     int light_samples;   /* > 0 overrides every area light's samples per side */
     int max_depth;       /* bounces after the primary hit */
-    int fresnel;         /* 0: transparency splits as the seed; 1: Schlick */
-    int light_stratified; /* 1: one jittered sample per cell of an area light (the seed); 0: uniform random */
+    int fresnel;         /* 0: transparency splits by its fixed fraction; 1: Schlick */
+    int light_stratified; /* 1: one jittered sample per cell of an area light; 0: uniform random */
     float3 background;
     float3 ambient;
     EnvView env;         /* env.m.width > 0: rays that meet nothing see this map instead of the background */
@@ -134,7 +134,7 @@ INLINE float pow_unit(float x, float s) { return pow_unit_lanes((light_f)(x), s)
 
 /* Lambert + Blinn-Phong at pt, per unit of the light's value at the surface, for eight unit directions
  * l towards the light (blinn_phong: for one).
- * The seed's model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
+ * The unnormalised model (physical = false): kd (n.l) + ks (n.h)^s, no 1/pi.
  * The physical model (lights with inverse-square falloff): the energy-conserving
  * BRDF kd/pi + ks (s+8)/(8 pi) (n.h)^s (normalised Blinn-Phong), times n.l. */
 INLINE light_f3 blinn_phong_lanes(const ShadingPoint *pt, light_f3 l, bool physical) {
@@ -290,7 +290,7 @@ INLINE AreaLanes area_lanes(const SceneView *sc, const ShadingPoint *pt, const P
     light_f fq = (light_f)(cell_q[0], cell_q[1], cell_q[2], cell_q[3], cell_q[4], cell_q[5], cell_q[6], cell_q[7]);
     light_u dim = (light_u)(rng->dim + 2u * base) + (light_u)(0, 2, 4, 6, 8, 10, 12, 14);
     light_f xi_a = rng_lanes(rng, dim), xi_b = rng_lanes(rng, dim + 1u);
-    /* the light's point: stratified (the seed), corner + (p + xi)/n a + (q + xi')/n b, one jittered
+    /* the light's point: stratified, corner + (p + xi)/n a + (q + xi')/n b, one jittered
        point per cell; random: corner + xi a + xi' b, ignoring the cells (to show what strata buy) */
     float fn = (float)n_side;
     light_f ua = sc->light_stratified ? (fp + xi_a) / fn : xi_a;

@@ -37,7 +37,7 @@ inline int is_closer(float d2, int i, float best_d2, int best_i)
     return d2 < best_d2 || (d2 == best_d2 && i < best_i);
 }
 
-/* Every site for every pixel: the seed's baseline. */
+/* Every site for every pixel: the brute-force baseline. */
 __kernel void nearest_naive(__global const float2 *sites, int n, int width, int height,
                             __global int *nearest)
 {

@@ -1,13 +1,10 @@
 /* Tracing kernels: whole-pixel rendering, and plain ray queries for the
  * Tracer API and the benchmarks.  Variants: -DUSE_BVH=0|1, -DMAX_DEPTH=n. */
-/* A program holds the render kernel or the ray queries, never both: a render build (clrender/trace/
- * variant.py Variant.defines, which always passes -DWRITE_AOV; shade.h defaults it, hence the test
- * before any include) compiles `render` alone, the Tracer's build everything else.  Each compile is
- * then a part of the work (the queries' packets and shafts, or the shading). */
-#ifdef WRITE_AOV
-#define RENDER_BUILD 1
-#else
-#define RENDER_BUILD 0
+/* A program holds the render kernel or the ray queries, never both: -DRENDER_BUILD=1 (clrender/trace/
+ * variant.py, Variant.render) compiles `render` alone, -DRENDER_BUILD=0 the Tracer's queries and test
+ * kernels.  Each compile is then a part of the work (the queries' packets and shafts, or the shading). */
+#ifndef RENDER_BUILD
+#error "RENDER_BUILD is missing: build trace.cl with clrender.trace.variant.Variant.defines()"
 #endif
 #include "common.h"
 #include "rng.h"

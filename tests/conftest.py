@@ -82,7 +82,6 @@ SUITE_BUILDS = (
     dict(filename="path.cl", render=True, extra=(("AREA_BSDF", 0),)),
     dict(filename="path.cl", render=True, extra=(("AREA_NEE", 0),)),
     dict(filename="path.cl", render=True, extra=(("HIDE_EMITTERS", 1),)),
-    dict(filename="path.cl", render=True, extra=(("RR_DEPTH", 0),)),
     dict(bvh_width=2),
     dict(filename="path.cl", render=True, cull_backfaces=True),
     dict(render=True, instanced=True, top_wide=True),

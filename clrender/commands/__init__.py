@@ -36,7 +36,7 @@ def scene_defaults(args, settings, scene):
     given = len(args.positional_args)
     changes = {}
     if args.camera is None and given < 1:
-        changes["camera"] = scene.featured_camera
+        changes["camera"] = scene.default_camera
     if scene.aa is not None and args.aa is None and given < 2 and settings.integrator == "whitted":
         changes["aa"] = scene.aa
         if args.samples is None and given < 4:  # the default follows the mode, as settings_from_args has it

@@ -22,7 +22,7 @@ wider than the image.  Gaussians of width >= {filters.FFT_FROM_SIZE} run through
 sizes up to {filters.MAX_SIZE} stay fast; box blurs cost the same at any size.
 
 Colour space (--space stored, the default): the stored numbers are filtered
-as they are, as the seed, OpenCV, oiiotool and ImageMagick do, so
+as they are, as OpenCV, oiiotool and ImageMagick do, so
 brighten_1.5 multiplies every stored value by 1.5.  --space linear first
 decodes integer files (8/16-bit PNG, JPEG, TIFF) from sRGB to linear light
 and encodes the result again; float files (EXR, HDR, float TIFF) are linear
@@ -66,7 +66,7 @@ def add_parser(sub):
         "--space",
         choices=("stored", "linear"),
         default="stored",
-        help="filter the stored values (as the seed and OpenCV) or linear light (integer files are sRGB-decoded first; see below)",
+        help="filter the stored values (as OpenCV) or linear light (integer files are sRGB-decoded first; see below)",
     )
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists (or is IN)")
     p.add_argument("--list", action="store_true", help="print the filter names with a line each, and exit")

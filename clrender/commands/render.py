@@ -53,10 +53,12 @@ def print_scene_list(scenes: dict) -> None:
 
 def print_scene_cameras(name: str, data: dict) -> None:
     """A scene dict's description and its cameras, by number and name, the default one marked '*'."""
+    from ..scene.scene import OLD_TOP_KEYS
+
     print(f"{name}: {data.get('description', '')}".rstrip(": "))
-    featured = data.get("default_camera", data.get("featured_camera", data.get("seed_camera", 1)))  # featured_camera, seed_camera: its old names
+    default = next((data[k] for k in ("default_camera", *OLD_TOP_KEYS) if k in data), 1)  # or an older spelling
     for number, camera in enumerate(data.get("cameras", [{}]), start=1):
-        mark = "*" if number == featured else " "
+        mark = "*" if number == default else " "
         print(f"  {mark} --camera {number}  {camera.get('name', '')}".rstrip())
 
 

@@ -8,7 +8,7 @@ import time
 EXAMPLES = """examples:
   clrender splat voronoi photo.jpg -o cells.png
   clrender splat voronoi photo.jpg -o cells.png --splats 20000 --init gradient --colors mean --lloyd 5
-  clrender splat voronoi photo.jpg -o seed.png --colors sample --method naive --splats 500   # the seed's way
+  clrender splat voronoi photo.jpg -o cells.png --colors sample --method naive --splats 500   # brute force, point-sampled
   clrender splat voronoi photo.jpg -o soft.png --train 100 --edges --save-sites sites.npz
 """
 
@@ -36,7 +36,7 @@ def add_parser(group):
         help="starting sites: gradient puts more where the image has detail, random anywhere, uniform on a square grid (cells look like pixelation)",
     )
     p.add_argument(
-        "--colors", choices=COLOR_MODES, default=d.colors, help="sample: image at the site (the seed's); mean: mean of the cell (least squares)"
+        "--colors", choices=COLOR_MODES, default=d.colors, help="sample: image at the site (point sampling); mean: mean of the cell (least squares)"
     )
     p.add_argument("--lloyd", type=int, default=d.lloyd, metavar="K", help="Lloyd (centroidal Voronoi) iterations")
     p.add_argument("--train", type=int, default=d.train, metavar="STEPS", help="soft-Voronoi training steps (Adam, annealed temperature) after Lloyd")

@@ -4,7 +4,7 @@
     apply(pixels, "gauss_blur_5", "brighten_2")  # several, in order
     parse("gauss_blur_4")                        # UsageError before any work
 
-Names, as the seed allows them:
+Names, as the command line takes them:
 
   brighten_F     multiply by F (a finite number >= 0)
   box_blur_K     mean over a K x K square (K odd, 1..MAX_SIZE); cv2.blur, O(1) per pixel

@@ -23,7 +23,7 @@ from .checks import COORD_LIMIT, FOV_RANGE, MIN_LENGTH, Checks, TypeReader
 
 @dataclass(frozen=True)
 class Camera:
-    position: tuple = (0.0, 0.0, 0.0)  # eye point; the seed's canonical camera sits at the origin
+    position: tuple = (0.0, 0.0, 0.0)  # eye point; the canonical camera sits at the origin
     look_at: tuple = (0.0, 0.0, -1.0)  # point the centre of the image looks at (canonical: down -z)
     up: tuple = (0.0, 1.0, 0.0)  # world direction that appears upward
     fov: float = 60.0  # vertical field of view in degrees (perspective)

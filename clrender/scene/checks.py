@@ -95,7 +95,8 @@ class Checks:
         self.where = where
         self.allow_outside = allow_outside
         self.root = None if allow_outside else base_dir  # a confined scene reads only files inside it (confine.py)
-        self.shapes = {}  # meshes read or built so far, by scene.py's _shape_key: each is loaded once
+        self.shapes = {}  # shapes.Shape read or built so far, by scene.py's _shape_key: each is loaded once
+        self.array_meshes = {}  # numpy `vertices` checked so far, by the arrays' ids: each is checked once
 
     def fail(self, key: str, message: str):
         # the key is cut on its own so that what is allowed still fits on the line

@@ -12,7 +12,7 @@ Lights: a directional key light (its `none` falloff does not depend on the scale
 camera's left shoulder, and a uniform fill of the same value in both integrators: the Whitted ambient term
 and the path tracer's constant environment, so both show kd (fill + key cos) on a convex object.  A surface
 facing the key gets 0.8 (fill + key) = 0.8 of the default grey: bright, never clipped; one facing away
-still gets 0.8 fill.  The Whitted background stays black (the seed's); the path tracer's camera rays that
+still gets 0.8 fill.  The Whitted background stays black (the scene default); the path tracer's camera rays that
 miss see the environment.
 
 Plain data in, plain data out (lists, as a scene dict holds them): gltf.py uses it too, and it imports

@@ -23,7 +23,7 @@ nothing in the file is dropped without being listed here:
   glTF intensities are photometric (candela, lux) for a Lambertian BRDF
   base_colour / pi.  Point lights fall off with the inverse square, which
   selects clrender's physical model (BRDF kd / pi); directional lights use the
-  seed's model, whose Lambert term has no 1/pi, so their intensity is divided
+  unnormalised model, whose Lambert term has no 1/pi, so their intensity is divided
   by pi: either way a surface shows (base_colour / pi) * E, as the glTF
   specification defines.
   A file without lights gets the lights a bare mesh file gets (framing.py: a key
@@ -114,6 +114,8 @@ class Document:
     # (mesh, primitive) -> what its accessors hold, read once however many nodes place it (_read_primitive)
     primitives: dict = field(default_factory=dict)
     drawn: set = field(default_factory=set)  # (node, primitive) that scene_dict found to have area (has_area)
+    # (node, primitive) -> the world triangles scene_dict(keep=True) read, until node_mesh takes them: a node is read once
+    triangles: dict = field(default_factory=dict)
 
     def fail(self, message: str):
         raise UsageError(f"{self.path}: {message}")
@@ -559,7 +561,7 @@ def node_mesh(path, node: int, primitive: int | None = None, root=None) -> NodeM
     triangles = sum(_triangle_count(doc, mesh_index, p) for p in chosen)
     if triangles > MAX_TRIANGLES:  # before any is read
         doc.fail(f"nodes[{node}]: its mesh has {triangles} triangles; allowed: at most {MAX_TRIANGLES}")
-    parts = [primitive_triangles(doc, mesh_index, p, matrix) for p in chosen]
+    parts = [doc.triangles.pop((node, p), None) or primitive_triangles(doc, mesh_index, p, matrix) for p in chosen]
     parts = [p for p in parts if p is not None]
     if not parts or not sum(len(f) for _, f, _ in parts):
         doc.fail(f"nodes[{node}]: its mesh has no triangles")
@@ -903,7 +905,7 @@ def _light(doc: Document, index: int, matrix: np.ndarray) -> dict:
     if isinstance(intensity, bool) or not isinstance(intensity, (int, float)) or not intensity >= 0:
         doc.fail(f"{where}.intensity must be >= 0, got {intensity!r}")
     out = {"color": color.tolist(), "intensity": float(intensity)}
-    if kind == "directional":  # the seed's light model: its Lambert term has no 1/pi
+    if kind == "directional":  # the unnormalised light model: its Lambert term has no 1/pi
         out.update(type="directional", direction=(matrix[:3, :3] @ [0.0, 0.0, -1.0]).tolist(), intensity=float(intensity) / math.pi)
     else:  # a spot light is drawn as a point light: its cone is not modelled
         # inverse-square falloff selects the physical model, whose Lambert BRDF is kd / pi already
@@ -926,9 +928,10 @@ def _check_object_count(doc: Document, order: list) -> None:
 
 
 @_malformed_is_usage_error
-def scene_dict(path, root=None) -> dict:
+def scene_dict(path, root=None, keep: bool = False) -> dict:
     """The `Scene.from_dict` structure of a glTF file; mesh files are named relative to its folder.
-    With a `root` every file it reads must lie inside that folder."""
+    With a `root` every file it reads must lie inside that folder.  keep=True (a scene about to be read): each
+    drawn node's world triangles stay in the document for node_mesh, which then does not compute them again."""
     path = Path(path)
     doc = read_document(path, root)
     names = _material_names(doc)
@@ -957,6 +960,8 @@ def scene_dict(path, root=None) -> dict:
                 if tri is None or not len(tri[1]) or not has_area(tri[0], tri[1]):
                     continue  # points and lines; a node scaled to zero (files hide nodes that way) draws nothing
                 doc.drawn.add((index, p))
+                if keep:
+                    doc.triangles[(index, p)] = tri
                 lo, hi = np.minimum(lo, tri[0].min(axis=0)), np.maximum(hi, tri[0].max(axis=0))
                 material = mesh["primitives"][p].get("material")
                 if material is not None:

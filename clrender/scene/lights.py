@@ -1,7 +1,7 @@
 """Light sources and their units.
 
 Every light has a colour c and an intensity I.  With `falloff = "none"` (the
-seed's model, the default) a surface point receives c*I*max(0, n.l) from a
+unnormalised model, the default) a surface point receives c*I*max(0, n.l) from a
 point or directional light, and an area light adds c*I/n^2 times the same
 term for each of its n x n unblocked samples, so I is the brightness a
 surface facing the light head-on would get.  With `falloff =
@@ -41,8 +41,8 @@ class Light:
     edge_b: tuple = (0.0, 0.0, 1.0)  # area light: second edge vector
     color: tuple = (1.0, 1.0, 1.0)  # linear RGB
     intensity: float = 1.0  # see the module docstring for units
-    samples: int = 5  # area light: samples per side (n x n stratified), the seed's 5
-    falloff: str = "none"  # "none" (the seed) or "inverse_square" (physical)
+    samples: int = 5  # area light: samples per side (n x n stratified)
+    falloff: str = "none"  # "none" (unnormalised: no 1/r^2, no 1/pi) or "inverse_square" (physical)
     cutoff_angle: float = 20.0  # spot: degrees from the axis where its light stops (Mitsuba's default)
     beam_width: float = 15.0  # spot: degrees from the axis within which it is at full intensity
     profile: str = "mitsuba"  # spot: "mitsuba" or "pbrt" (kernels/spot.h)

@@ -1,13 +1,13 @@
-"""Surface materials: the seed's Whitted model (Lambert + Blinn-Phong, mirror, transparency + IOR), and the
+"""Surface materials: the Phong model (Lambert + Blinn-Phong, mirror, transparency + IOR), and the
 glTF 2.0 metallic-roughness model with emission and transmission that the path tracer renders.
 
 A material given with `base_color`, `metallic`, `roughness` or `transmission` is a metallic-roughness
-material (MATERIAL_MODELS["gltf"]); any other is a seed material, which the path tracer maps onto its lobes
+material (MATERIAL_MODELS["gltf"]); any other is a Phong material, which the path tracer maps onto its lobes
 by one rule (docs/materials.md).  `emission` and `ior` belong to both.  The Whitted integrator draws a
 metallic-roughness material as Lambert with kd = base colour (what it drew of glTF materials before the path
 tracer), and nothing else of it.
 
-Textures (scene/textures.py) modulate the parameters per hit: `diffuse_texture` (seed) or `base_color_texture`
+Textures (scene/textures.py) modulate the parameters per hit: `diffuse_texture` (Phong) or `base_color_texture`
 multiplies kd / base colour, `metallic_roughness_texture` metallic (B) and roughness (G), `emissive_texture` the
 emission; `occlusion_texture` darkens only the albedo AOV and the Whitted ambient term; `normal_texture` tilts
 the shading normal (docs/materials.md).
@@ -37,7 +37,7 @@ class Material:
     mirror: float = 0.0  # fraction reflected as a perfect mirror, in [0, 1]
     transparency: float = 0.0  # fraction passed on to the refracted ray, in [0, 1]
     ior: float = 1.0  # index of refraction (> 0); air is 1.0, glass 1.5, water 1.333
-    base_color: tuple | None = None  # glTF base colour (linear RGB); None: a seed material, the keys above
+    base_color: tuple | None = None  # glTF base colour (linear RGB); None: a Phong material, the keys above
     metallic: float = 0.0  # glTF metalness, 0 (dielectric) to 1 (metal)
     roughness: float = 0.5  # glTF perceptual roughness r, 0 to 1; GGX alpha = r^2
     transmission: float = 0.0  # fraction of the dielectric part that is transmitted (KHR_materials_transmission)
@@ -70,7 +70,7 @@ class Material:
     def model(self) -> str:
         if self.kind:
             return self.kind
-        return "seed" if self.base_color is None else "gltf"
+        return "phong" if self.base_color is None else "gltf"
 
     @property
     def smith_code(self) -> int:
@@ -160,10 +160,10 @@ DEFAULT_MATERIAL = Material()
 
 
 # ------------------------------------------------------------------ reading
-# the texture keys, from layout.TEXTURE_SLOT_TABLE: a slot's own key, read by its models; its seed-model alias
+# the texture keys, from layout.TEXTURE_SLOT_TABLE: a slot's own key, read by its models; its Phong-model alias
 SLOT_KEYS = {model: {f"{s.name}_texture": f"{s.name}_texture" for s in TEXTURE_SLOT_TABLE if s.models == model} for model in ("gltf", "all")}
 ALIAS_KEYS = {s.alias: f"{s.name}_texture" for s in TEXTURE_SLOT_TABLE if s.alias}
-SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", *ALIAS_KEYS)
+PHONG_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", *ALIAS_KEYS)
 GLTF_KEYS = ("base_color", "metallic", "roughness", "transmission", *SLOT_KEYS["gltf"])
 
 
@@ -190,7 +190,14 @@ TYPE_KEYS = {
     "coated_diffuse": ("diffuse", "diffuse_texture", "ior", "roughness", "tint", "nonlinear", "smith"),
     "thin_dielectric": ("ior", "tint", "transmittance"),
 }
-TYPES = ("seed", "gltf", *TYPE_KEYS)  # `type`: today's two models by name, or one of the lobes above
+TYPES = ("phong", "gltf", *TYPE_KEYS)  # `type`: the two models by name, or one of the lobes above
+OLD_TYPES = {"seed": "phong"}  # older spellings of a `type`, still accepted (docs/scene-format.md)
+
+
+def _type_of(m: dict):
+    """The table's `type`, an older spelling (OLD_TYPES) read as today's."""
+    kind = m.get("type")
+    return OLD_TYPES[kind] if isinstance(kind, str) and kind in OLD_TYPES else kind
 
 
 def _typed_material(checks: Checks, m: dict, path: str, kind: str, common: dict) -> Material:
@@ -222,7 +229,7 @@ def _typed_material(checks: Checks, m: dict, path: str, kind: str, common: dict)
 
 def _build_material(checks: Checks, m: dict, path: str) -> Material:
     d = DEFAULT_MATERIAL
-    kind = checks.choice(m, "type", path, "", TYPES) if "type" in m else ""
+    kind = checks.choice({"type": _type_of(m)}, "type", path, "", TYPES) if "type" in m else ""
     if kind in TYPE_KEYS:
         common = dict(
             emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
@@ -231,19 +238,19 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
             double_sided=checks.boolean(m, "double_sided", path, d.double_sided),
         )
         return _typed_material(checks, m, path, kind, common)
-    seed, gltf = [k for k in SEED_KEYS if k in m], [k for k in GLTF_KEYS if k in m]
-    if kind == "seed" and gltf:
-        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key in a seed material; allowed: {', '.join(SEED_KEYS)}")
-    if kind == "gltf" and seed:
-        checks.fail(f"{path}.{seed[0]}", f"a Whitted key in a gltf material; allowed: {', '.join(GLTF_KEYS)}")
+    phong, gltf = [k for k in PHONG_KEYS if k in m], [k for k in GLTF_KEYS if k in m]
+    if kind == "phong" and gltf:
+        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key in a Phong material; allowed: {', '.join(PHONG_KEYS)}")
+    if kind == "gltf" and phong:
+        checks.fail(f"{path}.{phong[0]}", f"a Phong key in a gltf material; allowed: {', '.join(GLTF_KEYS)}")
     typed = [k for k in ("eta", "k", "tint", "transmittance", "nonlinear") if k in m]
     if typed:
         checks.fail(f"{path}.{typed[0]}", f"belongs to a `type` material; allowed types: {', '.join(TYPE_KEYS)}")
     if "smith" in m and not (gltf or kind == "gltf"):
         checks.fail(f"{path}.smith", "applies to GGX materials only; allowed on metallic-roughness and `type` materials")
-    if seed and gltf:
-        sets = f"{', '.join(SEED_KEYS)} or {', '.join(GLTF_KEYS)}"
-        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key beside the Whitted key {seed[0]!r}; a material uses one set: {sets}")
+    if phong and gltf:
+        sets = f"{', '.join(PHONG_KEYS)} or {', '.join(GLTF_KEYS)}"
+        checks.fail(f"{path}.{gltf[0]}", f"a metallic-roughness key beside the Phong key {phong[0]!r}; a material uses one set: {sets}")
     common = dict(
         ior=checks.number(m, "ior", path, d.ior, low=IOR_RANGE[0], high=IOR_RANGE[1], positive=True),
         emission=checks.vec3(m, "emission", path, d.emission, kind="colour"),
@@ -277,17 +284,17 @@ def _build_material(checks: Checks, m: dict, path: str) -> Material:
 
 # A `[materials.NAME]` table: its keys, with the defaults of Material's fields.
 MATERIAL_READER = TypeReader(
-    (*SEED_KEYS, "ior", *GLTF_KEYS, "emission", *SLOT_KEYS["all"], "alpha", "double_sided", "type", "smith")
+    (*PHONG_KEYS, "ior", *GLTF_KEYS, "emission", *SLOT_KEYS["all"], "alpha", "double_sided", "type", "smith")
     + ("eta", "k", "tint", "transmittance", "nonlinear"),
     _build_material,
 )
 
 
 # Each model's keys: an unknown key is refused naming those of the model the table is (its `type`, else glTF's when it
-# has a metallic-roughness key, else the seed's); MATERIAL_READER declares their union.
+# has a metallic-roughness key, else the Phong model's); MATERIAL_READER declares their union.
 _SHARED = ("emission", *SLOT_KEYS["all"], "alpha", "double_sided", "type")
 MODEL_KEYS = {
-    "seed": (*SEED_KEYS, "ior", *_SHARED),
+    "phong": (*PHONG_KEYS, "ior", *_SHARED),
     "gltf": (*GLTF_KEYS, "ior", "smith", *_SHARED),
     **{kind: (*COMMON_KEYS, *keys) for kind, keys in TYPE_KEYS.items()},
 }
@@ -295,10 +302,10 @@ MODEL_KEYS = {
 
 def model_of(m: dict) -> str:
     """The model a material table is, for its key check (a bad `type` is refused when it is read)."""
-    kind = m.get("type")
+    kind = _type_of(m)
     if isinstance(kind, str) and kind in MODEL_KEYS:
         return kind
-    return "gltf" if any(k in m for k in GLTF_KEYS) and not any(k in m for k in SEED_KEYS) else "seed"
+    return "gltf" if any(k in m for k in GLTF_KEYS) and not any(k in m for k in PHONG_KEYS) else "phong"
 
 
 def read_material(checks: Checks, m, path: str) -> Material:

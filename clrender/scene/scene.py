@@ -62,6 +62,7 @@ from .checks import (  # noqa: F401
 from .lights import Light, read_light
 from .materials import DEFAULT_MATERIAL, Material, read_material
 from .mesh_files import load_mesh_file
+from .shapes import Instance, Shape, mirrored_faces, vertex_attributes
 from .toml_text import read_toml
 
 
@@ -74,7 +75,7 @@ class Sphere:
 
 @dataclass
 class Mesh:
-    """Triangles with optional per-vertex normals (used when `smooth`).
+    """Triangles with optional per-vertex normals (used when `smooth`): a shape (shapes.py) placed in the scene.
 
     A mesh read from a file or a generator keeps only what places it (`placed`): its world vertices and
     normals are made on first read and then kept (`world_made` says which), so 30 objects naming one
@@ -92,14 +93,11 @@ class Mesh:
     colours: np.ndarray | None = None  # (V, 3) linear RGB vertex colours, multiplying the base colour
     tangents: np.ndarray | None = None  # (V, 4) unit tangents along +u and the bitangent's sign (glTF TANGENT); None: from the UVs
     file_material: dict | None = None  # an OBJ's .mtl material (textures.mtl_material), made a scene material on reading
-    # Instancing (clrender/trace/instancing.py): objects with the same shape_key were made from the same
-    # object-space mesh (`local_vertices`, shared, not copied; `faces`) placed by `to_world` (4x4).
-    shape_key: tuple | None = None  # None: not shareable (inline vertices)
-    local_vertices: np.ndarray | None = None  # (V, 3) float64 before to_world
-    to_world: np.ndarray | None = None  # (4, 4) object-to-world matrix: vertices = local_vertices @ M[:3, :3].T + M[:3, 3]
+    # the shape it places and where (shapes.Instance; clrender/trace/instancing.py): None for a mesh made in code
+    instance: Instance | None = None
     # What vertices and vertex_normals are made from on first read: (points, normals or None, 4x4 matrix M), the
-    # points placed by M and the normals by its inverse transpose.  A file's or generator's: local_vertices and
-    # to_world; a glTF node's: the node's world vertices and the object's own transform (the order the loader
+    # points placed by M and the normals by its inverse transpose.  A file's or generator's: the instance's vertices
+    # and to_world; a glTF node's: the node's world vertices and the object's own transform (the order the loader
     # always used, so the world vertices are the same bits however they are made).
     placed: tuple | None = field(default=None, repr=False)
 
@@ -107,6 +105,21 @@ class Mesh:
         for name in _LAZY_FIELDS:  # None and placed given: read through _MadeOnFirstRead
             if self.__dict__.get(name, 0) is None and self.placed is not None and (name == "vertices" or self.placed[1] is not None):
                 del self.__dict__[name]
+
+    @property
+    def shape_key(self) -> tuple | None:
+        """The shape this mesh places (shapes.Instance.shape_key): equal keys, one object-space mesh."""
+        return None if self.instance is None else self.instance.shape_key
+
+    @property
+    def local_vertices(self) -> np.ndarray | None:
+        """(V, 3) float64 object-space vertices, one array for every copy (shapes.Instance.vertices)."""
+        return None if self.instance is None else self.instance.vertices
+
+    @property
+    def to_world(self) -> np.ndarray | None:
+        """(4, 4) object-to-world matrix (shapes.Instance.to_world)."""
+        return None if self.instance is None else self.instance.to_world
 
     @property
     def has_vertex_normals(self) -> bool:
@@ -175,20 +188,22 @@ class Scene:
     textures: list = field(default_factory=list)  # decoded textures (textures.TextureImage) the materials index
     name: str = "scene"
     description: str = ""  # one line shown by `clrender render --list`
-    featured_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
+    default_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
     aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
     default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, rfilter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
 
     @property
-    def seed_camera(self) -> int:
-        """The old name of `featured_camera`, still accepted."""
-        return self.featured_camera
+    def featured_camera(self) -> int:
+        """An older name of `default_camera` (as is `seed_camera`), still accepted."""
+        return self.default_camera
 
-    @seed_camera.setter
-    def seed_camera(self, value: int) -> None:
-        self.featured_camera = value
+    @featured_camera.setter
+    def featured_camera(self, value: int) -> None:
+        self.default_camera = value
+
+    seed_camera = featured_camera
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -257,7 +272,7 @@ class Scene:
         raise UsageError(f"unknown scene {text!r}; bundled scenes: {', '.join(sorted(bundled))}, or {files}")
 
     def camera(self, number: int) -> Camera:
-        """Camera `number`, counting from 1 as the seed does."""
+        """Camera `number`, counting from 1 as the command line does."""
         if not 1 <= number <= len(self.cameras):
             raise UsageError(f"camera {number} does not exist in scene {self.name!r}; allowed: 1 to {len(self.cameras)}")
         return self.cameras[number - 1]
@@ -298,11 +313,12 @@ TOP_KEYS = (
     "objects",
     "name",
     "description",
-    "featured_camera",
     "default_camera",
     "aa",
     "textures",
 )
+# Older spellings of top-level keys, still accepted: each is read as the key it names (docs/scene-format.md)
+OLD_TOP_KEYS = {"featured_camera": "default_camera", "seed_camera": "default_camera"}
 # `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
 # (environment.py; an image is what the Whitted tracer's escaping rays see too)
 ENVIRONMENT_READER = environment.ENVIRONMENT_READER
@@ -310,12 +326,7 @@ ENVIRONMENT_READER = environment.ENVIRONMENT_READER
 
 def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     checks.check_shape(data)
-    if "seed_camera" in data:  # the old name of featured_camera, still accepted
-        if "featured_camera" in data:
-            checks.fail("seed_camera", "is the old name of featured_camera; give only featured_camera")
-        data = {("featured_camera" if k == "seed_camera" else k): v for k, v in data.items()}
-    if "default_camera" in data and "featured_camera" in data:  # one setting: the camera `render` uses without --camera
-        checks.fail("default_camera", "and featured_camera are one setting (featured_camera is its older name); give only default_camera")
+    data = _renamed_keys(checks, data)
     checks.check_keys(data, "", TOP_KEYS)
     data = _expand_model_files(checks, data)
     scene = Scene(name=checks.name(data.get("name", name), "name"))
@@ -329,8 +340,7 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     cameras = checks.counted(data, "cameras", MAX_CAMERAS) if "cameras" in data else cameras
     scene.cameras = [read_camera(checks, c, f"cameras[{i}]") for i, c in enumerate(cameras)]
     scene.description = checks.name(data["description"], "description") if "description" in data else ""
-    camera_key = "default_camera" if "default_camera" in data else "featured_camera"
-    scene.featured_camera = checks.integer(data, camera_key, "", 1, low=1, high=len(scene.cameras))
+    scene.default_camera = checks.integer(data, "default_camera", "", 1, low=1, high=len(scene.cameras))
     scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
@@ -365,6 +375,16 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     return scene
 
 
+def _renamed_keys(checks: Checks, data: dict) -> dict:
+    """`data` with each older key spelling (OLD_TOP_KEYS) under today's name; two spellings of one key are refused."""
+    for old, new in OLD_TOP_KEYS.items():
+        if old in data:
+            if new in data:
+                checks.fail(old, f"is an older name of {new}; give only {new}")
+            data = {(new if k == old else k): v for k, v in data.items()}
+    return data
+
+
 def _expand_model_files(checks: Checks, data: dict) -> dict:
     """A mesh object whose `file` is a glTF file, with neither `node` nor `material`, becomes one object per
     primitive of the file, each in the file's own material (renamed FILE:NAME, its textures FILE:texture_N),
@@ -380,7 +400,7 @@ def _expand_model_files(checks: Checks, data: dict) -> dict:
         if not _is_model_file(o):
             objects.append(o)
             continue
-        model = gltf.scene_dict(_mesh_path(checks, o["file"], f"objects[{i}].file"), root=checks.root)
+        model = gltf.scene_dict(_mesh_path(checks, o["file"], f"objects[{i}].file"), root=checks.root, keep=True)
         prefix = f"{o['file']}:"
         for name, spec in model["textures"].items():
             texture_specs[prefix + name] = {**spec, "file": o["file"]}
@@ -486,7 +506,7 @@ def _load_mesh_scene(path, allow_outside: bool = True, up: str = "y", smooth: bo
         from .meshes import shading_normals
 
         normals = shading_normals(vertices, tm.faces)
-    uvs, _, _, _ = _vertex_attributes(tm)  # an OBJ's vt, for its map_Kd
+    uvs, _, _, _ = vertex_attributes(tm)  # an OBJ's vt, for its map_Kd
     mesh = Mesh(vertices, np.asarray(tm.faces, np.int64), normals, "default", smooth, source=path.name, uvs=uvs)
     # an OBJ's .mtl, as a TOML `file =` object gets it
     mesh.file_material = textures.mtl_material(tm, tm.metadata.get(obj_mtl.METADATA_KEY, False))
@@ -517,7 +537,7 @@ def _load_gltf(path, allow_outside: bool = True) -> Scene:
     from . import framing
 
     root = None if allow_outside else path.parent
-    data = gltf.scene_dict(path, root)
+    data = gltf.scene_dict(path, root, keep=True)
     scene = Scene.from_dict(data, base_dir=path.parent, where=str(path), name=path.stem, allow_outside=allow_outside)
     scene.default_lighting = data["lights"] == framing.lighting(data["cameras"][0])["lights"]  # the file brought none
     return scene
@@ -597,16 +617,33 @@ def _parallelogram(checks: Checks, o, path, materials, corner, a, b) -> Mesh:
 def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     """A triangle mesh from a file (any format trimesh reads, or one node of a glTF file), a built-in
     generator or inline `vertices` and `faces`, scaled, rotated and translated; with build=False only
-    checked (None)."""
+    checked (None).  What it is made from is a Shape (shapes.py), read once for every object that names it."""
     if sum(k in o for k in ("file", "generator", "vertices")) != 1 or ("vertices" in o) != ("faces" in o):
         checks.fail(path, "a mesh needs exactly one of 'file', 'generator' or 'vertices' with 'faces'")
     gltf_node = _gltf_node(checks, o, path)
     if "file" in o:
-        file = _mesh_path(checks, o.get("file"), f"{path}.file")
+        made = dict(file=_mesh_path(checks, o.get("file"), f"{path}.file"))
     elif "generator" in o:
-        gen, params = _generator(checks, o, path)
+        made = dict(zip(("gen", "params"), _generator(checks, o, path)))
     else:
-        inline = _inline_mesh(checks, o, path)
+        made = dict(inline=_inline_mesh(checks, o, path))
+    matrix = _mesh_matrix(checks, o, path)
+    if "uvs" in o and "vertices" not in o:
+        checks.fail(f"{path}.uvs", "goes with inline 'vertices' (a file's or generator's mesh brings its own)")
+    smooth = checks.boolean(o, "smooth", path, False)
+    material = material_ref(checks, o, path, materials)
+    if not build:
+        return None
+    shape = _shape(checks, o, path, made, gltf_node)
+    mesh = _place_shape(checks, shape, made.get("inline"), matrix, path, smooth)
+    mesh.material = material
+    if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
+        mesh.file_material = textures.mtl_material(shape.mesh, shape.mesh.metadata.get(obj_mtl.METADATA_KEY, False))
+    return mesh
+
+
+def _mesh_matrix(checks: Checks, o, path) -> np.ndarray:
+    """A mesh object's object-to-world matrix: its `matrix`, or its `scale`, `rotate` and `translate`."""
     scale = o.get("scale", 1.0)
     if is_number(scale):
         scale = checks.number(o, "scale", path, 1.0, low=-COORD_LIMIT, high=COORD_LIMIT)
@@ -618,114 +655,80 @@ def _mesh(checks: Checks, o, path, materials, build) -> Mesh | None:
     rotate = checks.vec3(o, "rotate", path, (0.0, 0.0, 0.0))
     translate = checks.vec3(o, "translate", path, (0.0, 0.0, 0.0))
     given_matrix = _given_matrix(checks, o, path)  # `matrix`: instead of scale, rotate and translate
-    if "uvs" in o and "vertices" not in o:
-        checks.fail(f"{path}.uvs", "goes with inline 'vertices' (a file's or generator's mesh brings its own)")
-    smooth = checks.boolean(o, "smooth", path, False)
-    material = material_ref(checks, o, path, materials)
-    if not build:
-        return None
-    key = _shape_key(o, file if "file" in o else None, gltf_node, gen if "generator" in o else None, params if "generator" in o else None)
-    if given_matrix is not None and isinstance(o.get("vertices"), np.ndarray):  # arrays placed by a matrix: shared by identity
+    return transform_matrix(translate, rotate, scale) if given_matrix is None else given_matrix
+
+
+def _shape(checks: Checks, o, path, made: dict, gltf_node) -> Shape | None:
+    """The Shape a mesh object places (checks.shapes: one per shape key, read on first use), or None for inline
+    `vertices` that no other object shares."""
+    key = _shape_key(o, made.get("file"), gltf_node, made.get("gen"), made.get("params"))
+    if "matrix" in o and isinstance(o.get("vertices"), np.ndarray):  # arrays placed by a matrix: shared by identity
         key = ("arrays", id(o["vertices"]), id(o["faces"]), id(o.get("uvs")))
-    cache = checks.shapes  # one load per shape: objects naming the same mesh share its arrays (instancing)
-    placed = None  # a glTF node: (mesh index, the mesh's own vertices, the node's world matrix)
-    if gltf_node is not None:  # nodes sharing a mesh share its vertices; each node's world ones are read as before
-        shape = cache.get(("gltf node", key))
-        if shape is None:
-            shape = cache[("gltf node", key)] = gltf.node_shape(file, *gltf_node, root=checks.root)
-        placed = shape
-    if key is not None and key in cache:
-        tm, source = cache[key]
-    elif gltf_node is not None:  # one node's mesh of a glTF file, in its world space
-        tm = gltf.node_mesh(file, *gltf_node, root=checks.root)
-        source = f"{o['file']} node {gltf_node[0]}"
-    elif "file" in o:
-        tm = load_mesh_file(file, f"{checks.where}: {path}.file", root=checks.root)
-        source = o["file"]
-    elif "vertices" in o:
-        tm, source = inline, path
+    if key is None:
+        return None
+    shape = checks.shapes.get(key)
+    if shape is not None:
+        return shape
+    if gltf_node is not None:  # one node's mesh of a glTF file in its world space, and the node placing its glTF mesh
+        mesh_index, own, node_matrix = gltf.node_shape(made["file"], *gltf_node, root=checks.root)
+        node = (("gltf", key[1], mesh_index, gltf_node[1]), own, node_matrix)
+        shape = Shape(key, gltf.node_mesh(made["file"], *gltf_node, root=checks.root), f"{o['file']} node {gltf_node[0]}", gltf=node)
+        checks.shapes.setdefault(node[0], shape)  # nodes sharing a glTF mesh share its own vertices: the first one's Shape
+    elif "file" in made:
+        shape = Shape(key, load_mesh_file(made["file"], f"{checks.where}: {path}.file", root=checks.root), o["file"])
+    elif "inline" in made:
+        shape = Shape(key, made["inline"], path)
     else:
         from . import meshes
 
-        tm = meshes.generate(gen, **params)  # bare arrays: no trimesh import for a generated mesh
-        source = gen
-    if key is not None:
-        cache[key] = (tm, source)
+        shape = Shape(key, meshes.generate(made["gen"], **made["params"]), made["gen"], generated=True)  # bare arrays: no trimesh import
+    checks.shapes[key] = shape
+    return shape
+
+
+def _place_shape(checks: Checks, shape: Shape | None, inline, matrix: np.ndarray, path, smooth: bool) -> Mesh:
+    """A Mesh placing `shape` by `matrix` (its world vertices and normals made on first read: the instanced Tracer
+    never reads them), or, with no shape, the `inline` arrays placed now."""
+    tm = inline if shape is None else shape.mesh
     if len(tm.faces) > MAX_TRIANGLES:
         checks.fail(f"{path}", f"{len(tm.faces)} triangles; allowed: at most {MAX_TRIANGLES}")
-    matrix = transform_matrix(translate, rotate, scale) if given_matrix is None else given_matrix
-    points = np.asarray(tm.vertices, np.float64)  # what matrix places: the mesh's own, or a glTF node's world ones
-    if key is not None:  # one array object for every copy (payload.py ships it once)
-        points = cache.setdefault(("local", key), points)
-        box = cache.get(("box", key))
-        if box is None:
-            box = cache[("box", key)] = (points.min(axis=0), points.max(axis=0))
-        _check_placed_box(checks, points, box, matrix, path)
-    else:  # inline vertices: placed now, as they are not shared
+    if shape is None:
+        points, faces = np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64)
         vertices = _place_points((points, None, matrix))
         _check_placed(checks, vertices, path)
-    normals = None
-    if smooth:
-        from .meshes import shading_normals
+        normals = None
+        if smooth:
+            from .meshes import shading_normals
 
-        # Given normals: a generator's, or a glTF node's from its file (trimesh drops a file's
-        # own); shading_normals computes the rest, welded across patches, and replaces zero/NaN ones.
-        given = tm.vertex_normals if "generator" in o else getattr(tm, "normals", None)  # inline: None
-        local = cache.get(("normals", key)) if key is not None else None
-        if local is None:
-            local = shading_normals(tm.vertices, tm.faces, given)
-            if key is not None:
-                cache[("normals", key)] = local
-        normals = local
-    if key is None:
-        uvs, uvs1, colours, tangents = _vertex_attributes(tm)
-    else:  # a file's uvs are made from trimesh's once, and shared like its vertices
-        if ("attributes", key) not in cache:
-            cache[("attributes", key)] = _vertex_attributes(tm)
-        uvs, uvs1, colours, tangents = cache[("attributes", key)]
-    if tangents is not None:  # they turn with the object's transform
-        xyz = tangents[:, :3] @ matrix[:3, :3].T
-        tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
-    local_vertices, faces, to_world = points, np.asarray(tm.faces, np.int64), matrix
-    if key is not None:
-        faces = cache.setdefault(("faces", key), faces)
-    if placed is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
-        mesh_index, own, node_matrix = placed
-        key, to_world = ("gltf", key[1], mesh_index, gltf_node[1]), matrix @ node_matrix
-        local_vertices = cache.setdefault(("gltf mesh", key), own)
-    if np.linalg.det(np.asarray(to_world, np.float64)[:3, :3]) < 0:  # a mirror: the winding reversed (mirrored_faces)
-        faces = cache.setdefault(("mirrored faces", key), mirrored_faces(faces)) if key is not None else mirrored_faces(faces)
-    if key is None:
-        mesh = Mesh(vertices, faces, None if normals is None else _place_normals((points, normals, matrix)), material, smooth, source)
-    else:  # world vertices (and normals) made on first read: the instanced Tracer never reads them
-        mesh = Mesh(None, faces, None, material, smooth, source, placed=(points, normals, matrix))
-    mesh.uvs, mesh.uvs1, mesh.colours, mesh.tangents = uvs, uvs1, colours, tangents
-    mesh.shape_key, mesh.local_vertices, mesh.to_world = key, local_vertices, to_world
-    if "material" not in o and "file" in o and gltf_node is None:  # the file's own material, if it brings one
-        mesh.file_material = textures.mtl_material(tm, tm.metadata.get(obj_mtl.METADATA_KEY, False))
+            normals = _place_normals((points, shading_normals(tm.vertices, tm.faces, None), matrix))
+        if np.linalg.det(matrix[:3, :3]) < 0:  # a mirror: the winding reversed (mirrored_faces)
+            faces = mirrored_faces(faces)
+        mesh = Mesh(vertices, faces, normals, "default", smooth, path)
+        mesh.uvs, mesh.uvs1, mesh.colours, mesh.tangents = _turned(vertex_attributes(tm), matrix)
+        mesh.instance = Instance(None, points, matrix)
+        return mesh
+    _check_placed_box(checks, shape.points, shape.box, matrix, path)
+    normals = shape.normals if smooth else None
+    local_vertices, to_world, mirrored = shape.points, matrix, shape
+    key = shape.key
+    if shape.gltf is not None:  # the glTF mesh's own vertices, placed by the node and then the object's transform
+        key, own, node_matrix = shape.gltf
+        mirrored = checks.shapes[key]
+        local_vertices, to_world = mirrored.gltf[1], matrix @ node_matrix
+    faces = mirrored.mirrored_faces if np.linalg.det(np.asarray(to_world, np.float64)[:3, :3]) < 0 else shape.faces
+    mesh = Mesh(None, faces, None, "default", smooth, shape.source, placed=(shape.points, normals, matrix))
+    mesh.uvs, mesh.uvs1, mesh.colours, mesh.tangents = _turned(shape.attributes, matrix)
+    mesh.instance = Instance(key, local_vertices, to_world)
     return mesh
 
 
-def mirrored_faces(faces: np.ndarray) -> np.ndarray:
-    """The faces of a mesh placed by a mirroring matrix (determinant < 0), winding reversed, so that its front
-    stays the side the object-space winding's normal points to, carried by the inverse transpose (glTF: "the
-    determinant of the node's global transform defines the winding order"; pbrt's transformSwapsHandedness;
-    the instanced kernels' normal_to_world).  Swapping the 2nd and 3rd corner keeps each face's first vertex."""
-    return np.ascontiguousarray(np.asarray(faces)[:, [0, 2, 1]])
-
-
-def _vertex_attributes(tm):
-    """(uvs, uvs1, colours, tangents) of a mesh, each None when it has none: a glTF node's (gltf.NodeMesh), or the
-    texture coordinates trimesh read (an OBJ's `vt`, whose v runs up the image: flipped to glTF's convention)."""
-    if hasattr(tm, "uv0"):
-        return tm.uv0, tm.uv1, tm.colours, tm.tangents
-    visual = getattr(tm, "visual", None)
-    uv = getattr(visual, "uv", None) if getattr(visual, "kind", None) == "texture" else None
-    if uv is None or np.shape(uv) != (len(tm.vertices), 2):
-        return None, None, None, None
-    uv = np.asarray(uv, np.float64)
-    uv = np.where(np.isfinite(uv) & (np.abs(uv) <= UV_LIMIT), uv, 0.0)  # as glTF's are bounded (gltf.primitive_attributes)
-    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1), None, None, None
+def _turned(attributes: tuple, matrix: np.ndarray) -> tuple:
+    """(uvs, uvs1, colours, tangents) of a mesh placed by `matrix`: its tangents turn with it."""
+    uvs, uvs1, colours, tangents = attributes
+    if tangents is not None:
+        xyz = tangents[:, :3] @ matrix[:3, :3].T
+        tangents = np.concatenate([xyz / np.maximum(np.linalg.norm(xyz, axis=1, keepdims=True), 1e-30), tangents[:, 3:]], 1)
+    return uvs, uvs1, colours, tangents
 
 
 def _given_matrix(checks: Checks, o, path) -> np.ndarray | None:
@@ -773,10 +776,10 @@ def _inline_mesh(checks: Checks, o, path) -> _InlineMesh:
     """`vertices` (points) and `faces` (triples of vertex indices) given in the scene itself."""
     vertices, faces = o.get("vertices"), o.get("faces")
     if isinstance(vertices, np.ndarray):  # a dict made in Python (a pbrt file's meshes): checked as whole arrays, once
-        key = ("array mesh", id(vertices), id(o.get("faces")), id(o.get("uvs")))
-        if key not in checks.shapes:
-            checks.shapes[key] = _array_mesh(checks, o, path)
-        return checks.shapes[key]
+        key = (id(vertices), id(o.get("faces")), id(o.get("uvs")))
+        if key not in checks.array_meshes:
+            checks.array_meshes[key] = _array_mesh(checks, o, path)
+        return checks.array_meshes[key]
     if not isinstance(vertices, list) or not vertices or len(vertices) > 3 * MAX_TRIANGLES:
         checks.fail(f"{path}.vertices", f"expected a non-empty list of at most {3 * MAX_TRIANGLES} points")
     if not isinstance(faces, list) or not faces or len(faces) > MAX_TRIANGLES:

@@ -10,7 +10,7 @@ Its weight at pixel centre p is
 cut to zero outside the 3-sigma ellipse (q >= 9); its effective colour is
 luminance * colour.  Blend modes (see kernels/splat_gauss.cl):
 
-    sum:        I = background + sum_i w_i c_i          (the seed's)
+    sum:        I = background + sum_i w_i c_i          (additive)
     normalized: I = (sum_i w_i c_i + eps * background) / (sum_i w_i + eps)
 
 The forward kernel renders 16x16 tiles, each pixel visiting only the splats
@@ -70,7 +70,7 @@ class GaussParams:
     log_scale: np.ndarray  # (N, 2) log sigma along the rotated axes
     theta: np.ndarray  # (N,) rotation, radians
     color: np.ndarray  # (N, 3) base colour
-    lum: np.ndarray  # (N,) luminance factor (the seed's learned quantity); colour = lum * color
+    lum: np.ndarray  # (N,) luminance factor (what `--learn scale-lum` fits); colour = lum * color
     opacity: np.ndarray  # (N,) in [0, 1]
     width: int = 0
     height: int = 0

@@ -4,7 +4,7 @@ Every loss takes the rendered image x and the target y, both (H, W, 3), and an
 optional pixel mask (H, W) of the pixels that count (a mini-batch); it returns
 (loss, dL/dx).  Means are over the counted pixels and the three channels.
 
-    l2:      mean (x - y)^2                                  (the seed's)
+    l2:      mean (x - y)^2                                  (mean squared error)
     l1:      mean |x - y|           (subgradient 0 where x = y)
     l1-ssim: l1 + lambda * (1 - SSIM(x, y)), lambda = 0.2, SSIM with an 11x11
              Gaussian window (sigma 1.5), zero padding, C1 = 0.01^2, C2 = 0.03^2

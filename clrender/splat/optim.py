@@ -5,7 +5,7 @@ place for the groups it was given rates for; `reindex(src)` keeps the state
 consistent when densification rebuilds the splat list (new row i continues
 from old row src[i]).
 
-    sgd:      p -= lr g                                  (the seed's)
+    sgd:      p -= lr g                                  (plain gradient descent)
     momentum: v = mu v + g;  p -= lr v                   (mu = 0.9)
     adam:     m = b1 m + (1-b1) g;  v = b2 v + (1-b2) g^2;
               p -= lr m_hat / (sqrt(v_hat) + eps)         (b1 0.9, b2 0.999, eps 1e-8)

@@ -3,12 +3,12 @@
 Sites are float positions in pixel units; pixel (x, y) has its centre at
 (x + 0.5, y + 0.5).  Two exact methods give identical index maps:
 
-    naive  every site for every pixel (the seed's baseline), O(pixels x sites)
+    naive  every site for every pixel (the brute-force baseline), O(pixels x sites)
     grid   sites counting-sorted into square cells of a power-of-two side on
            the host; each pixel scans rings of cells outward and stops once no
            unscanned site can be closer.  Ties go to the lower site index.
 
-Colours are `sample` (the image at the site, as the seed did) or `mean` (the
+Colours are `sample` (the image at the site) or `mean` (the
 mean of the cell's pixels, the least-squares optimum, by np.bincount).
 `lloyd_step` moves each site to its cell's centroid (centroidal Voronoi).
 The trainable soft model is in voronoi_soft.py; the grid, the nearest-site search and the

@@ -140,7 +140,7 @@ def pixel_of_site(sites: np.ndarray, width: int, height: int) -> tuple[np.ndarra
 
 
 def sample_colors(image: np.ndarray, sites: np.ndarray) -> np.ndarray:
-    """The image's colour at each site (the seed's choice); (N, C) float32."""
+    """The image's colour at each site (point sampling); (N, C) float32."""
     h, w = image.shape[:2]
     row, col = pixel_of_site(sites, w, h)
     return image[row, col].astype(np.float32)

@@ -30,7 +30,7 @@ Builders:
   below about ``n / TOP_TASKS`` primitives each work-item builds a whole
   subtree.  Every work-item works alone on its own range of primitives, so the
   tree does not depend on scheduling: the same input gives the same tree.
-* ``median`` -- the seed's rule, in numpy (vectorised: the tree grows one level
+* ``median`` -- the object-median split, in numpy (vectorised: the tree grows one level
   at a time, every node of a level handled at once, then the breadth-first tree
   is renumbered depth-first): primitives sorted by centroid x, every node split
   into halves (the first child gets ``count // 2``), leaves of at most
@@ -263,9 +263,9 @@ def _range_bounds(box, start, count):
     return bmin, bmax
 
 
-# ---------------------------------------------------------------- median (seed)
+# ---------------------------------------------------------------- median
 def _median_levels(lo, hi, max_leaf):
-    """The seed's builder: one sort by centroid x, then every node splits its range in halves."""
+    """The median builder: one sort by centroid x, then every node splits its range in halves."""
     order = np.argsort(lo[:, 0] + hi[:, 0], kind="stable")
     box = np.zeros((6, len(lo) + 1), np.float32)
     box[0:3, :-1], box[3:6, :-1] = lo[order].T, hi[order].T

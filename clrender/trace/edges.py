@@ -1,7 +1,7 @@
 """Edge detection from object IDs, for edge-only anti-aliasing and the green edge picture.
 
-The seed's rule: pixel (y, x) is an edge when the pixel above (y-1, x), to the
-left (y, x-1) or above-left (y-1, x-1) differs from it.  Beyond the seed, "differs"
+The ID rule: pixel (y, x) is an edge when the pixel above (y-1, x), to the
+left (y, x-1) or above-left (y-1, x-1) differs from it.  Beyond IDs, "differs"
 means any object ID along the pixel's path differs (primary hit, then each
 mirror/refraction bounce), so edges seen in reflections and through glass are
 found too; with shadow edges on, a change of more than `shadow_tolerance` in the
@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import UsageError
 
-# The three neighbours of the seed's rule, as (dy, dx) offsets from the pixel.
+# The three neighbours of the ID rule, as (dy, dx) offsets from the pixel.
 NEIGHBOURS = ((-1, 0), (0, -1), (-1, -1))
 
 # Radii up to this use cv2.dilate with a disc kernel (fast for small discs, cost grows

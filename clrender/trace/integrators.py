@@ -83,7 +83,7 @@ class Integrator:
 
 
 class WhittedIntegrator(Integrator):
-    """The seed's Whitted tracer (kernels/shade.h): one pass of N x N samples, edge-only AA resampling after."""
+    """The Whitted tracer (kernels/shade.h): one pass of N x N samples, edge-only AA resampling after."""
 
     name = "whitted"
     kernel = ("trace.cl", "render")
@@ -176,7 +176,6 @@ class PathIntegrator(Integrator):
         path_defines = {
             **film.defines(s.rfilter),  # a reconstruction filter wider than a pixel splats
             **({"HIDE_EMITTERS": 1} if s.hide_emitters else {}),  # camera rays look past emitters (Mitsuba's hide_emitters)
-            **({"RR_DEPTH": s.rr_depth} if s.rr_depth is not None else {}),  # else the kernel's own Russian-roulette start
         }
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 

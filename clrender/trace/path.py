@@ -13,6 +13,8 @@ from ..errors import UsageError
 from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, TEXTURE_SLOTS
 from .geometry import Primitives
 
+RR_DEPTH = 3  # Russian roulette from this many bounces on, when RenderSettings.rr_depth is None
+
 
 def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     """The emissive triangles (layout.EMITTER_DTYPE records, their power's running sum normalised in `cdf` and
@@ -61,4 +63,6 @@ def path_params(integrator, frame: np.ndarray, first_sample: int) -> np.ndarray:
     p["frame"] = frame
     p["environment"] = integrator.renderer.scene.environment
     p["n_emitters"], p["spp"], p["first_sample"] = integrator.n_emitters, spp, first_sample
+    rr_depth = integrator.settings.rr_depth
+    p["rr_depth"] = RR_DEPTH if rr_depth is None else rr_depth
     return p

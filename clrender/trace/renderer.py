@@ -30,7 +30,7 @@ from .aov import AOV_NAMES
 from .tracer import BUILDERS, Tracer, global_size
 
 AA_MODES = ("none", "full", "edge_detect")
-# the seed's Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl): integrators.py
+# the Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl): integrators.py
 INTEGRATORS = tuple(integrators.INTEGRATORS)
 MAX_SPP = 1 << 20  # paths per pixel in one pass
 LIGHT_SAMPLERS = ("stratified", "random")
@@ -47,7 +47,7 @@ class RenderSettings:
     width: int | None = None  # image width in pixels; None: the scene's (or kept to its aspect ratio from height)
     height: int | None = None  # image height in pixels; None: the scene's (or kept to its aspect ratio from width)
     camera: int = 1  # camera number, counting from 1 (1 is the canonical camera)
-    integrator: str = "whitted"  # "whitted" (the seed's) or "path" (physically based: docs/materials.md)
+    integrator: str = "whitted"  # "whitted" (recursive Whitted ray tracing) or "path" (physically based: docs/materials.md)
     spp: int = 0  # path: paths per pixel per pass; 0: samples x samples
     time_budget: float | None = None  # path: whole-image passes of spp paths while this many seconds last; None: one pass
     aa: str = "none"  # anti-aliasing: "none", "full" or "edge_detect"
@@ -56,14 +56,14 @@ class RenderSettings:
     pixel_filter: str = "box"  # how a pixel's samples are averaged: "box" (plain mean), "tent" or "gaussian"
     thickness: float = integrators.THICKNESS  # edge_detect: radius of the disc marked around each edge pixel
     shadow_edges: bool = True  # edge_detect: changes in light visibility count as edges
-    contrast: float = 0.03  # edge_detect: a step above this between neighbours (sRGB, any channel) is an edge too; 0: IDs only (the seed)
+    contrast: float = 0.03  # edge_detect: a step above this between neighbours (sRGB, any channel) is an edge too; 0: IDs only
     light_samples: int = 0  # area-light samples per side for every light; 0 keeps each light's own
-    light_sampler: str = "stratified"  # area-light samples: "stratified" (the seed's jittered grid) or "random"
+    light_sampler: str = "stratified"  # area-light samples: "stratified" (one jittered sample per cell of an n x n grid) or "random"
     max_depth: int = 8  # mirror/refraction bounces after the primary hit
-    fresnel: bool = False  # split transparency by Schlick's Fresnel term instead of the seed's fixed split
+    fresnel: bool = False  # split transparency by Schlick's Fresnel term instead of the fixed split by `transparency`
     seed: int = 0  # seeds every random choice; the same seed gives the same image
     bvh: bool = True  # False tests every primitive for every ray (the benchmark's baseline)
-    bvh_builder: str = "sah"  # "sah" (binned surface-area heuristic) or "median" (the seed's)
+    bvh_builder: str = "sah"  # "sah" (binned surface-area heuristic) or "median" (object-median split)
     tile_size: int = 128  # tiles are tile_size x tile_size pixels per kernel launch
     device: str | None = None  # OpenCL device substring; None: $CLRENDER_DEVICE, else the fastest CPU driver
     aovs: tuple = ()  # extra outputs on RenderResult.aovs: any of "depth", "normal", "albedo", "id", "edges"
@@ -72,7 +72,7 @@ class RenderSettings:
     instancing: bool | None = None
     rfilter: str = "box"  # path: the film's reconstruction filter, "box" (a pixel's own samples), "tent" or "gaussian" (trace/film.py)
     hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
-    rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: the kernel's (3)
+    rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: path.RR_DEPTH (3)
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any

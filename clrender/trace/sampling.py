@@ -2,7 +2,7 @@
 
 Offsets are in [0, 1)^2 from the pixel's top-left corner.  Sample s of N*N
 lies in sub-square row p = s // N and column q = s % N:
-  uniform     the seed's fixed grid ((q + 0.5) / N, (p + 0.5) / N)
+  uniform     the centred grid ((q + 0.5) / N, (p + 0.5) / N)
   random      N*N independent uniform positions in the pixel
   stratified  one jittered sample in each sub-square ((q + xi) / N, (p + xi') / N)
   sobol       the first N*N points of a 2-D Sobol sequence, Owen-scrambled per pixel

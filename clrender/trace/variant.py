@@ -106,6 +106,7 @@ class Variant:
             "SHADOW_SHAFTS": int(self.shadow_shafts),
             "SHAFT_CANDIDATES": self.knobs.shaft_candidates,
             "RAY_PACKETS": int(self.ray_packets),
+            "RENDER_BUILD": int(self.render),  # trace.cl: the render kernel alone (1) or the ray queries (0)
             **({"INSTANCED": 1} if self.instanced else {}),  # only when there are: the flat scene's kernels are the ones before
             **({"TOP_WIDE": 1} if self.instanced and self.top_wide else {}),
         }

@@ -18,7 +18,7 @@ What is mapped, and why each pair is the same function:
   lookup between texels at u = (j + 0.5) / W and v = i / (H - 1) (docs/scene-format.md).
 - material `emission` -> an `area` emitter on the shape, that radiance: one-sided in both, emitted on the side
   of the geometric normal (cross(v1 - v0, v2 - v0) for a triangle, outwards on a sphere).
-- seed `diffuse` kd alone -> `twosided(diffuse)` of reflectance kd: Lambert kd / pi; clrender's integrator
+- Phong `diffuse` kd alone -> `twosided(diffuse)` of reflectance kd: Lambert kd / pi; clrender's integrator
   turns the normal to the viewer's side of an opaque surface, so both faces reflect in both.
 - glTF `base_color`, `metallic`, `roughness` -> `clrender_gltf`, the Python BSDF below: glTF 2.0 Appendix B
   written out, as kernels/bsdf.h does: GGX D with alpha = roughness^2, Smith's height-correlated G2,
@@ -228,7 +228,7 @@ def rgb(value) -> dict:
 
 GLTF_KEYS = ("base_color", "metallic", "roughness")
 GLASS_KEYS = ("transmission",)
-SEED_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "ior")
+PHONG_KEYS = ("diffuse", "specular", "shininess", "mirror", "transparency", "ior")
 
 
 MITSUBA_WRAP = {"repeat": "repeat", "mirrored_repeat": "mirror", "clamp_to_edge": "clamp"}
@@ -285,7 +285,7 @@ def bsdf(material: dict, exact: bool = True, textures: dict | None = None, plant
             return {"type": "clrender_gltf", "base_color": rgb(base), "metallic": metallic, "roughness": roughness}
         principled = {"type": "principled", "base_color": rgb(base), "metallic": metallic, "roughness": roughness}
         return {"type": "twosided", "material": principled}
-    return seed_bsdf(material)
+    return phong_bsdf(material)
 
 
 def exchange_bsdf(material: dict) -> dict:
@@ -314,8 +314,8 @@ def exchange_bsdf(material: dict) -> dict:
     return out
 
 
-def seed_bsdf(material: dict) -> dict:
-    """A seed Whitted material by the documented rule: Lambert kd + ks GGX conductor (alpha from shininess),
+def phong_bsdf(material: dict) -> dict:
+    """A Phong material by the documented rule: Lambert kd + ks GGX conductor (alpha from shininess),
     mirror, transparency."""
     kd = np.asarray(material.get("diffuse", (0.8, 0.8, 0.8)), float)
     ks = np.asarray(material.get("specular", (0.0, 0.0, 0.0)), float)

@@ -52,7 +52,7 @@ def test_smith_on_a_metallic_roughness_material_and_the_default():
     assert int(packed({"base_color": [1, 1, 1], "smith": "separable"})["smith"]) == 1
     assert int(packed({"base_color": [1, 1, 1]})["smith"]) == 0
     assert int(packed({"type": "gltf"})["model"]) == MATERIAL_MODELS["gltf"]
-    assert int(packed({"type": "seed", "diffuse": [1, 0, 0]})["model"]) == MATERIAL_MODELS["seed"]
+    assert int(packed({"type": "phong", "diffuse": [1, 0, 0]})["model"]) == MATERIAL_MODELS["phong"] == 0
     assert len(BSDF_LOBES) == 10
 
 
@@ -67,7 +67,8 @@ def test_smith_on_a_metallic_roughness_material_and_the_default():
         ({"type": "conductor", "eta": [1, 2]}, ["materials.m.eta"]),
         ({"diffuse": [1, 1, 1], "smith": "separable"}, ["materials.m.smith", "GGX"]),
         ({"diffuse": [1, 1, 1], "tint": [1, 1, 1]}, ["materials.m.tint", "conductor"]),
-        ({"type": "seed", "base_color": [1, 1, 1]}, ["materials.m.base_color"]),
+        ({"type": "phong", "base_color": [1, 1, 1]}, ["materials.m.base_color", "Phong material"]),
+        ({"type": "seed", "base_color": [1, 1, 1]}, ["materials.m.base_color", "Phong material"]),
         ({"type": "coated_diffuse", "nonlinear": 1}, ["materials.m.nonlinear", "true or false"]),
     ],
 )

@@ -111,11 +111,11 @@ def texture_refs(draw, name, hostile=True):
 @st.composite
 def textured_scenes(draw, folder):
     """(scene dict, integrator, max depth): a quad and a sphere in one material with textures and values at the limits."""
-    seed_model = draw(st.booleans())
+    phong_model = draw(st.booleans())
     hostile = draw(st.booleans())  # False: every value allowed, so the example gets as far as rendering
     material = {}
     textures = {}
-    slots = ("diffuse_texture", "emissive_texture") if seed_model else SLOTS_GLTF
+    slots = ("diffuse_texture", "emissive_texture") if phong_model else SLOTS_GLTF
     for slot in draw(st.lists(st.sampled_from(slots), max_size=3, unique=True)):
         name = f"t{len(textures)}"
         textures[name] = {"file": draw(texture_files(folder, hostile))}
@@ -124,7 +124,7 @@ def textured_scenes(draw, folder):
         material[slot] = draw(texture_refs(name, hostile))
     pool = AT_LIMITS if hostile else ALLOWED_FLOATS
     colour = lambda: [draw(st.sampled_from(pool)) for _ in range(3)]  # noqa: E731
-    if seed_model:
+    if phong_model:
         material.update(diffuse=colour(), specular=colour(), mirror=draw(st.sampled_from(pool)))
     else:
         material["base_color"] = colour()

@@ -14,14 +14,14 @@ def material(table: dict):
 
 
 def test_the_key_set_chooses_the_model():
-    assert material({"diffuse": [0.5, 0.5, 0.5]}).model == "seed"
+    assert material({"diffuse": [0.5, 0.5, 0.5]}).model == "phong"
     assert material({"base_color": [0.5, 0.5, 0.5]}).model == "gltf"
     assert material({"roughness": 0.2}).model == "gltf" and material({"roughness": 0.2}).base_color == (1.0, 1.0, 1.0)
-    assert material({"emission": [1, 2, 3]}).model == "seed"
+    assert material({"emission": [1, 2, 3]}).model == "phong"
 
 
 def test_mixing_the_two_key_sets_is_refused_naming_both():
-    with pytest.raises(UsageError, match=r"materials\.m\.metallic.*Whitted key 'diffuse'"):
+    with pytest.raises(UsageError, match=r"materials\.m\.metallic.*Phong key 'diffuse'"):
         material({"diffuse": [0.5, 0.5, 0.5], "metallic": 1.0})
 
 
@@ -39,6 +39,6 @@ def test_the_record_holds_each_field_by_name():
     np.testing.assert_array_equal(r["kd"], r["base_color"])  # the Whitted integrator draws the base colour
     assert [float(r[k]) for k in ("metallic", "roughness", "transmission", "ior")] == [0.5, np.float32(0.3), np.float32(0.1), np.float32(1.33)]
     np.testing.assert_array_equal(r["emission"], [4, 5, 6])
-    seed = material({"diffuse": [0.1, 0.2, 0.3], "specular": [0.4, 0.4, 0.4], "shininess": 8}).pack()
-    assert int(seed["model"]) == MATERIAL_MODELS["seed"]
-    np.testing.assert_array_equal(seed["base_color"], seed["kd"])
+    phong = material({"diffuse": [0.1, 0.2, 0.3], "specular": [0.4, 0.4, 0.4], "shininess": 8}).pack()
+    assert int(phong["model"]) == MATERIAL_MODELS["phong"]
+    np.testing.assert_array_equal(phong["base_color"], phong["kd"])

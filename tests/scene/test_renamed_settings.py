@@ -1,5 +1,6 @@
-"""User-facing names that say what a setting is (issue 24), and the old spellings still accepted:
-the scene key `featured_camera` (was `seed_camera`) and `splat gauss --learn scale-lum` (was `seed`)."""
+"""User-facing names that say what a setting is (issues 24 and 34), and the old spellings still accepted
+(docs/scene-format.md#older-spellings): the scene key `default_camera` (was `featured_camera`, before that
+`seed_camera`), the material `type = "phong"` (was `"seed"`) and `splat gauss --learn scale-lum` (was `seed`)."""
 
 import tomllib
 
@@ -8,6 +9,7 @@ import pytest
 from clrender.cli import build_parser
 from clrender.commands.render import print_scene_list
 from clrender.errors import UsageError
+from clrender.layout import MATERIAL_MODELS
 from clrender.scene.scene import Scene, bundled_scenes
 from clrender.splat.fit import LEARN, LEARN_GROUPS, FitConfig
 
@@ -20,31 +22,44 @@ def scene_toml(tmp_path, key_line):
     return path
 
 
-# ------------------------------------------------------------------ featured_camera
-def test_old_and_new_scene_key_give_the_same_scene():
-    new = Scene.from_dict({"cameras": CAMERAS, "featured_camera": 2})
-    old = Scene.from_dict({"cameras": CAMERAS, "seed_camera": 2})
-    assert new == old and new.featured_camera == old.featured_camera == 2
-    assert Scene.from_dict({"cameras": CAMERAS}).featured_camera == 1
+# ------------------------------------------------------------------ default_camera
+@pytest.mark.parametrize("old", ["featured_camera", "seed_camera"])
+def test_old_and_new_scene_key_give_the_same_scene(old):
+    new = Scene.from_dict({"cameras": CAMERAS, "default_camera": 2})
+    assert new == Scene.from_dict({"cameras": CAMERAS, old: 2}) and new.default_camera == 2
+    assert Scene.from_dict({"cameras": CAMERAS}).default_camera == 1
 
 
-def test_old_attribute_name_reads_and_writes_the_new():
-    scene = Scene.from_dict({"cameras": CAMERAS, "featured_camera": 3})
-    assert scene.seed_camera == 3
-    scene.seed_camera = 2
-    assert scene.featured_camera == 2
+@pytest.mark.parametrize("old", ["featured_camera", "seed_camera"])
+def test_old_attribute_names_read_and_write_the_new(old):
+    scene = Scene.from_dict({"cameras": CAMERAS, "default_camera": 3})
+    assert getattr(scene, old) == 3
+    setattr(scene, old, 2)
+    assert scene.default_camera == 2 and getattr(scene, old) == 2
 
 
 def test_errors_name_the_new_key():
-    with pytest.raises(UsageError, match=r"featured_camera: 4; allowed: whole numbers 1 to 3"):
-        Scene.from_dict({"cameras": CAMERAS, "featured_camera": 4})
-    with pytest.raises(UsageError, match=r"featured_camera: 4; allowed: whole numbers 1 to 3"):
-        Scene.from_dict({"cameras": CAMERAS, "seed_camera": 4})
-    with pytest.raises(UsageError, match=r"seed_camera: is the old name of featured_camera; give only featured_camera"):
+    for key in ("default_camera", "featured_camera", "seed_camera"):
+        with pytest.raises(UsageError, match=r"default_camera: 4; allowed: whole numbers 1 to 3"):
+            Scene.from_dict({"cameras": CAMERAS, key: 4})
+    for old in ("featured_camera", "seed_camera"):
+        with pytest.raises(UsageError, match=rf"{old}: is an older name of default_camera; give only default_camera"):
+            Scene.from_dict({"cameras": CAMERAS, old: 1, "default_camera": 1})
+    with pytest.raises(UsageError, match=r"seed_camera: is an older name of default_camera; give only default_camera"):
         Scene.from_dict({"cameras": CAMERAS, "seed_camera": 1, "featured_camera": 1})
-    with pytest.raises(UsageError, match=r"unknown key; allowed: .*\bfeatured_camera\b") as caught:
+    with pytest.raises(UsageError, match=r"unknown key; allowed: .*\bdefault_camera\b") as caught:
         Scene.from_dict({"bogus": 1})
-    assert "seed_camera" not in str(caught.value)
+    assert "seed_camera" not in str(caught.value) and "featured_camera" not in str(caught.value)
+
+
+# ------------------------------------------------------------------ type = "phong"
+def test_old_material_type_is_the_phong_model():
+    old = Scene.from_dict({"materials": {"m": {"type": "seed", "diffuse": [1, 0, 0], "shininess": 8}}}).materials["m"]
+    new = Scene.from_dict({"materials": {"m": {"type": "phong", "diffuse": [1, 0, 0], "shininess": 8}}}).materials["m"]
+    assert old == new and new.model == "phong" and int(new.pack()["model"]) == MATERIAL_MODELS["phong"] == 0
+    with pytest.raises(UsageError, match=r"materials\.m\.type.*'phong'") as caught:
+        Scene.from_dict({"materials": {"m": {"type": "sead"}}})
+    assert "'seed'" not in str(caught.value)  # the allowed list names today's spelling only
 
 
 def test_bundled_scenes_use_the_new_key():
@@ -55,7 +70,7 @@ def test_bundled_scenes_use_the_new_key():
 
 
 @pytest.mark.parametrize("key", ["default_camera", "featured_camera", "seed_camera"])
-def test_list_marks_the_featured_camera_under_either_name(tmp_path, capsys, key):
+def test_list_marks_the_default_camera_under_any_name(tmp_path, capsys, key):
     print_scene_list({"s": scene_toml(tmp_path, f"{key} = 2")})
     out = capsys.readouterr().out.splitlines()
     assert out[:3] == ["s: two cameras", "    --camera 1  one", "  * --camera 2  two"]

@@ -20,7 +20,7 @@ def settings_for(scene, *argv):
 
 def test_default_camera_and_aa_are_read_and_used_when_the_command_line_gives_none():
     scene = Scene.from_dict({"cameras": CAMERAS, "default_camera": 3, "aa": "edge_detect"})
-    assert scene.featured_camera == 3 and scene.aa == "edge_detect"
+    assert scene.default_camera == 3 and scene.aa == "edge_detect"
     s = settings_for(scene)
     assert (s.camera, s.aa, s.samples) == (3, "edge_detect", 4)
     s = settings_for(scene, "--camera", "2", "--aa", "full", "--samples", "2")

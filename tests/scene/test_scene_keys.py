@@ -88,7 +88,7 @@ def refused_keys(data) -> list:
 @pytest.mark.parametrize(
     "data, reader_keys",
     [({"zz": 1}, TOP_KEYS), ({"environment": {"zz": 1}}, ENVIRONMENT_READER.keys), ({"cameras": [{"zz": 1}]}, CAMERA_READER.keys)]
-    + [({"materials": {"m": {"zz": 1}}}, MODEL_KEYS["seed"]), ({"textures": {"t": {"file": "t.png", "zz": 1}}}, TEXTURE_READER.keys)]
+    + [({"materials": {"m": {"zz": 1}}}, MODEL_KEYS["phong"]), ({"textures": {"t": {"file": "t.png", "zz": 1}}}, TEXTURE_READER.keys)]
     + [({"materials": {"m": {"type": kind, "zz": 1}}}, keys) for kind, keys in MODEL_KEYS.items()]
     + [({"lights": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in LIGHT_READERS.items()]
     + [({"objects": [{"type": kind, "zz": 1}]}, reader.keys) for kind, reader in OBJECT_READERS.items()],

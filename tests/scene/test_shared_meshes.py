@@ -195,3 +195,57 @@ def test_an_instanced_render_makes_no_copys_world_vertices(ball, device):
     for integrator in ("whitted", "path"):
         Renderer(scene, width=16, height=12, integrator=integrator, instancing=True).run()
     assert [m.world_made for m in scene.objects] == [()] * 3 + [("vertex_normals",)] + [()] * 2
+
+
+def test_the_scene_keeps_one_shape_a_key_and_each_mesh_says_which_shape_it_places_and_where(ball, tmp_path):
+    """Checks.shapes holds shapes.Shape records only, one per shape key (not a cache entry per derived array); each
+    mesh's Instance names its shape, shares the shape's object-space points and carries its own matrix.  Two glTF
+    nodes that place one glTF mesh (one mirrored) are two instances of that mesh: its own points, not either node's,
+    placed by the node's world matrix and then the object's (here the identity), and the mirrored one's winding
+    reversed, as scene.mirrored_faces has it."""
+    from clrender.scene import gltf
+    from clrender.scene.shapes import Instance, Shape
+
+    from tests.gltftools import gltf_file
+
+    checks = Checks("<dict>", ball)
+    scene = scene_module._read_scene(checks, {"objects": ball_objects(4)}, "s")
+    assert len(checks.shapes) == 1 and all(isinstance(s, Shape) for s in checks.shapes.values())
+    (shape,) = checks.shapes.values()
+    for o, m in zip(ball_objects(4), scene.objects):
+        assert isinstance(m.instance, Instance) and m.instance.shape_key == shape.key and m.instance.vertices is shape.points
+        matrix = transform_matrix(o["translate"], o["rotate"], (o["scale"],) * 3 if np.isscalar(o["scale"]) else o["scale"])
+        np.testing.assert_array_equal(m.instance.to_world, matrix)
+    nodes = [{"mesh": 0, "translation": [1.0, 0.0, 0.0]}, {"mesh": 0, "translation": [0.0, 2.0, 0.0], "scale": [-1.0, 1.0, 1.0]}]
+    path = gltf_file(tmp_path, nodes)
+    checks = Checks("<dict>", tmp_path)
+    objects = [{"type": "mesh", "file": str(path), "node": n} for n in (0, 1)]
+    a, b = scene_module._read_scene(checks, {"objects": objects}, "s").objects
+    assert a.instance.shape_key == b.instance.shape_key and a.instance.vertices is b.instance.vertices
+    own = gltf.node_shape(path, 0)[1]
+    np.testing.assert_array_equal(a.instance.vertices, own)
+    np.testing.assert_array_equal(a.instance.to_world[:3, 3], [1.0, 0.0, 0.0])
+    np.testing.assert_array_equal(np.diag(b.instance.to_world)[:3], [-1.0, 1.0, 1.0])
+    np.testing.assert_array_equal(b.faces, a.faces[:, [0, 2, 1]])
+    assert all(isinstance(s, Shape) for s in checks.shapes.values())
+
+
+def test_a_gltf_scenes_nodes_are_read_once_and_place_the_same_bits(tmp_path, monkeypatch):
+    """Loading a glTF scene places each node's triangles once (scene_dict reads them for the bounds, and the
+    scene's meshes take them over), not once more per mesh object: 3 nodes of one mesh make 3 world placements
+    and the glTF mesh's own vertices once (gltf.node_shape), where it took 7.  The world vertices are the bits
+    gltf.node_mesh places on its own."""
+    from clrender.scene import gltf
+
+    from tests.gltftools import gltf_file, quaternion
+
+    nodes = [{"mesh": 0, "translation": [float(i), 0.5, -4.0], "rotation": quaternion([0, 1, 0], 20 * i)} for i in range(3)]
+    path = gltf_file(tmp_path, nodes)
+    calls = []
+    placed = gltf.primitive_triangles
+    monkeypatch.setattr(gltf, "primitive_triangles", lambda *a: calls.append(a[1:3]) or placed(*a))
+    scene = Scene.load(str(path))
+    assert len(calls) == len(nodes) + 1
+    monkeypatch.undo()
+    for i, m in enumerate(scene.objects):
+        np.testing.assert_array_equal(m.vertices, gltf.node_mesh(path, i, 0).vertices)

@@ -52,14 +52,14 @@ def test_the_scene_readers_take_their_slots_from_the_table():
     for slot in TEXTURE_SLOT_TABLE:
         key = f"{slot.name}_texture"
         assert key in material_fields
-        models = ("gltf", "seed") if slot.models == "all" else ("gltf",)
+        models = ("gltf", "phong") if slot.models == "all" else ("gltf",)
         for model in models:
             assert key in materials.MODEL_KEYS[model], (model, key)
         if slot.alias:
-            assert slot.alias in materials.MODEL_KEYS["seed"]
+            assert slot.alias in materials.MODEL_KEYS["phong"]
     assert materials.ALIAS_KEYS == {"diffuse_texture": "base_color_texture"}
-    # a slot that only glTF materials take is refused in a seed material
-    assert "normal_texture" not in materials.MODEL_KEYS["seed"]
+    # a slot that only glTF materials take is refused in a Phong material
+    assert "normal_texture" not in materials.MODEL_KEYS["phong"]
 
 
 def test_gltf_reads_each_slot_at_the_key_the_table_names():

@@ -105,8 +105,8 @@ def test_uvs_at_the_limit_render_finite_under_a_transform(capfd, tmp_path):
 def test_obj_uvs_past_the_limit_are_dropped_like_nan_ones(tmp_path):
     """An OBJ's vt past UV_LIMIT reads as 0, as a NaN vt does (trimesh gives no file position to name)."""
     (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 3e38 0.5\nvt 0.25 nan\nvt 0.5 0.5\nf 1/1 2/2 3/3\n")
-    from clrender.scene.scene import _vertex_attributes, load_mesh_file
+    from clrender.scene.scene import load_mesh_file, vertex_attributes
 
-    uvs = _vertex_attributes(load_mesh_file(tmp_path / "q.obj", "t"))[0]
+    uvs = vertex_attributes(load_mesh_file(tmp_path / "q.obj", "t"))[0]
     assert np.isfinite(uvs).all() and np.abs(uvs).max() <= 1.0
     assert json.dumps(uvs.tolist())

@@ -100,5 +100,7 @@ def test_rr_depth_moves_russian_roulette_and_keeps_the_mean(device):
         for rr in (None, 0)
     }
     assert not np.array_equal(renders[None], renders[0])
+    builds = {Renderer(s, tracer=tracer, integrator="path", rr_depth=rr).variant.key() for rr in (None, 0, 5)}
+    assert len(builds) == 1  # the depth is PathParams.rr_depth, a launch value: one build serves every depth
     result = two_sample_z(renders[None], renders[0])
     assert result.passed, result.report()

@@ -16,7 +16,7 @@ def test_every_sample_lies_inside_its_pixel(device, sampler, n):
     assert (s >= 0).all() and (s < 1).all()
 
 
-def test_uniform_is_the_seeds_fixed_grid(device):
+def test_uniform_is_the_centred_grid(device):
     n = 4
     s = sample_offsets(PIXELS, "uniform", n, device=device)
     p, q = np.divmod(np.arange(n * n), n)  # p: vertical, q: horizontal sub-pixel index
