@@ -18,7 +18,6 @@ ALPHA = 0.001 per test function; the seeds are fixed, so each test is determinis
 import math
 
 import numpy as np
-import pytest
 from scipy import stats
 
 from clrender.scene.lights import Light
