@@ -181,14 +181,15 @@ class PathIntegrator(Integrator):
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 
     def world(self) -> dict:
-        from .light_choice import choices, powers
+        from .light_choice import DEFENSIVE_SHARE, choices, groups, powers
         from .path import emitters
 
         start = time.perf_counter()
         primitives = self.renderer.tracer.primitives
         records, index_of, power = emitters(primitives)
         self.n_emitters = len(records)
-        light_choices = choices(powers(self.renderer.scene, primitives, power))  # NEE's one light a vertex, by power
+        scene = self.renderer.scene
+        light_choices = choices(powers(scene, primitives, power), groups(scene, len(records)), DEFENSIVE_SHARE)  # NEE's one light a vertex
         self.renderer.setup_seconds["emitters"] = time.perf_counter() - start
         return dict(emitters=records if len(records) else np.zeros(1, EMITTER_DTYPE), emitter_of_prim=index_of, light_choices=light_choices)
 

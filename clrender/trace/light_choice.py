@@ -1,5 +1,5 @@
 """Next-event estimation's light: the path tracer (kernels/path.cl direct_lighting) sends one shadow ray a vertex, to
-ONE light picked with probability proportional to its power (pbrt-v4's PowerLightSampler), not one to every light.
+ONE light picked mostly by its power (pbrt-v4's PowerLightSampler, with a defensive even share), not one to every light.
 
 The lights, in the order of their LightChoice records (layout.LIGHT_CHOICE_DTYPE): the scene's lights, then the
 emissive triangles (trace/path.py), then the environment (the map, or the constant colour).  Their power, in W
@@ -14,6 +14,12 @@ emissive triangles (trace/path.py), then the environment (the map, or the consta
 | point, directional or area with falloff `none` | pi r^2 pi I: their irradiance pi I is the same everywhere |
 | emissive triangle | pi A Le |
 | environment | 4 pi pi r^2 L, L its mean radiance over the sphere (pbrt-v4's infinite lights' Phi) |
+
+A light's probability is (1 - DEFENSIVE_SHARE) times its share of all the power plus DEFENSIVE_SHARE divided evenly
+over the groups that have power (each scene light, the emissive triangles together, the environment), inside a group
+by power: a defensive mixture (Hesterberg 1995).  The second moment of a vertex's light estimate is then at most
+1 / (1 - DEFENSIVE_SHARE) times that of the choice by power alone, and far less where a dim light lies close to what
+it lights (the power knows nothing of distance).
 
 The power only shapes the choice: both strategies of multiple importance sampling use the chosen light's
 probability times its own density, so the estimate is unbiased whatever the powers are, as long as every light that
@@ -32,6 +38,10 @@ import numpy as np
 from ..layout import LIGHT_CHOICE_DTYPE
 
 MIN_SHARE = 2.0**-20  # a light's least share of the choice: 16 float32 steps below 1, so its cdf interval is never empty
+# the share of the choice spread evenly over the light groups (each scene light, the emissive triangles together, the
+# environment), the rest by power: a light much dimmer than the rest but near what it lights is picked often enough
+# that its 1/p does not make fireflies (docs/benchmarks.md, "One light a vertex": 0.5 against power alone)
+DEFENSIVE_SHARE = 0.5
 NO_GEOMETRY_RADIUS = 1.0  # the scene radius r when the flat part has no primitive (only instances): a neutral guess
 
 
@@ -80,11 +90,24 @@ def powers(scene, primitives, emitter_power: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(lights, np.float64), np.asarray(emitter_power, np.float64), [environment]])
 
 
-def choices(power: np.ndarray) -> np.ndarray:
-    """LightChoice records of lights of these powers (the module docstring's rules)."""
+def groups(scene, n_emitters: int) -> np.ndarray:
+    """Each light's group for DEFENSIVE_SHARE, in the LightChoice order: every scene light its own, the emissive
+    triangles one together, the environment one."""
+    n = len(scene.lights)
+    return np.concatenate([np.arange(n), np.full(n_emitters, n), [n + 1]])
+
+
+def choices(power: np.ndarray, group: np.ndarray | None = None, defensive: float = 0.0) -> np.ndarray:
+    """LightChoice records of lights of these powers (the module docstring's rules): a share `defensive` of the
+    choice spread evenly over the groups (`group`: each light's; default one group each) that have power, in
+    proportion to power inside each, the rest by power."""
     power = np.where(np.isfinite(power) & (power > 0), power, 0.0)
     if power.sum() > 0:
-        share = power / power.sum()
+        group = np.arange(len(power)) if group is None else np.asarray(group)
+        group_power = np.bincount(group, power)[group]
+        live = np.unique(group[power > 0])
+        inside = np.divide(power, group_power, out=np.zeros_like(power), where=group_power > 0)
+        share = (1 - defensive) * power / power.sum() + defensive * inside / len(live)
         share = np.where(share > 0, np.maximum(share, MIN_SHARE), 0.0)
     else:
         share = np.ones(len(power))

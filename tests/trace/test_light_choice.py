@@ -53,6 +53,14 @@ def test_choices_are_a_distribution_by_power():
     np.testing.assert_allclose(prob[[0, 2, 4]], power[[0, 2, 4]] / 10.0, rtol=1e-5)
 
 
+def test_the_defensive_share_is_spread_evenly_over_the_groups():
+    """Half by power, half evenly over the groups with power, by power inside a group: powers 6, 0, 2, 1, 1, 0 in groups
+    0, 1, 2, 3, 3, 4 (groups 1 and 4 black) give 0.3 + 1/6, 0, 0.1 + 1/6, then 0.05 + 1/12 twice, and 0."""
+    r = choices(np.array([6.0, 0, 2, 1, 1, 0]), np.array([0, 1, 2, 3, 3, 4]), 0.5)
+    np.testing.assert_allclose(r["prob"], [0.3 + 1 / 6, 0, 0.1 + 1 / 6, 0.05 + 1 / 12, 0.05 + 1 / 12, 0], atol=1e-6)
+    assert r["cdf"][-1] == 1.0 and r["cdf"][-2] == 1.0
+
+
 def test_a_scene_without_power_chooses_uniformly():
     r = choices(np.zeros(4))
     np.testing.assert_allclose(r["prob"], 0.25, rtol=1e-6)
