@@ -248,11 +248,52 @@ INLINE float hit_parallelogram(Ray r, float3 corner, float3 a, float3 b, float t
     return (u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f) ? t : INF_T;
 }
 
-/* NEE's light choices: the scene's lights 0 .. n_lights - 1, the emissive triangles after them, the environment last. */
+/* NEE's light choices: the scene's lights 0 .. n_lights - 1, the emissive triangles after them, the environment, and
+ * last the near choice (a scene light picked by its nearness at the vertex, pick_near). */
 INLINE int env_choice(const PathScene *s) { return s->p.frame.n_lights + s->p.n_emitters; }
+INLINE int near_choice(const PathScene *s) { return env_choice(s) + 1; }
 
 /* The choice of u's place in the lights' running sum of power (light_choice.h). */
-INLINE int pick_light(const PathScene *s, float u) { return pick_light_of(s->choices, env_choice(s) + 1, u); }
+INLINE int pick_light(const PathScene *s, float u) { return pick_light_of(s->choices, near_choice(s) + 1, u); }
+
+/* Scene light li's unoccluded irradiance scale at x, the weight of the near choice: I / d^2 (a spot's times its profile
+ * towards x), a directional light's I, pi I for falloff "none"; 0 for a physical area light (not in the near choice:
+ * a BSDF ray that meets it is MIS-weighted by a probability that must not depend on where the ray left). */
+INLINE float light_nearness(const PathScene *s, int li, float3 x) {
+    __global const Light *L = &s->lights[li];
+    float3 c = vload3(0, L->colour);
+    float strength = L->intensity * (c.x + c.y + c.z) * (1.0f / 3.0f);
+    bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+    if (L->type == LIGHT_AREA) return physical ? 0.0f : M_PI_F * strength;
+    if (L->type == LIGHT_DIRECTIONAL) return physical ? strength : M_PI_F * strength;
+    if (!physical && L->type == LIGHT_POINT) return M_PI_F * strength;
+    float3 d = vload3(0, L->position) - x;
+    float d2 = dot3(d, d);
+    if (!(d2 > 0.0f)) return 0.0f;
+    if (L->type == LIGHT_SPOT) strength *= spot_profile(L, -unit(d));
+    return strength / d2;
+}
+
+/* The sum of light_nearness over the scene lights at x (0: the near choice finds none there). */
+INLINE float nearness_total(const PathScene *s, float3 x) {
+    float total = 0.0f;
+    for (int li = 0; li < s->p.frame.n_lights; ++li) total += light_nearness(s, li, x);
+    return total;
+}
+
+/* The near choice: the scene light of u's place in the running sum of nearness at x (total: nearness_total > 0). */
+INLINE int pick_near(const PathScene *s, float3 x, float total, float u) {
+    float target = u * total, sum = 0.0f;
+    int last = 0;
+    for (int li = 0; li < s->p.frame.n_lights; ++li) {
+        float w = light_nearness(s, li, x);
+        if (!(w > 0.0f)) continue;
+        sum += w;
+        last = li;
+        if (target < sum) return li;
+    }
+    return last; /* u * total rounded up past the float32 sum */
+}
 
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
  * one-sided): kernels/surface.h's emission_of its material there. */
@@ -379,9 +420,18 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
     float pick = rng_next(rng);
     float2 u = (float2)(rng_next(rng), rng_next(rng));
     int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
-    float chosen = s->choices[k].prob;
+    float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
     if (!(chosen > 0.0f)) return (float3)(0.0f);
-    if (k < n_lights) return light_sample(s, k, chosen, u, f, c, fr, wo, rng, visits, rays);
+    if (k < n_lights || k == near_choice(s)) { /* a scene light: by power, or by nearness; its probability is the sum */
+        float total = near > 0.0f ? nearness_total(s, f->p) : 0.0f;
+        if (k == near_choice(s)) {
+            if (!(total > 0.0f)) return (float3)(0.0f); /* no light near: this share of the picks adds nothing */
+            float below = s->choices[k].cdf - chosen;
+            k = pick_near(s, f->p, total, min_f((pick - below) / chosen, 1.0f));
+        }
+        chosen = s->choices[k].prob + (total > 0.0f ? near * light_nearness(s, k, f->p) / total : 0.0f);
+        return light_sample(s, k, chosen, u, f, c, fr, wo, rng, visits, rays);
+    }
     if (k < env_choice(s)) return emitter_sample(s, k - n_lights, u, f, c, fr, wo, rng, visits, rays);
     return environment_sample(s, chosen, u, f, c, fr, wo, rng, visits, rays);
 }

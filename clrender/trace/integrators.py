@@ -181,7 +181,7 @@ class PathIntegrator(Integrator):
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 
     def world(self) -> dict:
-        from .light_choice import DEFENSIVE_SHARE, choices, groups, powers
+        from .light_choice import DEFENSIVE_SHARE, choices, groups, near_share, powers
         from .path import emitters
 
         start = time.perf_counter()
@@ -189,7 +189,8 @@ class PathIntegrator(Integrator):
         records, index_of, power = emitters(primitives)
         self.n_emitters = len(records)
         scene = self.renderer.scene
-        light_choices = choices(powers(scene, primitives, power), groups(scene, len(records)), DEFENSIVE_SHARE)  # NEE's one light a vertex
+        power_of = powers(scene, primitives, power)  # NEE's one light a vertex: by power, or by nearness (the last record)
+        light_choices = choices(power_of, groups(scene, len(records)), DEFENSIVE_SHARE, near_share(scene))
         self.renderer.setup_seconds["emitters"] = time.perf_counter() - start
         return dict(emitters=records if len(records) else np.zeros(1, EMITTER_DTYPE), emitter_of_prim=index_of, light_choices=light_choices)
 

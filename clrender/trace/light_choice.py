@@ -42,6 +42,9 @@ MIN_SHARE = 2.0**-20  # a light's least share of the choice: 16 float32 steps be
 # environment), the rest by power: a light much dimmer than the rest but near what it lights is picked often enough
 # that its 1/p does not make fireflies (docs/benchmarks.md, "One light a vertex": 0.5 against power alone)
 DEFENSIVE_SHARE = 0.5
+# the share of the choice given to the near choice (path.cl pick_near): a scene light (not a physical area light)
+# picked in proportion to its unoccluded irradiance at the vertex, I / d^2 (docs/materials.md)
+NEAR_SHARE = 0.5
 NO_GEOMETRY_RADIUS = 1.0  # the scene radius r when the flat part has no primitive (only instances): a neutral guess
 
 
@@ -97,10 +100,19 @@ def groups(scene, n_emitters: int) -> np.ndarray:
     return np.concatenate([np.arange(n), np.full(n_emitters, n), [n + 1]])
 
 
-def choices(power: np.ndarray, group: np.ndarray | None = None, defensive: float = 0.0) -> np.ndarray:
+def near_share(scene) -> float:
+    """NEAR_SHARE if some scene light of positive power can be picked by nearness (any but a physical area light),
+    else 0."""
+    radius = NO_GEOMETRY_RADIUS  # any: only the sign of the power matters here
+    near = [light_power(light, radius) > 0 for light in scene.lights if not (light.type == "area" and light.falloff == "inverse_square")]
+    return NEAR_SHARE if any(near) else 0.0
+
+
+def choices(power: np.ndarray, group: np.ndarray | None = None, defensive: float = 0.0, near: float | None = None) -> np.ndarray:
     """LightChoice records of lights of these powers (the module docstring's rules): a share `defensive` of the
     choice spread evenly over the groups (`group`: each light's; default one group each) that have power, in
-    proportion to power inside each, the rest by power."""
+    proportion to power inside each, the rest by power; with `near`, every share times 1 - near and one more record,
+    the near choice, of share `near`."""
     power = np.where(np.isfinite(power) & (power > 0), power, 0.0)
     if power.sum() > 0:
         group = np.arange(len(power)) if group is None else np.asarray(group)
@@ -111,9 +123,11 @@ def choices(power: np.ndarray, group: np.ndarray | None = None, defensive: float
         share = np.where(share > 0, np.maximum(share, MIN_SHARE), 0.0)
     else:
         share = np.ones(len(power))
+    if near is not None:
+        share = np.append(share / share.sum() * (1 - near), near)
     cdf = (np.cumsum(share) / share.sum()).astype(np.float32)
     cdf[np.flatnonzero(share)[-1] :] = 1.0  # from the last light that can be chosen on: u < 1 always finds one
-    records = np.zeros(len(power), LIGHT_CHOICE_DTYPE)
+    records = np.zeros(len(share), LIGHT_CHOICE_DTYPE)
     records["cdf"] = cdf
     records["prob"] = np.diff(cdf.astype(np.float64), prepend=0.0)  # the intervals' widths
     return records
