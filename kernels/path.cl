@@ -3,8 +3,9 @@
  * At every surface vertex the material picks ONE component at random with its own weight (the
  * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
  * kernels/bsdf.h), then
- *   - next-event estimation: ONE light picked in proportion to its power (the host's LightChoice records,
- *     clrender/trace/light_choice.py: the scene's lights, the emissive triangles, the environment) and one shadow
+ *   - next-event estimation: ONE light picked mostly by its power (the host's LightChoice records,
+ *     clrender/trace/light_choice.py: the scene's lights, the emissive triangles, the environment) or, for the near
+ *     choice's share, a scene light by its irradiance at the vertex (pick_near), and one shadow
  *     ray to it: a point light's position, a point of an area light or emissive triangle, a direction of the
  *     environment (the constant one: cosine-weighted about the shading normal; an image map: by its luminance x
  *     solid angle, kernels/envmap.h), its estimate divided by the light's probability;

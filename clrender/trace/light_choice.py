@@ -21,6 +21,11 @@ by power: a defensive mixture (Hesterberg 1995).  The second moment of a vertex'
 1 / (1 - DEFENSIVE_SHARE) times that of the choice by power alone, and far less where a dim light lies close to what
 it lights (the power knows nothing of distance).
 
+With NEAR_SHARE (when some scene light other than a physical area light has power) every share above is scaled by
+1 - NEAR_SHARE and one more record, the near choice, takes NEAR_SHARE: the kernel then picks a scene light by its
+unoccluded irradiance at the vertex (path.cl light_nearness, pick_near), and a scene light's probability there is
+its record's plus NEAR_SHARE times its part of the nearness (path.cl direct_lighting).
+
 The power only shapes the choice: both strategies of multiple importance sampling use the chosen light's
 probability times its own density, so the estimate is unbiased whatever the powers are, as long as every light that
 emits can be chosen.  So each light of positive power keeps a share of at least MIN_SHARE, and if no light has any

@@ -9,7 +9,8 @@ ALPHA = 0.001 per test function; the seeds are fixed, so each test is determinis
 - The image against the float64 reference (tests/reference/pathtracer.py, which sends a shadow ray to every point
   light and picks its emitters by power, so it shares neither the choice nor its code): K renders of clrender and
   REFERENCE_K of the reference, 4 x 4-pixel
-  block means, tests/reference/ztest.py's two_sample_z at ALPHA (Šidák over blocks and channels).  With the choice's
+  block means, tests/reference/ztest.py's two_sample_z at ALPHA (Šidák over blocks and channels).  Its point and
+  directional lights also take the near choice (path.cl pick_near), whose probability is checked the same way.  With the choice's
   probability left out of the BSDF rays' MIS weights (an emitter's, the environment's), the weights of the two
   strategies no longer sum to 1 and the lamp-lit floor darkens by several standard errors (tools/mutants.toml's
   path-choice-* mutants).
@@ -22,7 +23,7 @@ from scipy import stats
 
 from clrender.scene.lights import Light
 from clrender.scene.scene import Scene
-from clrender.trace.light_choice import MIN_SHARE, choices, light_power, picks
+from clrender.trace.light_choice import MIN_SHARE, NEAR_SHARE, choices, light_power, near_share, picks
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
@@ -59,6 +60,18 @@ def test_the_defensive_share_is_spread_evenly_over_the_groups():
     r = choices(np.array([6.0, 0, 2, 1, 1, 0]), np.array([0, 1, 2, 3, 3, 4]), 0.5)
     np.testing.assert_allclose(r["prob"], [0.3 + 1 / 6, 0, 0.1 + 1 / 6, 0.05 + 1 / 12, 0.05 + 1 / 12, 0], atol=1e-6)
     assert r["cdf"][-1] == 1.0 and r["cdf"][-2] == 1.0
+
+
+def test_the_near_choice_is_one_more_record_and_only_where_a_scene_light_can_take_it():
+    """With `near`, every light's share times 1 - near and a last record of share near; near_share is NEAR_SHARE with a
+    point light, 0 with only a physical area light (whose probability must not depend on the vertex: MIS)."""
+    r = choices(np.array([3.0, 1.0]), near=0.5)
+    np.testing.assert_allclose(r["prob"], [0.375, 0.125, 0.5], atol=1e-6)
+    assert r["cdf"][-1] == 1.0
+    area = {"type": "area", "corner": [0, 1, 0], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "falloff": "inverse_square"}
+    point = {"type": "point", "position": [0, 1, 0]}
+    scene = lambda *lights: Scene.from_dict({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}], "lights": list(lights)})
+    assert near_share(scene(area)) == 0.0 and near_share(scene(area, point)) == NEAR_SHARE > 0
 
 
 def test_a_scene_without_power_chooses_uniformly():
