@@ -348,10 +348,14 @@ BSDF_PROBE_DTYPE = np.dtype(
 BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)
 
 # ---- the path tracer (kernels/path.cl; packed by trace/path.py)
-# an emissive triangle: its vertices (as the primitive slots hold them), area, share of all emitted power and the
-# running sum of the shares (NEE picks one by a binary search of `cdf`), and its primitive id
-EMITTER_DTYPE = np.dtype([("v0", "<f4", 3), ("v1", "<f4", 3), ("v2", "<f4", 3), ("area", "<f4"), ("prob", "<f4"), ("cdf", "<f4"), ("prim", "<i4")])
+# an emissive triangle: its vertices (as the primitive slots hold them), area and primitive id (its chance of being
+# NEE's light is its LightChoice record)
+EMITTER_DTYPE = np.dtype([("v0", "<f4", 3), ("v1", "<f4", 3), ("v2", "<f4", 3), ("area", "<f4"), ("prim", "<i4")])
 EMITTER = Record("Emitter", EMITTER_DTYPE)
+# next-event estimation's one light a vertex (path.cl pick_light; packed by trace/light_choice.py): a record per light,
+# the scene's lights, then the emissive triangles, then the environment; its probability (by power) and the running sum
+LIGHT_CHOICE_DTYPE = np.dtype([("prob", "<f4"), ("cdf", "<f4")])
+LIGHT_CHOICE = Record("LightChoice", LIGHT_CHOICE_DTYPE)
 # the image-based environment light (kernels/envmap.h; packed by trace/envmap.py from scene/environment.py's map),
 # passed by value beside its texels (float4: RGB radiance times intensity, and the texel's density over (u, v)) and
 # the sampling CDFs; width 0: no map (the path tracer's constant `environment`, the Whitted background)
@@ -376,8 +380,10 @@ SCENE_TABLES = Record("SceneTables", SCENE_TABLES_DTYPE)
 QUERY_PARAMS_DTYPE = np.dtype([("tables", SCENE_TABLES_DTYPE), ("n_prims", "<i4"), ("n_instances", "<i4"), ("n_rays", "<i4")])
 QUERY_PARAMS = Record("QueryParams", QUERY_PARAMS_DTYPE)
 # the renderer's world: the lights, the environment map's texels and sampling distribution (trace/envmap.py), the path
-# tracer's emissive triangles and each primitive's index among them (trace/path.py)
-WORLD_REGIONS_DTYPE = np.dtype([(name, "<u4") for name in ("lights", "env_texels", "env_marginal", "env_conditional", "emitters", "emitter_of_prim")])
+# tracer's emissive triangles and each primitive's index among them (trace/path.py), its light choice (trace/light_choice.py)
+WORLD_REGIONS_DTYPE = np.dtype(
+    [(name, "<u4") for name in ("lights", "env_texels", "env_marginal", "env_conditional", "emitters", "emitter_of_prim", "light_choices")]
+)
 WORLD_REGIONS = Record("WorldRegions", WORLD_REGIONS_DTYPE)
 # one launch's outputs, per pixel: colour (float4; the path tracer's film: SPLAT_SLOTS of them), IdRecord, a float per
 # light of shadow (Whitted), uint2 BVH visits and rays, AovRecord (-DWRITE_AOV=1)

@@ -3,13 +3,16 @@
  * At every surface vertex the material picks ONE component at random with its own weight (the
  * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
  * kernels/bsdf.h), then
- *   - next-event estimation: a shadow ray to every point, spot and directional light, to one point of every
- *     area light, to one point of one emissive triangle (chosen in proportion to its power), and to
- *     one direction of the environment (the constant one: cosine-weighted about the shading normal; an
- *     image map: by its luminance x solid angle, kernels/envmap.h);
+ *   - next-event estimation: ONE light picked mostly by its power (the host's LightChoice records,
+ *     clrender/trace/light_choice.py: the scene's lights, the emissive triangles, the environment) or, for the near
+ *     choice's share, a scene light by its irradiance at the vertex (pick_near), and one shadow
+ *     ray to it: a point light's position, a point of an area light or emissive triangle, a direction of the
+ *     environment (the constant one: cosine-weighted about the shading normal; an image map: by its luminance x
+ *     solid angle, kernels/envmap.h), its estimate divided by the light's probability;
  *   - BSDF sampling for the next direction; a BSDF ray that reaches an area light, an emissive
  *     triangle or the environment adds its emission weighted against that light's strategy by the
- *     power heuristic (delta lights and delta lobes get no MIS: only one strategy can find them);
+ *     power heuristic, whose light density is the light's probability times its own density (delta lights
+ *     and delta lobes get no MIS: only one strategy can find them);
  *   - Russian roulette from params.rr_depth bounces on.
  * Light units are docs/shading.md's.  Lights with falloff "none" (the unnormalised model) give
  * the irradiance pi I c cos(theta) wherever they are, so a Lambert surface of albedo kd shows
@@ -34,6 +37,7 @@
 /* ALPHA_TEST, seen_hit: what rays look past */
 #include "alpha.h"
 #include "spot.h"
+#include "light_choice.h"
 /* the reconstruction filters of SPLAT_FILTER */
 #include "film.h"
 
@@ -70,6 +74,7 @@ typedef struct {
     __global const Light *lights;
     __global const Emitter *emitters;      /* emissive triangles, their power's running sum in `cdf` */
     __global const int *emitter_of_prim;   /* each primitive id's index in `emitters`, or -1 */
+    __global const LightChoice *choices;   /* NEE's light distribution: lights, emitters, environment (pick_light) */
     EnvView env;                           /* an environment map (env.m.width > 0) in place of p.environment */
     PathParams p;
 } PathScene;
@@ -107,15 +112,51 @@ INLINE float hit_parallelogram(Ray r, float3 corner, float3 a, float3 b, float t
     return (u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f) ? t : INF_T;
 }
 
-/* The emitter index of u's place in the emitters' running sum of power (binary search). */
-INLINE int pick_emitter(const PathScene *s, float u) {
-    int lo = 0, hi = s->p.n_emitters - 1;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (u < s->emitters[mid].cdf) hi = mid;
-        else lo = mid + 1;
+/* NEE's light choices: the scene's lights 0 .. n_lights - 1, the emissive triangles after them, the environment, and
+ * last the near choice (a scene light picked by its nearness at the vertex, pick_near). */
+INLINE int env_choice(const PathScene *s) { return s->p.frame.n_lights + s->p.n_emitters; }
+INLINE int near_choice(const PathScene *s) { return env_choice(s) + 1; }
+
+/* The choice of u's place in the lights' running sum of power (light_choice.h). */
+INLINE int pick_light(const PathScene *s, float u) { return pick_light_of(s->choices, near_choice(s) + 1, u); }
+
+/* Scene light li's unoccluded irradiance scale at x, the weight of the near choice: I / d^2 (a spot's times its profile
+ * towards x), a directional light's I, pi I for falloff "none"; 0 for a physical area light (not in the near choice:
+ * a BSDF ray that meets it is MIS-weighted by a probability that must not depend on where the ray left). */
+INLINE float light_nearness(const PathScene *s, int li, float3 x) {
+    __global const Light *L = &s->lights[li];
+    float3 c = vload3(0, L->colour);
+    float strength = L->intensity * (c.x + c.y + c.z) * (1.0f / 3.0f);
+    bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
+    if (L->type == LIGHT_AREA) return physical ? 0.0f : M_PI_F * strength;
+    if (L->type == LIGHT_DIRECTIONAL) return physical ? strength : M_PI_F * strength;
+    if (!physical && L->type == LIGHT_POINT) return M_PI_F * strength;
+    float3 d = vload3(0, L->position) - x;
+    float d2 = dot3(d, d);
+    if (!(d2 > 0.0f)) return 0.0f;
+    if (L->type == LIGHT_SPOT) strength *= spot_profile(L, -unit(d));
+    return strength / d2;
+}
+
+/* The sum of light_nearness over the scene lights at x (0: the near choice finds none there). */
+INLINE float nearness_total(const PathScene *s, float3 x) {
+    float total = 0.0f;
+    for (int li = 0; li < s->p.frame.n_lights; ++li) total += light_nearness(s, li, x);
+    return total;
+}
+
+/* The near choice: the scene light of u's place in the running sum of nearness at x (total: nearness_total > 0). */
+INLINE int pick_near(const PathScene *s, float3 x, float total, float u) {
+    float target = u * total, sum = 0.0f;
+    int last = 0;
+    for (int li = 0; li < s->p.frame.n_lights; ++li) {
+        float w = light_nearness(s, li, x);
+        if (!(w > 0.0f)) continue;
+        sum += w;
+        last = li;
+        if (target < sum) return li;
     }
-    return lo;
+    return last; /* u * total rounded up past the float32 sum */
 }
 
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
@@ -128,17 +169,18 @@ INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
 }
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
- * the cosine at the emitter. */
+ * the cosine at the emitter: the emitter's choice probability times its area density. */
 INLINE float emitter_pdf(const PathScene *s, int e, float dist, float cos_l) {
     __global const Emitter *em = &s->emitters[e];
-    return cos_l > 0.0f ? em->prob * dist * dist / (em->area * cos_l) : 0.0f;
+    float chosen = s->choices[s->p.frame.n_lights + e].prob;
+    return cos_l > 0.0f ? chosen * dist * dist / (em->area * cos_l) : 0.0f;
 }
 
-/* NEE to one light: the contribution (f cos Li / pdf, MIS-weighted where a BSDF ray could also find it). */
-INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
-                           uint *visits, uint *rays) {
+/* NEE to scene light li, chosen with probability `chosen`: the contribution (f cos Li / pdf, MIS-weighted where a
+ * BSDF ray could also find it), u the light's 2-D sample. */
+INLINE float3 light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f, Component c, Frame fr,
+                           float3 wo, Rng *rng, uint *visits, uint *rays) {
     __global const Light *L = &s->lights[li];
-    float2 u = (float2)(rng_next(rng), rng_next(rng)); /* drawn for every light: fixed dimensions */
     float3 radiance = L->intensity * vload3(0, L->colour);
     bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
     float3 wi;
@@ -159,7 +201,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
             float3 nl = cross3(ea, eb);
             float area = norm(nl);
             float cos_l = abs_f(dot3(nl, wi)) / area;
-            float light_pdf = dist * dist / (area * cos_l);
+            float light_pdf = chosen * dist * dist / (area * cos_l);
             if (!(light_pdf < INFINITY)) return (float3)(0.0f);
             scale = 1.0f / light_pdf;
             mis = power_heuristic(light_pdf, component_pdf(c, wo, to_local(fr, wi)));
@@ -170,6 +212,7 @@ INLINE float3 light_sample(const PathScene *s, int li, const Surface *f, Compone
     float3 fc = component_eval(c, wo, to_local(fr, wi));
     if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
     *rays += 1;
+    if (!(physical && L->type == LIGHT_AREA)) scale /= chosen; /* a physical area light's light_pdf holds it */
     return fc * radiance * (scale * mis * visible(s, f, wi, dist, rng, visits));
 }
 
@@ -186,13 +229,9 @@ INLINE float3 nee_weighted(const PathScene *s, const Surface *f, Component c, Fr
     return fc * le * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
 }
 
-/* NEE to one point of one emissive triangle, chosen in proportion to its power. */
-INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
-                             uint *visits, uint *rays) {
-    float pick = rng_next(rng);
-    float2 u = (float2)(rng_next(rng), rng_next(rng));
-    if (s->p.n_emitters == 0) return (float3)(0.0f);
-    int e = pick_emitter(s, pick);
+/* NEE to one point (u: uniform on the triangle) of emissive triangle e (emitter_pdf holds its choice probability). */
+INLINE float3 emitter_sample(const PathScene *s, int e, float2 u, const Surface *f, Component c, Frame fr, float3 wo,
+                             Rng *rng, uint *visits, uint *rays) {
     __global const Emitter *em = &s->emitters[e];
     float3 v0 = vload3(0, em->v0), v1 = vload3(0, em->v1), v2 = vload3(0, em->v2);
     float su = sqrt(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
@@ -208,13 +247,14 @@ INLINE float3 emitter_sample(const PathScene *s, const Surface *f, Component c, 
     return nee_weighted(s, f, c, fr, wo, wi, le, light_pdf, dist, rng, visits, rays);
 }
 
-/* NEE to an environment map: a direction drawn by the map's luminance (envmap.h). */
-INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float2 u,
-                             Rng *rng, uint *visits, uint *rays) {
+/* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h). */
+INLINE float3 env_map_sample(const PathScene *s, float chosen, const Surface *f, Component c, Frame fr, float3 wo,
+                             float2 u, Rng *rng, uint *visits, uint *rays) {
     if (!ENV_NEE || !s->env.m.sampled) return (float3)(0.0f);
     float3 le;
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
+    env_pdf *= chosen;
     if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
 #if !ENV_BSDF
     *rays += 1;
@@ -223,29 +263,41 @@ INLINE float3 env_map_sample(const PathScene *s, const Surface *f, Component c, 
     return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, rng, visits, rays);
 }
 
-/* NEE to the environment: the map's own sampling, or for the constant environment a cosine-weighted
- * direction about the shading normal. */
-INLINE float3 environment_sample(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
-                                 uint *visits, uint *rays) {
-    float2 u = (float2)(rng_next(rng), rng_next(rng));
-    if (s->env.m.width > 0) return env_map_sample(s, f, c, fr, wo, u, rng, visits, rays);
+/* NEE to the environment, chosen with probability `chosen`: the map's own sampling, or for the constant
+ * environment a cosine-weighted direction about the shading normal. */
+INLINE float3 environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f, Component c, Frame fr,
+                                 float3 wo, Rng *rng, uint *visits, uint *rays) {
+    if (s->env.m.width > 0) return env_map_sample(s, chosen, f, c, fr, wo, u, rng, visits, rays);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return (float3)(0.0f);
     Frame nf = make_frame(f->n_shade);
     float3 wi = to_world(nf, cosine_hemisphere(u));
-    float env_pdf = dot3(wi, f->n_shade) * M_1_PI_F;
+    float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return (float3)(0.0f);
     return nee_weighted(s, f, c, fr, wo, wi, env, env_pdf, INF_T, rng, visits, rays);
 }
 
-/* Every NEE strategy at a vertex whose component is not a delta lobe. */
+/* Next-event estimation at a vertex whose component is not a delta lobe: one light picked by power, one shadow ray.
+ * Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D sample. */
 INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                               uint *visits, uint *rays) {
-    float3 sum = (float3)(0.0f);
-    for (int li = 0; li < s->p.frame.n_lights; ++li) sum += light_sample(s, li, f, c, fr, wo, rng, visits, rays);
-    sum += emitter_sample(s, f, c, fr, wo, rng, visits, rays);
-    sum += environment_sample(s, f, c, fr, wo, rng, visits, rays);
-    return sum;
+    float pick = rng_next(rng);
+    float2 u = (float2)(rng_next(rng), rng_next(rng));
+    int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
+    float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
+    if (!(chosen > 0.0f)) return (float3)(0.0f);
+    if (k < n_lights || k == near_choice(s)) { /* a scene light: by power, or by nearness; its probability is the sum */
+        float total = near > 0.0f ? nearness_total(s, f->p) : 0.0f;
+        if (k == near_choice(s)) {
+            if (!(total > 0.0f)) return (float3)(0.0f); /* no light near: this share of the picks adds nothing */
+            float below = s->choices[k].cdf - chosen;
+            k = pick_near(s, f->p, total, min_f((pick - below) / chosen, 1.0f));
+        }
+        chosen = s->choices[k].prob + (total > 0.0f ? near * light_nearness(s, k, f->p) / total : 0.0f);
+        return light_sample(s, k, chosen, u, f, c, fr, wo, rng, visits, rays);
+    }
+    if (k < env_choice(s)) return emitter_sample(s, k - n_lights, u, f, c, fr, wo, rng, visits, rays);
+    return environment_sample(s, chosen, u, f, c, fr, wo, rng, visits, rays);
 }
 
 /* What a BSDF-sampled ray (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area
@@ -258,8 +310,9 @@ INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool pr
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
         float t = hit_parallelogram(r, vload3(0, L->position), ea, eb, t_max);
         if (t == INF_T || (!AREA_BSDF && !prev_delta)) continue;
-        float3 nl = cross3(ea, eb); /* |nl| is the area */
-        float mis = prev_delta || !AREA_NEE ? 1.0f : power_heuristic(prev_pdf, t * t / abs_f(dot3(nl, r.d))); /* dist^2 / (A cos) */
+        float3 nl = cross3(ea, eb); /* |nl| is the area; NEE's density: the choice times dist^2 / (A cos) */
+        float light_pdf = s->choices[li].prob * t * t / abs_f(dot3(nl, r.d));
+        float mis = prev_delta || !AREA_NEE ? 1.0f : power_heuristic(prev_pdf, light_pdf);
         sum += mis * L->intensity * vload3(0, L->colour);
     }
     return sum;
@@ -277,7 +330,8 @@ INLINE float3 emission_met(const PathScene *s, const Surface *f, const MaterialP
 }
 
 /* What a ray that meets nothing brings back: the environment's radiance towards -d, and in *mis its weight
- * against the environment's NEE when the previous lobe was not a delta (prev_n: the previous vertex's shading normal). */
+ * against the environment's NEE when the previous lobe was not a delta (prev_n: the previous vertex's shading normal;
+ * NEE's density: the environment's choice probability times its own). */
 INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool prev_delta, float prev_pdf, float *mis) {
     float env_pdf;
     float3 le;
@@ -289,6 +343,7 @@ INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool 
         env_pdf = max_f(dot3(prev_n, d), 0.0f) * M_1_PI_F;
         le = vload3(0, s->p.environment);
     }
+    env_pdf *= s->choices[env_choice(s)].prob;
     *mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
     return le;
 }
@@ -419,6 +474,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     s.normals = normals; s.lights = REGION(world, const Light, frame.world.lights);
     s.emitters = REGION(world, const Emitter, frame.world.emitters);
     s.emitter_of_prim = REGION(world, const int, frame.world.emitter_of_prim);
+    s.choices = REGION(world, const LightChoice, frame.world.light_choices);
     s.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), REGION(world, const float, frame.world.env_marginal),
                      REGION(world, const float, frame.world.env_conditional));
     s.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);

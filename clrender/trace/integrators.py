@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import require, warn
-from ..layout import EMITTER_DTYPE, WHITTED_PARAMS_DTYPE
+from ..layout import EMITTER_DTYPE, LIGHT_CHOICE_DTYPE, WHITTED_PARAMS_DTYPE
 from . import film
 from .variant import MAX_DEPTH_LIMIT, Variant
 
@@ -54,7 +54,7 @@ class Integrator:
 
     def world(self) -> dict:
         """This integrator's arrays of the world arena (layout.WORLD_REGIONS_DTYPE): placeholders here."""
-        return dict(emitters=np.zeros(1, EMITTER_DTYPE), emitter_of_prim=np.full(1, -1, np.int32))
+        return dict(emitters=np.zeros(1, EMITTER_DTYPE), emitter_of_prim=np.full(1, -1, np.int32), light_choices=np.zeros(1, LIGHT_CHOICE_DTYPE))
 
     @property
     def spp(self) -> int:
@@ -180,13 +180,18 @@ class PathIntegrator(Integrator):
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 
     def world(self) -> dict:
+        from .light_choice import DEFENSIVE_SHARE, choices, groups, near_share, powers
         from .path import emitters
 
         start = time.perf_counter()
-        records, index_of = emitters(self.renderer.tracer.primitives)
+        primitives = self.renderer.tracer.primitives
+        records, index_of, power = emitters(primitives)
         self.n_emitters = len(records)
+        scene = self.renderer.scene
+        power_of = powers(scene, primitives, power)  # NEE's one light a vertex: by power, or by nearness (the last record)
+        light_choices = choices(power_of, groups(scene, len(records)), DEFENSIVE_SHARE, near_share(scene))
         self.renderer.setup_seconds["emitters"] = time.perf_counter() - start
-        return dict(emitters=records if len(records) else np.zeros(1, EMITTER_DTYPE), emitter_of_prim=index_of)
+        return dict(emitters=records if len(records) else np.zeros(1, EMITTER_DTYPE), emitter_of_prim=index_of, light_choices=light_choices)
 
     def params(self, frame: np.ndarray, first_sample: int = 0) -> np.ndarray:
         from .path import path_params

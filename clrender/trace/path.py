@@ -16,10 +16,10 @@ from .geometry import Primitives
 RR_DEPTH = 3  # Russian roulette from this many bounces on, when RenderSettings.rr_depth is None
 
 
-def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
-    """The emissive triangles (layout.EMITTER_DTYPE records, their power's running sum normalised in `cdf` and
-    each one's share in `prob`) and every primitive id's index among them (-1: none).  A triangle's power is
-    its area times its material's mean emitted radiance (times pi for the hemisphere: a constant factor).
+def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The emissive triangles (layout.EMITTER_DTYPE records), every primitive id's index among them (-1: none) and
+    each one's power (float64 W, the share NEE picks it by: trace/light_choice.py): pi times its area times its
+    material's mean emitted radiance (one-sided Lambertian emission).
 
     With an emissive texture the radiance is the factor times the texture's mean texel over the whole image, not
     over the triangle's own UVs: an approximation of the power that only shapes the sampling density.  Both
@@ -43,14 +43,10 @@ def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray]:
     index_of[ids] = np.arange(len(ids), dtype=np.int32)
     records = np.zeros(len(ids), EMITTER_DTYPE)
     if len(ids):
-        share = power[keep] / power[keep].sum()
         records["v0"], records["v1"], records["v2"] = tri[:, 0], tri[:, 1], tri[:, 2]
         records["area"] = area
-        records["prob"] = share
-        records["cdf"] = np.cumsum(share)
-        records["cdf"][-1] = 1.0  # the search never runs past the end
         records["prim"] = ids
-    return records, index_of
+    return records, index_of, np.pi * power[keep]
 
 
 def path_params(integrator, frame: np.ndarray, first_sample: int) -> np.ndarray:
