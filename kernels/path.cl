@@ -226,7 +226,7 @@ INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist
     float opacity;
     return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0 ? 1.0f : 0.0f;
 #else
-    return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
+    return transmittance(&s->geo, sr, 0.0f, t_max, opaque_pass(), visits);
 #endif
 }
 
@@ -258,7 +258,7 @@ INLINE int pick_emitter(const PathScene *s, float u) {
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
  * one-sided): kernels/surface.h's emission_of its material there. */
 INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
-    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
+    __global const Material *gm = &s->tex.materials[s->geo.objects[s->geo.prim_object[prim]].material];
     float2 uv[2] = {(float2)(0.0f), (float2)(0.0f)};
     if (material_textured(gm)) surface_uvs(s->tex, prim, u, v, uv);
     return emission_of(s->tex, gm, uv);
@@ -485,7 +485,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
             break;
         }
         Surface f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
-        MaterialPoint m = material_at(s->tex, s->geo.materials, &f);
+        MaterialPoint m = material_at(s->tex, s->tex.materials, &f);
         if (depth == 0) *first = first_hit_of(s, &f, &m, h);
         if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.frame.max_depth) break; /* the last vertex: only its emission counts */
@@ -564,7 +564,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     s.emitter_of_prim = REGION(world, const int, frame.world.emitter_of_prim);
     s.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), REGION(world, const float, frame.world.env_marginal),
                      REGION(world, const float, frame.world.env_conditional));
-    s.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
+    s.tex = scene_textures(attributes, tables, frame.tables, texels);
     s.p = params;
     __global float4 *colour_out = REGION(out, float4, frame.out.colour);
     __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);
