@@ -246,7 +246,7 @@ INLINE void packet_step(Packet *p, const Geometry *g, bool any_hit) {
     __global const WideNode *node = g->nodes + p->stack_node[sp];
     int lane = key_lane(key, any_hit);
     int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
-    if (count < 0) return; /* an empty lane (see walk_step) */
+    if (count < 0) return; /* an empty lane (see walk.h's step) */
     count_visit(p, rays, count);
     if (count > 0) {
         packet_leaf(p, g, child, count, rays, any_hit);
@@ -376,7 +376,7 @@ INLINE void top_packet(Packet *p, const InstanceRays *q, uint rays) {
 }
 
 #if TOP_WIDE
-/* The top tree with the rays in `rays` (walk_top_wide's order by the packet's nearest ray): false when its
+/* The top tree with the rays in `rays` (the top walk's order, by the packet's nearest ray): false when its
  * stack fills up (the caller walks the rays one by one). */
 INLINE bool packet_top(const Geometry *g, InstanceRays *q, uint rays, bool any_hit) {
     Packet p;

@@ -175,15 +175,15 @@ INLINE void walk_pair(QueryItem *q, const Geometry *g, int k, bool any_hit) {
     for (int j = 0; j < 2; ++j) {
         Ray r = query_box_ray(q->origins, q->directions, q->idx[k + j], &q->units[k + j]);
         float2 segment = query_segment(q, k + j, any_hit);
-        walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
+        query_walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
         if (w[j].sp > 0) shear_ray(&w[j].r);
     }
     while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], g, opaque_pass(), any_hit);
-        if (w[1].sp > 0) walk_step(&w[1], g, opaque_pass(), any_hit);
+        if (w[0].sp > 0) mesh_step(&w[0], g, opaque_pass(), any_hit);
+        if (w[1].sp > 0) mesh_step(&w[1], g, opaque_pass(), any_hit);
     }
     for (int j = 0; j < 2; ++j) {
-        walk_finish(&w[j], g, opaque_pass(), any_hit);
+        mesh_finish(&w[j], g, opaque_pass(), any_hit, 1.0f);
         if (any_hit) q->T[k + j] = w[j].T;
         else q->hit[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
         q->visits[k + j] = w[j].visits;

@@ -175,7 +175,8 @@ class Tracer:
         self._upload_geometry(*self._trees())
         self._shading = None  # upload_shading's buffers, once a render asks for them
         # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
-        self._ray_buffers = {"intersect": RayBuffers(self.device, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(self.device, OCCLUDED_IN, OCCLUDED_OUT)}
+        dev = self.device
+        self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
         self._bound = {}  # the query kernels' own copies, arguments kept between calls (launch.BoundKernel)
         named = self.bvh_seconds + sum(self.setup_seconds.values())
