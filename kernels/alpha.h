@@ -30,8 +30,8 @@
 /* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
  * outward normal) of a single-sided material.  glTF: "When this value is false, back-face culling is enabled";
  * only camera rays cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
-INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
-    if (g->materials[g->objects[hit_object(g, h)].material].double_sided) return false;
+INLINE bool back_culled(const Geometry *g, TextureView tv, Hit h, float3 o, float3 d) {
+    if (tv.materials[g->objects[hit_object(g, h)].material].double_sided) return false;
     float3 p_err, n;
     bool sphere;
     hit_surface(g, h, o, d, &p_err, &n, &sphere);
@@ -43,7 +43,7 @@ INLINE bool back_culled(const Geometry *g, Hit h, float3 o, float3 d) {
 /* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup; kernels/surface.h's
  * coverage_at). */
 INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
-    __global const Material *gm = &g->materials[g->objects[hit_object(g, h)].material];
+    __global const Material *gm = &tv.materials[g->objects[hit_object(g, h)].material];
     *alpha = 1.0f;
     if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
     /* read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed
@@ -75,10 +75,10 @@ INLINE float alpha_transmittance(const Geometry *g, TextureView tv, Ray r, float
         if (h.id < 0) return T;
         float opacity;
         point_kept(g, tv, h, 0, &opacity);
-        T *= (1.0f - opacity) + opacity * hit_transparency(g, h);
+        T *= (1.0f - opacity) + opacity * tv.materials[g->objects[hit_object(g, h)].material].transparency;
         t_min = h.t; /* hits are in (t_min, t_max): this one is left out next */
     }
-    return T > 0.0f ? T * transmittance(g, r, t_min, t_max, false, visits) : 0.0f;
+    return T > 0.0f ? T * transmittance(g, r, t_min, t_max, material_pass(tv.materials), visits) : 0.0f;
 }
 #endif
 
@@ -96,7 +96,7 @@ INLINE Hit seen_hit(const Geometry *g, TextureView tv, Ray r, float t_min, float
         if (k == ALPHA_LAYERS) { *opacity = 1.0f; return h; }
         t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
 #if CULL_BACKFACES
-        if (camera && back_culled(g, h, r.o, r.d)) continue;
+        if (camera && back_culled(g, tv, h, r.o, r.d)) continue;
 #endif
 #if ALPHA_TEST
         if (point_kept(g, tv, h, rng, opacity)) return h;

@@ -1,17 +1,16 @@
 /* Ray-primitive tests and BVH traversal: the closest hit of a ray, and the light a shadow ray lets
  * through (any-hit: transmittance, which an opaque surface ends).
  *
- * One traversal per tree layout, closest hit and any-hit as its `any_hit` parameter (a constant at
- * every call, so the compiler keeps one specialised copy of each): walk_binary (BVH_WIDTH 2) and Walk
- * (wide nodes, BVH_WIDTH 4 or 8) share the leaf tests (leaf_slots, leaf_blocks), the overflow
- * fallback (walk_overflowed) and the entry point trace_query, which the BVH-off path answers too.
- * What stays separate, and why (measured speeds: docs/benchmarks.md, "Ray queries"):
- * - walk_binary and Walk: different trees.  The wide walk tests a node's boxes at once in vectors
- *   and a leaf's triangles four at a time (about 2x the binary walk's rays per second); the binary
- *   walk is Tracer(bvh_width=2) and the reference the wide answers are tested against, bit for bit.
- * - Walk and Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together,
- *   one stack and one box sort for all, each triangle tested against eight rays in float8 lanes; the
- *   query kernels walk rays that do not as pairs of Walks (packets: about 1.7x for coherent rays).
+ * One walker (kernels/walk.h), included once per tree: a mesh's (mesh_walk; wide or binary nodes by
+ * BVH_WIDTH) and the instances' top tree (top_walk; wide or binary by TOP_WIDE), each with its leaf hook
+ * (mesh_leaf: leaf_blocks or leaf_slots; top_leaf: visit_instance) and its fallback for a full stack.
+ * Closest hit and any-hit are its `any_hit` parameter, and what a shadow ray keeps at a surface its
+ * `pass` (Pass): constants at every call, so the compiler keeps one specialised copy of each.  The
+ * entry point trace_query answers the BVH-off path too.  What walks apart, and why (measured speeds:
+ * docs/benchmarks.md, "Ray queries"):
+ * - Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together, one stack
+ *   and one box sort for all, each triangle tested against eight rays in float8 lanes; the query
+ *   kernels walk rays that do not as pairs of stepped walks (packets: about 1.7x for coherent rays).
  * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one traversal
  *   with the shaft that holds them all, then test only the primitives it collected (about 2x fewer
  *   CPU-seconds for soft shadows). */
@@ -65,8 +64,7 @@ typedef struct {
     __global const TreeNode *nodes;    /* the tree, node 0 its root; a wide tree's leaf blocks follow its nodes (leaf_block) */
     __global const PrimSlot *slots;    /* primitive slots, in the tree's leaf order: prim_slot, sphere_slot */
     __global const int *prim_object;   /* object id of each primitive id */
-    __global const ObjectRecord *objects;
-    __global const Material *materials;
+    __global const ObjectRecord *objects; /* per object: its material, smooth flag (the shading reads them) */
     int n_prims;
 #if INSTANCED
     __global const Instance *instances; /* each names its mesh's tree and slots, in the top tree's leaf order */
@@ -78,9 +76,9 @@ typedef struct {
 
 /* The kernels' buffers as a Geometry. */
 INLINE Geometry geometry(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
-                         __global const ObjectRecord *objects, __global const Material *materials, int n_prims) {
+                         __global const ObjectRecord *objects, int n_prims) {
     Geometry g;
-    g.nodes = nodes; g.slots = prims; g.prim_object = prim_object; g.objects = objects; g.materials = materials;
+    g.nodes = nodes; g.slots = prims; g.prim_object = prim_object; g.objects = objects;
     g.n_prims = n_prims;
 #if INSTANCED
     g.instances = 0; g.top = 0; g.n_instances = 0; g.object = -1; /* the kernels' with_instances sets them */
@@ -117,12 +115,25 @@ INLINE float4 centre_radius(__global const SphereSlot *s) { return (float4)(load
 INLINE __global const LeafBlock *leaf_block(const Geometry *g, int first) { return (__global const LeafBlock *)g->nodes + first; }
 #endif
 
-/* What a shadow ray keeps crossing primitive `id` (its material's transparency). */
-INLINE float transparency_of(const Geometry *g, int id) {
+/* An any-hit walk's leaf hook: what a shadow ray keeps of the light at each surface it crosses.  Opaque
+ * (opaque_pass: occlusion queries, the path tracer's shadow rays): nothing, the walk ends at the first
+ * crossing.  Otherwise (material_pass: the Whitted integrator's transparent shadows, kernels/shade.h) the
+ * crossed object's material transparency, which the walk multiplies in its own order.  A value whose
+ * `opaque` is a constant at each call, so every walk is compiled for one kind. */
+typedef struct {
+    bool opaque;
+    __global const Material *materials; /* not opaque: the scene's materials, which Geometry does not carry */
+} Pass;
+
+INLINE Pass opaque_pass(void) { Pass p; p.opaque = true; p.materials = 0; return p; }
+INLINE Pass material_pass(__global const Material *materials) { Pass p; p.opaque = false; p.materials = materials; return p; }
+
+/* What a shadow ray keeps crossing primitive `id` (its material's transparency, by pass). */
+INLINE float transparency_of(const Geometry *g, Pass pass, int id) {
 #if INSTANCED
-    if (g->object >= 0) return g->materials[g->objects[g->object].material].transparency; /* id is the mesh's own */
+    if (g->object >= 0) return pass.materials[g->objects[g->object].material].transparency; /* id is the mesh's own */
 #endif
-    return g->materials[g->objects[g->prim_object[id]].material].transparency;
+    return pass.materials[g->objects[g->prim_object[id]].material].transparency;
 }
 
 
@@ -252,9 +263,9 @@ INLINE float hit_slot(const Geometry *g, int s, Ray r, float t_min, float t_max,
 }
 
 /* Fraction of light reaching t_max along the ray through slot s: 0 past an opaque surface, times
- * `transparency` for every crossing of a transparent one (the shadow ray is not bent).  With
- * opaque_only every surface blocks (a plain any-hit occlusion query). */
-INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min, float t_max, bool opaque_only) {
+ * `transparency` for every crossing of a transparent one (the shadow ray is not bent).  With an
+ * opaque pass every surface blocks (a plain any-hit occlusion query). */
+INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min, float t_max, Pass pass) {
     __global const PrimSlot *p = prim_slot(g, s);
     int crossings = 0;
     if (p->sphere) {
@@ -269,8 +280,8 @@ INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min
         crossings = hit_triangle(r, load3(p->v0), load3(p->v1), load3(p->v2), t_min, t_max, &u, &v) != INF_T;
     }
     if (crossings == 0) return 1.0f;
-    if (opaque_only) return 0.0f;
-    float transparency = transparency_of(g, p->id);
+    if (pass.opaque) return 0.0f;
+    float transparency = transparency_of(g, pass, p->id);
     return crossings == 2 ? transparency * transparency : transparency;
 }
 
@@ -279,10 +290,10 @@ INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min
  * wide, either builder) finds the same primitive.  Any-hit: *T is multiplied by each slot's
  * crossing_transmittance, in slot order, until it is 0. */
 INLINE void leaf_slots(const Geometry *g, int begin, int end, Ray r, float t_min, float t_max, bool any_hit,
-                       bool opaque_only, Hit *best, float *T) {
+                       Pass pass, Hit *best, float *T) {
     for (int s = begin; s < end && (!any_hit || *T > 0.0f); ++s) {
         if (any_hit) {
-            *T *= crossing_transmittance(g, s, r, t_min, t_max, opaque_only);
+            *T *= crossing_transmittance(g, s, r, t_min, t_max, pass);
             continue;
         }
         float u = 0.0f, v = 0.0f;
@@ -292,15 +303,6 @@ INLINE void leaf_slots(const Geometry *g, int begin, int end, Ray r, float t_min
             best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
         }
     }
-}
-
-/* After a stack filled up (no node is ever dropped): every primitive is tested instead, from scratch
- * for any-hit.  Trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep and the stacks hold them,
- * so this is only reached with smaller knobs (tests of the fallback); the answer is the same. */
-INLINE void walk_overflowed(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
-                            Hit *best, float *T) {
-    if (any_hit) *T = 1.0f;
-    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, opaque_only, best, T);
 }
 
 /* One slab of the box test: the entry and exit distances (lo - o) / d and
@@ -317,7 +319,6 @@ INLINE void slab(float lo, float hi, float o, float inv_d, float *t_enter, float
     *t_exit = min_f(far, *t_exit);    /* a NaN `far` keeps t_exit */
 }
 
-#if BVH_WIDTH == 2
 /* Slab test of a binary node's box; returns the entry distance or INF_T.  Correct for every
  * direction, zero and negative-zero components included, and conservative: the exit distance is
  * widened by BOX_EXIT_WIDEN.  Scalars: float3 arithmetic costs shuffles on CPUs. */
@@ -329,56 +330,6 @@ INLINE float hit_box(Ray r, __global const BvhNode *node, float t_max) {
     t_exit *= BOX_EXIT_WIDEN;
     return t_enter <= t_exit ? t_enter : INF_T;
 }
-
-/* The binary tree (clrender/trace/bvh.py), depth first: at an interior node the child to visit next,
- * the other on the stack.  Closest hit: the nearer box next (ties to the near child node + 1), and a
- * stacked box is skipped once the nearest hit is nearer; any-hit: the far child `offset` next, and the
- * walk ends at an opaque hit.  best->t is t_max to start with, and (closest hit) the nearest hit so
- * far: every box test uses it.  Trees are at most MAX_TREE_LEVELS deep, so the stack holds at most
- * depth - 1 nodes; should it fill up anyway, walk_overflowed. */
-INLINE void walk_binary(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
-                        float *T, uint *visits) {
-    __global const BvhNode *nodes = g->nodes;
-    int stack[STACK_SIZE];
-    float stack_t[STACK_SIZE];
-    int sp = 0;
-    bool overflow = false;
-    int node = (g->n_prims > 0 && hit_box(r, nodes, best->t) != INF_T) ? 0 : -1;
-    while (node >= 0) {
-        COUNT_NODE(visits);
-        int count = nodes[node].count, offset = nodes[node].offset;
-        int next = -1;
-        if (count > 0) {
-            COUNT_PRIMS(visits, count); /* any-hit: at most, it stops at the first opaque hit */
-            leaf_slots(g, offset, offset + count, r, t_min, t_max, any_hit, opaque_only, best, T);
-            if (any_hit && *T == 0.0f) return; /* blocked: done */
-        } else {
-            int first = any_hit ? offset : node + 1, second = any_hit ? node + 1 : offset;
-            float t_first = hit_box(r, nodes + first, best->t), t_second = hit_box(r, nodes + second, best->t);
-            if (!any_hit && t_second < t_first) { /* visit the nearer box first */
-                int tmp = first; first = second; second = tmp;
-                float tt = t_first; t_first = t_second; t_second = tt;
-            }
-            if (t_first != INF_T) {
-                next = first;
-                if (t_second != INF_T) { /* put the other node on the stack */
-                    if (sp < STACK_SIZE) { stack[sp] = second; stack_t[sp] = t_second; ++sp; }
-                    else overflow = true;
-                }
-            } else if (t_second != INF_T) { /* any-hit only: closest hit sorted a hit box first */
-                next = second;
-            }
-        }
-        /* advance to the next node, else pop a stacked node the ray can still reach */
-        while (next < 0 && sp > 0) {
-            --sp;
-            if (any_hit || stack_t[sp] <= best->t * BOX_EXIT_WIDEN) next = stack[sp];
-        }
-        node = next;
-    }
-    if (overflow) walk_overflowed(g, r, t_min, t_max, any_hit, opaque_only, best, T);
-}
-#endif
 
 /* ---------------------------------------------------------------- wide BVH (clrender/trace/bvh_wide.py)
  * BVH_WIDTH 4 or 8.  A node (WideNode, clrender/layout.py) holds its children in BVH_WIDTH lanes of
@@ -535,13 +486,13 @@ INLINE void nearest_lane(const Geometry *g, int4 slot, float4 t, float4 u, float
 
 /* T times the transparency of every triangle lane of `block` the ray crosses (a hit t in that lane),
  * in lane order: a triangle is crossed once. */
-INLINE float times_crossed(const Geometry *g, __global const LeafBlock *block, float4 t, float T) {
+INLINE float times_crossed(const Geometry *g, Pass pass, __global const LeafBlock *block, float4 t, float T) {
     int4 crossed = t != (float4)(INF_T);
     if (!(crossed.x | crossed.y | crossed.z | crossed.w)) return T;
     int4 slot = block->slot;
     int cl[4] = {crossed.x, crossed.y, crossed.z, crossed.w}, sl[4] = {slot.x, slot.y, slot.z, slot.w};
     for (int k = 0; k < BLOCK_LANES; ++k)
-        if (cl[k]) T *= transparency_of(g, prim_slot(g, sl[k])->id);
+        if (cl[k]) T *= transparency_of(g, pass, prim_slot(g, sl[k])->id);
     return T;
 }
 
@@ -550,7 +501,7 @@ INLINE float times_crossed(const Geometry *g, __global const LeafBlock *block, f
  * Closest hit: as leaf_slots.  Any-hit: the leaf's own product of crossings, which then multiplies *T
  * (the grouping the renders were made with: float products are not associative). */
 INLINE void leaf_blocks(const Geometry *g, int first, int count, Ray r, float t_min, float t_max, bool any_hit,
-                        bool opaque_only, Hit *best, float *T) {
+                        Pass pass, Hit *best, float *T) {
     __global const LeafBlock *block = leaf_block(g, first);
     float leaf_T = 1.0f;
     for (int b = 0; b < count && leaf_T > 0.0f; b += BLOCK_LANES, ++block) {
@@ -559,16 +510,16 @@ INLINE void leaf_blocks(const Geometry *g, int first, int count, Ray r, float t_
         float4 t = hit_block(r, block, slot >= 0, t_min, any_hit ? t_max : best->t * HIT_TIE_WIDEN, &u, &v);
         if (!any_hit) {
             nearest_lane(g, slot, t, u, v, best);
-        } else if (opaque_only) {
+        } else if (pass.opaque) {
             int4 crossed = t != (float4)(INF_T);
             if (crossed.x | crossed.y | crossed.z | crossed.w) { *T = 0.0f; return; } /* blocked */
         } else {
-            leaf_T = times_crossed(g, block, t, leaf_T);
+            leaf_T = times_crossed(g, pass, block, t, leaf_T);
         }
         if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
             int sl[4] = {slot.x, slot.y, slot.z, slot.w};
             for (int k = 0; k < BLOCK_LANES; ++k)
-                if (sl[k] < -1) leaf_slots(g, -2 - sl[k], -1 - sl[k], r, t_min, t_max, any_hit, opaque_only, best, &leaf_T);
+                if (sl[k] < -1) leaf_slots(g, -2 - sl[k], -1 - sl[k], r, t_min, t_max, any_hit, pass, best, &leaf_T);
         }
     }
     if (any_hit) *T *= leaf_T;
@@ -581,7 +532,7 @@ INLINE void leaf_blocks(const Geometry *g, int first, int count, Ray r, float t_
  * through so far, and the walk ends at an opaque hit.  Stack entries are lane keys (lane_keys) with
  * the node they belong to; trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so the stack
  * holds at most BVH_WIDTH - 1 siblings per level plus one node's lanes
- * (clrender.trace.knobs.TraceKnobs.wide_stack_size); should it fill up, walk_overflowed at the end. */
+ * (clrender.trace.knobs.TraceKnobs.wide_stack_size); should it fill up, WALK_EVERY at the end (walk.h). */
 typedef struct {
     Ray r;
     float t_min, t_max; /* any-hit: the segment; closest hit: t_max is the nearest hit so far */
@@ -589,84 +540,71 @@ typedef struct {
     float T;
     int sp;
     bool overflow;
-    bool sort_always;   /* push_lanes' choice: true for the query kernels' walks (walk_start), false for renders (walk_wide) */
+    bool sort_always;   /* push_lanes' choice: true for the query kernels' walks (query_walk_start), false for renders (walk_tree) */
     uint visits;
     uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
     int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
 } Walk;
 
-INLINE void walk_start_sorting(Walk *w, const Geometry *g, Ray r, float t_min, float t_max, bool any_hit,
-                               bool sort_always) {
-    w->r = r; w->t_min = t_min; w->t_max = t_max;
-    w->best = no_hit(); w->best.t = t_max; w->T = 1.0f;
-    w->sp = 0; w->overflow = false; w->visits = 0; w->sort_always = sort_always;
-    if (g->n_prims > 0) {
-        COUNT_NODE(&w->visits);
-        w->sp = push_lanes(0, hit_boxes(r, g->nodes, t_max), any_hit, sort_always, w->stack_key, w->stack_node, 0,
-                           &w->overflow);
-    }
+#endif
+
+/* ---------------------------------------------------------------- the walker on a mesh's tree (kernels/walk.h)
+ * Its leaf hook: a wide leaf's blocks (leaf_blocks), a binary leaf's slots (leaf_slots); after a stack filled up,
+ * every slot (trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep and the stacks hold them, so only smaller
+ * knobs reach it: the tests of the fallback; the answer is the same). */
+INLINE void mesh_leaf(const Geometry *g, int first, int count, bool own_box, Ray r, float t_min, float t_max, bool any_hit,
+                      Pass pass, Hit *best, float *T, uint *visits) {
+    COUNT_PRIMS(visits, count); /* any-hit: at most, it stops at the first opaque hit */
+#if BVH_WIDTH >= 4
+    leaf_blocks(g, first, count, r, t_min, t_max, any_hit, pass, best, T);
+#else
+    leaf_slots(g, first, first + count, r, t_min, t_max, any_hit, pass, best, T);
+#endif
 }
 
-/* A query kernel's walk (walk_pair in trace.cl: rays that did not form a packet, mostly incoherent). */
-INLINE void walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_max, bool any_hit) {
-    walk_start_sorting(w, g, r, t_min, t_max, any_hit, true);
+INLINE void mesh_every(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best, float *T,
+                       uint *visits) {
+    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, pass, best, T);
 }
 
-/* Visit the lane on top of the stack: a leaf's blocks are tested, a node's boxes tested and its hit
- * lanes pushed.  Call while w->sp > 0, with the any_hit the walk started with (a constant at every
- * call, so the compiler keeps one kind of walk per loop). */
-INLINE void walk_step(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
-    int sp = --w->sp;
-    uint key = w->stack_key[sp];
-    float t_max = any_hit ? w->t_max : w->best.t;
-    if (!any_hit && key_t(key) > t_max * BOX_EXIT_WIDEN) return; /* beyond the nearest hit so far */
-    __global const WideNode *node = g->nodes + w->stack_node[sp];
-    int lane = key_lane(key, any_hit);
-    int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
-    if (count < 0) return; /* an empty lane: only a NaN ray meets its [+inf, -inf] box; never descend */
-    COUNT_NODE(&w->visits);
-    if (count > 0) {
-        COUNT_PRIMS(&w->visits, count); /* any-hit: at most, it stops at the first opaque hit */
-        leaf_blocks(g, child, count, w->r, w->t_min, t_max, any_hit, opaque_only, &w->best, &w->T);
-        if (any_hit && w->T == 0.0f) w->sp = 0; /* blocked: done */
-    } else {
-        w->sp = push_lanes(child, hit_boxes(w->r, g->nodes + child, t_max), any_hit, w->sort_always, w->stack_key,
-                           w->stack_node, sp, &w->overflow);
-    }
-}
+#if USE_BVH
+#define walk_start mesh_start
+#define walk_step mesh_step
+#define walk_finish mesh_finish
+#define walk_wide mesh_walk
+#define walk_binary mesh_walk
+#define WALK_WIDE (BVH_WIDTH >= 4)
+#define WALK_NODES(g) ((g)->nodes)
+#define WALK_ROOT(g) ((g)->n_prims > 0)
+#define WALK_LEAF mesh_leaf
+#define WALK_EVERY mesh_every
+#define WALK_SORT_ANY 0 /* any-hit: the far child first (binary trees) */
+#include "walk.h"
+#endif
 
-/* After the last step: a lane that did not fit on the stack means every primitive is tested instead. */
-INLINE void walk_finish(Walk *w, const Geometry *g, bool opaque_only, bool any_hit) {
-    if (w->overflow && !(any_hit && w->T == 0.0f))
-        walk_overflowed(g, w->r, w->t_min, w->t_max, any_hit, opaque_only, &w->best, &w->T);
-}
-
-INLINE void walk_wide(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
-                      float *T, uint *visits) {
-    Walk w;
-    walk_start_sorting(&w, g, r, t_min, t_max, any_hit, false); /* renders: mostly coherent rays */
-    while (w.sp > 0) walk_step(&w, g, opaque_only, any_hit);
-    walk_finish(&w, g, opaque_only, any_hit);
-    *visits += w.visits;
-    *best = w.best;
-    *T = w.T;
+#if USE_BVH && BVH_WIDTH >= 4
+/* A query kernel's walk (walk_pair in trace.cl: rays that did not form a packet, mostly incoherent): every node's
+ * keys sorted (push_lanes' sort_always), stepped by mesh_step, ended by mesh_finish(..., 1.0f). */
+INLINE void query_walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_max, bool any_hit) {
+    Hit best = no_hit();
+    best.t = t_max;
+    mesh_start(w, g, r, t_min, t_max, &best, 1.0f, any_hit, true);
 }
 #endif
 
 /* Every traversal's entry point: the closest hit in (t_min, t_max) in *best (slot -1 on a miss), or
  * (any_hit) the light let through up to t_max in *T, through the tree the build chose (USE_BVH,
- * BVH_WIDTH) or, without one, every primitive.  *visits grows by the nodes visited (see COUNT_NODE). */
-INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+ * BVH_WIDTH) or, without one, every primitive.  r is sheared.  *visits grows by the nodes visited
+ * (see COUNT_NODE). */
+INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
                       float *T, uint *visits) {
     *best = no_hit();
     best->t = t_max;
     *T = 1.0f;
-#if USE_BVH && BVH_WIDTH == 2
-    walk_binary(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-#elif USE_BVH
-    walk_wide(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+#if USE_BVH
+    mesh_walk(g, r, t_min, t_max, any_hit, pass, false, false, best, T, visits); /* renders: mostly coherent rays */
 #else
-    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, opaque_only, best, T);
+    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, pass, best, T);
     *visits += (uint)g->n_prims;
 #endif
 }
@@ -715,20 +653,16 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
 
 /* The mesh tree of an instance, for a ray already in object space: the wide walk, its shear (three
  * divisions) made only once the root has a hit (as the query kernels' walk_pair), else walk_tree. */
-INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
                       float *T, uint *visits) {
 #if USE_BVH && BVH_WIDTH >= 4
-    Walk w;
-    walk_start_sorting(&w, s, r, t_min, t_max, any_hit, INSTANCE_SORT_ALWAYS);
-    if (w.sp > 0 || w.overflow) shear_ray(&w.r); /* walk_finish tests every triangle after an overflow */
-    while (w.sp > 0) walk_step(&w, s, opaque_only, any_hit);
-    walk_finish(&w, s, opaque_only, any_hit);
-    *visits += w.visits;
-    *best = w.best;
-    *T = w.T;
+    *best = no_hit();
+    best->t = t_max;
+    *T = 1.0f;
+    mesh_walk(s, r, t_min, t_max, any_hit, pass, INSTANCE_SORT_ALWAYS, true, best, T, visits);
 #else
     shear_ray(&r);
-    walk_tree(s, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    walk_tree(s, r, t_min, t_max, any_hit, pass, best, T, visits);
 #endif
 }
 
@@ -736,14 +670,14 @@ INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool a
  * prim_base, ties to the lower id as everywhere) replaces *best when nearer; any-hit: *T times its
  * transmittance (transparency_of reads the instance's object: s.object). */
 INLINE void visit_instance_entered(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit,
-                                   bool opaque_only, Hit *best, float *T, uint *visits) {
+                                   Pass pass, Hit *best, float *T, uint *visits) {
     __global const Instance *in = g->instances + i;
     float t_far = any_hit ? t_max : best->t;
     Ray r_object = make_box_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
     Geometry s = instance_geometry(g, in);
     Hit h;
     float T_in;
-    walk_mesh(&s, r_object, t_min, t_far, any_hit, opaque_only, &h, &T_in, visits);
+    walk_mesh(&s, r_object, t_min, t_far, any_hit, pass, &h, &T_in, visits);
     if (any_hit) { *T *= T_in; return; }
     int id = h.id + in->prim_base;
     if (h.slot >= 0 && nearer_hit(h.t, id, best)) {
@@ -752,100 +686,51 @@ INLINE void visit_instance_entered(const Geometry *g, int i, Ray r, float t_min,
 }
 
 /* Instance i, if the ray enters its world box before the nearest hit so far. */
-INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, Pass pass,
                            Hit *best, float *T, uint *visits) {
     __global const Instance *in = g->instances + i;
     float t_far = any_hit ? t_max : best->t;
     if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
-    visit_instance_entered(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    visit_instance_entered(g, i, r, t_min, t_max, any_hit, pass, best, T, visits);
 }
 
-/* Every instance, when a top-level stack fills up (never with the builder's depth limit): the nearest hit
- * whatever the order; any-hit starts again from the flat part's T_flat, so none is crossed twice. */
-INLINE void visit_every_instance(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
-                                 Hit *best, float *T, float T_flat, uint *visits) {
-    if (any_hit) *T = T_flat;
-    for (int i = 0; i < g->n_instances && !(any_hit && *T == 0.0f); ++i)
-        visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-}
-
-#if TOP_WIDE
-/* The top tree as the wide walks go (push_lanes: hit lanes nearest first, or farthest for any-hit; a lane
- * entered beyond the nearest hit so far dropped), a leaf lane's instances by visit_instance. */
-INLINE void walk_top_wide(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
-                          Hit *best, float *T, uint *visits) {
-    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
-    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
-    bool overflow = false;
-    float T_flat = *T;
-    COUNT_NODE(visits);
-    int sp = push_lanes(0, hit_boxes(r, g->top, any_hit ? t_max : best->t), any_hit, false, stack_key, stack_node, 0,
-                        &overflow);
-    while (sp > 0 && !(any_hit && *T == 0.0f)) {
-        uint key = stack_key[--sp];
-        float t_far = any_hit ? t_max : best->t;
-        if (!any_hit && key_t(key) > t_far * BOX_EXIT_WIDEN) continue;
-        __global const WideNode *node = g->top + stack_node[sp];
-        int lane = key_lane(key, any_hit);
-        int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
-        if (count < 0) continue; /* an empty lane */
-        COUNT_NODE(visits);
-        if (count > 0) {
-            if (count == 1) /* the lane's box is the instance's own */
-                visit_instance_entered(g, child, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-            else
-                for (int i = child; i < child + count && !(any_hit && *T == 0.0f); ++i)
-                    visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-        } else {
-            sp = push_lanes(child, hit_boxes(r, g->top + child, t_far), any_hit, false, stack_key, stack_node, sp, &overflow);
-        }
+/* ---------------------------------------------------------------- the walker on the top tree (kernels/walk.h)
+ * Its leaf hook: a leaf's instances by visit_instance (a wide leaf lane of one instance: its box is the instance's
+ * own, visit_instance_entered); after a stack filled up (never with the builder's depth limit), every instance, the
+ * nearest hit whatever the order, any-hit again from the flat part's T. */
+INLINE void top_leaf(const Geometry *g, int first, int count, bool own_box, Ray r, float t_min, float t_max, bool any_hit,
+                     Pass pass, Hit *best, float *T, uint *visits) {
+    if (own_box && count == 1) {
+        visit_instance_entered(g, first, r, t_min, t_max, any_hit, pass, best, T, visits);
+        return;
     }
-    if (overflow && !(any_hit && *T == 0.0f)) visit_every_instance(g, r, t_min, t_max, any_hit, opaque_only, best, T, T_flat, visits);
+    for (int i = first; i < first + count && !(any_hit && *T == 0.0f); ++i)
+        visit_instance(g, i, r, t_min, t_max, any_hit, pass, best, T, visits);
 }
-#else
-/* The binary top tree depth first, nearer child first for closest hits, a stacked child dropped when the
- * nearest hit so far is before its box. */
-INLINE void walk_top_binary(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
-                            Hit *best, float *T, uint *visits) {
-    int stack[STACK_SIZE];
-    float stack_t[STACK_SIZE];
-    int sp = 0, node = 0;
-    float T_flat = *T;
-    if (g->n_instances == 0 || hit_bounds(r, g->top[0].bmin, g->top[0].bmax, any_hit ? t_max : best->t) == INF_T) return;
-    while (node >= 0 && !(any_hit && *T == 0.0f)) {
-        __global const BvhNode *n = g->top + node;
-        COUNT_NODE(visits);
-        int next = -1;
-        if (n->count > 0) {
-            for (int i = n->offset; i < n->offset + n->count && !(any_hit && *T == 0.0f); ++i)
-                visit_instance(g, i, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-        } else {
-            int first = node + 1, second = n->offset;
-            float t_far = any_hit ? t_max : best->t;
-            float t1 = hit_bounds(r, g->top[first].bmin, g->top[first].bmax, t_far);
-            float t2 = hit_bounds(r, g->top[second].bmin, g->top[second].bmax, t_far);
-            if (t2 < t1) { int k = first; first = second; second = k; float t = t1; t1 = t2; t2 = t; }
-            if (t2 != INF_T) {
-                if (sp == STACK_SIZE) { /* full: every instance instead */
-                    visit_every_instance(g, r, t_min, t_max, any_hit, opaque_only, best, T, T_flat, visits);
-                    return;
-                }
-                stack[sp] = second; stack_t[sp] = t2; ++sp;
-            }
-            if (t1 != INF_T) next = first;
-        }
-        while (next < 0 && sp > 0) { /* closest hit: a box entered beyond the nearest hit holds none nearer */
-            --sp;
-            if (any_hit || stack_t[sp] <= best->t * BOX_EXIT_WIDEN) next = stack[sp];
-        }
-        node = next;
-    }
-}
-#endif
 
-/* The flat part (when it has primitives), then the top tree (walk_top_wide, walk_top_binary), each leaf's
- * instances by visit_instance.  r needs no shear: each walk makes its own. */
-INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only,
+INLINE void top_every(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best, float *T,
+                      uint *visits) {
+    top_leaf(g, 0, g->n_instances, false, r, t_min, t_max, any_hit, pass, best, T, visits);
+}
+
+/* -DTOP_WIDE=1: the top tree in wide nodes (the instances' boxes tested eight at once), else binary; a closest hit
+ * drops a box entered beyond the nearest hit so far (the flat part's to start with) */
+#define walk_start top_start
+#define walk_step top_step
+#define walk_finish top_finish
+#define walk_wide top_walk
+#define walk_binary top_walk
+#define WALK_WIDE TOP_WIDE
+#define WALK_NODES(g) ((g)->top)
+#define WALK_ROOT(g) ((g)->n_instances > 0)
+#define WALK_LEAF top_leaf
+#define WALK_EVERY top_every
+#define WALK_SORT_ANY 1 /* any-hit: the nearer child first too (binary top trees) */
+#include "walk.h"
+
+/* The flat part (when it has primitives), then the top tree (top_walk), each leaf's instances by visit_instance.
+ * r needs no shear: each walk makes its own. */
+INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass,
                            Hit *best, float *T, uint *visits) {
     *best = no_hit();
     best->t = t_max;
@@ -853,39 +738,35 @@ INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, b
     if (g->n_prims > 0) {
         Ray r_flat = r;
         shear_ray(&r_flat);
-        walk_tree(g, r_flat, t_min, t_max, any_hit, opaque_only, best, T, visits);
+        walk_tree(g, r_flat, t_min, t_max, any_hit, pass, best, T, visits);
     }
     if (g->n_instances == 0 || (any_hit && *T == 0.0f)) return;
-#if TOP_WIDE
-    walk_top_wide(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-#else
-    walk_top_binary(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
-#endif
+    top_walk(g, r, t_min, t_max, any_hit, pass, false, false, best, T, visits);
 }
 #endif
 
-INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, bool opaque_only, Hit *best,
+INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
                         float *T, uint *visits) {
 #if INSTANCED
-    walk_instances(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    walk_instances(g, r, t_min, t_max, any_hit, pass, best, T, visits);
 #else
-    walk_tree(g, r, t_min, t_max, any_hit, opaque_only, best, T, visits);
+    walk_tree(g, r, t_min, t_max, any_hit, pass, best, T, visits);
 #endif
 }
 
 INLINE Hit closest_hit(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
     Hit best;
     float T;
-    trace_query(g, r, t_min, t_max, false, true, &best, &T, visits);
+    trace_query(g, r, t_min, t_max, false, opaque_pass(), &best, &T, visits);
     return best.slot < 0 ? no_hit() : best;
 }
 
 /* Fraction of light reaching t_max along the ray: 0 past an opaque surface, times the transparency of
- * every crossing of a transparent one; with opaque_only every surface blocks. */
-INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, bool opaque_only, uint *visits) {
+ * every crossing of a transparent one; with pass every surface blocks. */
+INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, Pass pass, uint *visits) {
     Hit best;
     float T;
-    trace_query(g, r, t_min, t_max, true, opaque_only, &best, &T, visits);
+    trace_query(g, r, t_min, t_max, true, pass, &best, &T, visits);
     return T;
 }
 
@@ -907,9 +788,6 @@ INLINE int hit_data(const Geometry *g, Hit h) {
 #endif
     return h.id;
 }
-
-/* What hit h's material lets through (transparency_of by the hit's object). */
-INLINE float hit_transparency(const Geometry *g, Hit h) { return g->materials[g->objects[hit_object(g, h)].material].transparency; }
 
 #if INSTANCED
 /* An object-space normal n of instance `in` in world space: by the inverse transpose, world_to_object

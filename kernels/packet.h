@@ -184,7 +184,7 @@ INLINE void packet_sphere(Packet *p, const Geometry *g, int s, uint rays, bool a
         Ray r = make_box_ray((float3)(ox[k], oy[k], oz[k]), (float3)(dx[k], dy[k], dz[k]));
         int8 lane = ray_lanes(1u << k);
         if (any_hit) {
-            if (crossing_transmittance(g, s, r, t_min[k], t_max[k], true) == 0.0f) p->live &= ~(1u << k);
+            if (crossing_transmittance(g, s, r, t_min[k], t_max[k], opaque_pass()) == 0.0f) p->live &= ~(1u << k);
         } else {
             float u, v, t = hit_slot(g, s, r, t_min[k], t_max[k] * HIT_TIE_WIDEN, &u, &v);
             if (t < t_max[k] || (t == t_max[k] && t != INF_T && id < best_id[k])) {
@@ -246,7 +246,7 @@ INLINE void packet_step(Packet *p, const Geometry *g, bool any_hit) {
     __global const WideNode *node = g->nodes + p->stack_node[sp];
     int lane = key_lane(key, any_hit);
     int child = LANE_OF(int, node->child, lane), count = LANE_OF(int, node->count, lane);
-    if (count < 0) return; /* an empty lane (see walk_step) */
+    if (count < 0) return; /* an empty lane (see walk.h's step) */
     count_visit(p, rays, count);
     if (count > 0) {
         packet_leaf(p, g, child, count, rays, any_hit);
@@ -340,7 +340,7 @@ INLINE void packet_instance(const Geometry *g, int i, InstanceRays *q, uint rays
     }
     for (int k = 0; k < PACKET_RAYS; ++k)
         if ((rays >> k) & 1u)
-            visit_instance_entered(g, i, q->r[k], q->t_min[k], q->t_max[k], any_hit, true, &q->best[k], &q->T[k],
+            visit_instance_entered(g, i, q->r[k], q->t_min[k], q->t_max[k], any_hit, opaque_pass(), &q->best[k], &q->T[k],
                                    &q->visits[k]);
 }
 
@@ -376,7 +376,7 @@ INLINE void top_packet(Packet *p, const InstanceRays *q, uint rays) {
 }
 
 #if TOP_WIDE
-/* The top tree with the rays in `rays` (walk_top_wide's order by the packet's nearest ray): false when its
+/* The top tree with the rays in `rays` (the top walk's order, by the packet's nearest ray): false when its
  * stack fills up (the caller walks the rays one by one). */
 INLINE bool packet_top(const Geometry *g, InstanceRays *q, uint rays, bool any_hit) {
     Packet p;

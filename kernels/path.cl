@@ -94,7 +94,7 @@ INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist
     float opacity;
     return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0 ? 1.0f : 0.0f;
 #else
-    return transmittance(&s->geo, sr, 0.0f, t_max, true, visits);
+    return transmittance(&s->geo, sr, 0.0f, t_max, opaque_pass(), visits);
 #endif
 }
 
@@ -162,7 +162,7 @@ INLINE int pick_near(const PathScene *s, float3 x, float total, float u) {
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
  * one-sided): kernels/surface.h's emission_of its material there. */
 INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
-    __global const Material *gm = &s->geo.materials[s->geo.objects[s->geo.prim_object[prim]].material];
+    __global const Material *gm = &s->tex.materials[s->geo.objects[s->geo.prim_object[prim]].material];
     float2 uv[2] = {(float2)(0.0f), (float2)(0.0f)};
     if (material_textured(gm)) surface_uvs(s->tex, prim, u, v, uv);
     return emission_of(s->tex, gm, uv);
@@ -397,7 +397,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
             break;
         }
         Surface f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
-        MaterialPoint m = material_at(s->tex, s->geo.materials, &f);
+        MaterialPoint m = material_at(s->tex, s->tex.materials, &f);
         if (depth == 0) *first = first_hit_of(s, &f, &m, h);
         if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.frame.max_depth) break; /* the last vertex: only its emission counts */
@@ -477,7 +477,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     s.choices = REGION(world, const LightChoice, frame.world.light_choices);
     s.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), REGION(world, const float, frame.world.env_marginal),
                      REGION(world, const float, frame.world.env_conditional));
-    s.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
+    s.tex = scene_textures(attributes, tables, frame.tables, texels);
     s.p = params;
     __global float4 *colour_out = REGION(out, float4, frame.out.colour);
     __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);

@@ -200,12 +200,12 @@ INLINE float sample_transmittance(const SceneView *sc, const ShadingPoint *pt, f
     Ray sr = make_ray(origin, l);
     float t_max = (dist == INF_T) ? INF_T : norm(pt->p + l * dist - origin);
 #if SHAFTS_ON
-    if (by_shaft) return shaft_transmittance(cand, &sc->geo, sr, t_max);
+    if (by_shaft) return shaft_transmittance(cand, &sc->geo, material_pass(sc->tex.materials), sr, t_max);
 #endif
 #if ALPHA_TEST
     return alpha_transmittance(&sc->geo, sc->tex, sr, t_max, visits); /* one ray's walk: shafts are off (shaft.h) */
 #else
-    return transmittance(&sc->geo, sr, 0.0f, t_max, false, visits);
+    return transmittance(&sc->geo, sr, 0.0f, t_max, material_pass(sc->tex.materials), visits);
 #endif
 }
 
@@ -326,7 +326,7 @@ INLINE int start_shaft(const SceneView *sc, const ShadingPoint *pt, const Parall
     int side = light_side(pt->p, pt->n_geo, pg->corner, pg->edge_a, pg->edge_b);
     Shaft sh;
     if (make_shaft(side >= 0 ? pt->origin_front : pt->origin_back, pg->corner, pg->edge_a, pg->edge_b, &sh) &&
-        shaft_candidates(&sh, &sc->geo, side != 0 ? pt->slot : -1, cand, visits))
+        shaft_candidates(&sh, &sc->geo, material_pass(sc->tex.materials), side != 0 ? pt->slot : -1, cand, visits))
         return side >= 0 ? 1 : -1;
     return 0;
 }
@@ -486,7 +486,7 @@ INLINE float3 trace_path(const SceneView *sc, Ray primary, Rng *rng, __global Id
             continue;
         }
         Surface f = surface_at(&sc->geo, sc->normals, sc->tex, h, o, d);
-        MaterialPoint m = material_at(sc->tex, sc->geo.materials, &f);
+        MaterialPoint m = material_at(sc->tex, sc->tex.materials, &f);
         ShadingPoint pt = shading_point(&f, &m, h);
         if (opacity < 1.0f) { /* BLEND: what lies behind the point, 1 - alpha of the ray, on the same footing */
             push_ray(&stack, offset_origin(pt.p, pt.p_err, -pt.n_geo), medium, d, depth, w * (1.0f - opacity));

@@ -250,7 +250,7 @@ INLINE int shaft_sphere(const Shaft *sh, float4 cr) {
 /* Add the candidates of one wide leaf (`count` primitives in blocks from `first` on) to `cand`: its
  * blocks' triangle lanes that may meet the shaft, and its spheres (or, for a sphere every ray crosses
  * once, its transparency in crossed_T).  False when they do not fit. */
-INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, int first, int count, int own, ShaftCandidates *cand) {
+INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, Pass pass, int first, int count, int own, ShaftCandidates *cand) {
     __global const LeafBlock *block = leaf_block(g, first);
     for (int b = 0; b < count; b += BLOCK_LANES, ++first, ++block) {
         int lanes = shaft_triangles(sh, block, own);
@@ -268,7 +268,7 @@ INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, int first, int count,
             int what = shaft_sphere(sh, centre_radius(sphere));
             if (what == SPHERE_MISSED) continue;
             if (what == SPHERE_CROSSED_ONCE) {
-                cand->crossed_T *= transparency_of(g, sphere->id);
+                cand->crossed_T *= transparency_of(g, pass, sphere->id);
                 continue;
             }
             if (cand->n >= SHAFT_CANDIDATES) return false;
@@ -281,7 +281,7 @@ INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, int first, int count,
 
 /* Collect the candidates of the shaft from the wide tree.  False when there are more than
  * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
-INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftCandidates *cand, uint *visits) {
+INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, Pass pass, int own, ShaftCandidates *cand, uint *visits) {
     int stack[WIDE_STACK_SIZE + BVH_WIDTH];
     int sp = 0;
     cand->n = 0;
@@ -298,7 +298,7 @@ INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, int own, ShaftC
             if (count == 0) { /* interior: visit it later */
                 if (sp >= WIDE_STACK_SIZE + BVH_WIDTH) return false;
                 stack[sp++] = child;
-            } else if (!shaft_leaf(sh, g, child, count, own, cand)) {
+            } else if (!shaft_leaf(sh, g, pass, child, count, own, cand)) {
                 return false;
             }
         }
@@ -328,14 +328,14 @@ INLINE int4 candidate_lanes(int lanes) { return ((int4)(lanes) & (int4)(1, 2, 4,
  * block candidates in a row are tested at once (hit_block_pair); the second one's crossings count
  * only if the ray gets past the first, as one by one.  The candidate that blocked a ray moves to the
  * front, where the next ray (a neighbour) tries it first. */
-INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Ray r, float t_max) {
+INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Pass pass, Ray r, float t_max) {
     float T = cand->crossed_T;
     float4 next_t = (float4)(INF_T); /* candidate k's block hits, when the pair test before found them */
     bool have_next = false;
     for (int k = 0; k < cand->n && T > 0.0f; ++k) {
         int first = cand->first[k];
         if (first < 0) {
-            T *= crossing_transmittance(g, -2 - first, r, 0.0f, t_max, false);
+            T *= crossing_transmittance(g, -2 - first, r, 0.0f, t_max, pass);
         } else {
             __global const LeafBlock *block = leaf_block(g, first);
             float4 t = next_t;
@@ -354,7 +354,7 @@ INLINE float shaft_transmittance(ShaftCandidates *cand, const Geometry *g, Ray r
             } else {
                 have_next = false;
             }
-            T = times_crossed(g, block, t, T);
+            T = times_crossed(g, pass, block, t, T);
         }
         if (T == 0.0f && k > 0) { /* move to front */
             int f = cand->first[k], l = cand->lanes[k];

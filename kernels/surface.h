@@ -87,7 +87,7 @@ INLINE Surface surface_at(const Geometry *g, __global const VertexNormals *norma
     if (dot3(f.n_shade, d) >= 0.0f) f.n_shade = f.n_geo; /* an interpolated normal facing away: flat */
     f.uv[0] = f.uv[1] = (float2)(0.0f);
     f.has_frame = false;
-    __global const Material *m = &g->materials[f.material];
+    __global const Material *m = &tv.materials[f.material];
     if (material_textured(m)) surface_uvs(tv, f.prim, f.u, f.v, f.uv);
     if (m->textures[TEXTURE_NORMAL] >= 0) tangent_frame(g, tv, h, &f);
     return f;

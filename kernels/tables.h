@@ -7,14 +7,20 @@
 
 #include "common.h"
 #include "intersect.h"
+#include "texture.h"
 
-/* The scene's Geometry: `shading` false leaves out the objects and materials (closest hits need none). */
+/* The scene's Geometry: `shading` false leaves out the objects (ray queries read none; their tables hold none). */
 INLINE Geometry scene_geometry(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                                __global const char *tables, SceneTables at, int n_prims, int n_instances, bool shading) {
-    Geometry g = geometry(nodes, prims, prim_object, shading ? REGION(tables, const ObjectRecord, at.objects) : 0,
-                          shading ? REGION(tables, const Material, at.materials) : 0, n_prims);
+    Geometry g = geometry(nodes, prims, prim_object, shading ? REGION(tables, const ObjectRecord, at.objects) : 0, n_prims);
     with_instances(&g, REGION(tables, const Instance, at.instances), REGION(tables, const BvhNode, at.top), n_instances);
     return g;
+}
+
+/* The scene's materials and textures as the shading reads them (a render's tables hold them). */
+INLINE TextureView scene_textures(__global const VertexAttributes *attributes, __global const char *tables, SceneTables at,
+                                  __global const float4 *texels) {
+    return texture_view(attributes, REGION(tables, const Texture, at.textures), REGION(tables, const Material, at.materials), texels);
 }
 
 #endif

@@ -12,17 +12,18 @@
 
 #include "common.h"
 
-/* What texture lookups read. */
+/* What material and texture lookups read. */
 typedef struct {
     __global const VertexAttributes *attributes; /* per primitive id */
     __global const Texture *textures;
+    __global const Material *materials;          /* by ObjectRecord.material */
     __global const float4 *texels;
 } TextureView;
 
 INLINE TextureView texture_view(__global const VertexAttributes *attributes, __global const Texture *textures,
-                                __global const float4 *texels) {
+                                __global const Material *materials, __global const float4 *texels) {
     TextureView t;
-    t.attributes = attributes; t.textures = textures; t.texels = texels;
+    t.attributes = attributes; t.textures = textures; t.materials = materials; t.texels = texels;
     return t;
 }
 

@@ -44,7 +44,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     SceneView sc;
     sc.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
     sc.normals = normals; sc.lights = REGION(world, const Light, frame.world.lights);
-    sc.tex = texture_view(attributes, REGION(tables, const Texture, frame.tables.textures), texels);
+    sc.tex = scene_textures(attributes, tables, frame.tables, texels);
     sc.n_lights = frame.n_lights; sc.light_samples = params.light_samples;
     sc.max_depth = frame.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
@@ -172,15 +172,15 @@ INLINE void walk_pair(QueryItem *q, const Geometry *g, int k, bool any_hit) {
     for (int j = 0; j < 2; ++j) {
         Ray r = query_box_ray(q->origins, q->directions, q->idx[k + j], &q->units[k + j]);
         float2 segment = query_segment(q, k + j, any_hit);
-        walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
+        query_walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
         if (w[j].sp > 0) shear_ray(&w[j].r);
     }
     while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) walk_step(&w[0], g, true, any_hit);
-        if (w[1].sp > 0) walk_step(&w[1], g, true, any_hit);
+        if (w[0].sp > 0) mesh_step(&w[0], g, opaque_pass(), any_hit);
+        if (w[1].sp > 0) mesh_step(&w[1], g, opaque_pass(), any_hit);
     }
     for (int j = 0; j < 2; ++j) {
-        walk_finish(&w[j], g, true, any_hit);
+        mesh_finish(&w[j], g, opaque_pass(), any_hit, 1.0f);
         if (any_hit) q->T[k + j] = w[j].T;
         else q->hit[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
         q->visits[k + j] = w[j].visits;
@@ -250,7 +250,7 @@ INLINE bool walk_instance_packet(QueryItem *q, const Geometry *g, bool any_hit) 
         if (g->n_prims > 0) {
             Ray r_flat = ir.r[k];
             shear_ray(&r_flat);
-            walk_tree(g, r_flat, segment.x, segment.y, any_hit, true, &ir.best[k], &ir.T[k], &ir.visits[k]);
+            walk_tree(g, r_flat, segment.x, segment.y, any_hit, opaque_pass(), &ir.best[k], &ir.T[k], &ir.visits[k]);
         }
         rays |= (any_hit && ir.T[k] == 0.0f) ? 0u : 1u << k;
     }
@@ -281,7 +281,7 @@ INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
         Ray r = query_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
 #endif
         float2 segment = query_segment(q, k, any_hit);
-        if (any_hit) q->T[k] = transmittance(g, r, segment.x, segment.y, true, &q->visits[k]);
+        if (any_hit) q->T[k] = transmittance(g, r, segment.x, segment.y, opaque_pass(), &q->visits[k]);
         else q->hit[k] = closest_hit(g, r, segment.x, segment.y, &q->visits[k]);
     }
 #endif

@@ -237,6 +237,7 @@ class Renderer:
         self.settings = settings_with(settings, overrides).validate(self.scene)
         s = self.settings
         self.tracer = tracer or Tracer(self.scene, use_bvh=s.bvh, builder=s.bvh_builder, device=s.device, instancing=instancing_for(self.scene, s))
+        self.tracer.upload_shading()  # the shading's records: a Tracer made for queries holds none
         dev = self.tracer.device
         self.setup_seconds = {}  # "upload" (camera, lights, environment map and its distribution), "emitters" (path)
         self.integrator = integrators.make_integrator(s.integrator, self)

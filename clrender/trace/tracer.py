@@ -114,7 +114,28 @@ def trace_defines(**switches) -> dict:
     return Variant(**switches).defines()
 
 
+def _check_switches(builder, bvh_width, device, knobs, flags: dict) -> None:
+    """Refuse a Tracer's switches that are not allowed (UsageError naming the value)."""
+    from .bvh_wide import WIDTHS
+
+    if not isinstance(builder, str) or builder not in BUILDERS:
+        raise UsageError(f"unknown BVH builder {value_shown(builder)}; allowed: {', '.join(BUILDERS)}")
+    if isinstance(bvh_width, (bool, np.bool_)) or not isinstance(bvh_width, (int, np.integer)) or bvh_width not in WIDTHS:
+        raise UsageError(f"BVH width {value_shown(bvh_width)}; allowed: {', '.join(map(str, WIDTHS))}")
+    for name, flag in flags.items():
+        if not isinstance(flag, (bool, np.bool_)):
+            raise UsageError(f"{name} {value_shown(flag)} must be True or False")
+    if not (device is None or isinstance(device, (Device, str))):
+        raise UsageError(f"device {value_shown(device)} must be a Device, a device name (a string) or None")
+    if not isinstance(knobs, TraceKnobs):
+        raise UsageError(f"knobs {value_shown(knobs)}; allowed: a clrender.trace.knobs.TraceKnobs")
+
+
 class Tracer:
+    """The scene's geometry on the device and the ray queries.  The shading's records (vertex normals and attributes,
+    objects, materials, textures) are uploaded only when a render first asks for them (upload_shading): a query-only
+    Tracer holds none."""
+
     def __init__(
         self,
         scene_or_mesh,
@@ -129,24 +150,12 @@ class Tracer:
         knobs: TraceKnobs = DEFAULT_KNOBS,
         instancing: bool = False,  # meshes placed by several objects stored once (queries and renders; renderer.py decides for renders)
     ):
-        from .bvh_wide import WIDTHS
-
-        if not isinstance(builder, str) or builder not in BUILDERS:
-            raise UsageError(f"unknown BVH builder {value_shown(builder)}; allowed: {', '.join(BUILDERS)}")
-        if isinstance(bvh_width, (bool, np.bool_)) or not isinstance(bvh_width, (int, np.integer)) or bvh_width not in WIDTHS:
-            raise UsageError(f"BVH width {value_shown(bvh_width)}; allowed: {', '.join(map(str, WIDTHS))}")
         flags = dict(use_bvh=use_bvh, count_prim_tests=count_prim_tests, shadow_shafts=shadow_shafts, ray_packets=ray_packets, instancing=instancing)
-        for name, flag in flags.items():
-            if not isinstance(flag, (bool, np.bool_)):
-                raise UsageError(f"{name} {value_shown(flag)} must be True or False")
-        if not (device is None or isinstance(device, (Device, str))):
-            raise UsageError(f"device {value_shown(device)} must be a Device, a device name (a string) or None")
+        _check_switches(builder, bvh_width, device, knobs, flags)
         self.bvh_width = int(bvh_width)
         self.count_prim_tests = bool(count_prim_tests)  # last_visits then counts primitive tests, not nodes
         self.shadow_shafts = bool(shadow_shafts)  # False: every area-light shadow ray traverses the tree (the reference)
         self.ray_packets = bool(ray_packets)  # False: every query ray walks the tree alone (the reference)
-        if not isinstance(knobs, TraceKnobs):
-            raise UsageError(f"knobs {value_shown(knobs)}; allowed: a clrender.trace.knobs.TraceKnobs")
         self.knobs = knobs  # stack and list sizes of the kernels and the build's depth cap
         self.wide = None
         self.scene = as_scene(scene_or_mesh)
@@ -163,70 +172,128 @@ class Tracer:
         self.bvh_seconds = 0.0
         self.setup_seconds = {}  # seconds of each other setup phase: "attributes", "textures", "geometry" (the rest)
         self.top_wide = False  # _top: the instances' top tree in wide nodes (kernels' TOP_WIDE)
-        dev = self.device
-        # Peak memory (docs/bvh.md, "Memory"): a host array is dropped once uploaded, or on a CPU device
-        # is itself the buffer (Device.adopt); the primitives' float64 vertices are gathered a chunk at
-        # a time (geometry.py); vertex normals are stored only when some mesh is smooth.
-        if self.instances is None:
-            self.primitives: Primitives = flatten(self.scene)
-            nodes, slots = self._tree(self.primitives)
-            records = np.zeros(1, INSTANCE_DTYPE)  # never read: n_instances is 0
-            top = np.zeros(1, BVH_NODE_DTYPE)
-        else:  # the flat part's tree first, then each unique mesh's after it (instancing.py)
-            self.primitives = flatten(flat_part(self.scene, self.instances))
-            nodes, slots = self._tree(self.primitives)
-            flat_trees = self.bvh, self.wide
-            nodes, slots, records = two_level(self.instances, nodes, slots, self.primitives.count, self._tree)
-            top, records = self._top(records)
-            self.bvh, self.wide = flat_trees  # bvh and wide describe the flat part
-        n = self.primitives.count
-        self.n_prims = n  # the flat part's; instances' primitive ids follow (instancing.py)
-        self.n_instances = len(records) if self.instances is not None else 0
-        self.instance_records = records
-        self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
-        self.nodes = dev.adopt(nodes)
-        self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
-        del slots, nodes
-        self.prim_object = dev.to_device(self.primitives.object_of)
-        # per-primitive records: the flat part's, then each instanced shape's once, in object space (its
-        # instances' data_base; instancing.shape_meshes), whose normals the kernels turn per hit
-        shapes = flatten(Scene(objects=shape_meshes(self.scene, self.instances))) if self.instances is not None else None
-        if shapes is not None:
-            instanced_object_flags(self.primitives.objects, self.scene, self.instances)
-        n_data = n + (shapes.count if shapes is not None else 0)
-        # the kernels read a primitive's vertex normals only when its object is smooth
-        any_smooth = self.primitives.any_smooth or (shapes is not None and shapes.any_smooth)
-        normals = np.zeros(max(n_data, 1) if any_smooth else 1, VERTEX_NORMALS_DTYPE)
-        for part, at in ((self.primitives, 0), (shapes, n)):
-            if part is not None and any_smooth:
-                part.triangle_normals_into(normals["normal"][at:])
-        self.normals = dev.to_device(normals)
-        del normals
-        # the kernels read VertexAttributes only for textured materials and vertex colours: else one record
-        any_attributes = self.primitives.any_attributes or (shapes is not None and self.scene.has_vertex_attributes)
-        attributes = np.zeros(max(n_data, 1) if any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
-        attributes["colour"] = 1.0
-        start = time.perf_counter()
-        for part, at, tangents in ((self.primitives, 0, None), (shapes, n, self._shape_tangents())):
-            if part is not None and any_attributes:
-                part.triangle_attributes_into(attributes[at:], tangents)
-        self.setup_seconds["attributes"] = time.perf_counter() - start  # uvs, colours and the normal maps' tangents
-        self.attributes = dev.to_device(attributes)
-        del attributes
-        start = time.perf_counter()
-        records, texels = pack_textures(self.primitives.textures or [])
-        self.setup_seconds["textures"] = time.perf_counter() - start
-        self.texels = dev.to_device(texels)
-        # the small per-scene records as one arena: every scene kernel's `tables`, placed by a SceneTables record
-        tables = dict(instances=self.instance_records, top=top, objects=self.primitives.objects, materials=self.primitives.materials)
-        self.tables = pack(dev, SCENE_TABLES_DTYPE, {**tables, "textures": records})
+        self._upload_geometry(*self._trees())
+        self._shading = None  # upload_shading's buffers, once a render asks for them
         # the ray queries' input and output buffers, kept and grown from call to call (ray_buffers.py)
+        dev = self.device
         self._ray_buffers = {"intersect": RayBuffers(dev, INTERSECT_IN, INTERSECT_OUT), "occluded": RayBuffers(dev, OCCLUDED_IN, OCCLUDED_OUT)}
         self._query_lock = threading.Lock()
         self._bound = {}  # the query kernels' own copies, arguments kept between calls (launch.BoundKernel)
         named = self.bvh_seconds + sum(self.setup_seconds.values())
-        # the rest: flattening the scene, vertex normals, packing and uploading the buffers
+        # the rest: flattening the scene, packing and uploading the buffers
         self.setup_seconds["geometry"] = max(time.perf_counter() - setup_start - named, 0.0)
+
+    def _trees(self):
+        """The flat scene's tree buffer and slots, or (instancing.py) the flat part's tree, then each unique mesh's
+        after it; the Instance records in the top tree's leaf order and the top tree (BvhNode or wide records)."""
+        if self.instances is None:
+            self.primitives: Primitives = flatten(self.scene)
+            nodes, slots = self._tree(self.primitives)
+            return nodes, slots, np.zeros(1, INSTANCE_DTYPE), np.zeros(1, BVH_NODE_DTYPE)  # never read: n_instances is 0
+        self.primitives = flatten(flat_part(self.scene, self.instances))
+        nodes, slots = self._tree(self.primitives)
+        flat_trees = self.bvh, self.wide
+        nodes, slots, records = two_level(self.instances, nodes, slots, self.primitives.count, self._tree)
+        top, records = self._top(records)
+        self.bvh, self.wide = flat_trees  # bvh and wide describe the flat part
+        return nodes, slots, records, top
+
+    def _upload_geometry(self, nodes, slots, records, top) -> None:
+        """What the ray queries read: the tree, the slots, each primitive's object, and the query tables (instances and
+        the top tree).  Peak memory (docs/bvh.md, "Memory"): on a CPU device the slots and the tree buffer are the
+        arrays themselves (Device.adopt)."""
+        dev = self.device
+        self.n_prims = self.primitives.count  # the flat part's; instances' primitive ids follow (instancing.py)
+        self.n_instances = len(records) if self.instances is not None else 0
+        self.instance_records = records
+        self._top_nodes = top
+        self.prims = dev.adopt(slots)  # on a CPU device the buffer is the array itself
+        self.nodes = dev.adopt(nodes)
+        self._adopted = (slots, nodes)  # the buffers' memory on a CPU device (Device.adopt)
+        self.prim_object = dev.to_device(self.primitives.object_of)
+        self._query_tables = pack(dev, SCENE_TABLES_DTYPE, self._tables(shading=False))
+
+    def _tables(self, shading: bool) -> dict:
+        """The scene tables' arrays (SceneTables): instances and the top tree, and for shading the objects, materials
+        and textures' records (empty for the ray queries, which read none)."""
+        tables = dict(instances=self.instance_records, top=self._top_nodes)
+        if not shading:
+            return {**tables, "objects": np.zeros(0, np.uint8), "materials": np.zeros(0, np.uint8), "textures": np.zeros(0, np.uint8)}
+        start = time.perf_counter()
+        records, self._texels_host = pack_textures(self.primitives.textures or [])
+        self.setup_seconds["textures"] = time.perf_counter() - start
+        return {**tables, "objects": self.primitives.objects, "materials": self.primitives.materials, "textures": records}
+
+    def _shape_primitives(self) -> Primitives | None:
+        """Each instanced shape's primitives once, in object space (instancing.shape_meshes; their instances'
+        data_base), with the objects' flags for instanced shapes set (instanced_object_flags); None when flat."""
+        if self.instances is None:
+            return None
+        instanced_object_flags(self.primitives.objects, self.scene, self.instances)
+        return flatten(Scene(objects=shape_meshes(self.scene, self.instances)))
+
+    def _vertex_normals(self, shapes: Primitives | None, n_data: int) -> np.ndarray:
+        """VertexNormals per primitive (the flat part's, then the shapes'), or one record when no mesh is smooth (the
+        kernels read them only for smooth objects)."""
+        any_smooth = self.primitives.any_smooth or (shapes is not None and shapes.any_smooth)
+        normals = np.zeros(max(n_data, 1) if any_smooth else 1, VERTEX_NORMALS_DTYPE)
+        for part, at in ((self.primitives, 0), (shapes, self.n_prims)):
+            if part is not None and any_smooth:
+                part.triangle_normals_into(normals["normal"][at:])
+        return normals
+
+    def _vertex_attributes(self, shapes: Primitives | None, n_data: int) -> np.ndarray:
+        """VertexAttributes per primitive (uvs, colours, the normal maps' tangents), or one record when no material
+        is textured and no mesh has vertex colours."""
+        any_attributes = self.primitives.any_attributes or (shapes is not None and self.scene.has_vertex_attributes)
+        attributes = np.zeros(max(n_data, 1) if any_attributes else 1, VERTEX_ATTRIBUTES_DTYPE)
+        attributes["colour"] = 1.0
+        start = time.perf_counter()
+        for part, at, tangents in ((self.primitives, 0, None), (shapes, self.n_prims, self._shape_tangents())):
+            if part is not None and any_attributes:
+                part.triangle_attributes_into(attributes[at:], tangents)
+        self.setup_seconds["attributes"] = time.perf_counter() - start
+        return attributes
+
+    def upload_shading(self) -> None:
+        """Upload what a render's shading reads, once: per-primitive vertex normals and attributes, the textures'
+        texels, and the scene tables with the objects, materials and textures (setup phases "attributes", "textures";
+        the rest adds to "geometry")."""
+        if self._shading is not None:
+            return
+        start = time.perf_counter()
+        before = sum(self.setup_seconds.get(k, 0.0) for k in ("attributes", "textures"))
+        dev = self.device
+        shapes = self._shape_primitives()
+        n_data = self.n_prims + (shapes.count if shapes is not None else 0)
+        normals = dev.to_device(self._vertex_normals(shapes, n_data))
+        attributes = dev.to_device(self._vertex_attributes(shapes, n_data))
+        tables = pack(dev, SCENE_TABLES_DTYPE, self._tables(shading=True))
+        texels, self._texels_host = dev.to_device(self._texels_host), None
+        self._shading = dict(normals=normals, attributes=attributes, texels=texels, tables=tables)
+        named = sum(self.setup_seconds.get(k, 0.0) for k in ("attributes", "textures")) - before
+        self.setup_seconds["geometry"] = self.setup_seconds.get("geometry", 0.0) + max(time.perf_counter() - start - named, 0.0)
+
+    @property
+    def tables(self):
+        """The render kernels' scene tables (an Arena: objects, materials, textures, instances, the top tree)."""
+        self.upload_shading()
+        return self._shading["tables"]
+
+    @property
+    def normals(self):
+        self.upload_shading()
+        return self._shading["normals"]
+
+    @property
+    def attributes(self):
+        self.upload_shading()
+        return self._shading["attributes"]
+
+    @property
+    def texels(self):
+        self.upload_shading()
+        return self._shading["texels"]
 
     def _shape_tangents(self) -> list | None:
         """Per instanced shape, whether a normal map reads its tangents: when any object placing it has a normal-mapped material."""
@@ -386,18 +453,18 @@ class Tracer:
 
     def _geometry(self) -> dict:
         """The scene's buffers, as every ray-query kernel takes them (the scene tables' regions: _query_params)."""
-        return dict(nodes=self.nodes, prims=self.prims, prim_object=self.prim_object, tables=self.tables.buffer)
+        return dict(nodes=self.nodes, prims=self.prims, prim_object=self.prim_object, tables=self._query_tables.buffer)
 
     def _query_params(self, n: int) -> np.ndarray:
         """The ray-query kernels' QueryParams record for n rays."""
         params = np.zeros((), QUERY_PARAMS_DTYPE)
-        params["tables"], params["n_prims"], params["n_instances"], params["n_rays"] = self.tables.record, self.n_prims, self.n_instances, n
+        params["tables"], params["n_prims"], params["n_instances"], params["n_rays"] = self._query_tables.record, self.n_prims, self.n_instances, n
         return params
 
     def render_buffers(self) -> dict:
         """The scene's arguments, as the render kernels take them (trace.cl render, path.cl render_path): the ray
-        queries' (_geometry), and the shading's per-primitive normals and attributes and the textures' texels."""
-        return dict(**self._geometry(), normals=self.normals, attributes=self.attributes, texels=self.texels)
+        queries' (_geometry) with the shading's tables, per-primitive normals and attributes and the textures' texels."""
+        return {**self._geometry(), "tables": self.tables.buffer, "normals": self.normals, "attributes": self.attributes, "texels": self.texels}
 
     def _launch(self, name: str, n: int, **args) -> cl.Event:
         """Kernel `name` of trace.cl over n rays (self.layout.rays_per_item per work-item) with the

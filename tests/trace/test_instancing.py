@@ -185,15 +185,23 @@ def test_gltf_nodes_sharing_a_mesh_are_one_shape_placed_twice(device, tmp_path):
     np.testing.assert_array_equal(o1[both], o0[both])
 
 
-def test_a_full_top_level_stack_visits_every_instance_and_finds_the_same_hits(device):
+@pytest.mark.parametrize("width", [8, 2], ids=["wide-top", "binary-top"])
+def test_a_full_top_level_stack_visits_every_instance_and_finds_the_same_hits(device, width):
+    """A stack of one entry fills up in the top tree and in every mesh's (kernels/walk.h's fallback: every item,
+    any-hit again from where it started): the same closest hits and the same occlusion as with the default stacks."""
     from clrender.trace.knobs import TraceKnobs
 
     scene = Scene.from_dict(bunnies(5))
     o, d = random_rays(1500, seed=4)
-    t0, p0, o0 = Tracer(scene, device=device, instancing=True).intersect(o, d)
-    t1, p1, o1 = Tracer(scene, device=device, instancing=True, knobs=TraceKnobs(stack_size=1), bvh_width=8).intersect(o, d)
+    full, small = (Tracer(scene, device=device, instancing=True, bvh_width=width, **kw) for kw in ({}, {"knobs": TraceKnobs(stack_size=1)}))
+    t0, p0, o0 = full.intersect(o, d)
+    t1, p1, o1 = small.intersect(o, d)
+    assert np.isfinite(t0).mean() > 0.2
     for a, b in ((t0, t1), (p0, p1), (o0, o1)):
         np.testing.assert_array_equal(a, b)
+    t_max = np.where(np.isfinite(t0), t0 * 0.999, 8.0)  # just short of each hit: blocked only by another surface
+    np.testing.assert_array_equal(small.occluded(o, d, t_max), full.occluded(o, d, t_max))
+    np.testing.assert_array_equal(small.occluded(o, d, np.where(np.isfinite(t0), t0 * 1.001, 8.0)), np.isfinite(t0))
 
 
 def coherent_rays(groups: int, seed: int):

@@ -55,7 +55,7 @@ def test_a_scene_without_normal_maps_computes_no_tangents(device, tmp_path, monk
         assert len(find_instances(scene).shapes) == 1
         if normal_map:
             with pytest.raises(AssertionError, match="tangents were generated"):
-                Tracer(scene, device=device, instancing=instancing)
+                Tracer(scene, device=device, instancing=instancing).upload_shading()
         else:
             result = Renderer(scene, tracer=Tracer(scene, device=device, instancing=instancing)).run()
             assert result.image.max() > 0.05
@@ -90,3 +90,21 @@ def test_a_slow_setup_phase_is_named_in_the_summary(tmp_path, capsys, monkeypatc
     summary = err.strip().splitlines()[-1]
     assert ", textures 0.1" in summary and summary.index("bvh ") < summary.index("textures ") < summary.index("compile ")
     assert "upload " not in summary and "emitters " not in summary
+
+
+def test_a_query_only_tracer_uploads_no_shading(device, tmp_path, monkeypatch):
+    """Ray queries on a textured, normal-mapped scene decode no texture, make no tangents and upload no materials:
+    the shading's records come only when a render asks for them (Tracer.upload_shading)."""
+
+    def refused(*args, **kwargs):
+        raise AssertionError("shading records were made for a ray query")
+
+    monkeypatch.setattr(tracer_module, "pack_textures", refused)
+    monkeypatch.setattr(geometry, "vertex_tangents", refused)
+    scene = Scene.from_dict(textured_scene(tmp_path, True), base_dir=tmp_path)
+    tracer = Tracer(scene, device=device)
+    t, prim, obj = tracer.intersect(np.array([[0.0, 0.0, 3.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert t[0] == pytest.approx(3.0) and prim[0] >= 0 and obj[0] == 0
+    assert tracer.occluded(np.array([[0.0, 0.0, 3.0]]), np.array([[0.0, 0.0, -1.0]]), 10.0)[0]
+    with pytest.raises(AssertionError, match="shading records"):
+        tracer.upload_shading()
