@@ -1,0 +1,69 @@
+/* The path tracer's Sobol sampler (RenderSettings.path_sampler "sobol", -DRNG_SOBOL=1): dimension d of sample i
+ * of a pixel is a coordinate of an Owen-scrambled, index-shuffled 2-D Sobol sequence, padded to any number of
+ * dimensions (pbrt-v4's PaddedSobolSampler with "owen" randomisation; Burley 2020, "Practical Hash-based Owen
+ * Scrambling", shuffled_scrambled_sobol2d).
+ *
+ *   - Dimensions come in pairs: pair p = d / 2, coordinate d % 2.  Coordinate 0 is the van der Corput sequence
+ *     (the bit-reversed index), coordinate 1 the second Sobol dimension: together the (0,2)-sequence whose first
+ *     2^m points put one point in every elementary interval of area 2^-m (a (0,m,2)-net).
+ *   - Each pair has its own key, a hash of (seed, pixel, SOBOL_KEY_PAIR, p).  The key Owen-scrambles the sample
+ *     index (a permutation that maps the first 2^m indices onto an aligned block of 2^m, so the first 2^m samples
+ *     of every pair are still a (0,m,2)-net, while different pairs get unrelated orders), and, mixed with
+ *     SOBOL_KEY_X or SOBOL_KEY_Y (sampling.h's), each coordinate's values.  Only the first two Sobol generator
+ *     matrices are used; every pair beyond them is this padding, so no dimension falls off a table.
+ *   - Integer arithmetic throughout, 32-bit indices: the same bits on every driver, tiling and split.
+ *
+ * What the path tracer's draws mean (path.cl): the camera owns dimensions 0-1 (the pixel offset) and 2-3 (the lens);
+ * bounce vertex `depth` owns dimensions from rng_vertex's base VERTEX_DIMS (depth + 1) on, at fixed slots:
+ *   SLOT_PICK 0      the material component      SLOT_RR 1          Russian roulette
+ *   SLOT_BSDF 3      the lobe choice u1, then the BSDF's 2-D sample at 4-5
+ *   SLOT_EMITTER 7   the emissive triangle, then its 2-D point at 8-9
+ *   SLOT_ENV 10      the environment's 2-D direction at 10-11
+ *   SLOT_LIGHTS 12   light li's 2-D point at 12 + 2 li, 12 + 2 li + 1
+ * A 2-D sample starts at an even dimension, so its two numbers are one pair.  Stochastic alpha draws a variable
+ * number per ray: those come from rng_extra (rng.h), hashed, outside these dimensions. */
+#ifndef CLRENDER_SOBOL_H
+#define CLRENDER_SOBOL_H
+
+/* reverse_bits32, sobol_dim1, owen_scramble, SOBOL_KEY_Y */
+#include "sampling.h"
+
+#define SOBOL_KEY_PAIR 0x5eb01U /* hash4's third argument for a pair's key (the first two: seed, pixel; the last: the pair) */
+#define SOBOL_KEY_X 0x3c6ef372U /* mixed into a pair's key for coordinate 0's scramble (SOBOL_KEY_Y for coordinate 1) */
+#define VERTEX_DIMS (1U << 20)          /* dimensions a bounce vertex owns (its lights from SLOT_LIGHTS on) */
+#define SLOT_PICK 0U
+#define SLOT_RR 1U
+#define SLOT_BSDF 3U
+#define SLOT_EMITTER 7U
+#define SLOT_ENV 10U
+#define SLOT_LIGHTS 12U
+
+/* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
+INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_dim1(i); }
+
+/* Dimension `dim` of sample `index` of a pixel's sequence, as a 32-bit fraction. */
+INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) {
+    uint key = hash4(seed, pixel, SOBOL_KEY_PAIR, dim >> 1);
+    uint c = dim & 1U;
+    uint i = owen_scramble(index, key); /* shuffled: the pair's own order of the samples */
+    return owen_scramble(sobol_coordinate(i, c), mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y)));
+}
+
+INLINE float sobol_value(uint seed, uint pixel, uint index, uint dim) { return u01(sobol_bits(seed, pixel, index, dim)); }
+
+/* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
+ * its numbers follow one another as they always did. */
+INLINE void rng_vertex(Rng *r, int depth) {
+#if RNG_SOBOL
+    r->base = VERTEX_DIMS * (uint)(depth + 1);
+    r->dim = r->base + SLOT_PICK;
+#endif
+}
+
+INLINE void rng_slot(Rng *r, uint slot) {
+#if RNG_SOBOL
+    r->dim = r->base + slot;
+#endif
+}
+
+#endif
