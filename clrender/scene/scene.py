@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..layout import PATH_SAMPLERS
 from ..package_data import data_dir
 from . import environment, gltf, obj_mtl, textures
 from .camera import Camera, read_camera
@@ -177,6 +178,7 @@ class Scene:
     description: str = ""  # one line shown by `clrender render --list`
     featured_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
     aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
+    path_sampler: str | None = None  # the path tracer's sampler `render` uses when --path-sampler is not given (None: sobol)
     default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, rfilter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
@@ -302,6 +304,7 @@ TOP_KEYS = (
     "default_camera",
     "aa",
     "textures",
+    "path_sampler",
 )
 # `[environment]`: what the path tracer sees in every direction that meets nothing, a colour or an image
 # (environment.py; an image is what the Whitted tracer's escaping rays see too)
@@ -332,6 +335,7 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     camera_key = "default_camera" if "default_camera" in data else "featured_camera"
     scene.featured_camera = checks.integer(data, camera_key, "", 1, low=1, high=len(scene.cameras))
     scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
+    scene.path_sampler = checks.choice(data, "path_sampler", "", None, tuple(PATH_SAMPLERS)) if "path_sampler" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
         checks.fail("materials", f"{len(materials)} materials; allowed: at most {MAX_MATERIALS}")

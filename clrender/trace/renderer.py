@@ -22,7 +22,7 @@ import pyopencl as cl
 from ..arena import alignment, offsets, pack
 from ..device import compile_notice
 from ..errors import UsageError, require, value_shown, warn
-from ..layout import AOV_DTYPE, FRAME_PARAMS_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, OUT_REGIONS_DTYPE, PATH_SAMPLERS, PIXEL_FILTERS, SAMPLERS, WORLD_REGIONS_DTYPE
+from ..layout import AOV_DTYPE, FRAME_PARAMS_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, OUT_REGIONS_DTYPE, PIXEL_FILTERS, SAMPLERS, WORLD_REGIONS_DTYPE
 from ..progress import progress
 from ..scene.scene import Scene
 from . import film, integrators
@@ -112,7 +112,8 @@ class RenderSettings:
         require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
         require(_whole(s.light_samples) and 0 <= s.light_samples <= 64, f"light samples {v(s.light_samples)} must be from 0 (each light's own) to 64")
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
-        require(_name_in(s.path_sampler, PATH_SAMPLERS), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(PATH_SAMPLERS)}")
+        paths = integrators.PATH_SAMPLERS
+        require(_name_in(s.path_sampler, paths), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(paths)}")
         depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(
