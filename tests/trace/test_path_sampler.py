@@ -191,7 +191,9 @@ def test_a_mitsuba_sampler_sets_the_path_sampler(tmp_path, kind, expected):
     assert read_mitsuba(path).settings["path_sampler"] == expected
 
 
-@pytest.mark.parametrize("kind, expected", [("independent", "independent"), ("zsobol", "sobol"), ("sobol", "sobol"), ("halton", "sobol"), ("pmj02bn", "sobol")])
+@pytest.mark.parametrize(
+    "kind, expected", [("independent", "independent"), ("zsobol", "sobol"), ("sobol", "sobol"), ("halton", "sobol"), ("pmj02bn", "sobol")]
+)
 def test_a_pbrt_sampler_sets_the_path_sampler(tmp_path, kind, expected):
     from clrender.scene.pbrt import read_pbrt_file
 
