@@ -45,9 +45,14 @@ INLINE float8 u01_lanes(uint8 h) {
 #define RNG_SOBOL 0 /* 1: rng_next gives dimension `dim` of sample `sample` of the pixel's Sobol sequence (kernels/sobol.h) */
 #endif
 
+#if RNG_SOBOL
+INLINE uint sobol_pixel_key(uint seed, uint pixel); /* kernels/sobol.h */
+#endif
+
 typedef struct {
     uint seed, pixel, sample, dim;
 #if RNG_SOBOL
+    uint key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
     uint base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
     uint extra; /* draws of rng_extra so far (their own dimensions, hashed) */
 #endif
@@ -57,19 +62,20 @@ INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
     Rng r;
     r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0;
 #if RNG_SOBOL
-    r.base = 0; r.extra = 0;
+    r.key = sobol_pixel_key(seed, pixel); r.base = 0; r.extra = 0;
 #endif
     return r;
 }
 
+
 #if RNG_SOBOL
-INLINE float sobol_value(uint seed, uint pixel, uint index, uint dim); /* kernels/sobol.h */
+INLINE float sobol_value(const Rng *r); /* kernels/sobol.h */
 #endif
 
 /* Next dimension of this (seed, pixel, sample) stream. */
 INLINE float rng_next(Rng *r) {
 #if RNG_SOBOL
-    float x = sobol_value(r->seed, r->pixel, r->sample, r->dim);
+    float x = sobol_value(r);
 #else
     float x = u01(hash4(r->seed, r->pixel, r->sample, r->dim));
 #endif
