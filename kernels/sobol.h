@@ -40,33 +40,56 @@
 
 /* Sobol's second dimension, nibble by nibble: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by
  * one; m_k = 2 m_(k-1) xor m_(k-1)), and over GF(2) (1 + S)^(4n + t) = (1 + S^4)^n (1 + S)^t, so the point is
- * sum_n (1 + S^4)^n T[nibble n of i], evaluated by Horner from the top nibble.  T[q]: the xor of v_t over the set
- * bits t of q (only its top nibble is set, kept here as that nibble).  Equal to sampling.h's sobol_dim1, bit for
- * bit, in 8 steps without branches instead of one step per index bit. */
+ * sum_n (1 + S^4)^n T[nibble n of i], evaluated by Horner from the top nibble: 8 steps without branches instead of
+ * one step per index bit (sampling.h's sobol_dim1 gives the same bits).  T[q]: the xor of v_t over the set bits t
+ * of q; only its top nibble is set, kept here as that nibble.  sobol_second_of_reversed takes i bit-reversed: its
+ * nibble m is nibble 7 - m of i reversed, so it reads the table at the reversed nibble (SOBOL_SECOND_REVERSED). */
 __constant uchar SOBOL_SECOND_NIBBLE[16] = {0x0, 0x8, 0xc, 0x4, 0xa, 0x2, 0x6, 0xe, 0xf, 0x7, 0x3, 0xb, 0x5, 0xd, 0x9, 0x1};
+__constant uchar SOBOL_SECOND_REVERSED[16] = {0x0, 0xf, 0xa, 0x5, 0xc, 0x3, 0x6, 0x9, 0x8, 0x7, 0x2, 0xd, 0x4, 0xb, 0xe, 0x1};
 INLINE uint sobol_second(uint i) {
     uint r = 0;
     for (int n = 7; n >= 0; --n) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_NIBBLE[(i >> (4 * n)) & 15U] << 28);
+    return r;
+}
+INLINE uint sobol_second_of_reversed(uint y) {
+    uint r = 0;
+    for (int m = 0; m < 8; ++m) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_REVERSED[(y >> (4 * m)) & 15U] << 28);
     return r;
 }
 
 /* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
 INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
 
+/* Laine and Karras's permutation with Burley's constants, sampling.h's owen_scramble between its bit reversals: bit
+ * k of the result depends on bits 0..k of x only (a nested scramble of the reversed value). */
+INLINE uint laine_karras(uint x, uint seed) {
+    x += seed;
+    x ^= x * 0x6c50b47cU;
+    x ^= x * 0xb82f1e52U;
+    x ^= x * 0xc7afe638U;
+    x ^= x * 0x8d22f6e6U;
+    return x;
+}
+
 /* A pixel's key, what every pair's key starts from: hash4's first three rounds of (seed, pixel, SOBOL_KEY_PAIR). */
 INLINE uint sobol_pixel_key(uint seed, uint pixel) { return hash3(seed, pixel, SOBOL_KEY_PAIR); }
 
-/* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction. */
+/* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction:
+ * owen_scramble(sobol_coordinate(owen_scramble(index, key), c), coordinate key), with the bit reversals that cancel
+ * left out: the shuffled index i is reverse(y), coordinate 0 is reverse(i) = y, and coordinate 1 is read from y. */
 INLINE uint sobol_point(uint pixel_key, uint index, uint dim) {
     uint key = mix32(pixel_key ^ ((dim >> 1) + HASH_KEY_D)); /* hash4(seed, pixel, SOBOL_KEY_PAIR, pair) */
     uint c = dim & 1U;
-    uint i = owen_scramble(index, key); /* shuffled: the pair's own order of the samples */
-    return owen_scramble(sobol_coordinate(i, c), mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y)));
+    uint y = laine_karras(reverse_bits32(index), key); /* the pair's own order of the samples, bit-reversed */
+    uint point_reversed = reverse_bits32(c == 0U ? y : sobol_second_of_reversed(y));
+    return reverse_bits32(laine_karras(point_reversed, mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
 }
 
 INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) { return sobol_point(sobol_pixel_key(seed, pixel), index, dim); }
 
+#if RNG_SOBOL
 INLINE float sobol_value(const Rng *r) { return u01(sobol_point(r->key, r->sample, r->dim)); }
+#endif
 
 /* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
  * its numbers follow one another as they always did. */
