@@ -154,7 +154,9 @@ def test_sobol_renders_are_unbiased_on_the_exact_closed_box(device):
 def test_sobol_lamp_over_floor_matches_the_float64_reference_with_less_variance(device):
     """tests/trace/test_path.py's lamp over a floor (direct and two bounces): K = 8 Sobol renders of 64 paths against
     the float64 reference's 8 of 64 by two_sample_z (4 x 4 blocks, ALPHA), and the Sobol renders' variance over seeds,
-    summed over pixels, is below the independent sampler's (the point of the sampler; measured ratio about 0.5)."""
+    summed over pixels, is below 0.8 x the independent sampler's (the point of the sampler).  Measured: 0.49; each sum
+    of 768 pixel-channel variances of 8 seeds has a relative standard error of a few percent, so 0.8 is many standard
+    errors from both 0.49 and 1."""
     scene = lamp_over_floor()
     loaded = Scene.from_dict(scene)
     tracer = Tracer(loaded, device=device)
