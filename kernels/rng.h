@@ -67,7 +67,6 @@ INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
     return r;
 }
 
-
 #if RNG_SOBOL
 INLINE float sobol_value(const Rng *r); /* kernels/sobol.h */
 #endif
