@@ -37,6 +37,7 @@ MATERIAL_MODELS = {"phong": 0, "gltf": 1, "conductor": 2, "coated_diffuse": 3, "
 SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-shadowing G2, or Mitsuba's G1(wo) G1(wi)
 COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
+PATH_SAMPLERS = {"independent": 0, "sobol": 1}  # the path tracer's random numbers (kernels/sobol.h), by kernel code
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
 
@@ -491,6 +492,7 @@ DEFINES = {
     **{f"BSDF_{name.upper()}": code for name, code in BSDF_LOBES.items()},
     **{f"LIGHT_FALLOFF_{name.upper()}": code for name, code in LIGHT_FALLOFFS.items()},
     **{f"SAMPLER_{name.upper()}": code for name, code in SAMPLERS.items()},
+    **{f"PATH_SAMPLER_{name.upper()}": code for name, code in PATH_SAMPLERS.items()},
     **{f"PIXEL_FILTER_{name.upper()}": code for name, code in PIXEL_FILTERS.items()},
     **{f"PROJECTION_{name.upper()}": code for name, code in PROJECTIONS.items()},
     **{f"TEXTURE_{name.upper()}": code for name, code in TEXTURE_SLOTS.items()},

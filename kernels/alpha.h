@@ -60,7 +60,7 @@ INLINE bool point_kept(const Geometry *g, TextureView tv, Hit h, Rng *rng, float
     float a;
     __global const Material *gm = hit_coverage(g, tv, h, &a);
     if (gm->alpha_mode == ALPHA_MASK) a = a >= gm->alpha_cutoff ? 1.0f : 0.0f;
-    else if (gm->alpha_mode == ALPHA_BLEND && rng) return rng_next(rng) < a;
+    else if (gm->alpha_mode == ALPHA_BLEND && rng) return rng_extra(rng) < a;
     *opacity = a;
     return a > 0.0f;
 }

@@ -20,10 +20,15 @@
  * max_depth counts bounces after the primary hit (0: direct light only); Mitsuba's is max_depth + 2.
  * Shadow rays see every surface as opaque: light reaches through glass by BSDF sampling (caustics). */
 #define DET_MATH 1 /* mathf.h's functions, no contraction: the same bits on every driver (docs/math.md) */
+#ifndef PATH_SAMPLER
+#define PATH_SAMPLER PATH_SAMPLER_INDEPENDENT /* RenderSettings.path_sampler's code (layout.PATH_SAMPLERS) */
+#endif
+#define RNG_SOBOL (PATH_SAMPLER == PATH_SAMPLER_SOBOL) /* rng_next's numbers: kernels/sobol.h's sequence */
 #include "mathf.h"
 #include "common.h"
 #include "rng.h"
 #include "sampling.h"
+#include "sobol.h"
 #include "camera.h"
 #include "intersect.h"
 #include "tables.h"
@@ -281,6 +286,7 @@ INLINE float3 environment_sample(const PathScene *s, float chosen, float2 u, con
  * Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D sample. */
 INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
                               uint *visits, uint *rays) {
+    rng_slot(rng, SLOT_LIGHT); /* the pick, then the light's 2-D sample as one pair */
     float pick = rng_next(rng);
     float2 u = (float2)(rng_next(rng), rng_next(rng));
     int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
@@ -401,10 +407,12 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         if (depth == 0) *first = first_hit_of(s, &f, &m, h);
         if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
         if (depth > s->p.frame.max_depth) break; /* the last vertex: only its emission counts */
+        rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
         Component c = pick_component(&m, rng_next(rng));
         Frame fr = component_frame(c, &f);
         float3 wo = to_local(fr, -r.d);
         if (!component_is_delta(c)) radiance += beta * direct_lighting(s, &f, c, fr, wo, rng, visits, rays);
+        rng_slot(rng, SLOT_BSDF);
         float u1 = rng_next(rng);
         float2 u2 = (float2)(rng_next(rng), rng_next(rng));
         BsdfSample bs = component_sample(c, wo, u1, u2);
@@ -413,6 +421,7 @@ INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first
         beta *= bs.weight;
         if (depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
             float q = min_f(max3(beta), RR_SURVIVE_MAX);
+            rng_slot(rng, SLOT_RR);
             if (!(rng_next(rng) < q)) break;
             beta /= q;
         }
@@ -498,7 +507,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         uint sample = (uint)params.first_sample + s_i;
         Rng rng = make_rng(frame.seed, (uint)pixel, sample);
-        float2 off = per_pass > 1u ? pixel_sample_offset(frame.sampler, s_i, n, &rng)
+        float2 off = per_pass > 1u && !RNG_SOBOL ? pixel_sample_offset(frame.sampler, s_i, n, &rng)
                                    : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, &rng);
         float sx = 2.0f * (px + off.x) / (float)frame.width - 1.0f;
         float sy = 1.0f - 2.0f * (py + off.y) / (float)frame.height;

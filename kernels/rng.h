@@ -41,21 +41,57 @@ INLINE float8 u01_lanes(uint8 h) {
     return (halves * 2.0f + odd) * U01_SCALE;
 }
 
+#ifndef RNG_SOBOL
+#define RNG_SOBOL 0 /* 1: rng_next gives dimension `dim` of sample `sample` of the pixel's Sobol sequence (kernels/sobol.h) */
+#endif
+
+#if RNG_SOBOL
+INLINE uint sobol_pixel_key(uint seed, uint pixel); /* kernels/sobol.h */
+#endif
+
 typedef struct {
     uint seed, pixel, sample, dim;
+#if RNG_SOBOL
+    uint key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
+    uint base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
+    uint extra; /* draws of rng_extra so far (their own dimensions, hashed) */
+#endif
 } Rng;
 
 INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
     Rng r;
     r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0;
+#if RNG_SOBOL
+    r.key = sobol_pixel_key(seed, pixel); r.base = 0; r.extra = 0;
+#endif
     return r;
 }
 
+#if RNG_SOBOL
+INLINE float sobol_value(const Rng *r); /* kernels/sobol.h */
+#endif
+
 /* Next dimension of this (seed, pixel, sample) stream. */
 INLINE float rng_next(Rng *r) {
+#if RNG_SOBOL
+    float x = sobol_value(r);
+#else
     float x = u01(hash4(r->seed, r->pixel, r->sample, r->dim));
+#endif
     r->dim += 1;
     return x;
+}
+
+/* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets): rng_next
+ * for the independent sampler; with RNG_SOBOL a hashed uniform number of its own counter, from dimension
+ * RNG_EXTRA_DIMS on, so that however many are drawn, no Sobol dimension moves. */
+#define RNG_EXTRA_DIMS 0x80000000U
+INLINE float rng_extra(Rng *r) {
+#if RNG_SOBOL
+    return u01(hash4(r->seed, r->pixel, r->sample, RNG_EXTRA_DIMS | r->extra++));
+#else
+    return rng_next(r);
+#endif
 }
 
 /* Dimensions `dim` (one per lane) of this stream, as rng_next gives them; r->dim is left as it is. */

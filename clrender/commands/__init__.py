@@ -29,8 +29,9 @@ def add_foreign_arguments(p, doing: str = "render") -> None:
 
 
 def scene_defaults(args, settings, scene):
-    """The scene's own camera and anti-aliasing (its `default_camera` and `aa` keys) where the command line gives
-    neither (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted integrator."""
+    """The scene's own camera, anti-aliasing and path sampler (its `default_camera`, `aa` and `path_sampler` keys) where
+    the command line gives none (CAMERA and AA_TYPE are the first positionals); the scene's `aa` only for the Whitted
+    integrator."""
     from dataclasses import replace
 
     given = len(args.positional_args)
@@ -41,6 +42,8 @@ def scene_defaults(args, settings, scene):
         changes["aa"] = scene.aa
         if args.samples is None and given < 4:  # the default follows the mode, as settings_from_args has it
             changes["samples"] = 1 if scene.aa == "none" else 4
+    if scene.path_sampler is not None and getattr(args, "path_sampler", None) is None:
+        changes["path_sampler"] = scene.path_sampler
     return replace(settings, **changes)
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
+from ..layout import PATH_SAMPLERS
 from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument, add_foreign_arguments, scene_defaults
@@ -129,6 +130,13 @@ def add_parser(sub):
     )
     p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: the scene's aa, else {d.aa})")
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
+    p.add_argument(
+        "--path-sampler",
+        choices=tuple(PATH_SAMPLERS),
+        default=None,
+        help="path tracer: its random numbers, sobol (Owen-scrambled Sobol: less noise at equal time) or independent "
+        f"(hashed uniform numbers) (default: the scene's path_sampler, else {d.path_sampler})",
+    )
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
         "--pixel-filter",
@@ -355,6 +363,7 @@ def settings_from_args(args) -> RenderSettings:
         light_samples=args.light_samples,
         pixel_filter=d.pixel_filter if args.pixel_filter is None else args.pixel_filter,
         rfilter=d.rfilter if args.rfilter is None else args.rfilter,
+        path_sampler=d.path_sampler if getattr(args, "path_sampler", None) is None else args.path_sampler,
         contrast=args.contrast,
         max_depth=d.max_depth if args.max_depth is None else args.max_depth,
         integrator=integrator,
@@ -405,8 +414,9 @@ def foreign_settings(args, settings, scene):
         "rfilter": args.rfilter is not None,
         "hide_emitters": False,  # no flags: only a scene file sets them
         "rr_depth": False,
+        "path_sampler": getattr(args, "path_sampler", None) is not None,
     }
-    path_only = ("rfilter", "hide_emitters", "rr_depth")
+    path_only = ("rfilter", "hide_emitters", "rr_depth", "path_sampler")
     settings = replace(settings, **{k: v for k, v in own.items() if k in given and not given[k] and k not in path_only})
     if settings.integrator == "path":
         settings = replace(settings, **{k: own[k] for k in path_only if k in own and not given[k]})

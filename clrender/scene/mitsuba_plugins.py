@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import UsageError
 from . import mitsuba_bsdfs
+from .foreign import path_sampler_of
 from .mitsuba_xml import Document, Plugin
 
 SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "shapegroup", "instance")
@@ -230,6 +231,7 @@ class Reader:
         count = int(s.get("sample_count", 4))
         if first:
             self.settings["spp"] = max(1, count)
+            self.settings["path_sampler"] = path_sampler_of(s.type)
         self.check_used(s)
 
     # ------------------------------------------------------------------ shapes

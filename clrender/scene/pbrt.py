@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import UsageError
 from . import pbrt_values as pv
 from .confine import scene_file
+from .foreign import path_sampler_of
 from .pbrt_parse import Directive, Parser, fail
 
 MIRROR = np.diag([-1.0, 1.0, 1.0, 1.0])  # pbrt's world to clrender's (see the module docstring)
@@ -251,6 +252,7 @@ class _Reader:
         if spp != int(spp) or spp < 1:
             fail(d.where, f"Sampler: {spp:g} samples; allowed: a whole number >= 1")
         self.settings["spp"] = int(spp)
+        self.settings["path_sampler"] = path_sampler_of(d.args[0])
 
     def _Integrator(self, d):
         kind = d.args[0]

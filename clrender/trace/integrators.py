@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import require, warn
-from ..layout import EMITTER_DTYPE, LIGHT_CHOICE_DTYPE, WHITTED_PARAMS_DTYPE
+from ..layout import EMITTER_DTYPE, LIGHT_CHOICE_DTYPE, PATH_SAMPLERS, WHITTED_PARAMS_DTYPE
 from . import film
 from .variant import MAX_DEPTH_LIMIT, Variant
 
@@ -176,6 +176,7 @@ class PathIntegrator(Integrator):
         path_defines = {
             **film.defines(s.rfilter),  # a reconstruction filter wider than a pixel splats
             **({"HIDE_EMITTERS": 1} if s.hide_emitters else {}),  # camera rays look past emitters (Mitsuba's hide_emitters)
+            **({"PATH_SAMPLER": PATH_SAMPLERS[s.path_sampler]} if s.path_sampler != "independent" else {}),  # kernels/sobol.h
         }
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 

@@ -73,6 +73,7 @@ class RenderSettings:
     rfilter: str = "box"  # path: the film's reconstruction filter, "box" (a pixel's own samples), "tent" or "gaussian" (trace/film.py)
     hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
     rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: path.RR_DEPTH (3)
+    path_sampler: str = "sobol"  # path: its random numbers, "sobol" (Owen-scrambled Sobol, kernels/sobol.h) or "independent" (hashed)
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
@@ -111,6 +112,8 @@ class RenderSettings:
         require(_real(s.contrast) and math.isfinite(s.contrast) and s.contrast >= 0, f"contrast {v(s.contrast)} must be a real number >= 0 (0: off)")
         require(_whole(s.light_samples) and 0 <= s.light_samples <= 64, f"light samples {v(s.light_samples)} must be from 0 (each light's own) to 64")
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
+        paths = integrators.PATH_SAMPLERS
+        require(_name_in(s.path_sampler, paths), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(paths)}")
         depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(

@@ -42,3 +42,33 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     result = np.empty((k, n * n, 2), np.float32)
     cl.enqueue_copy(dev.queue, result, out)
     return result
+
+
+def sequence_points(pixels, samples: int, dims, seed: int = 0, first: int = 0, scrambled: bool = True, device: Device | None = None) -> np.ndarray:
+    """(len(pixels), samples, len(dims)) uint32: dimensions `dims` of samples first ... first + samples - 1 of each
+    pixel in the path tracer's Sobol sequence (kernels/sobol.h), as 32-bit fractions (value / 2**32); unscrambled:
+    the plain 2-D Sobol coordinate dim % 2 of the sample index, the same for every pixel."""
+    dev = device or get_device()
+    pixels = np.asarray(pixels, np.uint32).ravel()
+    dims = np.asarray(dims, np.uint32).ravel()
+    k = len(pixels) * samples
+    out = dev.empty(4 * k * len(dims))
+    knl = dev.kernel("sobol_probe.cl", "sobol_probe")
+    local = work_layout(dev.device).local_size
+    knl(
+        dev.queue,
+        global_size(k, local),
+        (local,),
+        pixels=dev.to_device(pixels),
+        n_samples=samples,
+        first=first,
+        n_work=k,
+        dims=dev.to_device(dims),
+        n_dims=len(dims),
+        seed=seed,
+        scrambled=int(scrambled),
+        out=out,
+    )
+    result = np.empty((len(pixels), samples, len(dims)), np.uint32)
+    cl.enqueue_copy(dev.queue, result, out)
+    return result

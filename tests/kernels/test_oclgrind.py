@@ -272,6 +272,15 @@ assert evaluate("log", np.float32([1.0, np.e]), device=dev).tolist() == [0.0, np
 assert len(FUNCTIONS) == 10
 """,
     ),
+    "sobol_probe": (
+        ("sobol_probe",),
+        """
+from clrender.trace.sampling import sequence_points
+pts = sequence_points([0, 5, 77], 8, [0, 1, 2, 9, 1 << 21], seed=3, device=dev)
+assert pts.shape == (3, 8, 5) and len(np.unique(pts[0, :, 0] >> 29)) == 8
+assert sequence_points([0], 4, [0, 1], scrambled=False, device=dev)[0, :, 1].tolist() == [0, 1 << 31, 3 << 30, 1 << 30]
+""",
+    ),
 }
 
 CANARY = """

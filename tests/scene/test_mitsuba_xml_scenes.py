@@ -282,7 +282,7 @@ def test_the_tutorial_cbox_reads_as_mitsuba_draws_it(tmp_path):
     from clrender.scene.scene import Scene, Sphere
 
     scene = Scene.from_file(write_tutorial_cbox(tmp_path), defines={"res": "32"})
-    assert scene.render_settings == {"integrator": "path", "max_depth": 4, "rfilter": "tent", "spp": 128}
+    assert scene.render_settings == {"integrator": "path", "max_depth": 4, "rfilter": "tent", "spp": 128, "path_sampler": "independent"}
     assert (scene.width, scene.height) == (32, 32)
     assert scene.camera(1).fov == pytest.approx(39.3077)
     spheres = sorted((tuple(o.center), o.radius) for o in scene.objects if isinstance(o, Sphere))

@@ -137,9 +137,10 @@ def test_look_at_gives_clrenders_camera_in_the_mirrored_world(tmp_path):
 
 def test_settings_sampler_integrator_filter(tmp_path):
     text = 'Sampler "zsobol" "integer pixelsamples" 64\nIntegrator "volpath" "integer maxdepth" 5\nPixelFilter "triangle"\nWorldBegin\n'
-    assert read_pbrt_file(write(tmp_path, text)).settings == {"spp": 64, "integrator": "path", "max_depth": 4, "rfilter": "tent"}
+    expected = {"spp": 64, "path_sampler": "sobol", "integrator": "path", "max_depth": 4, "rfilter": "tent"}
+    assert read_pbrt_file(write(tmp_path, text)).settings == expected
     text = 'Sampler "stratified" "integer xsamples" 2 "integer ysamples" 3\nPixelFilter "gaussian"\nWorldBegin\n'
-    assert read_pbrt_file(write(tmp_path, text)).settings == {"spp": 6, "rfilter": "gaussian"}
+    assert read_pbrt_file(write(tmp_path, text)).settings == {"spp": 6, "path_sampler": "sobol", "rfilter": "gaussian"}
 
 
 def test_materials_map_onto_the_contract(tmp_path):

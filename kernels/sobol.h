@@ -1,0 +1,106 @@
+/* The path tracer's Sobol sampler (RenderSettings.path_sampler "sobol", -DRNG_SOBOL=1): dimension d of sample i
+ * of a pixel is a coordinate of an Owen-scrambled, index-shuffled 2-D Sobol sequence, padded to any number of
+ * dimensions (pbrt-v4's PaddedSobolSampler with "owen" randomisation; Burley 2020, "Practical Hash-based Owen
+ * Scrambling", shuffled_scrambled_sobol2d).
+ *
+ *   - Dimensions come in pairs: pair p = d / 2, coordinate d % 2.  Coordinate 0 is the van der Corput sequence
+ *     (the bit-reversed index), coordinate 1 the second Sobol dimension: together the (0,2)-sequence whose first
+ *     2^m points put one point in every elementary interval of area 2^-m (a (0,m,2)-net).
+ *   - Each pair has its own key, a hash of (seed, pixel, SOBOL_KEY_PAIR, p).  The key Owen-scrambles the sample
+ *     index (a permutation that maps the first 2^m indices onto an aligned block of 2^m, so the first 2^m samples
+ *     of every pair are still a (0,m,2)-net, while different pairs get unrelated orders), and, mixed with
+ *     SOBOL_KEY_X or SOBOL_KEY_Y (sampling.h's), each coordinate's values.  Only the first two Sobol generator
+ *     matrices are used; every pair beyond them is this padding, so no dimension falls off a table.
+ *   - Integer arithmetic throughout, 32-bit indices: the same bits on every driver, tiling and split.
+ *
+ * What the path tracer's draws mean (path.cl): the camera owns dimensions 0-1 (the pixel offset) and 2-3 (the lens);
+ * bounce vertex `depth` owns dimensions from rng_vertex's base VERTEX_DIMS (depth + 1) on, at fixed slots:
+ *   SLOT_PICK 0      the material component      SLOT_RR 1          Russian roulette
+ *   SLOT_BSDF 3      the lobe choice u1, then the BSDF's 2-D sample at 4-5
+ *   SLOT_LIGHT 7     NEE's choice of one light (light_choice.h), then its 2-D sample at 8-9 (a point of an area
+ *                    light or emissive triangle, a direction of the environment)
+ * A 2-D sample starts at an even dimension, so its two numbers are one pair.  Stochastic alpha draws a variable
+ * number per ray: those come from rng_extra (rng.h), hashed, outside these dimensions. */
+#ifndef CLRENDER_SOBOL_H
+#define CLRENDER_SOBOL_H
+
+/* reverse_bits32, sobol_dim1, owen_scramble, SOBOL_KEY_Y */
+#include "sampling.h"
+
+#define SOBOL_KEY_PAIR 0x5eb01U /* hash4's third argument for a pair's key (the first two: seed, pixel; the last: the pair) */
+#define SOBOL_KEY_X 0x3c6ef372U /* mixed into a pair's key for coordinate 0's scramble (SOBOL_KEY_Y for coordinate 1) */
+#define VERTEX_DIMS (1U << 20)          /* dimensions a bounce vertex owns */
+#define SLOT_PICK 0U
+#define SLOT_RR 1U
+#define SLOT_BSDF 3U
+#define SLOT_LIGHT 7U
+
+/* Sobol's second dimension, nibble by nibble: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by
+ * one; m_k = 2 m_(k-1) xor m_(k-1)), and over GF(2) (1 + S)^(4n + t) = (1 + S^4)^n (1 + S)^t, so the point is
+ * sum_n (1 + S^4)^n T[nibble n of i], evaluated by Horner from the top nibble: 8 steps without branches instead of
+ * one step per index bit (sampling.h's sobol_dim1 gives the same bits).  T[q]: the xor of v_t over the set bits t
+ * of q; only its top nibble is set, kept here as that nibble.  sobol_second_of_reversed takes i bit-reversed: its
+ * nibble m is nibble 7 - m of i reversed, so it reads the table at the reversed nibble (SOBOL_SECOND_REVERSED). */
+__constant uchar SOBOL_SECOND_NIBBLE[16] = {0x0, 0x8, 0xc, 0x4, 0xa, 0x2, 0x6, 0xe, 0xf, 0x7, 0x3, 0xb, 0x5, 0xd, 0x9, 0x1};
+__constant uchar SOBOL_SECOND_REVERSED[16] = {0x0, 0xf, 0xa, 0x5, 0xc, 0x3, 0x6, 0x9, 0x8, 0x7, 0x2, 0xd, 0x4, 0xb, 0xe, 0x1};
+INLINE uint sobol_second(uint i) {
+    uint r = 0;
+    for (int n = 7; n >= 0; --n) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_NIBBLE[(i >> (4 * n)) & 15U] << 28);
+    return r;
+}
+INLINE uint sobol_second_of_reversed(uint y) {
+    uint r = 0;
+    for (int m = 0; m < 8; ++m) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_REVERSED[(y >> (4 * m)) & 15U] << 28);
+    return r;
+}
+
+/* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
+INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
+
+/* Laine and Karras's permutation with Burley's constants, sampling.h's owen_scramble between its bit reversals: bit
+ * k of the result depends on bits 0..k of x only (a nested scramble of the reversed value). */
+INLINE uint laine_karras(uint x, uint seed) {
+    x += seed;
+    x ^= x * 0x6c50b47cU;
+    x ^= x * 0xb82f1e52U;
+    x ^= x * 0xc7afe638U;
+    x ^= x * 0x8d22f6e6U;
+    return x;
+}
+
+/* A pixel's key, what every pair's key starts from: hash4's first three rounds of (seed, pixel, SOBOL_KEY_PAIR). */
+INLINE uint sobol_pixel_key(uint seed, uint pixel) { return hash3(seed, pixel, SOBOL_KEY_PAIR); }
+
+/* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction:
+ * owen_scramble(sobol_coordinate(owen_scramble(index, key), c), coordinate key), with the bit reversals that cancel
+ * left out: the shuffled index i is reverse(y), coordinate 0 is reverse(i) = y, and coordinate 1 is read from y. */
+INLINE uint sobol_point(uint pixel_key, uint index, uint dim) {
+    uint key = mix32(pixel_key ^ ((dim >> 1) + HASH_KEY_D)); /* hash4(seed, pixel, SOBOL_KEY_PAIR, pair) */
+    uint c = dim & 1U;
+    uint y = laine_karras(reverse_bits32(index), key); /* the pair's own order of the samples, bit-reversed */
+    uint point_reversed = reverse_bits32(c == 0U ? y : sobol_second_of_reversed(y));
+    return reverse_bits32(laine_karras(point_reversed, mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
+}
+
+INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) { return sobol_point(sobol_pixel_key(seed, pixel), index, dim); }
+
+#if RNG_SOBOL
+INLINE float sobol_value(const Rng *r) { return u01(sobol_point(r->key, r->sample, r->dim)); }
+#endif
+
+/* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
+ * its numbers follow one another as they always did. */
+INLINE void rng_vertex(Rng *r, int depth) {
+#if RNG_SOBOL
+    r->base = VERTEX_DIMS * (uint)(depth + 1);
+    r->dim = r->base + SLOT_PICK;
+#endif
+}
+
+INLINE void rng_slot(Rng *r, uint slot) {
+#if RNG_SOBOL
+    r->dim = r->base + slot;
+#endif
+}
+
+#endif
