@@ -27,11 +27,11 @@ from clrender.trace.light_choice import MIN_SHARE, NEAR_SHARE, choices, light_po
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
+from tests import arealighttools as area_mis
 from tests.reference import pathtracer as pt
 from tests.reference.path_scenes import camera, quad
 from tests.reference.polygon_light import lambert_irradiance
 from tests.reference.ztest import two_sample_z
-from tests.trace import test_area_light_mis as area_mis
 
 ALPHA = 1e-3
 K = 8  # clrender's renders for the image test (seeds 1..K)

@@ -34,7 +34,6 @@ import logging
 import math
 import types
 import warnings
-from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -49,53 +48,26 @@ from clrender.trace.renderer import Renderer, RenderSettings
 from clrender.trace.tracer import Tracer
 
 from tests.clitools import run_cli
-from tests.reference import bsdf64, path_scenes
+from tests.pathtools import (
+    ALPHA,
+    POOLED_LIMIT,
+    K,
+    assert_binomial,
+    assert_expected,
+    closed_box,
+    closed_box_radiance,
+    lamp_over_floor,
+    mixed_scene,
+    pooled_z,
+    render_once,
+    renders,
+)
+from tests.reference import bsdf64
 from tests.reference import pathtracer as pt
 from tests.reference.path_scenes import camera, quad
-from tests.reference.ztest import sidak, two_sample_z
-
-ALPHA = 1e-3  # false-alarm probability of each statistical test function, for a random seed
-K = 8  # independent renders (seeds 1..K) where a test needs each pixel's variance
-
+from tests.reference.ztest import two_sample_z
 
 # ------------------------------------------------------------------ helpers
-def renders(scene: dict, device, k: int = K, **settings) -> np.ndarray:
-    """(k, H, W, 3) float64: path-traced renders with seeds 1..k, one Tracer for all."""
-    loaded = Scene.from_dict(scene)
-    tracer = Tracer(loaded, device=device)
-    images = [Renderer(loaded, tracer=tracer, integrator="path", seed=s, **settings).run().image for s in range(1, k + 1)]
-    return np.stack(images).astype(np.float64)
-
-
-def render_once(scene: dict, device, **settings):
-    loaded = Scene.from_dict(scene)
-    return Renderer(loaded, tracer=Tracer(loaded, device=device), integrator="path", **settings).run()
-
-
-def pooled_z(images: np.ndarray, expected) -> np.ndarray:
-    """Per channel: the summed differences of every pixel's mean from `expected` over their standard error."""
-    k = len(images)
-    diff = (images.mean(axis=0) - expected).reshape(-1, 3)
-    var = (images.var(axis=0, ddof=1) / k).reshape(-1, 3)
-    return diff.sum(axis=0) / np.sqrt(var.sum(axis=0) + 1e-30)
-
-
-POOLED_LIMIT = NormalDist().inv_cdf(1 - sidak(ALPHA / 2, 3) / 2)  # 3.76: the three channels' pooled z at ALPHA / 2
-
-
-def assert_expected(images: np.ndarray, expected, what: str):
-    """The module docstring's test against an exact image: per-pixel t-tests at ALPHA / 2 and pooled z at ALPHA / 2."""
-    per_pixel = two_sample_z(images, np.broadcast_to(np.asarray(expected, np.float64), images.shape), block=1, alpha=ALPHA / 2)
-    assert per_pixel.passed, f"{what}: per pixel, {per_pixel.report()}"
-    z = pooled_z(images, expected)
-    assert np.abs(z).max() <= POOLED_LIMIT, f"{what}: pooled z {np.round(z, 2)}, limit {POOLED_LIMIT:.2f}"
-
-
-def assert_binomial(successes: float, trials: int, p: float, what: str):
-    """Two-sided normal test of a binomial count at ALPHA."""
-    z = (successes - trials * p) / math.sqrt(trials * p * (1 - p))
-    limit = NormalDist().inv_cdf(1 - ALPHA / 2)
-    assert abs(z) <= limit, f"{what}: {successes:.1f} of {trials} against p = {p:.4f} (expected {trials * p:.1f}), z {z:+.2f}, limit {limit:.2f}"
 
 
 def pixel_directions(scene: dict, sub: int = 1, corners: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -158,62 +130,6 @@ def tilted_wall(material: dict, size: int = 16) -> dict:
         "materials": {"m": material},
         "objects": [quad(centre - 10 * a - 10 * b, 20 * a, 20 * b, "m")],
     }
-
-
-def fan_cube(inward_point=(0.3, -0.2)) -> tuple[list, list]:
-    """The cube [-1, 1]^3 with each face a fan of four triangles around an off-centre point of it (areas 0.7, 1.2,
-    1.3 and 0.8: unequal, so choosing emitters by power is not choosing them uniformly), wound so that every normal
-    (v1 - v0) x (v2 - v0) points into the cube.  Watertight: the fans meet only along the cube's edges."""
-    vertices, faces = [], []
-    for axis in range(3):
-        for side in (-1.0, 1.0):
-            u, v = [a for a in range(3) if a != axis]
-            ring = []
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                corner = [0.0, 0.0, 0.0]
-                corner[axis], corner[u], corner[v] = side, a, b
-                ring.append(corner)
-            centre = [0.0, 0.0, 0.0]
-            centre[axis], centre[u], centre[v] = side, *inward_point
-            base = len(vertices)
-            vertices += ring + [centre]
-            for i in range(4):
-                tri = [base + 4, base + i, base + (i + 1) % 4]
-                normal = np.cross(np.subtract(vertices[tri[1]], vertices[tri[0]]), np.subtract(vertices[tri[2]], vertices[tri[0]]))
-                faces.append(tri if normal[axis] * side < 0 else tri[::-1])
-    return vertices, faces
-
-
-def closed_box(rho: float = 0.5, le: float = 1.0, size: int = 16) -> dict:
-    """The camera inside fan_cube's cube, whose walls all have albedo rho and emit Le inwards."""
-    return path_scenes.closed_box(*fan_cube(), rho, le, size)
-
-
-def closed_box_radiance(rho: float, le: float, max_depth: int) -> float:
-    return le * (1 - rho ** (max_depth + 2)) / (1 - rho)
-
-
-def lamp_over_floor(size: int = 16, area_light: bool = False) -> dict:
-    """A 1 x 1 lamp of radiance 2 facing down 1 above a diffuse floor, a diffuse ball casting a shadow, looked at
-    from above (the lamp itself out of view): an emissive quad, or with `area_light` a two-sided physical area
-    light (docs/materials.md), which lights the floor the same."""
-    corner, edge_a, edge_b = [-0.5, 1.0, -0.4], [1.0, 0, 0], [0, 0, 1.0]  # edge_a x edge_b = -y: facing the floor
-    scene = {
-        "width": size,
-        "height": size,
-        "cameras": [camera([0, 0.9, 1.3], [0.15, 0, 0.4], 40)],
-        "materials": {"floor": {"diffuse": [0.6, 0.48, 0.3]}, "lamp": {"diffuse": [0, 0, 0], "emission": [2.0] * 3}},
-        "objects": [
-            quad([-1.5, 0, -1.5], [0, 0, 3], [3, 0, 0], "floor"),
-            {"type": "sphere", "center": [0.45, 0.3, 0.3], "radius": 0.3, "material": "floor"},
-        ],
-    }
-    if area_light:
-        light = {"type": "area", "corner": corner, "edge_a": edge_a, "edge_b": edge_b, "intensity": 2.0, "falloff": "inverse_square"}
-        scene["lights"] = [light]
-    else:
-        scene["objects"].append(quad(corner, edge_a, edge_b, "lamp"))
-    return scene
 
 
 # ================================================================== physics
@@ -358,28 +274,6 @@ def test_a_glass_sphere_seen_head_on_returns_its_fresnel_share(device):
 
 # ================================================================== determinism
 SMALL = dict(spp=4, max_depth=3)
-
-
-def mixed_scene(size=(20, 12)) -> dict:
-    """Lambert, glTF metal and glass under an emissive quad and a dim sky: every kind of vertex."""
-    return {
-        "width": size[0],
-        "height": size[1],
-        "cameras": [camera([0, 1.2, 4], [0, 0.5, 0], 45)],
-        "environment": {"color": [0.1, 0.12, 0.15]},
-        "materials": {
-            "floor": {"diffuse": [0.7, 0.7, 0.7]},
-            "metal": {"base_color": [0.9, 0.6, 0.3], "metallic": 1.0, "roughness": 0.3},
-            "glass": {"transparency": 1.0, "ior": 1.5},
-            "lamp": {"diffuse": [0, 0, 0], "emission": [3, 2.5, 2]},
-        },
-        "objects": [
-            quad([-3, 0, -3], [0, 0, 6], [6, 0, 0], "floor"),
-            {"type": "sphere", "center": [-0.6, 0.5, 0], "radius": 0.5, "material": "metal"},
-            {"type": "sphere", "center": [0.6, 0.4, 0.3], "radius": 0.4, "material": "glass"},
-            quad([-0.5, 2, -0.5], [1, 0, 0], [0, 0, 1], "lamp"),
-        ],
-    }
 
 
 def test_the_same_seed_gives_the_same_bits_whatever_the_tiles(device):

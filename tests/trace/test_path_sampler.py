@@ -16,9 +16,9 @@ from clrender.trace.renderer import Renderer
 from clrender.trace.sampling import sequence_points
 from clrender.trace.tracer import Tracer
 
+from tests.pathtools import assert_expected, closed_box, closed_box_radiance, lamp_over_floor, mixed_scene
 from tests.reference import pathtracer as pt
 from tests.reference.ztest import two_sample_z
-from tests.trace.test_path import assert_expected, closed_box, closed_box_radiance, lamp_over_floor, mixed_scene
 
 ALPHA = 1e-3
 TWO_32 = 2.0**32
