@@ -1,5 +1,5 @@
-"""The code's shape (STYLE.md, issue 34): no host function in clrender/ and no kernel function in kernels/ is longer
-than 80 lines, and no `__kernel` takes more than 12 arguments.
+"""The code's shape (STYLE.md, issue 34): no host function (clrender/, bench/, tools/) and no kernel function
+(kernels/) is longer than 80 lines, and no `__kernel` takes more than 12 arguments.
 
 Python functions are read with `ast` (every def, nested ones and methods included, from the `def` line to the
 last line of its body). Kernel sources are scanned on their own here, without clrender's parser: comments, string
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGE = ROOT / "clrender"
+HOST = [ROOT / name for name in ("clrender", "bench", "tools")]
 KERNELS = sorted(p for p in (ROOT / "kernels").iterdir() if p.suffix in (".cl", ".h"))
 LONGEST = 80  # lines, signature to last line
 MAX_KERNEL_ARGUMENTS = 12
@@ -101,7 +101,7 @@ def kernel_arguments(declaration: str) -> int | None:
 
 
 def long_python_functions():
-    for path in sorted(PACKAGE.rglob("*.py")):
+    for path in sorted(p for folder in HOST for p in folder.rglob("*.py")):
         for name, line, length in python_functions(path.read_text(encoding="utf-8")):
             if length > LONGEST:
                 yield f"{path.relative_to(ROOT).as_posix()}::{name}", line, length
