@@ -55,7 +55,7 @@ def load_average() -> str:
         return "n/a"
 
 
-def main(argv=None):
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench distributed", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="wizard_cat")
     ap.add_argument("--camera", type=int, default=3)
@@ -70,14 +70,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.tile, args.samples, args.runs = 128, 16, 1, 1
+    return args
 
-    import logging
 
-    import distributed
-
-    import clrender.distributed as crd
-    from clrender.distributed.cluster import pocl_env
-
+def main(argv=None):
+    args = parse_args(argv)
     scene = Scene.load(args.scene)
     settings = RenderSettings(width=args.size, height=args.size, camera=args.camera, aa="full", samples=args.samples, tile_size=args.tile, seed=1)
     n_tiles = (-(-args.size // args.tile)) ** 2
@@ -88,78 +85,15 @@ def main(argv=None):
         file=sys.stderr,
     )
 
-    local = Renderer(scene, settings)
-    local.run()  # warm: kernels built
-    local_times = []
-    for _ in range(args.runs):
-        start = time.perf_counter()
-        reference = local.run()
-        local_times.append(time.perf_counter() - start)
-    rows = [
-        dict(
-            workers="local (this process)",
-            wall_s=statistics.median(local_times),
-            speedup=1.0,
-            tasks=n_tiles,
-            compute_s=float("nan"),
-            compute_cpu_s=float("nan"),
-            compute_per_task_ms=float("nan"),
-            overhead_per_task_ms=float("nan"),
-            tasks_per_worker="",
-            first_pixel_s=float("nan"),
-            cluster_start_s=float("nan"),
-            identical=True,
-        )
-    ]
-
+    reference, row = local_row(scene, settings, args.runs, n_tiles)
+    rows = [row]
     walls = {}
     for workers in [int(w) for w in args.workers.split(",")]:
-        start = time.perf_counter()
-        with (
-            distributed.LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR, env=pocl_env(1)
-            ) as cluster,
-            distributed.Client(cluster) as client,
-        ):
-            client.wait_for_workers(workers)
-            if not args.same_session:
-                client.run(os.setsid)  # each worker its own autogroup, as workers started by hand are
-            cluster_start = time.perf_counter() - start
-            cold = crd.DistributedRenderer(scene, settings, client)
-            cold.run()
-            first_pixel = cold.first_result_seconds
-            times, logs, identical = [], [], True
-            for _ in range(args.runs):
-                renderer = crd.DistributedRenderer(scene, settings, client)
-                start = time.perf_counter()
-                result = renderer.run()
-                times.append(time.perf_counter() - start)
-                logs.append(renderer.task_log)
-                identical &= result.image.tobytes() == reference.image.tobytes()
+        times, logs, identical, first_pixel, cluster_start = cluster_runs(scene, settings, workers, args, reference)
         wall = statistics.median(times)
         log = logs[times.index(min(times, key=lambda t: abs(t - wall)))]
-        compute = sum(t["compute"] for t in log)
-        compute_cpu = sum(t["compute_cpu"] for t in log)
-        per_worker = {}
-        for t in log:
-            per_worker[t["pid"]] = per_worker.get(t["pid"], 0) + 1
         walls[workers] = wall
-        rows.append(
-            dict(
-                workers=workers,
-                wall_s=wall,
-                speedup=walls[min(walls)] / wall if walls else 1.0,
-                tasks=len(log),
-                compute_s=compute,
-                compute_cpu_s=compute_cpu,
-                compute_per_task_ms=1e3 * compute / len(log),
-                overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
-                tasks_per_worker="/".join(map(str, sorted(per_worker.values(), reverse=True))),
-                first_pixel_s=first_pixel,
-                cluster_start_s=cluster_start,
-                identical=identical,
-            )
-        )
+        rows.append(cluster_row(workers, wall, walls[min(walls)] / wall if walls else 1.0, log, identical, first_pixel, cluster_start))
         print(f"{workers} worker(s): {wall:.2f} s, {len({t['pid'] for t in log})} process(es) ran tasks", file=sys.stderr)
 
     title = (
@@ -174,3 +108,87 @@ def main(argv=None):
         print("distributed images differ from the local one", file=sys.stderr)
         return 1
     return 0
+
+
+def local_row(scene, settings, runs: int, n_tiles: int):
+    """The same render in this process: (its image, the table's row), the median of `runs` warm renders."""
+    local = Renderer(scene, settings)
+    local.run()  # warm: kernels built
+    local_times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        reference = local.run()
+        local_times.append(time.perf_counter() - start)
+    row = dict(
+        workers="local (this process)",
+        wall_s=statistics.median(local_times),
+        speedup=1.0,
+        tasks=n_tiles,
+        compute_s=float("nan"),
+        compute_cpu_s=float("nan"),
+        compute_per_task_ms=float("nan"),
+        overhead_per_task_ms=float("nan"),
+        tasks_per_worker="",
+        first_pixel_s=float("nan"),
+        cluster_start_s=float("nan"),
+        identical=True,
+    )
+    return reference, row
+
+
+def cluster_runs(scene, settings, workers: int, args, reference):
+    """A cold render, then `args.runs` warm ones, on a fresh LocalCluster of `workers` workers: (wall times, task
+    logs, whether every image is byte for byte the local one, seconds to the first tile, seconds to start)."""
+    import logging
+
+    import distributed
+
+    import clrender.distributed as crd
+    from clrender.distributed.cluster import pocl_env
+
+    start = time.perf_counter()
+    with (
+        distributed.LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR, env=pocl_env(1)
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        client.wait_for_workers(workers)
+        if not args.same_session:
+            client.run(os.setsid)  # each worker its own autogroup, as workers started by hand are
+        cluster_start = time.perf_counter() - start
+        cold = crd.DistributedRenderer(scene, settings, client)
+        cold.run()
+        first_pixel = cold.first_result_seconds
+        times, logs, identical = [], [], True
+        for _ in range(args.runs):
+            renderer = crd.DistributedRenderer(scene, settings, client)
+            start = time.perf_counter()
+            result = renderer.run()
+            times.append(time.perf_counter() - start)
+            logs.append(renderer.task_log)
+            identical &= result.image.tobytes() == reference.image.tobytes()
+    return times, logs, identical, first_pixel, cluster_start
+
+
+def cluster_row(workers: int, wall: float, speedup: float, log: list, identical: bool, first_pixel: float, cluster_start: float) -> dict:
+    """The table's row of one cluster size, from the task log of its median run."""
+    compute = sum(t["compute"] for t in log)
+    compute_cpu = sum(t["compute_cpu"] for t in log)
+    per_worker = {}
+    for t in log:
+        per_worker[t["pid"]] = per_worker.get(t["pid"], 0) + 1
+    return dict(
+        workers=workers,
+        wall_s=wall,
+        speedup=speedup,
+        tasks=len(log),
+        compute_s=compute,
+        compute_cpu_s=compute_cpu,
+        compute_per_task_ms=1e3 * compute / len(log),
+        overhead_per_task_ms=1e3 * (wall * workers - compute) / len(log),
+        tasks_per_worker="/".join(map(str, sorted(per_worker.values(), reverse=True))),
+        first_pixel_s=first_pixel,
+        cluster_start_s=cluster_start,
+        identical=identical,
+    )

@@ -105,7 +105,7 @@ def timed(fn, runs: int, warm_up: bool = False):
     return statistics.median(times), result
 
 
-def main(argv=None):
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench filters", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=4096, help="image is SIZE x SIZE x 3 float32")
     ap.add_argument("--runs", type=int, default=3, help="timed OpenCV runs per filter; the median is reported")
@@ -120,6 +120,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.runs, args.numpy_runs = 512, 1, 1
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",") if s]
     wide = [int(s) for s in args.wide.split(",") if s]
 
@@ -132,44 +137,12 @@ def main(argv=None):
         f"median of {args.runs} (numpy: {args.numpy_runs})",
         flush=True,
     )
-    rows = []
-    for name in names:
-        f = filters.parse(name)
-        size = 1 if f.kind == "brighten" else (3 if f.kind == "edge_detect" else int(f.value))
-        path = {
-            "brighten": "multiply",
-            "box_blur": "running sums",
-            "edge_detect": "3x3 direct",
-            "gauss_blur": "FFT" if size >= filters.FFT_FROM_SIZE else "separable",
-        }[f.kind]
-        opencv_s, ours = timed(lambda: filters.apply(img, name), args.runs, warm_up=True)
-        row = {"filter": name, "size": size, "path": path, "opencv_s": opencv_s, "numpy_s": "", "numpy_over_opencv": "", "max_abs_diff": ""}
-        if f.kind in ("brighten", "edge_detect") or size in sizes:
-            numpy_s, theirs = timed(lambda: numpy_version(name)(img), args.numpy_runs)
-            row.update(numpy_s=numpy_s, numpy_over_opencv=numpy_s / opencv_s, max_abs_diff=float(np.abs(ours - theirs).max()))
-            del theirs
-        del ours
-        rows.append(row)
-        print(f"  {name:<16} opencv {opencv_s:8.3f} s   numpy {row['numpy_s'] or float('nan'):8.3f} s", flush=True)
+    rows = [time_filter(name, img, sizes, args) for name in names]
 
     out = Path(args.out)
     crossover = [int(k) for k in args.crossover.split(",") if k]
     if crossover:
-        both_ways = []
-        for k in crossover:
-            g = filters.gaussian_weights(k).astype(np.float32)
-            sep_s, _ = timed(lambda: cv2.sepFilter2D(img, cv2.CV_32F, g, g, borderType=filters.BORDER), args.runs)
-            fft_s, _ = timed(lambda: filters.separable_fft(img, g), args.runs)
-            both_ways.append({"size": k, "separable_s": sep_s, "fft_s": fft_s, "separable_over_fft": sep_s / fft_s})
-            print(f"  gauss {k:<5} separable {sep_s:7.3f} s   FFT {fft_s:7.3f} s", flush=True)
-        print(
-            write_table(
-                out,
-                "filters_crossover",
-                both_ways,
-                f"Gaussian, separable vs FFT, {args.size}x{args.size} RGB, median of {args.runs} (clrender switches at {filters.FFT_FROM_SIZE})",
-            )
-        )
+        time_crossover(crossover, img, out, args)
     title = f"Filters on {args.size}x{args.size} RGB float32, median of {args.runs} (numpy {args.numpy_runs}), {cv2.getNumThreads()} OpenCV threads"
     print(write_table(out, "filters", rows, title))
     both = [r for r in rows if r["numpy_s"] != ""]
@@ -193,6 +166,46 @@ def main(argv=None):
     )
     print(f"wrote {out / 'filters.csv'}, {out / 'filters.md'}, {out / 'filters.png'}, {out / 'filters_growth.png'}")
     return 0
+
+
+def time_filter(name: str, img, sizes: list, args) -> dict:
+    """One filter's row: clrender's (OpenCV) time, and for the sizes timed both ways numpy's and the largest difference."""
+    f = filters.parse(name)
+    size = 1 if f.kind == "brighten" else (3 if f.kind == "edge_detect" else int(f.value))
+    path = {
+        "brighten": "multiply",
+        "box_blur": "running sums",
+        "edge_detect": "3x3 direct",
+        "gauss_blur": "FFT" if size >= filters.FFT_FROM_SIZE else "separable",
+    }[f.kind]
+    opencv_s, ours = timed(lambda: filters.apply(img, name), args.runs, warm_up=True)
+    row = {"filter": name, "size": size, "path": path, "opencv_s": opencv_s, "numpy_s": "", "numpy_over_opencv": "", "max_abs_diff": ""}
+    if f.kind in ("brighten", "edge_detect") or size in sizes:
+        numpy_s, theirs = timed(lambda: numpy_version(name)(img), args.numpy_runs)
+        row.update(numpy_s=numpy_s, numpy_over_opencv=numpy_s / opencv_s, max_abs_diff=float(np.abs(ours - theirs).max()))
+        del theirs
+    del ours
+    print(f"  {name:<16} opencv {opencv_s:8.3f} s   numpy {row['numpy_s'] or float('nan'):8.3f} s", flush=True)
+    return row
+
+
+def time_crossover(crossover: list, img, out: Path, args) -> None:
+    """The Gaussian both ways (separable and FFT) at each size of `crossover`: filters_crossover.csv/.md."""
+    both_ways = []
+    for k in crossover:
+        g = filters.gaussian_weights(k).astype(np.float32)
+        sep_s, _ = timed(lambda: cv2.sepFilter2D(img, cv2.CV_32F, g, g, borderType=filters.BORDER), args.runs)
+        fft_s, _ = timed(lambda: filters.separable_fft(img, g), args.runs)
+        both_ways.append({"size": k, "separable_s": sep_s, "fft_s": fft_s, "separable_over_fft": sep_s / fft_s})
+        print(f"  gauss {k:<5} separable {sep_s:7.3f} s   FFT {fft_s:7.3f} s", flush=True)
+    print(
+        write_table(
+            out,
+            "filters_crossover",
+            both_ways,
+            f"Gaussian, separable vs FFT, {args.size}x{args.size} RGB, median of {args.runs} (clrender switches at {filters.FFT_FROM_SIZE})",
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -197,7 +197,7 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
     return load_s, first, compile_s, cached, statistics.median(walls), statistics.median(cpus), images
 
 
-def main(argv=None):
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench path", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=512, help="image side in pixels")
     ap.add_argument("--spp", type=int, default=64, help="samples per pixel")
@@ -211,6 +211,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.quick:
         args.size, args.spp, args.runs, args.scalar_spp = 128, 16, 1, min(args.scalar_spp, 4)
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     have_clrender = clrender_has_path_tracer()
@@ -231,21 +236,7 @@ def main(argv=None):
             renders["clrender"] = images
             write_display_image(out / f"path_{name}_clrender.png", images[0])
         if args.peer == "mitsuba":
-            variants = [("mitsuba llvm_ad_rgb", "llvm_ad_rgb", args.spp, args.runs)]
-            if args.scalar_spp > 0:
-                variants.append(("mitsuba scalar_rgb", "scalar_rgb", args.scalar_spp, 1))
-            for label, variant, spp, runs in variants:
-                reason = mitsuba_scenes.unavailable(variant)
-                if reason:
-                    print(f"{label}: not measured: {reason}")
-                    continue
-                load_s, first, compile_s, cached, wall, cpu, images = time_mitsuba(scene, variant, args.size, spp, args.max_depth, runs)
-                scale = args.spp / spp  # the scalar render's time at --spp
-                measured[label] = dict(
-                    spp_run=spp, load_s=load_s, first_s=first, compile_s=compile_s, cached=cached, seconds=wall * scale, cpu_s=cpu * scale
-                )
-                renders[variant] = images
-                write_display_image(out / f"path_{name}_{variant}.png", images[0])
+            measure_mitsuba(args, name, scene, out, measured, renders)
         if "clrender" in renders and "llvm_ad_rgb" in renders:
             ours, theirs = renders["clrender"], renders["llvm_ad_rgb"]
             write_display_image(out / f"path_{name}_pair.png", np.concatenate([ours[0], theirs[0]], axis=1))
@@ -280,6 +271,26 @@ def main(argv=None):
     print(table)
     print("\n".join(agreement))
     return 0
+
+
+def measure_mitsuba(args, name: str, scene, out: Path, measured: dict, renders: dict) -> None:
+    """Mitsuba 3's llvm_ad_rgb render of one scene, and its scalar_rgb one (at --scalar-spp, its time scaled to
+    --spp), each added to `measured` (its row's timings) and `renders` (its images) unless the variant is missing."""
+    from clrender.image.files import write_display_image
+
+    variants = [("mitsuba llvm_ad_rgb", "llvm_ad_rgb", args.spp, args.runs)]
+    if args.scalar_spp > 0:
+        variants.append(("mitsuba scalar_rgb", "scalar_rgb", args.scalar_spp, 1))
+    for label, variant, spp, runs in variants:
+        reason = mitsuba_scenes.unavailable(variant)
+        if reason:
+            print(f"{label}: not measured: {reason}")
+            continue
+        load_s, first, compile_s, cached, wall, cpu, images = time_mitsuba(scene, variant, args.size, spp, args.max_depth, runs)
+        scale = args.spp / spp  # the scalar render's time at --spp
+        measured[label] = dict(spp_run=spp, load_s=load_s, first_s=first, compile_s=compile_s, cached=cached, seconds=wall * scale, cpu_s=cpu * scale)
+        renders[variant] = images
+        write_display_image(out / f"path_{name}_{variant}.png", images[0])
 
 
 if __name__ == "__main__":

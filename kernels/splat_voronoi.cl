@@ -143,10 +143,11 @@ __kernel void nearest_grid(__global const float2 *sorted_pos, __global const int
  * above, keeping a sorted list), weights w_j = softmax_j(-d2_j / T) and the
  * blend out = sum_j w_j c_j.  Writes idx/w (K per pixel) for the backward pass. */
 __kernel void soft_forward(__global const float2 *sorted_pos, __global const int *sorted_idx,
-                           __global const int *cell_start, int gw, int gh, float cell, int width, int height,
+                           __global const int *cell_start, int2 grid_cells, float cell, int width, int height,
                            __global const float4 *colors, float inv_temp,
                            __global int *knn_idx, __global float *knn_w, __global float4 *out)
 {
+    int gw = grid_cells.x, gh = grid_cells.y;  /* the grid's gw x gh cells */
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= width || y >= height)
         return;

@@ -399,7 +399,7 @@ def list_mutants(chosen, base: Path) -> int:
     return 1 if stale else 0
 
 
-def main(argv=None) -> int:
+def parse_args(argv=None):
     parser = argparse.ArgumentParser(
         prog="python -m tools.mutants", description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -419,6 +419,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error(f"--jobs {args.jobs} must be at least 1")
+    return args
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
     mutants = load()
     chosen = select(mutants, args.only)
     if args.tests:
@@ -440,26 +445,7 @@ def main(argv=None) -> int:
         check_imports(args.python, base)
         broken, failing = set(), []
         if not args.no_baseline:
-            # a test that fails without any mutation would "kill" every mutant: deselect it (or
-            # leave its whole file out when the file does not even run)
-            tests = list(dict.fromkeys(t for m in runnable for t in find_tests(base, m.tests)[0]))
-            start = time.perf_counter()
-            for t in tests:
-                rc, seconds, out = run_tests(args.python, base, [t], args.timeout, first_failure_stops=False)
-                if rc == 0:
-                    continue
-                ids = re.findall(r"^FAILED (\S+)", out, re.M)
-                if rc == 1 and ids and not re.search(r"^ERROR ", out, re.M):
-                    failing += ids
-                    print(f"BASELINE FAILS {len(ids)} test(s) of {t} (e.g. {ids[0]}): deselected for every mutant", flush=True)
-                else:
-                    broken.add(t)
-                    print(f"BASELINE FAILS {t} (exit {rc}, {first_failure(out)}): left out of every mutant's run", flush=True)
-            print(
-                f"baseline (no mutation): {len(tests) - len(broken)} of {len(tests)} test files run, "
-                f"{len(failing)} failing tests deselected, {time.perf_counter() - start:.0f} s",
-                flush=True,
-            )
+            broken, failing = baseline_failures(args, base, runnable)
 
         def one(m):
             row = run_mutant(m, base, work, args.python, args.timeout, broken, failing)
@@ -471,26 +457,55 @@ def main(argv=None) -> int:
     rows += [dict(id=m.id, file=m.file, what=m.what, status="stale", seconds=0, detail=problems[m.id]) for m in stale]
     order = {m.id: i for i, m in enumerate(mutants)}
     rows.sort(key=lambda r: order[r["id"]])
+    write_report(args.out, rows, len(stale), sorted(broken) + failing)
+    return 0
+
+
+def baseline_failures(args, base: Path, runnable) -> tuple[set, list]:
+    """The unmutated tests' failures: (test files that do not run, failing test ids). A test that fails without any
+    mutation would "kill" every mutant: it is deselected (or its whole file left out when the file does not even run)."""
+    broken, failing = set(), []
+    tests = list(dict.fromkeys(t for m in runnable for t in find_tests(base, m.tests)[0]))
+    start = time.perf_counter()
+    for t in tests:
+        rc, seconds, out = run_tests(args.python, base, [t], args.timeout, first_failure_stops=False)
+        if rc == 0:
+            continue
+        ids = re.findall(r"^FAILED (\S+)", out, re.M)
+        if rc == 1 and ids and not re.search(r"^ERROR ", out, re.M):
+            failing += ids
+            print(f"BASELINE FAILS {len(ids)} test(s) of {t} (e.g. {ids[0]}): deselected for every mutant", flush=True)
+        else:
+            broken.add(t)
+            print(f"BASELINE FAILS {t} (exit {rc}, {first_failure(out)}): left out of every mutant's run", flush=True)
+    print(
+        f"baseline (no mutation): {len(tests) - len(broken)} of {len(tests)} test files run, "
+        f"{len(failing)} failing tests deselected, {time.perf_counter() - start:.0f} s",
+        flush=True,
+    )
+    return broken, failing
+
+
+def write_report(out: Path, rows: list, n_stale: int, left_out: list) -> None:
+    """mutants.md (the summary and the table) and mutants.csv in `out`; both printed."""
     killed = sum(r["status"] == "killed" for r in rows)
     ran = sum(r["status"] in ("killed", "survived") for r in rows)
-    left_out = sorted(broken) + failing
     summary = (("baseline failures left out: " + ", ".join(left_out) + "\n\n") if left_out else "") + (
         f"{killed} of {ran} mutants killed ({100 * killed / max(ran, 1):.0f}%), "
-        f"{sum(r['status'] == 'survived' for r in rows)} survived, {len(stale)} stale, "
+        f"{sum(r['status'] == 'survived' for r in rows)} survived, {n_stale} stale, "
         f"{sum(r['status'] == 'error' for r in rows)} errors"
     )
     table = markdown(rows)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "mutants.md").write_text(f"# Mutants\n\n{summary}\n\n{table}\n")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "mutants.md").write_text(f"# Mutants\n\n{summary}\n\n{table}\n")
     import csv
 
-    with open(args.out / "mutants.csv", "w", newline="") as f:
+    with open(out / "mutants.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]) if rows else ["id"])
         writer.writeheader()
         writer.writerows(rows)
     print(table)
     print(summary)
-    return 0
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
@@ -95,6 +96,33 @@ def add_parser(sub):
         "A mesh file (.obj, .ply, .stl, .off), or a glTF file without cameras, gets a camera that frames its bounding sphere "
         "in a three-quarter view; a bare mesh also gets a key light and a uniform fill (docs/scene-format.md).",
     )
+    _add_scene_arguments(p)
+    _add_view_arguments(p)
+    _add_sampling_arguments(p, d)
+    _add_edge_arguments(p, d)
+    _add_display_arguments(p)
+    add_stage_arguments(p)
+    _add_integrator_arguments(p, d)
+    # foreign scene files (Mitsuba 3 .xml, pbrt-v4 .pbrt: clrender/scene/foreign.py, docs/scene-formats.md)
+    add_foreign_arguments(p)
+    _add_trace_arguments(p, d)
+    add_device_argument(p)
+    p.add_argument(
+        "--list",
+        action="store_true",
+        help="list the bundled scenes with their cameras and exit; with SCENE: that scene's cameras (a mesh file: its framing camera)",
+    )
+    # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
+    from .cluster import add_cluster_arguments
+    from .turntable import add_turntable_arguments
+
+    add_cluster_arguments(p)
+    add_turntable_arguments(p)
+    p.set_defaults(run=run)
+
+
+def _add_scene_arguments(p) -> None:
+    """SCENE and the short form's positional arguments."""
     p.add_argument(
         "scene",
         metavar="SCENE",
@@ -107,6 +135,10 @@ def add_parser(sub):
         metavar="ARG",
         help="the short form: CAMERA AA_TYPE SAMPLE_TYPE [AA_SAMPLES] [THICKNESS] [DETECT_SHADOWS], instead of the options of the same meaning",
     )
+
+
+def _add_view_arguments(p) -> None:
+    """-o, --overwrite, --camera, --width, --height: the output file and the view."""
     # Options the positionals can also set default to None, so giving both is caught; their
     # help states the real default in words.
     p.add_argument(
@@ -128,6 +160,10 @@ def add_parser(sub):
         default=None,
         help="image height (default: the scene's, or kept to its aspect ratio when only --width is given)",
     )
+
+
+def _add_sampling_arguments(p, d) -> None:
+    """--aa, --sampler, --samples, --pixel-filter, --rfilter: where samples fall in a pixel and how they are weighted."""
     p.add_argument("--aa", choices=AA_MODES, default=None, help=f"anti-aliasing mode (default: the scene's aa, else {d.aa})")
     p.add_argument("--sampler", choices=tuple(SAMPLERS), default=None, help=f"where AA samples fall in a pixel (default: {d.sampler})")
     p.add_argument(
@@ -151,6 +187,10 @@ def add_parser(sub):
         help=f"path tracer: the film's reconstruction filter, Mitsuba's (box: a pixel's own samples; tent, gaussian: "
         f"splatted across pixels; default: a scene file's own, else {d.rfilter})",
     )
+
+
+def _add_edge_arguments(p, d) -> None:
+    """--thickness, --shadow-edges, --contrast, --edges-out, --aov, --aov-out: the edge pass and the AOVs."""
     p.add_argument("--thickness", type=float, default=None, help=f"edge_detect: disc radius around edge pixels (default: {d.thickness})")
     p.add_argument(
         "--shadow-edges",
@@ -175,6 +215,10 @@ def add_parser(sub):
     p.add_argument(
         "--aov-out", default=None, metavar="PATH", help="EXR file for the AOVs (default: OUT itself when OUT is .exr, else OUT.aov.exr beside it)"
     )
+
+
+def _add_display_arguments(p) -> None:
+    """--exposure, --tonemap, --denoise, --noisy-out: what is done to the image once rendered."""
     p.add_argument(
         "--exposure",
         type=exposure_value,
@@ -195,7 +239,10 @@ def add_parser(sub):
         help="path: denoise the image with Intel Open Image Denoise, using the albedo and normal AOVs (needs clrender[denoise])",
     )
     p.add_argument("--noisy-out", default=None, metavar="PATH", help="with --denoise: also write the image before denoising (default: not written)")
-    add_stage_arguments(p)
+
+
+def _add_integrator_arguments(p, d) -> None:
+    """--light-samples, --integrator, --spp, --time-budget, --max-depth: the integrator and its samples."""
     p.add_argument("--light-samples", type=int, default=d.light_samples, help="area-light samples per side (0: each light's own)")
     p.add_argument(
         "--integrator",
@@ -219,8 +266,10 @@ def add_parser(sub):
         default=None,
         help=f"mirror/refraction bounces (path: bounces after the first hit) (default: a foreign scene file's, else {d.max_depth})",
     )
-    # foreign scene files (Mitsuba 3 .xml, pbrt-v4 .pbrt: clrender/scene/foreign.py, docs/scene-formats.md)
-    add_foreign_arguments(p)
+
+
+def _add_trace_arguments(p, d) -> None:
+    """--fresnel, --bvh, --bvh-builder, --instancing, --seed, --filter."""
     p.add_argument("--fresnel", action="store_true", help="split transparency with Schlick's Fresnel term")
     p.add_argument("--bvh", action=argparse.BooleanOptionalAction, default=d.bvh, help="use the BVH (off: test every primitive)")
     p.add_argument("--bvh-builder", choices=("sah", "median"), default=d.bvh_builder, help="BVH construction")
@@ -236,19 +285,6 @@ def add_parser(sub):
     p.add_argument(
         "--filter", action="append", default=[], metavar="NAME", help="convolution filter applied to the result, repeatable (default: none)"
     )
-    add_device_argument(p)
-    p.add_argument(
-        "--list",
-        action="store_true",
-        help="list the bundled scenes with their cameras and exit; with SCENE: that scene's cameras (a mesh file: its framing camera)",
-    )
-    # Dask cluster and turntable options (commands/cluster.py, commands/turntable.py; docs/distributed.md)
-    from .cluster import add_cluster_arguments
-    from .turntable import add_turntable_arguments
-
-    add_cluster_arguments(p)
-    add_turntable_arguments(p)
-    p.set_defaults(run=run)
 
 
 def add_stage_arguments(p) -> None:
@@ -476,10 +512,16 @@ def check_denoise(args, settings) -> None:
     require_oidn()
 
 
+class _Outputs(NamedTuple):
+    """The files one render writes, checked before any work (None: not asked for), in the order stdout lists them."""
+
+    output: Path
+    aov_out: Path | None
+    edges_out: Path | None
+    noisy_out: Path | None
+
+
 def _render(args):
-    from .. import memory
-    from ..image.files import check_distinct_outputs, check_output_path, write_display_image
-    from ..outputs import output_set
     from ..scene.scene import bundled_scenes
 
     if args.list:
@@ -499,16 +541,7 @@ def _render(args):
         if args.exposure == "auto":
             raise UsageError("--exposure auto sets each image's own exposure, so a turntable's frames would flicker; give STOPS")
         return run_turntable(args, settings, display_from_args(args))
-    output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
-    display = display_from_args(args, output)
-    noisy_out = check_output_path(args.noisy_out, overwrite=args.overwrite) if args.noisy_out else None
-    edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
-    if edges_out and settings.aa != "edge_detect":
-        raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
-    from ..trace.aov import aov_output
-
-    aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
-    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out, "--noisy-out": noisy_out})
+    outs, display = _check_outputs(args, settings)
     if args.filter:
         from ..image import filters
 
@@ -527,6 +560,49 @@ def _render(args):
     load_seconds = time.perf_counter() - start
     # the scene's own width and height where not given; bad values are refused, then pointless ones warned about
     size = settings.validate(scene)
+    _require_memory(args, scene, settings, size, outs.edges_out)
+    from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
+
+    with renderer_for(args, scene, settings) as renderer:
+        result = renderer.run()
+    image, noisy, denoise_seconds = _final_image(args, result, outs.noisy_out)
+    aovs = {name: result.aovs[name] for name in requested_aovs}
+    if auto_exposure_wanted(args):
+        from dataclasses import replace
+
+        from ..image.tonemap import auto_exposure
+
+        display = replace(display, exposure=auto_exposure(image))
+    _write_outputs(args, outs, result, image, noisy, aovs, display)
+    for path in outs:  # stdout: every written path, for scripts
+        if path is not None:
+            print(path)
+    if not args.quiet:
+        _print_summary(args, scene, renderer, result, display, load_seconds, denoise_seconds)
+    return 0
+
+
+def _check_outputs(args, settings) -> tuple[_Outputs, object]:
+    """The output paths, refused before any work where they exist (without --overwrite), clash or do not apply;
+    and the display transform of the image outputs."""
+    from ..image.files import check_distinct_outputs, check_output_path
+    from ..trace.aov import aov_output
+
+    output = check_output_path(args.output or f"{Path(args.scene).stem}.png", overwrite=args.overwrite)
+    display = display_from_args(args, output)
+    noisy_out = check_output_path(args.noisy_out, overwrite=args.overwrite) if args.noisy_out else None
+    edges_out = check_output_path(args.edges_out, overwrite=args.overwrite) if args.edges_out else None
+    if edges_out and settings.aa != "edge_detect":
+        raise UsageError("--edges-out needs --aa edge_detect (the mask comes from the edge pass)")
+    aov_out = aov_output(output, args.aov_out, settings.aovs, args.overwrite)
+    check_distinct_outputs(**{"-o": output, "--edges-out": edges_out, "--aov-out": aov_out, "--noisy-out": noisy_out})
+    return _Outputs(output, aov_out, edges_out, noisy_out), display
+
+
+def _require_memory(args, scene, settings, size, edges_out) -> None:
+    """Refuse a render whose images and buffers cannot fit in memory, before allocating any."""
+    from .. import memory
+
     memory.require(
         memory.render_bytes(
             size.width,
@@ -543,10 +619,10 @@ def _render(args):
         ),
         f"a {size.width}x{size.height} render of {scene.triangle_count} triangles",
     )
-    from .cluster import renderer_for  # a DistributedRenderer under --scheduler / --workers
 
-    with renderer_for(args, scene, settings) as renderer:
-        result = renderer.run()
+
+def _final_image(args, result, noisy_out):
+    """The rendered image denoised (--denoise), then filtered (--filter): (image, the noisy image, denoise seconds or None)."""
     image = noisy = result.image
     denoise_seconds = None
     if args.denoise:
@@ -556,51 +632,50 @@ def _render(args):
         image = denoise_result(result).image
         denoise_seconds = time.perf_counter() - start
     if args.filter:  # after denoising: OIDN is trained on the renderer's own noise, not on filtered images
+        from ..image import filters
+
         image = filters.apply(image, *args.filter)
         noisy = filters.apply(noisy, *args.filter) if noisy_out is not None else noisy
-    aovs = {name: result.aovs[name] for name in requested_aovs}
-    if auto_exposure_wanted(args):
-        from dataclasses import replace
+    return image, noisy, denoise_seconds
 
-        from ..image.tonemap import auto_exposure
 
-        display = replace(display, exposure=auto_exposure(image))
+def _write_outputs(args, outs: _Outputs, result, image, noisy, aovs, display) -> None:
+    """Write every output, then put them all in place together."""
+    from ..image.files import write_display_image
+    from ..outputs import output_set
     from ..trace.aov import write_exr
     from ..trace.edges import overlay_edges
 
     with output_set(overwrite=args.overwrite):  # every output is written, then all are put in place together
-        if aovs and aov_out is None:  # an EXR output carries its AOVs as extra channels
-            write_exr(output, aovs, beauty=image)
+        if aovs and outs.aov_out is None:  # an EXR output carries its AOVs as extra channels
+            write_exr(outs.output, aovs, beauty=image)
         else:
-            write_display_image(output, image, display=display)
-        if aov_out is not None:
-            write_exr(aov_out, aovs)
-        if edges_out is not None:
-            write_display_image(edges_out, overlay_edges(result.image, result.edge_mask), display=display)
-        if noisy_out is not None:
-            write_display_image(noisy_out, noisy, display=display)
-    for path in (output, aov_out, edges_out, noisy_out):  # stdout: every written path, for scripts
-        if path is not None:
-            print(path)
-    if not args.quiet:
-        s = renderer.settings
-        t = result.timings
-        parts = [f"exposure {display.exposure:+.2f} (auto)"] if auto_exposure_wanted(args) and display.exposure else []
-        parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s"]
-        parts += [f"{name} {t[name]:.2f}s" for name in SETUP_PHASES if t.get(name, 0.0) >= SHOWN_PHASE_SECONDS]
-        parts += [f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
-        if result.passes:  # the path integrator's passes: what a --time-budget reached
-            parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
-        if denoise_seconds is not None:
-            parts.append(f"denoise {denoise_seconds:.2f}s")
-        if "resample" in t:
-            parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
-        sys.stderr.write(
-            f"{scene.name}: {s.width}x{s.height}, {primitive_count(renderer.tracer, scene)}, {result.rays / 1e6:.2f} M rays; "
-            + ", ".join(parts)
-            + "\n"
-        )
-    return 0
+            write_display_image(outs.output, image, display=display)
+        if outs.aov_out is not None:
+            write_exr(outs.aov_out, aovs)
+        if outs.edges_out is not None:
+            write_display_image(outs.edges_out, overlay_edges(result.image, result.edge_mask), display=display)
+        if outs.noisy_out is not None:
+            write_display_image(outs.noisy_out, noisy, display=display)
+
+
+def _print_summary(args, scene, renderer, result, display, load_seconds, denoise_seconds) -> None:
+    """One line on stderr: the image, its primitives and rays, and where the time went."""
+    s = renderer.settings
+    t = result.timings
+    parts = [f"exposure {display.exposure:+.2f} (auto)"] if auto_exposure_wanted(args) and display.exposure else []
+    parts += [f"load {load_seconds:.2f}s", f"bvh {t['bvh']:.2f}s"]
+    parts += [f"{name} {t[name]:.2f}s" for name in SETUP_PHASES if t.get(name, 0.0) >= SHOWN_PHASE_SECONDS]
+    parts += [f"compile {t['compile']:.2f}s", f"trace {t['trace']:.2f}s"]
+    if result.passes:  # the path integrator's passes: what a --time-budget reached
+        parts.append(f"{result.samples_per_pixel} spp in {result.passes} pass{'es' if result.passes != 1 else ''} of {renderer.spp}")
+    if denoise_seconds is not None:
+        parts.append(f"denoise {denoise_seconds:.2f}s")
+    if "resample" in t:
+        parts.append(f"edges {t['edges']:.2f}s, resample {t['resample']:.2f}s ({100 * result.resampled_fraction:.1f}% of pixels)")
+    sys.stderr.write(
+        f"{scene.name}: {s.width}x{s.height}, {primitive_count(renderer.tracer, scene)}, {result.rays / 1e6:.2f} M rays; " + ", ".join(parts) + "\n"
+    )
 
 
 def primitive_count(tracer, scene) -> str:

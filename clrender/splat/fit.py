@@ -252,14 +252,7 @@ class Fitter:
             done = max(step / total_steps, elapsed / cfg.time_budget if cfg.time_budget else 0.0)
             for k in self.groups:
                 opt.lrs[k] = self.base_lr[k] * cfg.lr_final**done
-            # mini-batch: the next tiles of a shuffled pass over the image
-            if self.tiles_per_step == len(r.all_tiles):
-                tiles, mask = None, None
-            else:
-                if len(order) < self.tiles_per_step:
-                    order = self.rng.permutation(len(r.all_tiles)).astype(np.int32)
-                tiles, order = np.sort(order[: self.tiles_per_step]), order[self.tiles_per_step :]
-                mask = self.pixel_mask(tiles)
+            tiles, mask, order = self._next_tiles(order)
             frame = r.forward(params, tiles)
             image = frame.image if mask is None else np.where(mask[..., None], frame.image, self.target)
             loss, d_image = loss_and_grad(cfg.loss, image, self.target, mask)
@@ -271,19 +264,7 @@ class Fitter:
             seen += 1
             step += 1
             if step % cfg.log_every == 0 or step == 1:
-                value = psnr(image, self.target) if mask is None else psnr(r.forward(params).image, self.target)
-                log.append(
-                    {
-                        "step": step,
-                        "epoch": step / self.steps_per_epoch,
-                        "seconds": time.perf_counter() - start,
-                        "splats": params.n,
-                        "loss": loss,
-                        "psnr": value,
-                    }
-                )
-                if bar is not None:
-                    bar.set_postfix(loss=f"{loss:.3g}", psnr=f"{value:.2f}", n=params.n, refresh=False)
+                self._log_step(log, bar, params, step, start, loss, image, mask)
             if bar is not None:
                 bar.update(1)
             if cfg.densify_every and step % cfg.densify_every == 0 and done < cfg.densify_until and "xy" in self.groups:
@@ -292,17 +273,41 @@ class Fitter:
                 grad_sum, weight_sum, seen = np.zeros(params.n), np.zeros(params.n), 0
         if bar is not None:
             bar.close()
-        image = r.forward(params).image
-        final = psnr(image, self.target)
-        seconds = time.perf_counter() - start
-        row = {
+        return self._finish(params, step, start, log)
+
+    def _next_tiles(self, order: np.ndarray):
+        """The mini-batch: the next tiles of a shuffled pass over the image (None: all of it), their pixel mask, the tiles left."""
+        r = self.renderer
+        if self.tiles_per_step == len(r.all_tiles):
+            return None, None, order
+        if len(order) < self.tiles_per_step:
+            order = self.rng.permutation(len(r.all_tiles)).astype(np.int32)
+        tiles, order = np.sort(order[: self.tiles_per_step]), order[self.tiles_per_step :]
+        return tiles, self.pixel_mask(tiles), order
+
+    def _log_row(self, step: int, seconds: float, params: GaussParams, loss: float, value: float) -> dict:
+        return {
             "step": step,
             "epoch": step / self.steps_per_epoch,
             "seconds": seconds,
             "splats": params.n,
-            "loss": loss_and_grad(cfg.loss, image, self.target)[0],
-            "psnr": final,
+            "loss": loss,
+            "psnr": value,
         }
+
+    def _log_step(self, log: list, bar, params: GaussParams, step: int, start: float, loss: float, image, mask) -> None:
+        """Log a step: the whole image's PSNR (rendered again after a mini-batch step)."""
+        value = psnr(image, self.target) if mask is None else psnr(self.renderer.forward(params).image, self.target)
+        log.append(self._log_row(step, time.perf_counter() - start, params, loss, value))
+        if bar is not None:
+            bar.set_postfix(loss=f"{loss:.3g}", psnr=f"{value:.2f}", n=params.n, refresh=False)
+
+    def _finish(self, params: GaussParams, step: int, start: float, log: list) -> FitResult:
+        """The final model's image and PSNR, and its log row."""
+        image = self.renderer.forward(params).image
+        final = psnr(image, self.target)
+        seconds = time.perf_counter() - start
+        row = self._log_row(step, seconds, params, loss_and_grad(self.config.loss, image, self.target)[0], final)
         # one row per step: a run ending on a logged step measured that step before its update,
         # the final model after it; the last row is the final model's, as FitResult reports it
         if log and log[-1]["step"] == step:

@@ -280,6 +280,39 @@ def _median_levels(lo, hi, max_leaf):
 
 
 # ---------------------------------------------------------------- binned SAH (kernels/bvh_build.cl)
+@dataclass
+class _SahRun:
+    """What the launches of one device SAH build share."""
+
+    dev: object  # clrender.device.Device
+    knl: dict  # the bvh_build.cl kernels by name
+    rules: dict  # the split rules every split_level and build_subtree launch takes
+    n: int  # primitives
+    chunk: int  # primitives per load_prims / prim_order work-item
+    n_chunks: int
+    box: object = None  # the primitive records on the device (load_prims)
+
+
+@dataclass
+class _TopNodes:
+    """The top levels, breadth-first: each top node's bounds, first slot, primitives, level, first child (-1: none)."""
+
+    bounds: list
+    start: list
+    count: list
+    level: list
+    child: list
+
+    def add(self, bounds, start, count, level) -> int:
+        """Append a childless node; returns its index."""
+        self.bounds.append(bounds)
+        self.start.append(int(start))
+        self.count.append(int(count))
+        self.level.append(level)
+        self.child.append(-1)
+        return len(self.start) - 1
+
+
 def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, subtree_size, device):
     """The binned SAH build on the OpenCL device: returns (nodes, prim_order).
 
@@ -289,125 +322,159 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
     work-item (biggest first), written to scratch node slots 2 * first slot onwards; then
     place_subtrees copies them to their depth-first places.  The few top nodes are laid out here.
     """
-    import pyopencl as cl
-
     from ..device import get_device
 
     dev = device if device is not None else get_device()
     defines = dict(BINS=bins, BUILD_STACK=BUILD_STACK)
     knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
-    queue, n = dev.queue, len(lo)
+    n = len(lo)
     rules = dict(max_leaf=max_leaf, leaf_cap=4 * max_leaf, samples=samples, halving_below=halving_below, max_levels=max_levels)
     dev.check_fits(2 * n * NODE_DTYPE.itemsize, f"a BVH over {n} primitives")  # the scratch nodes, the biggest buffer
-
-    # primitive records and the root's bounds, a chunk of primitives per work-item
     chunk = -(-n // LOAD_CHUNKS)
-    n_chunks = -(-n // chunk)
-    box_buf = dev.empty(n * BUILD_PRIM_DTYPE.itemsize)
-    chunk_bounds = np.empty(n_chunks, BUILD_BOUNDS_DTYPE)
-    cb_buf = dev.empty(chunk_bounds.nbytes)
-    knl["load_prims"](queue, (n_chunks,), (1,), lo=dev.to_device(lo), hi=dev.to_device(hi), n=n, chunk=chunk, box=box_buf, chunk_bounds=cb_buf)
-    cl.enqueue_copy(queue, chunk_bounds, cb_buf)
-    root = np.zeros(1, BUILD_BOUNDS_DTYPE)[0]  # the w lanes 0: load_prims' primitive id bits have no meaning here
-    for name, merge in (("bmin", np.min), ("bmax", np.max), ("cmin", np.min), ("cmax", np.max)):
-        root[name][:3] = merge(chunk_bounds[name][:, :3], axis=0)
-
-    # top levels, breadth-first: each top node's bounds, first slot, primitives, level, first child (-1: none)
-    top_bounds, top_start, top_count, top_level, top_child = [root], [0], [n], [1], [-1]
-    big_enough = subtree_size
-    level, subtrees = [0], []  # subtrees: top nodes whose whole subtree build_subtree grows
-    while level:
-        subtrees += [i for i in level if top_count[i] <= big_enough]
-        big = [i for i in level if top_count[i] > big_enough]
-        if not big:
-            break
-        task = _tasks(big, top_start, top_count, top_level)
-        n_first = np.empty(len(big), np.int32)
-        left, right = np.empty(len(big), BUILD_BOUNDS_DTYPE), np.empty(len(big), BUILD_BOUNDS_DTYPE)
-        nf_buf, left_buf, right_buf = dev.empty(n_first.nbytes), dev.empty(left.nbytes), dev.empty(right.nbytes)
-        knl["split_level"](
-            queue,
-            (len(big),),
-            (1,),
-            box=box_buf,
-            task=dev.to_device(task),
-            bounds=dev.to_device(np.array([top_bounds[i] for i in big], BUILD_BOUNDS_DTYPE)),
-            n_tasks=len(big),
-            **rules,
-            n_first=nf_buf,
-            left_bounds=left_buf,
-            right_bounds=right_buf,
-        )
-        cl.enqueue_copy(queue, n_first, nf_buf)
-        cl.enqueue_copy(queue, left, left_buf)
-        cl.enqueue_copy(queue, right, right_buf)
-        level = []
-        for j, i in enumerate(big):
-            if n_first[j] == 0:  # a leaf
-                continue
-            top_child[i] = len(top_start)
-            for bounds, s, c in ((left[j], top_start[i], n_first[j]), (right[j], top_start[i] + n_first[j], top_count[i] - n_first[j])):
-                level.append(len(top_start))
-                top_bounds.append(bounds)
-                top_start.append(int(s))
-                top_count.append(int(c))
-                top_level.append(top_level[i] + 1)
-                top_child.append(-1)
-
-    # every subtree in one work-item, biggest first
-    subtrees.sort(key=lambda i: -top_count[i])
+    run = _SahRun(dev, knl, rules, n, chunk, -(-n // chunk))
+    root = _load_prims(run, lo, hi)
+    top, subtrees = _top_levels(run, root, subtree_size)
+    subtrees.sort(key=lambda i: -top.count[i])  # every subtree in one work-item, biggest first
     if not subtrees:  # the root is a leaf (more than subtree_size primitives, at most max_leaf)
         nodes = np.zeros(1, NODE_DTYPE)
         nodes["bmin"][0], nodes["bmax"][0], nodes["count"][0] = root["bmin"][:3], root["bmax"][:3], n
         return nodes, np.arange(n, dtype=np.int32)
-    task = _tasks(subtrees, top_start, top_count, top_level)
+    scratch_buf, first_node, n_nodes = _build_subtrees(run, top, subtrees)
+    return _sah_layout(run, top, subtrees, scratch_buf, first_node, n_nodes)
+
+
+def _load_prims(run: _SahRun, lo, hi):
+    """Make the primitive records (run.box), a chunk of primitives per work-item; returns the root's bounds."""
+    import pyopencl as cl
+
+    dev = run.dev
+    run.box = dev.empty(run.n * BUILD_PRIM_DTYPE.itemsize)
+    chunk_bounds = np.empty(run.n_chunks, BUILD_BOUNDS_DTYPE)
+    cb_buf = dev.empty(chunk_bounds.nbytes)
+    lo_buf, hi_buf = dev.to_device(lo), dev.to_device(hi)
+    run.knl["load_prims"](dev.queue, (run.n_chunks,), (1,), lo=lo_buf, hi=hi_buf, n=run.n, chunk=run.chunk, box=run.box, chunk_bounds=cb_buf)
+    cl.enqueue_copy(dev.queue, chunk_bounds, cb_buf)
+    root = np.zeros(1, BUILD_BOUNDS_DTYPE)[0]  # the w lanes 0: load_prims' primitive id bits have no meaning here
+    for name, merge in (("bmin", np.min), ("bmax", np.max), ("cmin", np.min), ("cmax", np.max)):
+        root[name][:3] = merge(chunk_bounds[name][:, :3], axis=0)
+    return root
+
+
+def _top_levels(run: _SahRun, root, big_enough):
+    """Split the top nodes one level per launch until each holds at most `big_enough` primitives.
+
+    Returns the top nodes and the indices of those whose whole subtree build_subtree grows.
+    """
+    top = _TopNodes([root], [0], [run.n], [1], [-1])
+    level, subtrees = [0], []
+    while level:
+        subtrees += [i for i in level if top.count[i] <= big_enough]
+        big = [i for i in level if top.count[i] > big_enough]
+        if not big:
+            break
+        n_first, left, right = _split_level(run, top, big)
+        level = []
+        for j, i in enumerate(big):
+            if n_first[j] == 0:  # a leaf
+                continue
+            top.child[i] = len(top.start)
+            first, count, depth = top.start[i], top.count[i], top.level[i] + 1
+            level.append(top.add(left[j], first, n_first[j], depth))
+            level.append(top.add(right[j], first + n_first[j], count - n_first[j], depth))
+    return top, subtrees
+
+
+def _split_level(run: _SahRun, top: _TopNodes, big):
+    """One split_level launch over the top nodes `big`: each one's first child's primitives and both children's bounds."""
+    import pyopencl as cl
+
+    dev = run.dev
+    task = _tasks(big, top.start, top.count, top.level)
+    n_first = np.empty(len(big), np.int32)
+    left, right = np.empty(len(big), BUILD_BOUNDS_DTYPE), np.empty(len(big), BUILD_BOUNDS_DTYPE)
+    nf_buf, left_buf, right_buf = dev.empty(n_first.nbytes), dev.empty(left.nbytes), dev.empty(right.nbytes)
+    run.knl["split_level"](
+        dev.queue,
+        (len(big),),
+        (1,),
+        box=run.box,
+        task=dev.to_device(task),
+        bounds=dev.to_device(np.array([top.bounds[i] for i in big], BUILD_BOUNDS_DTYPE)),
+        n_tasks=len(big),
+        **run.rules,
+        n_first=nf_buf,
+        left_bounds=left_buf,
+        right_bounds=right_buf,
+    )
+    cl.enqueue_copy(dev.queue, n_first, nf_buf)
+    cl.enqueue_copy(dev.queue, left, left_buf)
+    cl.enqueue_copy(dev.queue, right, right_buf)
+    return n_first, left, right
+
+
+def _build_subtrees(run: _SahRun, top: _TopNodes, subtrees):
+    """One build_subtree launch, a subtree per work-item: returns the scratch nodes, each subtree's first scratch slot and its node count."""
+    import pyopencl as cl
+
+    dev = run.dev
+    task = _tasks(subtrees, top.start, top.count, top.level)
     task["first_node"] = 2 * task["first"]  # scratch nodes: a subtree of c primitives has at most 2c - 1
-    scratch_buf = dev.empty(2 * n * NODE_DTYPE.itemsize)
+    scratch_buf = dev.empty(2 * run.n * NODE_DTYPE.itemsize)
     n_nodes = np.empty(len(subtrees), np.int32)
     nn_buf = dev.empty(n_nodes.nbytes)
-    knl["build_subtree"](
-        queue,
+    run.knl["build_subtree"](
+        dev.queue,
         (len(subtrees),),
         (1,),
-        box=box_buf,
+        box=run.box,
         task=dev.to_device(task),
-        bounds=dev.to_device(np.array([top_bounds[i] for i in subtrees], BUILD_BOUNDS_DTYPE)),
+        bounds=dev.to_device(np.array([top.bounds[i] for i in subtrees], BUILD_BOUNDS_DTYPE)),
         n_tasks=len(subtrees),
-        **rules,
+        **run.rules,
         nodes=scratch_buf,
         n_nodes=nn_buf,
     )
-    cl.enqueue_copy(queue, n_nodes, nn_buf)
+    cl.enqueue_copy(dev.queue, n_nodes, nn_buf)
+    return scratch_buf, task["first_node"], n_nodes
 
-    # depth-first layout: node counts bottom-up, preorder places top-down
-    size = [1] * len(top_start)
+
+def _sah_layout(run: _SahRun, top: _TopNodes, subtrees, scratch_buf, first_node, n_nodes):
+    """Depth-first layout: node counts bottom-up, preorder places top-down; the subtrees move there on the device."""
+    dev = run.dev
+    size = [1] * len(top.start)
     for s, i in enumerate(subtrees):
         size[i] = int(n_nodes[s])
-    for i in range(len(top_start) - 1, -1, -1):
-        if top_child[i] >= 0:
-            size[i] = 1 + size[top_child[i]] + size[top_child[i] + 1]
-    place = [0] * len(top_start)
-    for i, c in enumerate(top_child):
+    for i in range(len(top.start) - 1, -1, -1):
+        if top.child[i] >= 0:
+            size[i] = 1 + size[top.child[i]] + size[top.child[i] + 1]
+    place = [0] * len(top.start)
+    for i, c in enumerate(top.child):
         if c >= 0:
             place[c], place[c + 1] = place[i] + 1, place[i] + 1 + size[c]
     nodes = np.empty(size[0], NODE_DTYPE)
     nodes_buf = dev.host_buffer(nodes)
     move = np.empty(len(subtrees), SUBTREE_MOVE_DTYPE)
-    move["source"], move["target"], move["nodes"] = task["first_node"], [place[i] for i in subtrees], [size[i] for i in subtrees]
-    knl["place_subtrees"](queue, (len(subtrees),), (1,), scratch=scratch_buf, move=dev.to_device(move), n_moves=len(subtrees), nodes=nodes_buf)
-    order = np.empty(n, np.int32)
+    move["source"], move["target"], move["nodes"] = first_node, [place[i] for i in subtrees], [size[i] for i in subtrees]
+    move_buf = dev.to_device(move)
+    run.knl["place_subtrees"](dev.queue, (len(subtrees),), (1,), scratch=scratch_buf, move=move_buf, n_moves=len(subtrees), nodes=nodes_buf)
+    order = np.empty(run.n, np.int32)
     order_buf = dev.host_buffer(order)
-    knl["prim_order"](queue, (n_chunks,), (1,), box=box_buf, n=n, chunk=chunk, order=order_buf)
+    run.knl["prim_order"](dev.queue, (run.n_chunks,), (1,), box=run.box, n=run.n, chunk=run.chunk, order=order_buf)
     dev.sync_to_host(nodes_buf, nodes)
     dev.sync_to_host(order_buf, order)
+    _top_nodes_to(nodes, top, subtrees, place)
+    return nodes, order
+
+
+def _top_nodes_to(nodes, top: _TopNodes, subtrees, place):
+    """Write the top nodes above the subtrees to their depth-first places."""
     in_subtree = set(subtrees)
-    for i in range(len(top_start)):  # the top nodes above the subtrees
+    for i in range(len(top.start)):
         if i in in_subtree:
             continue
-        p, c = place[i], top_child[i]
-        nodes["bmin"][p], nodes["bmax"][p] = top_bounds[i]["bmin"][:3], top_bounds[i]["bmax"][:3]
-        nodes["offset"][p], nodes["count"][p] = (top_start[i], top_count[i]) if c < 0 else (place[c + 1], 0)
-    return nodes, order
+        p, c = place[i], top.child[i]
+        nodes["bmin"][p], nodes["bmax"][p] = top.bounds[i]["bmin"][:3], top.bounds[i]["bmax"][:3]
+        nodes["offset"][p], nodes["count"][p] = (top.start[i], top.count[i]) if c < 0 else (place[c + 1], 0)
 
 
 def _tasks(which, start, count, level) -> np.ndarray:
