@@ -104,7 +104,18 @@ def suite_builds(dev) -> list:
     from clrender.trace.work_layout import work_layout
 
     per_item = work_layout(dev.device).rays_per_item
-    return [Variant(**{"rays_per_item": per_item, **switches}) for switches in SUITE_BUILDS]
+    return [Variant(**{"rays_per_item": per_item, **switches, **path_sampler(switches)}) for switches in SUITE_BUILDS]
+
+
+def path_sampler(switches: dict) -> dict:
+    """A path.cl build's `extra` with the define of the default path sampler (integrators.PathIntegrator.variant)."""
+    from clrender.layout import PATH_SAMPLERS
+    from clrender.trace.renderer import RenderSettings
+
+    name = RenderSettings().path_sampler
+    if switches.get("filename") != "path.cl" or name == "independent":
+        return {}
+    return {"extra": tuple(sorted(switches.get("extra", ()) + (("PATH_SAMPLER", PATH_SAMPLERS[name]),)))}
 
 
 def pytest_collection_finish(session):
