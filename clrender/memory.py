@@ -42,7 +42,7 @@ BYTES_PER_TRIANGLE = 420  # the mesh and its vertex normals, the BVH build, the 
 ATTRIBUTE_BYTES_PER_TRIANGLE = 140
 TEXEL_BYTES = 56  # a texture's float4 texel: decoding's peak plus the device copy (scene/textures.py; table above)
 DENOISE_BYTES_PER_PIXEL = 768  # Open Image Denoise's U-Net working memory (image/denoise.py; table above)
-BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and PoCL themselves
+BASE_BYTES = 256 << 20  # the interpreter, numpy, pyopencl and a pip-installed driver (a render's process: 251 MB on Intel's)
 MAX_TRIANGLES = 8_000_000  # about 4.8 GiB: generators and mesh files stop here whatever memory says
 
 MAX_MEMORY: int | None = None  # the CLI's --max-memory, in bytes (None: what is available)

@@ -17,13 +17,6 @@ from ..errors import UsageError, shown
 SUFFIXES = (".xml", ".pbrt")
 
 
-def path_sampler_of(kind: str) -> str:
-    """RenderSettings.path_sampler for a Mitsuba or pbrt sampler type: "independent" for theirs, "sobol" for every
-    stratified or low-discrepancy one (Mitsuba's stratified, multijitter, orthogonal, ldsampler; pbrt's stratified,
-    halton, sobol, zsobol, paddedsobol, pmj02bn): each stratifies every dimension, as clrender's Sobol sampler does."""
-    return "independent" if kind == "independent" else "sobol"
-
-
 def is_foreign(path) -> bool:
     return Path(str(path)).suffix.lower() in SUFFIXES
 

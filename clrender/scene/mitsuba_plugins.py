@@ -19,8 +19,8 @@ import numpy as np
 
 from ..errors import UsageError
 from . import mitsuba_bsdfs
-from .foreign import path_sampler_of
 from .mitsuba_xml import Document, Plugin
+from .samplers import path_sampler_of
 
 SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "shapegroup", "instance")
 EMITTERS = ("area", "point", "spot", "directional", "envmap", "constant")

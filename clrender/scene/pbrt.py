@@ -27,8 +27,8 @@ import numpy as np
 from ..errors import UsageError
 from . import pbrt_values as pv
 from .confine import scene_file
-from .foreign import path_sampler_of
 from .pbrt_parse import Directive, Parser, fail
+from .samplers import path_sampler_of
 
 MIRROR = np.diag([-1.0, 1.0, 1.0, 1.0])  # pbrt's world to clrender's (see the module docstring)
 SUPPORTED = {
