@@ -17,15 +17,17 @@ memory: a thread's stack pages are committed as they are touched. Elsewhere than
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
+import functools
 
 DRIVER_THREAD_STACK = 16 << 20  # bytes: 5x the largest need measured (3 MiB), room for larger groups and variants
 _ATTR_BYTES = 128  # room for pthread_attr_t (56 bytes on x86-64 glibc, 64 on aarch64)
 
 
+@functools.cache
 def _libc():
+    """The C library the process runs on (its symbols, without a search: find_library would start ldconfig)."""
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc = ctypes.CDLL(None)
     except OSError:
         return None
     return libc if hasattr(libc, "pthread_setattr_default_np") else None  # glibc 2.18 and later
