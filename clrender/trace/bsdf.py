@@ -36,8 +36,8 @@ from ..device import Device, kernel_source
 from ..launch import Kernel, kernel_signatures
 from ..layout import BSDF_LOBES as LOBES
 from ..layout import BSDF_PROBE_DTYPE
-from .tracer import global_size, trace_defines
-from .work_layout import work_layout
+from .tracer import trace_defines
+from .work_layout import launch_items
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)  # kernels/material.h's luminance(): the Phong lobe's sampling split
 PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s (layout.BSDF_PROBE_DTYPE)
@@ -140,8 +140,7 @@ class BsdfProbe:
         """Launch with `args` and one new buffer per name of `outputs` (name -> shape); the outputs, in order."""
         dev = self.device
         outs = {name: dev.empty(4 * int(np.prod(shape))) for name, shape in outputs.items()}
-        local = work_layout(dev.device).local_size
-        knl(dev.queue, global_size(n, local), (local,), **args, **outs)
+        launch_items(dev, knl, n, **args, **outs)
         results = []
         for buf, shape in zip(outs.values(), outputs.values()):
             host = np.empty(shape, np.float32)

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..layout import ENV_MAP_DTYPE
 from ..scene.environment import Distribution, EnvironmentMap, distribution
-from .tracer import global_size, trace_defines
-from .work_layout import work_layout
+from .tracer import trace_defines
+from .work_layout import read_items
 
 PROBE = "envmap_probe.cl"
 
@@ -56,15 +56,8 @@ class EnvProbe:
         self._eval = device.kernel(PROBE, "env_eval_probe", trace_defines())
 
     def _run(self, kernel, name: str, values: np.ndarray) -> np.ndarray:
-        import pyopencl as cl
-
         dev, n = self.device, len(values)
-        out = dev.empty(16 * n)
-        local = work_layout(dev.device).local_size
-        kernel(dev.queue, global_size(n, local), (local,), n=np.int32(n), **{name: dev.to_device(values)}, out=out, **self.args)
-        host = np.empty((n, 4), np.float32)
-        cl.enqueue_copy(dev.queue, host, out)
-        return host
+        return read_items(dev, kernel, n, (n, 4), np.float32, n=np.int32(n), **{name: dev.to_device(values)}, **self.args)
 
     def sample(self, u) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Directions (n, 3), their radiance (n, 3) and solid-angle densities (n,) for uniforms u (n, 2) in [0, 1)."""

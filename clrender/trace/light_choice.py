@@ -144,17 +144,9 @@ PROBE = "light_choice_probe.cl"
 def picks(device, records: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
     """The records (n,) kernels/light_choice.h picks for the first random number of streams (seed, i, 0), i < n,
     run on the device (kernels/light_choice_probe.cl; tests)."""
-    import pyopencl as cl
-
-    from .tracer import global_size, trace_defines
-    from .work_layout import work_layout
+    from .tracer import trace_defines
+    from .work_layout import read_items
 
     kernel = device.kernel(PROBE, "light_pick_probe", trace_defines())
-    out = device.empty(4 * n)
-    local = work_layout(device.device).local_size
     choices = device.to_device(np.ascontiguousarray(records, LIGHT_CHOICE_DTYPE))
-    count = np.int32(len(records))
-    kernel(device.queue, global_size(n, local), (local,), n=np.int32(n), seed=np.uint32(seed), choices=choices, n_choices=count, out=out)
-    host = np.empty(n, np.int32)
-    cl.enqueue_copy(device.queue, host, out)
-    return host
+    return read_items(device, kernel, n, n, np.int32, n=np.int32(n), seed=np.uint32(seed), choices=choices, n_choices=np.int32(len(records)))

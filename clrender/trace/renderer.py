@@ -27,7 +27,8 @@ from ..progress import progress
 from ..scene.scene import Scene
 from . import film, integrators
 from .aov import AOV_NAMES
-from .tracer import BUILDERS, Tracer, global_size
+from .tracer import BUILDERS, Tracer
+from .work_layout import global_size
 
 AA_MODES = ("none", "full", "edge_detect")
 # the Whitted tracer (the default), or unidirectional path tracing (kernels/path.cl): integrators.py

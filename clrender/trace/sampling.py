@@ -12,12 +12,11 @@ Random numbers come from a hash of (seed, pixel, sample, dimension).
 from __future__ import annotations
 
 import numpy as np
-import pyopencl as cl
 
 from ..device import Device, get_device
 from ..layout import SAMPLERS
-from .tracer import global_size, trace_defines
-from .work_layout import work_layout
+from .tracer import trace_defines
+from .work_layout import read_items
 
 
 def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device | None = None) -> np.ndarray:
@@ -25,23 +24,9 @@ def sample_offsets(pixels, sampler: str, n: int, seed: int = 0, device: Device |
     dev = device or get_device()
     pixels = np.asarray(pixels, np.int32).ravel()
     k = len(pixels)
-    out = dev.empty(8 * k * n * n)
     knl = dev.kernel("trace.cl", "sample_offsets", trace_defines())  # the renderer's own build
-    local = work_layout(dev.device).local_size
-    knl(
-        dev.queue,
-        global_size(k, local),
-        (local,),
-        pixels=dev.to_device(pixels),
-        n_work=k,
-        sampler=SAMPLERS[sampler],
-        samples_per_side=n,
-        seed=seed,
-        out=out,
-    )
-    result = np.empty((k, n * n, 2), np.float32)
-    cl.enqueue_copy(dev.queue, result, out)
-    return result
+    args = dict(pixels=dev.to_device(pixels), n_work=k, sampler=SAMPLERS[sampler], samples_per_side=n, seed=seed)
+    return read_items(dev, knl, k, (k, n * n, 2), np.float32, **args)
 
 
 def sequence_points(pixels, samples: int, dims, seed: int = 0, first: int = 0, scrambled: bool = True, device: Device | None = None) -> np.ndarray:
@@ -52,23 +37,6 @@ def sequence_points(pixels, samples: int, dims, seed: int = 0, first: int = 0, s
     pixels = np.asarray(pixels, np.uint32).ravel()
     dims = np.asarray(dims, np.uint32).ravel()
     k = len(pixels) * samples
-    out = dev.empty(4 * k * len(dims))
     knl = dev.kernel("sobol_probe.cl", "sobol_probe")
-    local = work_layout(dev.device).local_size
-    knl(
-        dev.queue,
-        global_size(k, local),
-        (local,),
-        pixels=dev.to_device(pixels),
-        n_samples=samples,
-        first=first,
-        n_work=k,
-        dims=dev.to_device(dims),
-        n_dims=len(dims),
-        seed=seed,
-        scrambled=int(scrambled),
-        out=out,
-    )
-    result = np.empty((len(pixels), samples, len(dims)), np.uint32)
-    cl.enqueue_copy(dev.queue, result, out)
-    return result
+    args = dict(pixels=dev.to_device(pixels), n_samples=samples, first=first, n_work=k, dims=dev.to_device(dims), n_dims=len(dims))
+    return read_items(dev, knl, k, (len(pixels), samples, len(dims)), np.uint32, **args, seed=seed, scrambled=int(scrambled))

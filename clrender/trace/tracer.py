@@ -52,7 +52,7 @@ from .instancing import find_instances, flat_part, instanced_object_flags, shape
 from .knobs import DEFAULT_KNOBS, TraceKnobs
 from .ray_buffers import INTERSECT_IN, INTERSECT_OUT, OCCLUDED_IN, OCCLUDED_OUT, RayBuffers
 from .variant import DEFAULT_BVH_WIDTH, Variant
-from .work_layout import WorkLayout, work_layout
+from .work_layout import WorkLayout, global_size, work_layout
 
 QUERY_KERNELS = {"intersect": "intersect_rays", "occluded": "occluded_rays"}  # trace.cl's kernel of each ray query
 
@@ -101,11 +101,6 @@ def mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
             allowed = f"0 to {len(v) - 1} (the {len(v)} vertices)" if len(v) else "none (there are no vertices)"
             raise UsageError(f"face index {int(bad)} is not a vertex; allowed: {allowed}")
     return v.astype(np.float64, copy=False), f.astype(np.int64, copy=False)  # the caller's arrays when they are already so
-
-
-def global_size(n: int, local_size: int) -> tuple:
-    """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
-    return (max(-(-n // local_size), 1) * local_size,)
 
 
 def trace_defines(**switches) -> dict:

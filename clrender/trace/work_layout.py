@@ -22,6 +22,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import UsageError
 
 RAYS_PER_ITEM_CHOICES = (8, 1)  # kernels/trace.cl takes a float8 packet's worth of rays, or one ray
@@ -74,3 +76,25 @@ def work_layout(cl_device) -> WorkLayout:
     if os.environ.get(ENV):
         return parse(os.environ[ENV])
     return choose(int(cl_device.type), int(cl_device.preferred_vector_width_float), int(cl_device.max_work_group_size))
+
+
+def global_size(n: int, local_size: int) -> tuple:
+    """n work-items rounded up to whole work-groups (the kernels skip the extra ones)."""
+    return (max(-(-n // local_size), 1) * local_size,)
+
+
+def launch_items(dev, kernel, items: int, /, **args) -> None:
+    """Run `kernel` over `items` work-items in groups of the device's local size (work_layout), its arguments by name."""
+    local = work_layout(dev.device).local_size
+    kernel(dev.queue, global_size(items, local), (local,), **args)
+
+
+def read_items(dev, kernel, items: int, shape, dtype, /, **args) -> np.ndarray:
+    """launch_items with a new buffer as the kernel's `out`, read back as an array of `shape` and `dtype`."""
+    import pyopencl as cl
+
+    host = np.empty(shape, dtype)
+    out = dev.empty(host.nbytes)
+    launch_items(dev, kernel, items, **args, out=out)
+    cl.enqueue_copy(dev.queue, host, out)
+    return host
