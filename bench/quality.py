@@ -18,10 +18,10 @@ the lower error after equal time is the better renderer of that scene.
 Error: RMSE over pixels and channels against the reference (float64), relative RMSE (RMSE / the reference's
 mean), and rmse_own: the RMSE with the reference's own noise taken out, sqrt(max(MSE - mean(s^2 / P), 0)) with s^2
 each pixel's sample variance over the reference's P parts (the reference is the mean of P renders of ref_spp / P
-paths, seeds apart from the measured ones): E[MSE] = the image's variance + the reference's.  rmse_at_budget
-scales RMSE by sqrt(seconds / budget) (variance falls as 1 / time), so a render that took longer or shorter than
-the budget compares at exactly the budget.  The ratios are clrender / Mitsuba (< 1: clrender less noisy).
-Medians of --runs renders a side, the two alternating (ABBA).
+paths, seeds apart from the measured ones): E[MSE] = the image's variance + the reference's.  own_at_budget
+scales rmse_own by sqrt(seconds / budget) (variance falls as 1 / time), so a render that took longer or shorter than
+the budget compares at exactly the budget: the image's own noise after exactly the budget.  The ratios are
+clrender / Mitsuba (< 1: clrender less noisy).  Medians of --runs renders a side, the two alternating (ABBA).
 
 References are cached (--cache, default ~/.cache/clrender/bench) as <scene>_<renderer>_<W>x<H>_<spp>spp_d<depth>
 _<digest>.npz, the digest over the scene's content (files it names included), the parts, the renderer's code
@@ -311,13 +311,13 @@ def measure(name: str, args, out: Path, cache: Path) -> tuple[list, list]:
     for side in sides:
         done = runs[side.label]
         med = {key: statistics.median(r[key] for r in done) for key in ("seconds", "cpu_s", "spp", "rmse", "rel_rmse", "rmse_own")}
-        at_budget = statistics.median(r["rmse"] * np.sqrt(r["seconds"] / args.budget) for r in done)
+        at_budget = statistics.median(r["rmse_own"] * np.sqrt(r["seconds"] / args.budget) for r in done)
         row = dict(scene=name, renderer=side.label, threads=side.threads, size=f"{setup.width}x{setup.height}", budget_s=args.budget)
-        rows.append({**row, **med, "rmse_at_budget": at_budget, "ref_spp": args.ref_spp})
+        rows.append({**row, **med, "own_at_budget": at_budget, "ref_spp": args.ref_spp})
         np.save(out / f"quality_{name}_{side.label.split()[0]}.npy", done[-1]["image"])
     if len(sides) == 2:
         ours, theirs = rows
-        for key in ("rmse", "rmse_own", "rmse_at_budget"):
+        for key in ("rmse", "rmse_own", "own_at_budget"):
             ours[f"{key}_ratio"], theirs[f"{key}_ratio"] = ours[key] / theirs[key] if theirs[key] > 0 else float("nan"), 1.0
         lines.append(f"{name}: {agreement_line(parts[sides[0].label], parts[sides[1].label])}")
     images = [runs[side.label][-1]["image"] for side in sides] + [parts[side.label].mean(0) for side in sides]

@@ -77,15 +77,16 @@ def test_reference_cache_renders_once_per_key_and_digests_file_contents(tmp_path
 
 
 def test_quality_harness_tiny_run_reports_the_rmse_of_the_images_it_saved(tmp_path):
-    """`bench quality` at 16 x 16, 0.2 s, 16 spp references in 2 parts (about 2 s with the kernels in PoCL's or
-    Intel's binary cache): each row's rmse is the float64 RMSE of the image it saved against the reference it cached;
-    the ratio column is the ratio of the rows.  Mitsuba's side is measured where llvm_ad_rgb runs, else said and
+    """`bench quality` at 16 x 16, 0.02 s (one pass of 16 paths for clrender), 64 spp references in 2 parts (about 2 s
+    with the kernels in PoCL's or Intel's binary cache; references no less converged than the images, so rmse_own is
+    not 0): each row's rmse, rel_rmse, rmse_own and own_at_budget are the float64 formulas over the image it saved
+    and the reference it cached; the ratio column is the ratio of the rows.  Mitsuba's side is measured where llvm_ad_rgb runs, else said and
     skipped.  (The cache's reuse: test_reference_cache_renders_once_per_key_and_digests_file_contents.)"""
     from tests.reference.mitsuba_scenes import unavailable
 
     have_mitsuba = unavailable("llvm_ad_rgb") is None
     cache, out = tmp_path / "cache", tmp_path / "out"
-    args = ["--peer", "mitsuba", "--size", "16", "--budget", "0.2", "--ref-spp", "16", "--ref-parts", "2", "--runs", "1"]
+    args = ["--peer", "mitsuba", "--size", "16", "--budget", "0.02", "--ref-spp", "64", "--ref-parts", "2", "--runs", "1"]
     args += ["--scenes", "cornell_box", "--out", str(out), "--cache", str(cache)]
     proc = subprocess.run([sys.executable, "-m", "bench", "quality", *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -96,12 +97,13 @@ def test_quality_harness_tiny_run_reports_the_rmse_of_the_images_it_saved(tmp_pa
         assert "not measured" in proc.stdout
     for row in rows:
         image = np.load(out / f"quality_cornell_box_{row['renderer'].split()[0]}.npy")
-        (npz,) = cache.glob(f"cornell_box_{row['renderer'].split()[0]}_16x16_16spp_d8_*.npz")
+        (npz,) = cache.glob(f"cornell_box_{row['renderer'].split()[0]}_16x16_64spp_d8_*.npz")
         rmse, rel, own = numpy_errors(image, np.load(npz)["parts"])
         assert float(row["rmse"]) == pytest.approx(rmse, rel=1e-3)  # the table's 4 significant digits
         assert float(row["rel_rmse"]) == pytest.approx(rel, rel=1e-3)
         assert float(row["rmse_own"]) == pytest.approx(own, rel=1e-3, abs=1e-9)
-        assert int(float(row["spp"])) >= 16 and float(row["seconds"]) > 0
+        assert float(row["own_at_budget"]) == pytest.approx(own * np.sqrt(float(row["seconds"]) / 0.02), rel=1e-3, abs=1e-9)
+        assert int(float(row["spp"])) >= 1 and float(row["seconds"]) > 0
     if have_mitsuba:
         ours, theirs = rows
         assert float(ours["rmse_ratio"]) == pytest.approx(float(ours["rmse"]) / float(theirs["rmse"]), rel=2e-3)
