@@ -74,6 +74,22 @@ def test_reference_cache_renders_once_per_key_and_digests_file_contents(tmp_path
     b.write_bytes(b"other")
     assert digest({"file": str(a)}) != digest({"file": str(b)})
     assert digest({"x": np.zeros(3, np.float32)}) != digest({"x": np.zeros(3, np.float64)})
+    # an EXR counts by its pixels: OpenImageIO writes a time stamp into the header
+    import OpenImageIO as oiio
+
+    def exr(path, stamp, value):
+        spec = oiio.ImageSpec(4, 2, 3, "float")
+        spec.attribute("DateTime", stamp)
+        out = oiio.ImageOutput.create(str(path))
+        out.open(str(path), spec)
+        out.write_image(np.full((2, 4, 3), value, np.float32))
+        out.close()
+        return str(path)
+
+    one, two = exr(tmp_path / "1.exr", "2026:01:01 00:00:00", 2.0), exr(tmp_path / "2.exr", "2026:01:01 00:00:01", 2.0)
+    other = exr(tmp_path / "3.exr", "2026:01:01 00:00:00", 3.0)
+    assert Path(one).read_bytes() != Path(two).read_bytes()
+    assert digest({"file": one}) == digest({"file": two}) != digest({"file": other})
 
 
 def test_quality_harness_tiny_run_reports_the_rmse_of_the_images_it_saved(tmp_path):
