@@ -1,5 +1,5 @@
 """Equal-time quality against Mitsuba 3: `python -m bench quality [--peer mitsuba] [--budget S] [--size PX]
-[--ref-spp N] [--runs K] [--threads N] [--scenes ...] [--out DIR] [--cache DIR]`.
+[--ref-spp N] [--runs K] [--seed S] [--threads N] [--scenes ...] [--out DIR] [--cache DIR]`.
 
 Each renderer renders each scene for a fixed wall time (--budget, default 10 s) on the same threads, and its
 image's error is measured against ITS OWN converged image (--ref-spp paths a pixel, default 4096): the two
@@ -21,7 +21,8 @@ each pixel's sample variance over the reference's P parts (the reference is the 
 paths, seeds apart from the measured ones): E[MSE] = the image's variance + the reference's.  own_at_budget
 scales rmse_own by sqrt(seconds / budget) (variance falls as 1 / time), so a render that took longer or shorter than
 the budget compares at exactly the budget: the image's own noise after exactly the budget.  The ratios are
-clrender / Mitsuba (< 1: clrender less noisy).  Medians of --runs renders a side, the two alternating (ABBA).
+clrender / Mitsuba (< 1: clrender less noisy).  Medians of --runs renders a side (seeds --seed, --seed + 1, ...), the
+two alternating (ABBA).
 
 References are cached (--cache, default ~/.cache/clrender/bench) as <scene>_<renderer>_<W>x<H>_<spp>spp_d<depth>
 _<digest>.npz, the digest over the scene's content (files it names included), the parts, the renderer's code
@@ -59,6 +60,7 @@ SCENES = ("cornell_box", "assets", "wizard_cat")
 CLRENDER_CODE = ("kernels", "clrender/trace", "clrender/scene", "clrender/layout.py")
 MITSUBA_CODE = ("tests/reference/mitsuba_scenes.py",)
 HDR_SUFFIXES = (".exr", ".hdr")
+REFERENCE_SEED = 10_000  # the references' parts take seeds from here; the equal-time renders' seeds stay below
 CALIBRATION_FRACTION = 1 / 8  # Mitsuba's calibration renders grow until one takes this share of the budget
 
 
@@ -198,7 +200,7 @@ def cached_parts(cache: Path, tag: str, key: str, render, parts: int, part_spp: 
     path = cache / f"{tag}_{key[:16]}.npz"
     if path.exists():
         return np.load(path)["parts"], True
-    stack = np.stack([np.asarray(render(part_spp, 10_000 + i), np.float32) for i in range(parts)])
+    stack = np.stack([np.asarray(render(part_spp, REFERENCE_SEED + i), np.float32) for i in range(parts)])
     cache.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.npz")
     np.savez(tmp, parts=stack)
@@ -311,7 +313,7 @@ def measure(name: str, args, out: Path, cache: Path) -> tuple[list, list]:
     runs = {side.label: [] for side in sides}
     for k in range(args.runs):  # ABBA: neither renderer always goes first
         for side in sides if k % 2 == 0 else sides[::-1]:
-            r = side.equal_time(args.budget, 1 + k)
+            r = side.equal_time(args.budget, args.seed + k)
             runs[side.label].append({**r, **errors(r["image"], parts[side.label])})
     rows = []
     for side in sides:
@@ -351,6 +353,7 @@ def parse_args(argv):
     ap.add_argument("--pass-spp", type=int, default=16, help="clrender: paths a pixel per pass of the time budget (default 16)")
     ap.add_argument("--max-depth", type=int, default=8, help="bounces after the primary hit (default 8; Mitsuba's max_depth + 2)")
     ap.add_argument("--runs", type=int, default=3, help="equal-time renders a renderer and scene; medians reported (default 3)")
+    ap.add_argument("--seed", type=int, default=1, help="seed of the first equal-time render a side, the next one more (default 1)")
     ap.add_argument("--threads", type=int, default=0, help="CPUs for both renderers (default 0: all this process may use)")
     ap.add_argument("--scenes", nargs="+", choices=SCENES, default=["cornell_box", "assets"])
     ap.add_argument("--out", default="bench/out", help="folder for quality.csv / quality.md and the images (default bench/out)")
@@ -358,6 +361,8 @@ def parse_args(argv):
     args = ap.parse_args(argv)
     if args.budget <= 0 or args.size < 2 or args.runs < 1 or args.pass_spp < 1:
         ap.error("--budget must be > 0, --size >= 2, --runs and --pass-spp >= 1")
+    if not 0 <= args.seed <= REFERENCE_SEED - args.runs:
+        ap.error(f"--seed {args.seed} must be from 0 to {REFERENCE_SEED - args.runs}: the references' seeds start at {REFERENCE_SEED}")
     if args.ref_parts < 2 or args.ref_spp % args.ref_parts:
         ap.error(f"--ref-spp {args.ref_spp} must be a multiple of --ref-parts {args.ref_parts} >= 2")
     return args
