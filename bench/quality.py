@@ -9,8 +9,9 @@ the lower error after equal time is the better renderer of that scene.
   clrender   `Renderer(..., integrator="path", spp=--pass-spp, time_budget=--budget)`: whole-image passes while
              the budget lasts (it stops before a pass that would overrun it), the passes averaged.
   Mitsuba    `llvm_ad_rgb`, `path` integrator, `independent` sampler, ONE render whose spp is chosen by a timed
-             calibration (renders of growing spp until one takes an eighth of the budget, one more at twice that
-             spp; the line through the two gives the spp that fills the budget: spp_for_budget).  Mitsuba has no
+             calibration (renders of 1, 4, 16, ... spp until one takes an eighth of the budget, and one at twice
+             that spp if it was the first; the line through the last two gives the spp that fills the budget:
+             spp_for_budget).  Mitsuba has no
              time budget, and a user picks its spp; one render a budget is its fastest way (each mi.render call
              re-traces its megakernel, so passes of a few spp would charge it an overhead the one render does not
              pay).  Dr.Jit's LLVM compile of a new kernel (a new spp can need one) is subtracted from its time.
