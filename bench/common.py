@@ -1,9 +1,11 @@
-"""Shared benchmark helpers: timing medians, tables, output files."""
+"""Shared benchmark helpers: timing medians, tables, output files, the CPU model."""
 
 from __future__ import annotations
 
 import csv
+import platform
 import statistics
+import subprocess
 import time
 from pathlib import Path
 
@@ -32,3 +34,13 @@ def write_table(out_dir: Path, name: str, rows: list[dict], title: str) -> str:
     table = "\n".join(lines)
     (out_dir / f"{name}.md").write_text(f"# {title}\n\n{table}\n")
     return table
+
+
+def cpu_model() -> str:
+    """lscpu's model name (the benches report it: timings differ between the hosts' CPUs)."""
+    try:
+        text = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
+    except OSError:
+        return platform.processor() or "unknown"
+    names = [line.split(":", 1)[1].strip() for line in text.splitlines() if line.startswith("Model name")]
+    return names[0] if names else platform.processor() or "unknown"

@@ -14,26 +14,15 @@ textured torus, gold sphere and checker floor under an HDR sky.  The CPU model i
 from __future__ import annotations
 
 import argparse
-import platform
 import statistics
-import subprocess
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .common import write_table
+from .common import cpu_model, write_table
 
 SAMPLERS = ("independent", "sobol")
-
-
-def cpu_model() -> str:
-    try:
-        text = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
-    except OSError:
-        return platform.processor() or "unknown"
-    names = [line.split(":", 1)[1].strip() for line in text.splitlines() if line.startswith("Model name")]
-    return names[0] if names else platform.processor() or "unknown"
 
 
 def scene_dict(name: str, size: int, out: Path) -> dict:
