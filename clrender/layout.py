@@ -452,11 +452,11 @@ PATH_STATE_DTYPE = np.dtype(
         ("depth", "<i4"),  # bounces after the primary hit
         ("live", "<i4"),  # wavefront: 1 while the slot's pixel has a path in flight
         ("ended", "<i4"),  # wavefront: 1 once the path ended at this vertex (its shadow ray still to add)
+        ("pixel", "<i4"),  # the image pixel whose samples the path's slot takes
         ("sample", "<u4"),  # the path's sample index in this pass (first_sample + sample in the pixel's sequence)
         ("rng_dim", "<u4"),  # the path's Rng beyond (seed, pixel, sample): kernels/rng.h
         ("rng_base", "<u4"),
         ("rng_extra", "<u4"),
-        ("rng_key", "<u4"),
         ("off", "<f4", 2),  # the sample's position in its pixel
         ("weight", "<f4"),  # its pixel filter weight
         ("hit_t", "<f4"),  # the extend step's hit (kernels/intersect.h Hit)

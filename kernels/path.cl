@@ -403,10 +403,10 @@ INLINE void start_pixel(PathState *st) {
 }
 
 /* Sample s_i of this pass in pixel `pixel`: its rng, its position in the pixel and filter weight, its camera ray. */
-INLINE void start_sample(const PathScene *s, PathState *st, int pixel, uint s_i, Rng *rng) {
-    const FrameParams *frame = &s->p.frame;
-    uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)s->p.spp ? n * n : 1u;
-    *rng = make_rng(frame->seed, (uint)pixel, (uint)s->p.first_sample + s_i);
+INLINE void start_sample(const PathParams *p, PathState *st, int pixel, uint s_i, Rng *rng) {
+    const FrameParams *frame = &p->frame;
+    uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)p->spp ? n * n : 1u;
+    *rng = make_rng(frame->seed, (uint)pixel, (uint)p->first_sample + s_i);
     float2 off = per_pass > 1u && !RNG_SOBOL ? pixel_sample_offset(frame->sampler, s_i, n, rng)
                                : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, rng);
     float px = (float)(pixel % frame->width), py = (float)(pixel / frame->width);
@@ -416,6 +416,7 @@ INLINE void start_sample(const PathScene *s, PathState *st, int pixel, uint s_i,
     st->off[0] = off.x;
     st->off[1] = off.y;
     st->weight = pixel_filter_weight(frame->pixel_filter, off);
+    st->pixel = pixel;
     st->sample = s_i;
     vstore3(r.o, 0, st->o);
     vstore3(r.d, 0, st->d);
@@ -612,8 +613,8 @@ INLINE void finish_sample(PathState *st, float4 *splats) {
 
 /* Slot gid's outputs once its pixel's samples are done: the filtered mean (without SPLAT_RADIUS; the splats are
  * written as they are), the AOVs and the counters. */
-INLINE void write_pixel(const PathScene *s, const PathState *st, int gid, __global char *out) {
-    const FrameParams *frame = &s->p.frame;
+INLINE void write_pixel(const PathParams *p, const PathState *st, int gid, __global char *out) {
+    const FrameParams *frame = &p->frame;
     float3 sum = vload3(0, st->sum);
     float weight_sum = st->weight_sum;
 #if !SPLAT_RADIUS
@@ -667,7 +668,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         Rng rng;
-        start_sample(&s, &st, pixel, s_i, &rng);
+        start_sample(&params, &st, pixel, s_i, &rng);
         trace_path(&s, &st, &rng);
         finish_sample(&st, splats);
     }
@@ -675,6 +676,6 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     __global float4 *colour_out = REGION(out, float4, params.frame.out.colour);
     for (int k = 0; k < SPLAT_SLOTS; ++k) colour_out[gid * SPLAT_SLOTS + k] = splats[k];
 #endif
-    write_pixel(&s, &st, gid, out);
+    write_pixel(&params, &st, gid, out);
 }
 #endif

@@ -24,6 +24,7 @@ PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much so
 # a pixel's paths are numbered by a 32-bit counter (the kernels' random numbers are keyed by it): --time-budget
 # stops before a pass would number a path past it (2**32 paths a pixel, 4096 passes at MAX_SPP)
 SAMPLE_INDEX_LIMIT = 1 << 32
+PATH_SCHEDULES = ("megakernel", "wavefront")  # RenderSettings.path_schedule: trace/wavefront.py, docs/lanes.md
 THICKNESS = 1.0  # the edge mask's default disc radius (RenderSettings.thickness): another value without edges is warned about
 
 
@@ -51,6 +52,10 @@ class Integrator:
     def variant(self, rendering: Variant) -> Variant:
         """This integrator's kernel build: the render kernels' variant (Variant.rendering) in its file."""
         return replace(rendering, filename=self.kernel[0])
+
+    def make_kernel(self, device, variant: Variant):
+        """What Renderer.launch calls with the render kernels' named buffers: this integrator's kernel."""
+        return device.kernel(variant.filename, self.kernel[1], variant.defines())
 
     def world(self) -> dict:
         """This integrator's arrays of the world arena (layout.WORLD_REGIONS_DTYPE): placeholders here."""
@@ -179,6 +184,16 @@ class PathIntegrator(Integrator):
             **({"PATH_SAMPLER": PATH_SAMPLERS[s.path_sampler]} if s.path_sampler != "independent" else {}),  # kernels/sobol.h
         }
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
+
+    def make_kernel(self, device, variant: Variant):
+        """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py) where the
+        build allows (wavefront.falls_back)."""
+        from .wavefront import Wavefront, falls_back
+
+        defines = variant.defines()
+        if self.settings.path_schedule == "wavefront" and not falls_back(defines):
+            return Wavefront(device, defines)
+        return super().make_kernel(device, variant)
 
     def world(self) -> dict:
         from .light_choice import DEFENSIVE_SHARE, choices, groups, near_share, powers
