@@ -58,6 +58,18 @@ INLINE Hit state_hit(const PathState *st) {
     return h;
 }
 
+/* What each kernel reads (IN) and writes back (OUT) of its slot's record: only those fields cross memory (a whole
+ * record is 420 bytes, and a bounce runs three kernels over every slot).  X-lists: X(f) a field, X3(f) a 3-vector. */
+#define IN(f) st.f = g->f;
+#define IN3(f) IN(f[0]) IN(f[1]) IN(f[2])
+#define OUT(f) g->f = st.f;
+#define OUT3(f) OUT(f[0]) OUT(f[1]) OUT(f[2])
+#define RNG_FIELDS(X) X(pixel) X(sample) X(rng_dim) X(rng_base) X(rng_extra)
+#define HIT_FIELDS(X) X(hit_t) X(hit_slot) X(hit_id) X(hit_u) X(hit_v) X(hit_instance)
+#define PATH_FIELDS(X, X3) X3(o) X3(d) X3(beta) X3(radiance) X3(prev_n) X(prev_pdf) X(prev_delta) X(depth)
+#define SHADOW_FIELDS(X, X3) X(shadowed) X3(shadow_o) X3(shadow_d) X(shadow_t_max) X3(shadow_l) X3(shadow_beta)
+#define FIRST_HIT_FIELDS(X, X3) X3(fh_normal) X3(fh_albedo) X(fh_depth) X(fh_object)
+
 /* the scene of the kernels that take its buffers */
 #define PATH_SCENE path_scene(nodes, prims, prim_object, normals, attributes, texels, tables, world, params)
 
@@ -86,11 +98,13 @@ __kernel void wave_extend(__global const TreeNode *nodes, __global const PrimSlo
     int gid = get_global_id(0);
     if (gid >= params.frame.n_work || !states[gid].live || states[gid].ended) return;
     PathScene s = PATH_SCENE;
-    PathState st = states[gid];
+    __global PathState *g = states + gid;
+    PathState st;
+    IN3(o) IN3(d) IN(depth) IN(visits) IN(rays) RNG_FIELDS(IN)
     Rng rng = state_rng(&params, &st);
     save_hit(&st, extend_step(&s, &st, &rng));
     save_rng(&st, &rng);
-    states[gid] = st;
+    OUT(visits) OUT(rays) RNG_FIELDS(OUT) HIT_FIELDS(OUT)
 }
 
 /* Each live path's vertex at its hit: no traversal (the driver's lanes). */
@@ -101,11 +115,16 @@ __kernel void wave_shade(__global const TreeNode *nodes, __global const PrimSlot
     int gid = get_global_id(0);
     if (gid >= params.frame.n_work || !states[gid].live || states[gid].ended) return;
     PathScene s = PATH_SCENE;
-    PathState st = states[gid];
+    __global PathState *g = states + gid;
+    PathState st;
+    PATH_FIELDS(IN, IN3) IN(rays) RNG_FIELDS(IN) HIT_FIELDS(IN)
+    st.ended = 0;
+    bool first = st.depth == 0; /* shade_step sets the sample's first hit */
     Rng rng = state_rng(&params, &st);
     if (!shade_step(&s, &st, state_hit(&st), &rng)) st.ended = 1;
     save_rng(&st, &rng);
-    states[gid] = st;
+    PATH_FIELDS(OUT, OUT3) OUT(rays) OUT(ended) RNG_FIELDS(OUT) SHADOW_FIELDS(OUT, OUT3)
+    if (first) { FIRST_HIT_FIELDS(OUT, OUT3) }
 }
 
 /* Each shadow ray NEE left: its any-hit, and its radiance where nothing blocks it. */
@@ -116,11 +135,13 @@ __kernel void wave_occlude(__global const TreeNode *nodes, __global const PrimSl
     int gid = get_global_id(0);
     if (gid >= params.frame.n_work || !states[gid].live || !states[gid].shadowed) return;
     PathScene s = PATH_SCENE;
-    PathState st = states[gid];
+    __global PathState *g = states + gid;
+    PathState st;
+    SHADOW_FIELDS(IN, IN3) IN3(radiance) IN(visits) RNG_FIELDS(IN)
     Rng rng = state_rng(&params, &st);
     shadow_step(&st, shadow_unblocked(&s, &st, &rng));
     save_rng(&st, &rng);
-    states[gid] = st;
+    OUT(shadowed) OUT3(radiance) OUT(visits) RNG_FIELDS(OUT)
 }
 
 /* Each ended path into its pixel's sums, then the pixel's next sample in the slot, or (its last done) its outputs;

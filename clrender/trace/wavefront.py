@@ -12,6 +12,7 @@ occupancy (`Wavefront.occupancy`).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +20,7 @@ import pyopencl as cl
 
 from ..layout import PATH_STATE_DTYPE
 
+KERNELS = ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_advance")
 SCENE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes", "texels", "tables", "world")
 
 
@@ -47,9 +49,10 @@ class Wavefront:
 
     def __init__(self, device, defines: dict):
         self.device = device
-        self.kernels = {name: device.kernel("wavefront.cl", name, defines) for name in ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_advance")}
+        self.kernels = {name: device.kernel("wavefront.cl", name, defines) for name in KERNELS}
         self.live = device.empty(4)
         self.occupancy: list[Occupancy] = []  # one per launch
+        self.seconds: dict | None = None  # a dict: each kernel's wall seconds, each launch waited for (bench/path.py)
 
     def __call__(self, queue, size, local, *, pixels, params, out, **scene):
         k = int(params["frame"]["n_work"])
@@ -57,12 +60,23 @@ class Wavefront:
         K = self.kernels
         K["wave_start"](queue, size, local, pixels=pixels, params=params, out=out, states=states)
         occupancy, live, count = Occupancy(k), k, np.zeros(1, np.uint32)
+        buffers = {b: scene[b] for b in SCENE_BUFFERS}
         while live:
             occupancy.live.append(live)
             for name in ("wave_extend", "wave_shade", "wave_occlude"):
-                K[name](queue, size, local, **{b: scene[b] for b in SCENE_BUFFERS}, params=params, states=states)
+                self._timed(queue, name, lambda name=name: K[name](queue, size, local, **buffers, params=params, states=states))
             cl.enqueue_fill_buffer(queue, self.live, np.uint32(0), 0, 4)
-            K["wave_advance"](queue, size, local, params=params, out=out, states=states, live=self.live)
+            self._timed(queue, "wave_advance", lambda: K["wave_advance"](queue, size, local, params=params, out=out, states=states, live=self.live))
             cl.enqueue_copy(queue, count, self.live)
             live = int(count[0])
         self.occupancy.append(occupancy)
+
+    def _timed(self, queue, name: str, launch) -> None:
+        """Launch; with `seconds` set (a dict), wait for the kernel and add its wall seconds under its name."""
+        if self.seconds is None:
+            launch()
+            return
+        start = time.perf_counter()
+        launch()
+        queue.finish()
+        self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
