@@ -192,102 +192,130 @@ INLINE float emitter_pdf(const PathScene *s, int e, float dist, float cos_l) {
     return cos_l > 0.0f ? chosen * dist * dist / (em->area * cos_l) : 0.0f;
 }
 
-/* NEE to scene light li, chosen with probability `chosen`: the contribution (f cos Li / pdf, MIS-weighted where a
- * BSDF ray could also find it), u the light's 2-D sample. */
-INLINE float3 light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f, Component c, Frame fr,
-                           float3 wo, PathState *st) {
+/* One light's sample for NEE, before the BSDF: each kind of light fills one (light_sample, emitter_sample,
+ * environment_sample) and nee_estimate evaluates the BSDF for all of them at one place, so that code run in SIMD lanes
+ * (kernels/wavefront.cl) holds one copy of the lobes' eval and pdf, not one per kind of light (docs/lanes.md). */
+typedef struct {
+    float3 wi, le;   /* towards the light; what arrives along wi (radiance, or a delta light's intensity) */
+    float dist;      /* to the light's point (INF_T: from infinity) */
+    float light_pdf; /* its solid-angle density, times the light's choice (mis or divide) */
+    float scale;     /* without `divide`: the estimate's factor in place of 1 / light_pdf */
+    bool found;      /* false: this sample adds nothing (and traces no shadow ray) */
+    bool mis;        /* weight against the lobe's own sampling of wi by the power heuristic */
+    bool divide;     /* the estimate is f le (mis / light_pdf), else f le (scale mis) */
+    bool check;      /* no shadow ray where the lobe's value is 0 */
+} LightSample;
+
+INLINE LightSample no_light(void) {
+    LightSample ls;
+    ls.wi = ls.le = (float3)(0.0f);
+    ls.dist = INF_T;
+    ls.light_pdf = ls.scale = 0.0f;
+    ls.found = ls.mis = ls.divide = false;
+    ls.check = true;
+    return ls;
+}
+
+/* A sample of le along wi drawn with density light_pdf, dist away, MIS-weighted against the lobe's sampling. */
+INLINE LightSample weighted_light(float3 wi, float3 le, float light_pdf, float dist) {
+    LightSample ls = no_light();
+    ls.wi = wi; ls.le = le; ls.light_pdf = light_pdf; ls.dist = dist;
+    ls.found = ls.mis = ls.divide = true;
+    return ls;
+}
+
+/* NEE to scene light li, chosen with probability `chosen` (f cos Li / pdf, MIS-weighted where a BSDF ray could also
+ * find it), u the light's 2-D sample. */
+INLINE LightSample light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f) {
     __global const Light *L = &s->lights[li];
-    float3 radiance = L->intensity * vload3(0, L->colour);
+    LightSample ls = no_light();
+    ls.le = L->intensity * vload3(0, L->colour);
     bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
-    float3 wi;
-    float dist = INF_T, scale = physical ? 1.0f : M_PI_F, mis = 1.0f;
+    float scale = physical ? 1.0f : M_PI_F;
     if (L->type == LIGHT_DIRECTIONAL) {
-        wi = -unit(vload3(0, L->direction));
+        ls.wi = -unit(vload3(0, L->direction));
     } else {
         float3 y = vload3(0, L->position);
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
         if (L->type == LIGHT_AREA) y += u.x * ea + u.y * eb;
         float3 d = y - f->p;
-        dist = norm(d);
-        if (!(dist > 0.0f)) return (float3)(0.0f);
-        wi = d / dist;
+        float dist = norm(d);
+        if (!(dist > 0.0f)) return ls;
+        ls.wi = d / dist;
+        ls.dist = dist;
         if (physical && L->type == LIGHT_POINT) scale = 1.0f / (dist * dist);
-        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -wi) / (dist * dist); /* always physical */
+        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -ls.wi) / (dist * dist); /* always physical */
         if (physical && L->type == LIGHT_AREA) { /* a two-sided emitter of radiance I c, sampled by area */
             float3 nl = cross3(ea, eb);
             float area = norm(nl);
-            float cos_l = abs_f(dot3(nl, wi)) / area;
+            float cos_l = abs_f(dot3(nl, ls.wi)) / area;
             float light_pdf = chosen * dist * dist / (area * cos_l);
-            if (!(light_pdf < INFINITY)) return (float3)(0.0f);
-            scale = 1.0f / light_pdf;
-            mis = power_heuristic(light_pdf, component_pdf(c, wo, to_local(fr, wi)));
-            if (!AREA_NEE) return (float3)(0.0f);
-            if (!AREA_BSDF) mis = 1.0f;
+            if (!(light_pdf < INFINITY) || !AREA_NEE) return ls;
+            ls.light_pdf = light_pdf;
+            ls.scale = 1.0f / light_pdf; /* light_pdf holds the choice */
+            ls.mis = AREA_BSDF;
+            ls.found = true;
+            return ls;
         }
     }
-    float3 fc = component_eval(c, wo, to_local(fr, wi));
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-        if (!(physical && L->type == LIGHT_AREA)) scale /= chosen; /* a physical area light's light_pdf holds it */
-    return fc * radiance * (scale * mis * defer_shadow(st, f, wi, dist));
-}
-
-/* The MIS-weighted NEE estimate f cos Le / pdf of radiance le arriving along wi from a point drawn with
- * solid-angle density light_pdf, dist away (INF_T: from infinity), weighted against the component's own
- * sampling of wi by the power heuristic: the tail emitter, map and environment sampling share. */
-INLINE float3 nee_weighted(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float3 wi, float3 le,
-                           float light_pdf, float dist, PathState *st) {
-    float3 wl = to_local(fr, wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
-        return fc * le * (mis / light_pdf * defer_shadow(st, f, wi, dist));
+    ls.scale = scale / chosen;
+    ls.found = true;
+    return ls;
 }
 
 /* NEE to one point (u: uniform on the triangle) of emissive triangle e (emitter_pdf holds its choice probability). */
-INLINE float3 emitter_sample(const PathScene *s, int e, float2 u, const Surface *f, Component c, Frame fr, float3 wo,
-                             PathState *st) {
+INLINE LightSample emitter_sample(const PathScene *s, int e, float2 u, const Surface *f) {
     __global const Emitter *em = &s->emitters[e];
     float3 v0 = vload3(0, em->v0), v1 = vload3(0, em->v1), v2 = vload3(0, em->v2);
     float su = sqrt(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
     float3 y = (1.0f - su) * v0 + su * (1.0f - u.y) * v1 + su * u.y * v2;
     float3 d = y - f->p;
     float dist = norm(d);
-    if (!(dist > 0.0f)) return (float3)(0.0f);
+    if (!(dist > 0.0f)) return no_light();
     float3 wi = d / dist;
     float cos_l = -dot3(unit(cross3(v1 - v0, v2 - v0)), wi);
     float light_pdf = emitter_pdf(s, e, dist, cos_l);
-    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return (float3)(0.0f);
+    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return no_light();
     float3 le = emission_at(s, em->prim, su * (1.0f - u.y), su * u.y);
-    return nee_weighted(s, f, c, fr, wo, wi, le, light_pdf, dist, st);
+    return weighted_light(wi, le, light_pdf, dist);
 }
 
 /* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h). */
-INLINE float3 env_map_sample(const PathScene *s, float chosen, const Surface *f, Component c, Frame fr, float3 wo,
-                             float2 u, PathState *st) {
-    if (!ENV_NEE || !s->env.m.sampled) return (float3)(0.0f);
+INLINE LightSample env_map_sample(const PathScene *s, float chosen, float2 u) {
+    if (!ENV_NEE || !s->env.m.sampled) return no_light();
     float3 le;
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
     env_pdf *= chosen;
-    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
-#if !ENV_BSDF
-        return component_eval(c, wo, to_local(fr, wi)) * le * (defer_shadow(st, f, wi, INF_T) / env_pdf);
-#endif
-    return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, st);
+    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return no_light();
+    LightSample ls = weighted_light(wi, le, env_pdf, INF_T);
+    ls.mis = ls.check = ENV_BSDF; /* !ENV_BSDF: f le / env_pdf, a shadow ray whatever f is */
+    return ls;
 }
 
 /* NEE to the environment, chosen with probability `chosen`: the map's own sampling, or for the constant
  * environment a cosine-weighted direction about the shading normal. */
-INLINE float3 environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f, Component c, Frame fr,
-                                 float3 wo, PathState *st) {
-    if (s->env.m.width > 0) return env_map_sample(s, chosen, f, c, fr, wo, u, st);
+INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f) {
+    if (s->env.m.width > 0) return env_map_sample(s, chosen, u);
     float3 env = vload3(0, s->p.environment);
-    if (!(max3(env) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(env) > 0.0f)) return no_light();
     Frame nf = make_frame(f->n_shade);
     float3 wi = to_world(nf, cosine_hemisphere(u));
     float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
-    if (!(env_pdf > 0.0f)) return (float3)(0.0f);
-    return nee_weighted(s, f, c, fr, wo, wi, env, env_pdf, INF_T, st);
+    if (!(env_pdf > 0.0f)) return no_light();
+    return weighted_light(wi, env, env_pdf, INF_T);
+}
+
+/* The NEE estimate of light sample ls at surface f for component c (wo local): f cos Le times 1 / light_pdf or the
+ * light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
+INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, float3 wo, LightSample ls) {
+    if (!ls.found) return (float3)(0.0f);
+    float3 wl = to_local(fr, ls.wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (ls.check && !(max3(fc) > 0.0f)) return (float3)(0.0f);
+    float mis = ls.mis ? power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)) : 1.0f;
+    float w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
+    return fc * ls.le * (w * defer_shadow(st, f, ls.wi, ls.dist));
 }
 
 /* Next-event estimation at a vertex whose component is not a delta lobe: one light picked by power, one shadow ray.
@@ -300,6 +328,7 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
     int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
     float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
     if (!(chosen > 0.0f)) return (float3)(0.0f);
+    LightSample ls;
     if (k < n_lights || k == near_choice(s)) { /* a scene light: by power, or by nearness; its probability is the sum */
         float total = near > 0.0f ? nearness_total(s, f->p) : 0.0f;
         if (k == near_choice(s)) {
@@ -308,10 +337,11 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
             k = pick_near(s, f->p, total, min_f((pick - below) / chosen, 1.0f));
         }
         chosen = s->choices[k].prob + (total > 0.0f ? near * light_nearness(s, k, f->p) / total : 0.0f);
-        return light_sample(s, k, chosen, u, f, c, fr, wo, st);
+        ls = light_sample(s, k, chosen, u, f);
+    } else {
+        ls = k < env_choice(s) ? emitter_sample(s, k - n_lights, u, f) : environment_sample(s, chosen, u, f);
     }
-    if (k < env_choice(s)) return emitter_sample(s, k - n_lights, u, f, c, fr, wo, st);
-    return environment_sample(s, chosen, u, f, c, fr, wo, st);
+    return nee_estimate(st, f, c, fr, wo, ls); /* one call site: one copy of the lobes' eval and pdf */
 }
 
 /* What a BSDF-sampled ray (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area
