@@ -38,6 +38,8 @@ SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-
 COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PATH_SAMPLERS = {"independent": 0, "sobol": 1}  # the path tracer's random numbers (kernels/sobol.h), by kernel code
+# the path tracer's schedules (RenderSettings.path_schedule; trace/wavefront.py, docs/lanes.md): host-side names, no code
+PATH_SCHEDULES = ("megakernel", "wavefront")
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
 

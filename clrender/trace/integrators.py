@@ -24,7 +24,6 @@ PATH_DEPTH_LIMIT = 1024  # bounces of a path (Russian roulette ends most much so
 # a pixel's paths are numbered by a 32-bit counter (the kernels' random numbers are keyed by it): --time-budget
 # stops before a pass would number a path past it (2**32 paths a pixel, 4096 passes at MAX_SPP)
 SAMPLE_INDEX_LIMIT = 1 << 32
-PATH_SCHEDULES = ("megakernel", "wavefront")  # RenderSettings.path_schedule: trace/wavefront.py, docs/lanes.md
 THICKNESS = 1.0  # the edge mask's default disc radius (RenderSettings.thickness): another value without edges is warned about
 
 

@@ -118,7 +118,8 @@ class RenderSettings:
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
         paths = integrators.PATH_SAMPLERS
         require(_name_in(s.path_sampler, paths), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(paths)}")
-        schedules = integrators.PATH_SCHEDULES
+        from ..layout import PATH_SCHEDULES as schedules
+
         require(_name_in(s.path_schedule, schedules), f"unknown path schedule {v(s.path_schedule)}; allowed: {', '.join(schedules)}")
         depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
