@@ -185,3 +185,38 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
         ours, theirs = (r.launch(pixels, "stratified", 1, True, first_sample) for r in (a, b))
         for x, y in zip(ours, theirs):
             assert (x is None and y is None) or x.tobytes() == y.tobytes()
+
+
+PACKED_ARITHMETIC = r"^\s*[0-9a-f]+:\s+v(?:add|sub|mul|div|sqrt|min|max|fn?m(?:add|sub)\d*)ps\s.*%zmm"
+
+
+@pytest.mark.slow
+def test_intels_runtime_vectorises_the_shade_kernel_across_work_items(device):
+    """Intel's OpenCL CPU runtime compiles wave_shade a second time with 16 work-items in the lanes of zmm registers
+    (docs/lanes.md; 3,559 packed single-precision arithmetic instructions when measured, render_path none).  A shade step that gains a
+    construct its vectoriser refuses (a traversal loop, an out-of-line call) loses that copy and fails here.  Skipped on
+    other drivers (PoCL 3.1 vectorises none of it)."""
+    import re
+    import shutil
+    import subprocess
+    import tempfile
+
+    from tools.kernel_asm import object_code
+
+    if "intel" not in device.name.lower() or shutil.which("objdump") is None:
+        pytest.skip(f"{device.name}: the check reads Intel's CPU runtime's binaries with objdump")
+    scene = Scene.from_dict(path_scenes.cornell_box(4))
+    from clrender.trace.tracer import Tracer
+
+    Renderer(scene, tracer=Tracer(scene, device=device), integrator="path", path_schedule="wavefront", spp=1).run()
+    programs = [p for (name, _), p in device._programs.items() if name == "wavefront.cl"]
+    assert programs
+    obj = object_code(programs[-1].binaries[0])
+    assert obj is not None
+    with tempfile.NamedTemporaryFile(suffix=".o") as f:
+        f.write(obj)
+        f.flush()
+        text = subprocess.run(["objdump", "-d", "--no-show-raw-insn", f.name], capture_output=True, text=True, check=True).stdout
+    functions = dict(re.findall(r"^[0-9a-f]+ <(\w+)>:\n(.*?)(?=^[0-9a-f]+ <|\Z)", text, flags=re.M | re.S))
+    packed = len(re.findall(PACKED_ARITHMETIC, functions["wave_shade"], flags=re.M))
+    assert packed >= 1000, packed
