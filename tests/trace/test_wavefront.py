@@ -136,7 +136,10 @@ def textured_scene(tmp_path) -> Scene:
 
 CASES = {
     # both samplers, a stratified pixel grid (spp = samples^2 under the independent sampler), AOVs
-    "cornell-independent-stratified": (lambda tmp: path_scenes.cornell_box(12), dict(spp=4, samples=2, sampler="stratified", path_sampler="independent", aovs=AOVS)),
+    "cornell-independent-stratified": (
+        lambda tmp: path_scenes.cornell_box(12),
+        dict(spp=4, samples=2, sampler="stratified", path_sampler="independent", aovs=AOVS),
+    ),
     # the splat film (a tent wider than a pixel: SPLAT_RADIUS) and an emissive sphere
     "mixed-tent-splats": (lambda tmp: path_scenes.mixed(12), dict(spp=3, rfilter="tent")),
     # emissive triangles hidden from camera rays (HIDE_EMITTERS' look-past loop in the extend step)
