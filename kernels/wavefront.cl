@@ -59,7 +59,7 @@ INLINE Hit state_hit(const PathState *st) {
 }
 
 /* What each kernel reads (IN) and writes back (OUT) of its slot's record: only those fields cross memory (a whole
- * record is 420 bytes, and a bounce runs three kernels over every slot).  X-lists: X(f) a field, X3(f) a 3-vector. */
+ * record is 280 bytes, and a bounce runs three kernels over every slot).  X-lists: X(f) a field, X3(f) a 3-vector. */
 #define IN(f) st.f = g->f;
 #define IN3(f) IN(f[0]) IN(f[1]) IN(f[2])
 #define OUT(f) g->f = st.f;

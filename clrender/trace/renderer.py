@@ -23,6 +23,7 @@ from ..arena import alignment, offsets, pack
 from ..device import compile_notice
 from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, FRAME_PARAMS_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, OUT_REGIONS_DTYPE, PIXEL_FILTERS, SAMPLERS, WORLD_REGIONS_DTYPE
+from ..layout import PATH_SCHEDULES as SCHEDULES  # the path tracer's schedules (RenderSettings.path_schedule)
 from ..progress import progress
 from ..scene.scene import Scene
 from . import film, integrators
@@ -118,9 +119,7 @@ class RenderSettings:
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
         paths = integrators.PATH_SAMPLERS
         require(_name_in(s.path_sampler, paths), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(paths)}")
-        from ..layout import PATH_SCHEDULES as schedules
-
-        require(_name_in(s.path_schedule, schedules), f"unknown path schedule {v(s.path_schedule)}; allowed: {', '.join(schedules)}")
+        require(_name_in(s.path_schedule, SCHEDULES), f"unknown path schedule {v(s.path_schedule)}; allowed: {', '.join(SCHEDULES)}")
         depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(
