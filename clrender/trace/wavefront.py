@@ -4,8 +4,9 @@ A launch of k pixels holds k slots, one PathState record (layout.PATH_STATE_DTYP
 samples in order.  Each bounce runs four kernels over the slots: wave_extend (closest hits, one ray per work-item),
 wave_shade (the vertex, no traversal: the driver runs it in SIMD lanes), wave_occlude (shadow rays), wave_advance
 (finished paths into their pixel's sums and the pixel's next sample in the same slot).  wave_advance counts the slots
-still live; the loop reads the count back after every bounce, stops when it is 0, and keeps it as the lanes'
-occupancy (`Wavefront.occupancy`).
+still live and queues them for the next bounce; the loop reads the count back after every bounce, launches the next
+bounce's kernels over that many work-items (each takes its slot from the queue), stops when it is 0, and keeps it as
+the lanes' occupancy (`Wavefront.occupancy`).
 
 `Wavefront` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
 """
@@ -19,6 +20,7 @@ import numpy as np
 import pyopencl as cl
 
 from ..layout import PATH_STATE_DTYPE
+from .work_layout import global_size
 
 KERNELS = ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_advance")
 SCENE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes", "texels", "tables", "world")
@@ -57,26 +59,26 @@ class Wavefront:
     def __call__(self, queue, size, local, *, pixels, params, out, **scene):
         k = int(params["frame"]["n_work"])
         states = self.device.empty(k * PATH_STATE_DTYPE.itemsize)
-        K = self.kernels
-        K["wave_start"](queue, size, local, pixels=pixels, params=params, out=out, states=states)
+        slots, next_slots = self.device.empty(4 * k), self.device.empty(4 * k)  # the live slots, and the next bounce's
+        self._launch(queue, "wave_start", size, local, pixels=pixels, params=params, out=out, states=states, slots=slots)
         occupancy, live, count = Occupancy(k), k, np.zeros(1, np.uint32)
         buffers = {b: scene[b] for b in SCENE_BUFFERS}
         while live:
             occupancy.live.append(live)
+            size = global_size(live, local[0])  # the live slots only: the tail's launches shrink with it
             for name in ("wave_extend", "wave_shade", "wave_occlude"):
-                self._timed(queue, name, lambda name=name: K[name](queue, size, local, **buffers, params=params, states=states))
+                self._launch(queue, name, size, local, **buffers, params=params, states=states, slots=slots, n_live=live)
             cl.enqueue_fill_buffer(queue, self.live, np.uint32(0), 0, 4)
-            self._timed(queue, "wave_advance", lambda: K["wave_advance"](queue, size, local, params=params, out=out, states=states, live=self.live))
+            advance = dict(params=params, out=out, states=states, slots=slots, n_live=live, next_slots=next_slots, live=self.live)
+            self._launch(queue, "wave_advance", size, local, **advance)
             cl.enqueue_copy(queue, count, self.live)
-            live = int(count[0])
+            live, slots, next_slots = int(count[0]), next_slots, slots
         self.occupancy.append(occupancy)
 
-    def _timed(self, queue, name: str, launch) -> None:
-        """Launch; with `seconds` set (a dict), wait for the kernel and add its wall seconds under its name."""
-        if self.seconds is None:
-            launch()
-            return
+    def _launch(self, queue, name: str, size, local, **args) -> None:
+        """Kernel `name` over `size`; with `seconds` set (a dict), waited for and its wall seconds added under its name."""
         start = time.perf_counter()
-        launch()
-        queue.finish()
-        self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+        self.kernels[name](queue, size, local, **args)
+        if self.seconds is not None:
+            queue.finish()
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
