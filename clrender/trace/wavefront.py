@@ -13,6 +13,7 @@ the lanes' occupancy (`Wavefront.occupancy`).
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -22,6 +23,7 @@ import pyopencl as cl
 from ..layout import PATH_STATE_DTYPE
 from .work_layout import global_size
 
+READ_EVERY = 4  # bounces between reads of the live count: the kernels queued meanwhile keep the device busy
 KERNELS = ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_advance")
 SCENE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes", "texels", "tables", "world")
 
@@ -52,27 +54,28 @@ class Wavefront:
     def __init__(self, device, defines: dict):
         self.device = device
         self.kernels = {name: device.kernel("wavefront.cl", name, defines) for name in KERNELS}
-        self.live = device.empty(4)
         self.occupancy: list[Occupancy] = []  # one per launch
         self.seconds: dict | None = None  # a dict: each kernel's wall seconds, each launch waited for (bench/path.py)
 
     def __call__(self, queue, size, local, *, pixels, params, out, **scene):
         k = int(params["frame"]["n_work"])
         states = self.device.empty(k * PATH_STATE_DTYPE.itemsize)
-        slots, next_slots = self.device.empty(4 * k), self.device.empty(4 * k)  # the live slots, and the next bounce's
-        self._launch(queue, "wave_start", size, local, pixels=pixels, params=params, out=out, states=states, slots=slots)
+        lists = [self.device.empty(4 * (k + 1)) for _ in range(2)]  # the live slots (a count, then the slots) and the next
+        self._launch(queue, "wave_start", size, local, pixels=pixels, params=params, out=out, states=states, slots=lists[0])
         occupancy, live, count = Occupancy(k), k, np.zeros(1, np.uint32)
         buffers = {b: scene[b] for b in SCENE_BUFFERS}
-        while live:
-            occupancy.live.append(live)
-            size = global_size(live, local[0])  # the live slots only: the tail's launches shrink with it
+        for bounce in itertools.count():
+            if bounce % READ_EVERY == 0:  # the count: the lanes' occupancy, the launch size, the stop
+                cl.enqueue_copy(queue, count, lists[bounce % 2])
+                live = int(count[0])
+                if not live:
+                    break
+            occupancy.live.append(live)  # an upper bound between reads
+            size, slots, next_slots = global_size(live, local[0]), lists[bounce % 2], lists[1 - bounce % 2]
             for name in ("wave_extend", "wave_shade", "wave_occlude"):
-                self._launch(queue, name, size, local, **buffers, params=params, states=states, slots=slots, n_live=live)
-            cl.enqueue_fill_buffer(queue, self.live, np.uint32(0), 0, 4)
-            advance = dict(params=params, out=out, states=states, slots=slots, n_live=live, next_slots=next_slots, live=self.live)
-            self._launch(queue, "wave_advance", size, local, **advance)
-            cl.enqueue_copy(queue, count, self.live)
-            live, slots, next_slots = int(count[0]), next_slots, slots
+                self._launch(queue, name, size, local, **buffers, params=params, states=states, slots=slots)
+            cl.enqueue_fill_buffer(queue, next_slots, np.uint32(0), 0, 4)
+            self._launch(queue, "wave_advance", size, local, params=params, out=out, states=states, slots=slots, next_slots=next_slots)
         self.occupancy.append(occupancy)
 
     def _launch(self, queue, name: str, size, local, **args) -> None:
