@@ -7,10 +7,8 @@
  *   wave_shade    emission, NEE (its shadow ray left in the record), the BSDF's next ray: no traversal, so the driver
  *                 runs 16 work-items in the lanes of a zmm register (Intel's OpenCL CPU runtime);
  *   wave_occlude  each shadow ray's any-hit, and its radiance where nothing blocks it;
- *   wave_advance  finished paths into their pixel's sums, the pixel's next sample or its outputs; the slots still
- *                 live into the next bounce's list.
- * A list of slots is its count, then the slots: slots[0] of them from slots[1] on.  Each kernel takes its work-item's
- * slot from the list (the host launches at least that many work-items, the count it last read, which never rises).
+ *   wave_advance  finished paths into their pixel's sums, the pixel's next sample or its outputs; live[0] counts the
+ *                 slots still live (the host's occupancy and its stop).
  * The extend and occlude kernels take the rng for a stochastic alpha test's draws: in the stream they come where the
  * megakernel draws them, except with ALPHA_TEST and the independent sampler, whose shadow rays draw before the BSDF's
  * sample (trace/wavefront.py renders those with the megakernel). */
@@ -76,8 +74,7 @@ INLINE Hit state_hit(const PathState *st) {
 #define PATH_SCENE path_scene(nodes, prims, prim_object, normals, attributes, texels, tables, world, params)
 
 /* Slot gid takes pixel pixels[gid]: its sums cleared (and its splat slots) and its first sample started. */
-__kernel void wave_start(__global const int *pixels, PathParams params, __global char *out, __global PathState *states,
-                         __global int *slots) {
+__kernel void wave_start(__global const int *pixels, PathParams params, __global char *out, __global PathState *states) {
     int gid = get_global_id(0);
     if (gid >= params.frame.n_work) return;
     PathState st;
@@ -91,19 +88,15 @@ __kernel void wave_start(__global const int *pixels, PathParams params, __global
     for (int k = 0; k < SPLAT_SLOTS; ++k) splats[k] = (float4)(0.0f);
 #endif
     states[gid] = st;
-    slots[1 + gid] = gid;
-    if (gid == 0) slots[0] = params.frame.n_work;
 }
 
 /* The closest hit of each live path's ray. */
 __kernel void wave_extend(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const VertexAttributes *attributes,
                           __global const float4 *texels, __global const char *tables, __global const char *world,
-                          PathParams params, __global PathState *states, __global const int *slots) {
-    int i = get_global_id(0);
-    if (i >= slots[0]) return;
-    int gid = slots[1 + i]; /* the slot */
-    if (states[gid].ended) return;
+                          PathParams params, __global PathState *states) {
+    int gid = get_global_id(0);
+    if (gid >= params.frame.n_work || !states[gid].live || states[gid].ended) return;
     PathScene s = PATH_SCENE;
     __global PathState *g = states + gid;
     PathState st;
@@ -118,11 +111,9 @@ __kernel void wave_extend(__global const TreeNode *nodes, __global const PrimSlo
 __kernel void wave_shade(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const VertexAttributes *attributes,
                           __global const float4 *texels, __global const char *tables, __global const char *world,
-                          PathParams params, __global PathState *states, __global const int *slots) {
-    int i = get_global_id(0);
-    if (i >= slots[0]) return;
-    int gid = slots[1 + i]; /* the slot */
-    if (states[gid].ended) return;
+                          PathParams params, __global PathState *states) {
+    int gid = get_global_id(0);
+    if (gid >= params.frame.n_work || !states[gid].live || states[gid].ended) return;
     PathScene s = PATH_SCENE;
     __global PathState *g = states + gid;
     PathState st;
@@ -140,11 +131,9 @@ __kernel void wave_shade(__global const TreeNode *nodes, __global const PrimSlot
 __kernel void wave_occlude(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
                           __global const VertexNormals *normals, __global const VertexAttributes *attributes,
                           __global const float4 *texels, __global const char *tables, __global const char *world,
-                          PathParams params, __global PathState *states, __global const int *slots) {
-    int i = get_global_id(0);
-    if (i >= slots[0]) return;
-    int gid = slots[1 + i]; /* the slot */
-    if (!states[gid].shadowed) return;
+                          PathParams params, __global PathState *states) {
+    int gid = get_global_id(0);
+    if (gid >= params.frame.n_work || !states[gid].live || !states[gid].shadowed) return;
     PathScene s = PATH_SCENE;
     __global PathState *g = states + gid;
     PathState st;
@@ -156,13 +145,10 @@ __kernel void wave_occlude(__global const TreeNode *nodes, __global const PrimSl
 }
 
 /* Each ended path into its pixel's sums, then the pixel's next sample in the slot, or (its last done) its outputs;
- * the slots still live after go into next_slots, next_slots[0] of them (0 before).  Their order there varies from run to run, and
- * nothing depends on it: a slot's work is the same whichever work-item does it. */
-__kernel void wave_advance(PathParams params, __global char *out, __global PathState *states, __global const int *slots,
-                           __global int *next_slots) {
-    int i = get_global_id(0);
-    if (i >= slots[0]) return;
-    int gid = slots[1 + i]; /* the slot */
+ * live[0] counts the slots still live after. */
+__kernel void wave_advance(PathParams params, __global char *out, __global PathState *states, __global uint *live) {
+    int gid = get_global_id(0);
+    if (gid >= params.frame.n_work || !states[gid].live) return;
     if (states[gid].ended) {
         PathState st = states[gid];
         float4 splats[SPLAT_SLOTS];
@@ -185,5 +171,5 @@ __kernel void wave_advance(PathParams params, __global char *out, __global PathS
         states[gid] = st;
         if (!st.live) return;
     }
-    next_slots[1 + atomic_inc(next_slots)] = gid;
+    atomic_inc(live);
 }
