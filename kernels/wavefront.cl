@@ -4,8 +4,9 @@
  * the pixel's sums and starts the pixel's next sample in the same slot, so each pixel's sums are made in the
  * megakernel's order and the images are its bits.  clrender/trace/wavefront.py launches, each bounce:
  *   wave_extend   the closest hit of each live path's ray (one ray per work-item: the BVH walk, scalar);
- *   wave_shade    emission, NEE (its shadow ray left in the record), the BSDF's next ray: no traversal, so the driver
- *                 runs 16 work-items in the lanes of a zmm register (Intel's OpenCL CPU runtime);
+ *   wave_shade    emission, NEE (its shadow ray left in the record), the BSDF's next ray: no traversal, so Intel's
+ *                 OpenCL CPU runtime compiles a copy with 16 work-items in the lanes of a zmm register (it runs that
+ *                 copy for 16-item work-groups only, and it is slower: docs/lanes.md);
  *   wave_occlude  each shadow ray's any-hit, and its radiance where nothing blocks it;
  *   wave_advance  finished paths into their pixel's sums, the pixel's next sample or its outputs; live[0] counts the
  *                 slots still live (the host's occupancy and its stop).

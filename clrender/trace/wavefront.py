@@ -2,7 +2,7 @@
 
 A launch of k pixels holds k slots, one PathState record (layout.PATH_STATE_DTYPE) each; slot i takes pixel i's
 samples in order.  Each bounce runs four kernels over the slots: wave_extend (closest hits, one ray per work-item),
-wave_shade (the vertex, no traversal: the driver runs it in SIMD lanes), wave_occlude (shadow rays), wave_advance
+wave_shade (the vertex, no traversal: a kernel a driver can run in SIMD lanes), wave_occlude (shadow rays), wave_advance
 (finished paths into their pixel's sums and the pixel's next sample in the same slot).  wave_advance counts the slots
 still live; the loop reads the count back after every bounce, stops when it is 0, and keeps it as the lanes'
 occupancy (`Wavefront.occupancy`).
