@@ -127,6 +127,17 @@ def env_map_scene(tmp_path) -> dict:
     }
 
 
+def spot_lens_scene() -> dict:
+    """The mixed scene's spheres under a spot light and a physical point light, seen through a thin lens."""
+    scene = path_scenes.mixed(12)
+    scene["cameras"] = [{**scene["cameras"][0], "aperture": 0.08, "focus_distance": 3.5}]
+    scene["lights"] = [
+        {"type": "spot", "position": [1, 3, 1], "direction": [-0.3, -1, -0.3], "intensity": 20},
+        {"type": "point", "position": [-2, 2, 2], "intensity": 6, "falloff": "inverse_square"},
+    ]
+    return scene
+
+
 def textured_scene(tmp_path) -> Scene:
     """bench/assets.py's first picture: a textured torus, a gold sphere and a checker floor under an HDR sky."""
     from bench.assets import picture_scenes
@@ -154,8 +165,10 @@ CASES = {
     "alpha-blend-sobol": (lambda tmp: blend_card(), dict(spp=4)),
     # constant-environment NEE, glTF lobes, Russian roulette from the first bounce
     "environment-spheres-rr0": (lambda tmp: path_scenes.environment_spheres(12), dict(spp=3, rr_depth=0)),
-    # point, spot and area lights of the unnormalised falloff, many objects (a bundled Whitted scene)
+    # area and directional lights of the unnormalised falloff (and NEE's nearness choice), many objects (a bundled scene)
     "wizard-cat": (lambda tmp: "wizard_cat", dict(spp=2, width=20, height=15, max_depth=3)),
+    # a spot light and a physical point light, a thin-lens camera (two numbers of each sample's stream for the lens)
+    "spot-point-thin-lens": (lambda tmp: spot_lens_scene(), dict(spp=3)),
 }
 
 
@@ -167,6 +180,7 @@ def test_the_wavefront_renders_the_megakernels_bits_on_every_feature(tmp_path, c
     scene = Scene.from_dict(scene, base_dir=tmp_path) if isinstance(scene, dict) else scene
     a, b, _ = both(scene, megakernel_tiles=64, wavefront_tiles=5, seed=9, **settings)
     assert_same(a, b)
+    assert a.image.mean() > 1e-3  # something lit: the comparison is of something
 
 
 @pytest.mark.slow
