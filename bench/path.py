@@ -1,4 +1,5 @@
-"""Path tracing speed, against Mitsuba 3: `python -m bench path [--peer mitsuba] [--quick] [--runs K] [--out DIR]`.
+"""Path tracing speed, against Mitsuba 3: `python -m bench path [--peer mitsuba] [--schedule megakernel wavefront] [--quick]
+[--runs K] [--out DIR]`.
 
 Two scenes at 512x512, 64 samples per pixel, max depth 8 (bounces after the primary hit; Mitsuba's
 max_depth 10): the Cornell box of tests/reference/path_scenes.py (Lambert walls and block, a rough metal
@@ -12,7 +13,8 @@ the same scenes, converted by tests/reference/mitsuba_scenes.py, in the same run
                 disk cache, said in the table) apart from the median of K later renders;
   scalar_rgb    --scalar-spp samples per pixel (default 16: a 64 spp render takes minutes on two cores),
                 the time scaled by 64 / spp (the independent sampler's cost is linear in spp), one run.
-Both use every core (Mitsuba's thread pool, PoCL's device).  Samples per second are camera paths (pixels x
+`--schedule` times each of clrender's path schedules named (docs/lanes.md), a row each, and prints the
+wavefront's lane occupancy.  Both use every core (Mitsuba's thread pool, PoCL's device).  Samples per second are camera paths (pixels x
 spp) per wall second; the ratios are wall times against Mitsuba llvm.  `--quick`: 128x128, 16 spp, one run.
 With both clrender and llvm: path_<scene>_pair.png (clrender left, Mitsuba right, the seed-0 renders) and a
 line per scene, the two renderers' mean brightness and a block-mean z-test over all their renders (agreement_line).
@@ -148,12 +150,15 @@ def clrender_has_path_tracer() -> bool:
     return "integrator" in RenderSettings.__dataclass_fields__
 
 
-def time_clrender(name: str, size: int, spp: int, depth: int, runs: int):
-    """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path tracer."""
+def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedule: str = "megakernel"):
+    """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path
+    tracer under `schedule` (RenderSettings.path_schedule)."""
     from clrender.trace.renderer import Renderer
 
     scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
     settings = dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
+    if schedule != "megakernel":
+        settings["path_schedule"] = schedule
     start = time.perf_counter()
     renderer = Renderer(scene, seed=0, **settings)
     result = renderer.run()
@@ -166,6 +171,10 @@ def time_clrender(name: str, size: int, spp: int, depth: int, runs: int):
         images.append(renderer.run().image)
         walls.append(time.perf_counter() - wall)
         cpus.append(time.process_time() - cpu)
+    occupancy = getattr(renderer.kernel, "occupancy", None)  # the wavefront's lanes: live paths / slots over its bounces
+    if occupancy:
+        busy = sum(sum(o.live) for o in occupancy) / sum(len(o.live) * o.slots for o in occupancy)
+        print(f"{name} {schedule}: lane occupancy {busy:.3f} over {sum(len(o.live) for o in occupancy)} bounces of the last render")
     return first, compile_s, statistics.median(walls), statistics.median(cpus), images
 
 
@@ -205,6 +214,13 @@ def parse_args(argv=None):
     ap.add_argument("--runs", type=int, default=3, help="timed renders after the first; the median is reported")
     ap.add_argument("--scalar-spp", type=int, default=16, help="spp of Mitsuba's scalar_rgb render (its time is scaled to --spp); 0 skips it")
     ap.add_argument("--scenes", nargs="+", choices=SCENES, default=list(SCENES))
+    ap.add_argument(
+        "--schedule",
+        nargs="+",
+        choices=("megakernel", "wavefront"),
+        default=["megakernel"],
+        help="clrender's path schedules to time, each a row (RenderSettings.path_schedule; docs/lanes.md)",
+    )
     ap.add_argument("--peer", choices=("mitsuba",), help="also render with Mitsuba 3 (llvm_ad_rgb and scalar_rgb) in the same run")
     ap.add_argument("--quick", action="store_true", help="128x128, 16 spp, one timed run, scalar at 4 spp")
     ap.add_argument("--out", default="bench/out", help="folder for path.csv / path.md / path.png and the images")
@@ -230,10 +246,11 @@ def main(argv=None):
     for name in args.scenes:
         scene = path_scenes.cornell_box(args.size) if name == "cornell_box" else wizard_cat_path_dict(3)
         measured, renders = {}, {}
-        if have_clrender:
-            first, compile_s, wall, cpu, images = time_clrender(name, args.size, args.spp, args.max_depth, args.runs)
-            measured["clrender"] = dict(spp_run=args.spp, load_s=float("nan"), first_s=first, compile_s=compile_s, cached="", seconds=wall, cpu_s=cpu)
-            renders["clrender"] = images
+        for schedule in args.schedule if have_clrender else ():
+            first, compile_s, wall, cpu, images = time_clrender(name, args.size, args.spp, args.max_depth, args.runs, schedule)
+            label = "clrender" if args.schedule == ["megakernel"] else f"clrender {schedule}"
+            measured[label] = dict(spp_run=args.spp, load_s=float("nan"), first_s=first, compile_s=compile_s, cached="", seconds=wall, cpu_s=cpu)
+            renders.setdefault("clrender", images)  # the schedules' images are the same bits
             write_display_image(out / f"path_{name}_clrender.png", images[0])
         if args.peer == "mitsuba":
             measure_mitsuba(args, name, scene, out, measured, renders)

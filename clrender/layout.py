@@ -38,6 +38,8 @@ SMITH_MODELS = {"correlated": 0, "separable": 1}  # Material.smith: GGX masking-
 COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PATH_SAMPLERS = {"independent": 0, "sobol": 1}  # the path tracer's random numbers (kernels/sobol.h), by kernel code
+# the path tracer's schedules (RenderSettings.path_schedule; trace/wavefront.py, docs/lanes.md): host-side names, no code
+PATH_SCHEDULES = ("megakernel", "wavefront")
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
 
@@ -438,6 +440,54 @@ PATH_PARAMS_DTYPE = np.dtype(
     ]
 )
 PATH_PARAMS = Record("PathParams", PATH_PARAMS_DTYPE)
+# one path in flight, as both of the path tracer's schedules step it (kernels/path.cl; docs/lanes.md): the megakernel
+# keeps it in private memory, the wavefront (kernels/wavefront.cl, trace/wavefront.py) one record a slot in a buffer
+PATH_STATE_DTYPE = np.dtype(
+    [
+        ("o", "<f4", 3),  # the ray the extend step traces next
+        ("d", "<f4", 3),
+        ("beta", "<f4", 3),  # throughput
+        ("radiance", "<f4", 3),  # this sample's radiance so far
+        ("prev_n", "<f4", 3),  # the previous vertex's shading normal (the constant environment's MIS)
+        ("prev_pdf", "<f4"),  # the previous lobe's density of the ray's direction
+        ("prev_delta", "<i4"),  # 1: the previous lobe was a delta (or the ray is the camera's)
+        ("depth", "<i4"),  # bounces after the primary hit
+        ("live", "<i4"),  # wavefront: 1 while the slot's pixel has a path in flight
+        ("ended", "<i4"),  # wavefront: 1 once the path ended at this vertex (its shadow ray still to add)
+        ("pixel", "<i4"),  # the image pixel whose samples the path's slot takes
+        ("sample", "<u4"),  # the path's sample index in this pass (first_sample + sample in the pixel's sequence)
+        ("rng_dim", "<u4"),  # the path's Rng beyond (seed, pixel, sample): kernels/rng.h
+        ("rng_base", "<u4"),
+        ("rng_extra", "<u4"),
+        ("off", "<f4", 2),  # the sample's position in its pixel
+        ("weight", "<f4"),  # its pixel filter weight
+        ("hit_t", "<f4"),  # the extend step's hit (kernels/intersect.h Hit)
+        ("hit_slot", "<i4"),
+        ("hit_id", "<i4"),
+        ("hit_u", "<f4"),
+        ("hit_v", "<f4"),
+        ("hit_instance", "<i4"),
+        ("fh_normal", "<f4", 3),  # the sample's first hit (path.cl FirstHit)
+        ("fh_albedo", "<f4", 3),
+        ("fh_depth", "<f4"),
+        ("fh_object", "<i4"),
+        ("shadowed", "<i4"),  # 1: NEE left a shadow ray below to trace
+        ("shadow_o", "<f4", 3),
+        ("shadow_d", "<f4", 3),
+        ("shadow_t_max", "<f4"),
+        ("shadow_l", "<f4", 3),  # NEE's estimate, which the shadow ray adds (times shadow_beta) if nothing blocks it
+        ("shadow_beta", "<f4", 3),  # the throughput at the shadow ray's vertex
+        ("sum", "<f4", 3),  # the pixel's filtered sums over its finished samples
+        ("weight_sum", "<f4"),
+        ("normal_sum", "<f4", 3),
+        ("albedo_sum", "<f4", 3),
+        ("first_object", "<i4"),  # the pixel's first sample's first hit, for its id and depth AOV
+        ("first_depth", "<f4"),
+        ("visits", "<u4"),  # the pixel's BVH visits and rays
+        ("rays", "<u4"),
+    ]
+)
+PATH_STATE = Record("PathState", PATH_STATE_DTYPE)
 
 # ---- splats (kernels/splat_gauss.cl, splat_voronoi.cl; packed by splat/*.py)
 # A Gaussian splat as the host uploads it: GaussParams' groups, under the same names (splat/gauss.py) ...

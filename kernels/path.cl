@@ -90,16 +90,27 @@ INLINE float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* 1 if nothing lies between the vertex and p + wi * dist (dist INF_T: to infinity), else 0. */
-INLINE float visible(const PathScene *s, const Surface *f, float3 wi, float dist, Rng *rng, uint *visits) {
+/* NEE's shadow ray towards p + wi * dist (dist INF_T: to infinity), left in st for the schedule to trace (shadow_step):
+ * 1, the factor the contribution takes when nothing blocks the ray (shadow_step adds it only then). */
+INLINE float defer_shadow(PathState *st, const Surface *f, float3 wi, float dist) {
     float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
-    Ray sr = make_ray(origin, wi);
-    float t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
+    vstore3(origin, 0, st->shadow_o);
+    vstore3(wi, 0, st->shadow_d);
+    st->shadow_t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
+    st->shadowed = 1;
+    st->rays += 1;
+    return 1.0f;
+}
+
+/* Whether st's shadow ray reaches its end: nothing opaque (with ALPHA_TEST: nothing kept, its draws from rng) in
+ * between. */
+INLINE bool shadow_unblocked(const PathScene *s, PathState *st, Rng *rng) {
+    Ray sr = make_ray(vload3(0, st->shadow_o), vload3(0, st->shadow_d));
 #if ALPHA_TEST
     float opacity;
-    return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0 ? 1.0f : 0.0f;
+    return seen_hit(&s->geo, s->tex, sr, 0.0f, st->shadow_t_max, false, rng, &opacity, &st->visits).id < 0;
 #else
-    return transmittance(&s->geo, sr, 0.0f, t_max, opaque_pass(), visits);
+    return transmittance(&s->geo, sr, 0.0f, st->shadow_t_max, opaque_pass(), &st->visits) > 0.0f;
 #endif
 }
 
@@ -181,117 +192,143 @@ INLINE float emitter_pdf(const PathScene *s, int e, float dist, float cos_l) {
     return cos_l > 0.0f ? chosen * dist * dist / (em->area * cos_l) : 0.0f;
 }
 
-/* NEE to scene light li, chosen with probability `chosen`: the contribution (f cos Li / pdf, MIS-weighted where a
- * BSDF ray could also find it), u the light's 2-D sample. */
-INLINE float3 light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f, Component c, Frame fr,
-                           float3 wo, Rng *rng, uint *visits, uint *rays) {
+/* One light's sample for NEE, before the BSDF: each kind of light fills one (light_sample, emitter_sample,
+ * environment_sample) and nee_estimate evaluates the BSDF for all of them at one place, so that code run in SIMD lanes
+ * (kernels/wavefront.cl) holds one copy of the lobes' eval and pdf, not one per kind of light (docs/lanes.md). */
+typedef struct {
+    float3 wi, le;   /* towards the light; what arrives along wi (radiance, or a delta light's intensity) */
+    float dist;      /* to the light's point (INF_T: from infinity) */
+    float light_pdf; /* its solid-angle density, times the light's choice (mis or divide) */
+    float scale;     /* without `divide`: the estimate's factor in place of 1 / light_pdf */
+    bool found;      /* false: this sample adds nothing (and traces no shadow ray) */
+    bool mis;        /* weight against the lobe's own sampling of wi by the power heuristic */
+    bool divide;     /* the estimate is f le (mis / light_pdf), else f le (scale mis) */
+    bool check;      /* no shadow ray where the lobe's value is 0 */
+} LightSample;
+
+INLINE LightSample no_light(void) {
+    LightSample ls;
+    ls.wi = ls.le = (float3)(0.0f);
+    ls.dist = INF_T;
+    ls.light_pdf = ls.scale = 0.0f;
+    ls.found = ls.mis = ls.divide = false;
+    ls.check = true;
+    return ls;
+}
+
+/* A sample of le along wi drawn with density light_pdf, dist away, MIS-weighted against the lobe's sampling. */
+INLINE LightSample weighted_light(float3 wi, float3 le, float light_pdf, float dist) {
+    LightSample ls = no_light();
+    ls.wi = wi; ls.le = le; ls.light_pdf = light_pdf; ls.dist = dist;
+    ls.found = ls.mis = ls.divide = true;
+    return ls;
+}
+
+/* NEE to scene light li, chosen with probability `chosen` (f cos Li / pdf, MIS-weighted where a BSDF ray could also
+ * find it), u the light's 2-D sample. */
+INLINE LightSample light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f) {
     __global const Light *L = &s->lights[li];
-    float3 radiance = L->intensity * vload3(0, L->colour);
+    LightSample ls = no_light();
+    ls.le = L->intensity * vload3(0, L->colour);
     bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
-    float3 wi;
-    float dist = INF_T, scale = physical ? 1.0f : M_PI_F, mis = 1.0f;
+    float scale = physical ? 1.0f : M_PI_F;
     if (L->type == LIGHT_DIRECTIONAL) {
-        wi = -unit(vload3(0, L->direction));
+        ls.wi = -unit(vload3(0, L->direction));
     } else {
         float3 y = vload3(0, L->position);
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
         if (L->type == LIGHT_AREA) y += u.x * ea + u.y * eb;
         float3 d = y - f->p;
-        dist = norm(d);
-        if (!(dist > 0.0f)) return (float3)(0.0f);
-        wi = d / dist;
+        float dist = norm(d);
+        if (!(dist > 0.0f)) return ls;
+        ls.wi = d / dist;
+        ls.dist = dist;
         if (physical && L->type == LIGHT_POINT) scale = 1.0f / (dist * dist);
-        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -wi) / (dist * dist); /* always physical */
+        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -ls.wi) / (dist * dist); /* always physical */
         if (physical && L->type == LIGHT_AREA) { /* a two-sided emitter of radiance I c, sampled by area */
             float3 nl = cross3(ea, eb);
             float area = norm(nl);
-            float cos_l = abs_f(dot3(nl, wi)) / area;
+            float cos_l = abs_f(dot3(nl, ls.wi)) / area;
             float light_pdf = chosen * dist * dist / (area * cos_l);
-            if (!(light_pdf < INFINITY)) return (float3)(0.0f);
-            scale = 1.0f / light_pdf;
-            mis = power_heuristic(light_pdf, component_pdf(c, wo, to_local(fr, wi)));
-            if (!AREA_NEE) return (float3)(0.0f);
-            if (!AREA_BSDF) mis = 1.0f;
+            if (!(light_pdf < INFINITY) || !AREA_NEE) return ls;
+            ls.light_pdf = light_pdf;
+            ls.scale = 1.0f / light_pdf; /* light_pdf holds the choice */
+            ls.mis = AREA_BSDF;
+            ls.found = true;
+            return ls;
         }
     }
-    float3 fc = component_eval(c, wo, to_local(fr, wi));
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    *rays += 1;
-    if (!(physical && L->type == LIGHT_AREA)) scale /= chosen; /* a physical area light's light_pdf holds it */
-    return fc * radiance * (scale * mis * visible(s, f, wi, dist, rng, visits));
-}
-
-/* The MIS-weighted NEE estimate f cos Le / pdf of radiance le arriving along wi from a point drawn with
- * solid-angle density light_pdf, dist away (INF_T: from infinity), weighted against the component's own
- * sampling of wi by the power heuristic: the tail emitter, map and environment sampling share. */
-INLINE float3 nee_weighted(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, float3 wi, float3 le,
-                           float light_pdf, float dist, Rng *rng, uint *visits, uint *rays) {
-    float3 wl = to_local(fr, wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (!(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = power_heuristic(light_pdf, component_pdf(c, wo, wl));
-    *rays += 1;
-    return fc * le * (mis / light_pdf * visible(s, f, wi, dist, rng, visits));
+    ls.scale = scale / chosen;
+    ls.found = true;
+    return ls;
 }
 
 /* NEE to one point (u: uniform on the triangle) of emissive triangle e (emitter_pdf holds its choice probability). */
-INLINE float3 emitter_sample(const PathScene *s, int e, float2 u, const Surface *f, Component c, Frame fr, float3 wo,
-                             Rng *rng, uint *visits, uint *rays) {
+INLINE LightSample emitter_sample(const PathScene *s, int e, float2 u, const Surface *f) {
     __global const Emitter *em = &s->emitters[e];
     float3 v0 = vload3(0, em->v0), v1 = vload3(0, em->v1), v2 = vload3(0, em->v2);
     float su = sqrt(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
     float3 y = (1.0f - su) * v0 + su * (1.0f - u.y) * v1 + su * u.y * v2;
     float3 d = y - f->p;
     float dist = norm(d);
-    if (!(dist > 0.0f)) return (float3)(0.0f);
+    if (!(dist > 0.0f)) return no_light();
     float3 wi = d / dist;
     float cos_l = -dot3(unit(cross3(v1 - v0, v2 - v0)), wi);
     float light_pdf = emitter_pdf(s, e, dist, cos_l);
-    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return (float3)(0.0f);
+    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return no_light();
     float3 le = emission_at(s, em->prim, su * (1.0f - u.y), su * u.y);
-    return nee_weighted(s, f, c, fr, wo, wi, le, light_pdf, dist, rng, visits, rays);
+    return weighted_light(wi, le, light_pdf, dist);
 }
 
 /* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h). */
-INLINE float3 env_map_sample(const PathScene *s, float chosen, const Surface *f, Component c, Frame fr, float3 wo,
-                             float2 u, Rng *rng, uint *visits, uint *rays) {
-    if (!ENV_NEE || !s->env.m.sampled) return (float3)(0.0f);
+INLINE LightSample env_map_sample(const PathScene *s, float chosen, float2 u) {
+    if (!ENV_NEE || !s->env.m.sampled) return no_light();
     float3 le;
     float env_pdf;
     float3 wi = env_sample(&s->env, u, &le, &env_pdf);
     env_pdf *= chosen;
-    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return (float3)(0.0f);
-#if !ENV_BSDF
-    *rays += 1;
-    return component_eval(c, wo, to_local(fr, wi)) * le * (visible(s, f, wi, INF_T, rng, visits) / env_pdf);
-#endif
-    return nee_weighted(s, f, c, fr, wo, wi, le, env_pdf, INF_T, rng, visits, rays);
+    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return no_light();
+    LightSample ls = weighted_light(wi, le, env_pdf, INF_T);
+    ls.mis = ls.check = ENV_BSDF; /* !ENV_BSDF: f le / env_pdf, a shadow ray whatever f is */
+    return ls;
 }
 
 /* NEE to the environment, chosen with probability `chosen`: the map's own sampling, or for the constant
  * environment a cosine-weighted direction about the shading normal. */
-INLINE float3 environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f, Component c, Frame fr,
-                                 float3 wo, Rng *rng, uint *visits, uint *rays) {
-    if (s->env.m.width > 0) return env_map_sample(s, chosen, f, c, fr, wo, u, rng, visits, rays);
+INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f) {
+    if (s->env.m.width > 0) return env_map_sample(s, chosen, u);
     float3 env = vload3(0, s->p.environment);
-    if (!(max3(env) > 0.0f)) return (float3)(0.0f);
+    if (!(max3(env) > 0.0f)) return no_light();
     Frame nf = make_frame(f->n_shade);
     float3 wi = to_world(nf, cosine_hemisphere(u));
     float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
-    if (!(env_pdf > 0.0f)) return (float3)(0.0f);
-    return nee_weighted(s, f, c, fr, wo, wi, env, env_pdf, INF_T, rng, visits, rays);
+    if (!(env_pdf > 0.0f)) return no_light();
+    return weighted_light(wi, env, env_pdf, INF_T);
+}
+
+/* The NEE estimate of light sample ls at surface f for component c (wo local): f cos Le times 1 / light_pdf or the
+ * light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
+INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, float3 wo, LightSample ls) {
+    if (!ls.found) return (float3)(0.0f);
+    float3 wl = to_local(fr, ls.wi);
+    float3 fc = component_eval(c, wo, wl);
+    if (ls.check && !(max3(fc) > 0.0f)) return (float3)(0.0f);
+    float mis = ls.mis ? power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)) : 1.0f;
+    float w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
+    return fc * ls.le * (w * defer_shadow(st, f, ls.wi, ls.dist));
 }
 
 /* Next-event estimation at a vertex whose component is not a delta lobe: one light picked by power, one shadow ray.
  * Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D sample. */
 INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
-                              uint *visits, uint *rays) {
+                              PathState *st) {
     rng_slot(rng, SLOT_LIGHT); /* the pick, then the light's 2-D sample as one pair */
     float pick = rng_next(rng);
     float2 u = (float2)(rng_next(rng), rng_next(rng));
     int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
     float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
     if (!(chosen > 0.0f)) return (float3)(0.0f);
+    LightSample ls;
     if (k < n_lights || k == near_choice(s)) { /* a scene light: by power, or by nearness; its probability is the sum */
         float total = near > 0.0f ? nearness_total(s, f->p) : 0.0f;
         if (k == near_choice(s)) {
@@ -300,10 +337,11 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
             k = pick_near(s, f->p, total, min_f((pick - below) / chosen, 1.0f));
         }
         chosen = s->choices[k].prob + (total > 0.0f ? near * light_nearness(s, k, f->p) / total : 0.0f);
-        return light_sample(s, k, chosen, u, f, c, fr, wo, rng, visits, rays);
+        ls = light_sample(s, k, chosen, u, f);
+    } else {
+        ls = k < env_choice(s) ? emitter_sample(s, k - n_lights, u, f) : environment_sample(s, chosen, u, f);
     }
-    if (k < env_choice(s)) return emitter_sample(s, k - n_lights, u, f, c, fr, wo, rng, visits, rays);
-    return environment_sample(s, chosen, u, f, c, fr, wo, rng, visits, rays);
+    return nee_estimate(st, f, c, fr, wo, ls); /* one call site: one copy of the lobes' eval and pdf */
 }
 
 /* What a BSDF-sampled ray (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area
@@ -372,68 +410,184 @@ INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Materia
     return fh;
 }
 
-/* Radiance along one camera ray; *first gets its first hit. */
-INLINE float3 path_radiance(const PathScene *s, Ray r, Rng *rng, FirstHit *first, uint *visits, uint *rays) {
-    float3 radiance = (float3)(0.0f), beta = (float3)(1.0f), prev_n = (float3)(0.0f);
-    float prev_pdf = 0.0f;
-    bool prev_delta = true; /* the camera ray: every light it meets counts whole */
+/* ---------------------------------------------------------------- one path step, two schedules (docs/lanes.md)
+ * A path in flight is a PathState record (clrender/layout.py).  Its steps, which render_path calls in a loop and
+ * kernels/wavefront.cl as one kernel each: start_sample (the camera ray), extend_step (the closest hit: traversal),
+ * shade_step (emission, NEE's shadow ray left in the record, the BSDF's next ray; no traversal), shadow_step (what the
+ * shadow ray found) and finish_sample (the pixel's sums).  The rng is the path's, kept beside the record. */
+
+/* The path's ray as the walks take it. */
+INLINE Ray state_ray(const PathState *st) { return make_ray(vload3(0, st->o), vload3(0, st->d)); }
+
+/* The pixel's sums, counters and first hit before its first sample. */
+INLINE void start_pixel(PathState *st) {
+    vstore3((float3)(0.0f), 0, st->sum);
+    vstore3((float3)(0.0f), 0, st->normal_sum);
+    vstore3((float3)(0.0f), 0, st->albedo_sum);
+    st->weight_sum = 0.0f;
+    st->first_object = -1;
+    st->first_depth = 0.0f;
+    st->visits = 0;
+    st->rays = 0;
+    st->shadowed = 0;
+}
+
+/* Sample s_i of this pass in pixel `pixel`: its rng, its position in the pixel and filter weight, its camera ray. */
+INLINE void start_sample(const PathParams *p, PathState *st, int pixel, uint s_i, Rng *rng) {
+    const FrameParams *frame = &p->frame;
+    uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)p->spp ? n * n : 1u;
+    *rng = make_rng(frame->seed, (uint)pixel, (uint)p->first_sample + s_i);
+    float2 off = per_pass > 1u && !RNG_SOBOL ? pixel_sample_offset(frame->sampler, s_i, n, rng)
+                               : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, rng);
+    float px = (float)(pixel % frame->width), py = (float)(pixel / frame->width);
+    float sx = 2.0f * (px + off.x) / (float)frame->width - 1.0f;
+    float sy = 1.0f - 2.0f * (py + off.y) / (float)frame->height;
+    Ray r = camera_ray(&frame->camera, sx, sy, rng);
+    st->off[0] = off.x;
+    st->off[1] = off.y;
+    st->weight = pixel_filter_weight(frame->pixel_filter, off);
+    st->pixel = pixel;
+    st->sample = s_i;
+    vstore3(r.o, 0, st->o);
+    vstore3(r.d, 0, st->d);
+    vstore3((float3)(1.0f), 0, st->beta);
+    vstore3((float3)(0.0f), 0, st->radiance);
+    vstore3((float3)(0.0f), 0, st->prev_n);
+    st->prev_pdf = 0.0f;
+    st->prev_delta = 1; /* the camera ray: every light it meets counts whole */
+    st->depth = 0;
+    st->ended = 0;
+}
+
+/* The closest hit of the path's ray (the camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS emitting triangles). */
+INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
+    Ray r = state_ray(st);
     float t_min = 0.0f;
 #if HIDE_EMITTERS
     int hidden = 0;
 #endif
-    for (int depth = 0;; ++depth) {
+    for (;;) {
         float opacity;
-        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, depth == 0, rng, &opacity, visits);
-        *rays += 1;
+        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, st->depth == 0, rng, &opacity, &st->visits);
+        st->rays += 1;
 #if HIDE_EMITTERS
-        if (depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
+        if (st->depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
             t_min = h.t; /* the camera ray again, past this emitting triangle */
-            depth = -1;
             continue;
         }
-        t_min = 0.0f;
 #endif
-        bool shown = !HIDE_EMITTERS || depth > 0; /* emission this vertex may add */
-        if (shown) radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
-        if (h.id < 0) {
-            float mis;
-            float3 le = environment_met(s, r.d, prev_n, prev_delta, prev_pdf, &mis);
-            if (shown) radiance += beta * le * mis;
-            if (depth == 0) *first = first_hit_of(s, 0, 0, h);
-            break;
-        }
-        Surface f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
-        MaterialPoint m = material_at(s->tex, s->tex.materials, &f);
-        if (depth == 0) *first = first_hit_of(s, &f, &m, h);
-        if (shown) radiance += beta * emission_met(s, &f, &m, h, r.d, prev_delta, prev_pdf);
-        if (depth > s->p.frame.max_depth) break; /* the last vertex: only its emission counts */
-        rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
-        Component c = pick_component(&m, rng_next(rng));
-        Frame fr = component_frame(c, &f);
-        float3 wo = to_local(fr, -r.d);
-        if (!component_is_delta(c)) radiance += beta * direct_lighting(s, &f, c, fr, wo, rng, visits, rays);
-        rng_slot(rng, SLOT_BSDF);
-        float u1 = rng_next(rng);
-        float2 u2 = (float2)(rng_next(rng), rng_next(rng));
-        BsdfSample bs = component_sample(c, wo, u1, u2);
-        if (!(bs.pdf > 0.0f)) break;
-        float3 wi = to_world(fr, bs.wi);
-        beta *= bs.weight;
-        if (depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
-            float q = min_f(max3(beta), RR_SURVIVE_MAX);
-            rng_slot(rng, SLOT_RR);
-            if (!(rng_next(rng) < q)) break;
-            beta /= q;
-        }
-        /* ends a path of no throughput, or a NaN or runaway one: reflectances <= 1 keep beta near 1, and
-         * BETA_LIMIT times the largest radiance a scene allows (1e12) stays inside float32 */
-        if (!(max3(beta) > 0.0f && max3(beta) < BETA_LIMIT)) break;
-        prev_delta = bs.delta != 0;
-        prev_pdf = bs.pdf;
-        prev_n = f.n_shade;
-        r = make_ray(offset_origin(f.p, f.p_err, dot3(wi, f.n_geo) >= 0.0f ? f.n_geo : -f.n_geo), wi);
+        return h;
     }
-    return radiance;
+}
+
+/* What shade_step's two halves share of a vertex. */
+typedef struct {
+    Surface f;
+    MaterialPoint m;
+    Component c;
+    Frame fr;
+    float3 wo;
+} PathVertex;
+
+INLINE void set_first_hit(PathState *st, FirstHit fh) {
+    vstore3(fh.normal, 0, st->fh_normal);
+    vstore3(fh.albedo, 0, st->fh_albedo);
+    st->fh_depth = fh.depth;
+    st->fh_object = fh.object;
+}
+
+/* shade_step's first half at hit h: the light the ray brings (area lights, the environment or the surface's emission),
+ * the first hit, and NEE's shadow ray with the radiance it adds if unblocked (st->shadowed, shadow_l, shadow_beta).  False: the path
+ * ends here (a miss, or the vertex past max_depth). */
+INLINE bool shade_surface(const PathScene *s, PathState *st, Hit h, Rng *rng, PathVertex *v) {
+    Ray r = state_ray(st);
+    float3 beta = vload3(0, st->beta), radiance = vload3(0, st->radiance);
+    bool prev_delta = st->prev_delta != 0;
+    float prev_pdf = st->prev_pdf;
+    int depth = st->depth;
+    st->shadowed = 0;
+    bool shown = !HIDE_EMITTERS || depth > 0; /* emission this vertex may add */
+    if (shown) radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
+    if (h.id < 0) {
+        float mis;
+        float3 le = environment_met(s, r.d, vload3(0, st->prev_n), prev_delta, prev_pdf, &mis);
+        if (shown) radiance += beta * le * mis;
+        if (depth == 0) set_first_hit(st, first_hit_of(s, 0, 0, h));
+        vstore3(radiance, 0, st->radiance);
+        return false;
+    }
+    v->f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
+    v->m = material_at(s->tex, s->tex.materials, &v->f);
+    if (depth == 0) set_first_hit(st, first_hit_of(s, &v->f, &v->m, h));
+    if (shown) radiance += beta * emission_met(s, &v->f, &v->m, h, r.d, prev_delta, prev_pdf);
+    vstore3(radiance, 0, st->radiance);
+    if (depth > s->p.frame.max_depth) return false; /* the last vertex: only its emission counts */
+    rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
+    v->c = pick_component(&v->m, rng_next(rng));
+    v->fr = component_frame(v->c, &v->f);
+    v->wo = to_local(v->fr, -r.d);
+    if (!component_is_delta(v->c)) {
+        float3 nee = direct_lighting(s, &v->f, v->c, v->fr, v->wo, rng, st);
+        if (st->shadowed) {
+            vstore3(nee, 0, st->shadow_l);
+            vstore3(beta, 0, st->shadow_beta);
+        }
+    }
+    return true;
+}
+
+/* shade_step's second half: the BSDF's next direction, Russian roulette, and the next ray.  False: the path ends. */
+INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng *rng) {
+    rng_slot(rng, SLOT_BSDF);
+    float u1 = rng_next(rng);
+    float2 u2 = (float2)(rng_next(rng), rng_next(rng));
+    BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
+    if (!(bs.pdf > 0.0f)) return false;
+    float3 wi = to_world(v->fr, bs.wi);
+    float3 beta = vload3(0, st->beta) * bs.weight;
+    if (st->depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
+        float q = min_f(max3(beta), RR_SURVIVE_MAX);
+        rng_slot(rng, SLOT_RR);
+        if (!(rng_next(rng) < q)) return false;
+        beta /= q;
+    }
+    /* ends a path of no throughput, or a NaN or runaway one: reflectances <= 1 keep beta near 1, and
+     * BETA_LIMIT times the largest radiance a scene allows (1e12) stays inside float32 */
+    if (!(max3(beta) > 0.0f && max3(beta) < BETA_LIMIT)) return false;
+    const Surface *f = &v->f;
+    vstore3(beta, 0, st->beta);
+    st->prev_delta = bs.delta != 0;
+    st->prev_pdf = bs.pdf;
+    vstore3(f->n_shade, 0, st->prev_n);
+    vstore3(offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo), 0, st->o);
+    vstore3(wi, 0, st->d);
+    st->depth += 1;
+    return true;
+}
+
+/* One vertex, NEE's shadow ray left untraced: false when the path ends (after that shadow ray). */
+INLINE bool shade_step(const PathScene *s, PathState *st, Hit h, Rng *rng) {
+    PathVertex v;
+    return shade_surface(s, st, h, rng, &v) && scatter(s, st, &v, rng);
+}
+
+/* The shadow ray's answer: its radiance added when nothing blocked it (visible() multiplied it by exactly 1 or 0). */
+INLINE void shadow_step(PathState *st, bool unblocked) {
+    /* one expression, as `radiance += beta * nee` was: FP_CONTRACT is on here (intersect.h), a fused multiply-add */
+    if (st->shadowed && unblocked) vstore3(vload3(0, st->radiance) + vload3(0, st->shadow_beta) * vload3(0, st->shadow_l), 0, st->radiance);
+    st->shadowed = 0;
+}
+
+/* The megakernel's path: the steps in turn, each shadow ray traced where NEE made it (before the BSDF's sample: with
+ * ALPHA_TEST and the independent sampler, its draws come first in the stream). */
+INLINE void trace_path(const PathScene *s, PathState *st, Rng *rng) {
+    for (;;) {
+        Hit h = extend_step(s, st, rng);
+        PathVertex v;
+        bool on = shade_surface(s, st, h, rng, &v);
+        if (st->shadowed) shadow_step(st, shadow_unblocked(s, st, rng));
+        if (!on || !scatter(s, st, &v, rng)) return;
+    }
 }
 
 /* A pixel's AOVs: the object id and depth of its first path, and the normal and albedo as the colour is, the
@@ -449,9 +603,9 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
 #endif
 }
 
-#if SPLAT_RADIUS
 #define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
-#define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE)
+#define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE) /* 1 without SPLAT_RADIUS */
+#if SPLAT_RADIUS
 /* A sample at `off` in its pixel, of radiance L, added to slot (dy, dx) as (f L, f), f the filter's weight about the
  * centre of the pixel dy - R rows and dx - R columns away (clrender/trace/film.py gathers the slots). */
 INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
@@ -468,16 +622,48 @@ INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
 }
 #endif
 
-/* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
- * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
- * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS. */
-__kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
-                          __global const VertexNormals *normals, __global const VertexAttributes *attributes,
-                          __global const float4 *texels, __global const char *tables, __global const char *world,
-                          __global const int *pixels, PathParams params, __global char *out) {
+/* The sample's radiance and first hit into the pixel's sums (the first sample's hit is the pixel's id and depth); with
+ * SPLAT_RADIUS, its radiance splatted into `splats`. */
+INLINE void finish_sample(PathState *st, float4 *splats) {
+    float3 radiance = vload3(0, st->radiance);
+    float weight = st->weight;
+#if SPLAT_RADIUS
+    splat_sample(splats, (float2)(st->off[0], st->off[1]), radiance);
+#else
+    vstore3(vload3(0, st->sum) + weight * radiance, 0, st->sum);
+#endif
+    st->weight_sum += weight;
+    vstore3(vload3(0, st->normal_sum) + weight * vload3(0, st->fh_normal), 0, st->normal_sum);
+    vstore3(vload3(0, st->albedo_sum) + weight * vload3(0, st->fh_albedo), 0, st->albedo_sum);
+    if (st->sample == 0) {
+        st->first_object = st->fh_object;
+        st->first_depth = st->fh_depth;
+    }
+}
+
+/* Slot gid's outputs once its pixel's samples are done: the filtered mean (without SPLAT_RADIUS; the splats are
+ * written as they are), the AOVs and the counters. */
+INLINE void write_pixel(const PathParams *p, const PathState *st, int gid, __global char *out) {
+    const FrameParams *frame = &p->frame;
+    float3 sum = vload3(0, st->sum);
+    float weight_sum = st->weight_sum;
+#if !SPLAT_RADIUS
+    REGION(out, float4, frame->out.colour)[gid] = (float4)(sum / weight_sum, weight_sum);
+#endif
+    if (frame->record) {
+        FirstHit first = {(float3)(0.0f), (float3)(0.0f), st->first_depth, st->first_object};
+        record_aovs(first, vload3(0, st->normal_sum) / weight_sum, vload3(0, st->albedo_sum) / weight_sum,
+                    REGION(out, AovRecord, frame->out.aov) + gid, REGION(out, IdRecord, frame->out.ids) + gid);
+    }
+    REGION(out, uint2, frame->out.stats)[gid] = (uint2)(st->visits, st->rays);
+}
+
+/* The scene as every path kernel sees it (render_path, kernels/wavefront.cl). */
+INLINE PathScene path_scene(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
+                            __global const VertexNormals *normals, __global const VertexAttributes *attributes,
+                            __global const float4 *texels, __global const char *tables, __global const char *world,
+                            PathParams params) {
     FrameParams frame = params.frame;
-    int gid = get_global_id(0);
-    if (gid >= frame.n_work) return;
     PathScene s;
     s.geo = scene_geometry(nodes, prims, prim_object, tables, frame.tables, frame.n_prims, frame.n_instances, true);
     s.normals = normals; s.lights = REGION(world, const Light, frame.world.lights);
@@ -488,47 +674,38 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
                      REGION(world, const float, frame.world.env_conditional));
     s.tex = scene_textures(attributes, tables, frame.tables, texels);
     s.p = params;
-    __global float4 *colour_out = REGION(out, float4, frame.out.colour);
-    __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);
-    __global uint2 *stats_out = REGION(out, uint2, frame.out.stats);
-    __global AovRecord *aov_out = REGION(out, AovRecord, frame.out.aov);
-    Camera camera = frame.camera;
+    return s;
+}
+
+#ifndef PATH_STEPS_ONLY
+/* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
+ * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
+ * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS.  The megakernel schedule:
+ * one path after another per work-item (kernels/wavefront.cl is the other). */
+__kernel void render_path(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
+                          __global const VertexNormals *normals, __global const VertexAttributes *attributes,
+                          __global const float4 *texels, __global const char *tables, __global const char *world,
+                          __global const int *pixels, PathParams params, __global char *out) {
+    int gid = get_global_id(0);
+    if (gid >= params.frame.n_work) return;
+    PathScene s = path_scene(nodes, prims, prim_object, normals, attributes, texels, tables, world, params);
     int pixel = pixels[gid];
-    float px = (float)(pixel % frame.width), py = (float)(pixel / frame.width);
-    uint n = (uint)frame.samples_per_side, per_pass = n * n == (uint)params.spp ? n * n : 1u;
-    float3 sum = (float3)(0.0f), normal_sum = (float3)(0.0f), albedo_sum = (float3)(0.0f);
-    float weight_sum = 0.0f;
-    uint visits = 0, rays = 0;
-    FirstHit first;
-#if SPLAT_RADIUS
+    PathState st;
+    start_pixel(&st);
     float4 splats[SPLAT_SLOTS];
+#if SPLAT_RADIUS
     for (int k = 0; k < SPLAT_SLOTS; ++k) splats[k] = (float4)(0.0f);
 #endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
-        uint sample = (uint)params.first_sample + s_i;
-        Rng rng = make_rng(frame.seed, (uint)pixel, sample);
-        float2 off = per_pass > 1u && !RNG_SOBOL ? pixel_sample_offset(frame.sampler, s_i, n, &rng)
-                                   : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, &rng);
-        float sx = 2.0f * (px + off.x) / (float)frame.width - 1.0f;
-        float sy = 1.0f - 2.0f * (py + off.y) / (float)frame.height;
-        Ray r = camera_ray(&camera, sx, sy, &rng);
-        float weight = pixel_filter_weight(frame.pixel_filter, off);
-        FirstHit fh;
-#if SPLAT_RADIUS
-        splat_sample(splats, off, path_radiance(&s, r, &rng, &fh, &visits, &rays));
-#else
-        sum += weight * path_radiance(&s, r, &rng, &fh, &visits, &rays);
-#endif
-        weight_sum += weight;
-        normal_sum += weight * fh.normal;
-        albedo_sum += weight * fh.albedo;
-        if (s_i == 0) first = fh;
+        Rng rng;
+        start_sample(&params, &st, pixel, s_i, &rng);
+        trace_path(&s, &st, &rng);
+        finish_sample(&st, splats);
     }
 #if SPLAT_RADIUS
+    __global float4 *colour_out = REGION(out, float4, params.frame.out.colour);
     for (int k = 0; k < SPLAT_SLOTS; ++k) colour_out[gid * SPLAT_SLOTS + k] = splats[k];
-#else
-    colour_out[gid] = (float4)(sum / weight_sum, weight_sum);
 #endif
-    if (frame.record) record_aovs(first, normal_sum / weight_sum, albedo_sum / weight_sum, aov_out + gid, ids_out + gid);
-    stats_out[gid] = (uint2)(visits, rays);
+    write_pixel(&params, &st, gid, out);
 }
+#endif

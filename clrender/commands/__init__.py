@@ -44,6 +44,8 @@ def scene_defaults(args, settings, scene):
             changes["samples"] = 1 if scene.aa == "none" else 4
     if scene.path_sampler is not None and getattr(args, "path_sampler", None) is None:
         changes["path_sampler"] = scene.path_sampler
+    if scene.path_schedule is not None and getattr(args, "path_schedule", None) is None:
+        changes["path_schedule"] = scene.path_schedule
     return replace(settings, **changes)
 
 

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 from ..errors import RenderWarning, UsageError
 from ..image.tonemap import TONEMAPS
-from ..layout import PATH_SAMPLERS
+from ..layout import PATH_SAMPLERS, PATH_SCHEDULES
 from ..trace import film
 from ..trace.renderer import AA_MODES, INTEGRATORS, SAMPLERS, RenderSettings
 from . import add_device_argument, add_foreign_arguments, scene_defaults
@@ -172,6 +172,13 @@ def _add_sampling_arguments(p, d) -> None:
         default=None,
         help="path tracer: its random numbers, sobol (Owen-scrambled Sobol: less noise at equal time) or independent "
         f"(hashed uniform numbers) (default: the scene's path_sampler, else {d.path_sampler})",
+    )
+    p.add_argument(
+        "--path-schedule",
+        choices=PATH_SCHEDULES,
+        default=None,
+        help="path tracer: megakernel (a path per work-item) or wavefront (a kernel per step, shading in SIMD lanes; the same "
+        f"bits; docs/lanes.md) (default: the scene's path_schedule, else {d.path_schedule})",
     )
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(
@@ -400,6 +407,7 @@ def settings_from_args(args) -> RenderSettings:
         pixel_filter=d.pixel_filter if args.pixel_filter is None else args.pixel_filter,
         rfilter=d.rfilter if args.rfilter is None else args.rfilter,
         path_sampler=d.path_sampler if getattr(args, "path_sampler", None) is None else args.path_sampler,
+        path_schedule=d.path_schedule if getattr(args, "path_schedule", None) is None else args.path_schedule,
         contrast=args.contrast,
         max_depth=d.max_depth if args.max_depth is None else args.max_depth,
         integrator=integrator,

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from ..layout import PATH_SAMPLERS
+from ..layout import PATH_SAMPLERS, PATH_SCHEDULES
 from ..package_data import data_dir
 from . import environment, gltf, obj_mtl, textures
 from .camera import Camera, read_camera
@@ -192,6 +192,7 @@ class Scene:
     default_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
     aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
     path_sampler: str | None = None  # the path tracer's sampler `render` uses when --path-sampler is not given (None: sobol)
+    path_schedule: str | None = None  # the path tracer's schedule `render` uses when --path-schedule is not given (None: megakernel)
     default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, rfilter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each
@@ -319,6 +320,7 @@ TOP_KEYS = (
     "aa",
     "textures",
     "path_sampler",
+    "path_schedule",
 )
 # Older spellings of top-level keys, still accepted: each is read as the key it names (docs/scene-format.md)
 OLD_TOP_KEYS = {"featured_camera": "default_camera", "seed_camera": "default_camera"}
@@ -346,6 +348,7 @@ def _read_scene(checks: Checks, data: dict, name: str) -> Scene:
     scene.default_camera = checks.integer(data, "default_camera", "", 1, low=1, high=len(scene.cameras))
     scene.aa = checks.choice(data, "aa", "", None, ("none", "full", "edge_detect")) if "aa" in data else None
     scene.path_sampler = checks.choice(data, "path_sampler", "", None, tuple(PATH_SAMPLERS)) if "path_sampler" in data else None
+    scene.path_schedule = checks.choice(data, "path_schedule", "", None, PATH_SCHEDULES) if "path_schedule" in data else None
     materials = checks.table(data.get("materials", {}), "materials")
     if len(materials) > MAX_MATERIALS:
         checks.fail("materials", f"{len(materials)} materials; allowed: at most {MAX_MATERIALS}")

@@ -52,6 +52,10 @@ class Integrator:
         """This integrator's kernel build: the render kernels' variant (Variant.rendering) in its file."""
         return replace(rendering, filename=self.kernel[0])
 
+    def make_kernel(self, device, variant: Variant):
+        """What Renderer.launch calls with the render kernels' named buffers: this integrator's kernel."""
+        return device.kernel(variant.filename, self.kernel[1], variant.defines())
+
     def world(self) -> dict:
         """This integrator's arrays of the world arena (layout.WORLD_REGIONS_DTYPE): placeholders here."""
         return dict(emitters=np.zeros(1, EMITTER_DTYPE), emitter_of_prim=np.full(1, -1, np.int32), light_choices=np.zeros(1, LIGHT_CHOICE_DTYPE))
@@ -179,6 +183,16 @@ class PathIntegrator(Integrator):
             **({"PATH_SAMPLER": PATH_SAMPLERS[s.path_sampler]} if s.path_sampler != "independent" else {}),  # kernels/sobol.h
         }
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
+
+    def make_kernel(self, device, variant: Variant):
+        """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py) where the
+        build allows (wavefront.falls_back)."""
+        from .wavefront import Wavefront, falls_back
+
+        defines = variant.defines()
+        if self.settings.path_schedule == "wavefront" and not falls_back(defines):
+            return Wavefront(device, defines)
+        return super().make_kernel(device, variant)
 
     def world(self) -> dict:
         from .light_choice import DEFENSIVE_SHARE, choices, groups, near_share, powers

@@ -23,6 +23,7 @@ from ..arena import alignment, offsets, pack
 from ..device import compile_notice
 from ..errors import UsageError, require, value_shown, warn
 from ..layout import AOV_DTYPE, FRAME_PARAMS_DTYPE, ID_RECORD_DTYPE, LIGHT_DTYPE, OUT_REGIONS_DTYPE, PIXEL_FILTERS, SAMPLERS, WORLD_REGIONS_DTYPE
+from ..layout import PATH_SCHEDULES as SCHEDULES  # the path tracer's schedules (RenderSettings.path_schedule)
 from ..progress import progress
 from ..scene.scene import Scene
 from . import film, integrators
@@ -75,6 +76,9 @@ class RenderSettings:
     hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
     rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: path.RR_DEPTH (3)
     path_sampler: str = "sobol"  # path: its random numbers, "sobol" (Owen-scrambled Sobol, kernels/sobol.h) or "independent" (hashed)
+    # path: "megakernel" (render_path, a path per work-item) or "wavefront" (a kernel per step, shading in SIMD lanes:
+    # trace/wavefront.py, docs/lanes.md); the same bits
+    path_schedule: str = "megakernel"
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
@@ -115,6 +119,7 @@ class RenderSettings:
         require(_name_in(s.light_sampler, LIGHT_SAMPLERS), f"unknown light sampler {v(s.light_sampler)}; allowed: {', '.join(LIGHT_SAMPLERS)}")
         paths = integrators.PATH_SAMPLERS
         require(_name_in(s.path_sampler, paths), f"unknown path sampler {v(s.path_sampler)}; allowed: {', '.join(paths)}")
+        require(_name_in(s.path_schedule, SCHEDULES), f"unknown path schedule {v(s.path_schedule)}; allowed: {', '.join(SCHEDULES)}")
         depth_limit = kind.depth_limit
         require(_whole(s.max_depth) and 0 <= s.max_depth <= depth_limit, f"max depth {v(s.max_depth)} must be from 0 to {depth_limit}")
         require(
@@ -260,7 +265,7 @@ class Renderer:
         self.variant = self.integrator.variant(self.tracer.variant.rendering(self.scene, self.write_aov))  # its -D defines
         start = time.perf_counter()
         with compile_notice(dev):  # a line on stderr when the build is slow (a cold cache)
-            self.kernel = dev.kernel(self.variant.filename, self.integrator.kernel[1], self.variant.defines())
+            self.kernel = self.integrator.make_kernel(dev, self.variant)  # render_path, or the wavefront schedule's loop
             self.launch(np.zeros(1, np.int32), "uniform", 1, True)  # PoCL finishes compiling on first launch
         self.compile_seconds = time.perf_counter() - start
 
