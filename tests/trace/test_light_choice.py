@@ -62,16 +62,19 @@ def test_the_defensive_share_is_spread_evenly_over_the_groups():
     assert r["cdf"][-1] == 1.0 and r["cdf"][-2] == 1.0
 
 
-def test_the_near_choice_is_one_more_record_and_only_where_a_scene_light_can_take_it():
-    """With `near`, every light's share times 1 - near and a last record of share near; near_share is NEAR_SHARE with a
-    point light, 0 with only a physical area light (whose probability must not depend on the vertex: MIS)."""
+def test_the_near_choice_is_one_more_record_and_only_where_it_can_tell_lights_apart():
+    """With `near`, every light's share times 1 - near and a last record of share near.  near_share is NEAR_SHARE where
+    two or more lights can take the near choice; 0 with only a physical area light (whose probability must not depend
+    on the vertex: MIS) and with one light that can take it (a fixed pick whatever the vertex)."""
     r = choices(np.array([3.0, 1.0]), near=0.5)
     np.testing.assert_allclose(r["prob"], [0.375, 0.125, 0.5], atol=1e-6)
     assert r["cdf"][-1] == 1.0
     area = {"type": "area", "corner": [0, 1, 0], "edge_a": [1, 0, 0], "edge_b": [0, 0, 1], "falloff": "inverse_square"}
-    point = {"type": "point", "position": [0, 1, 0]}
+    point = {"type": "point", "position": [0, 1, 0], "falloff": "inverse_square"}
+    sun = {"type": "directional", "direction": [0, -1, 0], "falloff": "inverse_square"}
     scene = lambda *lights: Scene.from_dict({"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}], "lights": list(lights)})
-    assert near_share(scene(area)) == 0.0 and near_share(scene(area, point)) == NEAR_SHARE > 0
+    assert near_share(scene(area)) == near_share(scene(area, point)) == near_share(scene(area, sun)) == 0.0
+    assert near_share(scene(point, sun)) == near_share(scene(area, point, {**point, "position": [2, 1, 0]})) == NEAR_SHARE > 0
 
 
 def test_a_scene_without_power_chooses_uniformly():
