@@ -1,5 +1,5 @@
-/* The camera's primary rays, one function for every integrator (trace.cl's render, path.cl's
- * render_path).  The Camera record (clrender/layout.py, packed by clrender/scene/camera.py) holds a
+/* The camera's primary rays and a pixel's samples, one function each for every integrator (trace.cl's render,
+ * path.cl's render_path and the wavefront).  The Camera record (clrender/layout.py, packed by clrender/scene/camera.py) holds a
  * perspective or orthographic frame and a thin lens: a lens of radius `aperture` whose rays through one
  * image point all meet where that point's pinhole ray crosses the plane `focus_distance` ahead, so that
  * plane is sharp and a point at distance d is a disc of diameter 2 aperture |d - focus| / (focus d) on
@@ -10,6 +10,7 @@
 #include "common.h"
 #include "rng.h"
 #include "mathf.h"
+#include "sampling.h"
 
 /* A uniform point of the unit disc from u in [0,1)^2, by Shirley and Chiu's concentric map (pbrt-v4's
  * SampleUniformDiskConcentric): squares to rings, so stratified u stay stratified on the lens. */
@@ -44,6 +45,26 @@ INLINE Ray camera_ray(const Camera *c, float sx, float sy, Rng *rng) {
     float3 focus = origin + c->focus_distance * d;
     float3 start = origin + lens.x * vload3(0, c->lens_right) + lens.y * vload3(0, c->lens_up);
     return make_ray(start, unit(focus - start));
+}
+
+/* One sample of a pixel, as every integrator's pixel loop takes it: its place in the pixel, the pixel filter's weight
+ * there, and the camera ray through it. */
+typedef struct {
+    Ray ray;
+    float2 off;   /* in [0, 1)^2 from the pixel's corner (sampling.h pixel_sample_offset) */
+    float weight; /* pixel_filter_weight at off */
+} PixelSample;
+
+/* Sample s of pixel `pixel` (its index in the frame, row-major) by pixel_sample_offset(sampler, s, n, rng). */
+INLINE PixelSample pixel_sample(const FrameParams *frame, int pixel, int sampler, uint s, uint n, Rng *rng) {
+    PixelSample ps;
+    ps.off = pixel_sample_offset(sampler, s, n, rng);
+    float px = (float)(pixel % frame->width), py = (float)(pixel / frame->width);
+    float sx = 2.0f * (px + ps.off.x) / (float)frame->width - 1.0f;
+    float sy = 1.0f - 2.0f * (py + ps.off.y) / (float)frame->height;
+    ps.ray = camera_ray(&frame->camera, sx, sy, rng);
+    ps.weight = pixel_filter_weight(frame->pixel_filter, ps.off);
+    return ps;
 }
 
 #endif

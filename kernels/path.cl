@@ -437,15 +437,12 @@ INLINE void start_sample(const PathParams *p, PathState *st, int pixel, uint s_i
     const FrameParams *frame = &p->frame;
     uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)p->spp ? n * n : 1u;
     *rng = make_rng(frame->seed, (uint)pixel, (uint)p->first_sample + s_i);
-    float2 off = per_pass > 1u && !RNG_SOBOL ? pixel_sample_offset(frame->sampler, s_i, n, rng)
-                               : pixel_sample_offset(SAMPLER_RANDOM, 0, 1, rng);
-    float px = (float)(pixel % frame->width), py = (float)(pixel / frame->width);
-    float sx = 2.0f * (px + off.x) / (float)frame->width - 1.0f;
-    float sy = 1.0f - 2.0f * (py + off.y) / (float)frame->height;
-    Ray r = camera_ray(&frame->camera, sx, sy, rng);
-    st->off[0] = off.x;
-    st->off[1] = off.y;
-    st->weight = pixel_filter_weight(frame->pixel_filter, off);
+    bool grid = per_pass > 1u && !RNG_SOBOL; /* a stratified grid over one pass's samples, else uniform offsets */
+    PixelSample ps = pixel_sample(frame, pixel, grid ? frame->sampler : SAMPLER_RANDOM, grid ? s_i : 0u, grid ? n : 1u, rng);
+    Ray r = ps.ray;
+    st->off[0] = ps.off.x;
+    st->off[1] = ps.off.y;
+    st->weight = ps.weight;
     st->pixel = pixel;
     st->sample = s_i;
     vstore3(r.o, 0, st->o);

@@ -55,28 +55,21 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     __global float *shadow_out = REGION(out, float, frame.out.shadow);
     __global uint2 *stats_out = REGION(out, uint2, frame.out.stats);
     __global AovRecord *aov_out = REGION(out, AovRecord, frame.out.aov);
-    Camera camera = frame.camera;
-
     int pixel = pixels[gid];
-    float px = (float)(pixel % frame.width), py = (float)(pixel / frame.width);
     uint n = (uint)frame.samples_per_side;
     float3 sum = (float3)(0.0f);
     float weight_sum = 0.0f;
     uint visits = 0, rays = 0;
     for (uint s = 0; s < n * n; ++s) {
         Rng rng = make_rng(frame.seed, (uint)pixel, s);
-        float2 off = pixel_sample_offset(frame.sampler, s, n, &rng);
-        float sx = 2.0f * (px + off.x) / (float)frame.width - 1.0f;
-        float sy = 1.0f - 2.0f * (py + off.y) / (float)frame.height;
-        Ray r = camera_ray(&camera, sx, sy, &rng);
+        PixelSample ps = pixel_sample(&frame, pixel, frame.sampler, s, n, &rng);
         bool keep = frame.record && s == 0; /* ids and shadows of the first sample */
 #if WRITE_AOV
         sc.aov = keep ? aov_out + gid : 0; /* AOVs come from the same ray as the ids */
 #endif
-        float weight = pixel_filter_weight(frame.pixel_filter, off);
-        sum += weight * trace_path(&sc, r, &rng, keep ? ids_out + gid : 0,
-                                   keep ? shadow_out + (size_t)gid * frame.n_lights : 0, &visits, &rays);
-        weight_sum += weight;
+        sum += ps.weight * trace_path(&sc, ps.ray, &rng, keep ? ids_out + gid : 0,
+                                      keep ? shadow_out + (size_t)gid * frame.n_lights : 0, &visits, &rays);
+        weight_sum += ps.weight;
     }
     colour_out[gid] = (float4)(sum / weight_sum, 1.0f);
     stats_out[gid] = (uint2)(visits, rays);
