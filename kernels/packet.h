@@ -143,8 +143,7 @@ INLINE void count_rays(uint *visits, uint rays) {
     for (int k = 0; k < PACKET_RAYS; ++k) visits[k] += (rays >> k) & 1u;
 }
 
-#if INSTANCED
-/* ---------------------------------------------------------------- instanced packets (the query kernels)
+/* ---------------------------------------------------------------- instanced packets (the query kernels, -DINSTANCED=1)
  * Eight world rays whose directions share their signs walk the top tree together (packet_boxes on its wide
  * nodes, each ray's own t range); at an instance the rays that reached it go into object space as
  * visit_instance_entered takes them (the same float operations per ray) and walk its mesh as one packet
@@ -172,7 +171,6 @@ INLINE void top_packet(Packet *p, const InstanceRays *q, uint rays) {
     p->sp = 0;
     p->overflow = false;
 }
-#endif
 
 /* The packet's walks, once per kind (kernels/packet_walks.h): closest hit (the _closest functions) and any-hit
  * (_any). */

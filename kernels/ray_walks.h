@@ -214,16 +214,20 @@ INLINE void KIND(walk_instances)(const Geometry *g, Ray r, float t_min, float t_
     if (g->n_instances == 0 || (ANY_HIT && *T == 0.0f)) return;
     KIND(top_walk)(g, r, t_min, t_max, pass, false, false, best, T, visits);
 }
-#endif
 
+/* Every query's entry point (closest_hit, transmittance, the query kernels): the closest hit in (t_min, t_max) in
+ * *best (slot -1 on a miss), or the light let through up to t_max in *T; instanced, walk_instances (r sheared or
+ * not: each walk shears its own), else walk_tree (r sheared). */
 INLINE void KIND(trace_query)(const Geometry *g, Ray r, float t_min, float t_max, Pass pass, Hit *best, float *T,
                               uint *visits) {
-#if INSTANCED
     KIND(walk_instances)(g, r, t_min, t_max, pass, best, T, visits);
-#else
-    KIND(walk_tree)(g, r, t_min, t_max, pass, best, T, visits);
-#endif
 }
+#else
+INLINE void KIND(trace_query)(const Geometry *g, Ray r, float t_min, float t_max, Pass pass, Hit *best, float *T,
+                              uint *visits) {
+    KIND(walk_tree)(g, r, t_min, t_max, pass, best, T, visits);
+}
+#endif
 
 #undef ANY_HIT
 #undef KIND
