@@ -69,9 +69,15 @@ INLINE void KIND(packet_leaf)(Packet *p, const Geometry *g, int first, int count
 }
 
 /* The walker with a Packet on a mesh's wide tree (packet_root, packet_step): an entry's rays are those that hit
- * its box and may still need it (closest hit: a ray whose nearest hit is nearer than every ray's entry into the
- * box is done with it; any-hit: the rays not blocked); a full stack ends the walk (p->overflow: the caller walks
- * the rays alone).  The context is unused: packets answer opaque queries only. */
+ * its box and may still need it (packet_entry); a full stack ends the walk (p->overflow: the caller walks the rays
+ * alone).  The context is unused: packets answer opaque queries only. */
+/* The rays of stack entry sp that still need it (closest hit: a ray whose nearest hit is nearer than every ray's
+ * entry into the box is done with it; any-hit: the rays not blocked). */
+INLINE uint KIND(packet_entry)(const Packet *p, int sp, uint key) {
+    uint rays = p->stack_rays[sp];
+    return rays & (ANY_HIT ? p->live : ray_bits((float8)(key_t(key)) <= p->t_max * BOX_EXIT_WIDEN));
+}
+
 #define walk_root KIND(packet_root)
 #define walk_step KIND(packet_step)
 #define WALK_ANY ANY_HIT
@@ -80,8 +86,7 @@ INLINE void KIND(packet_leaf)(Packet *p, const Geometry *g, int first, int count
 #define WALK_ROOT(g) ((g)->n_prims > 0)
 #define WALK_STATE Packet
 #define WALK_CONTEXT Pass
-#define WALK_ENTRY(p, c, sp, key) \
-    ((p)->stack_rays[sp] & (ANY_HIT ? (p)->live : ray_bits((float8)(key_t(key)) <= (p)->t_max * BOX_EXIT_WIDEN)))
+#define WALK_ENTRY(p, c, sp, key) KIND(packet_entry)(p, sp, key)
 #define WALK_VISIT(p, c, rays, count) count_visit(p, rays, count)
 #define WALK_PUSH(p, g, c, node, rays) packet_node(p, (g)->nodes + (node), node, (p)->t_max, rays, ANY_HIT)
 #define WALK_LEAF(p, g, c, first, count, rays) KIND(packet_leaf)(p, g, first, count, rays)
@@ -216,6 +221,12 @@ INLINE void KIND(packet_top_leaf)(const Geometry *g, int first, int count, bool 
 /* The walker with a Packet of the world rays (top_packet) on the top tree (packet_top_root, packet_top_step):
  * each ray's answer so far is in the context (InstanceRays), which its box tests and culls read; a wide leaf
  * lane is one instance's own box. */
+/* The rays of a top tree's stack entry sp that still need it, as packet_entry with each ray's answer so far in q. */
+INLINE uint KIND(packet_top_entry)(const Packet *p, const InstanceRays *q, int sp, uint key) {
+    uint rays = p->stack_rays[sp] & KIND(instance_rays_live)(q);
+    return rays & (ANY_HIT ? ALL_RAYS : ray_bits((float8)(key_t(key)) <= KIND(instance_rays_far)(q) * BOX_EXIT_WIDEN));
+}
+
 #define walk_root KIND(packet_top_root)
 #define walk_step KIND(packet_top_step)
 #define WALK_ANY ANY_HIT
@@ -224,9 +235,7 @@ INLINE void KIND(packet_top_leaf)(const Geometry *g, int first, int count, bool 
 #define WALK_ROOT(g) ((g)->n_instances > 0)
 #define WALK_STATE Packet
 #define WALK_CONTEXT InstanceRays *
-#define WALK_ENTRY(p, q, sp, key)                                                                                     \
-    ((p)->stack_rays[sp] & KIND(instance_rays_live)(q) &                                                             \
-     (ANY_HIT ? ALL_RAYS : ray_bits((float8)(key_t(key)) <= KIND(instance_rays_far)(q) * BOX_EXIT_WIDEN)))
+#define WALK_ENTRY(p, q, sp, key) KIND(packet_top_entry)(p, q, sp, key)
 #define WALK_VISIT(p, q, rays, count) count_rays((q)->visits, rays)
 #define WALK_PUSH(p, g, q, node, rays) packet_node(p, (g)->top + (node), node, KIND(instance_rays_far)(q), rays, ANY_HIT)
 #define WALK_LEAF(p, g, q, first, count, rays) KIND(packet_top_leaf)(g, first, count, (count) == 1, q, rays)
