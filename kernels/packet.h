@@ -10,7 +10,8 @@
  * A packet needs its rays to share the signs of their directions (the near plane of every box is the
  * same for all) and the axis of the largest component (the triangle test's permutation); rays that do
  * not, and packets that fill their stack, are walked one by one (Walk) instead.  Spheres in a leaf
- * are tested ray by ray with the lone walk's test. */
+ * are tested ray by ray with the lone walk's test.  A packet is a state of the walker (kernels/walk.h), walked by
+ * kernels/packet_walks.h once per kind; this file holds the state and its box test and push. */
 #ifndef CLRENDER_PACKET_H
 #define CLRENDER_PACKET_H
 
