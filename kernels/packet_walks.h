@@ -88,7 +88,7 @@ INLINE uint KIND(packet_entry)(const Packet *p, int sp, uint key) {
 #define WALK_CONTEXT Pass
 #define WALK_ENTRY(p, c, sp, key) KIND(packet_entry)(p, sp, key)
 #define WALK_VISIT(p, c, rays, count) count_visit(p, rays, count)
-#define WALK_PUSH(p, g, c, node, rays, top) packet_node(p, (g)->nodes + (node), node, (p)->t_max, rays, ANY_HIT)
+#define WALK_PUSH(p, g, c, node, rays, size) packet_node(p, (g)->nodes + (node), node, (p)->t_max, rays, ANY_HIT)
 #define WALK_LEAF(p, g, c, first, count, rays) KIND(packet_leaf)(p, g, first, count, rays)
 #define WALK_DONE(p, c) (ANY_HIT && (p)->live == 0)
 #include "walk.h"
@@ -237,7 +237,7 @@ INLINE uint KIND(packet_top_entry)(const Packet *p, const InstanceRays *q, int s
 #define WALK_CONTEXT InstanceRays *
 #define WALK_ENTRY(p, q, sp, key) KIND(packet_top_entry)(p, q, sp, key)
 #define WALK_VISIT(p, q, rays, count) count_rays((q)->visits, rays)
-#define WALK_PUSH(p, g, q, node, rays, top) packet_node(p, (g)->top + (node), node, KIND(instance_rays_far)(q), rays, ANY_HIT)
+#define WALK_PUSH(p, g, q, node, rays, size) packet_node(p, (g)->top + (node), node, KIND(instance_rays_far)(q), rays, ANY_HIT)
 #define WALK_LEAF(p, g, q, first, count, rays) KIND(packet_top_leaf)(g, first, count, (count) == 1, q, rays)
 #define WALK_DONE(p, q) (ANY_HIT && KIND(instance_rays_live)(q) == 0)
 #include "walk.h"

@@ -326,7 +326,7 @@ INLINE void shaft_push(ShaftWalk *w, const ShaftQuery *c, __global const WideNod
 #define WALK_CONTEXT const ShaftQuery *
 #define WALK_ENTRY(w, c, sp, key) 1u
 #define WALK_VISIT(w, c, rays, count) if ((count) == 0) { COUNT_NODE((c)->visits); }
-#define WALK_PUSH(w, g, c, node, rays, top) shaft_push(w, c, (g)->nodes + (node), node)
+#define WALK_PUSH(w, g, c, node, rays, size) shaft_push(w, c, (g)->nodes + (node), node)
 #define WALK_LEAF(w, g, c, first, count, rays) \
     if (!shaft_leaf((c)->sh, g, (c)->pass, first, count, (c)->own, (c)->cand)) (w)->overflow = true
 #define WALK_DONE(w, c) ((w)->overflow)

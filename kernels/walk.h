@@ -21,8 +21,8 @@
  *   WALK_CONTEXT   what the hooks read beside the state, passed along unchanged (one ray: its Pass)
  *   WALK_ENTRY(w, c, sp, key)          which of the state's rays still need stack entry sp, a mask (0: drop it)
  *   WALK_VISIT(w, c, rays, count)      count a visit of those rays: a node's boxes (count 0) or a leaf (count > 0)
- *   WALK_PUSH(w, g, c, node, rays, top) test node's boxes with those rays and push the lanes hit (keys whose lane
- *                                      is key_lane(key, WALK_ANY)) from `top`, the stack's size; a full stack sets
+ *   WALK_PUSH(w, g, c, node, rays, size) test node's boxes with those rays and push the lanes hit (keys whose lane
+ *                                      is key_lane(key, WALK_ANY)) from `size`, the stack's size; a full stack sets
  *                                      w->overflow
  *   WALK_LEAF(w, g, c, first, count, rays)  the leaf hook: `count` items from `first` met by those rays
  *   WALK_DONE(w, c)                    nothing is left to find: any-hit, every ray blocked (one ray: T is 0) */
@@ -34,9 +34,9 @@
 #define WALK_FAR(w) (WALK_ANY ? (w)->t_max : (w)->best.t) /* what culls a box: the segment, or the nearest hit */
 #define WALK_ENTRY(w, c, sp, key) (WALK_ANY || !(key_t(key) > WALK_FAR(w) * BOX_EXIT_WIDEN))
 #define WALK_VISIT(w, c, rays, count) COUNT_NODE(&(w)->visits)
-#define WALK_PUSH(w, g, c, node, rays, top)                                                                           \
+#define WALK_PUSH(w, g, c, node, rays, size)                                                                          \
     ((w)->sp = push_lanes(node, hit_boxes((w)->r, WALK_NODES(g) + (node), WALK_FAR(w)), WALK_ANY, (w)->sort_always,   \
-                          (w)->stack_key, (w)->stack_node, top, &(w)->overflow))
+                          (w)->stack_key, (w)->stack_node, size, &(w)->overflow))
 #define WALK_LEAF(w, g, c, first, count, rays)                                                                        \
     WALK_RAY_LEAF(g, first, count, true, (w)->r, (w)->t_min, (w)->t_max, c, &(w)->best, &(w)->T, &(w)->visits)
 #define WALK_DONE(w, c) (WALK_ANY && (w)->T == 0.0f)
