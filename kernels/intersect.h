@@ -1,18 +1,19 @@
 /* Ray-primitive tests and BVH traversal: the closest hit of a ray, and the light a shadow ray lets
  * through (any-hit: transmittance, which an opaque surface ends).
  *
- * One walker (kernels/walk.h), included once per tree: a mesh's (mesh_walk; wide or binary nodes by
- * BVH_WIDTH) and the instances' top tree (top_walk; wide or binary by TOP_WIDE), each with its leaf hook
- * (mesh_leaf: leaf_blocks or leaf_slots; top_leaf: visit_instance) and its fallback for a full stack.
- * Closest hit and any-hit are its `any_hit` parameter, and what a shadow ray keeps at a surface its
- * `pass` (Pass): constants at every call, so the compiler keeps one specialised copy of each.  The
- * entry point trace_query answers the BVH-off path too.  What walks apart, and why (measured speeds:
+ * One walker (kernels/walk.h), included once per tree, walked state and kind: for one ray (kernels/ray_walks.h,
+ * included here once per kind) a mesh's tree (mesh_walk_*; wide or binary nodes by BVH_WIDTH) and the instances'
+ * top tree (top_walk_*; wide or binary by TOP_WIDE), each with its leaf hook (mesh_leaf: leaf_blocks or
+ * leaf_slots; top_leaf: visit_instance) and its fallback for a full stack.  Closest hit and any-hit are separate
+ * functions (_closest, _any), and what a shadow ray keeps at a surface is the walk's `pass` (Pass), a constant at
+ * every call, so the compiler keeps one specialised copy of each.  The entry points closest_hit and
+ * transmittance answer the BVH-off path too.  The other states the walker walks (measured speeds:
  * docs/benchmarks.md, "Ray queries"):
  * - Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together, one stack
  *   and one box sort for all, each triangle tested against eight rays in float8 lanes; the query
  *   kernels walk rays that do not as pairs of stepped walks (packets: about 1.7x for coherent rays).
- * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one traversal
- *   with the shaft that holds them all, then test only the primitives it collected (about 2x fewer
+ * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one walk
+ *   of the shaft that holds them all, then test only the primitives it collected (about 2x fewer
  *   CPU-seconds for soft shadows). */
 #ifndef CLRENDER_INTERSECT_H
 #define CLRENDER_INTERSECT_H
@@ -285,26 +286,6 @@ INLINE float crossing_transmittance(const Geometry *g, int s, Ray r, float t_min
     return crossings == 2 ? transparency * transparency : transparency;
 }
 
-/* One leaf of slots [begin, end), or every slot.  Closest hit: the nearest hit is kept in *best, and
- * of hits at the same t the lower primitive id, so every traversal order (BVH on or off, binary or
- * wide, either builder) finds the same primitive.  Any-hit: *T is multiplied by each slot's
- * crossing_transmittance, in slot order, until it is 0. */
-INLINE void leaf_slots(const Geometry *g, int begin, int end, Ray r, float t_min, float t_max, bool any_hit,
-                       Pass pass, Hit *best, float *T) {
-    for (int s = begin; s < end && (!any_hit || *T > 0.0f); ++s) {
-        if (any_hit) {
-            *T *= crossing_transmittance(g, s, r, t_min, t_max, pass);
-            continue;
-        }
-        float u = 0.0f, v = 0.0f;
-        float t = hit_slot(g, s, r, t_min, best->t * HIT_TIE_WIDEN, &u, &v);
-        int id = prim_slot(g, s)->id;
-        if (t != INF_T && nearer_hit(t, id, best)) {
-            best->t = t; best->slot = s; best->id = id; best->u = u; best->v = v;
-        }
-    }
-}
-
 /* One slab of the box test: the entry and exit distances (lo - o) / d and
  * (hi - o) / d, picked by the sign of 1/d (so -0 counts as negative).  The
  * form (b - o) * inv_d is inf, never inf - inf, when d is zero and o lies off
@@ -496,35 +477,6 @@ INLINE float times_crossed(const Geometry *g, Pass pass, __global const LeafBloc
     return T;
 }
 
-/* The blocks of a wide leaf of `count` primitives from block `first` on (leaf_block), the triangles of a
- * block tested at once, its sphere lanes (rare: a sphere is one primitive) one by one by leaf_slots.
- * Closest hit: as leaf_slots.  Any-hit: the leaf's own product of crossings, which then multiplies *T
- * (the grouping the renders were made with: float products are not associative). */
-INLINE void leaf_blocks(const Geometry *g, int first, int count, Ray r, float t_min, float t_max, bool any_hit,
-                        Pass pass, Hit *best, float *T) {
-    __global const LeafBlock *block = leaf_block(g, first);
-    float leaf_T = 1.0f;
-    for (int b = 0; b < count && leaf_T > 0.0f; b += BLOCK_LANES, ++block) {
-        int4 slot = block->slot;
-        float4 u, v;
-        float4 t = hit_block(r, block, slot >= 0, t_min, any_hit ? t_max : best->t * HIT_TIE_WIDEN, &u, &v);
-        if (!any_hit) {
-            nearest_lane(g, slot, t, u, v, best);
-        } else if (pass.opaque) {
-            int4 crossed = t != (float4)(INF_T);
-            if (crossed.x | crossed.y | crossed.z | crossed.w) { *T = 0.0f; return; } /* blocked */
-        } else {
-            leaf_T = times_crossed(g, pass, block, t, leaf_T);
-        }
-        if (slot.x < -1 || slot.y < -1 || slot.z < -1 || slot.w < -1) { /* spheres: -2 - slot */
-            int sl[4] = {slot.x, slot.y, slot.z, slot.w};
-            for (int k = 0; k < BLOCK_LANES; ++k)
-                if (sl[k] < -1) leaf_slots(g, -2 - sl[k], -1 - sl[k], r, t_min, t_max, any_hit, pass, best, &leaf_T);
-        }
-    }
-    if (any_hit) *T *= leaf_T;
-}
-
 /* A ray's walk through the wide tree, as a state a work-item can advance one stack entry at a time:
  * the ray kernels step two rays in turn, whose steps do not depend on each other, so the CPU overlaps
  * one's memory and branch latencies with the other's work (+10-15% per ray measured).  Closest hit:
@@ -547,67 +499,6 @@ typedef struct {
 } Walk;
 
 #endif
-
-/* ---------------------------------------------------------------- the walker on a mesh's tree (kernels/walk.h)
- * Its leaf hook: a wide leaf's blocks (leaf_blocks), a binary leaf's slots (leaf_slots); after a stack filled up,
- * every slot (trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep and the stacks hold them, so only smaller
- * knobs reach it: the tests of the fallback; the answer is the same). */
-INLINE void mesh_leaf(const Geometry *g, int first, int count, bool own_box, Ray r, float t_min, float t_max, bool any_hit,
-                      Pass pass, Hit *best, float *T, uint *visits) {
-    COUNT_PRIMS(visits, count); /* any-hit: at most, it stops at the first opaque hit */
-#if BVH_WIDTH >= 4
-    leaf_blocks(g, first, count, r, t_min, t_max, any_hit, pass, best, T);
-#else
-    leaf_slots(g, first, first + count, r, t_min, t_max, any_hit, pass, best, T);
-#endif
-}
-
-INLINE void mesh_every(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best, float *T,
-                       uint *visits) {
-    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, pass, best, T);
-}
-
-#if USE_BVH
-#define walk_start mesh_start
-#define walk_step mesh_step
-#define walk_finish mesh_finish
-#define walk_wide mesh_walk
-#define walk_binary mesh_walk
-#define WALK_WIDE (BVH_WIDTH >= 4)
-#define WALK_NODES(g) ((g)->nodes)
-#define WALK_ROOT(g) ((g)->n_prims > 0)
-#define WALK_LEAF mesh_leaf
-#define WALK_EVERY mesh_every
-#define WALK_SORT_ANY 0 /* any-hit: the far child first (binary trees) */
-#include "walk.h"
-#endif
-
-#if USE_BVH && BVH_WIDTH >= 4
-/* A query kernel's walk (walk_pair in trace.cl: rays that did not form a packet, mostly incoherent): every node's
- * keys sorted (push_lanes' sort_always), stepped by mesh_step, ended by mesh_finish(..., 1.0f). */
-INLINE void query_walk_start(Walk *w, const Geometry *g, Ray r, float t_min, float t_max, bool any_hit) {
-    Hit best = no_hit();
-    best.t = t_max;
-    mesh_start(w, g, r, t_min, t_max, &best, 1.0f, any_hit, true);
-}
-#endif
-
-/* Every traversal's entry point: the closest hit in (t_min, t_max) in *best (slot -1 on a miss), or
- * (any_hit) the light let through up to t_max in *T, through the tree the build chose (USE_BVH,
- * BVH_WIDTH) or, without one, every primitive.  r is sheared.  *visits grows by the nodes visited
- * (see COUNT_NODE). */
-INLINE void walk_tree(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
-                      float *T, uint *visits) {
-    *best = no_hit();
-    best->t = t_max;
-    *T = 1.0f;
-#if USE_BVH
-    mesh_walk(g, r, t_min, t_max, any_hit, pass, false, false, best, T, visits); /* renders: mostly coherent rays */
-#else
-    leaf_slots(g, 0, g->n_prims, r, t_min, t_max, any_hit, pass, best, T);
-    *visits += (uint)g->n_prims;
-#endif
-}
 
 #if INSTANCED
 #ifndef INSTANCE_SORT_ALWAYS
@@ -650,114 +541,20 @@ INLINE Geometry instance_geometry(const Geometry *g, __global const Instance *in
     s.object = in->object;
     return s;
 }
-
-/* The mesh tree of an instance, for a ray already in object space: the wide walk, its shear (three
- * divisions) made only once the root has a hit (as the query kernels' walk_pair), else walk_tree. */
-INLINE void walk_mesh(const Geometry *s, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
-                      float *T, uint *visits) {
-#if USE_BVH && BVH_WIDTH >= 4
-    *best = no_hit();
-    best->t = t_max;
-    *T = 1.0f;
-    mesh_walk(s, r, t_min, t_max, any_hit, pass, INSTANCE_SORT_ALWAYS, true, best, T, visits);
-#else
-    shear_ray(&r);
-    walk_tree(s, r, t_min, t_max, any_hit, pass, best, T, visits);
-#endif
-}
-
-/* Instance i met in object space, its world box entered.  Closest hit: its mesh's hit (local id +
- * prim_base, ties to the lower id as everywhere) replaces *best when nearer; any-hit: *T times its
- * transmittance (transparency_of reads the instance's object: s.object). */
-INLINE void visit_instance_entered(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit,
-                                   Pass pass, Hit *best, float *T, uint *visits) {
-    __global const Instance *in = g->instances + i;
-    float t_far = any_hit ? t_max : best->t;
-    Ray r_object = make_box_ray(affine_point(&in->world_to_object[0][0], r.o), affine_vector(&in->world_to_object[0][0], r.d));
-    Geometry s = instance_geometry(g, in);
-    Hit h;
-    float T_in;
-    walk_mesh(&s, r_object, t_min, t_far, any_hit, pass, &h, &T_in, visits);
-    if (any_hit) { *T *= T_in; return; }
-    int id = h.id + in->prim_base;
-    if (h.slot >= 0 && nearer_hit(h.t, id, best)) {
-        *best = h; best->id = id; best->instance = i;
-    }
-}
-
-/* Instance i, if the ray enters its world box before the nearest hit so far. */
-INLINE void visit_instance(const Geometry *g, int i, Ray r, float t_min, float t_max, bool any_hit, Pass pass,
-                           Hit *best, float *T, uint *visits) {
-    __global const Instance *in = g->instances + i;
-    float t_far = any_hit ? t_max : best->t;
-    if (hit_bounds(r, in->bmin, in->bmax, t_far) == INF_T) return;
-    visit_instance_entered(g, i, r, t_min, t_max, any_hit, pass, best, T, visits);
-}
-
-/* ---------------------------------------------------------------- the walker on the top tree (kernels/walk.h)
- * Its leaf hook: a leaf's instances by visit_instance (a wide leaf lane of one instance: its box is the instance's
- * own, visit_instance_entered); after a stack filled up (never with the builder's depth limit), every instance, the
- * nearest hit whatever the order, any-hit again from the flat part's T. */
-INLINE void top_leaf(const Geometry *g, int first, int count, bool own_box, Ray r, float t_min, float t_max, bool any_hit,
-                     Pass pass, Hit *best, float *T, uint *visits) {
-    if (own_box && count == 1) {
-        visit_instance_entered(g, first, r, t_min, t_max, any_hit, pass, best, T, visits);
-        return;
-    }
-    for (int i = first; i < first + count && !(any_hit && *T == 0.0f); ++i)
-        visit_instance(g, i, r, t_min, t_max, any_hit, pass, best, T, visits);
-}
-
-INLINE void top_every(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best, float *T,
-                      uint *visits) {
-    top_leaf(g, 0, g->n_instances, false, r, t_min, t_max, any_hit, pass, best, T, visits);
-}
-
-/* -DTOP_WIDE=1: the top tree in wide nodes (the instances' boxes tested eight at once), else binary; a closest hit
- * drops a box entered beyond the nearest hit so far (the flat part's to start with) */
-#define walk_start top_start
-#define walk_step top_step
-#define walk_finish top_finish
-#define walk_wide top_walk
-#define walk_binary top_walk
-#define WALK_WIDE TOP_WIDE
-#define WALK_NODES(g) ((g)->top)
-#define WALK_ROOT(g) ((g)->n_instances > 0)
-#define WALK_LEAF top_leaf
-#define WALK_EVERY top_every
-#define WALK_SORT_ANY 1 /* any-hit: the nearer child first too (binary top trees) */
-#include "walk.h"
-
-/* The flat part (when it has primitives), then the top tree (top_walk), each leaf's instances by visit_instance.
- * r needs no shear: each walk makes its own. */
-INLINE void walk_instances(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass,
-                           Hit *best, float *T, uint *visits) {
-    *best = no_hit();
-    best->t = t_max;
-    *T = 1.0f;
-    if (g->n_prims > 0) {
-        Ray r_flat = r;
-        shear_ray(&r_flat);
-        walk_tree(g, r_flat, t_min, t_max, any_hit, pass, best, T, visits);
-    }
-    if (g->n_instances == 0 || (any_hit && *T == 0.0f)) return;
-    top_walk(g, r, t_min, t_max, any_hit, pass, false, false, best, T, visits);
-}
 #endif
 
-INLINE void trace_query(const Geometry *g, Ray r, float t_min, float t_max, bool any_hit, Pass pass, Hit *best,
-                        float *T, uint *visits) {
-#if INSTANCED
-    walk_instances(g, r, t_min, t_max, any_hit, pass, best, T, visits);
-#else
-    walk_tree(g, r, t_min, t_max, any_hit, pass, best, T, visits);
-#endif
-}
+/* One ray's walks, once per kind (kernels/ray_walks.h): closest hit (the _closest functions) and any-hit (_any). */
+#define ANY_HIT 0
+#define KIND(f) f##_closest
+#include "ray_walks.h"
+#define ANY_HIT 1
+#define KIND(f) f##_any
+#include "ray_walks.h"
 
 INLINE Hit closest_hit(const Geometry *g, Ray r, float t_min, float t_max, uint *visits) {
     Hit best;
     float T;
-    trace_query(g, r, t_min, t_max, false, opaque_pass(), &best, &T, visits);
+    trace_query_closest(g, r, t_min, t_max, opaque_pass(), &best, &T, visits);
     return best.slot < 0 ? no_hit() : best;
 }
 
@@ -766,7 +563,7 @@ INLINE Hit closest_hit(const Geometry *g, Ray r, float t_min, float t_max, uint 
 INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, Pass pass, uint *visits) {
     Hit best;
     float T;
-    trace_query(g, r, t_min, t_max, true, pass, &best, &T, visits);
+    trace_query_any(g, r, t_min, t_max, pass, &best, &T, visits);
     return T;
 }
 

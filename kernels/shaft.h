@@ -279,31 +279,72 @@ INLINE bool shaft_leaf(const Shaft *sh, const Geometry *g, Pass pass, int first,
     return true;
 }
 
+/* ---------------------------------------------------------------- the walker with a shaft (kernels/walk.h)
+ * The state: a stack of lanes (their keys hold only the lane: the walk keeps no order of its own, sorts nothing and
+ * culls nothing); the context: the shaft, the candidates it collects and the node visits.  A node's lanes that may
+ * meet the shaft are pushed interior lanes first, then the leaves above them, in lane order from the top, so the
+ * candidates come in the order of a depth-first walk that meets a node's leaves when it tests its boxes. */
+typedef struct {
+    int sp;
+    bool overflow;   /* the stack or the candidates filled up: the caller traces each ray */
+    uint stack_key[WIDE_STACK_SIZE + BVH_WIDTH];
+    int stack_node[WIDE_STACK_SIZE + BVH_WIDTH];
+} ShaftWalk;
+
+typedef struct {
+    const Shaft *sh;
+    Pass pass;       /* what a sphere every ray crosses once keeps of the light (crossed_T) */
+    int own;         /* the shading point's slot, left out */
+    ShaftCandidates *cand;
+    uint *visits;
+} ShaftQuery;
+
+/* The lanes of node (at `index`) that may meet the shaft (shaft_boxes), pushed: interior lanes in lane order, then
+ * leaf lanes in reverse (popped first, in lane order).  A full stack ends the walk. */
+INLINE void shaft_push(ShaftWalk *w, const ShaftQuery *c, __global const WideNode *node, int index) {
+    lanes_i keep = shaft_boxes(c->sh, node);
+    lanes_i leaf = node->count > (lanes_i)(0);
+    int k[BVH_WIDTH] = LANES_ARRAY(keep), l[BVH_WIDTH] = LANES_ARRAY(leaf);
+    for (int leaves = 0; leaves < 2; ++leaves) {
+        for (int n = 0; n < BVH_WIDTH; ++n) {
+            int j = leaves ? BVH_WIDTH - 1 - n : n;
+            if (!k[j] || (l[j] != 0) != (leaves == 1)) continue;
+            if (w->sp >= WIDE_STACK_SIZE + BVH_WIDTH) { w->overflow = true; w->sp = 0; return; }
+            w->stack_key[w->sp] = ~(uint)j; /* key_lane(key, farthest_first): lane j */
+            w->stack_node[w->sp++] = index;
+        }
+    }
+}
+
+#define walk_root shaft_root
+#define walk_step shaft_step
+#define WALK_ANY 1
+#define WALK_WIDE 1
+#define WALK_NODES(g) ((g)->nodes)
+#define WALK_ROOT(g) ((g)->n_prims > 0)
+#define WALK_STATE ShaftWalk
+#define WALK_CONTEXT const ShaftQuery *
+#define WALK_ENTRY(w, c, sp, key) 1u
+#define WALK_VISIT(w, c, rays, count) if ((count) == 0) { COUNT_NODE((c)->visits); }
+#define WALK_PUSH(w, g, c, node, rays, size) shaft_push(w, c, (g)->nodes + (node), node)
+#define WALK_LEAF(w, g, c, first, count, rays) \
+    if (!shaft_leaf((c)->sh, g, (c)->pass, first, count, (c)->own, (c)->cand)) (w)->overflow = true
+#define WALK_DONE(w, c) ((w)->overflow)
+#include "walk.h"
+
 /* Collect the candidates of the shaft from the wide tree.  False when there are more than
  * SHAFT_CANDIDATES of them or the stack overflows (the caller then traces each ray). */
 INLINE bool shaft_candidates(const Shaft *sh, const Geometry *g, Pass pass, int own, ShaftCandidates *cand, uint *visits) {
-    int stack[WIDE_STACK_SIZE + BVH_WIDTH];
-    int sp = 0;
+    ShaftQuery c;
+    c.sh = sh; c.pass = pass; c.own = own; c.cand = cand; c.visits = visits;
+    ShaftWalk w;
+    w.sp = 0;
+    w.overflow = false;
     cand->n = 0;
     cand->crossed_T = 1.0f;
-    if (g->n_prims > 0) stack[sp++] = 0;
-    while (sp > 0) {
-        __global const WideNode *node = g->nodes + stack[--sp];
-        COUNT_NODE(visits);
-        lanes_i keep = shaft_boxes(sh, node);
-        int k[BVH_WIDTH] = LANES_ARRAY(keep);
-        for (int j = 0; j < BVH_WIDTH; ++j) {
-            if (!k[j]) continue;
-            int child = LANE_OF(int, node->child, j), count = LANE_OF(int, node->count, j);
-            if (count == 0) { /* interior: visit it later */
-                if (sp >= WIDE_STACK_SIZE + BVH_WIDTH) return false;
-                stack[sp++] = child;
-            } else if (!shaft_leaf(sh, g, pass, child, count, own, cand)) {
-                return false;
-            }
-        }
-    }
-    return true;
+    shaft_root(&w, g, &c, 1u);
+    while (w.sp > 0) shaft_step(&w, g, &c);
+    return !w.overflow;
 }
 
 /* Two leaf blocks' triangles against one ray, block a in the low four float8 lanes and b in the high

@@ -151,134 +151,14 @@ INLINE void query_item(QueryItem *q, int first, int n_rays, __global const float
     for (int k = 0; k < RAYS_PER_ITEM; ++k) { q->idx[k] = min(first + k, n_rays - 1); q->visits[k] = 0; }
 }
 
-/* Ray k's segment in the units of its unit direction (t_max: INF_T for closest hits). */
-INLINE float2 query_segment(const QueryItem *q, int k, bool any_hit) {
-    int i = q->idx[k];
-    return (float2)(to_unit_t(q->t_min[i], q->units[k]), to_unit_t(any_hit ? q->t_max[i] : INF_T, q->units[k]));
-}
-
-#if ITEM_PACKETS
-/* Rays k and k + 1 walked in turn, closest hit or any-hit; the same ray for a wide walk has its shear
- * (six divisions) computed only once the root has a hit: most rays of a small mesh's batch miss it. */
-INLINE void walk_pair(QueryItem *q, const Geometry *g, int k, bool any_hit) {
-    Walk w[2];
-    for (int j = 0; j < 2; ++j) {
-        Ray r = query_box_ray(q->origins, q->directions, q->idx[k + j], &q->units[k + j]);
-        float2 segment = query_segment(q, k + j, any_hit);
-        query_walk_start(&w[j], g, r, segment.x, segment.y, any_hit);
-        if (w[j].sp > 0) shear_ray(&w[j].r);
-    }
-    while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) mesh_step(&w[0], g, opaque_pass(), any_hit);
-        if (w[1].sp > 0) mesh_step(&w[1], g, opaque_pass(), any_hit);
-    }
-    for (int j = 0; j < 2; ++j) {
-        mesh_finish(&w[j], g, opaque_pass(), any_hit, 1.0f);
-        if (any_hit) q->T[k + j] = w[j].T;
-        else q->hit[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
-        q->visits[k + j] = w[j].visits;
-    }
-}
-
-/* The eight rays as one packet: false (nothing written) when they do not go the same way or the
- * packet cannot finish, and the caller walks them in pairs. */
-INLINE bool walk_packet(QueryItem *q, const Geometry *g, bool any_hit) {
-#if RAY_PACKETS
-    /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
-    uint3 signs = as_uint3(load_xyz(q->directions, q->idx[0])) >> 31;
-    for (int k = 1; k < PACKET_RAYS; ++k) {
-        uint3 s = as_uint3(load_xyz(q->directions, q->idx[k])) >> 31;
-        if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
-    }
-    Ray r[PACKET_RAYS];
-    float t0[PACKET_RAYS], t1[PACKET_RAYS];
-    for (int k = 0; k < PACKET_RAYS; ++k) {
-        r[k] = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
-        float2 segment = query_segment(q, k, any_hit);
-        t0[k] = segment.x;
-        t1[k] = segment.y;
-    }
-    Packet p;
-    if (!packet_start(&p, g, r, t0, t1, any_hit)) return false;
-    while (p.sp > 0) packet_step(&p, g, any_hit);
-    if (p.fallback) return false;
-    float t[PACKET_RAYS] = RAY_ARRAY(p.t_max);
-    int id[PACKET_RAYS] = RAY_ARRAY(p.id);
-    uint v[PACKET_RAYS] = RAY_ARRAY(p.visits);
-    for (int k = 0; k < PACKET_RAYS; ++k) {
-        if (any_hit) q->T[k] = (p.live >> k) & 1u ? 1.0f : 0.0f;
-        else { q->hit[k] = no_hit(); if (id[k] >= 0) { q->hit[k].t = t[k]; q->hit[k].id = id[k]; } }
-        q->visits[k] = v[k];
-    }
-    return true;
-#else
-    return false;
-#endif
-}
-#endif
-
-
-
-#if INSTANCE_PACKETS
-/* The eight rays with instances (packet.h, "instanced packets"): the flat part ray by ray as walk_instances
- * walks it, then the top tree and the meshes as packets.  False (nothing written) when their directions
- * differ in sign or the top tree's stack fills up, and the caller walks them one by one. */
-INLINE bool walk_instance_packet(QueryItem *q, const Geometry *g, bool any_hit) {
-    uint3 signs = as_uint3(load_xyz(q->directions, q->idx[0])) >> 31;
-    for (int k = 1; k < PACKET_RAYS; ++k) {
-        uint3 s = as_uint3(load_xyz(q->directions, q->idx[k])) >> 31;
-        if ((s.x != signs.x) | (s.y != signs.y) | (s.z != signs.z)) return false;
-    }
-    InstanceRays ir;
-    uint rays = 0;
-    for (int k = 0; k < PACKET_RAYS; ++k) {
-        ir.r[k] = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
-        float2 segment = query_segment(q, k, any_hit);
-        ir.t_min[k] = segment.x;
-        ir.t_max[k] = segment.y;
-        ir.best[k] = no_hit();
-        ir.best[k].t = segment.y;
-        ir.T[k] = 1.0f;
-        ir.visits[k] = 0;
-        if (g->n_prims > 0) {
-            Ray r_flat = ir.r[k];
-            shear_ray(&r_flat);
-            walk_tree(g, r_flat, segment.x, segment.y, any_hit, opaque_pass(), &ir.best[k], &ir.T[k], &ir.visits[k]);
-        }
-        rays |= (any_hit && ir.T[k] == 0.0f) ? 0u : 1u << k;
-    }
-    if (g->n_instances > 0 && rays != 0 && !packet_top(g, &ir, rays, any_hit)) return false;
-    for (int k = 0; k < PACKET_RAYS; ++k) {
-        if (any_hit) q->T[k] = ir.T[k];
-        else q->hit[k] = ir.best[k].slot < 0 ? no_hit() : ir.best[k];
-        q->visits[k] = ir.visits[k];
-    }
-    return true;
-}
-#endif
-
-/* Every ray of the item, closest hit (q->hit) or any-hit with opaque surfaces (q->T), and the nodes
- * each visited. */
-INLINE void trace_item(QueryItem *q, const Geometry *g, bool any_hit) {
-#if ITEM_PACKETS
-    if (!walk_packet(q, g, any_hit))
-        for (int k = 0; k < q->n; k += 2) walk_pair(q, g, k, any_hit);
-#else
-#if INSTANCE_PACKETS
-    if (walk_instance_packet(q, g, any_hit)) return;
-#endif
-    for (int k = 0; k < q->n; ++k) {
-#if INSTANCED
-        Ray r = query_box_ray(q->origins, q->directions, q->idx[k], &q->units[k]); /* each walk shears its own */
-#else
-        Ray r = query_ray(q->origins, q->directions, q->idx[k], &q->units[k]);
-#endif
-        float2 segment = query_segment(q, k, any_hit);
-        if (any_hit) q->T[k] = transmittance(g, r, segment.x, segment.y, opaque_pass(), &q->visits[k]);
-        else q->hit[k] = closest_hit(g, r, segment.x, segment.y, &q->visits[k]);
-    }
-#endif
-}
+/* The work-item's walks, once per kind (kernels/query_walks.h): closest hit (trace_item_closest) and any-hit
+ * (trace_item_any). */
+#define ANY_HIT 0
+#define KIND(f) f##_closest
+#include "query_walks.h"
+#define ANY_HIT 1
+#define KIND(f) f##_any
+#include "query_walks.h"
 
 /* Closest hit of arbitrary rays: origins and directions as (x, y, z) triples, directions of any
  * nonzero length.  A hit is o + t d, t in (t_min, INF).  Writes t (INF on a miss), primitive id,
@@ -294,7 +174,7 @@ __kernel void intersect_rays(__global const TreeNode *nodes, __global const Prim
     Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, false);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, 0);
-    trace_item(&q, &g, false);
+    trace_item_closest(&q, &g);
     for (int k = 0; k < q.n; ++k) {
         Hit h = q.hit[k];
         t_out[q.idx[k]] = to_query_t(h.t, q.units[k]);
@@ -315,7 +195,7 @@ __kernel void occluded_rays(__global const TreeNode *nodes, __global const PrimS
     Geometry g = scene_geometry(nodes, prims, prim_object, tables, params.tables, params.n_prims, params.n_instances, true);
     QueryItem q;
     query_item(&q, first, n_rays, origins, directions, t_min, t_max);
-    trace_item(&q, &g, true);
+    trace_item_any(&q, &g);
     for (int k = 0; k < q.n; ++k) {
         occluded_out[q.idx[k]] = q.T[k] == 0.0f;
         visits_out[q.idx[k]] = q.visits[k];

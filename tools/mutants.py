@@ -153,7 +153,8 @@ def _blank_comments_and_strings(text: str) -> str:
     return re.sub(r'/\*.*?\*/|//[^\n]*|"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\'', blank, text, flags=re.S)
 
 
-C_SIGNATURE = re.compile(r"^(?!#|return\b|else\b|typedef\b)[A-Za-z_][\w \t\*]*?\b(\w+)\s*\(")
+# a function's name, or KIND(name): a function written once and compiled once per kind (kernels/ray_walks.h)
+C_SIGNATURE = re.compile(r"^(?!#|return\b|else\b|typedef\b)[A-Za-z_][\w \t\*]*?\b(?:KIND\((\w+)\)|(\w+))\s*\(")
 C_DEFINE = re.compile(r"^\s*#\s*define\s+(\w+)")
 
 
@@ -191,7 +192,7 @@ def _c_definitions(text: str) -> list[tuple[str, int, int]]:
                     break
             k += 1
         last = code.count("\n", 0, k)
-        out.append((m.group(1), i, last))
+        out.append((m.group(1) or m.group(2), i, last))
     return out
 
 
