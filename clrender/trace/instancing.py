@@ -16,7 +16,7 @@ tree's leaf order (kernels/intersect.h walk_instances reads them).
 Primitive ids: the flat part's 0..n_flat-1, then each instance's prim_base + local id (instances in
 object order, each as many ids as its mesh has triangles), so every hit's id is unique.
 
-Renders (renderer.py; docs/bvh.md, "Rendering instances"): the per-primitive records (vertex normals, uvs,
+Renders (renderer.py; docs/bvh.md, "Instancing"): the per-primitive records (vertex normals, uvs,
 colours, tangents) are the flat part's, then each shape's once in object space (`shape_meshes`), read at the
 instance's data_base + local id; `worth_instancing` decides for a render whose settings leave it open;
 objects of emissive materials stay flat (`emissive`), where the path tracer's emitter list finds them.

@@ -1,4 +1,4 @@
-"""The buffers a Tracer's ray queries reuse from call to call (docs/bvh.md, "Host side of a ray query").
+"""The buffers a Tracer's ray queries reuse from call to call (docs/python-api.md).
 
 A query's rays are written into one input buffer and its answers read from one output buffer, each
 a single OpenCL buffer cut into sub-buffers, one per kernel argument (origins, directions, t_min, ...),

@@ -303,8 +303,8 @@ class Tracer:
         """The top level: a binary tree (BvhNode records) over the instances' world boxes, and the
         records in its leaf order (a leaf's instances are records[offset:offset + count]).  With wide
         mesh trees it is collapsed to the same width (a leaf lane's child the first record, its count
-        how many; kernels/intersect.h walk_top_wide): one vector box test for up to 8 boxes, not one
-        per box of a binary walk (docs/bvh.md, "Instancing": 30 instances' close-up rays 1.13x faster)."""
+        how many; kernels/ray_walks.h top_walk): one vector box test for up to 8 boxes, not one per box
+        of a binary walk (docs/benchmarks.md has the instancing measurements)."""
         from .bvh import build_bvh
 
         # two instances are cheaper tested as one binary leaf than as a wide node's lanes
