@@ -1,4 +1,4 @@
-"""A render's start-up leaves out the heavy modules it does not use (docs/bvh.md, "CLI wall time"):
+"""A render's start-up leaves out the heavy modules it does not use:
 trimesh (and scipy with it, 0.34 s) for a scene of generated meshes, OpenCV without --filter."""
 
 import subprocess
