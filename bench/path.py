@@ -8,7 +8,8 @@ sphere, a glass sphere, an emissive quad) and the bundled wizard_cat from camera
 clrender: `Renderer(scene, integrator="path", spp=64, max_depth=8)`; the first image (BVH build, kernel
 compile, PoCL's first launches) is reported apart from the median of K later ones, with the kernel compile
 time the renderer measures (RenderResult.timings["compile"]).  --peer mitsuba renders
-the same scenes, converted by tests/reference/mitsuba_scenes.py, in the same run:
+the same scenes, converted by tests/reference/mitsuba_scenes.py, with Russian roulette from clrender's bounce
+(clrender/trace/path.py RR_DEPTH: equal work a sample), in the same run:
   llvm_ad_rgb   the first render (Dr.Jit tracing and LLVM compiling its kernels, or reading them from its
                 disk cache, said in the table) apart from the median of K later renders;
   scalar_rgb    --scalar-spp samples per pixel (default 16: a 64 spp render takes minutes on two cores),
@@ -183,7 +184,10 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
     import drjit as dr
 
     start = time.perf_counter()
-    mi, loaded = mitsuba_scenes.load(scene, variant=variant, spp=spp, max_depth=depth, width=size, height=size, exact=False)
+    from clrender.trace.path import RR_DEPTH
+
+    # Russian roulette from the same bounce as clrender's (its default): equal work a sample, the same estimator
+    mi, loaded = mitsuba_scenes.load(scene, variant=variant, spp=spp, max_depth=depth, width=size, height=size, exact=False, rr_depth=RR_DEPTH)
     load_s = time.perf_counter() - start
     jit = variant.startswith("llvm")
     if jit:

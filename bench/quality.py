@@ -15,6 +15,8 @@ the lower error after equal time is the better renderer of that scene.
              time budget, and a user picks its spp; one render a budget is its fastest way (each mi.render call
              re-traces its megakernel, so passes of a few spp would charge it an overhead the one render does not
              pay).  Dr.Jit's LLVM compile of a new kernel (a new spp can need one) is subtracted from its time.
+             Russian roulette from its own default bounce (rr_depth 5), or with --mitsuba-rr same from clrender's
+             (clrender/trace/path.py RR_DEPTH; the converged image, its reference, is the same either way).
 
 Error: RMSE over pixels and channels against the reference (float64), relative RMSE (RMSE / the reference's
 mean), and rmse_own: the RMSE with the reference's own noise taken out, sqrt(max(MSE - mean(s^2 / P), 0)) with s^2
@@ -250,12 +252,14 @@ class Mitsuba:
         import drjit as dr
         import mitsuba
 
+        from clrender.trace.path import RR_DEPTH
+
         from tests.reference import mitsuba_scenes
 
         self.setup, self.args, self.dr = setup, args, dr
         dr.set_thread_count(args.threads)
         self.threads = dr.thread_count()
-        size = dict(width=setup.width, height=setup.height)
+        size = dict(width=setup.width, height=setup.height, rr_depth=None if args.mitsuba_rr == "default" else RR_DEPTH)
         self.mi, self.loaded = mitsuba_scenes.load(setup.mitsuba, variant="llvm_ad_rgb", spp=1, max_depth=args.max_depth, exact=False, **size)
         self.render_loaded = mitsuba_scenes.render_loaded
         self.code = code_digest(MITSUBA_CODE, mitsuba.__version__, dr.__version__, "llvm_ad_rgb", "exact=False")
@@ -356,6 +360,12 @@ def parse_args(argv):
     ap.add_argument("--runs", type=int, default=3, help="equal-time renders a renderer and scene; medians reported (default 3)")
     ap.add_argument("--seed", type=int, default=1, help="seed of the first equal-time render a side, the next one more (default 1)")
     ap.add_argument("--threads", type=int, default=0, help="CPUs for both renderers (default 0: all this process may use)")
+    ap.add_argument(
+        "--mitsuba-rr",
+        choices=("default", "same"),
+        default="default",
+        help="Mitsuba's Russian roulette: its own start (rr_depth 5) or clrender's (clrender/trace/path.py RR_DEPTH)",
+    )
     ap.add_argument("--scenes", nargs="+", choices=SCENES, default=["cornell_box", "assets"])
     ap.add_argument("--out", default="bench/out", help="folder for quality.csv / quality.md and the images (default bench/out)")
     ap.add_argument("--cache", default=str(Path.home() / ".cache/clrender/bench"), help="folder of the cached references")

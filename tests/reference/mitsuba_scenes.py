@@ -424,10 +424,21 @@ def _triangles(obj: dict):
 
 
 def to_mitsuba(
-    scene: dict, *, spp: int, seed: int = 0, max_depth: int = 8, camera: int = 1, width=None, height=None, exact=True, planted: str = ""
+    scene: dict,
+    *,
+    spp: int,
+    seed: int = 0,
+    max_depth: int = 8,
+    camera: int = 1,
+    width=None,
+    height=None,
+    exact=True,
+    planted: str = "",
+    rr_depth: int | None = None,
 ) -> dict:
     """The mitsuba.load_dict dict of a clrender scene dict, for the variant already set (load_mitsuba).  `planted`
-    ("raw": textures not sRGB-decoded, "flip_v": v flipped) is a known mistake, for the tests' negative controls."""
+    ("raw": textures not sRGB-decoded, "flip_v": v flipped) is a known mistake, for the tests' negative controls.
+    `rr_depth`: clrender's RenderSettings.rr_depth, given to Mitsuba as its rr_depth (+ 1); None: Mitsuba's own (5)."""
     import mitsuba as mi
 
     width = int(width or scene.get("width", 640))
@@ -440,7 +451,12 @@ def to_mitsuba(
     )
     out = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": int(max_depth) + MITSUBA_DEPTH_OFFSET, "hide_emitters": False},
+        "integrator": {
+            "type": "path",
+            "max_depth": int(max_depth) + MITSUBA_DEPTH_OFFSET,
+            "hide_emitters": False,
+            **({} if rr_depth is None else {"rr_depth": int(rr_depth) + 1}),  # Mitsuba's depth is 1 at the primary hit
+        },
         "sensor": {
             "type": "perspective",
             "fov_axis": "y",
@@ -502,10 +518,11 @@ def load(
     height=None,
     exact=True,
     planted: str = "",
+    rr_depth: int | None = None,
 ):
-    """(mitsuba module, loaded mitsuba Scene) of a clrender scene dict."""
+    """(mitsuba module, loaded mitsuba Scene) of a clrender scene dict (to_mitsuba's arguments)."""
     mi = load_mitsuba(variant)
-    args = dict(spp=spp, seed=seed, max_depth=max_depth, camera=camera, width=width, height=height, exact=exact, planted=planted)
+    args = dict(spp=spp, seed=seed, max_depth=max_depth, camera=camera, width=width, height=height, exact=exact, planted=planted, rr_depth=rr_depth)
     return mi, mi.load_dict(to_mitsuba(scene, **args))
 
 
