@@ -447,6 +447,7 @@ PATH_STATE_DTYPE = np.dtype(
         ("o", "<f4", 3),  # the ray the extend step traces next
         ("d", "<f4", 3),
         ("beta", "<f4", 3),  # throughput
+        ("eta_scale", "<f4"),  # the product of eta^2 over the path's refractions: Russian roulette's beta x eta_scale
         ("radiance", "<f4", 3),  # this sample's radiance so far
         ("prev_n", "<f4", 3),  # the previous vertex's shading normal (the constant environment's MIS)
         ("prev_pdf", "<f4"),  # the previous lobe's density of the ray's direction

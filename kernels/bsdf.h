@@ -64,6 +64,7 @@ typedef struct {
     float3 weight; /* eval / pdf: 0 for a failed sample */
     float pdf;     /* solid-angle density; for a delta lobe, the probability of the branch taken */
     int delta;     /* 1: wi came from a delta lobe (no MIS with light sampling) */
+    float eta;     /* a refraction's relative IOR eta_i / eta_o, whose 1 / eta^2 the weight holds (pbrt-v4's); else 1 */
 } BsdfSample;
 
 INLINE BsdfSample no_sample(void) {
@@ -72,6 +73,7 @@ INLINE BsdfSample no_sample(void) {
     s.weight = (float3)(0.0f);
     s.pdf = 0.0f;
     s.delta = 0;
+    s.eta = 1.0f;
     return s;
 }
 
@@ -264,6 +266,7 @@ INLINE BsdfSample dielectric_sample(float3 wo, float u1, float eta) {
     s.wi = unit(-wo / eta_rel + (abs_f(wo.z) / eta_rel - cos_t) * (float3)(0.0f, 0.0f, side));
     s.weight = (float3)(1.0f / (eta_rel * eta_rel));
     s.pdf = 1.0f - f;
+    s.eta = eta_rel;
     return s;
 }
 
@@ -350,6 +353,7 @@ INLINE BsdfSample rough_dielectric_sample(float3 wo, float u1, float2 u2, float 
     s.wi = wi;
     s.weight = (float3)(ci * (co + ro) / (ro * ci + ggx_r(wi, alpha) * co) / (eta_rel * eta_rel)); /* G2 / G1(wo) / eta^2 */
     if (smith == SMITH_SEPARABLE) s.weight = (float3)(ggx_g1(wi, alpha) / (eta_rel * eta_rel));
+    s.eta = eta_rel;
     s.pdf = rough_dielectric_pdf(wo, wi, eta, alpha); /* from wi, as the integrator's MIS will see it */
     if (!(s.pdf > 0.0f)) return no_sample();
     return s;

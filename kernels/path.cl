@@ -51,7 +51,7 @@
 #endif
 #define HIDDEN_LAYERS 16 /* HIDE_EMITTERS: emitting triangles a camera ray looks past at most; the next one shows */
 #define BETA_LIMIT 1e18f /* a path's throughput past this ends it (no pixel may be inf or NaN) */
-#define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput, this) */
+#define RR_SURVIVE_MAX 0.95f /* a path continues with probability min(max throughput x eta_scale, this) */
 /* Shadow rays to a point on a surface stop this fraction short of it, so that the emitting triangle
  * itself (met again within float32 rounding of the sampled point) does not block them. */
 #define SHADOW_T_SHRINK 0.9999f
@@ -448,6 +448,7 @@ INLINE void start_sample(const PathParams *p, PathState *st, int pixel, uint s_i
     vstore3(r.o, 0, st->o);
     vstore3(r.d, 0, st->d);
     vstore3((float3)(1.0f), 0, st->beta);
+    st->eta_scale = 1.0f;
     vstore3((float3)(0.0f), 0, st->radiance);
     vstore3((float3)(0.0f), 0, st->prev_n);
     st->prev_pdf = 0.0f;
@@ -542,8 +543,9 @@ INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng 
     if (!(bs.pdf > 0.0f)) return false;
     float3 wi = to_world(v->fr, bs.wi);
     float3 beta = vload3(0, st->beta) * bs.weight;
+    st->eta_scale *= bs.eta * bs.eta; /* beta * eta_scale: the throughput without refraction's 1 / eta^2 */
     if (st->depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
-        float q = min_f(max3(beta), RR_SURVIVE_MAX);
+        float q = min_f(max3(beta) * st->eta_scale, RR_SURVIVE_MAX);
         rng_slot(rng, SLOT_RR);
         if (!(rng_next(rng) < q)) return false;
         beta /= q;

@@ -60,14 +60,14 @@ INLINE Hit state_hit(const PathState *st) {
 }
 
 /* What each kernel reads (IN) and writes back (OUT) of its slot's record: only those fields cross memory (a whole
- * record is 280 bytes, and a bounce runs three kernels over every slot).  X-lists: X(f) a field, X3(f) a 3-vector. */
+ * record is 284 bytes, and a bounce runs three kernels over every slot).  X-lists: X(f) a field, X3(f) a 3-vector. */
 #define IN(f) st.f = g->f;
 #define IN3(f) IN(f[0]) IN(f[1]) IN(f[2])
 #define OUT(f) g->f = st.f;
 #define OUT3(f) OUT(f[0]) OUT(f[1]) OUT(f[2])
 #define RNG_FIELDS(X) X(pixel) X(sample) X(rng_dim) X(rng_base) X(rng_extra)
 #define HIT_FIELDS(X) X(hit_t) X(hit_slot) X(hit_id) X(hit_u) X(hit_v) X(hit_instance)
-#define PATH_FIELDS(X, X3) X3(o) X3(d) X3(beta) X3(radiance) X3(prev_n) X(prev_pdf) X(prev_delta) X(depth)
+#define PATH_FIELDS(X, X3) X3(o) X3(d) X3(beta) X(eta_scale) X3(radiance) X3(prev_n) X(prev_pdf) X(prev_delta) X(depth)
 #define SHADOW_FIELDS(X, X3) X(shadowed) X3(shadow_o) X3(shadow_d) X(shadow_t_max) X3(shadow_l) X3(shadow_beta)
 #define FIRST_HIT_FIELDS(X, X3) X3(fh_normal) X3(fh_albedo) X(fh_depth) X(fh_object)
 

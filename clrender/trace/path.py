@@ -13,9 +13,7 @@ from ..errors import UsageError
 from ..layout import EMITTER_DTYPE, PATH_PARAMS_DTYPE, TEXTURE_SLOTS
 from .geometry import Primitives
 
-# Russian roulette from this many bounces on, when RenderSettings.rr_depth is None: from the eighth, so never at the
-# default --max-depth 8.  Earlier roulette saves less time than the noise its 1/q weights add (docs/materials.md)
-RR_DEPTH = 8
+RR_DEPTH = 3  # Russian roulette from this many bounces on, when RenderSettings.rr_depth is None
 
 
 def emitters(primitives: Primitives) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

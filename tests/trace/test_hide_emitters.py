@@ -89,7 +89,7 @@ def test_hidden_emitters_match_mitsuba(tmp_path, device, integrator, depth):
 
 
 def test_rr_depth_moves_russian_roulette_and_keeps_the_mean(device):
-    """rr_depth 0 (roulette from the primary hit) against the default (none at max_depth 6): other bits, the same expected image
+    """rr_depth 0 (roulette from the primary hit) against the kernel's 3: other bits, the same expected image
     (block z-test over 4 seeds a side, Šidák at alpha 0.01)."""
     from tests.reference.ztest import two_sample_z
 

@@ -144,7 +144,7 @@ def test_white_furnace_lambert_sphere_is_one_in_every_pixel(device, max_depth):
 def test_white_furnace_two_spheres_is_one_where_light_bounces_between_them(device):
     """Two albedo-1 Lambert spheres 0.5 apart in a white environment (tests/trace/test_path_reference.py's furnace):
     every pixel is 1 in expectation, but a path is no longer exactly 1, since NEE from one sphere is blocked by the
-    other and BSDF rays bounce between them (Russian roulette from the third bounce, rr_depth 3).  Either sphere takes at most
+    other and BSDF rays bounce between them (Russian roulette from the third bounce).  Either sphere takes at most
     4/9 of the other's cosine-weighted hemisphere, so the max_depth 16 truncation is below (4/9)^17 < 1e-5.  The
     module docstring's test at ALPHA.  Issue 25's 0.5% is met for the image as a whole: the pooled z's standard
     error is 0.0004, so 0.995 is rejected (z about 13); one pixel's spread at 8 x 16 paths is some 2%."""
@@ -154,7 +154,7 @@ def test_white_furnace_two_spheres_is_one_where_light_bounces_between_them(devic
         {"type": "sphere", "center": [-0.75, 0, 0], "radius": 1, "material": "m"},
         {"type": "sphere", "center": [1.75, 0, 0], "radius": 1, "material": "m"},
     ]
-    images = renders(scene, device, spp=16, max_depth=16, rr_depth=3)
+    images = renders(scene, device, spp=16, max_depth=16)
     assert_expected(images, 1.0, "two-sphere furnace")
     assert np.abs(pooled_z(images, 0.995)).min() > POOLED_LIMIT
 
@@ -224,12 +224,36 @@ def test_closed_emitting_box_sums_the_truncated_series(device, max_depth):
 
 def test_closed_emitting_box_with_russian_roulette_is_the_whole_series(device):
     """max_depth 60 (the tail rho^62 is 2e-19): Le / (1 - rho) = 2, with Russian roulette ending most paths from the
-    third bounce (rr_depth 3; each survivor divided by its survival probability); the module docstring's test at ALPHA.
+    third bounce (each survivor divided by its survival probability); the module docstring's test at ALPHA.
     Without the 1/q reweighting the image is about 1.90; the pooled z's standard error is 0.003, so 1.97 is
     rejected too (z about 10)."""
-    images = renders(closed_box(), device, spp=64, max_depth=60, rr_depth=3)
+    images = renders(closed_box(), device, spp=64, max_depth=60)
     assert_expected(images, 2.0, "closed box, max_depth 60")
     assert np.abs(pooled_z(images, 1.97)).min() > POOLED_LIMIT  # power: 1.5% low would not pass
+
+
+def test_russian_roulette_counts_refraction(device):
+    """A lossless glass sphere (transparency 1, IOR 1.5) filling the view in a white environment, roulette from the
+    primary hit (rr_depth 0), one path a pixel, K = 32 seeds.  Before roulette every path that leaves the sphere
+    returns exactly 1: a smooth reflection weighs 1, a refraction in 1 / eta^2 and the one out eta^2.  Counted as
+    beta x eta_scale, its throughput is 1 at every vertex, so each vertex survives with probability 0.95 and a path
+    returns 0 or 0.95^-k after k vertices: a variance of at most 0.95^-(max_depth + 1) - 1 = 0.43 at max depth 6
+    (plus the share of paths still inside after 7 vertices, which return 0).  Roulette on beta alone kills 56% of
+    the paths inside the glass and sends the rest out 2.25 times brighter: a variance above 1.2 on most pixels
+    (measured: 1.31, against 0.11 counted with eta).  The mean pixel variance is tested against 0.5; the pooled mean against 1."""
+    scene = {
+        "width": 16,
+        "height": 16,
+        "cameras": [camera([0, 0, 3], [0, 0, 0], 25)],  # the unit sphere subtends 19.5 degrees either side: all of it
+        "environment": {"color": [1.0, 1.0, 1.0]},
+        "materials": {"glass": {"diffuse": [0, 0, 0], "transparency": 1.0, "ior": 1.5}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"}],
+    }
+    images = renders(scene, device, k=32, spp=1, max_depth=6, rr_depth=0, path_sampler="independent")
+    variance = images.var(axis=0, ddof=1).mean()
+    assert variance < 0.5, f"per-path variance {variance:.3f}: roulette does not count refraction's 1 / eta^2"
+    mean, standard_error = images.mean(), images.std(ddof=1) / math.sqrt(images.size)
+    assert abs(mean - 1.0) < 4 * standard_error + 0.02, (mean, standard_error)  # 0.02: paths kept inside by max depth
 
 
 @pytest.mark.parametrize("area_light", [False, True], ids=["emissive quad", "area light"])
