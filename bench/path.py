@@ -183,9 +183,9 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
     """(load s, first render s, JIT s, kernels from the disk cache, median s, median CPU s, images: the first and each timed one)."""
     import drjit as dr
 
-    start = time.perf_counter()
     from clrender.trace.path import RR_DEPTH
 
+    start = time.perf_counter()
     # Russian roulette from the same bounce as clrender's (its default): equal work a sample, the same estimator
     mi, loaded = mitsuba_scenes.load(scene, variant=variant, spp=spp, max_depth=depth, width=size, height=size, exact=False, rr_depth=RR_DEPTH)
     load_s = time.perf_counter() - start

@@ -506,24 +506,10 @@ def read_image(path) -> np.ndarray:
     return np.repeat(pixels, 3, axis=2) if pixels.shape[2] == 1 else pixels[..., :3]
 
 
-def load(
-    scene: dict,
-    *,
-    variant: str = "llvm_ad_rgb",
-    spp: int,
-    seed: int = 0,
-    max_depth: int = 8,
-    camera: int = 1,
-    width=None,
-    height=None,
-    exact=True,
-    planted: str = "",
-    rr_depth: int | None = None,
-):
-    """(mitsuba module, loaded mitsuba Scene) of a clrender scene dict (to_mitsuba's arguments)."""
+def load(scene: dict, *, variant: str = "llvm_ad_rgb", **settings):
+    """(mitsuba module, loaded mitsuba Scene) of a clrender scene dict; `settings`: to_mitsuba's keywords."""
     mi = load_mitsuba(variant)
-    args = dict(spp=spp, seed=seed, max_depth=max_depth, camera=camera, width=width, height=height, exact=exact, planted=planted, rr_depth=rr_depth)
-    return mi, mi.load_dict(to_mitsuba(scene, **args))
+    return mi, mi.load_dict(to_mitsuba(scene, **settings))
 
 
 def render_loaded(mi, mi_scene, *, spp: int, seed: int = 0) -> np.ndarray:
