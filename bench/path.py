@@ -151,12 +151,17 @@ def clrender_has_path_tracer() -> bool:
     return "integrator" in RenderSettings.__dataclass_fields__
 
 
+def clrender_scene(name: str, size: int):
+    """(clrender scene, camera number) of bench scene `name`: the Cornell box at size x size, or wizard_cat from camera 3."""
+    return (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
+
+
 def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedule: str = "megakernel"):
     """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path
     tracer under `schedule` (RenderSettings.path_schedule)."""
     from clrender.trace.renderer import Renderer
 
-    scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
+    scene, camera = clrender_scene(name, size)
     settings = dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
     if schedule != "megakernel":
         settings["path_schedule"] = schedule

@@ -35,12 +35,13 @@ def child(args) -> None:
     """Render under perf: build with -g, find the kernel's code in memory, write where, then the timed renders."""
     sys.path.insert(0, str(REPO))
     import clrender.device as device_module
+    from bench.path import clrender_scene
     from clrender.trace.renderer import Renderer
     from tools.kernel_asm import elf_sections, object_code
 
     plain = device_module.build_options
     device_module.build_options = lambda defines=None: [*plain(defines), "-g"]
-    scene, camera = scene_of(args.scene, args.size)
+    scene, camera = clrender_scene(args.scene, args.size)
     settings = dict(integrator="path", spp=args.spp, max_depth=8, width=args.size, height=args.size, camera=camera)
     first = Renderer(scene, seed=0, **settings)
     first.run()
@@ -51,17 +52,6 @@ def child(args) -> None:
     Path(args.out, "where.json").write_text(json.dumps({"base": base, "size": len(code or b"")}))
     for seed in range(1, args.renders + 1):
         Renderer(scene, seed=seed, tracer=first.tracer, **settings).run()
-
-
-def scene_of(name: str, size: int):
-    sys.path.insert(0, str(REPO))
-    if name == "cornell_box":
-        from tests.reference import path_scenes
-
-        return path_scenes.cornell_box(size), 1
-    from bench.path import wizard_cat_scene
-
-    return wizard_cat_scene(3), 3
 
 
 def code_address(code: bytes) -> int | None:
