@@ -259,8 +259,9 @@ class Mitsuba:
         self.setup, self.args, self.dr = setup, args, dr
         dr.set_thread_count(args.threads)
         self.threads = dr.thread_count()
-        size = dict(width=setup.width, height=setup.height, rr_depth=None if args.mitsuba_rr == "default" else RR_DEPTH)
-        self.mi, self.loaded = mitsuba_scenes.load(setup.mitsuba, variant="llvm_ad_rgb", spp=1, max_depth=args.max_depth, exact=False, **size)
+        rr_depth = None if args.mitsuba_rr == "default" else RR_DEPTH
+        settings = dict(spp=1, max_depth=args.max_depth, width=setup.width, height=setup.height, exact=False, rr_depth=rr_depth)
+        self.mi, self.loaded = mitsuba_scenes.load(setup.mitsuba, variant="llvm_ad_rgb", **settings)
         self.render_loaded = mitsuba_scenes.render_loaded
         self.code = code_digest(MITSUBA_CODE, mitsuba.__version__, dr.__version__, "llvm_ad_rgb", "exact=False")
         self.render(1, 0)  # traces and compiles the kernels
