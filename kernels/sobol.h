@@ -35,24 +35,20 @@
 #define SLOT_BSDF 3U
 #define SLOT_LIGHT 7U
 
-/* Sobol's second dimension, nibble by nibble: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by
- * one; m_k = 2 m_(k-1) xor m_(k-1)), and over GF(2) (1 + S)^(4n + t) = (1 + S^4)^n (1 + S)^t, so the point is
- * sum_n (1 + S^4)^n T[nibble n of i], evaluated by Horner from the top nibble: 8 steps without branches instead of
- * one step per index bit (sampling.h's sobol_dim1 gives the same bits).  T[q]: the xor of v_t over the set bits t
- * of q; only its top nibble is set, kept here as that nibble.  sobol_second_of_reversed takes i bit-reversed: its
- * nibble m is nibble 7 - m of i reversed, so it reads the table at the reversed nibble (SOBOL_SECOND_REVERSED). */
-__constant uchar SOBOL_SECOND_NIBBLE[16] = {0x0, 0x8, 0xc, 0x4, 0xa, 0x2, 0x6, 0xe, 0xf, 0x7, 0x3, 0xb, 0x5, 0xd, 0x9, 0x1};
-__constant uchar SOBOL_SECOND_REVERSED[16] = {0x0, 0xf, 0xa, 0x5, 0xc, 0x3, 0x6, 0x9, 0x8, 0x7, 0x2, 0xd, 0x4, 0xb, 0xe, 0x1};
-INLINE uint sobol_second(uint i) {
-    uint r = 0;
-    for (int n = 7; n >= 0; --n) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_NIBBLE[(i >> (4 * n)) & 15U] << 28);
-    return r;
+/* Sobol's second dimension without a table: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by one),
+ * and bit 31 - j of (1 + S)^k 2^31 is the binomial C(k, j) mod 2, which by Lucas's theorem is 1 exactly when j's bits are
+ * a subset of k's.  So bit 31 - j of the point is the xor of index bits k over the supersets k of j: the subset-sum
+ * (Moebius) transform over GF(2), five shift-and-mask steps for 32 bits, then a bit reversal.  sobol_second is
+ * reverse_bits32(superset_xor(i)), bit for bit sampling.h's sobol_dim1 (one step per index bit). */
+INLINE uint superset_xor(uint x) {
+    x ^= (x >> 1) & 0x55555555U;
+    x ^= (x >> 2) & 0x33333333U;
+    x ^= (x >> 4) & 0x0f0f0f0fU;
+    x ^= (x >> 8) & 0x00ff00ffU;
+    x ^= (x >> 16) & 0x0000ffffU;
+    return x;
 }
-INLINE uint sobol_second_of_reversed(uint y) {
-    uint r = 0;
-    for (int m = 0; m < 8; ++m) r = (r ^ (r >> 4)) ^ ((uint)SOBOL_SECOND_REVERSED[(y >> (4 * m)) & 15U] << 28);
-    return r;
-}
+INLINE uint sobol_second(uint i) { return reverse_bits32(superset_xor(i)); }
 
 /* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
 INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
@@ -73,12 +69,13 @@ INLINE uint sobol_pixel_key(uint seed, uint pixel) { return hash3(seed, pixel, S
 
 /* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction:
  * owen_scramble(sobol_coordinate(owen_scramble(index, key), c), coordinate key), with the bit reversals that cancel
- * left out: the shuffled index i is reverse(y), coordinate 0 is reverse(i) = y, and coordinate 1 is read from y. */
+ * left out: the shuffled index is i = reverse(y), and the coordinate reversed is i itself (c 0) or superset_xor(i). */
 INLINE uint sobol_point(uint pixel_key, uint index, uint dim) {
     uint key = mix32(pixel_key ^ ((dim >> 1) + HASH_KEY_D)); /* hash4(seed, pixel, SOBOL_KEY_PAIR, pair) */
     uint c = dim & 1U;
     uint y = laine_karras(reverse_bits32(index), key); /* the pair's own order of the samples, bit-reversed */
-    uint point_reversed = reverse_bits32(c == 0U ? y : sobol_second_of_reversed(y));
+    uint i = reverse_bits32(y);
+    uint point_reversed = c == 0U ? i : superset_xor(i);
     return reverse_bits32(laine_karras(point_reversed, mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
 }
 
