@@ -41,7 +41,7 @@ INLINE Ray camera_ray(const Camera *c, float sx, float sy, Rng *rng) {
         d = forward + sx * right + sy * up;
     }
     if (!(c->aperture > 0.0f)) return make_ray(origin, unit(d));
-    float2 lens = sample_disk_concentric((float2)(rng_next(rng), rng_next(rng)));
+    float2 lens = sample_disk_concentric(rng_next2(rng));
     float3 focus = origin + c->focus_distance * d;
     float3 start = origin + lens.x * vload3(0, c->lens_right) + lens.y * vload3(0, c->lens_up);
     return make_ray(start, unit(focus - start));

@@ -324,7 +324,7 @@ INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c,
                               PathState *st) {
     rng_slot(rng, SLOT_LIGHT); /* the pick, then the light's 2-D sample as one pair */
     float pick = rng_next(rng);
-    float2 u = (float2)(rng_next(rng), rng_next(rng));
+    float2 u = rng_next2(rng);
     int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
     float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
     if (!(chosen > 0.0f)) return (float3)(0.0f);
@@ -538,7 +538,7 @@ INLINE bool shade_surface(const PathScene *s, PathState *st, Hit h, Rng *rng, Pa
 INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng *rng) {
     rng_slot(rng, SLOT_BSDF);
     float u1 = rng_next(rng);
-    float2 u2 = (float2)(rng_next(rng), rng_next(rng));
+    float2 u2 = rng_next2(rng);
     BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
     if (!(bs.pdf > 0.0f)) return false;
     float3 wi = to_world(v->fr, bs.wi);

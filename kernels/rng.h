@@ -47,12 +47,14 @@ INLINE float8 u01_lanes(uint8 h) {
 
 #if RNG_SOBOL
 INLINE uint sobol_pixel_key(uint seed, uint pixel); /* kernels/sobol.h */
+INLINE uint reverse_bits32(uint x);                 /* kernels/sampling.h */
 #endif
 
 typedef struct {
     uint seed, pixel, sample, dim;
 #if RNG_SOBOL
     uint key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
+    uint sample_reversed; /* the sample index bit-reversed, which every pair scrambles */
     uint base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
     uint extra; /* draws of rng_extra so far (their own dimensions, hashed) */
 #endif
@@ -62,13 +64,14 @@ INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
     Rng r;
     r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0;
 #if RNG_SOBOL
-    r.key = sobol_pixel_key(seed, pixel); r.base = 0; r.extra = 0;
+    r.key = sobol_pixel_key(seed, pixel); r.sample_reversed = reverse_bits32(sample); r.base = 0; r.extra = 0;
 #endif
     return r;
 }
 
 #if RNG_SOBOL
-INLINE float sobol_value(const Rng *r); /* kernels/sobol.h */
+INLINE float sobol_value(const Rng *r);   /* kernels/sobol.h */
+INLINE float2 sobol_value2(const Rng *r); /* kernels/sobol.h */
 #endif
 
 /* Next dimension of this (seed, pixel, sample) stream. */
@@ -80,6 +83,21 @@ INLINE float rng_next(Rng *r) {
 #endif
     r->dim += 1;
     return x;
+}
+
+/* The next two dimensions, the first in x: a 2-D sample.  With RNG_SOBOL, from an even dimension, one pair of the
+ * sequence, whose two coordinates share their pair's work (sobol.h). */
+INLINE float2 rng_next2(Rng *r) {
+#if RNG_SOBOL
+    if ((r->dim & 1U) == 0U) {
+        float2 x = sobol_value2(r);
+        r->dim += 2;
+        return x;
+    }
+#endif
+    float x = rng_next(r);
+    float y = rng_next(r);
+    return (float2)(x, y);
 }
 
 /* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets): rng_next

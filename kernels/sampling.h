@@ -67,11 +67,7 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
         /* the centred grid: (p + 0.5) / n */
         return (float2)((q + 0.5f) / fn, (p + 0.5f) / fn);
     }
-    if (sampler == SAMPLER_RANDOM) {
-        float x = rng_next(rng);
-        float y = rng_next(rng);
-        return (float2)(x, y);
-    }
+    if (sampler == SAMPLER_RANDOM) return rng_next2(rng);
     if (sampler == SAMPLER_STRATIFIED) {
         /* one jittered sample in each of the n x n sub-squares */
         float x = rng_next(rng);

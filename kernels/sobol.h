@@ -67,22 +67,37 @@ INLINE uint laine_karras(uint x, uint seed) {
 /* A pixel's key, what every pair's key starts from: hash4's first three rounds of (seed, pixel, SOBOL_KEY_PAIR). */
 INLINE uint sobol_pixel_key(uint seed, uint pixel) { return hash3(seed, pixel, SOBOL_KEY_PAIR); }
 
-/* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction:
- * owen_scramble(sobol_coordinate(owen_scramble(index, key), c), coordinate key), with the bit reversals that cancel
- * left out: the shuffled index is i = reverse(y), and the coordinate reversed is i itself (c 0) or superset_xor(i). */
-INLINE uint sobol_point(uint pixel_key, uint index, uint dim) {
-    uint key = mix32(pixel_key ^ ((dim >> 1) + HASH_KEY_D)); /* hash4(seed, pixel, SOBOL_KEY_PAIR, pair) */
-    uint c = dim & 1U;
-    uint y = laine_karras(reverse_bits32(index), key); /* the pair's own order of the samples, bit-reversed */
-    uint i = reverse_bits32(y);
-    uint point_reversed = c == 0U ? i : superset_xor(i);
-    return reverse_bits32(laine_karras(point_reversed, mix32(key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
+/* What both coordinates of pair `pair` of a sample share: the pair's key, hash4(seed, pixel, SOBOL_KEY_PAIR, pair), and
+ * the sample's shuffled index i = reverse(owen_scramble(index, key)), from the index bit-reversed. */
+typedef struct {
+    uint key, i;
+} SobolPair;
+INLINE SobolPair sobol_pair(uint pixel_key, uint index_reversed, uint pair) {
+    SobolPair q;
+    q.key = mix32(pixel_key ^ (pair + HASH_KEY_D));
+    q.i = reverse_bits32(laine_karras(index_reversed, q.key));
+    return q;
 }
 
-INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) { return sobol_point(sobol_pixel_key(seed, pixel), index, dim); }
+/* Coordinate c of a pair's point, as a 32-bit fraction: owen_scramble(sobol_coordinate(i, c), the coordinate's key), with
+ * the bit reversals that cancel left out (the coordinate reversed is i itself for c 0, superset_xor(i) for c 1). */
+INLINE uint sobol_pair_coordinate(SobolPair q, uint c) {
+    uint point_reversed = c == 0U ? q.i : superset_xor(q.i);
+    return reverse_bits32(laine_karras(point_reversed, mix32(q.key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
+}
+
+/* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction. */
+INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) {
+    return sobol_pair_coordinate(sobol_pair(sobol_pixel_key(seed, pixel), reverse_bits32(index), dim >> 1), dim & 1U);
+}
 
 #if RNG_SOBOL
-INLINE float sobol_value(const Rng *r) { return u01(sobol_point(r->key, r->sample, r->dim)); }
+INLINE float sobol_value(const Rng *r) { return u01(sobol_pair_coordinate(sobol_pair(r->key, r->sample_reversed, r->dim >> 1), r->dim & 1U)); }
+/* Both coordinates of the pair that starts at r->dim (even), sharing the pair's key and shuffled index. */
+INLINE float2 sobol_value2(const Rng *r) {
+    SobolPair q = sobol_pair(r->key, r->sample_reversed, r->dim >> 1);
+    return (float2)(u01(sobol_pair_coordinate(q, 0U)), u01(sobol_pair_coordinate(q, 1U)));
+}
 #endif
 
 /* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
