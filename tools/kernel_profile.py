@@ -27,8 +27,12 @@ from collections import Counter
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-# the summary's lines: what, and the function whose inclusive share it is
-GROUPS = (("closest-hit walks", "mesh_walk_closest"), ("any-hit walks", "mesh_walk_any"), ("the sampler", "rng_next"))
+# the summary's lines: what, and the functions whose samples it counts (a sample once, if any is on its chain)
+GROUPS = (
+    ("closest-hit walks", ("mesh_walk_closest",)),
+    ("any-hit walks", ("mesh_walk_any",)),
+    ("the sampler", ("rng_next", "rng_next2")),
+)
 
 
 def child(args) -> None:
@@ -73,13 +77,17 @@ def code_address(code: bytes) -> int | None:
 
 
 def shares(samples: Counter, chains: dict) -> dict[str, Counter]:
-    """Sample counts by inclusive function, innermost function, innermost file and innermost line, from the
-    samples' code offsets and each offset's inline chain [(function, file:line:column), innermost first]."""
-    out = {name: Counter() for name in ("inclusive", "function", "file", "line")}
+    """Sample counts by summary group (GROUPS), inclusive function, innermost function, innermost file and innermost
+    line, from the samples' code offsets and each offset's inline chain [(function, file:line:column), innermost first]."""
+    out = {name: Counter() for name in ("group", "inclusive", "function", "file", "line")}
     for offset, n in samples.items():
         chain = chains.get(offset) or [("?", "?:0:0")]
-        for function in {f for f, _ in chain}:
+        on_chain = {f for f, _ in chain}
+        for function in on_chain:
             out["inclusive"][function] += n
+        for what, functions in GROUPS:
+            if on_chain.intersection(functions):
+                out["group"][what] += n
         function, place = chain[0]
         out["function"][function] += n
         out["file"][Path(place.split(":")[0]).name] += n
@@ -133,8 +141,9 @@ def main(argv=None) -> int:
         tables = shares(samples, symbolize(Path(tmp, "kernel.o"), sorted(samples)))
     total = sum(samples.values())
     print(f"{args.scene}, {args.size}², {args.spp} spp, {args.renders} renders: {total} of {sum(everything.values())} samples in render_path")
-    for what, function in GROUPS:
-        print(f"  {100 * tables['inclusive'][function] / total:5.1f}%  {what} ({function}, inclusive)")
+    groups = tables.pop("group")
+    for what, functions in GROUPS:
+        print(f"  {100 * groups[what] / total:5.1f}%  {what} ({', '.join(functions)}, inclusive)")
     for title, counter in tables.items():
         print(f"\n{title}:")
         for name, n in counter.most_common(args.top):
