@@ -138,8 +138,9 @@ INLINE float3 lambert_eval(float3 wo, float3 wi, float3 albedo) {
 INLINE float lambert_pdf(float3 wo, float3 wi) { return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * M_1_PI_F : 0.0f; }
 
 INLINE float3 cosine_hemisphere(float2 u) {
-    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y;
-    return (float3)(r * COS(phi), r * SIN(phi), SQRT(max_f(0.0f, 1.0f - u.x)));
+    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y, s, c;
+    SINCOS(phi, s, c);
+    return (float3)(r * c, r * s, SQRT(max_f(0.0f, 1.0f - u.x)));
 }
 
 INLINE BsdfSample lambert_sample(float3 wo, float2 u2, float3 albedo) {
@@ -203,8 +204,9 @@ INLINE float3 ggx_sample_vndf(float3 w, float alpha, float2 u) {
     float lensq = wh.x * wh.x + wh.y * wh.y;
     float3 t1 = lensq > 0.0f ? (float3)(-wh.y, wh.x, 0.0f) / SQRT(lensq) : (float3)(1.0f, 0.0f, 0.0f);
     float3 t2 = cross3(wh, t1);
-    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y; /* a point on the projected disk ... */
-    float p1 = r * COS(phi), p2 = r * SIN(phi);
+    float r = SQRT(u.x), phi = 2.0f * M_PI_F * u.y, sin_phi, cos_phi; /* a point on the projected disk ... */
+    SINCOS(phi, sin_phi, cos_phi);
+    float p1 = r * cos_phi, p2 = r * sin_phi;
     float s = 0.5f * (1.0f + wh.z); /* ... warped to the visible half of it */
     p2 = (1.0f - s) * SQRT(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;
     float3 nh = p1 * t1 + p2 * t2 + SQRT(max_f(0.0f, 1.0f - p1 * p1 - p2 * p2)) * wh; /* onto the hemisphere */

@@ -23,7 +23,9 @@ INLINE float2 sample_disk_concentric(float2 u) {
     } else {
         r = o.y; theta = M_PI_F / 2.0f - (M_PI_F / 4.0f) * (o.x / o.y);
     }
-    return r * (float2)(COS(theta), SIN(theta));
+    float s, c;
+    SINCOS(theta, s, c);
+    return r * (float2)(c, s);
 }
 
 /* The primary ray through image point (sx, sy), each from -1 (left, bottom) to 1 (right, top).  A pinhole

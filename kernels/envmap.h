@@ -105,11 +105,13 @@ INLINE float3 env_sample(const EnvView *e, float2 u, float3 *radiance, float *pd
     float uu = ((float)col + 0.5f + du) / (float)e->m.width;
     if (uu >= 1.0f) uu -= 1.0f;
     float theta = M_PI_F * ((float)row + dv) / (float)(e->m.height - 1), phi = 2.0f * M_PI_F * uu;
-    float sin_theta = SIN(theta);
+    float sin_theta, cos_theta, sin_phi, cos_phi;
+    SINCOS(theta, sin_theta, cos_theta);
+    SINCOS(phi, sin_phi, cos_phi);
     int cell = row * e->m.width + col;
     *radiance = env_bilinear(e, cell, (float2)(du, dv));
     *pdf = sin_theta > 0.0f ? e->texels[cell].w * ENV_INV_2PI2 / sin_theta : 0.0f;
-    return env_to_world(e->m, (float3)(sin_theta * SIN(phi), COS(theta), -sin_theta * COS(phi)));
+    return env_to_world(e->m, (float3)(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }
 
 #endif

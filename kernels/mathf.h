@@ -12,13 +12,14 @@
  *     -cl-fp32-correctly-rounded-divide-sqrt (docs/math.md).
  *
  * Build switch DET_MATH (0 or undefined: off).  The headers shared with the Whitted kernels (camera.h, sampling.h,
- * envmap.h, spot.h) call SIN, COS, EXP, ATAN2, ACOS, SQRT, which are these functions in a DET_MATH program
+ * envmap.h, spot.h) call SIN, COS, SINCOS, EXP, ATAN2, ACOS, SQRT, which are these functions in a DET_MATH program
  * and the builtins otherwise, so the Whitted kernels (trace.cl, which does not define DET_MATH) keep their bits.
  *
  * Error bounds, against float64 (ulp: of the float32 nearest the exact value; measured by
  * tests/kernels/test_mathf.py over each function's whole range, and stated there):
  *   sin_det, cos_det   <= 2.5 ulp where |result| >= 2^-12, else <= 2^-35 absolute; any finite x (Payne-Hanek
  *                      reduction past |x| = 256), NaN for +-inf and NaN
+ *   sincos_det         both of those at once, one reduction: their bits
  *   exp_det            <= 2 ulp (denormal results: <= 1 ulp of the smallest denormal); +inf past 88.72, 0 below -103.98
  *   log_det            <= 2 ulp; -inf at +-0, NaN below 0, denormals exact in their exponent
  *   atan2_det          <= 3 ulp, with C99's results for zeros and infinities
@@ -143,6 +144,20 @@ INLINE float cos_det(float x) {
     float r = mf_reduce(x, &q);
     float v = (q & 1) ? mf_sin_poly(r) : mf_cos_poly(r);
     return ((q + 1) & 2) ? -v : v;
+}
+
+/* sin_det(x), with cos_det(x) in *c: one reduction for both, the same bits as the two calls */
+INLINE float sincos_det(float x, float *c) {
+    if (!(mf_abs(x) < INFINITY)) {
+        *c = x - x;
+        return x - x;
+    }
+    int q;
+    float r = mf_reduce(x, &q);
+    float ps = mf_sin_poly(r), pc = mf_cos_poly(r);
+    float s = (q & 1) ? pc : ps, co = (q & 1) ? ps : pc;
+    *c = ((q + 1) & 2) ? -co : co;
+    return (q & 2) ? -s : s;
 }
 
 /* 2^n for n in [-126, 127] by its bits */
@@ -286,6 +301,7 @@ INLINE float pow_det(float x, float y) {
 
 #define SIN(x) sin_det(x)
 #define COS(x) cos_det(x)
+#define SINCOS(x, s, c) ((s) = sincos_det((x), &(c))) /* s = SIN(x), c = COS(x) */
 #define EXP(x) exp_det(x)
 #define LOG(x) log_det(x)
 #define ATAN2(y, x) atan2_det(y, x)
@@ -297,6 +313,7 @@ INLINE float pow_det(float x, float y) {
 #else /* the builtins, as the Whitted kernels always called them */
 #define SIN(x) sin(x)
 #define COS(x) cos(x)
+#define SINCOS(x, s, c) ((s) = sin(x), (c) = cos(x))
 #define EXP(x) exp(x)
 #define LOG(x) log(x)
 #define ATAN2(y, x) atan2(y, x)
