@@ -529,6 +529,19 @@ BUILD_BOUNDS = Record("BuildBounds", BUILD_BOUNDS_DTYPE, ("bmin", "bmax", "cmin"
 # root's 1), and the node its subtree starts at (build_subtree; split_level ignores it)
 BUILD_TASK_DTYPE = np.dtype([("first", "<i4"), ("count", "<i4"), ("level", "<i4"), ("first_node", "<i4")])
 BUILD_TASK = Record("BuildTask", BUILD_TASK_DTYPE)
+# the split rules every split_level and build_subtree launch of one SAH build takes (trace/bvh.py): nodes of at most
+# max_leaf primitives are leaves, and so are nodes of at most leaf_cap whose best cut costs more than the leaf,
+# except that a large primitive, whose box has at least large_area half surface area measured with its sides times
+# root_unit (1 / the root box's longest side, so that no scale of the scene overflows it), shares its leaf with at
+# most one other; nodes of more than `samples` bin an evenly strided sample of that many; nodes of at most
+# halving_below are split in halves; max_levels is the tree's level cap, root included
+BUILD_RULES_DTYPE = np.dtype(
+    [
+        *[(name, "<i4") for name in ("max_leaf", "leaf_cap", "samples", "halving_below", "max_levels")],
+        *[(name, "<f4") for name in ("large_area", "root_unit")],
+    ]
+)
+BUILD_RULES = Record("BuildRules", BUILD_RULES_DTYPE)
 # a built subtree's move to its depth-first place: `nodes` nodes from scratch node `source` to node `target`
 SUBTREE_MOVE_DTYPE = np.dtype([("source", "<i4"), ("target", "<i4"), ("nodes", "<i4")])
 SUBTREE_MOVE = Record("SubtreeMove", SUBTREE_MOVE_DTYPE)

@@ -32,14 +32,7 @@
 #define SMALL_BINS (BINS / 2 > 2 ? BINS / 2 : 2) /* bins of nodes of at most 2 * BINS primitives */
 #define TRAVERSAL_COST 1.0f /* bvh.py's TRAVERSAL_COST and INTERSECT_COST */
 #define INTERSECT_COST 1.0f
-
-typedef struct {
-    int max_leaf;      /* nodes of at most this many primitives are leaves */
-    int leaf_cap;      /* ... and so are nodes of at most this many whose best cut costs more than the leaf */
-    int samples;       /* bigger nodes bin an evenly strided sample of this many */
-    int halving_below; /* nodes of at most this many are split in halves along their widest axis */
-    int max_levels;    /* the tree's level cap, root included */
-} Params;
+#define LARGE_LEAF_SIZE 2 /* primitives a leaf holding a large one may have (BuildRules.large_area) */
 
 /* lane-wise (a vector ?: selects per lane); .w carries no meaning */
 inline float4 min4(float4 a, float4 b) { return a < b ? a : b; }
@@ -224,7 +217,7 @@ INLINE Cut cheapest_cut(const Bins *bins, float unit) {
 }
 
 /* Whether a node of `count` primitives (`take` of them binned) is better left a leaf than cut. */
-INLINE bool leaf_is_cheaper(const BuildBounds *node, Cut cut, int count, int take, float unit, Params p) {
+INLINE bool leaf_is_cheaper(const BuildBounds *node, Cut cut, int count, int take, float unit, BuildRules p) {
     float node_area = half_area(node->bmin, node->bmax, unit);
     node_area = node_area > 0.0f ? node_area : 1.0f;
     float cost = TRAVERSAL_COST + INTERSECT_COST * ((float)count / (float)take) * cut.cost / node_area;
@@ -272,9 +265,20 @@ INLINE int split_in_halves(__global BuildPrim *box, int start, int count, const 
  * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
  * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
  * into one bin) in halves along the axis of widest centroid extent. */
-int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, Params p,
+/* Whether a node of `count` primitives, a leaf by its count, holds a large one (a wall, a floor) and more than one other:
+ * a leaf's box is tested by every ray that meets any of its primitives, so a large primitive kept with small ones
+ * makes their triangle tests every ray's. */
+INLINE bool holds_large(__global const BuildPrim *box, int start, int count, BuildRules p) {
+    if (count <= LARGE_LEAF_SIZE) return false;
+    for (int i = start; i < start + count; ++i)
+        if (half_area(box[i].lo, box[i].hi, p.root_unit) >= p.large_area) return true;
+    return false;
+}
+
+int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, BuildRules p,
                BuildBounds *left, BuildBounds *right) {
-    if (count <= p.max_leaf) return 0;
+    bool split_large = count <= p.max_leaf && holds_large(box, start, count, p);
+    if (count <= p.max_leaf && !split_large) return 0;
     bool halve = count <= p.halving_below || depth + ceil_log2(count) + 1 >= p.max_levels;
     if (!halve) {
         Bins bins;
@@ -285,7 +289,7 @@ int split_node(__global BuildPrim *box, int start, int count, int depth, const B
         float unit = area_unit(node);
         Cut cut = cheapest_cut(&bins, unit);
         if (cut.axis >= 0) {
-            if (leaf_is_cheaper(node, cut, count, take, unit, p)) return 0;
+            if (!split_large && leaf_is_cheaper(node, cut, count, take, unit, p)) return 0;
             return partition_at(box, start, count, node, &bins, cut, left, right);
         }
     }
@@ -303,14 +307,13 @@ inline void write_node(__global BvhNode *node, const BuildBounds *b, int offset,
 /* One top-level node per work-item: split it, write how (first child's primitives, 0 for a leaf)
  * and the children's bounds (left_bounds[t], right_bounds[t]). */
 __kernel void split_level(__global BuildPrim *box, __global const BuildTask *task, __global const BuildBounds *bounds,
-                          int n_tasks, int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
-                          __global int *n_first, __global BuildBounds *left_bounds, __global BuildBounds *right_bounds) {
+                          int n_tasks, BuildRules rules, __global int *n_first, __global BuildBounds *left_bounds,
+                          __global BuildBounds *right_bounds) {
     int t = get_global_id(0);
     if (t >= n_tasks) return;
-    Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
     BuildTask k = task[t];
     BuildBounds node = bounds[t], left, right;
-    int n = split_node(box, k.first, k.count, k.level, &node, p, &left, &right);
+    int n = split_node(box, k.first, k.count, k.level, &node, rules, &left, &right);
     n_first[t] = n;
     if (n > 0) {
         left_bounds[t] = left;
@@ -326,11 +329,9 @@ typedef struct {
 /* One subtree per work-item, written depth-first from node task.first_node on (at most 2 * count - 1
  * nodes); writes its node count to n_nodes[t].  Far-child offsets are absolute indices in `nodes`. */
 __kernel void build_subtree(__global BuildPrim *box, __global const BuildTask *task, __global const BuildBounds *bounds,
-                            int n_tasks, int max_leaf, int leaf_cap, int samples, int halving_below, int max_levels,
-                            __global BvhNode *nodes, __global int *n_nodes) {
+                            int n_tasks, BuildRules rules, __global BvhNode *nodes, __global int *n_nodes) {
     int t = get_global_id(0);
     if (t >= n_tasks) return;
-    Params p = {max_leaf, leaf_cap, samples, halving_below, max_levels};
     BuildTask k = task[t];
     Pending stack[BUILD_STACK];
     stack[0].b = bounds[t];
@@ -344,7 +345,7 @@ __kernel void build_subtree(__global BuildPrim *box, __global const BuildTask *t
         int i = next++;
         if (e.parent >= 0) nodes[e.parent].offset = i; /* the far child is here */
         BuildBounds left, right;
-        int n = sp + 2 <= BUILD_STACK ? split_node(box, e.start, e.count, e.depth, &e.b, p, &left, &right) : 0;
+        int n = sp + 2 <= BUILD_STACK ? split_node(box, e.start, e.count, e.depth, &e.b, rules, &left, &right) : 0;
         if (n == 0) {
             write_node(nodes + i, &e.b, e.start, e.count);
             continue;

@@ -22,7 +22,9 @@ Builders:
   partitions all of them); nodes of at most ``2 * bins`` primitives use
   ``bins // 2`` bins.  A node becomes a leaf when it holds at most
   ``max_leaf_size`` primitives, or when no cut is cheaper than the leaf and it
-  holds at most ``4 * max_leaf_size``.  A node of at most ``halving_below``
+  holds at most ``4 * max_leaf_size``, except that a primitive whose box has at
+  least ``LARGE_SHARE`` of the root box's surface area shares its leaf with at
+  most one other.  A node of at most ``halving_below``
   primitives (none by default), one whose centroids all fall in one bin (e.g.
   they coincide), or one too deep to finish by SAH within MAX_TREE_LEVELS is
   split in halves (``count // 2`` to the first child) along its widest centroid
@@ -49,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
-from ..layout import BUILD_BOUNDS_DTYPE, BUILD_PRIM_DTYPE, BUILD_TASK_DTYPE, BVH_NODE_DTYPE, SUBTREE_MOVE_DTYPE
+from ..layout import BUILD_BOUNDS_DTYPE, BUILD_PRIM_DTYPE, BUILD_RULES_DTYPE, BUILD_TASK_DTYPE, BVH_NODE_DTYPE, SUBTREE_MOVE_DTYPE
 from .knobs import BUILD_STACK, DEFAULT_KNOBS, MAX_TREE_LEVELS_LIMIT
 
 NODE_DTYPE = BVH_NODE_DTYPE  # the kernels' BvhNode (clrender/layout.py)
@@ -65,6 +67,9 @@ MAX_SAH_PRIMS = 2**27 - 1  # the kernels index node and record words with int32 
 _DEVICE_BUILD = threading.Lock()  # one SAH build on the device at a time per process
 TRAVERSAL_COST = 1.0  # SAH cost of visiting an interior node, relative to one primitive test
 INTERSECT_COST = 1.0
+# a primitive whose box has at least this share of the root box's surface area is large (a wall, a floor): it shares a
+# leaf with at most one other primitive (kernels/bvh_build.cl holds_large)
+LARGE_SHARE = 1.0 / 16.0
 
 
 @dataclass
@@ -122,6 +127,15 @@ def half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Half the surface area of boxes (..., 3); empty boxes (hi < lo) count 0."""
     e = np.maximum(hi - lo, 0)
     return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+
+
+def _area_unit(side: np.ndarray) -> np.float32:
+    """1 / the longest of float32 box sides, as kernels/bvh_build.cl's area_unit computes it (1 where that is not a
+    positive finite float): box sides times it are at most 1, and scaling a scene by a power of two scales it exactly."""
+    longest = np.float32(side.max())
+    with np.errstate(divide="ignore", over="ignore"):
+        unit = np.float32(1) / longest if longest > 0 else np.float32(1)
+    return unit if np.isfinite(unit) and unit > 0 else np.float32(1)
 
 
 def node_depths(nodes: np.ndarray) -> np.ndarray:
@@ -286,7 +300,7 @@ class _SahRun:
 
     dev: object  # clrender.device.Device
     knl: dict  # the bvh_build.cl kernels by name
-    rules: dict  # the split rules every split_level and build_subtree launch takes
+    rules: np.ndarray  # the BuildRules record every split_level and build_subtree launch takes
     n: int  # primitives
     chunk: int  # primitives per load_prims / prim_order work-item
     n_chunks: int
@@ -328,11 +342,15 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
     defines = dict(BINS=bins, BUILD_STACK=BUILD_STACK)
     knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
     n = len(lo)
-    rules = dict(max_leaf=max_leaf, leaf_cap=4 * max_leaf, samples=samples, halving_below=halving_below, max_levels=max_levels)
+    rules = np.zeros((), BUILD_RULES_DTYPE)
+    rules["max_leaf"], rules["leaf_cap"], rules["samples"], rules["halving_below"], rules["max_levels"] = max_leaf, 4 * max_leaf, samples, halving_below, max_levels
     dev.check_fits(2 * n * NODE_DTYPE.itemsize, f"a BVH over {n} primitives")  # the scratch nodes, the biggest buffer
     chunk = -(-n // LOAD_CHUNKS)
     run = _SahRun(dev, knl, rules, n, chunk, -(-n // chunk))
     root = _load_prims(run, lo, hi)
+    rules["root_unit"] = unit = _area_unit(root["bmax"][:3] - root["bmin"][:3])
+    large = LARGE_SHARE * half_area(root["bmin"][:3] * unit, root["bmax"][:3] * unit)
+    rules["large_area"] = large if large > 0 else np.inf  # a root of no area: no primitive is large
     top, subtrees = _top_levels(run, root, subtree_size)
     subtrees.sort(key=lambda i: -top.count[i])  # every subtree in one work-item, biggest first
     if not subtrees:  # the root is a leaf (more than subtree_size primitives, at most max_leaf)
@@ -401,7 +419,7 @@ def _split_level(run: _SahRun, top: _TopNodes, big):
         task=dev.to_device(task),
         bounds=dev.to_device(np.array([top.bounds[i] for i in big], BUILD_BOUNDS_DTYPE)),
         n_tasks=len(big),
-        **run.rules,
+        rules=run.rules,
         n_first=nf_buf,
         left_bounds=left_buf,
         right_bounds=right_buf,
@@ -430,7 +448,7 @@ def _build_subtrees(run: _SahRun, top: _TopNodes, subtrees):
         task=dev.to_device(task),
         bounds=dev.to_device(np.array([top.bounds[i] for i in subtrees], BUILD_BOUNDS_DTYPE)),
         n_tasks=len(subtrees),
-        **run.rules,
+        rules=run.rules,
         nodes=scratch_buf,
         n_nodes=nn_buf,
     )

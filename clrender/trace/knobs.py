@@ -16,7 +16,8 @@ from ..errors import UsageError, value_shown
 
 # Primitives per binary leaf for each traversal width.  The wide layouts test a leaf's triangles four
 # at a time (leaf blocks, bvh_wide.kernel_rows), so bigger leaves pay there: under 8-wide nodes leaves
-# of at most 6 traced 10-20% faster than 2 (docs/bvh.md).
+# of at most 6 traced 10-20% faster than 2 (docs/bvh.md; 3-6% on the dense 100k mesh in 2026-11, once large
+# primitives got leaves of their own: clrender.trace.bvh.LARGE_SHARE).
 BEST_LEAF_SIZE = {2: 4, 4: 6, 8: 6}
 # The SAH build keeps this many pending nodes per build_subtree work-item (-DBUILD_STACK): a subtree
 # grown depth-first holds at most its depth plus the two children just split, and trees are at most

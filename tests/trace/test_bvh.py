@@ -281,6 +281,43 @@ def test_sah_tree_does_not_depend_on_the_scene_scale(rng):
         assert np.array_equal(bvh.nodes["bmin"], ref.nodes["bmin"] * scale)
 
 
+def room_with_clutter(rng, n_small=300):
+    """A closed room's six walls (two triangles each, the size of the scene) around n_small small triangles."""
+    corners = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], np.float32)
+    faces = [(0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (3, 2, 6, 7), (0, 3, 7, 4), (1, 2, 6, 5)]
+    walls = np.array([[corners[a], corners[b], corners[c]] for f in faces for a, b, c in ((f[0], f[1], f[2]), (f[0], f[2], f[3]))])
+    return np.concatenate([walls, soup(rng, n_small, size=0.02) * 0.8 + 0.1])
+
+
+def leaves_of(bvh):
+    """Each leaf's primitive ids."""
+    nodes, order = bvh.nodes, bvh.prim_order
+    return [order[o : o + c] for o, c in zip(nodes["offset"], nodes["count"]) if c > 0]
+
+
+def test_a_large_primitive_shares_its_leaf_with_at_most_one_other(rng):
+    """A wall (its box a third of the room's surface area: large, LARGE_SHARE) would make every ray that meets its leaf
+    test the leaf's small triangles too: it is kept in a leaf of at most two (its quad's other half)."""
+    tri = room_with_clutter(rng)
+    lo, hi = tri.min(1), tri.max(1)
+    bvh = build_bvh(lo, hi, max_leaf_size=6)
+    check_tree(bvh, lo, hi)
+    large = np.arange(len(tri)) < 12  # the walls
+    leaves = leaves_of(bvh)
+    assert all(len(leaf) <= 2 for leaf in leaves if large[leaf].any())
+    assert max(len(leaf) for leaf in leaves if not large[leaf].any()) > 2  # the clutter keeps its bigger leaves
+
+
+def test_without_large_primitives_the_tree_is_the_one_the_rule_leaves_alone(rng, monkeypatch):
+    """Small triangles only: the tree is bit for bit the one built with the large-primitive rule switched off."""
+    tri = soup(rng, 3000)
+    lo, hi = tri.min(1), tri.max(1)
+    with_rule = build_bvh(lo, hi, max_leaf_size=6)
+    monkeypatch.setattr(bvh_module, "LARGE_SHARE", np.inf)
+    without = build_bvh(lo, hi, max_leaf_size=6)
+    assert np.array_equal(with_rule.prim_order, without.prim_order) and np.array_equal(with_rule.nodes, without.nodes)
+
+
 def test_builds_from_several_threads_give_the_same_tree(rng):
     """The device build shares its kernel objects: concurrent callers must not mix their arguments."""
     import threading
