@@ -2,10 +2,11 @@
 
     python -m tools.kernel_profile                         # the Cornell box, 256², 32 spp, 4 renders
     python -m tools.kernel_profile --scene wizard_cat --top 40
+    python -m tools.kernel_profile --scene whitted           # bench whitted's Whitted render (trace.cl's render)
 
 Needs Intel's OpenCL CPU runtime (the `fast` extra), `perf` (Debian's linux-perf) and `llvm-symbolizer`.  The
 render's kernels are built with `-g` (the runtime then keeps a line table in its object code); a child process
-renders under `perf record`, after finding where the runtime loaded `render_path`'s code (the object's
+renders under `perf record`, after finding where the runtime loaded the render kernel's code (the object's
 `.ltext` section, searched for in the child's executable mappings); the samples inside it are mapped back
 through the object's line table, inlined calls included.  Inclusive shares count a sample once for every function
 on its inline chain (traversal: `mesh_walk_closest` and `mesh_walk_any`); innermost shares count the function or
@@ -45,8 +46,14 @@ def child(args) -> None:
 
     plain = device_module.build_options
     device_module.build_options = lambda defines=None: [*plain(defines), "-g"]
-    scene, camera = clrender_scene(args.scene, args.size)
-    settings = dict(integrator="path", spp=args.spp, max_depth=8, width=args.size, height=args.size, camera=camera)
+    if args.scene == "whitted":  # bench whitted's opaque scene, its Whitted settings (36 samples a pixel)
+        from bench.whitted import CAMERA, scenes
+
+        scene, camera = scenes("opaque")[0], CAMERA
+        settings = dict(width=args.size, height=args.size, camera=camera, aa="full", sampler="stratified", samples=6)
+    else:
+        scene, camera = clrender_scene(args.scene, args.size)
+        settings = dict(integrator="path", spp=args.spp, max_depth=8, width=args.size, height=args.size, camera=camera)
     first = Renderer(scene, seed=0, **settings)
     first.run()
     obj = object_code(first.kernel.kernel.program.binaries[0])
@@ -109,7 +116,7 @@ def symbolize(obj: Path, offsets: list[int]) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.kernel_profile", description=__doc__.split("\n")[0])
-    ap.add_argument("--scene", choices=("cornell_box", "wizard_cat"), default="cornell_box")
+    ap.add_argument("--scene", choices=("cornell_box", "wizard_cat", "whitted"), default="cornell_box", help="whitted: bench whitted's opaque wizard_cat")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--renders", type=int, default=4, help="renders sampled after the first (default 4)")
@@ -133,14 +140,14 @@ def main(argv=None) -> int:
         )
         where = json.loads(Path(tmp, "where.json").read_text())
         if not where["base"]:
-            print("render_path's code was not found in memory: this needs Intel's OpenCL CPU runtime (CLRENDER_DEVICE=intel)", file=sys.stderr)
+            print("the render kernel's code was not found in memory: this needs Intel's OpenCL CPU runtime (CLRENDER_DEVICE=intel)", file=sys.stderr)
             return 2
         ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True, check=True).stdout.split()
         everything = Counter(int(ip, 16) for ip in ips)
         samples = Counter({ip - where["base"]: n for ip, n in everything.items() if 0 <= ip - where["base"] < where["size"]})
         tables = shares(samples, symbolize(Path(tmp, "kernel.o"), sorted(samples)))
     total = sum(samples.values())
-    print(f"{args.scene}, {args.size}², {args.spp} spp, {args.renders} renders: {total} of {sum(everything.values())} samples in render_path")
+    print(f"{args.scene}, {args.size}², {args.spp} spp, {args.renders} renders: {total} of {sum(everything.values())} samples in the render kernel")
     groups = tables.pop("group")
     for what, functions in GROUPS:
         print(f"  {100 * groups[what] / total:5.1f}%  {what} ({', '.join(functions)}, inclusive)")
