@@ -8,8 +8,7 @@ import numpy as np
 from .device import Device, get_device
 
 PROBE = "mathf_probe.cl"
-# mathf_probe.cl's codes; "sincos.sin", "sincos.cos": sincos_det's two results
-FUNCTIONS = ("sin", "cos", "exp", "log", "atan2", "acos", "asin", "pow", "floor", "sqrt", "sincos.sin", "sincos.cos")
+FUNCTIONS = ("sin", "cos", "exp", "log", "atan2", "acos", "asin", "pow", "floor", "sqrt")  # mathf_probe.cl's codes
 
 
 def evaluate(name: str, a, b=None, device: Device | None = None) -> np.ndarray:

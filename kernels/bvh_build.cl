@@ -260,11 +260,6 @@ INLINE int split_in_halves(__global BuildPrim *box, int start, int count, const 
     return n_first;
 }
 
-/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
- * number of primitives of its first child, moved to the front of the range, with both
- * children's bounds; 0 for a leaf.  By the best binned-SAH cut over the three axes, else (a
- * small node, one too deep to finish by SAH within max_levels, or one whose centroids all fall
- * into one bin) in halves along the axis of widest centroid extent. */
 /* Whether a node of `count` primitives, a leaf by its count, holds a large one (a wall, a floor) and more than one other:
  * a leaf's box is tested by every ray that meets any of its primitives, so a large primitive kept with small ones
  * makes their triangle tests every ray's. */
@@ -275,6 +270,12 @@ INLINE bool holds_large(__global const BuildPrim *box, int start, int count, Bui
     return false;
 }
 
+/* How the node of primitives [start, start + count) at tree level `depth` splits: returns the
+ * number of primitives of its first child, moved to the front of the range, with both
+ * children's bounds; 0 for a leaf (at most max_leaf primitives, unless holds_large).  By the best
+ * binned-SAH cut over the three axes, else (a small node, one too deep to finish by SAH within
+ * max_levels, or one whose centroids all fall into one bin) in halves along the axis of widest
+ * centroid extent. */
 int split_node(__global BuildPrim *box, int start, int count, int depth, const BuildBounds *node, BuildRules p,
                BuildBounds *left, BuildBounds *right) {
     bool split_large = count <= p.max_leaf && holds_large(box, start, count, p);

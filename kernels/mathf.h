@@ -19,7 +19,7 @@
  * tests/kernels/test_mathf.py over each function's whole range, and stated there):
  *   sin_det, cos_det   <= 2.5 ulp where |result| >= 2^-12, else <= 2^-35 absolute; any finite x (Payne-Hanek
  *                      reduction past |x| = 256), NaN for +-inf and NaN
- *   sincos_det         both of those at once, one reduction: their bits
+ *   sincos_det         both at once (sin_det and cos_det are its halves)
  *   exp_det            <= 2 ulp (denormal results: <= 1 ulp of the smallest denormal); +inf past 88.72, 0 below -103.98
  *   log_det            <= 2 ulp; -inf at +-0, NaN below 0, denormals exact in their exponent
  *   atan2_det          <= 3 ulp, with C99's results for zeros and infinities
@@ -130,25 +130,9 @@ INLINE float mf_cos_poly(float r) {
     return 1.0f - 0.5f * z + z * z * ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f);
 }
 
-INLINE float sin_det(float x) {
-    if (!(mf_abs(x) < INFINITY)) return x - x; /* NaN for +-inf and NaN */
-    int q;
-    float r = mf_reduce(x, &q);
-    float v = (q & 1) ? mf_cos_poly(r) : mf_sin_poly(r);
-    return (q & 2) ? -v : v;
-}
-
-INLINE float cos_det(float x) {
-    if (!(mf_abs(x) < INFINITY)) return x - x;
-    int q;
-    float r = mf_reduce(x, &q);
-    float v = (q & 1) ? mf_sin_poly(r) : mf_cos_poly(r);
-    return ((q + 1) & 2) ? -v : v;
-}
-
-/* sin_det(x), with cos_det(x) in *c: one reduction for both, the same bits as the two calls */
+/* sin x, with cos x in *c: one reduction for both */
 INLINE float sincos_det(float x, float *c) {
-    if (!(mf_abs(x) < INFINITY)) {
+    if (!(mf_abs(x) < INFINITY)) { /* NaN for +-inf and NaN */
         *c = x - x;
         return x - x;
     }
@@ -158,6 +142,17 @@ INLINE float sincos_det(float x, float *c) {
     float s = (q & 1) ? pc : ps, co = (q & 1) ? ps : pc;
     *c = ((q + 1) & 2) ? -co : co;
     return (q & 2) ? -s : s;
+}
+
+INLINE float sin_det(float x) {
+    float c;
+    return sincos_det(x, &c);
+}
+
+INLINE float cos_det(float x) {
+    float c;
+    sincos_det(x, &c);
+    return c;
 }
 
 /* 2^n for n in [-126, 127] by its bits */

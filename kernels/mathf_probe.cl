@@ -14,14 +14,12 @@
 #define MATHF_POW 7
 #define MATHF_FLOOR 8
 #define MATHF_SQRT 9
-#define MATHF_SINCOS_SIN 10 /* sincos_det's two results */
-#define MATHF_SINCOS_COS 11
 
 /* out[i] = function `fn` of a[i] (and b[i] for atan2(a, b) and pow(a, b)) */
 __kernel void mathf_probe(int n, int fn, __global const float *a, __global const float *b, __global float *out) {
     int i = get_global_id(0);
     if (i >= n) return;
-    float x = a[i], y = b[i], v, c;
+    float x = a[i], y = b[i], v;
     switch (fn) {
     case MATHF_SIN: v = sin_det(x); break;
     case MATHF_COS: v = cos_det(x); break;
@@ -32,8 +30,6 @@ __kernel void mathf_probe(int n, int fn, __global const float *a, __global const
     case MATHF_ASIN: v = asin_det(x); break;
     case MATHF_POW: v = pow_det(x, y); break;
     case MATHF_FLOOR: v = floor_det(x); break;
-    case MATHF_SINCOS_SIN: v = sincos_det(x, &c); break;
-    case MATHF_SINCOS_COS: sincos_det(x, &v); break;
     default: v = sqrt_det(x); break;
     }
     out[i] = v;

@@ -116,7 +116,8 @@ def symbolize(obj: Path, offsets: list[int]) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.kernel_profile", description=__doc__.split("\n")[0])
-    ap.add_argument("--scene", choices=("cornell_box", "wizard_cat", "whitted"), default="cornell_box", help="whitted: bench whitted's opaque wizard_cat")
+    scenes = ("cornell_box", "wizard_cat", "whitted")
+    ap.add_argument("--scene", choices=scenes, default="cornell_box", help="whitted: bench whitted's opaque wizard_cat")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--renders", type=int, default=4, help="renders sampled after the first (default 4)")
@@ -147,7 +148,8 @@ def main(argv=None) -> int:
         samples = Counter({ip - where["base"]: n for ip, n in everything.items() if 0 <= ip - where["base"] < where["size"]})
         tables = shares(samples, symbolize(Path(tmp, "kernel.o"), sorted(samples)))
     total = sum(samples.values())
-    print(f"{args.scene}, {args.size}², {args.spp} spp, {args.renders} renders: {total} of {sum(everything.values())} samples in the render kernel")
+    per_pixel = "36 samples a pixel (Whitted)" if args.scene == "whitted" else f"{args.spp} spp"
+    print(f"{args.scene}, {args.size}², {per_pixel}, {args.renders} renders: {total} of {sum(everything.values())} samples in the render kernel")
     groups = tables.pop("group")
     for what, functions in GROUPS:
         print(f"  {100 * groups[what] / total:5.1f}%  {what} ({', '.join(functions)}, inclusive)")

@@ -343,7 +343,8 @@ def _sah_device(lo, hi, max_leaf, bins, samples, halving_below, max_levels, *, s
     knl = {name: dev.kernel("bvh_build.cl", name, defines) for name in ("load_prims", "split_level", "build_subtree", "place_subtrees", "prim_order")}
     n = len(lo)
     rules = np.zeros((), BUILD_RULES_DTYPE)
-    rules["max_leaf"], rules["leaf_cap"], rules["samples"], rules["halving_below"], rules["max_levels"] = max_leaf, 4 * max_leaf, samples, halving_below, max_levels
+    for name, value in dict(max_leaf=max_leaf, leaf_cap=4 * max_leaf, samples=samples, halving_below=halving_below, max_levels=max_levels).items():
+        rules[name] = value
     dev.check_fits(2 * n * NODE_DTYPE.itemsize, f"a BVH over {n} primitives")  # the scratch nodes, the biggest buffer
     chunk = -(-n // LOAD_CHUNKS)
     run = _SahRun(dev, knl, rules, n, chunk, -(-n // chunk))

@@ -138,11 +138,3 @@ def test_sin_cos_of_huge_arguments(device):
     for name, ref in (("sin", np.sin), ("cos", np.cos)):
         err = ulp_error(evaluate(name, x, device=device), ref(x.astype(np.float64)))
         assert err.max() <= BOUNDS_ULP[name], name
-
-
-def test_sincos_is_sin_and_cos_bit_for_bit(device):
-    """sincos_det reduces once for both: its results are sin_det's and cos_det's bits, big arguments and specials included."""
-    rng = np.random.default_rng(10)
-    x = np.concatenate([random_floats(rng, 1 << 15), rng.uniform(0, 2 * np.pi, 1 << 15).astype(np.float32), SPECIALS, -SPECIALS])
-    for part in ("sin", "cos"):
-        assert np.array_equal(evaluate(f"sincos.{part}", x, device=device).view(np.uint32), evaluate(part, x, device=device).view(np.uint32)), part
