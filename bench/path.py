@@ -151,9 +151,11 @@ def clrender_has_path_tracer() -> bool:
     return "integrator" in RenderSettings.__dataclass_fields__
 
 
-def clrender_scene(name: str, size: int):
-    """(clrender scene, camera number) of bench scene `name`: the Cornell box at size x size, or wizard_cat from camera 3."""
-    return (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
+def clrender_setup(name: str, size: int, spp: int, depth: int):
+    """(clrender scene, Renderer settings) of bench scene `name` path-traced at size x size: the Cornell box, or wizard_cat
+    from camera 3."""
+    scene, camera = (path_scenes.cornell_box(size), 1) if name == "cornell_box" else (wizard_cat_scene(3), 3)
+    return scene, dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
 
 
 def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedule: str = "megakernel"):
@@ -161,8 +163,7 @@ def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedul
     tracer under `schedule` (RenderSettings.path_schedule)."""
     from clrender.trace.renderer import Renderer
 
-    scene, camera = clrender_scene(name, size)
-    settings = dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
+    scene, settings = clrender_setup(name, size, spp, depth)
     if schedule != "megakernel":
         settings["path_schedule"] = schedule
     start = time.perf_counter()

@@ -150,6 +150,11 @@ def timed(fn):
     return result, time.perf_counter() - wall, time.process_time() - cpu
 
 
+def clrender_settings(size: int, samples: int) -> dict:
+    """clrender's Whitted settings: the report's full AA, stratified samples x samples a pixel, from CAMERA."""
+    return dict(width=size, height=size, camera=CAMERA, aa="full", sampler="stratified", samples=samples)
+
+
 def measure(variant: str, args, threads: int, out: Path) -> dict:
     """One row: both renderers' warm-up render, then args.runs timed renders each, alternating."""
     import drjit as dr
@@ -159,7 +164,7 @@ def measure(variant: str, args, threads: int, out: Path) -> dict:
 
     scene, scene_dict = scenes(variant)
     spp = args.samples**2
-    settings = dict(width=args.size, height=args.size, camera=CAMERA, aa="full", sampler="stratified", samples=args.samples)
+    settings = clrender_settings(args.size, args.samples)
     start = time.perf_counter()
     renderer = Renderer(scene, seed=0, **settings)
     first = renderer.run()

@@ -40,20 +40,18 @@ def child(args) -> None:
     """Render under perf: build with -g, find the kernel's code in memory, write where, then the timed renders."""
     sys.path.insert(0, str(REPO))
     import clrender.device as device_module
-    from bench.path import clrender_scene
+    from bench.path import clrender_setup
     from clrender.trace.renderer import Renderer
     from tools.kernel_asm import elf_sections, object_code
 
     plain = device_module.build_options
     device_module.build_options = lambda defines=None: [*plain(defines), "-g"]
     if args.scene == "whitted":  # bench whitted's opaque scene, its Whitted settings (36 samples a pixel)
-        from bench.whitted import CAMERA, scenes
+        from bench.whitted import clrender_settings, scenes
 
-        scene, camera = scenes("opaque")[0], CAMERA
-        settings = dict(width=args.size, height=args.size, camera=camera, aa="full", sampler="stratified", samples=6)
+        scene, settings = scenes("opaque")[0], clrender_settings(args.size, 6)
     else:
-        scene, camera = clrender_scene(args.scene, args.size)
-        settings = dict(integrator="path", spp=args.spp, max_depth=8, width=args.size, height=args.size, camera=camera)
+        scene, settings = clrender_setup(args.scene, args.size, args.spp, 8)
     first = Renderer(scene, seed=0, **settings)
     first.run()
     obj = object_code(first.kernel.kernel.program.binaries[0])
