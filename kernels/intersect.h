@@ -11,7 +11,7 @@
  * docs/benchmarks.md, "Ray queries"):
  * - Packet (kernels/packet.h): eight rays that go the same way walk the wide tree together, one stack
  *   and one box sort for all, each triangle tested against eight rays in float8 lanes; the query
- *   kernels walk rays that do not as pairs of stepped walks (packets: about 1.7x for coherent rays).
+ *   kernels walk rays that do not as groups of four stepped walks (packets: about 1.7x for coherent rays).
  * - Shaft (kernels/shaft.h): a shading point's shadow rays toward an area light share one walk
  *   of the shaft that holds them all, then test only the primitives it collected (about 2x fewer
  *   CPU-seconds for soft shadows). */
@@ -430,7 +430,7 @@ INLINE uint max_key(lanes_u k) {
  * the number of hits.  No branch per lane: which lanes hit is unpredictable.  `sort_always`: no
  * branch on the number of hits either, every node's keys go through the sort: for incoherent
  * rays whether 0, 1 or more lanes hit is a coin toss decided only at the end of the box test's
- * dependent chain (the query kernels' pairs of walks: 3.39 -> 3.70 Mrays per CPU-second), while
+ * dependent chain (the query kernels' stepped walks: 3.39 -> 3.70 Mrays per CPU-second), while
  * a render's coherent rays predict it and gain from skipping the sort (bunny render: 4% less CPU)
  * (docs/bvh.md, "Incoherent rays: ordering, vectorisation, branches").  The same entries either way. */
 INLINE int push_lanes(int node, lanes_f t_lanes, bool farthest_first, bool sort_always, uint *stack_key, int *stack_node,
@@ -478,8 +478,8 @@ INLINE float times_crossed(const Geometry *g, Pass pass, __global const LeafBloc
 }
 
 /* A ray's walk through the wide tree, as a state a work-item can advance one stack entry at a time:
- * the ray kernels step two rays in turn, whose steps do not depend on each other, so the CPU overlaps
- * one's memory and branch latencies with the other's work (+10-15% per ray measured).  Closest hit:
+ * the ray kernels step four rays in turn, whose steps do not depend on each other, so the CPU overlaps
+ * one's memory and branch latencies with the others' work (two: +10-15% per ray measured; four: 6% more).  Closest hit:
  * `best` shrinks the search as hits are found; any-hit (shadow rays): `T` is the light getting
  * through so far, and the walk ends at an opaque hit.  Stack entries are lane keys (lane_keys) with
  * the node they belong to; trees are at most clrender.trace.bvh.MAX_TREE_LEVELS deep, so the stack

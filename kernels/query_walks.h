@@ -1,7 +1,7 @@
 /* The query kernels' walks of one kind, included twice by kernels/trace.cl as kernels/ray_walks.h is by
  * intersect.h: ANY_HIT 0 (intersect_rays: each ray's closest hit in q->hit) with KIND(f) naming f_closest, ANY_HIT 1
  * (occluded_rays: 0 in q->T where blocked) with KIND(f) naming f_any; both undefined at the end.  A work-item's
- * rays as one packet (kernels/packet.h), as pairs of stepped walks, or one at a time. */
+ * rays as one packet (kernels/packet.h), as groups of QUERY_WALKS walks stepped in turn, or one at a time. */
 
 /* Ray k's segment in the units of its unit direction (t_max: INF_T for closest hits). */
 INLINE float2 KIND(query_segment)(const QueryItem *q, int k) {
@@ -10,21 +10,24 @@ INLINE float2 KIND(query_segment)(const QueryItem *q, int k) {
 }
 
 #if ITEM_PACKETS
-/* Rays k and k + 1 walked in turn; the same ray for a wide walk has its shear (six divisions) computed only once
- * the root has a hit: most rays of a small mesh's batch miss it. */
-INLINE void KIND(walk_pair)(QueryItem *q, const Geometry *g, int k) {
-    Walk w[2];
-    for (int j = 0; j < 2; ++j) {
+/* Rays k .. k + QUERY_WALKS - 1 walked in turn, one step each a round: their steps do not depend on each other, so
+ * the CPU overlaps one walk's load and branch latencies with the others' work (docs/bvh.md, "Traversal").  A wide
+ * walk's ray has its shear (six divisions) computed only once the root has a hit: most rays of a small mesh's batch
+ * miss it. */
+INLINE void KIND(walk_group)(QueryItem *q, const Geometry *g, int k) {
+    Walk w[QUERY_WALKS];
+    for (int j = 0; j < QUERY_WALKS; ++j) {
         Ray r = query_box_ray(q->origins, q->directions, q->idx[k + j], &q->units[k + j]);
         float2 segment = KIND(query_segment)(q, k + j);
         KIND(query_walk_start)(&w[j], g, r, segment.x, segment.y);
         if (w[j].sp > 0) shear_ray(&w[j].r);
     }
-    while (w[0].sp > 0 || w[1].sp > 0) {
-        if (w[0].sp > 0) KIND(mesh_step)(&w[0], g, opaque_pass());
-        if (w[1].sp > 0) KIND(mesh_step)(&w[1], g, opaque_pass());
+    for (bool stepped = true; stepped;) {
+        stepped = false;
+        for (int j = 0; j < QUERY_WALKS; ++j)
+            if (w[j].sp > 0) { KIND(mesh_step)(&w[j], g, opaque_pass()); stepped = true; }
     }
-    for (int j = 0; j < 2; ++j) {
+    for (int j = 0; j < QUERY_WALKS; ++j) {
         KIND(mesh_finish)(&w[j], g, opaque_pass(), 1.0f);
         if (ANY_HIT) q->T[k + j] = w[j].T;
         else q->hit[k + j] = w[j].best.slot < 0 ? no_hit() : w[j].best;
@@ -33,7 +36,7 @@ INLINE void KIND(walk_pair)(QueryItem *q, const Geometry *g, int k) {
 }
 
 /* The eight rays as one packet: false (nothing written) when they do not go the same way or the
- * packet cannot finish, and the caller walks them in pairs. */
+ * packet cannot finish, and the caller walks them in groups (walk_group). */
 INLINE bool KIND(walk_packet)(QueryItem *q, const Geometry *g) {
 #if RAY_PACKETS
     /* the signs first (as 1/d will have them, -0 included): most incoherent groups stop here */
@@ -110,7 +113,7 @@ INLINE bool KIND(walk_instance_packet)(QueryItem *q, const Geometry *g) {
 INLINE void KIND(trace_item)(QueryItem *q, const Geometry *g) {
 #if ITEM_PACKETS
     if (!KIND(walk_packet)(q, g))
-        for (int k = 0; k < q->n; k += 2) KIND(walk_pair)(q, g, k);
+        for (int k = 0; k < q->n; k += QUERY_WALKS) KIND(walk_group)(q, g, k);
 #else
 #if INSTANCE_PACKETS
     if (KIND(walk_instance_packet)(q, g)) return;

@@ -92,7 +92,7 @@ INLINE void KIND(mesh_every)(const Geometry *g, Ray r, float t_min, float t_max,
 #endif
 
 #if USE_BVH && BVH_WIDTH >= 4
-/* A query kernel's walk (walk_pair in trace.cl: rays that did not form a packet, mostly incoherent): every node's
+/* A query kernel's walk (walk_group in query_walks.h: rays that did not form a packet, mostly incoherent): every node's
  * keys sorted (push_lanes' sort_always), stepped by mesh_step, ended by mesh_finish(..., 1.0f). */
 INLINE void KIND(query_walk_start)(Walk *w, const Geometry *g, Ray r, float t_min, float t_max) {
     Hit best = no_hit();
@@ -121,7 +121,7 @@ INLINE void KIND(walk_tree)(const Geometry *g, Ray r, float t_min, float t_max, 
 #if INSTANCED
 /* ---------------------------------------------------------------- instances (intersect.h, "instances")
  * The mesh tree of an instance, for a ray already in object space: the wide walk, its shear (three
- * divisions) made only once the root has a hit (as the query kernels' walk_pair), else walk_tree. */
+ * divisions) made only once the root has a hit (as the query kernels' walk_group), else walk_tree. */
 INLINE void KIND(walk_mesh)(const Geometry *s, Ray r, float t_min, float t_max, Pass pass, Hit *best, float *T,
                             uint *visits) {
 #if USE_BVH && BVH_WIDTH >= 4
