@@ -360,8 +360,8 @@ EMITTER = Record("Emitter", EMITTER_DTYPE)
 LIGHT_CHOICE_DTYPE = np.dtype([("prob", "<f4"), ("cdf", "<f4")])
 LIGHT_CHOICE = Record("LightChoice", LIGHT_CHOICE_DTYPE)
 # the image-based environment light (kernels/envmap.h; packed by trace/envmap.py from scene/environment.py's map),
-# passed by value beside its texels (float4: RGB radiance times intensity, and the texel's density over (u, v)) and
-# the sampling CDFs; width 0: no map (the path tracer's constant `environment`, the Whitted background)
+# passed by value beside its texels (float4: RGB radiance times intensity, and the texel's density over (u, v)),
+# the sampling CDFs and their guides; width 0: no map (the path tracer's constant `environment`, the Whitted background)
 ENV_MAP_DTYPE = np.dtype(
     [
         ("width", "<i4"),  # texels per row (u), 0: no map
@@ -369,6 +369,8 @@ ENV_MAP_DTYPE = np.dtype(
         ("cos_rotation", "<f4"),  # the map turned by `rotation` about +y: local = R_y(-rotation) world
         ("sin_rotation", "<f4"),
         ("sampled", "<i4"),  # 1: next-event estimation samples the map (0: a black map, nothing to sample)
+        ("row_buckets", "<i4"),  # buckets of the marginal CDF's guide (a power of two; scene/environment.py guide)
+        ("column_buckets", "<i4"),  # buckets of each conditional CDF's guide
     ]
 )
 ENV_MAP = Record("EnvMap", ENV_MAP_DTYPE)
@@ -385,7 +387,10 @@ QUERY_PARAMS = Record("QueryParams", QUERY_PARAMS_DTYPE)
 # the renderer's world: the lights, the environment map's texels and sampling distribution (trace/envmap.py), the path
 # tracer's emissive triangles and each primitive's index among them (trace/path.py), its light choice (trace/light_choice.py)
 WORLD_REGIONS_DTYPE = np.dtype(
-    [(name, "<u4") for name in ("lights", "env_texels", "env_marginal", "env_conditional", "emitters", "emitter_of_prim", "light_choices")]
+    [
+        (name, "<u4")
+        for name in ("lights", "env_texels", "env_marginal", "env_conditional", "env_guides", "emitters", "emitter_of_prim", "light_choices")
+    ]
 )
 WORLD_REGIONS = Record("WorldRegions", WORLD_REGIONS_DTYPE)
 # one launch's outputs, per pixel: colour (float4; the path tracer's film: SPLAT_SLOTS of them), IdRecord, a float per

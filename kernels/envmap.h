@@ -20,11 +20,13 @@ typedef struct {
                                         * the cell whose top-left texel it is (0 on the last row) */
     __global const float *marginal;    /* height running sums over the height - 1 rows of cells */
     __global const float *conditional; /* height - 1 rows of width + 1 running sums */
+    __global const int *guides;        /* the marginal's guide (m.row_buckets + 1), then each row's (m.column_buckets + 1) */
 } EnvView;
 
-INLINE EnvView env_view(EnvMap m, __global const float4 *texels, __global const float *marginal, __global const float *conditional) {
+INLINE EnvView env_view(EnvMap m, __global const float4 *texels, __global const float *marginal, __global const float *conditional,
+                        __global const int *guides) {
     EnvView e;
-    e.m = m; e.texels = texels; e.marginal = marginal; e.conditional = conditional;
+    e.m = m; e.texels = texels; e.marginal = marginal; e.conditional = conditional; e.guides = guides;
     return e;
 }
 
@@ -82,13 +84,19 @@ INLINE float3 env_radiance(const EnvView *e, float3 d) {
 }
 
 /* The interval of a running sum cdf[0 .. n] (0 ... 1) holding u in [0, 1): the largest i < n with cdf[i] <= u,
- * which skips empty intervals; *rest gets u's place inside it, in [0, 1). */
-INLINE int cdf_search(__global const float *cdf, int n, float u, float *rest) {
-    int lo = 0, hi = n - 1;
-    while (lo < hi) {
-        int mid = (lo + hi + 1) / 2;
-        if (cdf[mid] <= u) lo = mid;
-        else hi = mid - 1;
+ * which skips empty intervals; *rest gets u's place inside it, in [0, 1).  The search starts from the sum's guide
+ * (clrender/scene/environment.py guide: entry k the interval of k / buckets), whose entries k and k + 1 bound the
+ * answer for u in bucket k = floor(u buckets), exact for a power of two: one or two intervals for most u, where a
+ * search of the whole sum takes log2 n dependent loads.  The i with cdf[i] <= u are a prefix (the sum never
+ * decreases): the search halves the range that holds its last one, [lo, lo + len), by a select, not a branch
+ * (which way a random u goes is a coin toss). */
+INLINE int cdf_search(__global const float *cdf, __global const int *guide, int buckets, float u, float *rest) {
+    int k = min((int)(u * (float)buckets), buckets - 1);
+    int lo = guide[k];
+    for (int len = guide[k + 1] - lo + 1; len > 1;) {
+        int step = len / 2;
+        lo = cdf[lo + step] <= u ? lo + step : lo;
+        len -= step;
     }
     float width = cdf[lo + 1] - cdf[lo];
     *rest = width > 0.0f ? min_f((u - cdf[lo]) / width, 0x1.fffffep-1f) : 0.5f;
@@ -100,8 +108,9 @@ INLINE int cdf_search(__global const float *cdf, int n, float u, float *rest) {
  * point inside it, whose radiance is the bilinear one at that point. */
 INLINE float3 env_sample(const EnvView *e, float2 u, float3 *radiance, float *pdf) {
     float du, dv;
-    int row = cdf_search(e->marginal, e->m.height - 1, u.x, &dv);
-    int col = cdf_search(e->conditional + row * (e->m.width + 1), e->m.width, u.y, &du);
+    int row = cdf_search(e->marginal, e->guides, e->m.row_buckets, u.x, &dv);
+    int col = cdf_search(e->conditional + row * (e->m.width + 1),
+                         e->guides + (e->m.row_buckets + 1) + row * (e->m.column_buckets + 1), e->m.column_buckets, u.y, &du);
     float uu = ((float)col + 0.5f + du) / (float)e->m.width;
     if (uu >= 1.0f) uu -= 1.0f;
     float theta = M_PI_F * ((float)row + dv) / (float)(e->m.height - 1), phi = 2.0f * M_PI_F * uu;

@@ -670,7 +670,7 @@ INLINE PathScene path_scene(__global const TreeNode *nodes, __global const PrimS
     s.emitter_of_prim = REGION(world, const int, frame.world.emitter_of_prim);
     s.choices = REGION(world, const LightChoice, frame.world.light_choices);
     s.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), REGION(world, const float, frame.world.env_marginal),
-                     REGION(world, const float, frame.world.env_conditional));
+                     REGION(world, const float, frame.world.env_conditional), REGION(world, const int, frame.world.env_guides));
     s.tex = scene_textures(attributes, tables, frame.tables, texels);
     s.p = params;
     return s;

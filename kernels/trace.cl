@@ -51,7 +51,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
     sc.max_depth = frame.max_depth; sc.fresnel = params.fresnel; sc.light_stratified = params.light_stratified;
     sc.background = vload3(0, params.background); sc.ambient = vload3(0, params.ambient);
     /* escaping rays look the map up; nothing samples it */
-    sc.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), 0, 0);
+    sc.env = env_view(frame.env_map, REGION(world, const float4, frame.world.env_texels), 0, 0, 0);
     __global float4 *colour_out = REGION(out, float4, frame.out.colour);
     __global IdRecord *ids_out = REGION(out, IdRecord, frame.out.ids);
     __global float *shadow_out = REGION(out, float, frame.out.shadow);

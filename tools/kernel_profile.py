@@ -3,6 +3,7 @@
     python -m tools.kernel_profile                         # the Cornell box, 256², 32 spp, 4 renders
     python -m tools.kernel_profile --scene wizard_cat --top 40
     python -m tools.kernel_profile --scene whitted           # bench whitted's Whitted render (trace.cl's render)
+    python -m tools.kernel_profile --scene assets            # bench assets' picture (HDR sky, textures), 256 x 160
 
 Needs Intel's OpenCL CPU runtime (the `fast` extra), `perf` (Debian's linux-perf) and `llvm-symbolizer`.  The
 render's kernels are built with `-g` (the runtime then keeps a line table in its object code); a child process
@@ -50,6 +51,14 @@ def child(args) -> None:
         from bench.whitted import clrender_settings, scenes
 
         scene, settings = scenes("opaque")[0], clrender_settings(args.size, 6)
+    elif args.scene == "assets":  # bench assets' picture: textured torus, gold sphere, checker floor, HDR sky
+        from bench.assets import picture_scenes
+        from clrender.scene.scene import Scene
+
+        folder = Path(args.out, "assets_scene")
+        folder.mkdir(exist_ok=True)
+        scene = Scene.from_dict(picture_scenes(folder, args.size, args.size * 5 // 8, 1024)[0])
+        settings = dict(integrator="path", spp=args.spp, max_depth=6)
     else:
         scene, settings = clrender_setup(args.scene, args.size, args.spp, 8)
     first = Renderer(scene, seed=0, **settings)
@@ -114,8 +123,13 @@ def symbolize(obj: Path, offsets: list[int]) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.kernel_profile", description=__doc__.split("\n")[0])
-    scenes = ("cornell_box", "wizard_cat", "whitted")
-    ap.add_argument("--scene", choices=scenes, default="cornell_box", help="whitted: bench whitted's opaque wizard_cat")
+    scenes = ("cornell_box", "wizard_cat", "whitted", "assets")
+    ap.add_argument(
+        "--scene",
+        choices=scenes,
+        default="cornell_box",
+        help="whitted: bench whitted's opaque wizard_cat; assets: bench assets' picture (--size wide)",
+    )
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--renders", type=int, default=4, help="renders sampled after the first (default 4)")

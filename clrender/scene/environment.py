@@ -16,7 +16,8 @@ Sampling is piecewise constant over the (H - 1) x W cells between four texel cen
 u in [(j + 1/2) / W, (j + 3/2) / W) (wrapping) and v in [i / (H - 1), (i + 1) / (H - 1)), with weight
 w = mean luminance of its four texels x sin(theta at the cell's middle row), so a cell is picked wherever
 any of its texels is bright (the density is positive wherever the radiance is).  A row by the marginal CDF
-over rows, a column by that row's conditional CDF, a uniform point inside the cell.  The density over
+over rows, a column by that row's conditional CDF (each searched from its guide: guide()), a uniform point inside
+the cell.  The density over
 (u, v) is p = w / mean(w) (constant over a cell), and over solid angle p / (2 pi^2 sin theta): the
 evaluated radiance is bilinear while the density is not, and the kernels weigh NEE and BSDF rays by this
 density, the one they sample by.
@@ -37,9 +38,10 @@ CHANNELS = (1, 3, 4)  # grey (copied to R, G, B), RGB, RGBA (alpha ignored)
 ROTATION_LIMIT = 360.0  # degrees either way
 # Peak bytes per texel while a map is read and prepared: the file's float32 channels (counted apart), its
 # RGB copy (12), the float64 weights, CDFs and densities (~64), the float4 texels and CDF (20) and their
-# device copies (20); rounded up.  Measured: 89 B/texel peak RSS growth for a 2048 x 1024 RGB EXR, read and
-# uploaded (PoCL CPU), against the 140 estimated.
-BYTES_PER_TEXEL = 128
+# device copies (20), the guides (up to 8, 16 with the device copy) and the int64 counts that build them (up to
+# 32); rounded up.  Measured: 89 B/texel peak RSS growth for a 2048 x 1024 RGB EXR, read and uploaded (PoCL CPU),
+# before the guides, against the 140 then estimated.
+BYTES_PER_TEXEL = 176
 
 
 @dataclass
@@ -71,6 +73,25 @@ class Distribution:
     sampled: bool  # False for a black map: nothing to sample, nothing to see
     width: int  # of the texels as uploaded: a one-row map is uploaded as two equal rows
     height: int
+    row_buckets: int  # the marginal CDF's guide buckets (guide()), a power of two
+    column_buckets: int  # each conditional CDF's
+    guides: np.ndarray  # int32: the marginal's guide (row_buckets + 1), then each cell row's (column_buckets + 1)
+
+
+def buckets(n: int) -> int:
+    """A guide's buckets for a CDF over n intervals: the smallest power of two >= n."""
+    return 1 << max(0, int(n - 1).bit_length())
+
+
+def guide(cdf: np.ndarray, b: int) -> np.ndarray:
+    """The guide table of running sums cdf (..., n + 1), for kernels/envmap.h's cdf_search: entry k of b + 1 is
+    the largest i < n with cdf[i] <= k / b, so the interval holding any u in [k / b, (k + 1) / b) lies between
+    entries k and k + 1 (the sums never decrease).  b is a power of two: the kernel's bucket floor(u b) is exact.
+    Counted per row as a histogram of ceil(cdf[i] b), the first bucket each i <= k satisfies: exact in float64."""
+    rows = cdf.reshape(-1, cdf.shape[-1])[:, :-1].astype(np.float64)
+    first = np.clip(np.ceil(rows * b), 0, b).astype(np.int64) + (b + 1) * np.arange(len(rows))[:, None]
+    hist = np.bincount(first.ravel(), minlength=len(rows) * (b + 1)).reshape(len(rows), b + 1)
+    return (np.cumsum(hist, axis=1) - 1).astype(np.int32)
 
 
 def cell_sin_theta(height: int) -> np.ndarray:
@@ -101,7 +122,10 @@ def distribution(env: EnvironmentMap) -> Distribution:
         conditional[~nonzero, 1:] = np.arange(1, w + 1) / w  # never picked; a uniform row keeps the CDF valid
         marginal[-1] = 1.0  # the searches never run past the end
         conditional[:, -1] = 1.0
-    return Distribution(texels, marginal.astype(np.float32), conditional.astype(np.float32), bool(total > 0), w, h)
+    marginal, conditional = marginal.astype(np.float32), conditional.astype(np.float32)
+    rb, cb = buckets(h - 1), buckets(w)
+    guides = np.concatenate([guide(marginal, rb).ravel(), guide(conditional, cb).ravel()])
+    return Distribution(texels, marginal, conditional, bool(total > 0), w, h, rb, cb, guides)
 
 
 def map_bytes(width: int, height: int, channels: int) -> int:

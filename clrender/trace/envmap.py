@@ -27,21 +27,22 @@ def record(env: EnvironmentMap | None, d: Distribution | None = None) -> np.ndar
         r["width"], r["height"] = d.width, d.height
         r["cos_rotation"], r["sin_rotation"] = math.cos(angle), math.sin(angle)
         r["sampled"] = d.sampled
+        r["row_buckets"], r["column_buckets"] = d.row_buckets, d.column_buckets
     return r
 
 
 def arrays(env: EnvironmentMap | None) -> tuple[np.ndarray, dict]:
     """The EnvMap record of `env` and its host arrays by the render kernels' names: env_texels, env_marginal,
-    env_conditional (one-texel placeholders without a map)."""
+    env_conditional, env_guides (one-texel placeholders without a map)."""
     if env is None:
         placeholder = np.zeros(4, np.float32)
-        return record(None), {name: placeholder for name in ("env_texels", "env_marginal", "env_conditional")}
+        return record(None), {name: placeholder for name in ("env_texels", "env_marginal", "env_conditional", "env_guides")}
     d = distribution(env)
-    return record(env, d), dict(env_texels=d.texels, env_marginal=d.marginal, env_conditional=d.conditional)
+    return record(env, d), dict(env_texels=d.texels, env_marginal=d.marginal, env_conditional=d.conditional, env_guides=d.guides)
 
 
 def upload(device, env: EnvironmentMap | None) -> dict:
-    """Keyword arguments of the probe kernels for `env`: env_map, env_texels, env_marginal, env_conditional."""
+    """Keyword arguments of the probe kernels for `env`: env_map, env_texels, env_marginal, env_conditional, env_guides."""
     env_map, host = arrays(env)
     return dict(env_map=env_map, **{name: device.to_device(a) for name, a in host.items()})
 

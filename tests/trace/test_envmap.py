@@ -10,6 +10,9 @@ References here are float64 re-derivations of docs/scene-format.md's mapping (Mi
 - under a map that is black but for one texel of radiance L, a Lambert sphere of albedo a shows
   a / pi x integral of the bilinear radiance x max(0, n . w) dw over the four cells around that texel, by a
   24 x 24 midpoint rule per cell in float64;
+- the CDF searches' guides against a brute-force search of each sum (numpy's searchsorted) at every bucket's start,
+  and the device sampler through its guides bit for bit the sampler through one-bucket guides (a search of the
+  whole sum), at uniforms drawn at random and at every running sum's own values and bucket edges;
 - the sampler: cell counts of 2^18 device samples against the documented weights (the mean luminance of a cell's
   four texels x sin(theta at its middle row)), normalised (Pearson's chi-square, p > 1e-3), every sample's density
   against that closed form and its radiance against `bilinear64`, and the density's integral over the sphere (a
@@ -19,6 +22,7 @@ References here are float64 re-derivations of docs/scene-format.md's mapping (Mi
 - Whitted: primary rays that miss and a mirror sphere's reflected rays show `bilinear64` of the analytic direction.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -26,8 +30,10 @@ import OpenImageIO as oiio
 import pytest
 
 from clrender.errors import UsageError
-from clrender.scene.environment import EnvironmentMap
+from clrender.scene import environment
+from clrender.scene.environment import EnvironmentMap, buckets, guide
 from clrender.scene.scene import Scene
+from clrender.trace import envmap
 from clrender.trace.envmap import EnvProbe
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
@@ -269,6 +275,40 @@ def test_a_one_row_map_is_read_as_two_equal_rows(device):
     np.testing.assert_allclose(radiance, bilinear64(np.repeat(texels, 2, axis=0), u, 0 * v), rtol=2e-4, atol=1e-4)
     dirs, _, pdf = probe.sample(rng.random((4096, 2)))
     assert np.all(np.isfinite(dirs)) and np.all(pdf > 0)
+
+
+def test_each_guide_entry_is_the_interval_a_full_search_finds():
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 12, 255, 256, 257):
+        weight = rng.random((4, n)) ** 6 * (rng.random((4, n)) > 0.3)  # empty intervals, and a row of them
+        weight[0] = 0.0
+        sums = np.zeros((4, n + 1))
+        sums[:, 1:] = np.cumsum(weight, axis=1) / np.maximum(weight.sum(axis=1, keepdims=True), 1e-300)
+        sums[:, -1] = 1.0
+        sums = sums.astype(np.float32)
+        b = buckets(n)
+        assert b >= n and b & (b - 1) == 0
+        table = guide(sums, b)
+        for row, g in zip(sums, table):
+            brute = np.searchsorted(row[:n].astype(np.float64), np.arange(b + 1) / b, side="right") - 1
+            np.testing.assert_array_equal(g, brute)
+
+
+def test_guided_env_samples_are_bit_for_bit_a_search_of_the_whole_sum(patchy_map, device, monkeypatch):
+    env = patchy_map
+    d = environment.distribution(env)
+    whole_sums = np.concatenate([guide(d.marginal, 1).ravel(), guide(d.conditional, 1).ravel()])
+    one_bucket = dataclasses.replace(d, row_buckets=1, column_buckets=1, guides=whole_sums)
+    u_edges = np.concatenate([d.marginal, np.arange(d.row_buckets) / d.row_buckets])
+    v_edges = np.concatenate([d.conditional.ravel(), np.arange(d.column_buckets) / d.column_buckets])
+    rng = np.random.default_rng(9)
+    u = np.concatenate([rng.random((1 << 14, 2)), np.stack([rng.choice(u_edges, 4096), rng.choice(v_edges, 4096)], axis=1)])
+    u = np.minimum(u.astype(np.float32), np.float32(1 - 2**-24))
+    guided = EnvProbe(device, env).sample(u)
+    monkeypatch.setattr(envmap, "distribution", lambda _: one_bucket)
+    whole = EnvProbe(device, env).sample(u)
+    for a, b in zip(guided, whole):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_env_samples_follow_the_cell_weights_times_solid_angle(patchy_map, device):
