@@ -273,7 +273,6 @@ typedef struct {
     light_f dist;    /* distance to that point */
     light_f falloff; /* 1, or with inverse-square falloff A cos(theta_light) / r^2, capped */
     light_f n_dot;   /* n.l: the sample lights the surface where > 0 */
-    light_f3 brdf;   /* blinn_phong per unit of the light's value */
 } AreaLanes;
 
 /* Samples base .. base + LIGHT_LANES - 1 of an area light of n_side x n_side at pt; (*row, *col) is the
@@ -312,7 +311,6 @@ INLINE AreaLanes area_lanes(const SceneView *sc, const ShadingPoint *pt, const P
     }
     float3 n = pt->n;
     s.n_dot = n.x * s.l.x + n.y * s.l.y + n.z * s.l.z;
-    s.brdf = blinn_phong_lanes(pt, s.l, inverse_square);
     return s;
 }
 
@@ -332,9 +330,9 @@ INLINE int start_shaft(const SceneView *sc, const ShadingPoint *pt, const Parall
 }
 #endif
 
-/* An area light's n x n samples at pt, eight at a time in lanes (area_lanes), the shadow rays one by
- * one; each sample's light added to *total in sample order.  Returns the sum of the samples'
- * transmittances; takes 2 n^2 dimensions of rng. */
+/* An area light's n x n samples at pt, eight at a time in lanes (area_lanes), the shadow rays one by one, then the
+ * eight's BRDF in lanes where one of them lights the surface; each sample's light added to *total in sample order.
+ * Returns the sum of the samples' transmittances; takes 2 n^2 dimensions of rng. */
 INLINE float area_light(const SceneView *sc, const ShadingPoint *pt, __global const Light *light, Rng *rng,
                         float3 *total, uint *visits, uint *rays) {
     Parallelogram pg = parallelogram(light);
@@ -356,9 +354,9 @@ INLINE float area_light(const SceneView *sc, const ShadingPoint *pt, __global co
         AreaLanes s = area_lanes(sc, pt, &pg, inverse_square, n_side, rng, base, &row, &col);
         float al_x[LIGHT_LANES] = LIGHT_ARRAY(s.l.x), al_y[LIGHT_LANES] = LIGHT_ARRAY(s.l.y), al_z[LIGHT_LANES] = LIGHT_ARRAY(s.l.z);
         float a_dist[LIGHT_LANES] = LIGHT_ARRAY(s.dist), a_fall[LIGHT_LANES] = LIGHT_ARRAY(s.falloff);
-        float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(s.n_dot);
-        float a_bx[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.x), a_by[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.y), a_bz[LIGHT_LANES] = LIGHT_ARRAY(s.brdf.z);
+        float a_ndot[LIGHT_LANES] = LIGHT_ARRAY(s.n_dot), a_T[LIGHT_LANES];
         uint lanes = n2 - base < LIGHT_LANES ? n2 - base : LIGHT_LANES;
+        bool lit = false; /* a sample that faces the surface and gets through */
         for (uint j = 0; j < lanes; ++j) {
             float T = 1.0f;
             if (a_ndot[j] > 0.0f) {
@@ -371,10 +369,17 @@ INLINE float area_light(const SceneView *sc, const ShadingPoint *pt, __global co
                 float3 l = (float3)(al_x[j], al_y[j], al_z[j]);
                 T = sample_transmittance(sc, pt, l, a_dist[j], SHAFT_ARGS, visits);
                 *rays += 1;
-                if (T > 0.0f) *total += (T * weight * a_fall[j]) * colour * (float3)(a_bx[j], a_by[j], a_bz[j]);
+                lit |= T > 0.0f;
             }
+            a_T[j] = T;
             visible += T;
         }
+        if (!lit) continue; /* the eight in shadow or behind the surface: no BRDF (its power is the costly part) */
+        light_f3 brdf = blinn_phong_lanes(pt, s.l, inverse_square);
+        float a_bx[LIGHT_LANES] = LIGHT_ARRAY(brdf.x), a_by[LIGHT_LANES] = LIGHT_ARRAY(brdf.y), a_bz[LIGHT_LANES] = LIGHT_ARRAY(brdf.z);
+        for (uint j = 0; j < lanes; ++j)
+            if (a_ndot[j] > 0.0f && a_T[j] > 0.0f)
+                *total += (a_T[j] * weight * a_fall[j]) * colour * (float3)(a_bx[j], a_by[j], a_bz[j]);
     }
     rng->dim += 2u * n2;
     return visible;
