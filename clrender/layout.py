@@ -503,7 +503,7 @@ SPLAT_PARAMS = Record("SplatParams", SPLAT_PARAMS_DTYPE)
 # q = A dx^2 + B2 dx dy + C dy^2 of its inverse covariance S^-1 (B2 twice the off-diagonal); its opacity; and
 # q along pixel row dy as a parabola in x, A (x - xc)^2 + row_q dy^2 with xc = mx + row_shift dy
 # (row_shift = Sxy / Syy, row_q = 1 / Syy; splat_forward)
-GAUSS_SPLAT_DTYPE = np.dtype([(name, "<f4") for name in ("mx", "my", "A", "B2", "C", "opacity", "row_shift", "row_q")])
+GAUSS_SPLAT_DTYPE = np.dtype([(name, "<f4") for name in ("mx", "my", "A", "B2", "C", "opacity", "log2_opacity", "row_shift", "row_q")])
 GAUSS_SPLAT = Record("GaussSplat", GAUSS_SPLAT_DTYPE)
 SPLAT_COLOR_DTYPE = np.dtype({"names": ["r", "g", "b"], "formats": ["<f4"] * 3, "offsets": [0, 4, 8], "itemsize": 16})  # luminance * colour
 SPLAT_COLOR = Record("SplatColor", SPLAT_COLOR_DTYPE)

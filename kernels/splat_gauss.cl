@@ -5,7 +5,7 @@
  *   params     SplatParams per splat, as the host holds it (centre, log-scales, rotation, ...).
  *   splats     GaussSplat per splat: its centre (mx, my), the quadratic form
  *              q(p) = A dx^2 + B2 dx dy + C dy^2 with (dx, dy) = p - m of the inverse
- *              covariance S^-1 (B2 = 2 * off-diagonal), its opacity, and row_shift,
+ *              covariance S^-1 (B2 = 2 * off-diagonal), its opacity and log2 of it, and row_shift,
  *              row_q: each row's parabola in x (splat_forward).
  *   colors     SplatColor per splat: (r, g, b), the effective colour.
  *   bbox       SplatBox per splat: pixel range [x0, x1) x [y0, y1) holding the 3-sigma
@@ -28,6 +28,13 @@
  * Pixels are processed 8 at a time as float8 vectors (one AVX register on a
  * CPU), so PoCL runs 8 SIMD lanes per splat.
  */
+/* mathf.h's exp, sin, cos, log and sqrt (the builtins' last bits are each driver's own), compiled without contraction
+ * as everywhere.  This file's own a * b + c stay contracted into fma (FP_CONTRACT ON): uncontracted, a forward pass took
+ * 1.3x and a training step 1.9x the time.  Intel's runtime, PoCL and Oclgrind all fuse them, and give the same bits
+ * (tests/kernels/test_same_bits_drivers.py); a driver for hardware without fma would round them twice. */
+#define DET_MATH 1
+#include "mathf.h"
+#pragma OPENCL FP_CONTRACT ON
 /* SPLAT_TILE, SPLAT_EPS (the background's weight), the records */
 #include "layout.h"
 
@@ -85,9 +92,10 @@ __kernel void splat_prepare(__global const SplatParams *params, const int n, con
     if (i >= n) return;
     __global const SplatParams *p = params + i;
     const float mx = p->xy[0], my = p->xy[1];
-    const float sx2 = exp(2.0f * p->log_scale[0]), sy2 = exp(2.0f * p->log_scale[1]);
-    const float det = exp(2.0f * (p->log_scale[0] + p->log_scale[1]));  /* sx^2 sy^2, without cancellation */
-    const float c = cos(p->theta), s = sin(p->theta);
+    const float sx2 = EXP(2.0f * p->log_scale[0]), sy2 = EXP(2.0f * p->log_scale[1]);
+    const float det = EXP(2.0f * (p->log_scale[0] + p->log_scale[1]));  /* sx^2 sy^2, without cancellation */
+    float c, s;
+    SINCOS(p->theta, s, c);
     /* covariance S = R diag(sx^2, sy^2) R^T */
     const float sxx = c * c * sx2 + s * s * sy2, sxy = c * s * (sx2 - sy2), syy = s * s * sx2 + c * c * sy2;
     __global GaussSplat *splat = splats + i;
@@ -97,6 +105,7 @@ __kernel void splat_prepare(__global const SplatParams *params, const int n, con
     splat->B2 = -2.0f * sxy / det;
     splat->C = sxx / det;
     splat->opacity = p->opacity;
+    splat->log2_opacity = p->opacity > 0x1p-100f ? LOG(p->opacity) * M_LOG2E_F : -100.0f; /* keeps 2^y normal */
     splat->row_shift = sxy / syy;
     splat->row_q = 1.0f / syy;
     __global SplatColor *color = colors + i;
@@ -105,7 +114,7 @@ __kernel void splat_prepare(__global const SplatParams *params, const int n, con
     color->b = p->color[2] * p->lum;
     /* pixels whose centres may lie in the ellipse q = 9: half extents 3 sqrt(Sxx) and
      * 3 sqrt(Syy), plus a hair for rounding; fmin/fmax also turn a NaN into an edge */
-    const float rx = 3.0f * sqrt(sxx) + 1e-3f, ry = 3.0f * sqrt(syy) + 1e-3f;
+    const float rx = 3.0f * SQRT(sxx) + 1e-3f, ry = 3.0f * SQRT(syy) + 1e-3f;
     const float w = width, h = height;
     __global SplatBox *box = bbox + i;
     box->x0 = (int)fmin(fmax(ceil(mx - rx - 0.5f), 0.0f), w);
@@ -193,7 +202,7 @@ __kernel void splat_forward(__global const GaussSplat *splats, __global const Sp
         const int r0 = max(box.y0, y0) - y0, r1 = min(box.y1, y0 + SPLAT_TILE) - y0;
         const bool lo = box.x0 < x0 + VW, hi = box.x1 > x0 + VW;
         const float a = NEG_HALF_LOG2E * s.A, k_dy2 = NEG_HALF_LOG2E * s.row_q;
-        const float log2_o = s.opacity > 0x1p-100f ? log2(s.opacity) : -100.0f;  /* keeps 2^y normal */
+        const float log2_o = s.log2_opacity;
         const float ycut = log2_o + NEG_HALF_LOG2E * CUTOFF_Q;
         for (int r = r0; r < r1; ++r) {
             const float dy = y0 + r + 0.5f - s.my;

@@ -1,7 +1,9 @@
-"""Same bits on every CPU driver that compiles here: a path-traced Cornell box and a Whitted render, on Intel's
-OpenCL CPU runtime and on PoCL (issue 35: "the same seed gives the same bits on any driver").  The path tracer
-gets there through kernels/mathf.h (its own sin, cos, exp, ... and no contraction into fma); before it, 44% of
-a Cornell box's pixels differed between PoCL and Intel in the last bits.  Skipped unless two drivers compile."""
+"""Same bits on every CPU driver that compiles here: a path-traced Cornell box, a Whitted render and a Gaussian
+splat render with its gradients, on Intel's OpenCL CPU runtime and on PoCL (issue 35: "the same seed gives the same
+bits on any driver").  The path tracer gets there through kernels/mathf.h (its own sin, cos, exp, ... and no
+contraction into fma); before it, 44% of a Cornell box's pixels differed between PoCL and Intel in the last bits.
+The splats' exp, sin, cos and log are mathf.h's too (the builtins gave other bits on each driver).  Skipped unless
+two drivers compile."""
 
 from __future__ import annotations
 
@@ -44,3 +46,41 @@ def test_same_bits_on_every_cpu_driver(integrator):
     for name in others:
         differ = np.any(images[name] != images[first], axis=-1)
         assert not differ.any(), f"{name} against {first}: {differ.mean():.1%} of pixels differ"
+
+
+def splat_bits(spec: str) -> list[np.ndarray]:
+    """A Gaussian splat render of 200 random splats in both blends, and its gradients for a random image gradient."""
+    from clrender.splat.gauss import GaussParams, GaussRenderer
+
+    rng = np.random.default_rng(4)
+    out = []
+    for blend in ("normalized", "sum"):
+        params = GaussParams(
+            xy=rng.uniform((0, 0), (48, 32), (200, 2)),
+            log_scale=rng.uniform(0.0, 2.0, (200, 2)),
+            theta=rng.uniform(-np.pi, np.pi, 200),
+            color=rng.uniform(0.0, 1.0, (200, 3)),
+            lum=rng.uniform(0.5, 1.5, 200),
+            opacity=rng.uniform(0.2, 1.0, 200),
+            width=48,
+            height=32,
+            blend=blend,
+            background=(0.1, 0.2, 0.3),
+        )
+        renderer = GaussRenderer(get_device(spec), 48, 32, blend, params.background)
+        frame = renderer.forward(params)
+        grads = renderer.backward(frame, rng.standard_normal((32, 48, 3)).astype(np.float32))
+        out += [frame.image, *(grads[k] for k in sorted(grads))]
+    return out
+
+
+@pytest.mark.slow
+def test_splats_same_bits_on_every_cpu_driver():
+    drivers = compiling_drivers()
+    if len(drivers) < 2:
+        pytest.skip(f"one CPU driver compiles here ({drivers}); the comparison needs two")
+    first, *others = drivers
+    reference = splat_bits(first)
+    for name in others:
+        for k, (a, b) in enumerate(zip(splat_bits(name), reference)):
+            assert np.array_equal(a, b), f"{name} against {first}: output {k} differs"
