@@ -49,27 +49,17 @@ def test_same_bits_on_every_cpu_driver(integrator):
 
 
 def splat_bits(spec: str) -> list[np.ndarray]:
-    """A Gaussian splat render of 200 random splats in both blends, and its gradients for a random image gradient."""
-    from clrender.splat.gauss import GaussParams, GaussRenderer
+    """tools/render_hashes.py's Gaussian splat case: 300 generated splats in both blends, and their gradients for a
+    random image gradient."""
+    from clrender.splat.gauss import GaussRenderer
+    from tools.render_hashes import gauss_params
 
-    rng = np.random.default_rng(4)
     out = []
     for blend in ("normalized", "sum"):
-        params = GaussParams(
-            xy=rng.uniform((0, 0), (48, 32), (200, 2)),
-            log_scale=rng.uniform(0.0, 2.0, (200, 2)),
-            theta=rng.uniform(-np.pi, np.pi, 200),
-            color=rng.uniform(0.0, 1.0, (200, 3)),
-            lum=rng.uniform(0.5, 1.5, 200),
-            opacity=rng.uniform(0.2, 1.0, 200),
-            width=48,
-            height=32,
-            blend=blend,
-            background=(0.1, 0.2, 0.3),
-        )
+        params = gauss_params(300, 48, 32, blend)
         renderer = GaussRenderer(get_device(spec), 48, 32, blend, params.background)
         frame = renderer.forward(params)
-        grads = renderer.backward(frame, rng.standard_normal((32, 48, 3)).astype(np.float32))
+        grads = renderer.backward(frame, np.random.default_rng(4).standard_normal((32, 48, 3)).astype(np.float32))
         out += [frame.image, *(grads[k] for k in sorted(grads))]
     return out
 
