@@ -92,6 +92,7 @@ INLINE float3 env_radiance(const EnvView *e, float3 d) {
  * (which way a random u goes is a coin toss). */
 INLINE int cdf_search(__global const float *cdf, __global const int *guide, int buckets, float u, float *rest) {
     int k = min((int)(u * (float)buckets), buckets - 1);
+    k = k > 0 ? k : 0; /* never read before the guide, whatever u is */
     int lo = guide[k];
     for (int len = guide[k + 1] - lo + 1; len > 1;) {
         int step = len / 2;
