@@ -41,6 +41,7 @@ import numpy as np
 from .common import write_table
 
 ROOT = Path(__file__).resolve().parents[1]
+PICTURE_DEPTH = 6  # the picture's max depth, both renderers
 
 
 # ---------------------------------------------------------------------- the asset
@@ -271,6 +272,11 @@ def picture_scenes(folder: Path, width: int, height: int, texture: int):
     return ours, theirs
 
 
+def clrender_settings(spp: int) -> dict:
+    """clrender's Renderer settings for the picture: the path tracer to PICTURE_DEPTH, as Mitsuba renders it."""
+    return dict(integrator="path", spp=spp, max_depth=PICTURE_DEPTH)
+
+
 def picture(out: Path, width: int, height: int, spp: int, texture: int, runs: int = 3) -> tuple[list, str]:
     """clrender | Mitsuba side by side (assets_pair.png), table rows and the z-test line."""
     from clrender import Renderer
@@ -289,9 +295,9 @@ def picture(out: Path, width: int, height: int, spp: int, texture: int, runs: in
     ours, times = [], []
     for seed in range(runs):
         start = time.perf_counter()
-        ours.append(Renderer(scene, tracer=tracer, integrator="path", spp=spp, max_depth=6, seed=seed).run().image)
+        ours.append(Renderer(scene, tracer=tracer, seed=seed, **clrender_settings(spp)).run().image)
         times.append(time.perf_counter() - start)
-    mi, loaded = mitsuba_scenes.load(theirs_dict, variant="llvm_ad_rgb", spp=spp, max_depth=6)
+    mi, loaded = mitsuba_scenes.load(theirs_dict, variant="llvm_ad_rgb", spp=spp, max_depth=PICTURE_DEPTH)
     theirs, their_times = [], []
     for seed in range(runs):
         start = time.perf_counter()

@@ -37,6 +37,11 @@ GROUPS = (
 )
 
 
+def image_shape(scene: str, size: int) -> tuple[int, int]:
+    """(width, height) a scene renders at: square, but bench assets' picture, 5/8 as high as wide."""
+    return size, size * 5 // 8 if scene == "assets" else size
+
+
 def child(args) -> None:
     """Render under perf: build with -g, find the kernel's code in memory, write where, then the timed renders."""
     sys.path.insert(0, str(REPO))
@@ -52,13 +57,13 @@ def child(args) -> None:
 
         scene, settings = scenes("opaque")[0], clrender_settings(args.size, 6)
     elif args.scene == "assets":  # bench assets' picture: textured torus, gold sphere, checker floor, HDR sky
-        from bench.assets import picture_scenes
+        from bench.assets import clrender_settings, picture_scenes
         from clrender.scene.scene import Scene
 
         folder = Path(args.out, "assets_scene")
         folder.mkdir(exist_ok=True)
-        scene = Scene.from_dict(picture_scenes(folder, args.size, args.size * 5 // 8, 1024)[0])
-        settings = dict(integrator="path", spp=args.spp, max_depth=6)
+        scene = Scene.from_dict(picture_scenes(folder, *image_shape(args.scene, args.size), 1024)[0])
+        settings = clrender_settings(args.spp)
     else:
         scene, settings = clrender_setup(args.scene, args.size, args.spp, 8)
     first = Renderer(scene, seed=0, **settings)
@@ -161,7 +166,8 @@ def main(argv=None) -> int:
         tables = shares(samples, symbolize(Path(tmp, "kernel.o"), sorted(samples)))
     total = sum(samples.values())
     per_pixel = "36 samples a pixel (Whitted)" if args.scene == "whitted" else f"{args.spp} spp"
-    print(f"{args.scene}, {args.size}², {per_pixel}, {args.renders} renders: {total} of {sum(everything.values())} samples in the render kernel")
+    shape = "{} x {}".format(*image_shape(args.scene, args.size))
+    print(f"{args.scene}, {shape}, {per_pixel}, {args.renders} renders: {total} of {sum(everything.values())} samples in the render kernel")
     groups = tables.pop("group")
     for what, functions in GROUPS:
         print(f"  {100 * groups[what] / total:5.1f}%  {what} ({', '.join(functions)}, inclusive)")

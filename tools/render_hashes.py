@@ -86,12 +86,12 @@ def paths(chosen):
     if "path:assets" in chosen:
         import tempfile
 
-        from bench.assets import picture_scenes
+        from bench.assets import clrender_settings, picture_scenes
         from clrender.scene.scene import Scene
 
         with tempfile.TemporaryDirectory() as folder:
             scene = Scene.from_dict(picture_scenes(Path(folder), 64, 48, 256)[0])
-            result = Renderer(scene, integrator="path", spp=4, max_depth=6, seed=7).run()
+            result = Renderer(scene, seed=7, **clrender_settings(4)).run()
         yield "path:assets", "box", digest(result.image)
 
 
