@@ -9,7 +9,7 @@ import sys
 # numpy is imported.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "distributed", "path", "instancing", "assets", "whitted", "sampler", "quality")
+NAMES = ("rays", "bvh", "aa", "filters", "splat", "voronoi", "distributed", "path", "instancing", "assets", "whitted", "sampler", "quality", "lanes")
 MOVED = {"mutants": "python -m tools.mutants", "render_hashes": "python tools/render_hashes.py"}  # tools, not benchmarks
 
 

@@ -98,6 +98,10 @@ INLINE float mf_reduce_big(uint ix, int *q) {
     return hi * MF_PIO2_HI + (lo * MF_PIO2_HI + hi * MF_PIO2_LO);
 }
 
+/* a - n pi/2 for a < 256: pi/2 in three parts, the first two short, so n * part is exact (Cody and Waite).  The
+ * macros here are expressions over float or float vectors (lanes: kernels/lanes_probe.cl). */
+#define MF_CODY_WAITE(a, n) ((((a) - (n) * 1.5703125f) - (n) * 4.83751296997e-4f) - (n) * 7.54978995e-8f)
+
 /* x = q pi/2 + r, |r| <= pi/4 (about), q mod 4 */
 INLINE float mf_reduce(float x, int *q) {
     float a = mf_abs(x), r;
@@ -105,9 +109,9 @@ INLINE float mf_reduce(float x, int *q) {
         *q = 0;
         return x;
     }
-    if (a < 256.0f) { /* Cody and Waite: pi/2 in three parts, the first two short, so n * part is exact */
+    if (a < 256.0f) {
         float n = floor_det(a * 0.636619772f + 0.5f);
-        r = ((a - n * 1.5703125f) - n * 4.83751296997e-4f) - n * 7.54978995e-8f;
+        r = MF_CODY_WAITE(a, n);
         *q = (int)n;
     } else {
         r = mf_reduce_big(as_uint(a), q);
@@ -120,14 +124,17 @@ INLINE float mf_reduce(float x, int *q) {
     return r;
 }
 
-/* sin and cos on [-pi/4, pi/4]: Cephes' sinf and cosf polynomials (Moshier) */
+/* sin and cos on [-pi/4, pi/4]: Cephes' sinf and cosf polynomials (Moshier), of r and z = r * r */
+#define MF_SIN_POLY(r, z) ((r) + (r) * (z) * ((8.3321608736e-3f - 1.9515295891e-4f * (z)) * (z) - 1.6666654611e-1f))
+#define MF_COS_POLY(z)                                                                                                 \
+    (1.0f - 0.5f * (z) + (z) * (z) * ((2.443315711809948e-5f * (z) - 1.388731625493765e-3f) * (z) + 4.166664568298827e-2f))
 INLINE float mf_sin_poly(float r) {
     float z = r * r;
-    return r + r * z * ((8.3321608736e-3f - 1.9515295891e-4f * z) * z - 1.6666654611e-1f);
+    return MF_SIN_POLY(r, z);
 }
 INLINE float mf_cos_poly(float r) {
     float z = r * r;
-    return 1.0f - 0.5f * z + z * z * ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f);
+    return MF_COS_POLY(z);
 }
 
 /* sin x, with cos x in *c: one reduction for both */

@@ -43,15 +43,20 @@ INLINE uint sobol_dim1(uint i) {
     return r;
 }
 
-/* Owen scrambling by Laine and Karras's hash (with Burley's constants):
- * keeps the points stratified while decorrelating neighbouring pixels. */
+/* Laine and Karras's permutation with Burley's constants, on x, a uint variable or a vector of them (lanes: the
+ * probe kernels/lanes_probe.cl): bit k of the result depends on bits 0..k of x only. */
+#define LAINE_KARRAS_STEPS(x, seed) \
+    x += (seed);                    \
+    x ^= x * 0x6c50b47cU;           \
+    x ^= x * 0xb82f1e52U;           \
+    x ^= x * 0xc7afe638U;           \
+    x ^= x * 0x8d22f6e6U
+
+/* Owen scrambling by that permutation of the reversed bits: keeps the points stratified while decorrelating
+ * neighbouring pixels. */
 INLINE uint owen_scramble(uint x, uint seed) {
     x = reverse_bits32(x);
-    x += seed;
-    x ^= x * 0x6c50b47cU;
-    x ^= x * 0xb82f1e52U;
-    x ^= x * 0xc7afe638U;
-    x ^= x * 0x8d22f6e6U;
+    LAINE_KARRAS_STEPS(x, seed);
     return reverse_bits32(x);
 }
 

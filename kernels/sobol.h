@@ -40,12 +40,14 @@
  * a subset of k's.  So bit 31 - j of the point is the xor of index bits k over the supersets k of j: the subset-sum
  * (Moebius) transform over GF(2), five shift-and-mask steps for 32 bits, then a bit reversal.  sobol_second is
  * reverse_bits32(superset_xor(i)), bit for bit sampling.h's sobol_dim1 (one step per index bit). */
+#define SUPERSET_XOR_STEPS(x) /* x: a uint variable or a vector of them */ \
+    x ^= (x >> 1) & 0x55555555U;                                           \
+    x ^= (x >> 2) & 0x33333333U;                                           \
+    x ^= (x >> 4) & 0x0f0f0f0fU;                                           \
+    x ^= (x >> 8) & 0x00ff00ffU;                                           \
+    x ^= (x >> 16) & 0x0000ffffU
 INLINE uint superset_xor(uint x) {
-    x ^= (x >> 1) & 0x55555555U;
-    x ^= (x >> 2) & 0x33333333U;
-    x ^= (x >> 4) & 0x0f0f0f0fU;
-    x ^= (x >> 8) & 0x00ff00ffU;
-    x ^= (x >> 16) & 0x0000ffffU;
+    SUPERSET_XOR_STEPS(x);
     return x;
 }
 INLINE uint sobol_second(uint i) { return reverse_bits32(superset_xor(i)); }
@@ -53,14 +55,9 @@ INLINE uint sobol_second(uint i) { return reverse_bits32(superset_xor(i)); }
 /* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
 INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
 
-/* Laine and Karras's permutation with Burley's constants, sampling.h's owen_scramble between its bit reversals: bit
- * k of the result depends on bits 0..k of x only (a nested scramble of the reversed value). */
+/* sampling.h's owen_scramble between its bit reversals (a nested scramble of the reversed value). */
 INLINE uint laine_karras(uint x, uint seed) {
-    x += seed;
-    x ^= x * 0x6c50b47cU;
-    x ^= x * 0xb82f1e52U;
-    x ^= x * 0xc7afe638U;
-    x ^= x * 0x8d22f6e6U;
+    LAINE_KARRAS_STEPS(x, seed);
     return x;
 }
 
