@@ -1,78 +1,26 @@
-/* What hand-written lanes give the path tracer's shading on a CPU (bench/lanes.py, docs/lanes.md): one diffuse bounce
- * of render_path's arithmetic (the surface from a hit, the owen-scrambled Sobol pairs, NEE to an emissive triangle
- * with MIS, the cosine-weighted BSDF sample, Russian roulette), written once over a lane type and compiled for one
- * path per work-item (LANES 1) and for LANES paths per work-item in vector registers (8 or 16).  Traversal is not in
- * it: the hits are given (a primitive and its barycentrics per path and bounce), so the probe times shading alone,
- * and the visibility of every light sample is taken as 1.  Both widths compute the same operations in the same
- * order, so they give the same bits. */
+/* What hand-written lanes give the path tracer's shading on a CPU (bench/lanes.py, docs/lanes.md).  A pixel's spp
+ * paths, each vertex render_path's arithmetic for two lobes: the surface from a hit, the owen-scrambled Sobol pairs,
+ * NEE to an emissive triangle with MIS, the lobe's sample (Lambert: cosine-weighted; GGX conductor: visible normals),
+ * Russian roulette.  Written once over kernels/lanes.h's lane type and compiled for one pixel a work-item (LANES 1)
+ * and for LANES pixels a work-item, one in each lane of a vector register (8 or 16):
+ *   - the lobes are masked passes: a lobe's code runs when some lane's surface has it, for every lane, and its
+ *     results are kept where the lane's surface has it (at width 1: the branch of the one lobe present);
+ *   - REFILL 1: a lane whose path ends starts its pixel's next sample in the next step, so lanes stay busy until
+ *     their pixel's last sample; REFILL 0: the lanes' k-th samples start together, when all k-1-th paths have ended.
+ * Each pixel adds its samples' radiance in sample order, so every width and either REFILL gives the same bits.
+ * Traversal is not in it: the hits are given (a primitive and barycentrics per pixel and depth), so the probe times
+ * shading alone, and every light sample is taken as visible. */
 
 /* the sampler's steps (rng.h's MIX32_STEPS, sampling.h's LAINE_KARRAS_STEPS, sobol.h's SUPERSET_XOR_STEPS and keys) and
- * mathf.h's polynomials, the scalar path tracer's own */
+ * mathf.h's polynomials: the scalar path tracer's own */
 #define DET_MATH 1
 #include "sobol.h"
 #pragma OPENCL FP_CONTRACT ON /* as in path.cl's surface and BSDF code (mathf.h turns it off) */
+#include "lanes.h"
 
-#ifndef LANES
-#define LANES 16
+#ifndef REFILL
+#define REFILL 1
 #endif
-
-#if LANES == 1
-typedef float LF;
-typedef int LI;
-typedef uint LU;
-#define AS_LF(x) as_float(x)
-#define AS_LU(x) as_uint(x)
-#define NOT(m) (!(m))
-#define ANY(m) (m)
-#define LOAD_F(p) (*(p))
-#define LOAD_I(p) (*(p))
-#define STORE_F(v, p) (*(p) = (v))
-#define CONVERT_I(x) convert_int(x)
-INLINE LF gather(__global const float *b, LI i) { return b[i]; }
-#else
-#define CAT_(a, b) a##b
-#define CAT(a, b) CAT_(a, b)
-typedef CAT(float, LANES) LF;
-typedef CAT(int, LANES) LI;
-typedef CAT(uint, LANES) LU;
-#define AS_LF(x) CAT(as_float, LANES)(x)
-#define AS_LU(x) CAT(as_uint, LANES)(x)
-#define NOT(m) (~(m))
-#define ANY(m) any(m)
-#define LOAD_F(p) CAT(vload, LANES)(0, p)
-#define LOAD_I(p) CAT(vload, LANES)(0, p)
-#define STORE_F(v, p) CAT(vstore, LANES)(v, 0, p)
-#define CONVERT_I(x) CAT(convert_int, LANES)(x)
-__constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-/* LANES scalar loads: OpenCL C has no gather; the compiler inserts them lane by lane */
-INLINE LF gather(__global const float *b, LI i) {
-#if LANES == 16
-    return (LF)(b[i.s0], b[i.s1], b[i.s2], b[i.s3], b[i.s4], b[i.s5], b[i.s6], b[i.s7], b[i.s8], b[i.s9], b[i.sa],
-                b[i.sb], b[i.sc], b[i.sd], b[i.se], b[i.sf]);
-#else
-    return (LF)(b[i.s0], b[i.s1], b[i.s2], b[i.s3], b[i.s4], b[i.s5], b[i.s6], b[i.s7]);
-#endif
-}
-#endif
-
-typedef struct {
-    LF x, y, z;
-} V3;
-
-INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
-INLINE V3 add(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-INLINE V3 sub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-INLINE V3 mul(V3 a, V3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
-INLINE V3 scale(LF s, V3 a) { return v3(s * a.x, s * a.y, s * a.z); }
-INLINE V3 neg(V3 a) { return v3(-a.x, -a.y, -a.z); }
-INLINE LF dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-INLINE V3 cross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
-INLINE LF sqrt_l(LF x) { return sqrt(x); } /* correctly rounded: the same bits in every lane width */
-INLINE V3 unit(V3 a) { LF s = sqrt_l(dot(a, a)); return v3(a.x / s, a.y / s, a.z / s); }
-INLINE V3 pick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? a.z : b.z); }
-INLINE LF max_l(LF a, LF b) { return a > b ? a : b; }
-INLINE LF min_l(LF a, LF b) { return a < b ? a : b; }
-INLINE V3 gather3(__global const float *b, LI i) { return v3(gather(b, 3 * i), gather(b, 3 * i + 1), gather(b, 3 * i + 2)); }
 
 /* ---- the sampler: sobol.h's owen-scrambled Sobol pairs over lanes, from its steps (bit reversal by shifts and masks,
  * where the scalar sampler looks bytes up in a table) */
@@ -103,7 +51,7 @@ INLINE LF u01_l(LU h) {
     return (halves * 2.0f + odd) * U01_SCALE;
 }
 /* Pair `pair` of the sample whose index is `index_reversed` in the pixel keyed `key` (sobol_pair, sobol_pair_coordinate) */
-INLINE void sobol2(LU key, LU index_reversed, uint pair, LF *u0, LF *u1) {
+INLINE void sobol2(LU key, LU index_reversed, LU pair, LF *u0, LF *u1) {
     LU k = mix_l(key ^ (pair + HASH_KEY_D));
     LU i = reverse_l(laine_karras_l(index_reversed, k));
     *u0 = u01_l(reverse_l(laine_karras_l(i, mix_l(k ^ SOBOL_KEY_X))));
@@ -139,75 +87,175 @@ INLINE Frame make_frame(V3 n) {
 INLINE V3 to_local(Frame f, V3 v) { return v3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
 INLINE V3 to_world(Frame f, V3 v) { return add(add(scale(v.x, f.t), scale(v.y, f.b)), scale(v.z, f.n)); }
 
-/* n_paths paths (a multiple of LANES), `bounces` vertices each.  tris: 9 floats a triangle (v0, v1, v2); albedo and
- * emission: 3 a triangle; emitters: the two emissive triangles' ids, each of area emitter_area; hit_prim
- * [bounce][path] and hit_uv [2][bounce][path]: the given hits; d0: the camera rays' directions, [3][path].  Out: each
- * path's radiance, [3][path]. */
-__kernel void shade_probe(int n_paths, int bounces, __global const float *tris, __global const float *albedo,
-                          __global const float *emission, int2 emitters, float emitter_area, uint seed,
-                          __global const int *hit_prim, __global const float *hit_uv, __global const float *d0,
-                          __global float *out) {
+/* ---- the lobes (bsdf.h's): eval is f cos, wi and wo local and away from the surface */
+INLINE V3 cosine_sample(LF u0, LF u1) {
+    LF r = sqrt_l(u0), s, c;
+    sincos_l(2.0f * M_PI_F * u1, &s, &c);
+    return v3(r * c, r * s, sqrt_l(max_l(0.0f, 1.0f - u0)));
+}
+/* GGX (Trowbridge-Reitz) of width alpha: D, Smith's G1, and the visible normals' sample (Heitz 2018) */
+INLINE LF ggx_d(LF hz, LF alpha) {
+    LF a2 = alpha * alpha, t = hz * hz * (a2 - 1.0f) + 1.0f;
+    return a2 / (M_PI_F * t * t);
+}
+INLINE LF ggx_g1(V3 w, LF alpha) { return 2.0f * w.z / (w.z + sqrt_l(alpha * alpha * (w.x * w.x + w.y * w.y) + w.z * w.z)); }
+INLINE V3 ggx_visible_normal(V3 wo, LF alpha, LF u0, LF u1) {
+    V3 vh = unit(v3(alpha * wo.x, alpha * wo.y, wo.z));
+    LF len2 = vh.x * vh.x + vh.y * vh.y;
+    LF inv = len2 > 0.0f ? 1.0f / sqrt_l(len2) : (LF)(0.0f);
+    V3 t1 = v3(len2 > 0.0f ? -vh.y * inv : (LF)(1.0f), len2 > 0.0f ? vh.x * inv : (LF)(0.0f), (LF)(0.0f));
+    V3 t2 = cross(vh, t1);
+    LF r = sqrt_l(u0), s, c;
+    sincos_l(2.0f * M_PI_F * u1, &s, &c);
+    LF p1 = r * c, p2 = r * s, h = 0.5f * (1.0f + vh.z);
+    p2 = (1.0f - h) * sqrt_l(max_l(0.0f, 1.0f - p1 * p1)) + h * p2;
+    V3 nh = add(add(scale(p1, t1), scale(p2, t2)), scale(sqrt_l(max_l(0.0f, 1.0f - p1 * p1 - p2 * p2)), vh));
+    return unit(v3(alpha * nh.x, alpha * nh.y, max_l(0.0f, nh.z)));
+}
+/* a conductor's f cos (Schlick's Fresnel from its colour f0) and its sampling density, for wi */
+INLINE V3 ggx_eval(V3 wo, V3 wi, V3 f0, LF alpha, LF *pdf) {
+    V3 h = unit(add(wo, wi));
+    LF d = ggx_d(h.z, alpha), g1o = ggx_g1(wo, alpha);
+    LF m = 1.0f - max_l(0.0f, dot(wo, h)), m5 = (m * m) * (m * m) * m;
+    V3 f = add(f0, scale(m5, sub(v3_all(1.0f), f0)));
+    *pdf = g1o * d / (4.0f * wo.z);
+    return scale(d * g1o * ggx_g1(wi, alpha) / (4.0f * wo.z), f);
+}
+
+/* Each lobe present, a masked pass: its f cos and density towards the light wl, its sample (u0, u1) and the sample's
+ * weight, kept in the lanes whose surface has it (matte: Lambert of albedo a; metal: a GGX conductor of colour a). */
+INLINE void lobes(LI matte, LI metal, V3 a, LF alpha, V3 wo, V3 wl, LF u0, LF u1, V3 *f, LF *pdf, V3 *wn, V3 *weight) {
+    *f = *wn = *weight = v3_all(0.0f);
+    *pdf = 0.0f;
+    if (ANY(matte)) {
+        LF cos_i = max_l(wl.z, 0.0f);
+        *f = pick(matte, scale(cos_i * M_1_PI_F, a), *f);
+        *pdf = matte ? cos_i * M_1_PI_F : *pdf;
+        *wn = pick(matte, cosine_sample(u0, u1), *wn);
+        *weight = pick(matte, a, *weight);
+    }
+    if (ANY(metal)) {
+        LF metal_pdf;
+        V3 fm = ggx_eval(wo, wl, a, alpha, &metal_pdf);
+        LI above = wl.z > 0.0f;
+        *f = pick(metal & above, fm, *f);
+        *pdf = metal & above ? metal_pdf : *pdf;
+        V3 h = ggx_visible_normal(wo, alpha, u0, u1);
+        V3 ws = sub(scale(2.0f * dot(wo, h), h), wo);
+        LF m = 1.0f - max_l(0.0f, dot(wo, h)), m5 = (m * m) * (m * m) * m;
+        V3 fresnel = add(a, scale(m5, sub(v3_all(1.0f), a)));
+        *wn = pick(metal, ws, *wn);
+        *weight = pick(metal, pick(ws.z > 0.0f, scale(ggx_g1(ws, alpha), fresnel), v3_all(0.0f)), *weight);
+    }
+}
+
+/* NEE's point on one of the two emitters (u0 picks one, by area; u0 rescaled and u1 place the point): the direction wi
+ * from p and its density; the emitter in *e. */
+INLINE V3 light_point(__global const float *tris, int2 emitters, float emitter_area, V3 p, LF u0, LF u1, LI *e, LF *pdf) {
+    *e = u0 < 0.5f ? (LI)(emitters.x) : (LI)(emitters.y);
+    LF ux = u0 < 0.5f ? u0 * 2.0f : u0 * 2.0f - 1.0f;
+    V3 w0 = gather3(tris, 9 * *e), w1 = gather3(tris, 9 * *e + 3), w2 = gather3(tris, 9 * *e + 6);
+    LF su = sqrt_l(ux);
+    V3 y = add(add(scale(1.0f - su, w0), scale(su * (1.0f - u1), w1)), scale(su * u1, w2));
+    V3 to_l = sub(y, p);
+    LF dist = sqrt_l(dot(to_l, to_l));
+    V3 wi = divide(to_l, dist);
+    LF cos_l = -dot(unit(cross(sub(w1, w0), sub(w2, w0))), wi);
+    *pdf = 0.5f * dist * dist / (emitter_area * cos_l);
+    return wi;
+}
+
+/* The lanes in `start` begin sample `sample` of their pixel (keyed `key`): its camera ray from the sample's first
+ * pair, uniform on the sphere. */
+INLINE void start_paths(LI start, LU key, LI sample, LU *index_reversed, V3 *d, V3 *beta, V3 *radiance) {
+    LU index = reverse_l(AS_LU(sample));
+    LF c0, c1, s, c;
+    sobol2(key, index, (LU)(0U), &c0, &c1);
+    sincos_l(2.0f * M_PI_F * c1, &s, &c);
+    LF z = 1.0f - 2.0f * c0, r = sqrt_l(max_l(0.0f, 1.0f - z * z));
+    *d = pick(start, v3(r * c, r * s, z), *d);
+    *beta = pick(start, v3_all(1.0f), *beta);
+    *radiance = pick(start, v3_all(0.0f), *radiance);
+    *index_reversed = start ? index : *index_reversed;
+}
+
+/* n_pixels pixels (a multiple of LANES), spp samples each of at most `depth` vertices.  tris: 9 floats a triangle (v0,
+ * v1, v2); mats: 8 a triangle (albedo or f0, emission, lobe: 0 Lambert, 1 GGX conductor, alpha); emitters: the two
+ * emissive triangles' ids, each of area emitter_area; hit_prim [depth][pixel] and hit_uv [2][depth][pixel]: the given
+ * hits.  Out: each pixel's radiance summed over its samples, [3][pixel]; steps: each work-item's steps and the lanes
+ * live in them, summed (the lanes' occupancy). */
+__kernel void shade_probe(int n_pixels, int spp, int depth, __global const float *tris, __global const float *mats,
+                          int2 emitters, float emitter_area, uint seed, __global const int *hit_prim,
+                          __global const float *hit_uv, __global float *out, __global int2 *steps) {
     int base = get_global_id(0) * LANES;
-    if (base >= n_paths) return;
-#if LANES == 1
-    LU pixel = (uint)base;
-#else
-    LU pixel = (uint)base + CAT(vload, LANES)(0, LANE_IDS);
-#endif
+    if (base >= n_pixels) return;
+    LU pixel = (uint)base + LANE_IDS_L;
     LU key = mix_l(mix_l(mix_l((LU)(seed + 0x9e3779b9U)) ^ (pixel + 0x85ebca6bU)) ^ (SOBOL_KEY_PAIR + 0xc2b2ae35U)); /* hash3 */
-    LU index_reversed = (LU)(0U); /* sample 0 */
-    V3 d = v3(LOAD_F(d0 + base), LOAD_F(d0 + n_paths + base), LOAD_F(d0 + 2 * n_paths + base));
-    V3 beta = v3((LF)(1.0f), (LF)(1.0f), (LF)(1.0f)), radiance = v3((LF)(0.0f), (LF)(0.0f), (LF)(0.0f));
-    LI alive = (LF)(1.0f) > 0.0f;
-    for (int b = 0; b < bounces && ANY(alive); ++b) {
-        int at = b * n_paths + base;
-        LI prim = LOAD_I(hit_prim + at);
-        LF hu = LOAD_F(hit_uv + at), hv = LOAD_F(hit_uv + bounces * n_paths + at);
-        /* the surface */
-        V3 v0 = gather3(tris, 3 * prim), v1 = gather3(tris, 3 * prim + 1), v2 = gather3(tris, 3 * prim + 2);
+    V3 total = v3_all(0.0f), beta = v3_all(1.0f), radiance = v3_all(0.0f), d = v3_all(0.0f);
+    LI sample = 0, vertex = 0, live = (LI)(0) == 0, start = live;
+    LU index_reversed = 0U;
+    int2 counted = (int2)(0);
+    while (ANY(live)) {
+        if (ANY(start)) start_paths(start, key, sample, &index_reversed, &d, &beta, &radiance);
+        counted += (int2)(1, lanes_set(live));
+        LI at = vertex * n_pixels + CONVERT_I(pixel);
+        LI prim = gather_i(hit_prim, at);
+        LF hu = gather(hit_uv, at), hv = gather(hit_uv, at + depth * n_pixels);
+        /* the surface and its material */
+        V3 v0 = gather3(tris, 9 * prim), v1 = gather3(tris, 9 * prim + 3), v2 = gather3(tris, 9 * prim + 6);
         V3 e1 = sub(v1, v0), e2 = sub(v2, v0);
         V3 p = add(v0, add(scale(hu, e1), scale(hv, e2)));
         V3 ng = unit(cross(e1, e2));
         ng = pick(dot(ng, d) > 0.0f, neg(ng), ng);
-        V3 a = gather3(albedo, prim), le = gather3(emission, prim);
-        radiance = pick(alive, add(radiance, mul(beta, le)), radiance);
-        /* four dimensions of the vertex: the light's point, the BSDF's direction; then roulette */
+        V3 a = gather3(mats, 8 * prim), le = gather3(mats, 8 * prim + 3);
+        LI metal = live & (gather(mats, 8 * prim + 6) != 0.0f), matte = live & NOT(metal);
+        LF alpha = gather(mats, 8 * prim + 7);
+        radiance = pick(live, add(radiance, mul(beta, le)), radiance);
+        /* the vertex's dimensions: the light's point, the lobe's direction, roulette */
+        LU dims = 4U * AS_LU(vertex);
         LF ul0, ul1, ub0, ub1, urr, unused;
-        sobol2(key, index_reversed, 4 * b + 1, &ul0, &ul1);
-        sobol2(key, index_reversed, 4 * b + 2, &ub0, &ub1);
-        sobol2(key, index_reversed, 4 * b + 3, &urr, &unused);
-        /* NEE to one of the two emitters, by area, MIS against the cosine lobe */
-        LI e = ul0 < 0.5f ? (LI)(emitters.x) : (LI)(emitters.y);
-        LF ux = ul0 < 0.5f ? ul0 * 2.0f : ul0 * 2.0f - 1.0f;
-        V3 w0 = gather3(tris, 3 * e), w1 = gather3(tris, 3 * e + 1), w2 = gather3(tris, 3 * e + 2);
-        LF su = sqrt_l(ux);
-        V3 y = add(add(scale(1.0f - su, w0), scale(su * (1.0f - ul1), w1)), scale(su * ul1, w2));
-        V3 to_l = sub(y, p);
-        LF dist = sqrt_l(dot(to_l, to_l));
-        V3 wi = v3(to_l.x / dist, to_l.y / dist, to_l.z / dist);
-        LF cos_l = -dot(unit(cross(sub(w1, w0), sub(w2, w0))), wi);
-        LF light_pdf = 0.5f * dist * dist / (emitter_area * cos_l);
+        sobol2(key, index_reversed, dims + 1U, &ul0, &ul1);
+        sobol2(key, index_reversed, dims + 2U, &ub0, &ub1);
+        sobol2(key, index_reversed, dims + 3U, &urr, &unused);
+        LI e;
+        LF light_pdf;
+        V3 wi = light_point(tris, emitters, emitter_area, p, ul0, ul1, &e, &light_pdf);
         Frame fr = make_frame(ng);
         V3 wo = to_local(fr, neg(d)), wl = to_local(fr, wi);
-        LF bsdf_pdf = wl.z * M_1_PI_F;
-        LI lit = alive & (light_pdf > 0.0f) & (light_pdf < INFINITY) & (wl.z > 0.0f) & (wo.z > 0.0f);
-        LF w = light_pdf / (light_pdf * light_pdf + bsdf_pdf * bsdf_pdf) * (wl.z * M_1_PI_F);
-        V3 le_em = gather3(emission, e);
-        radiance = pick(lit, add(radiance, mul(beta, scale(w, mul(a, le_em)))), radiance);
-        /* the BSDF's sample */
-        LF r = sqrt_l(ub0), s, c;
-        sincos_l(2.0f * M_PI_F * ub1, &s, &c);
-        V3 wl_next = v3(r * c, r * s, sqrt_l(max_l(0.0f, 1.0f - ub0)));
-        beta = pick(alive, mul(beta, a), beta);
-        d = to_world(fr, wl_next);
-        /* Russian roulette from the third vertex */
-        LF q = min_l(max_l(beta.x, max_l(beta.y, beta.z)), 0.95f);
-        LI rr = b >= 2 ? (LI)(urr >= q) : (LI)(0);
-        alive = alive & NOT(rr) & (wo.z > 0.0f);
-        LF keep = b >= 2 ? q : (LF)(1.0f);
+        V3 f, wn, weight;
+        LF lobe_pdf;
+        lobes(matte, metal, a, alpha, wo, wl, ub0, ub1, &f, &lobe_pdf, &wn, &weight);
+        LI lit = live & (light_pdf > 0.0f) & (light_pdf < INFINITY) & (wo.z > 0.0f);
+        LF w = light_pdf / (light_pdf * light_pdf + lobe_pdf * lobe_pdf);
+        radiance = pick(lit, add(radiance, mul(beta, scale(w, mul(f, gather3(mats, 8 * e + 3))))), radiance);
+        beta = pick(live, mul(beta, weight), beta);
+        d = pick(live, to_world(fr, wn), d);
+        /* Russian roulette from the third vertex; the path ends there, at its last vertex, or below the surface */
+        LF q = min_l(max3_l(beta), 0.95f);
+        LI late = vertex >= 2;
+        LI ended = live & ((late & (urr >= q)) | (vertex == depth - 1) | (wo.z <= 0.0f) | (max3_l(beta) <= 0.0f));
+        LF keep = late ? q : (LF)(1.0f);
         beta = v3(beta.x / keep, beta.y / keep, beta.z / keep);
+        total = pick(ended, add(total, radiance), total);
+        vertex = live & NOT(ended) ? vertex + 1 : 0;
+        sample = ended ? sample + 1 : sample;
+#if REFILL
+        start = ended & (sample < spp);
+        live = (live & NOT(ended)) | start;
+#else
+        live = live & NOT(ended);
+        start = NOT(live) & (sample < spp);
+        if (ANY(live)) start = 0; /* the next samples start together, once every lane's path has ended */
+        live = live | start;
+#endif
     }
-    STORE_F(radiance.x, out + base);
-    STORE_F(radiance.y, out + n_paths + base);
-    STORE_F(radiance.z, out + 2 * n_paths + base);
+    for (int k = 0; k < 3; ++k) {
+        LF v = k == 0 ? total.x : k == 1 ? total.y : total.z;
+#if LANES == 1
+        out[k * n_pixels + base] = v;
+#else
+        LANES_CAT(vstore, LANES)(v, 0, out + k * n_pixels + base);
+#endif
+    }
+    steps[get_global_id(0)] = counted;
 }
