@@ -1,7 +1,8 @@
 """OpenCL device selection and the per-process cache of built programs.
 
 The default is the fastest CPU driver found, by the rule of `_ranked_cpus` (docs/command-line.md,
-"Devices"): Intel's OpenCL CPU runtime, then PoCL, then other CPU drivers, unless cached measurements
+"Devices"): Intel's OpenCL CPU runtime, then PoCL, then other CPU drivers (never Oclgrind, the simulator
+that checks memory accesses: `is_simulator`), unless cached measurements
 (`clrender devices --measure`, clrender/device_speed.py) show another more than SPEED_MARGIN faster; the
 first of those that compiles a probe kernel.  `CLRENDER_DEVICE` or `--device` picks another by a substring
 of "<platform name>: <device name>" (case-insensitive), e.g. "nvidia" or "gpu".
@@ -24,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .drivers import register_pip_runtimes
+from .drivers import register_runtimes
 from .errors import RenderFailure, UsageError, first_line, library_messages
 from .launch import Kernel, kernel_signatures
 from .layout import DEFINES as LAYOUT_DEFINES
@@ -38,7 +39,7 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
     cl = None
     _IMPORT_ERROR = exc
 
-register_pip_runtimes()  # before any OpenCL call of the process, by us or by the caller
+register_runtimes()  # before any OpenCL call of the process, by us or by the caller
 raise_default_thread_stack()  # before a driver starts its worker threads (thread_stack.py)
 
 INSTALL_HINT = "install PoCL with: pip install 'pyopencl[pocl]'"
@@ -201,18 +202,23 @@ def _describe(dev) -> str:
 
 
 def _platforms() -> list:
-    """Every OpenCL platform (a pip-installed Intel runtime among them: drivers.py, at import)."""
+    """Every OpenCL platform (a pip-installed Intel runtime and Debian's Oclgrind among them: drivers.py, at import)."""
     try:
         return cl.get_platforms()
     except cl.Error:
         return []
 
 
-def list_devices() -> list[str]:
-    """'<platform>: <device>' for every OpenCL device visible to this process."""
+def all_devices() -> list:
+    """Every OpenCL device visible to this process, in the loader's order."""
     if cl is None:
         return []
-    return [_describe(d) for p in _platforms() for d in p.get_devices()]
+    return [d for p in _platforms() for d in p.get_devices()]
+
+
+def list_devices() -> list[str]:
+    """'<platform>: <device>' for every OpenCL device visible to this process."""
+    return [_describe(d) for d in all_devices()]
 
 
 def _pick(spec: str | None):
@@ -238,6 +244,16 @@ def _is_intel_cpu(dev) -> bool:
     return "intel" in dev.platform.name.lower() and bool(dev.type & cl.device_type.CPU)
 
 
+def is_simulator(dev) -> bool:
+    """Oclgrind, the OpenCL simulator that checks every memory access: it calls itself a CPU device but runs
+    about 1000x slower than a CPU driver, so it is never the default and never measured; --device oclgrind picks it."""
+    return "oclgrind" in dev.platform.name.lower()
+
+
+def _is_cpu_driver(dev) -> bool:
+    return bool(dev.type & cl.device_type.CPU) and not is_simulator(dev)
+
+
 SPEED_MARGIN = 1.10  # a measured driver displaces the static order's first only when this much faster (noise apart)
 
 
@@ -255,10 +271,10 @@ def _speeds(cpus: list) -> list:
 
 
 def _ranked_cpus(devices: list) -> list:
-    """The CPU devices, the default's candidates first: the static order (_static_rank; the loader's order
+    """The CPU drivers' devices (not the simulator), the default's candidates first: the static order (_static_rank; the loader's order
     among equals), except that the fastest measured device moves to the front when the static first was
     measured too and the other's score is more than SPEED_MARGIN times its own."""
-    cpus = sorted((d for d in devices if d.type & cl.device_type.CPU), key=_static_rank)
+    cpus = sorted((d for d in devices if _is_cpu_driver(d)), key=_static_rank)
     speeds = _speeds(cpus)
     if not cpus or speeds[0] is None:
         return cpus
@@ -290,10 +306,8 @@ def _default_cpu(devices: list):
 
 
 def cpu_devices() -> list:
-    """Every OpenCL CPU device visible to this process, in the loader's order."""
-    if cl is None:
-        return []
-    return [d for p in _platforms() for d in p.get_devices() if d.type & cl.device_type.CPU]
+    """Every OpenCL CPU driver's device visible to this process (not the simulator: is_simulator), in the loader's order."""
+    return [d for d in all_devices() if _is_cpu_driver(d)]
 
 
 def default_device_name(spec: str | None = None) -> str:

@@ -1,16 +1,19 @@
-"""The OpenCL CPU drivers a pip install can bring, and making the loader see them.
+"""The OpenCL drivers the loader does not find by itself, and making it see them.
 
 Two CPU drivers install from PyPI:
 - PoCL (`pyopencl[pocl]`, always installed), whose ICD file pyopencl's loader finds by itself;
 - Intel's OpenCL CPU runtime (the `fast` extra: `intel-opencl-rt`, `intel-cmplr-lib-rt`), whose package
   puts `libintelocl.so` in the environment's `lib/` and an ICD file that names its build machine's path.
+And one checker: Oclgrind, the OpenCL simulator that checks every memory access (Debian's `oclgrind`
+package), whose library Debian installs without an ICD file.  It is seen, but never the default device and
+never measured (clrender.device `is_simulator`); `--device oclgrind` picks it.
 
-`register_pip_runtimes()` makes the loader see Intel's runtime; `clrender.device` calls it when it is
-imported, before the process's first OpenCL call (the loader reads `OCL_ICD_VENDORS` then, once). It
-writes a folder of ICD files, one line each (a library's path), under the user's cache folder, keeps the
-ICD files the loader read before, and points `OCL_ICD_VENDORS` at the folder. A variable already set by the user is left alone, unless it names no
-Intel runtime and one is installed, in which case that folder's files are kept beside it.
-`tools/intel_opencl.py` prints the same as an `export` line for a shell.
+`register_runtimes()` makes the loader see each of `wanted_libraries()` that no ICD file it reads names;
+`clrender.device` calls it when it is imported, before the process's first OpenCL call (the loader reads
+`OCL_ICD_VENDORS` then, once).  It writes a folder of ICD files, one line each (a library's path), under the
+user's cache folder, keeps the ICD files the loader read before ($OCL_ICD_VENDORS, set by the user or not,
+else /etc/OpenCL/vendors), and points `OCL_ICD_VENDORS` at the folder.
+`tools/intel_opencl.py` prints the same, for Intel's runtime, as an `export` line for a shell.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from pathlib import Path
 
 INTEL_PACKAGE = "intel-opencl-rt"
 INTEL_LIBRARY = "libintelocl.so"
+OCLGRIND_LIBRARY = Path("/usr/lib/oclgrind/liboclgrind-rt-icd.so")  # Debian's oclgrind package
 SYSTEM_VENDORS = Path("/etc/OpenCL/vendors")
 
 
@@ -43,6 +47,17 @@ def find_intel_library() -> Path | None:
     return None
 
 
+def find_oclgrind_library() -> Path | None:
+    """Oclgrind's ICD library where Debian's package put it."""
+    return OCLGRIND_LIBRARY if OCLGRIND_LIBRARY.is_file() else None
+
+
+def wanted_libraries() -> dict[str, Path]:
+    """The libraries installed here that the loader should see, by the name of the ICD file that names each."""
+    found = {"intel.icd": find_intel_library(), "oclgrind.icd": find_oclgrind_library()}
+    return {icd: library for icd, library in found.items() if library is not None}
+
+
 def previous_icds() -> list[Path]:
     """The ICD files the loader reads without our folder: $OCL_ICD_VENDORS (a folder or one file), else /etc/OpenCL/vendors."""
     current = os.environ.get("OCL_ICD_VENDORS")
@@ -52,65 +67,63 @@ def previous_icds() -> list[Path]:
     return sorted(where.glob("*.icd")) if where.is_dir() else []
 
 
-def usable(line: str) -> bool:
-    """An ICD line worth keeping: not Intel's runtime again, and not an absolute path that is missing here."""
-    if not line:
-        return False
-    if Path(line).name.startswith(INTEL_LIBRARY):  # ours, or the package's own ICD with a build machine's path
-        return False
-    return not os.path.isabs(line) or Path(line).exists()
-
-
-def vendor_lines(intel: Path) -> dict[str, str]:
-    """ICD file name -> its line: Intel's runtime, and every usable one the loader read before."""
-    lines = {"intel.icd": str(intel)}
-    for i, icd in enumerate(previous_icds()):
+def previous_lines() -> list[tuple[str, str]]:
+    """(ICD file name, its line) of each previous_icds() file that can be read."""
+    lines = []
+    for icd in previous_icds():
         try:
-            line = icd.read_text().strip()
+            lines.append((icd.name, icd.read_text().strip()))
         except OSError:
             continue
-        if usable(line):
-            lines[f"kept{i}-{icd.name}"] = line
     return lines
 
 
-def write_vendors(folder: Path, intel: Path) -> None:
-    """Fill `folder` with the ICD files of vendor_lines(intel), replacing the .icd files it had."""
+def names(line: str, library: Path) -> bool:
+    """Whether an ICD line names `library`, any version of it: libintelocl.so.2026.22.10.0 names libintelocl.so."""
+    stem = lambda path: Path(path).name.split(".so")[0]
+    return stem(line) == stem(library)
+
+
+def sees(library: Path, lines: list[tuple[str, str]]) -> bool:
+    """Whether the loader reading `lines` loads `library`: a line names it by a path that exists here."""
+    return any(names(line, library) and Path(line).exists() for _, line in lines)
+
+
+def vendor_lines(libraries: dict[str, Path]) -> dict[str, str]:
+    """ICD file name -> its line: `libraries`, and every line the loader read before that names none of them
+    (which would load one twice, or not at all) and is not an absolute path that is missing here."""
+    lines = {icd: str(library) for icd, library in libraries.items()}
+    for i, (icd, line) in enumerate(previous_lines()):
+        if line and not any(names(line, library) for library in libraries.values()) and (not os.path.isabs(line) or Path(line).exists()):
+            lines[f"kept{i}-{icd}"] = line
+    return lines
+
+
+def write_vendors(folder: Path, libraries: dict[str, Path]) -> None:
+    """Fill `folder` with the ICD files of vendor_lines(libraries), replacing the .icd files it had."""
     folder.mkdir(parents=True, exist_ok=True)
-    lines = vendor_lines(intel)
+    lines = vendor_lines(libraries)
     for old in folder.glob("*.icd"):
         old.unlink()
     for name, line in lines.items():
         (folder / name).write_text(line + "\n")
 
 
-def _names_intel(where: str) -> bool:
-    path = Path(where)
-    files = [path] if path.is_file() else sorted(path.glob("*.icd")) if path.is_dir() else []
-    for icd in files:
-        try:
-            line = icd.read_text().strip()
-        except OSError:
-            continue
-        if Path(line).name.startswith(INTEL_LIBRARY) and Path(line).exists():
-            return True
-    return False
-
-
-def register_pip_runtimes() -> Path | None:
-    """Point OCL_ICD_VENDORS at a folder that adds a pip-installed Intel runtime; the folder, or None if nothing was done.
+def register_runtimes() -> Path | None:
+    """Point OCL_ICD_VENDORS at a folder that adds each of wanted_libraries() the loader does not see yet; the
+    folder, or None if nothing was done.
 
     Call before the process's first OpenCL call. Errors writing the folder leave the loader as it was."""
-    intel = find_intel_library()
-    current = os.environ.get("OCL_ICD_VENDORS")
-    if intel is None or (current and _names_intel(current)):
+    before = previous_lines()
+    missing = {icd: library for icd, library in wanted_libraries().items() if not sees(library, before)}
+    if not missing:
         return None
     import hashlib
     import tempfile
 
     from platformdirs import user_cache_dir
 
-    lines = vendor_lines(intel)
+    lines = vendor_lines(missing)
     digest = hashlib.sha256(repr(sorted(lines.items())).encode()).hexdigest()[:16]
     folder = Path(user_cache_dir("clrender")) / "opencl-vendors" / digest  # named by its contents: written once, never changed
     try:

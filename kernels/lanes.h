@@ -76,15 +76,10 @@ INLINE int lanes_set(LI m) {
 #if LANES == 1
     return m != 0;
 #else
-    LI one = m & 1; /* 1 where set */
-#if LANES == 16
-    int8 h8 = one.lo + one.hi;
-#else
-    int8 h8 = one;
-#endif
-    int4 h4 = h8.lo + h8.hi;
-    int2 h2 = h4.lo + h4.hi;
-    return h2.x + h2.y;
+    int lane[LANES], n = 0;
+    LANES_CAT(vstore, LANES)(m, 0, lane);
+    for (int k = 0; k < LANES; ++k) n += lane[k] != 0;
+    return n;
 #endif
 }
 

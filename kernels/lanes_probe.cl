@@ -186,7 +186,7 @@ INLINE void start_paths(LI start, LU key, LI sample, LU *index_reversed, V3 *d, 
  * live in them, summed (the lanes' occupancy). */
 __kernel void shade_probe(int n_pixels, int spp, int depth, __global const float *tris, __global const float *mats,
                           int2 emitters, float emitter_area, uint seed, __global const int *hit_prim,
-                          __global const float *hit_uv, __global float *out, __global int2 *steps) {
+                          __global const float *hit_uv, __global float *out, __global int *steps) {
     int base = get_global_id(0) * LANES;
     if (base >= n_pixels) return;
     LU pixel = (uint)base + LANE_IDS_L;
@@ -194,10 +194,11 @@ __kernel void shade_probe(int n_pixels, int spp, int depth, __global const float
     V3 total = v3_all(0.0f), beta = v3_all(1.0f), radiance = v3_all(0.0f), d = v3_all(0.0f);
     LI sample = 0, vertex = 0, live = (LI)(0) == 0, start = live;
     LU index_reversed = 0U;
-    int2 counted = (int2)(0);
+    int steps_taken = 0, lanes_live = 0;
     while (ANY(live)) {
         if (ANY(start)) start_paths(start, key, sample, &index_reversed, &d, &beta, &radiance);
-        counted += (int2)(1, lanes_set(live));
+        steps_taken += 1;
+        lanes_live += lanes_set(live);
         LI at = vertex * n_pixels + CONVERT_I(pixel);
         LI prim = gather_i(hit_prim, at);
         LF hu = gather(hit_uv, at), hv = gather(hit_uv, at + depth * n_pixels);
@@ -257,5 +258,6 @@ __kernel void shade_probe(int n_pixels, int spp, int depth, __global const float
         LANES_CAT(vstore, LANES)(v, 0, out + k * n_pixels + base);
 #endif
     }
-    steps[get_global_id(0)] = counted;
+    steps[2 * get_global_id(0)] = steps_taken;
+    steps[2 * get_global_id(0) + 1] = lanes_live;
 }

@@ -43,6 +43,8 @@ INLINE void save_hit(PathState *st, Hit h) {
     st->hit_v = h.v;
 #if INSTANCED
     st->hit_instance = h.instance;
+#else
+    st->hit_instance = -1;
 #endif
 }
 
@@ -78,7 +80,7 @@ INLINE Hit state_hit(const PathState *st) {
 __kernel void wave_start(__global const int *pixels, PathParams params, __global char *out, __global PathState *states) {
     int gid = get_global_id(0);
     if (gid >= params.frame.n_work) return;
-    PathState st;
+    PathState st = {0}; /* every field written: the later kernels copy whole parts of the record */
     start_pixel(&st);
     Rng rng;
     start_sample(&params, &st, pixels[gid], 0u, &rng);
@@ -124,7 +126,8 @@ __kernel void wave_shade(__global const TreeNode *nodes, __global const PrimSlot
     Rng rng = state_rng(&params, &st);
     if (!shade_step(&s, &st, state_hit(&st), &rng)) st.ended = 1;
     save_rng(&st, &rng);
-    PATH_FIELDS(OUT, OUT3) OUT(rays) OUT(ended) RNG_FIELDS(OUT) SHADOW_FIELDS(OUT, OUT3)
+    PATH_FIELDS(OUT, OUT3) OUT(rays) OUT(ended) RNG_FIELDS(OUT)
+    if (st.shadowed) { SHADOW_FIELDS(OUT, OUT3) } else { OUT(shadowed) } /* the ray's fields: only where there is one */
     if (first) { FIRST_HIT_FIELDS(OUT, OUT3) }
 }
 

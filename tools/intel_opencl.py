@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{LIBRARY} not found: install Intel's OpenCL CPU runtime with: {pip}", file=sys.stderr)
         return 1
     folder = args.dir.resolve() if args.dir else Path(tempfile.mkdtemp(prefix="clrender-opencl-vendors-"))
-    write_vendors(folder, intel)
+    write_vendors(folder, {"intel.icd": intel})
     print(f"# Intel's OpenCL CPU runtime: {intel}")
     print(f"export OCL_ICD_VENDORS={shlex.quote(str(folder))}")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from .. import device_speed
-from ..device import _cannot_compile, _describe, cpu_devices, default_device_name, list_devices
+from ..device import _cannot_compile, _describe, all_devices, cpu_devices, default_device_name, is_simulator, list_devices
 from . import add_device_argument
 
 EXAMPLES = """examples:
@@ -18,7 +18,12 @@ DESCRIPTION = """List the OpenCL devices as '<platform>: <device>'; * marks the 
 measured speed follows in brackets where one is cached for its driver version and this CPU.
 The default device, when neither --device nor $CLRENDER_DEVICE names one, is the first CPU driver
 that compiles, in the order Intel's OpenCL CPU runtime, PoCL, others; a driver measured more than 10%
-faster (by the geometric mean of its two rates) than that order's first, itself measured, goes first."""
+faster (by the geometric mean of its two rates) than that order's first, itself measured, goes first.
+Oclgrind, the OpenCL simulator that checks every memory access, is listed as the checker: only
+--device oclgrind picks it."""
+
+
+CHECKER_NOTE = "the checker: a simulator that checks every memory access; never the default, never measured"
 
 
 def add_parser(sub):
@@ -43,9 +48,12 @@ def run(args):
     cached = device_speed.load()
     speeds = {_describe(d): cached.get(device_speed.key(d)) for d in cpu_devices()}
     chosen = default_device_name(args.device)
+    checkers = {_describe(d) for d in all_devices() if is_simulator(d)}
     for name in list_devices():
         line = ("* " if name == chosen else "  ") + name
-        if speeds.get(name) is not None:
+        if name in checkers:
+            line += f"  [{CHECKER_NOTE}]"
+        elif speeds.get(name) is not None:
             line += f"  [{speeds[name].describe()}]"
         elif name in notes:
             line += f"  [{notes[name]}]"

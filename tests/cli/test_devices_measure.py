@@ -92,3 +92,16 @@ def test_a_cache_folder_that_cannot_be_written_is_one_line_and_exit_1(capsys, fa
     code, out, err = run_cli(capsys, "devices", "--measure")
     assert code == 1 and "Traceback" not in err
     assert err.count("\n") == 1 and err.startswith(f"clrender: cannot write the device speed cache {folder / 'device-speed.json'}: "), err
+
+
+def test_oclgrind_is_listed_as_the_checker_never_measured_nor_starred(capsys, fake_speeds):
+    names, measured = fake_speeds
+    checkers = [_describe(d) for d in device_module.all_devices() if device_module.is_simulator(d)]
+    if not checkers:
+        pytest.skip("Oclgrind is not installed here")
+    code, out, err = run_cli(capsys, "devices", "--measure")
+    assert code == 0 and err == "", err
+    assert not set(checkers) & set(measured)
+    lines = {line[2:].split("  [")[0]: line for line in out.splitlines()}
+    for name in checkers:
+        assert lines[name] == f"  {name}  [{devices_command.CHECKER_NOTE}]"

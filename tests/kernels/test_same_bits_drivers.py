@@ -3,7 +3,8 @@ splat render with its gradients, on Intel's OpenCL CPU runtime and on PoCL (issu
 bits on any driver").  The path tracer gets there through kernels/mathf.h (its own sin, cos, exp, ... and no
 contraction into fma); before it, 44% of a Cornell box's pixels differed between PoCL and Intel in the last bits.
 The splats' exp, sin, cos and log are mathf.h's too (the builtins gave other bits on each driver).  Skipped unless
-two drivers compile."""
+two drivers compile.  Oclgrind, the simulator, is no CPU driver here (device.cpu_devices leaves it out: it needs its
+own build options); tests/kernels/test_mathf_drivers.py compares it."""
 
 from __future__ import annotations
 

@@ -214,7 +214,7 @@ def test_intel_opencl_keeps_the_icd_files_read_before_and_drops_stale_ones(tmp_p
     folder, intel = tmp_path / "vendors", tmp_path / "libintelocl.so"
     folder.mkdir()
     (folder / "old.icd").write_text("left from an earlier run\n")
-    intel_opencl.write_vendors(folder, intel)
+    intel_opencl.write_vendors(folder, {"intel.icd": intel})
     lines = sorted(p.read_text().strip() for p in folder.glob("*.icd"))
     assert lines == sorted([str(intel), str(fake_lib), "libOpenCL-vendor.so.1"])
 
