@@ -246,7 +246,7 @@ def _is_intel_cpu(dev) -> bool:
 
 def is_simulator(dev) -> bool:
     """Oclgrind, the OpenCL simulator that checks every memory access: it calls itself a CPU device but runs
-    about 1000x slower than a CPU driver, so it is never the default and never measured; --device oclgrind picks it."""
+    about 1000x slower than a CPU driver, so it is never the default and never measured; CLRENDER_DEVICE=oclgrind picks it (drivers.py)."""
     return "oclgrind" in dev.platform.name.lower()
 
 

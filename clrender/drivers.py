@@ -5,8 +5,9 @@ Two CPU drivers install from PyPI:
 - Intel's OpenCL CPU runtime (the `fast` extra: `intel-opencl-rt`, `intel-cmplr-lib-rt`), whose package
   puts `libintelocl.so` in the environment's `lib/` and an ICD file that names its build machine's path.
 And one checker: Oclgrind, the OpenCL simulator that checks every memory access (Debian's `oclgrind`
-package), whose library Debian installs without an ICD file.  It is seen, but never the default device and
-never measured (clrender.device `is_simulator`); `--device oclgrind` picks it.
+package), whose library Debian installs without an ICD file.  Loaded, it adds about 57 MB to every process, so it
+is seen only where `CLRENDER_DEVICE` names it (`CLRENDER_DEVICE=oclgrind`), and then never the default device and
+never measured (clrender.device `is_simulator`).
 
 `register_runtimes()` makes the loader see each of `wanted_libraries()` that no ICD file it reads names;
 `clrender.device` calls it when it is imported, before the process's first OpenCL call (the loader reads
@@ -52,9 +53,19 @@ def find_oclgrind_library() -> Path | None:
     return OCLGRIND_LIBRARY if OCLGRIND_LIBRARY.is_file() else None
 
 
+def oclgrind_installed() -> bool:
+    """Whether Oclgrind can be asked for here: Debian's library, or an ICD file the loader reads that names it."""
+    return find_oclgrind_library() is not None or any("oclgrind" in line.lower() for _, line in previous_lines())
+
+
+def oclgrind_requested() -> bool:
+    """Whether this process asks for Oclgrind: $CLRENDER_DEVICE names it."""
+    return "oclgrind" in os.environ.get("CLRENDER_DEVICE", "").lower()
+
+
 def wanted_libraries() -> dict[str, Path]:
     """The libraries installed here that the loader should see, by the name of the ICD file that names each."""
-    found = {"intel.icd": find_intel_library(), "oclgrind.icd": find_oclgrind_library()}
+    found = {"intel.icd": find_intel_library(), "oclgrind.icd": find_oclgrind_library() if oclgrind_requested() else None}
     return {icd: library for icd, library in found.items() if library is not None}
 
 

@@ -11,7 +11,7 @@ from . import add_device_argument
 EXAMPLES = """examples:
   clrender devices                     # '* ' marks the device every command uses by default
   clrender devices --measure           # time a small render on each CPU driver (cached), then list
-  clrender devices --device oclgrind   # which device --device oclgrind would pick
+  CLRENDER_DEVICE=oclgrind clrender devices   # Oclgrind, the checker, seen and picked
 """
 
 DESCRIPTION = """List the OpenCL devices as '<platform>: <device>'; * marks the one in use.  A CPU device's
@@ -19,8 +19,8 @@ measured speed follows in brackets where one is cached for its driver version an
 The default device, when neither --device nor $CLRENDER_DEVICE names one, is the first CPU driver
 that compiles, in the order Intel's OpenCL CPU runtime, PoCL, others; a driver measured more than 10%
 faster (by the geometric mean of its two rates) than that order's first, itself measured, goes first.
-Oclgrind, the OpenCL simulator that checks every memory access, is listed as the checker: only
---device oclgrind picks it."""
+Oclgrind, the OpenCL simulator that checks every memory access, is seen only with
+CLRENDER_DEVICE=oclgrind, and listed as the checker."""
 
 
 CHECKER_NOTE = "the checker: a simulator that checks every memory access; never the default, never measured"

@@ -44,7 +44,7 @@ def _libraries(tmp_path, *names):
     return paths
 
 
-def test_debians_oclgrind_without_an_icd_file_is_added_beside_the_loaders_files(tmp_path, monkeypatch):
+def test_debians_oclgrind_without_an_icd_file_is_added_beside_the_loaders_files_when_asked_for(tmp_path, monkeypatch):
     oclgrind, pocl = _libraries(tmp_path, "liboclgrind-rt-icd.so", "libpocl.so.2.10.0")
     before = tmp_path / "before"
     before.mkdir()
@@ -52,6 +52,7 @@ def test_debians_oclgrind_without_an_icd_file_is_added_beside_the_loaders_files(
     (before / "by-name.icd").write_text("libOpenCL-vendor.so.1\n")  # a bare name: found on the loader's path
     monkeypatch.setattr(drivers, "find_intel_library", lambda: None)
     monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
+    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
     monkeypatch.setenv("OCL_ICD_VENDORS", str(before))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     folder = drivers.register_runtimes()
@@ -64,6 +65,22 @@ def test_debians_oclgrind_without_an_icd_file_is_added_beside_the_loaders_files(
     assert drivers.register_runtimes() is None
 
 
+def test_oclgrind_stays_unseen_unless_clrender_device_names_it(tmp_path, monkeypatch):
+    """Loaded, its library adds about 57 MB to every process: only a process that asks for the checker pays that."""
+    (oclgrind,) = _libraries(tmp_path, "liboclgrind-rt-icd.so")
+    monkeypatch.setattr(drivers, "find_intel_library", lambda: None)
+    monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
+    monkeypatch.setenv("OCL_ICD_VENDORS", str(tmp_path))
+    for unset_or_other in (None, "portable"):
+        if unset_or_other is None:
+            monkeypatch.delenv("CLRENDER_DEVICE", raising=False)
+        else:
+            monkeypatch.setenv("CLRENDER_DEVICE", unset_or_other)
+        assert drivers.wanted_libraries() == {} and drivers.register_runtimes() is None
+    monkeypatch.setenv("CLRENDER_DEVICE", "Oclgrind")
+    assert drivers.wanted_libraries() == {"oclgrind.icd": oclgrind}
+
+
 def test_intel_and_oclgrind_go_in_one_folder_and_a_stale_line_for_either_is_dropped(tmp_path, monkeypatch):
     intel, oclgrind = _libraries(tmp_path, "libintelocl.so", "liboclgrind-rt-icd.so")
     before = tmp_path / "before"
@@ -72,6 +89,7 @@ def test_intel_and_oclgrind_go_in_one_folder_and_a_stale_line_for_either_is_drop
     (before / "oclgrind.icd").write_text("liboclgrind-rt-icd.so\n")  # by name: loading it again by path would list it twice
     monkeypatch.setattr(drivers, "find_intel_library", lambda: intel)
     monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
+    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
     monkeypatch.setenv("OCL_ICD_VENDORS", str(before))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     folder = drivers.register_runtimes()
@@ -83,6 +101,7 @@ def test_an_oclgrind_an_icd_file_already_names_is_left_to_it(tmp_path, monkeypat
     (tmp_path / "oclgrind.icd").write_text(f"{oclgrind}\n")
     monkeypatch.setattr(drivers, "find_intel_library", lambda: None)
     monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
+    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
     monkeypatch.setenv("OCL_ICD_VENDORS", str(tmp_path / "oclgrind.icd"))
     assert drivers.register_runtimes() is None
     assert drivers.os.environ["OCL_ICD_VENDORS"] == str(tmp_path / "oclgrind.icd")

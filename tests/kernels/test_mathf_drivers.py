@@ -23,12 +23,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clrender.device import list_devices
+from clrender.drivers import oclgrind_installed
 
 ROOT = Path(__file__).resolve().parents[2]
 OCLGRIND_OPTIONS = "-D__builtin_sqrtf=sqrt -fno-inline"
 
-pytestmark = pytest.mark.skipif(not any("oclgrind" in d.lower() for d in list_devices()), reason="the Oclgrind OpenCL platform is not installed")
+pytestmark = pytest.mark.skipif(not oclgrind_installed(), reason="the Oclgrind OpenCL platform is not installed")
 
 PROBE_ARGS = """
 import numpy as np
