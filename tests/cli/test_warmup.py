@@ -60,7 +60,7 @@ def slow_build(monkeypatch):
         def __init__(self, context, source):
             pass
 
-        def build(self, options):
+        def build(self, options, cache_dir=None):
             time.sleep(0.3)
             return self
 
