@@ -236,7 +236,7 @@ __kernel void shade_probe(int n_pixels, int spp, int depth, __global const float
         LI late = vertex >= 2;
         LI ended = live & ((late & (urr >= q)) | (vertex == depth - 1) | (wo.z <= 0.0f) | (max3_l(beta) <= 0.0f));
         LF keep = late ? q : (LF)(1.0f);
-        beta = v3(beta.x / keep, beta.y / keep, beta.z / keep);
+        beta = divide(beta, keep);
         total = pick(ended, add(total, radiance), total);
         vertex = live & NOT(ended) ? vertex + 1 : 0;
         sample = ended ? sample + 1 : sample;

@@ -44,17 +44,23 @@ def _libraries(tmp_path, *names):
     return paths
 
 
+def installed(monkeypatch, tmp_path, intel, oclgrind, vendors):
+    """This machine as the test sets it: those libraries installed (None: not), the loader reading `vendors`, Oclgrind
+    asked for, and the vendor folder written under tmp_path."""
+    monkeypatch.setattr(drivers, "find_intel_library", lambda: intel)
+    monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
+    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
+    monkeypatch.setenv("OCL_ICD_VENDORS", str(vendors))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+
+
 def test_debians_oclgrind_without_an_icd_file_is_added_beside_the_loaders_files_when_asked_for(tmp_path, monkeypatch):
     oclgrind, pocl = _libraries(tmp_path, "liboclgrind-rt-icd.so", "libpocl.so.2.10.0")
     before = tmp_path / "before"
     before.mkdir()
     (before / "pocl.icd").write_text(f"{pocl}\n")
     (before / "by-name.icd").write_text("libOpenCL-vendor.so.1\n")  # a bare name: found on the loader's path
-    monkeypatch.setattr(drivers, "find_intel_library", lambda: None)
-    monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
-    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
-    monkeypatch.setenv("OCL_ICD_VENDORS", str(before))
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    installed(monkeypatch, tmp_path, intel=None, oclgrind=oclgrind, vendors=before)
     folder = drivers.register_runtimes()
     assert folder is not None and drivers.os.environ["OCL_ICD_VENDORS"] == str(folder)
     assert {p.name: p.read_text().strip() for p in folder.glob("*.icd")} == {
@@ -87,11 +93,7 @@ def test_intel_and_oclgrind_go_in_one_folder_and_a_stale_line_for_either_is_drop
     before.mkdir()
     (before / "intel-cpu.icd").write_text("/opt/build/lib/libintelocl.so.2026\n")  # the pip package's own: a build machine's path
     (before / "oclgrind.icd").write_text("liboclgrind-rt-icd.so\n")  # by name: loading it again by path would list it twice
-    monkeypatch.setattr(drivers, "find_intel_library", lambda: intel)
-    monkeypatch.setattr(drivers, "find_oclgrind_library", lambda: oclgrind)
-    monkeypatch.setenv("CLRENDER_DEVICE", "oclgrind")
-    monkeypatch.setenv("OCL_ICD_VENDORS", str(before))
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    installed(monkeypatch, tmp_path, intel=intel, oclgrind=oclgrind, vendors=before)
     folder = drivers.register_runtimes()
     assert sorted(p.read_text().strip() for p in folder.glob("*.icd")) == sorted([str(intel), str(oclgrind)])
 
