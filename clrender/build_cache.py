@@ -38,6 +38,13 @@ def held_open(path: Path) -> bool:
     return False
 
 
+def ready() -> str:
+    """The folder for a build's cache_dir, a stale lock in it removed first."""
+    cache = folder()
+    clear_stale_lock(cache)
+    return str(cache)
+
+
 def clear_stale_lock(cache: Path) -> bool:
     """Remove `cache`'s lock if a dead process left it; whether one was removed."""
     lock = cache / "lock"

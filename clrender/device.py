@@ -90,11 +90,9 @@ class Device:
         source = f'{c_header()}#line 1 "{filename}"\n{source}'
         options = [f"-I{kernel_dir()}", "-cl-std=CL1.2", *build_options(defines)]
         start = time.perf_counter()
-        cache = build_cache.folder()
-        build_cache.clear_stale_lock(cache)
         try:
             with compile_notice(self), library_messages():  # PoCL's clang also prints "1 error generated."; the log is in exc
-                prg = cl.Program(self.context, source).build(options=options, cache_dir=str(cache))
+                prg = cl.Program(self.context, source).build(options=options, cache_dir=build_cache.ready())
         except cl.RuntimeError as exc:
             logging.getLogger(__name__).debug("build log of kernels/%s:\n%s", filename, exc)
             first_error = first_line(str(exc), prefer="error:") or "no build log"
@@ -205,7 +203,7 @@ def _describe(dev) -> str:
 
 
 def _platforms() -> list:
-    """Every OpenCL platform (a pip-installed Intel runtime and Debian's Oclgrind among them: drivers.py, at import)."""
+    """Every OpenCL platform (a pip-installed Intel runtime among them, and Oclgrind where asked for: drivers.py, at import)."""
     try:
         return cl.get_platforms()
     except cl.Error:
@@ -329,11 +327,9 @@ _PROBE = "__kernel void probe(__global int *a) { a[get_global_id(0)] = 1; }"
 
 def _cannot_compile(dev) -> str | None:
     """None if `dev` builds a one-line kernel, else the first line of why not."""
-    cache = build_cache.folder()
-    build_cache.clear_stale_lock(cache)
     try:
         with _signal_handlers_kept(), library_messages():
-            cl.Program(cl.Context([dev]), _PROBE).build(cache_dir=str(cache))
+            cl.Program(cl.Context([dev]), _PROBE).build(cache_dir=build_cache.ready())
     except cl.Error as exc:
         return first_line(str(exc), prefer="error:") or "the build failed"
     return None

@@ -44,12 +44,7 @@ INLINE LU superset_xor_l(LU x) {
     return x;
 }
 /* rng.h's u01: (float)(h >> 8) * 2^-24, the conversion by bit tricks (u01_lanes) */
-INLINE LF u01_l(LU h) {
-    LU q = h >> 8;
-    LF halves = AS_LF((q >> 1) | 0x4b000000U) - 8388608.0f;
-    LF odd = (q & 1U) != 0U ? (LF)(1.0f) : (LF)(0.0f);
-    return (halves * 2.0f + odd) * U01_SCALE;
-}
+INLINE LF u01_l(LU h) { U01_BITS(LF, AS_LF, h); }
 /* Pair `pair` of the sample whose index is `index_reversed` in the pixel keyed `key` (sobol_pair, sobol_pair_coordinate) */
 INLINE void sobol2(LU key, LU index_reversed, LU pair, LF *u0, LF *u1) {
     LU k = mix_l(key ^ (pair + HASH_KEY_D));

@@ -34,12 +34,12 @@ INLINE float u01(uint h) { return (float)(h >> 8) * U01_SCALE; }
 /* u01 lane by lane: the same 24-bit integer, converted to float exactly as (float) does, by bit tricks
  * instead of convert_float8 (out of line on PoCL): q = 2 floor(q / 2) + (q & 1), and q >> 1 < 2^23 is the
  * mantissa of 2^23 + (q >> 1). */
-INLINE float8 u01_lanes(uint8 h) {
-    uint8 q = h >> 8;
-    float8 halves = as_float8((q >> 1) | 0x4b000000u) - 8388608.0f; /* 0x4b000000: 2^23 = 8388608.0f */
-    float8 odd = (q & 1u) != (uint8)(0u) ? (float8)(1.0f) : (float8)(0.0f);
-    return (halves * 2.0f + odd) * U01_SCALE;
-}
+#define U01_BITS(F, AS_F, h) /* the body of a function of h (a variable) returning F (float8...; AS_F: as_float8...) */ \
+    h >>= 8;                                                                                                           \
+    F halves = AS_F((h >> 1) | 0x4b000000u) - 8388608.0f; /* 0x4b000000: 2^23 = 8388608.0f */                        \
+    F odd = (h & 1u) != 0u ? (F)(1.0f) : (F)(0.0f);                                                                    \
+    return (halves * 2.0f + odd) * U01_SCALE
+INLINE float8 u01_lanes(uint8 h) { U01_BITS(float8, as_float8, h); }
 
 #ifndef RNG_SOBOL
 #define RNG_SOBOL 0 /* 1: rng_next gives dimension `dim` of sample `sample` of the pixel's Sobol sequence (kernels/sobol.h) */

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from .. import device_speed
-from ..device import _cannot_compile, _describe, all_devices, cpu_devices, default_device_name, is_simulator, list_devices
+from ..device import _cannot_compile, _describe, all_devices, cpu_devices, default_device_name, is_simulator
 from . import add_device_argument
 
 EXAMPLES = """examples:
@@ -48,10 +48,10 @@ def run(args):
     cached = device_speed.load()
     speeds = {_describe(d): cached.get(device_speed.key(d)) for d in cpu_devices()}
     chosen = default_device_name(args.device)
-    checkers = {_describe(d) for d in all_devices() if is_simulator(d)}
-    for name in list_devices():
+    for dev in all_devices():
+        name = _describe(dev)
         line = ("* " if name == chosen else "  ") + name
-        if name in checkers:
+        if is_simulator(dev):
             line += f"  [{CHECKER_NOTE}]"
         elif speeds.get(name) is not None:
             line += f"  [{speeds[name].describe()}]"
