@@ -15,56 +15,45 @@
  * (Mitsuba 3's fresnel_conductor, after Moeller's "Optics"): with a^2 + b^2 = sqrt((eta^2 - k^2 - sin^2)^2 + 4 eta^2 k^2),
  * a = sqrt((a^2 + b^2 + eta^2 - k^2 - sin^2) / 2), r_s = (a^2 + b^2 + cos^2 - 2 a cos) / (... + 2 a cos),
  * r_p = r_s (cos^2 (a^2 + b^2) + sin^4 - 2 a cos sin^2) / (... + ...). */
-INLINE float fresnel_conductor(float cos_i, float eta, float k) {
-    float c2 = cos_i * cos_i, s2 = 1.0f - c2, s4 = s2 * s2;
-    float temp = eta * eta - k * k - s2;
-    float a2_b2 = SQRT(max_f(0.0f, temp * temp + 4.0f * k * k * eta * eta));
-    float a = SQRT(max_f(0.0f, 0.5f * (a2_b2 + temp)));
-    float term1 = a2_b2 + c2, term2 = 2.0f * cos_i * a;
-    float term3 = a2_b2 * c2 + s4, term4 = term2 * s2;
-    bool grazing_match = !(term1 + term2 > 0.0f) || !(term3 + term4 > 0.0f); /* eta = 1, k = 0 at cos 0: the limit 1 */
-    if (grazing_match) return 1.0f;
-    float r_s = (term1 - term2) / (term1 + term2);
-    float r_p = r_s * (term3 - term4) / (term3 + term4);
-    return 0.5f * (r_s + r_p);
+INLINE LF fresnel_conductor(LF cos_i, LF eta, LF k) {
+    LF c2 = cos_i * cos_i, s2 = 1.0f - c2, s4 = s2 * s2;
+    LF temp = eta * eta - k * k - s2;
+    LF a2_b2 = sqrt_l(max_l(0.0f, temp * temp + 4.0f * k * k * eta * eta));
+    LF a = sqrt_l(max_l(0.0f, 0.5f * (a2_b2 + temp)));
+    LF term1 = a2_b2 + c2, term2 = 2.0f * cos_i * a;
+    LF term3 = a2_b2 * c2 + s4, term4 = term2 * s2;
+    LI grazing_match = NOT(term1 + term2 > 0.0f) | NOT(term3 + term4 > 0.0f); /* eta = 1, k = 0 at cos 0: the limit 1 */
+    LF r_s = (term1 - term2) / (term1 + term2);
+    LF r_p = r_s * (term3 - term4) / (term3 + term4);
+    return grazing_match ? (LF)(1.0f) : 0.5f * (r_s + r_p);
 }
 
-INLINE float3 metal_fresnel(float cos_i, BsdfParams p) {
-    float3 f = (float3)(fresnel_conductor(cos_i, p.eta3.x, p.k3.x), fresnel_conductor(cos_i, p.eta3.y, p.k3.y),
-                        fresnel_conductor(cos_i, p.eta3.z, p.k3.z));
-    return p.tint * f;
+INLINE V3 metal_fresnel(LF cos_i, BsdfParams p) {
+    V3 f = v3(fresnel_conductor(cos_i, p.eta3.x, p.k3.x), fresnel_conductor(cos_i, p.eta3.y, p.k3.y),
+              fresnel_conductor(cos_i, p.eta3.z, p.k3.z));
+    return vmul(p.tint, f);
 }
 
 /* ---- metal: f = tint F(wo . h) D G / (4 cos_o cos_i), visible-normal sampling (weight tint F G / G1(wo)) */
-INLINE float3 metal_eval(float3 wo, float3 wi, BsdfParams p) {
-    if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
-    float alpha = max_f(p.alpha, GGX_ALPHA_MIN);
-    float3 h = unit(wo + wi);
-    return metal_fresnel(dot3(wo, h), p) * ggx_reflection_value(wo, wi, h, alpha, p.smith);
+INLINE V3 metal_eval(V3 wo, V3 wi, BsdfParams p) {
+    LF alpha = max_l(p.alpha, GGX_ALPHA_MIN);
+    V3 h = vunit(vadd(wo, wi));
+    V3 f = vscale(ggx_reflection_value(wo, wi, h, alpha, p.smith), metal_fresnel(vdot(wo, h), p));
+    return vpick(both_above(wo, wi), f, v3_all(0.0f));
 }
 
-INLINE BsdfSample metal_sample(float3 wo, float2 u2, BsdfParams p) {
-    BsdfSample s = no_sample();
-    if (wo.z <= 0.0f) return s;
-    float alpha = max_f(p.alpha, GGX_ALPHA_MIN);
-    float3 h = ggx_sample_vndf(wo, alpha, u2);
-    float3 wi = mirror_about(wo, h);
-    if (wi.z <= 0.0f || h.z <= 0.0f) return s;
-    s.wi = wi;
-    s.pdf = ggx_reflection_pdf(wo, h, alpha);
-    s.weight = metal_fresnel(dot3(wo, h), p) * ggx_reflection_weight(wo, wi, alpha, p.smith);
-    return s;
+INLINE BsdfSample metal_sample(V3 wo, V2 u2, BsdfParams p) {
+    LF alpha = max_l(p.alpha, GGX_ALPHA_MIN);
+    V3 h;
+    LI valid;
+    V3 wi = ggx_reflect_sample(wo, alpha, u2, &h, &valid);
+    V3 weight = vscale(ggx_reflection_weight(wo, wi, alpha, p.smith), metal_fresnel(vdot(wo, h), p));
+    return keep_sample(valid, sample_of(wi, weight, ggx_reflection_pdf(wo, h, alpha)), no_sample());
 }
 
 /* ---- metal_smooth: the mirror direction with probability 1, weight tint F(cos_o) (a delta: eval and pdf 0) */
-INLINE BsdfSample metal_smooth_sample(float3 wo, BsdfParams p) {
-    BsdfSample s = no_sample();
-    if (wo.z <= 0.0f) return s;
-    s.wi = (float3)(-wo.x, -wo.y, wo.z);
-    s.weight = metal_fresnel(wo.z, p);
-    s.pdf = 1.0f;
-    s.delta = 1;
-    return s;
+INLINE BsdfSample metal_smooth_sample(V3 wo, BsdfParams p) {
+    return keep_sample(NOT(wo.z <= 0.0f), delta_reflection(wo, metal_fresnel(wo.z, p), 1.0f), no_sample());
 }
 
 /* ---- the coated diffuse (Mitsuba's plastic and roughplastic), eta = coat IOR inside / outside:
@@ -74,110 +63,96 @@ INLINE BsdfSample metal_smooth_sample(float3 wo, BsdfParams p) {
  *   specular part tint F times a delta mirror (smooth) or tint F(wo . h) D G / (4 cos_o cos_i) (rough)
  * Sampling: the specular part with probability p_s = E_s w / (E_s w + (1 - E_s)(1 - w)), w = coat_weight, E_s the
  * coat's reflectance at cos_o (F(cos_o) smooth, 1 - T(cos_o) rough), else the cosine-weighted diffuse. */
-INLINE float3 coat_base(BsdfParams p) {
-    float3 internal = p.nonlinear ? p.colour * p.coat_internal : (float3)(p.coat_internal);
-    return p.colour / ((float3)(1.0f) - internal);
+INLINE V3 coat_base(BsdfParams p) {
+    LF fdr = p.coat_internal;
+    V3 internal = vpick(p.nonlinear, vscale(fdr, p.colour), v3(fdr, fdr, fdr));
+    return v3(p.colour.x / (1.0f - internal.x), p.colour.y / (1.0f - internal.y), p.colour.z / (1.0f - internal.z));
 }
 
-INLINE float coat_specular_probability(float e_s, float w) {
-    float p_s = e_s * w, p_d = (1.0f - e_s) * (1.0f - w);
-    return p_s + p_d > 0.0f ? p_s / (p_s + p_d) : 1.0f;
+INLINE LF coat_specular_probability(LF e_s, LF w) {
+    LF p_s = e_s * w, p_d = (1.0f - e_s) * (1.0f - w);
+    return p_s + p_d > 0.0f ? p_s / (p_s + p_d) : (LF)(1.0f);
 }
 
-INLINE float coat_fresnel(float cos_i, float eta) {
-    float cos_t;
+INLINE LF coat_fresnel(LF cos_i, LF eta) {
+    LF cos_t;
     return fresnel_dielectric(cos_i, eta, &cos_t);
 }
 
-/* Mitsuba's lerp_gather of the transmittance table at cos in [0, 1]. */
-INLINE float coat_transmittance_at(__global const float *table, float cos_theta) {
-    float x = cos_theta * (float)(COAT_TABLE_RES - 1);
-    int i = min((int)x, COAT_TABLE_RES - 2);
-    float w1 = x - (float)i;
-    return (1.0f - w1) * table[i] + w1 * table[i + 1];
+/* Mitsuba's lerp_gather of the transmittance table at cos in [0, 1] (the index kept in the table for any cos: a lane
+ * whose cos is below the surface or NaN reads the table's ends, and its answer is not kept). */
+INLINE LF coat_transmittance_at(BsdfParams p, LF cos_theta) {
+    LF x = cos_theta * (float)(COAT_TABLE_RES - 1);
+    LI i = CONVERT_I(clamp_l(x, 0.0f, (float)(COAT_TABLE_RES - 2)));
+    LF w1 = x - CONVERT_F(i);
+    LI at = p.coat_table + i;
+    return (1.0f - w1) * gather(p.coat_tables, at) + w1 * gather(p.coat_tables, at + 1);
 }
 
-INLINE float3 coated_smooth_eval(float3 wo, float3 wi, BsdfParams p) {
-    if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
-    float t_o = 1.0f - coat_fresnel(wo.z, p.eta), t_i = 1.0f - coat_fresnel(wi.z, p.eta);
-    return coat_base(p) * (wi.z * M_1_PI_F * t_o * t_i / (p.eta * p.eta));
+INLINE V3 coated_smooth_eval(V3 wo, V3 wi, BsdfParams p) {
+    LF t_o = 1.0f - coat_fresnel(wo.z, p.eta), t_i = 1.0f - coat_fresnel(wi.z, p.eta);
+    V3 f = vscale(wi.z * M_1_PI_F * t_o * t_i / (p.eta * p.eta), coat_base(p));
+    return vpick(both_above(wo, wi), f, v3_all(0.0f));
 }
 
-INLINE float coated_smooth_pdf(float3 wo, float3 wi, BsdfParams p) {
-    if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
-    return (1.0f - coat_specular_probability(coat_fresnel(wo.z, p.eta), p.coat_weight)) * wi.z * M_1_PI_F;
+INLINE LF coated_smooth_pdf(V3 wo, V3 wi, BsdfParams p) {
+    LF pdf = (1.0f - coat_specular_probability(coat_fresnel(wo.z, p.eta), p.coat_weight)) * wi.z * M_1_PI_F;
+    return both_above(wo, wi) ? pdf : (LF)(0.0f);
 }
 
-INLINE BsdfSample coated_smooth_sample(float3 wo, float u1, float2 u2, BsdfParams p) {
+INLINE BsdfSample coated_smooth_sample(V3 wo, LF u1, V2 u2, BsdfParams p) {
+    LF f_o = coat_fresnel(wo.z, p.eta);
+    LF p_spec = coat_specular_probability(f_o, p.coat_weight);
+    LI specular = u1 < p_spec;
     BsdfSample s = no_sample();
-    if (wo.z <= 0.0f) return s;
-    float f_o = coat_fresnel(wo.z, p.eta);
-    float p_spec = coat_specular_probability(f_o, p.coat_weight);
-    if (u1 < p_spec) {
-        s.wi = (float3)(-wo.x, -wo.y, wo.z);
-        s.pdf = p_spec;
-        s.weight = p.tint * (f_o / p_spec);
-        s.delta = 1;
-        return s;
+    if (ANY(specular)) s = keep_sample(specular, delta_reflection(wo, vscale(f_o / p_spec, p.tint), p_spec), s);
+    if (ANY(NOT(specular))) {
+        V3 wi = cosine_hemisphere(u2);
+        LF t_i = 1.0f - coat_fresnel(wi.z, p.eta);
+        V3 weight = vscale((1.0f - f_o) * t_i / (p.eta * p.eta * (1.0f - p_spec)), coat_base(p));
+        s = keep_sample(specular, s, keep_sample(NOT(wi.z <= 0.0f), sample_of(wi, weight, (1.0f - p_spec) * wi.z * M_1_PI_F), s));
     }
-    float3 wi = cosine_hemisphere(u2);
-    if (wi.z <= 0.0f) return s;
-    float t_i = 1.0f - coat_fresnel(wi.z, p.eta);
-    s.wi = wi;
-    s.pdf = (1.0f - p_spec) * wi.z * M_1_PI_F;
-    s.weight = coat_base(p) * ((1.0f - f_o) * t_i / (p.eta * p.eta * (1.0f - p_spec)));
-    return s;
+    return keep_sample(NOT(wo.z <= 0.0f), s, no_sample());
 }
 
-INLINE float3 coated_eval(float3 wo, float3 wi, BsdfParams p) {
-    if (wo.z <= 0.0f || wi.z <= 0.0f) return (float3)(0.0f);
-    float alpha = max_f(p.alpha, GGX_ALPHA_MIN);
-    float3 h = unit(wo + wi);
-    float3 specular = p.tint * (coat_fresnel(dot3(wo, h), p.eta) * ggx_reflection_value(wo, wi, h, alpha, p.smith));
-    float t_o = coat_transmittance_at(p.coat_transmittance, wo.z), t_i = coat_transmittance_at(p.coat_transmittance, wi.z);
-    return specular + coat_base(p) * (wi.z * M_1_PI_F * t_o * t_i / (p.eta * p.eta));
+INLINE V3 coated_eval(V3 wo, V3 wi, BsdfParams p) {
+    LF alpha = max_l(p.alpha, GGX_ALPHA_MIN);
+    V3 h = vunit(vadd(wo, wi));
+    V3 specular = vscale(coat_fresnel(vdot(wo, h), p.eta) * ggx_reflection_value(wo, wi, h, alpha, p.smith), p.tint);
+    LF t_o = coat_transmittance_at(p, wo.z), t_i = coat_transmittance_at(p, wi.z);
+    LF k = wi.z * M_1_PI_F * t_o * t_i / (p.eta * p.eta);
+    V3 base = coat_base(p);
+    V3 f = v3(specular.x + base.x * k, specular.y + base.y * k, specular.z + base.z * k);
+    return vpick(both_above(wo, wi), f, v3_all(0.0f));
 }
 
-INLINE float coated_pdf(float3 wo, float3 wi, BsdfParams p) {
-    if (wo.z <= 0.0f || wi.z <= 0.0f) return 0.0f;
-    float alpha = max_f(p.alpha, GGX_ALPHA_MIN);
-    float p_spec = coat_specular_probability(1.0f - coat_transmittance_at(p.coat_transmittance, wo.z), p.coat_weight);
-    return p_spec * ggx_reflection_pdf(wo, unit(wo + wi), alpha) + (1.0f - p_spec) * wi.z * M_1_PI_F;
+INLINE LF coated_pdf(V3 wo, V3 wi, BsdfParams p) {
+    LF alpha = max_l(p.alpha, GGX_ALPHA_MIN);
+    LF p_spec = coat_specular_probability(1.0f - coat_transmittance_at(p, wo.z), p.coat_weight);
+    LF pdf = p_spec * ggx_reflection_pdf(wo, vunit(vadd(wo, wi)), alpha) + (1.0f - p_spec) * wi.z * M_1_PI_F;
+    return both_above(wo, wi) ? pdf : (LF)(0.0f);
 }
 
-INLINE BsdfSample coated_sample(float3 wo, float u1, float2 u2, BsdfParams p) {
-    BsdfSample s = no_sample();
-    if (wo.z <= 0.0f) return s;
-    float alpha = max_f(p.alpha, GGX_ALPHA_MIN);
-    float p_spec = coat_specular_probability(1.0f - coat_transmittance_at(p.coat_transmittance, wo.z), p.coat_weight);
-    float3 wi = u1 < p_spec ? mirror_about(wo, ggx_sample_vndf(wo, alpha, u2)) : cosine_hemisphere(u2);
-    if (wi.z <= 0.0f) return s;
-    float pdf = coated_pdf(wo, wi, p);
-    if (!(pdf > 0.0f)) return s;
-    s.wi = wi;
-    s.pdf = pdf;
-    s.weight = coated_eval(wo, wi, p) / pdf;
-    return s;
+INLINE BsdfSample coated_sample(V3 wo, LF u1, V2 u2, BsdfParams p) {
+    LF alpha = max_l(p.alpha, GGX_ALPHA_MIN);
+    LF p_spec = coat_specular_probability(1.0f - coat_transmittance_at(p, wo.z), p.coat_weight);
+    V3 wi = glossy_or_diffuse(wo, u1 < p_spec, alpha, u2);
+    LF pdf = coated_pdf(wo, wi, p);
+    BsdfSample s = sample_of(wi, vdiv(coated_eval(wo, wi, p), pdf), pdf);
+    return keep_sample(both_above(wo, wi) & (pdf > 0.0f), s, no_sample());
 }
 
 /* ---- thin_dielectric: eta = the sheet's IOR over the outside's, the same seen from either side */
-INLINE BsdfSample thin_dielectric_sample(float3 wo, float u1, BsdfParams p) {
-    BsdfSample s = no_sample();
-    if (wo.z == 0.0f) return s;
-    float r = coat_fresnel(abs_f(wo.z), p.eta);
-    float t = 1.0f - r;
-    if (r < 1.0f) r += t * t * r / (1.0f - r * r); /* the two faces' inter-reflections, summed */
-    s.delta = 1;
-    if (u1 < r) {
-        s.wi = (float3)(-wo.x, -wo.y, wo.z);
-        s.weight = p.tint;
-        s.pdf = r;
-        return s;
-    }
-    s.wi = -wo;
-    s.weight = p.transmit_tint;
-    s.pdf = 1.0f - r;
-    return s;
+INLINE BsdfSample thin_dielectric_sample(V3 wo, LF u1, BsdfParams p) {
+    LF r = coat_fresnel(abs_l(wo.z), p.eta);
+    LF t = 1.0f - r;
+    r = r < 1.0f ? r + t * t * r / (1.0f - r * r) : r; /* the two faces' inter-reflections, summed */
+    LI reflect = u1 < r;
+    BsdfSample s = delta_reflection(wo, p.tint, r);
+    s.wi = vpick(reflect, s.wi, vneg(wo));
+    s.weight = vpick(reflect, s.weight, p.transmit_tint);
+    s.pdf = reflect ? r : 1.0f - r;
+    return keep_sample(wo.z != 0.0f, s, no_sample());
 }
 
 #endif

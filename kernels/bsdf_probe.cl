@@ -1,6 +1,8 @@
 /* Test-only kernels: the BSDF lobes of bsdf.h over batches, for tests/test_bsdf*.py through
  * clrender/trace/bsdf.py, through the dispatch the path tracer calls (component_eval, component_pdf,
- * component_sample): a Component of the given lobe code and parameters.
+ * component_sample): a Component of the given lobe code and parameters.  Built at LANES 1 (one item a work-item,
+ * as the path tracer runs the lobes) or LANES 8 or 16 (that many items a work-item, one in each lane), which must
+ * give the same bits.
  *   params  BsdfProbeParams records (clrender/layout.py); record i * params_stride
  *   wo, wi  float4 per item (xyz, unused); wo read at i * wo_stride (stride 0: one shared by all)
  *   u       float4 per item: (u1, u2.x, u2.y, unused)
@@ -8,72 +10,113 @@
 #define DET_MATH 1 /* as path.cl: the lobes the path tracer runs */
 #include "mathf.h"
 #include "common.h"
+#include "lanes.h"
 #include "rng.h"
 #include "bsdf.h"
 
-INLINE Component probe_component(int lobe, __global const BsdfProbeParams *r) {
+#define PROBE_FIELD(f) ((int)(__builtin_offsetof(BsdfProbeParams, f) / 4)) /* a record's field, in floats */
+#define PROBE_FLOATS ((int)(sizeof(BsdfProbeParams) / 4))
+
+/* the work-item's items, base .. base + LANES - 1; lanes past the last item repeat it and are not stored */
+INLINE LI probe_items(int base, int n) { return min(base + AS_LI(LANE_IDS_L), n - 1); }
+
+INLINE Component probe_component(int lobe, __global const BsdfProbeParams *records, LI record) {
+    __global const float *r = (__global const float *)records;
+    LI at = record * PROBE_FLOATS;
     Component c;
     c.lobe = lobe;
     BsdfParams p;
-    p.colour = vload3(0, r->colour);
-    p.alpha = r->alpha;
-    p.eta = r->eta;
-    p.metallic = r->metallic;
-    p.smith = (int)r->smith;
-    p.nonlinear = (int)r->nonlinear;
-    p.eta3 = vload3(0, r->eta3);
-    p.k3 = vload3(0, r->k3);
-    p.tint = vload3(0, r->tint);
-    p.transmit_tint = vload3(0, r->transmit_tint);
-    p.coat_weight = r->coat_weight;
-    p.coat_internal = r->coat_internal;
-    p.coat_transmittance = r->coat_transmittance;
-    p.specular_prob = r->specular_prob;
+    p.colour = gather3(r, at + PROBE_FIELD(colour));
+    p.alpha = gather(r, at + PROBE_FIELD(alpha));
+    p.eta = gather(r, at + PROBE_FIELD(eta));
+    p.metallic = gather(r, at + PROBE_FIELD(metallic));
+    p.smith = CONVERT_I(gather(r, at + PROBE_FIELD(smith)));
+    p.nonlinear = gather(r, at + PROBE_FIELD(nonlinear)) != 0.0f;
+    p.eta3 = gather3(r, at + PROBE_FIELD(eta3));
+    p.k3 = gather3(r, at + PROBE_FIELD(k3));
+    p.tint = gather3(r, at + PROBE_FIELD(tint));
+    p.transmit_tint = gather3(r, at + PROBE_FIELD(transmit_tint));
+    p.coat_weight = gather(r, at + PROBE_FIELD(coat_weight));
+    p.coat_internal = gather(r, at + PROBE_FIELD(coat_internal));
+    p.coat_tables = r;
+    p.coat_table = at + PROBE_FIELD(coat_transmittance);
+    p.specular_prob = gather(r, at + PROBE_FIELD(specular_prob));
     c.bsdf = p;
     return c;
+}
+
+/* float4 row i's xyz */
+INLINE V3 row3(__global const float4 *rows, LI i) { return gather3((__global const float *)rows, 4 * i); }
+
+/* out[item * stride + at] = (v, w) for the work-item's items below n */
+INLINE void put_rows(__global float4 *out, int stride, int at, int base, int n, V3 v, LF w) {
+#if LANES == 1
+    out[base * stride + at] = (float4)(v.x, v.y, v.z, w);
+#else
+    float x[LANES], y[LANES], z[LANES], ws[LANES];
+    LANES_CAT(vstore, LANES)(v.x, 0, x);
+    LANES_CAT(vstore, LANES)(v.y, 0, y);
+    LANES_CAT(vstore, LANES)(v.z, 0, z);
+    LANES_CAT(vstore, LANES)(w, 0, ws);
+    for (int k = 0; k < LANES && base + k < n; ++k) out[(base + k) * stride + at] = (float4)(x[k], y[k], z[k], ws[k]);
+#endif
+}
+
+INLINE void put_values(__global float *out, int base, int n, LF v) {
+#if LANES == 1
+    out[base] = v;
+#else
+    float a[LANES];
+    LANES_CAT(vstore, LANES)(v, 0, a);
+    for (int k = 0; k < LANES && base + k < n; ++k) out[base + k] = a[k];
+#endif
 }
 
 /* out[i] = (eval(wo, wi), 0) of lobe `lobe`: f * |cos theta_i| */
 __kernel void bsdf_eval_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                               int wo_stride, __global const float4 *wi, __global float4 *out) {
-    int i = get_global_id(0);
-    if (i >= n) return;
-    Component c = probe_component(lobe, params + (size_t)i * params_stride);
-    out[i] = (float4)(component_eval(c, wo[(size_t)i * wo_stride].xyz, wi[i].xyz), 0.0f);
+    int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    LI i = probe_items(base, n);
+    Component c = probe_component(lobe, params, i * params_stride);
+    put_rows(out, 1, 0, base, n, component_eval(c, row3(wo, i * wo_stride), row3(wi, i)), 0.0f);
 }
 
 /* out[i] = pdf(wo, wi), solid angle */
 __kernel void bsdf_pdf_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                              int wo_stride, __global const float4 *wi, __global float *out) {
-    int i = get_global_id(0);
-    if (i >= n) return;
-    Component c = probe_component(lobe, params + (size_t)i * params_stride);
-    out[i] = component_pdf(c, wo[(size_t)i * wo_stride].xyz, wi[i].xyz);
+    int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    LI i = probe_items(base, n);
+    Component c = probe_component(lobe, params, i * params_stride);
+    put_values(out, base, n, component_pdf(c, row3(wo, i * wo_stride), row3(wi, i)));
 }
 
 /* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */
 __kernel void bsdf_sample_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                                 int wo_stride, __global const float4 *u, __global float4 *wi_out, __global float4 *weight_out) {
-    int i = get_global_id(0);
-    if (i >= n) return;
-    Component c = probe_component(lobe, params + (size_t)i * params_stride);
-    float4 ui = u[i];
-    BsdfSample s = component_sample(c, wo[(size_t)i * wo_stride].xyz, ui.x, (float2)(ui.y, ui.z));
-    wi_out[i] = (float4)(s.wi, (float)s.delta);
-    weight_out[i] = (float4)(s.weight, s.pdf);
+    int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    LI i = probe_items(base, n);
+    Component c = probe_component(lobe, params, i * params_stride);
+    V3 ui = row3(u, i);
+    BsdfSample s = component_sample(c, row3(wo, i * wo_stride), ui.x, v2(ui.y, ui.z));
+    put_rows(wi_out, 1, 0, base, n, s.wi, s.delta ? (LF)(1.0f) : (LF)(0.0f));
+    put_rows(weight_out, 1, 0, base, n, s.weight, s.pdf);
 }
 
 /* The shading frame of normals[i]: out rows 3i..3i+2 = t, b, n; in_frame[i] = to_local(frame, v[i]),
  * back[i] = to_world(frame, in_frame[i]). */
 __kernel void frame_probe(int n, __global const float4 *normals, __global const float4 *v, __global float4 *out,
                           __global float4 *in_frame, __global float4 *back) {
-    int i = get_global_id(0);
-    if (i >= n) return;
-    Frame f = make_frame(normals[i].xyz);
-    out[3 * i] = (float4)(f.t, 0.0f);
-    out[3 * i + 1] = (float4)(f.b, 0.0f);
-    out[3 * i + 2] = (float4)(f.n, 0.0f);
-    float3 l = to_local(f, v[i].xyz);
-    in_frame[i] = (float4)(l, 0.0f);
-    back[i] = (float4)(to_world(f, l), 0.0f);
+    int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    LI i = probe_items(base, n);
+    Frame f = make_frame(row3(normals, i));
+    put_rows(out, 3, 0, base, n, f.t, 0.0f);
+    put_rows(out, 3, 1, base, n, f.b, 0.0f);
+    put_rows(out, 3, 2, base, n, f.n, 0.0f);
+    V3 l = to_local(f, row3(v, i));
+    put_rows(in_frame, 1, 0, base, n, l, 0.0f);
+    put_rows(back, 1, 0, base, n, to_world(f, l), 0.0f);
 }

@@ -1,16 +1,26 @@
 /* A lane type: LANES paths a work-item, each in one lane of a vector register (LANES 8 or 16), or one path a
- * work-item (LANES 1), from the same source.  Code written over these types computes the same operations in the same
- * order at every width, so it gives the same bits at every width (kernels/lanes_probe.cl, docs/lanes.md):
+ * work-item (LANES 1, the default), from the same source.  Code written over these types computes the same operations
+ * in the same order at every width, so it gives the same bits at every width (kernels/bsdf.h, kernels/lanes_probe.cl,
+ * docs/lanes.md):
  *   LF, LI, LU     float, int, uint lanes (float, int, uint at width 1)
- *   V3             a 3-vector of lanes, a struct of three LF (not float3: its x, y, z are each a register of lanes)
+ *   V3             a 3-vector of lanes, a struct of three LF (not float3: its x, y, z are each a register of lanes);
+ *                  v3_of and f3_of convert to and from float3 at width 1
  *   masks          LI from comparisons: -1 or 0 a lane (1 or 0 at width 1); combine with & and |, negate with NOT,
- *                  test with ANY; choose with ?: on an LF or LU (or pick, on a V3), never with a branch
- *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather) */
+ *                  test with ANY; choose with ?: on an LF or LU (or vpick, on a V3), never with a branch on a lane.
+ *                  `if (ANY(m)) x = vpick(m, ..., x)` is a masked pass: at width 1, the branch the scalar code took
+ *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather)
+ * Include after mathf.h in a DET_MATH program.  FP_CONTRACT is off here, as in mathf.h and common.h, so vdot and
+ * vcross round as common.h's dot3 and cross3; a file that fuses its own a * b + c turns it on after this one. */
 #ifndef CLRENDER_LANES_H
 #define CLRENDER_LANES_H
 
+#if !DET_MATH
+#error "lanes.h needs mathf.h's DET_MATH functions (sincos_l)"
+#endif
+#pragma OPENCL FP_CONTRACT OFF
+
 #ifndef LANES
-#define LANES 16
+#define LANES 1
 #endif
 
 #if LANES == 1
@@ -19,9 +29,11 @@ typedef int LI;
 typedef uint LU;
 #define AS_LF(x) as_float(x)
 #define AS_LU(x) as_uint(x)
+#define AS_LI(x) as_int(x)
 #define NOT(m) (!(m))
 #define ANY(m) (m)
 #define CONVERT_I(x) convert_int(x)
+#define CONVERT_F(x) convert_float(x)
 #define LANE_IDS_L ((LU)(0U))
 INLINE LF gather(__global const float *b, LI i) { return b[i]; }
 INLINE LI gather_i(__global const int *b, LI i) { return b[i]; }
@@ -33,9 +45,11 @@ typedef LANES_CAT(int, LANES) LI;
 typedef LANES_CAT(uint, LANES) LU;
 #define AS_LF(x) LANES_CAT(as_float, LANES)(x)
 #define AS_LU(x) LANES_CAT(as_uint, LANES)(x)
+#define AS_LI(x) LANES_CAT(as_int, LANES)(x)
 #define NOT(m) (~(m))
 #define ANY(m) any(m)
 #define CONVERT_I(x) LANES_CAT(convert_int, LANES)(x)
+#define CONVERT_F(x) LANES_CAT(convert_float, LANES)(x)
 __constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 #define LANE_IDS_L LANES_CAT(vload, LANES)(0, LANE_IDS)
 #if LANES == 16
@@ -52,23 +66,44 @@ INLINE LI gather_i(__global const int *b, LI i) { return (LI)GATHER_LANES(b, i);
 typedef struct {
     LF x, y, z;
 } V3;
+typedef struct {
+    LF x, y;
+} V2;
+
+#define ALL_LANES ((LI)(0) == (LI)(0)) /* the mask of every lane */
 
 INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
 INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
-INLINE V3 add(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-INLINE V3 sub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-INLINE V3 mul(V3 a, V3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
-INLINE V3 scale(LF s, V3 a) { return v3(s * a.x, s * a.y, s * a.z); }
-INLINE V3 divide(V3 a, LF s) { return v3(a.x / s, a.y / s, a.z / s); }
-INLINE V3 neg(V3 a) { return v3(-a.x, -a.y, -a.z); }
-INLINE LF dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-INLINE V3 cross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
-INLINE LF sqrt_l(LF x) { return sqrt(x); } /* correctly rounded: the same bits at every width */
-INLINE V3 unit(V3 a) { return divide(a, sqrt_l(dot(a, a))); }
-INLINE V3 pick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? a.z : b.z); }
+INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
+#if LANES == 1
+INLINE V3 v3_of(float3 a) { return v3(a.x, a.y, a.z); }
+INLINE float3 f3_of(V3 a) { return (float3)(a.x, a.y, a.z); }
+INLINE V2 v2_of(float2 a) { return v2(a.x, a.y); }
+#endif
+INLINE V3 vadd(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+INLINE V3 vsub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+INLINE V3 vmul(V3 a, V3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+INLINE V3 vscale(LF s, V3 a) { return v3(s * a.x, s * a.y, s * a.z); }
+INLINE V3 vdiv(V3 a, LF s) { return v3(a.x / s, a.y / s, a.z / s); }
+INLINE V3 vneg(V3 a) { return v3(-a.x, -a.y, -a.z); }
+INLINE LF vdot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+INLINE V3 vcross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
+/* correctly rounded: the same bits at every width */
+#if LANES == 1
+INLINE LF sqrt_l(LF x) { return sqrt_det(x); }
+#else
+INLINE LF sqrt_l(LF x) { return sqrt(x); }
+#endif
+INLINE V3 vunit(V3 a) { return vdiv(a, sqrt_l(vdot(a, a))); }
+INLINE V3 vpick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? a.z : b.z); }
+INLINE LF abs_l(LF x) { return AS_LF(AS_LU(x) & 0x7fffffffU); }
 INLINE LF max_l(LF a, LF b) { return a > b ? a : b; }
 INLINE LF min_l(LF a, LF b) { return a < b ? a : b; }
 INLINE LF max3_l(V3 a) { return max_l(a.x, max_l(a.y, a.z)); }
+INLINE LF clamp_l(LF x, float lo, float hi) { /* mathf.h's clamp_det: a NaN x gives lo */
+    LF y = x > lo ? x : (LF)(lo);
+    return y < hi ? y : (LF)(hi);
+}
 /* elements i, i + 1, i + 2 of b: a packed float3 per lane */
 INLINE V3 gather3(__global const float *b, LI i) { return v3(gather(b, i), gather(b, i + 1), gather(b, i + 2)); }
 /* lanes set in m, counted */
@@ -80,6 +115,23 @@ INLINE int lanes_set(LI m) {
     LANES_CAT(vstore, LANES)(m, 0, lane);
     for (int k = 0; k < LANES; ++k) n += lane[k] != 0;
     return n;
+#endif
+}
+
+/* sin and cos of x in [0, 2 pi), as mathf.h's sincos_det gives them: at width 1 that function, in lanes its Cody and
+ * Waite reduction and Cephes' polynomials without its branches (the same steps for x in that range) */
+INLINE void sincos_l(LF x, LF *s, LF *c) {
+#if LANES == 1
+    *s = sincos_det(x, c);
+#else
+    LF n = x <= 0.785398163f ? (LF)(0.0f) : floor(x * 0.636619772f + 0.5f);
+    LF r = MF_CODY_WAITE(x, n), z = r * r;
+    LI q = CONVERT_I(n);
+    LF ps = MF_SIN_POLY(r, z), pc = MF_COS_POLY(z);
+    LI odd = (q & 1) != 0, flip_s = (q & 2) != 0, flip_c = ((q + 1) & 2) != 0;
+    LF sv = odd ? pc : ps, cv = odd ? ps : pc;
+    *s = flip_s ? -sv : sv;
+    *c = flip_c ? -cv : cv;
 #endif
 }
 

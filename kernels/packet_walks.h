@@ -99,10 +99,10 @@ INLINE uint KIND(packet_entry)(const Packet *p, int sp, uint key) {
  * (shear_ray) only once the root has a hit: most packets of a small mesh miss it. */
 INLINE bool KIND(packet_start_rays)(Packet *p, const Geometry *g, Ray *r, const float *t_min, const float *t_max,
                                     uint rays) {
-#define LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
-    p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
-    p->dx = LANES(d.x); p->dy = LANES(d.y); p->dz = LANES(d.z);
-    p->ix = LANES(inv_d.x); p->iy = LANES(inv_d.y); p->iz = LANES(inv_d.z);
+#define RAY_LANES(f) (float8)(r[0].f, r[1].f, r[2].f, r[3].f, r[4].f, r[5].f, r[6].f, r[7].f)
+    p->ox = RAY_LANES(o.x); p->oy = RAY_LANES(o.y); p->oz = RAY_LANES(o.z);
+    p->dx = RAY_LANES(d.x); p->dy = RAY_LANES(d.y); p->dz = RAY_LANES(d.z);
+    p->ix = RAY_LANES(inv_d.x); p->iy = RAY_LANES(inv_d.y); p->iz = RAY_LANES(inv_d.z);
     p->bx = r[0].inv_d.x < 0.0f; p->by = r[0].inv_d.y < 0.0f; p->bz = r[0].inv_d.z < 0.0f;
     p->t_min = (float8)(t_min[0], t_min[1], t_min[2], t_min[3], t_min[4], t_min[5], t_min[6], t_min[7]);
     p->t_max = (float8)(t_max[0], t_max[1], t_max[2], t_max[3], t_max[4], t_max[5], t_max[6], t_max[7]);
@@ -117,8 +117,8 @@ INLINE bool KIND(packet_start_rays)(Packet *p, const Geometry *g, Ray *r, const 
         shear_ray(&r[k]);
         if (r[k].kz != r[0].kz) return false;
     }
-    p->sx = LANES(sx); p->sy = LANES(sy); p->sz = LANES(sz);
-#undef LANES
+    p->sx = RAY_LANES(sx); p->sy = RAY_LANES(sy); p->sz = RAY_LANES(sz);
+#undef RAY_LANES
     p->kx = r[0].kx; p->ky = r[0].ky; p->kz = r[0].kz;
     float8 o[3] = {p->ox, p->oy, p->oz};
     p->okx = o[p->kx]; p->oky = o[p->ky]; p->okz = o[p->kz];

@@ -26,6 +26,8 @@
 #define RNG_SOBOL (PATH_SAMPLER == PATH_SAMPLER_SOBOL) /* rng_next's numbers: kernels/sobol.h's sequence */
 #include "mathf.h"
 #include "common.h"
+/* the lane type bsdf.h is written over: one path a work-item (LANES 1) */
+#include "lanes.h"
 #include "rng.h"
 #include "sampling.h"
 #include "sobol.h"
@@ -299,8 +301,8 @@ INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u
     if (s->env.m.width > 0) return env_map_sample(s, chosen, u);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return no_light();
-    Frame nf = make_frame(f->n_shade);
-    float3 wi = to_world(nf, cosine_hemisphere(u));
+    Frame nf = make_frame(v3_of(f->n_shade));
+    float3 wi = f3_of(to_world(nf, cosine_hemisphere(v2_of(u))));
     float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return no_light();
     return weighted_light(wi, env, env_pdf, INF_T);
@@ -308,10 +310,10 @@ INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u
 
 /* The NEE estimate of light sample ls at surface f for component c (wo local): f cos Le times 1 / light_pdf or the
  * light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
-INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, float3 wo, LightSample ls) {
+INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, V3 wo, LightSample ls) {
     if (!ls.found) return (float3)(0.0f);
-    float3 wl = to_local(fr, ls.wi);
-    float3 fc = component_eval(c, wo, wl);
+    V3 wl = to_local(fr, v3_of(ls.wi));
+    float3 fc = f3_of(component_eval(c, wo, wl));
     if (ls.check && !(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = ls.mis ? power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)) : 1.0f;
     float w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
@@ -320,7 +322,7 @@ INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame f
 
 /* Next-event estimation at a vertex whose component is not a delta lobe: one light picked by power, one shadow ray.
  * Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D sample. */
-INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, float3 wo, Rng *rng,
+INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, V3 wo, Rng *rng,
                               PathState *st) {
     rng_slot(rng, SLOT_LIGHT); /* the pick, then the light's 2-D sample as one pair */
     float pick = rng_next(rng);
@@ -484,7 +486,7 @@ typedef struct {
     MaterialPoint m;
     Component c;
     Frame fr;
-    float3 wo;
+    V3 wo;
 } PathVertex;
 
 INLINE void set_first_hit(PathState *st, FirstHit fh) {
@@ -523,7 +525,7 @@ INLINE bool shade_surface(const PathScene *s, PathState *st, Hit h, Rng *rng, Pa
     rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
     v->c = pick_component(&v->m, rng_next(rng));
     v->fr = component_frame(v->c, &v->f);
-    v->wo = to_local(v->fr, -r.d);
+    v->wo = to_local(v->fr, v3_of(-r.d));
     if (!component_is_delta(v->c)) {
         float3 nee = direct_lighting(s, &v->f, v->c, v->fr, v->wo, rng, st);
         if (st->shadowed) {
@@ -539,10 +541,10 @@ INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng 
     rng_slot(rng, SLOT_BSDF);
     float u1 = rng_next(rng);
     float2 u2 = rng_next2(rng);
-    BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
+    BsdfSample bs = component_sample(v->c, v->wo, u1, v2_of(u2));
     if (!(bs.pdf > 0.0f)) return false;
-    float3 wi = to_world(v->fr, bs.wi);
-    float3 beta = vload3(0, st->beta) * bs.weight;
+    float3 wi = f3_of(to_world(v->fr, bs.wi));
+    float3 beta = vload3(0, st->beta) * f3_of(bs.weight);
     st->eta_scale *= bs.eta * bs.eta; /* beta * eta_scale: the throughput without refraction's 1 / eta^2 */
     if (st->depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
         float q = min_f(max3(beta) * st->eta_scale, RR_SURVIVE_MAX);
