@@ -346,6 +346,7 @@ BSDF_PROBE_DTYPE = np.dtype(
         ("coat_internal", "<f4"),
         ("coat_transmittance", "<f4", COAT_TABLE_RES),
         ("specular_prob", "<f4"),
+        ("lobe", "<f4"),  # the lobe's BSDF_LOBES code: a batch may mix lobes, as a packet of paths does
     ]
 )
 BSDF_PROBE = Record("BsdfProbeParams", BSDF_PROBE_DTYPE)

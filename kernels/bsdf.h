@@ -43,6 +43,9 @@
 
 #include "mathf.h"
 #include "lanes.h"
+/* a * b + c fused here, as path.cl has always built these lobes (intersect.h, before them there, turns it on): the
+ * probes and lane kernels that include this file compute the renderer's bits */
+#pragma OPENCL FP_CONTRACT ON
 
 #define GGX_ALPHA_MIN 1e-4f       /* smallest GGX alpha: D peaks at 1 / (pi alpha^2), 3.2e7, far from float overflow */
 #define GLTF_DIELECTRIC_F0 0.04f  /* glTF 2.0 Appendix B: F0 of the dielectric layer, ((1 - ior) / (1 + ior))^2, ior 1.5 */

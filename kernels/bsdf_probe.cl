@@ -1,6 +1,6 @@
 /* Test-only kernels: the BSDF lobes of bsdf.h over batches, for tests/test_bsdf*.py through
  * clrender/trace/bsdf.py, through the dispatch the path tracer calls (component_eval, component_pdf,
- * component_sample): a Component of the given lobe code and parameters.  Built at LANES 1 (one item a work-item,
+ * component_sample): a Component of each record's lobe code and parameters.  Built at LANES 1 (one item a work-item,
  * as the path tracer runs the lobes) or LANES 8 or 16 (that many items a work-item, one in each lane), which must
  * give the same bits.
  *   params  BsdfProbeParams records (clrender/layout.py); record i * params_stride
@@ -20,11 +20,11 @@
 /* the work-item's items, base .. base + LANES - 1; lanes past the last item repeat it and are not stored */
 INLINE LI probe_items(int base, int n) { return min(base + AS_LI(LANE_IDS_L), n - 1); }
 
-INLINE Component probe_component(int lobe, __global const BsdfProbeParams *records, LI record) {
+INLINE Component probe_component(__global const BsdfProbeParams *records, LI record) {
     __global const float *r = (__global const float *)records;
     LI at = record * PROBE_FLOATS;
     Component c;
-    c.lobe = lobe;
+    c.lobe = CONVERT_I(gather(r, at + PROBE_FIELD(lobe)));
     BsdfParams p;
     p.colour = gather3(r, at + PROBE_FIELD(colour));
     p.alpha = gather(r, at + PROBE_FIELD(alpha));
@@ -72,33 +72,33 @@ INLINE void put_values(__global float *out, int base, int n, LF v) {
 #endif
 }
 
-/* out[i] = (eval(wo, wi), 0) of lobe `lobe`: f * |cos theta_i| */
-__kernel void bsdf_eval_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
+/* out[i] = (eval(wo, wi), 0) of record i's lobe: f * |cos theta_i| */
+__kernel void bsdf_eval_probe(int n, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                               int wo_stride, __global const float4 *wi, __global float4 *out) {
     int base = get_global_id(0) * LANES;
     if (base >= n) return;
     LI i = probe_items(base, n);
-    Component c = probe_component(lobe, params, i * params_stride);
+    Component c = probe_component(params, i * params_stride);
     put_rows(out, 1, 0, base, n, component_eval(c, row3(wo, i * wo_stride), row3(wi, i)), 0.0f);
 }
 
 /* out[i] = pdf(wo, wi), solid angle */
-__kernel void bsdf_pdf_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
+__kernel void bsdf_pdf_probe(int n, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                              int wo_stride, __global const float4 *wi, __global float *out) {
     int base = get_global_id(0) * LANES;
     if (base >= n) return;
     LI i = probe_items(base, n);
-    Component c = probe_component(lobe, params, i * params_stride);
+    Component c = probe_component(params, i * params_stride);
     put_values(out, base, n, component_pdf(c, row3(wo, i * wo_stride), row3(wi, i)));
 }
 
 /* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */
-__kernel void bsdf_sample_probe(int n, int lobe, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
+__kernel void bsdf_sample_probe(int n, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                                 int wo_stride, __global const float4 *u, __global float4 *wi_out, __global float4 *weight_out) {
     int base = get_global_id(0) * LANES;
     if (base >= n) return;
     LI i = probe_items(base, n);
-    Component c = probe_component(lobe, params, i * params_stride);
+    Component c = probe_component(params, i * params_stride);
     V3 ui = row3(u, i);
     BsdfSample s = component_sample(c, row3(wo, i * wo_stride), ui.x, v2(ui.y, ui.z));
     put_rows(wi_out, 1, 0, base, n, s.wi, s.delta ? (LF)(1.0f) : (LF)(0.0f));

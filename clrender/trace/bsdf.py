@@ -41,6 +41,7 @@ from .work_layout import launch_items
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)  # kernels/material.h's luminance(): the Phong lobe's sampling split
 PARAM_FLOATS = BSDF_PROBE_DTYPE.itemsize // 4  # a BsdfProbeParams record as float32s (layout.BSDF_PROBE_DTYPE)
+LOBE_FIELD = BSDF_PROBE_DTYPE.fields["lobe"][1] // 4  # the record's lobe code, as a float32 column
 PROBE = "bsdf_probe.cl"
 
 
@@ -108,20 +109,23 @@ def _rows(v) -> np.ndarray:
 
 class BsdfProbe:
     """The probe kernels of one program: the device's cached build of kernels/bsdf_probe.cl, or `program`
-    (a build of a modified copy, as the tests' planted bugs use)."""
+    (a build of a modified copy, as the tests' planted bugs use).  `lanes`: items a work-item, each in one lane of a
+    vector (kernels/lanes.h: 1, as the path tracer runs the lobes, 8 or 16), which give the same bits."""
 
-    def __init__(self, device: Device, program: cl.Program | None = None):
-        self.device = device
+    def __init__(self, device: Device, program: cl.Program | None = None, lanes: int = 1):
+        self.device, self.lanes = device, lanes
         if program is None:  # the device's cached kernels
-            fetch = lambda name: device.kernel(PROBE, name, bsdf_defines())
+            fetch = lambda name: device.kernel(PROBE, name, {**bsdf_defines(), "LANES": lanes})
         else:
             signatures = kernel_signatures(kernel_source(PROBE))
             fetch = lambda name: Kernel(cl.Kernel(program, name), signatures[name])
         self._eval, self._pdf, self._sample = fetch("bsdf_eval_probe"), fetch("bsdf_pdf_probe"), fetch("bsdf_sample_probe")
         self._frame = fetch("frame_probe")
 
-    def _common(self, lobe: str, records, wo, n: int):
-        records = np.asarray(records, np.float32).reshape(-1, PARAM_FLOATS)
+    def _common(self, lobe: str | None, records, wo, n: int):
+        records = np.array(records, np.float32).reshape(-1, PARAM_FLOATS)
+        if lobe is not None:  # None: each record's own code (params(lobe=codes)), a batch of mixed lobes
+            records[:, LOBE_FIELD] = LOBES[lobe]
         wo_rows = _rows(wo)
         for name, k in (("params", len(records)), ("wo", len(wo_rows))):
             if k not in (1, n):
@@ -129,7 +133,6 @@ class BsdfProbe:
         dev = self.device
         return dict(
             n=n,
-            lobe=LOBES[lobe],
             params=dev.to_device(records),
             params_stride=int(len(records) > 1 or n == 1),
             wo=dev.to_device(wo_rows),
@@ -140,7 +143,7 @@ class BsdfProbe:
         """Launch with `args` and one new buffer per name of `outputs` (name -> shape); the outputs, in order."""
         dev = self.device
         outs = {name: dev.empty(4 * int(np.prod(shape))) for name, shape in outputs.items()}
-        launch_items(dev, knl, n, **args, **outs)
+        launch_items(dev, knl, -(-n // self.lanes), **args, **outs)
         results = []
         for buf, shape in zip(outs.values(), outputs.values()):
             host = np.empty(shape, np.float32)
@@ -148,21 +151,21 @@ class BsdfProbe:
             results.append(host)
         return results
 
-    def eval(self, lobe: str, records, wo, wi) -> np.ndarray:
+    def eval(self, lobe: str | None, records, wo, wi) -> np.ndarray:
         """(n, 3) f * |cos theta_i| for wi (n, 3), wo (n, 3) or (3,), records (n or 1, PARAM_FLOATS)."""
         wi_rows = _rows(wi)
         n = len(wi_rows)
         (out,) = self._run(self._eval, n, {**self._common(lobe, records, wo, n), "wi": self.device.to_device(wi_rows)}, {"out": (n, 4)})
         return out[:, :3]
 
-    def pdf(self, lobe: str, records, wo, wi) -> np.ndarray:
+    def pdf(self, lobe: str | None, records, wo, wi) -> np.ndarray:
         """(n,) solid-angle pdf of wi given wo."""
         wi_rows = _rows(wi)
         n = len(wi_rows)
         (out,) = self._run(self._pdf, n, {**self._common(lobe, records, wo, n), "wi": self.device.to_device(wi_rows)}, {"out": (n,)})
         return out
 
-    def sample(self, lobe: str, records, wo, u):
+    def sample(self, lobe: str | None, records, wo, u):
         """wi (n, 3), weight (n, 3), pdf (n,), delta (n,) bool for u (n, 3) in [0, 1): (u1, u2.x, u2.y)."""
         u = np.asarray(u, np.float32).reshape(-1, 3)
         n = len(u)
