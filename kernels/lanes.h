@@ -4,23 +4,24 @@
  * docs/lanes.md):
  *   LF, LI, LU     float, int, uint lanes (float, int, uint at width 1)
  *   V3             a 3-vector of lanes, a struct of three LF (not float3: its x, y, z are each a register of lanes);
- *                  v3_of and f3_of convert to and from float3 at width 1
+ *                  v3_of and f3_of convert to and from float3 at width 1; V2, a 2-D sample, is float2 there
  *   masks          LI from comparisons: -1 or 0 a lane (1 or 0 at width 1); combine with & and |, negate with NOT,
  *                  test with ANY; choose with ?: on an LF or LU (or vpick, on a V3), never with a branch on a lane.
  *                  `if (ANY(m)) x = vpick(m, ..., x)` is a masked pass: at width 1, the branch the scalar code took
  *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather)
- * Include after mathf.h in a DET_MATH program.  FP_CONTRACT is off here, as in mathf.h and common.h, so vdot and
- * vcross round as common.h's dot3 and cross3; a file that fuses its own a * b + c turns it on after this one. */
+ * Include after mathf.h and before intersect.h, where common.h is: vdot and vcross then round as its dot3 and cross3
+ * (FP_CONTRACT off in a DET_MATH program, on in the Whitted one).  Headers shared by both integrators (rng.h, sobol.h)
+ * are written over these types, which at width 1 are the plain ones. */
 #ifndef CLRENDER_LANES_H
 #define CLRENDER_LANES_H
 
-#if !DET_MATH
-#error "lanes.h needs mathf.h's DET_MATH functions (sincos_l)"
-#endif
-#pragma OPENCL FP_CONTRACT OFF
+#include "mathf.h"
 
 #ifndef LANES
 #define LANES 1
+#endif
+#if LANES > 1 && !DET_MATH
+#error "lanes need mathf.h's DET_MATH steps (sincos_l)"
 #endif
 
 #if LANES == 1
@@ -32,11 +33,13 @@ typedef uint LU;
 #define AS_LI(x) as_int(x)
 #define NOT(m) (!(m))
 #define ANY(m) (m)
+#define ALL(m) (m)
 #define CONVERT_I(x) convert_int(x)
 #define CONVERT_F(x) convert_float(x)
 #define LANE_IDS_L ((LU)(0U))
 INLINE LF gather(__global const float *b, LI i) { return b[i]; }
 INLINE LI gather_i(__global const int *b, LI i) { return b[i]; }
+INLINE LU gather_u(__global const uint *b, LU i) { return b[i]; }
 #else
 #define LANES_CAT_(a, b) a##b
 #define LANES_CAT(a, b) LANES_CAT_(a, b)
@@ -48,6 +51,7 @@ typedef LANES_CAT(uint, LANES) LU;
 #define AS_LI(x) LANES_CAT(as_int, LANES)(x)
 #define NOT(m) (~(m))
 #define ANY(m) any(m)
+#define ALL(m) all(m)
 #define CONVERT_I(x) LANES_CAT(convert_int, LANES)(x)
 #define CONVERT_F(x) LANES_CAT(convert_float, LANES)(x)
 __constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
@@ -61,24 +65,30 @@ __constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14
 #endif
 INLINE LF gather(__global const float *b, LI i) { return (LF)GATHER_LANES(b, i); }
 INLINE LI gather_i(__global const int *b, LI i) { return (LI)GATHER_LANES(b, i); }
+INLINE LU gather_u(__global const uint *b, LU i) { return (LU)GATHER_LANES(b, i); }
 #endif
 
 typedef struct {
     LF x, y, z;
 } V3;
+#if LANES == 1
+typedef float2 V2; /* a 2-D sample: the float2 the scalar code has always passed */
+#else
 typedef struct {
     LF x, y;
 } V2;
+#endif
 
 #define ALL_LANES ((LI)(0) == (LI)(0)) /* the mask of every lane */
 
 INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
 INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
-INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
 #if LANES == 1
+INLINE V2 v2(LF x, LF y) { return (float2)(x, y); }
 INLINE V3 v3_of(float3 a) { return v3(a.x, a.y, a.z); }
 INLINE float3 f3_of(V3 a) { return (float3)(a.x, a.y, a.z); }
-INLINE V2 v2_of(float2 a) { return v2(a.x, a.y); }
+#else
+INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
 #endif
 INLINE V3 vadd(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 INLINE V3 vsub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
@@ -90,7 +100,7 @@ INLINE LF vdot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 INLINE V3 vcross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
 /* correctly rounded: the same bits at every width */
 #if LANES == 1
-INLINE LF sqrt_l(LF x) { return sqrt_det(x); }
+INLINE LF sqrt_l(LF x) { return SQRT(x); }
 #else
 INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #endif
@@ -122,7 +132,7 @@ INLINE int lanes_set(LI m) {
  * Waite reduction and Cephes' polynomials without its branches (the same steps for x in that range) */
 INLINE void sincos_l(LF x, LF *s, LF *c) {
 #if LANES == 1
-    *s = sincos_det(x, c);
+    SINCOS(x, *s, *c);
 #else
     LF n = x <= 0.785398163f ? (LF)(0.0f) : floor(x * 0.636619772f + 0.5f);
     LF r = MF_CODY_WAITE(x, n), z = r * r;

@@ -12,8 +12,7 @@
  * Traversal is not in it: the hits are given (a primitive and barycentrics per pixel and depth), so the probe times
  * shading alone, and every light sample is taken as visible. */
 
-/* the sampler's steps (rng.h's MIX32_STEPS, sampling.h's LAINE_KARRAS_STEPS, sobol.h's SUPERSET_XOR_STEPS and keys) and
- * mathf.h's polynomials: the scalar path tracer's own */
+/* the sampler (rng.h, sobol.h) and the lobes (bsdf.h): the path tracer's own, over lanes.h's lane type */
 #define DET_MATH 1
 #include "sobol.h"
 #include "lanes.h"
@@ -23,35 +22,12 @@
 #define REFILL 1
 #endif
 
-/* ---- the sampler: sobol.h's owen-scrambled Sobol pairs over lanes, from its steps (bit reversal by shifts and masks,
- * where the scalar sampler looks bytes up in a table) */
-INLINE LU mix_l(LU x) {
-    MIX32_STEPS(x);
-    return x;
-}
-INLINE LU reverse_l(LU x) {
-    x = ((x >> 1) & 0x55555555U) | ((x & 0x55555555U) << 1);
-    x = ((x >> 2) & 0x33333333U) | ((x & 0x33333333U) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fU) | ((x & 0x0f0f0f0fU) << 4);
-    x = ((x >> 8) & 0x00ff00ffU) | ((x & 0x00ff00ffU) << 8);
-    return (x >> 16) | (x << 16);
-}
-INLINE LU laine_karras_l(LU x, LU seed) {
-    LAINE_KARRAS_STEPS(x, seed);
-    return x;
-}
-INLINE LU superset_xor_l(LU x) {
-    SUPERSET_XOR_STEPS(x);
-    return x;
-}
-/* rng.h's u01: (float)(h >> 8) * 2^-24, the conversion by bit tricks (u01_lanes) */
-INLINE LF u01_l(LU h) { U01_BITS(LF, AS_LF, h); }
-/* Pair `pair` of the sample whose index is `index_reversed` in the pixel keyed `key` (sobol_pair, sobol_pair_coordinate) */
+/* ---- the sampler: sobol.h's owen-scrambled Sobol pairs, in lanes */
+/* Pair `pair` of the sample whose index is `index_reversed` in the pixel keyed `key` */
 INLINE void sobol2(LU key, LU index_reversed, LU pair, LF *u0, LF *u1) {
-    LU k = mix_l(key ^ (pair + HASH_KEY_D));
-    LU i = reverse_l(laine_karras_l(index_reversed, k));
-    *u0 = u01_l(reverse_l(laine_karras_l(i, mix_l(k ^ SOBOL_KEY_X))));
-    *u1 = u01_l(reverse_l(laine_karras_l(superset_xor_l(i), mix_l(k ^ SOBOL_KEY_Y))));
+    SobolPair q = sobol_pair(key, index_reversed, pair);
+    *u0 = u01(sobol_pair_coordinate(q, 0U));
+    *u1 = u01(sobol_pair_coordinate(q, 1U));
 }
 
 /* ---- the lobes: bsdf.h's Lambert and GGX conductor (Mitsuba's separable masking term), through its dispatch */
@@ -89,7 +65,7 @@ INLINE V3 light_point(__global const float *tris, int2 emitters, float emitter_a
 /* The lanes in `start` begin sample `sample` of their pixel (keyed `key`): its camera ray from the sample's first
  * pair, uniform on the sphere. */
 INLINE void start_paths(LI start, LU key, LI sample, LU *index_reversed, V3 *d, V3 *beta, V3 *radiance) {
-    LU index = reverse_l(AS_LU(sample));
+    LU index = reverse_bits32(AS_LU(sample));
     LF c0, c1, s, c;
     sobol2(key, index, (LU)(0U), &c0, &c1);
     sincos_l(2.0f * M_PI_F * c1, &s, &c);
@@ -111,7 +87,7 @@ __kernel void shade_probe(int n_pixels, int spp, int depth, __global const float
     int base = get_global_id(0) * LANES;
     if (base >= n_pixels) return;
     LU pixel = (uint)base + LANE_IDS_L;
-    LU key = mix_l(mix_l(mix_l((LU)(seed + 0x9e3779b9U)) ^ (pixel + 0x85ebca6bU)) ^ (SOBOL_KEY_PAIR + 0xc2b2ae35U)); /* hash3 */
+    LU key = sobol_pixel_key((LU)(seed), pixel);
     V3 total = v3_all(0.0f), beta = v3_all(1.0f), radiance = v3_all(0.0f), d = v3_all(0.0f);
     LI sample = 0, vertex = 0, live = (LI)(0) == 0, start = live;
     LU index_reversed = 0U;

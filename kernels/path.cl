@@ -302,7 +302,7 @@ INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return no_light();
     Frame nf = make_frame(v3_of(f->n_shade));
-    float3 wi = f3_of(to_world(nf, cosine_hemisphere(v2_of(u))));
+    float3 wi = f3_of(to_world(nf, cosine_hemisphere(u)));
     float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return no_light();
     return weighted_light(wi, env, env_pdf, INF_T);
@@ -541,7 +541,7 @@ INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng 
     rng_slot(rng, SLOT_BSDF);
     float u1 = rng_next(rng);
     float2 u2 = rng_next2(rng);
-    BsdfSample bs = component_sample(v->c, v->wo, u1, v2_of(u2));
+    BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
     if (!(bs.pdf > 0.0f)) return false;
     float3 wi = f3_of(to_world(v->fr, bs.wi));
     float3 beta = vload3(0, st->beta) * f3_of(bs.weight);

@@ -1,11 +1,14 @@
 /* Counter-based random numbers: a value depends only on (seed, pixel,
  * sample, dimension), never on work-group size, device or launch order.
- * Each step is written once and used for one value and for eight lanes
- * (uint8, float8: eight dimensions of one stream at once, for an area
+ * Each step is written once and used for one value, for kernels/lanes.h's
+ * lanes (a stream per path: Rng's fields are lane types, uint at width 1)
+ * and for eight dimensions of one stream at once (uint8, float8: an area
  * light's samples in kernels/shade.h); integer steps are exact, so every
  * lane is bit for bit the one-value result. */
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
+
+#include "lanes.h"
 
 /* The lowbias32 integer finaliser (Wellons): strong avalanche, cheap.  x: a uint or uint8 variable. */
 #define MIX32_STEPS(x)                  \
@@ -13,23 +16,21 @@
     x ^= x >> 15; x *= 0x846ca68bU; \
     x ^= x >> 16
 
-INLINE uint mix32(uint x) { MIX32_STEPS(x); return x; }
+INLINE LU mix32(LU x) { MIX32_STEPS(x); return x; }
 INLINE uint8 mix32_lanes(uint8 x) { MIX32_STEPS(x); return x; }
 
 /* hash4's first three rounds: what every dimension d of one (a, b, c) stream shares */
-INLINE uint hash3(uint a, uint b, uint c) {
-    uint h = mix32(a + 0x9e3779b9U);
+INLINE LU hash3(LU a, LU b, LU c) {
+    LU h = mix32(a + 0x9e3779b9U);
     h = mix32(h ^ (b + 0x85ebca6bU));
     return mix32(h ^ (c + 0xc2b2ae35U));
 }
 
 #define HASH_KEY_D 0x27d4eb2fU /* the last round's key, of hash4 and hash4_lanes alike */
-INLINE uint hash4(uint a, uint b, uint c, uint d) { return mix32(hash3(a, b, c) ^ (d + HASH_KEY_D)); }
-INLINE uint8 hash4_lanes(uint a, uint b, uint c, uint8 d) { return mix32_lanes((uint8)(hash3(a, b, c)) ^ (d + HASH_KEY_D)); }
+INLINE LU hash4(LU a, LU b, LU c, LU d) { return mix32(hash3(a, b, c) ^ (d + HASH_KEY_D)); }
 
 /* Uniform float in [0, 1) with 24 random bits: the top 24 bits of h, times 2^-24. */
 #define U01_SCALE (1.0f / 16777216.0f)
-INLINE float u01(uint h) { return (float)(h >> 8) * U01_SCALE; }
 
 /* u01 lane by lane: the same 24-bit integer, converted to float exactly as (float) does, by bit tricks
  * instead of convert_float8 (out of line on PoCL): q = 2 floor(q / 2) + (q & 1), and q >> 1 < 2^23 is the
@@ -40,27 +41,32 @@ INLINE float u01(uint h) { return (float)(h >> 8) * U01_SCALE; }
     F odd = (h & 1u) != 0u ? (F)(1.0f) : (F)(0.0f);                                                                    \
     return (halves * 2.0f + odd) * U01_SCALE
 INLINE float8 u01_lanes(uint8 h) { U01_BITS(float8, as_float8, h); }
+#if LANES == 1
+INLINE LF u01(LU h) { return (float)(h >> 8) * U01_SCALE; }
+#else
+INLINE LF u01(LU h) { U01_BITS(LF, AS_LF, h); }
+#endif
 
 #ifndef RNG_SOBOL
 #define RNG_SOBOL 0 /* 1: rng_next gives dimension `dim` of sample `sample` of the pixel's Sobol sequence (kernels/sobol.h) */
 #endif
 
 #if RNG_SOBOL
-INLINE uint sobol_pixel_key(uint seed, uint pixel); /* kernels/sobol.h */
-INLINE uint reverse_bits32(uint x);                 /* kernels/sampling.h */
+INLINE LU sobol_pixel_key(LU seed, LU pixel); /* kernels/sobol.h */
+INLINE LU reverse_bits32(LU x);               /* kernels/sampling.h */
 #endif
 
 typedef struct {
-    uint seed, pixel, sample, dim;
+    LU seed, pixel, sample, dim;
 #if RNG_SOBOL
-    uint key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
-    uint sample_reversed; /* the sample index bit-reversed, which every pair scrambles */
-    uint base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
-    uint extra; /* draws of rng_extra so far (their own dimensions, hashed) */
+    LU key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
+    LU sample_reversed; /* the sample index bit-reversed, which every pair scrambles */
+    LU base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
+    LU extra; /* draws of rng_extra so far (their own dimensions, hashed) */
 #endif
 } Rng;
 
-INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
+INLINE Rng make_rng(LU seed, LU pixel, LU sample) {
     Rng r;
     r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0;
 #if RNG_SOBOL
@@ -70,41 +76,42 @@ INLINE Rng make_rng(uint seed, uint pixel, uint sample) {
 }
 
 #if RNG_SOBOL
-INLINE float sobol_value(const Rng *r);   /* kernels/sobol.h */
-INLINE float2 sobol_value2(const Rng *r); /* kernels/sobol.h */
+INLINE LF sobol_value(const Rng *r);  /* kernels/sobol.h */
+INLINE V2 sobol_value2(const Rng *r); /* kernels/sobol.h */
 #endif
 
 /* Next dimension of this (seed, pixel, sample) stream. */
-INLINE float rng_next(Rng *r) {
+INLINE LF rng_next(Rng *r) {
 #if RNG_SOBOL
-    float x = sobol_value(r);
+    LF x = sobol_value(r);
 #else
-    float x = u01(hash4(r->seed, r->pixel, r->sample, r->dim));
+    LF x = u01(hash4(r->seed, r->pixel, r->sample, r->dim));
 #endif
     r->dim += 1;
     return x;
 }
 
 /* The next two dimensions, the first in x: a 2-D sample.  With RNG_SOBOL, from an even dimension, one pair of the
- * sequence, whose two coordinates share their pair's work (sobol.h). */
-INLINE float2 rng_next2(Rng *r) {
+ * sequence, whose two coordinates share their pair's work (sobol.h): in lanes, where every lane's is even (the
+ * numbers are the same either way). */
+INLINE V2 rng_next2(Rng *r) {
 #if RNG_SOBOL
-    if ((r->dim & 1U) == 0U) {
-        float2 x = sobol_value2(r);
+    if (ALL((r->dim & 1U) == 0U)) {
+        V2 x = sobol_value2(r);
         r->dim += 2;
         return x;
     }
 #endif
-    float x = rng_next(r);
-    float y = rng_next(r);
-    return (float2)(x, y);
+    LF x = rng_next(r);
+    LF y = rng_next(r);
+    return v2(x, y);
 }
 
 /* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets): rng_next
  * for the independent sampler; with RNG_SOBOL a hashed uniform number of its own counter, from dimension
  * RNG_EXTRA_DIMS on, so that however many are drawn, no Sobol dimension moves. */
 #define RNG_EXTRA_DIMS 0x80000000U
-INLINE float rng_extra(Rng *r) {
+INLINE LF rng_extra(Rng *r) {
 #if RNG_SOBOL
     return u01(hash4(r->seed, r->pixel, r->sample, RNG_EXTRA_DIMS | r->extra++));
 #else
@@ -112,7 +119,11 @@ INLINE float rng_extra(Rng *r) {
 #endif
 }
 
+#if LANES == 1 /* the Whitted integrator's area lights: eight dimensions of one path's stream */
+INLINE uint8 hash4_lanes(uint a, uint b, uint c, uint8 d) { return mix32_lanes((uint8)(hash3(a, b, c)) ^ (d + HASH_KEY_D)); }
+
 /* Dimensions `dim` (one per lane) of this stream, as rng_next gives them; r->dim is left as it is. */
 INLINE float8 rng_lanes(const Rng *r, uint8 dim) { return u01_lanes(hash4_lanes(r->seed, r->pixel, r->sample, dim)); }
+#endif
 
 #endif

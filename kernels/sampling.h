@@ -11,7 +11,8 @@
 
 /* Bit reversal by a byte table: compilers turn the shift-and-mask idiom into
  * an llvm.bitreverse intrinsic that some OpenCL implementations (Oclgrind)
- * cannot run. */
+ * cannot run.  In lanes (kernels/lanes.h), by shifts and masks: a table
+ * lookup per lane would be sixteen loads. */
 __constant uchar REVERSED_BYTE[256] = {
     0x00, 0x80, 0x40, 0xc0, 0x20, 0xa0, 0x60, 0xe0, 0x10, 0x90, 0x50, 0xd0, 0x30, 0xb0, 0x70, 0xf0,
     0x08, 0x88, 0x48, 0xc8, 0x28, 0xa8, 0x68, 0xe8, 0x18, 0x98, 0x58, 0xd8, 0x38, 0xb8, 0x78, 0xf8,
@@ -30,10 +31,20 @@ __constant uchar REVERSED_BYTE[256] = {
     0x07, 0x87, 0x47, 0xc7, 0x27, 0xa7, 0x67, 0xe7, 0x17, 0x97, 0x57, 0xd7, 0x37, 0xb7, 0x77, 0xf7,
     0x0f, 0x8f, 0x4f, 0xcf, 0x2f, 0xaf, 0x6f, 0xef, 0x1f, 0x9f, 0x5f, 0xdf, 0x3f, 0xbf, 0x7f, 0xff};
 
+#if LANES == 1
 INLINE uint reverse_bits32(uint x) {
     return ((uint)REVERSED_BYTE[x & 0xffU] << 24) | ((uint)REVERSED_BYTE[(x >> 8) & 0xffU] << 16) |
            ((uint)REVERSED_BYTE[(x >> 16) & 0xffU] << 8) | (uint)REVERSED_BYTE[x >> 24];
 }
+#else
+INLINE LU reverse_bits32(LU x) {
+    x = ((x >> 1) & 0x55555555U) | ((x & 0x55555555U) << 1);
+    x = ((x >> 2) & 0x33333333U) | ((x & 0x33333333U) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fU) | ((x & 0x0f0f0f0fU) << 4);
+    x = ((x >> 8) & 0x00ff00ffU) | ((x & 0x00ff00ffU) << 8);
+    return (x >> 16) | (x << 16);
+}
+#endif
 
 /* Second Sobol dimension (the first is the bit-reversed index). */
 INLINE uint sobol_dim1(uint i) {
@@ -54,7 +65,7 @@ INLINE uint sobol_dim1(uint i) {
 
 /* Owen scrambling by that permutation of the reversed bits: keeps the points stratified while decorrelating
  * neighbouring pixels. */
-INLINE uint owen_scramble(uint x, uint seed) {
+INLINE LU owen_scramble(LU x, LU seed) {
     x = reverse_bits32(x);
     LAINE_KARRAS_STEPS(x, seed);
     return reverse_bits32(x);
@@ -66,6 +77,7 @@ INLINE uint owen_scramble(uint x, uint seed) {
 #define SOBOL_KEY_SAMPLE 0x50B01U
 #define SOBOL_KEY_Y 0x68bc21ebU
 
+#if LANES == 1 /* the camera's samples: one path a work-item (no lane kernel has a camera yet) */
 INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
@@ -99,5 +111,6 @@ INLINE float pixel_filter_weight(int filter, float2 off) {
         return EXP(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
     return 1.0f;
 }
+#endif
 
 #endif

@@ -46,30 +46,30 @@
     x ^= (x >> 4) & 0x0f0f0f0fU;                                           \
     x ^= (x >> 8) & 0x00ff00ffU;                                           \
     x ^= (x >> 16) & 0x0000ffffU
-INLINE uint superset_xor(uint x) {
+INLINE LU superset_xor(LU x) {
     SUPERSET_XOR_STEPS(x);
     return x;
 }
-INLINE uint sobol_second(uint i) { return reverse_bits32(superset_xor(i)); }
+INLINE LU sobol_second(LU i) { return reverse_bits32(superset_xor(i)); }
 
 /* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
-INLINE uint sobol_coordinate(uint i, uint c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
+INLINE LU sobol_coordinate(LU i, LU c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
 
 /* sampling.h's owen_scramble between its bit reversals (a nested scramble of the reversed value). */
-INLINE uint laine_karras(uint x, uint seed) {
+INLINE LU laine_karras(LU x, LU seed) {
     LAINE_KARRAS_STEPS(x, seed);
     return x;
 }
 
 /* A pixel's key, what every pair's key starts from: hash4's first three rounds of (seed, pixel, SOBOL_KEY_PAIR). */
-INLINE uint sobol_pixel_key(uint seed, uint pixel) { return hash3(seed, pixel, SOBOL_KEY_PAIR); }
+INLINE LU sobol_pixel_key(LU seed, LU pixel) { return hash3(seed, pixel, SOBOL_KEY_PAIR); }
 
 /* What both coordinates of pair `pair` of a sample share: the pair's key, hash4(seed, pixel, SOBOL_KEY_PAIR, pair), and
  * the sample's shuffled index i = reverse(owen_scramble(index, key)), from the index bit-reversed. */
 typedef struct {
-    uint key, i;
+    LU key, i;
 } SobolPair;
-INLINE SobolPair sobol_pair(uint pixel_key, uint index_reversed, uint pair) {
+INLINE SobolPair sobol_pair(LU pixel_key, LU index_reversed, LU pair) {
     SobolPair q;
     q.key = mix32(pixel_key ^ (pair + HASH_KEY_D));
     q.i = reverse_bits32(laine_karras(index_reversed, q.key));
@@ -78,30 +78,30 @@ INLINE SobolPair sobol_pair(uint pixel_key, uint index_reversed, uint pair) {
 
 /* Coordinate c of a pair's point, as a 32-bit fraction: owen_scramble(sobol_coordinate(i, c), the coordinate's key), with
  * the bit reversals that cancel left out (the coordinate reversed is i itself for c 0, superset_xor(i) for c 1). */
-INLINE uint sobol_pair_coordinate(SobolPair q, uint c) {
-    uint point_reversed = c == 0U ? q.i : superset_xor(q.i);
-    return reverse_bits32(laine_karras(point_reversed, mix32(q.key ^ (c == 0U ? SOBOL_KEY_X : SOBOL_KEY_Y))));
+INLINE LU sobol_pair_coordinate(SobolPair q, LU c) {
+    LU point_reversed = c == 0U ? q.i : superset_xor(q.i);
+    return reverse_bits32(laine_karras(point_reversed, mix32(q.key ^ (c == 0U ? (LU)(SOBOL_KEY_X) : (LU)(SOBOL_KEY_Y)))));
 }
 
 /* Dimension `dim` of sample `index` of the pixel whose sobol_pixel_key is pixel_key, as a 32-bit fraction. */
-INLINE uint sobol_bits(uint seed, uint pixel, uint index, uint dim) {
+INLINE LU sobol_bits(LU seed, LU pixel, LU index, LU dim) {
     return sobol_pair_coordinate(sobol_pair(sobol_pixel_key(seed, pixel), reverse_bits32(index), dim >> 1), dim & 1U);
 }
 
 #if RNG_SOBOL
-INLINE float sobol_value(const Rng *r) { return u01(sobol_pair_coordinate(sobol_pair(r->key, r->sample_reversed, r->dim >> 1), r->dim & 1U)); }
+INLINE LF sobol_value(const Rng *r) { return u01(sobol_pair_coordinate(sobol_pair(r->key, r->sample_reversed, r->dim >> 1), r->dim & 1U)); }
 /* Both coordinates of the pair that starts at r->dim (even), sharing the pair's key and shuffled index. */
-INLINE float2 sobol_value2(const Rng *r) {
+INLINE V2 sobol_value2(const Rng *r) {
     SobolPair q = sobol_pair(r->key, r->sample_reversed, r->dim >> 1);
-    return (float2)(u01(sobol_pair_coordinate(q, 0U)), u01(sobol_pair_coordinate(q, 1U)));
+    return v2(u01(sobol_pair_coordinate(q, 0U)), u01(sobol_pair_coordinate(q, 1U)));
 }
 #endif
 
 /* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
  * its numbers follow one another as they always did. */
-INLINE void rng_vertex(Rng *r, int depth) {
+INLINE void rng_vertex(Rng *r, LI depth) {
 #if RNG_SOBOL
-    r->base = VERTEX_DIMS * (uint)(depth + 1);
+    r->base = VERTEX_DIMS * AS_LU(depth + 1);
     r->dim = r->base + SLOT_PICK;
 #endif
 }

@@ -13,7 +13,7 @@ from scipy.stats import chi2
 
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
-from clrender.trace.sampling import sequence_points
+from clrender.trace.sampling import path_draws, sequence_points
 from clrender.trace.tracer import Tracer
 
 from tests.pathtools import assert_expected, closed_box, closed_box_radiance, lamp_over_floor, mixed_scene
@@ -234,3 +234,35 @@ def test_the_command_line_and_the_scene_key_choose_the_sampler(tmp_path, capsys)
     scene.write_text('path_sampler = "halton"\n')
     code, out, err = run_cli(capsys, "render", str(scene), "--integrator", "path", "-o", str(tmp_path / "x.png"))
     assert code == 2 and err.count("\n") == 1 and "halton" in err and not (tmp_path / "x.png").exists()
+
+
+# ------------------------------------------------------------------ lanes
+VERTEX_DIMS = 1 << 20  # kernels/sobol.h: the dimensions a bounce vertex owns, from VERTEX_DIMS * (depth + 1)
+SLOTS = {"pick": 0, "rr": 1, "bsdf": 3, "light": 7}  # sobol.h's slots, as path_draws_probe takes them
+
+
+@pytest.mark.parametrize("lanes", [8, 16])
+def test_the_sampler_in_lanes_gives_the_scalar_bits(device, lanes):
+    """sobol.h's sequence and the path tracer's draws through its Rng, built for `lanes` points a work-item (one in
+    each lane), are bit for bit the one-point-a-work-item build's, over pixels and samples whose count is no multiple
+    of the lanes."""
+    pixels, dims = np.arange(0, 4000, 37), [0, 1, 2, 7, VERTEX_DIMS + 3, VERTEX_DIMS + 4, (9 << 20) + 8]
+    for scrambled in (True, False):
+        one = sequence_points(pixels, 5, dims, seed=4, first=3, scrambled=scrambled, device=device)
+        assert np.array_equal(sequence_points(pixels, 5, dims, seed=4, first=3, scrambled=scrambled, device=device, lanes=lanes), one)
+    one = path_draws(pixels, 3, 4, seed=9, first=2, device=device)
+    assert np.array_equal(path_draws(pixels, 3, 4, seed=9, first=2, device=device, lanes=lanes).view(np.uint32), one.view(np.uint32))
+
+
+def test_the_path_tracers_draws_are_the_sequences_dimensions(device):
+    """What the Rng gives at each vertex and slot is the sequence's dimension there (2-D samples: one pair, the
+    first at the even dimension), u = the 32-bit fraction's top 24 bits times 2^-24."""
+    pixels, samples, depth = [0, 5, 1234], 4, 3
+    draws = path_draws(pixels, samples, depth, seed=2, first=1, device=device)
+    for v in range(depth):
+        base = VERTEX_DIMS * (v + 1)
+        dims = [base + SLOTS["pick"], base + SLOTS["rr"], *(base + SLOTS["bsdf"] + k for k in range(3)), *(base + SLOTS["light"] + k for k in range(3))]
+        bits = sequence_points(pixels, samples, dims, seed=2, first=1, device=device)
+        want = (bits >> 8).astype(np.float64) * 2.0**-24
+        np.testing.assert_array_equal(draws[:, :, v, :8], want.astype(np.float32))
+    assert ((draws[..., 8] >= 0) & (draws[..., 8] < 1)).all()
