@@ -43,12 +43,13 @@ INLINE bool back_culled(const Geometry *g, TextureView tv, Hit h, float3 o, floa
 /* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup; kernels/surface.h's
  * coverage_at). */
 INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
-    __global const Material *gm = &tv.materials[g->objects[hit_object(g, h)].material];
+    int mi = g->objects[hit_object(g, h)].material;
+    __global const Material *gm = &tv.materials[mi];
     *alpha = 1.0f;
     if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
     /* read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed
      * PoCL's stack at 64-item groups (issue 38, defect 0; docs/materials.md#alpha-modes) */
-    *alpha = coverage_at(tv, gm, hit_data(g, h), h.u, h.v);
+    *alpha = coverage_at(tv, mi, hit_data(g, h), h.u, h.v);
     return gm;
 }
 

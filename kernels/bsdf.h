@@ -108,10 +108,6 @@ INLINE BsdfSample keep_sample(LI m, BsdfSample a, BsdfSample b) {
     return s;
 }
 
-/* x = e in the lanes of m (a masked pass: at width 1, the scalar branch); WHERE3 for a V3 */
-#define WHERE(m, x, e) if (ANY(m)) x = (m) ? (e) : (x)
-#define WHERE3(m, x, e) if (ANY(m)) x = vpick((m), (e), (x))
-
 /* ---- the local shading frame: an orthonormal basis (t, b, n), branchless (Duff et al. 2017) */
 typedef struct {
     V3 t, b, n;

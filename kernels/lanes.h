@@ -8,7 +8,8 @@
  *   masks          LI from comparisons: -1 or 0 a lane (1 or 0 at width 1); combine with & and |, negate with NOT,
  *                  test with ANY; choose with ?: on an LF or LU (or vpick, on a V3), never with a branch on a lane.
  *                  `if (ANY(m)) x = vpick(m, ..., x)` is a masked pass: at width 1, the branch the scalar code took
- *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather)
+ *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather);
+ *                  FIELD_F, FIELD_I: a float or int field of a __global record array at a lane-varying index
  * Include after mathf.h and before intersect.h, where common.h is: vdot and vcross then round as its dot3 and cross3
  * (FP_CONTRACT off in a DET_MATH program, on in the Whitted one).  Headers shared by both integrators (rng.h, sobol.h)
  * are written over these types, which at width 1 are the plain ones. */
@@ -40,6 +41,8 @@ typedef uint LU;
 INLINE LF gather(__global const float *b, LI i) { return b[i]; }
 INLINE LI gather_i(__global const int *b, LI i) { return b[i]; }
 INLINE LU gather_u(__global const uint *b, LU i) { return b[i]; }
+#define FIELD_F(p, i, f) ((p)[i].f)
+#define FIELD_I(p, i, f) ((p)[i].f)
 #else
 #define LANES_CAT_(a, b) a##b
 #define LANES_CAT(a, b) LANES_CAT_(a, b)
@@ -64,6 +67,16 @@ __constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14
 #define GATHER_LANES(b, i) (b[i.s0], b[i.s1], b[i.s2], b[i.s3], b[i.s4], b[i.s5], b[i.s6], b[i.s7])
 #endif
 INLINE LF gather(__global const float *b, LI i) { return (LF)GATHER_LANES(b, i); }
+#if LANES == 16
+#define FIELD_LANES(p, i, f)                                                                                             \
+    ((p)[(i).s0].f, (p)[(i).s1].f, (p)[(i).s2].f, (p)[(i).s3].f, (p)[(i).s4].f, (p)[(i).s5].f, (p)[(i).s6].f, (p)[(i).s7].f, \
+     (p)[(i).s8].f, (p)[(i).s9].f, (p)[(i).sa].f, (p)[(i).sb].f, (p)[(i).sc].f, (p)[(i).sd].f, (p)[(i).se].f, (p)[(i).sf].f)
+#else
+#define FIELD_LANES(p, i, f) \
+    ((p)[(i).s0].f, (p)[(i).s1].f, (p)[(i).s2].f, (p)[(i).s3].f, (p)[(i).s4].f, (p)[(i).s5].f, (p)[(i).s6].f, (p)[(i).s7].f)
+#endif
+#define FIELD_F(p, i, f) ((LF)FIELD_LANES(p, i, f))
+#define FIELD_I(p, i, f) ((LI)FIELD_LANES(p, i, f))
 INLINE LI gather_i(__global const int *b, LI i) { return (LI)GATHER_LANES(b, i); }
 INLINE LU gather_u(__global const uint *b, LU i) { return (LU)GATHER_LANES(b, i); }
 #endif
@@ -72,11 +85,15 @@ typedef struct {
     LF x, y, z;
 } V3;
 #if LANES == 1
-typedef float2 V2; /* a 2-D sample: the float2 the scalar code has always passed */
+typedef float2 V2; /* a 2-D sample or texture coordinate: the float2 the scalar code has always passed */
+typedef float4 V4; /* a texel */
 #else
 typedef struct {
     LF x, y;
 } V2;
+typedef struct {
+    LF x, y, z, w;
+} V4;
 #endif
 
 #define ALL_LANES ((LI)(0) == (LI)(0)) /* the mask of every lane */
@@ -85,10 +102,12 @@ INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
 INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
 #if LANES == 1
 INLINE V2 v2(LF x, LF y) { return (float2)(x, y); }
+INLINE V4 v4(LF x, LF y, LF z, LF w) { return (float4)(x, y, z, w); }
 INLINE V3 v3_of(float3 a) { return v3(a.x, a.y, a.z); }
 INLINE float3 f3_of(V3 a) { return (float3)(a.x, a.y, a.z); }
 #else
 INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
+INLINE V4 v4(LF x, LF y, LF z, LF w) { V4 v = {x, y, z, w}; return v; }
 #endif
 INLINE V3 vadd(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 INLINE V3 vsub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
@@ -106,6 +125,10 @@ INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #endif
 INLINE V3 vunit(V3 a) { return vdiv(a, sqrt_l(vdot(a, a))); }
 INLINE V3 vpick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? a.z : b.z); }
+/* x = e in the lanes of m, e computed only where some lane needs it (a masked pass: at width 1, the scalar branch);
+ * WHERE3 for a V3 */
+#define WHERE(m, x, e) if (ANY(m)) x = (m) ? (e) : (x)
+#define WHERE3(m, x, e) if (ANY(m)) x = vpick((m), (e), (x))
 INLINE LF abs_l(LF x) { return AS_LF(AS_LU(x) & 0x7fffffffU); }
 INLINE LF max_l(LF a, LF b) { return a > b ? a : b; }
 INLINE LF min_l(LF a, LF b) { return a < b ? a : b; }

@@ -180,10 +180,10 @@ INLINE int pick_near(const PathScene *s, float3 x, float total, float u) {
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
  * one-sided): kernels/surface.h's emission_of its material there. */
 INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
-    __global const Material *gm = &s->tex.materials[s->geo.objects[s->geo.prim_object[prim]].material];
+    int mi = s->geo.objects[s->geo.prim_object[prim]].material;
     float2 uv[2] = {(float2)(0.0f), (float2)(0.0f)};
-    if (material_textured(gm)) surface_uvs(s->tex, prim, u, v, uv);
-    return emission_of(s->tex, gm, uv);
+    if (material_textured(s->tex, mi)) surface_uvs(s->tex, prim, u, v, uv);
+    return emission_of(s->tex, mi, uv);
 }
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l

@@ -88,7 +88,7 @@ INLINE Surface surface_at(const Geometry *g, __global const VertexNormals *norma
     f.uv[0] = f.uv[1] = (float2)(0.0f);
     f.has_frame = false;
     __global const Material *m = &tv.materials[f.material];
-    if (material_textured(m)) surface_uvs(tv, f.prim, f.u, f.v, f.uv);
+    if (material_textured(tv, f.material)) surface_uvs(tv, f.prim, f.u, f.v, f.uv);
     if (m->textures[TEXTURE_NORMAL] >= 0) tangent_frame(g, tv, h, &f);
     return f;
 }
@@ -104,21 +104,23 @@ typedef struct {
     __global const Material *g;
 } MaterialPoint;
 
-/* Emitted radiance of material g at texture coordinates uv (both sets): its emission times the emissive slot. */
-INLINE float3 emission_of(TextureView tv, __global const Material *g, const float2 *uv) {
+/* Emitted radiance of material mi at texture coordinates uv (both sets): its emission times the emissive slot. */
+INLINE float3 emission_of(TextureView tv, int mi, const float2 *uv) {
+    __global const Material *g = &tv.materials[mi];
     float3 le = vload3(0, g->emission);
-    if (g->textures[TEXTURE_EMISSIVE] >= 0) le *= slot_texel(tv, g, TEXTURE_EMISSIVE, uv).xyz;
+    if (g->textures[TEXTURE_EMISSIVE] >= 0) le *= slot_texel(tv, mi, TEXTURE_EMISSIVE, uv).xyz;
     return le;
 }
 
-/* Coverage of material g at hit (prim, u, v): its alpha factor times the base colour texture's alpha (material_at's
+/* Coverage of material mi at hit (prim, u, v): its alpha factor times the base colour texture's alpha (material_at's
  * rule, for kernels/alpha.h, which reads it before a hit is shaded). */
-INLINE float coverage_at(TextureView tv, __global const Material *g, int prim, float u, float v) {
+INLINE float coverage_at(TextureView tv, int mi, int prim, float u, float v) {
+    __global const Material *g = &tv.materials[mi];
     float alpha = g->alpha;
     if (g->textures[TEXTURE_BASE_COLOR] >= 0) {
         float2 uv[2];
         surface_uvs(tv, prim, u, v, uv);
-        alpha *= slot_texel(tv, g, TEXTURE_BASE_COLOR, uv).w;
+        alpha *= slot_texel(tv, mi, TEXTURE_BASE_COLOR, uv).w;
     }
     return alpha;
 }
@@ -128,7 +130,7 @@ INLINE float coverage_at(TextureView tv, __global const Material *g, int prim, f
 INLINE void normal_map(TextureView tv, __global const Material *g, Surface *f) {
     if (!f->has_frame) return;
     float3 n = f->front ? f->n_shade : -f->n_shade;
-    float3 c = 2.0f * slot_texel(tv, g, TEXTURE_NORMAL, f->uv).xyz - 1.0f;
+    float3 c = 2.0f * slot_texel(tv, f->material, TEXTURE_NORMAL, f->uv).xyz - 1.0f;
     float3 mapped = unit(g->normal_scale * (c.x * f->tangent + c.y * f->bitangent) + c.z * n);
     mapped = f->front ? mapped : -mapped;
     if (dot3(mapped, f->d) < 0.0f) f->n_shade = mapped;
@@ -149,9 +151,9 @@ INLINE MaterialPoint material_at(TextureView tv, __global const Material *materi
     m.model = g->model;
     m.alpha = g->alpha;
     if (f->vertex_colours || g->textures[TEXTURE_BASE_COLOR] >= 0) {
-        float3 colour = f->vertex_colours ? hit_colour(tv, f->prim, f->u, f->v) : (float3)(1.0f);
+        float3 colour = f->vertex_colours ? f3_of(hit_colour(tv, f->prim, f->u, f->v)) : (float3)(1.0f);
         if (g->textures[TEXTURE_BASE_COLOR] >= 0) {
-            float4 texel = slot_texel(tv, g, TEXTURE_BASE_COLOR, f->uv);
+            float4 texel = slot_texel(tv, f->material, TEXTURE_BASE_COLOR, f->uv);
             colour *= texel.xyz;
             m.alpha *= texel.w;
         }
@@ -159,14 +161,14 @@ INLINE MaterialPoint material_at(TextureView tv, __global const Material *materi
         m.base_color *= colour;
     }
     if (g->textures[TEXTURE_METALLIC_ROUGHNESS] >= 0) {
-        float4 mr = slot_texel(tv, g, TEXTURE_METALLIC_ROUGHNESS, f->uv);
+        float4 mr = slot_texel(tv, f->material, TEXTURE_METALLIC_ROUGHNESS, f->uv);
         m.metallic *= mr.z;
         m.roughness *= mr.y;
     }
-    m.emission = emission_of(tv, g, f->uv);
+    m.emission = emission_of(tv, f->material, f->uv);
     m.occlusion = 1.0f;
     if (g->textures[TEXTURE_OCCLUSION] >= 0)
-        m.occlusion = 1.0f + g->occlusion_strength * (slot_texel(tv, g, TEXTURE_OCCLUSION, f->uv).x - 1.0f);
+        m.occlusion = 1.0f + g->occlusion_strength * (slot_texel(tv, f->material, TEXTURE_OCCLUSION, f->uv).x - 1.0f);
     normal_map(tv, g, f);
     return m;
 }

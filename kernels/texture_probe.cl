@@ -1,0 +1,54 @@
+/* Test-only kernel: kernels/texture.h's lookups over a batch, for tests/trace/test_texture_lanes.py.  Built at LANES 1
+ * (one lookup a work-item, as the renderers run them) or 8 or 16 (that many a work-item, one in each lane), which give
+ * the same bits.  Item i: material query[i].x, slot query[i].y, primitive query[i].z, barycentrics bary[i]; out[i]:
+ * the slot's texel at the primitive's texture coordinates there (slot_texel), uv[i]: both UV sets (hit_uv),
+ * colour[i]: the vertex colour (hit_colour) and whether the material has any texture (material_textured). */
+#define DET_MATH 1
+#include "mathf.h"
+#include "common.h"
+#include "lanes.h"
+#include "texture.h"
+
+INLINE void put4(__global float4 *out, int base, int n, V4 v) {
+#if LANES == 1
+    out[base] = v;
+#else
+    float x[LANES], y[LANES], z[LANES], w[LANES];
+    LANES_CAT(vstore, LANES)(v.x, 0, x);
+    LANES_CAT(vstore, LANES)(v.y, 0, y);
+    LANES_CAT(vstore, LANES)(v.z, 0, z);
+    LANES_CAT(vstore, LANES)(v.w, 0, w);
+    for (int k = 0; k < LANES && base + k < n; ++k) out[base + k] = (float4)(x[k], y[k], z[k], w[k]);
+#endif
+}
+
+__kernel void texture_probe(int n, __global const int4 *query, __global const float2 *bary, __global const VertexAttributes *attributes,
+                            __global const Texture *textures, __global const Material *materials, __global const float4 *texels,
+                            __global float4 *out, __global float4 *uv_out, __global float4 *colour_out) {
+    int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    LI item = min(base + AS_LI(LANE_IDS_L), n - 1);
+    __global const int *q = (__global const int *)query;
+    __global const float *b = (__global const float *)bary;
+    LI mi = gather_i(q, 4 * item), prim = gather_i(q, 4 * item + 2);
+    LF u = gather(b, 2 * item), v = gather(b, 2 * item + 1);
+    TextureView tv = texture_view(attributes, textures, materials, texels);
+    V2 uv[2] = {hit_uv(tv, prim, 0, u, v), hit_uv(tv, prim, 1, u, v)};
+    /* the slot is uniform in a launch's kernels (a material's slots are separate code): each item's own, one pass a slot */
+    LI slot = gather_i(q, 4 * item + 1);
+    V4 texel = v4(0.0f, 0.0f, 0.0f, 0.0f);
+    for (int k = 0; k < TEXTURE_SLOTS; ++k) {
+        LI here = slot == k;
+        if (!ANY(here)) continue;
+        V4 t = slot_texel(tv, mi, k, uv);
+#if LANES == 1
+        texel = t;
+#else
+        texel = v4(here ? t.x : texel.x, here ? t.y : texel.y, here ? t.z : texel.z, here ? t.w : texel.w);
+#endif
+    }
+    put4(out, base, n, texel);
+    put4(uv_out, base, n, v4(uv[0].x, uv[0].y, uv[1].x, uv[1].y));
+    V3 c = hit_colour(tv, prim, u, v);
+    put4(colour_out, base, n, v4(c.x, c.y, c.z, material_textured(tv, mi) ? (LF)(1.0f) : (LF)(0.0f)));
+}
