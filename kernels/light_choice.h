@@ -4,14 +4,18 @@
 #ifndef CLRENDER_LIGHT_CHOICE_H
 #define CLRENDER_LIGHT_CHOICE_H
 
+#include "lanes.h"
+
 /* The record of u's place in the running sums of the n records: the first whose cdf exceeds u (binary search; the
- * last light that can be chosen has cdf 1, so every u in [0, 1) finds one of probability > 0). */
-INLINE int pick_light_of(__global const LightChoice *choices, int n, float u) {
-    int lo = 0, hi = n - 1;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (u < choices[mid].cdf) hi = mid;
-        else lo = mid + 1;
+ * last light that can be chosen has cdf 1, so every u in [0, 1) finds one of probability > 0).  In lanes, each lane's
+ * search until every lane's has ended. */
+INLINE LI pick_light_of(__global const LightChoice *choices, int n, LF u) {
+    LI lo = 0, hi = n - 1;
+    while (ANY(lo < hi)) {
+        LI searching = lo < hi, mid = (lo + hi) / 2;
+        LI below = u < FIELD_F(choices, mid, cdf);
+        hi = searching & below ? mid : hi;
+        lo = searching & NOT(below) ? mid + 1 : lo;
     }
     return lo;
 }

@@ -142,12 +142,13 @@ def choices(power: np.ndarray, group: np.ndarray | None = None, defensive: float
 PROBE = "light_choice_probe.cl"
 
 
-def picks(device, records: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
+def picks(device, records: np.ndarray, n: int, seed: int = 0, lanes: int = 1) -> np.ndarray:
     """The records (n,) kernels/light_choice.h picks for the first random number of streams (seed, i, 0), i < n,
-    run on the device (kernels/light_choice_probe.cl; tests)."""
+    run on the device (kernels/light_choice_probe.cl; tests), `lanes` (1, 8 or 16) picks a work-item."""
     from .tracer import trace_defines
     from .work_layout import read_items
 
-    kernel = device.kernel(PROBE, "light_pick_probe", trace_defines())
+    kernel = device.kernel(PROBE, "light_pick_probe", {**trace_defines(), "LANES": lanes})
     choices = device.to_device(np.ascontiguousarray(records, LIGHT_CHOICE_DTYPE))
-    return read_items(device, kernel, n, n, np.int32, n=np.int32(n), seed=np.uint32(seed), choices=choices, n_choices=np.int32(len(records)))
+    args = dict(n=np.int32(n), seed=np.uint32(seed), choices=choices, n_choices=np.int32(len(records)))
+    return read_items(device, kernel, -(-n // lanes), n, np.int32, **args)

@@ -19,6 +19,7 @@ ALPHA = 0.001 per test function; the seeds are fixed, so each test is determinis
 import math
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from clrender.scene.lights import Light
@@ -124,6 +125,19 @@ def test_the_kernels_picks_follow_the_hosts_probabilities(device):
     live = power > 0
     assert p_value(np.where(live, 1.0 / live.sum(), 0.0)) < 1e-100
     assert p_value(np.where(live, np.roll(prob, 1), 0.0)) < 1e-100
+
+
+@pytest.mark.parametrize("lanes", [8, 16])
+def test_picks_in_lanes_are_the_scalar_picks(device, lanes):
+    """The binary search built for 8 and 16 picks a work-item, each lane searching until every lane's search has
+    ended, picks what one pick a work-item does: over lights of every probability, zero ones included, and over
+    record counts from one to past a power of two."""
+    rng = np.random.default_rng(5)
+    for count in (1, 2, 7, 16, 33):
+        power = np.where(rng.uniform(size=count) < 0.2, 0.0, rng.exponential(size=count))
+        power[rng.integers(count)] = 1.0  # one light at least
+        r = choices(power)
+        assert np.array_equal(picks(device, r, 5001, seed=count, lanes=lanes), picks(device, r, 5001, seed=count)), count
 
 
 # ------------------------------------------------------------------ the path tracer
