@@ -3,8 +3,8 @@
  * in the same order at every width, so it gives the same bits at every width (kernels/bsdf.h, kernels/lanes_probe.cl,
  * docs/lanes.md):
  *   LF, LI, LU     float, int, uint lanes (float, int, uint at width 1)
- *   V3             a 3-vector of lanes, a struct of three LF (not float3: its x, y, z are each a register of lanes);
- *                  v3_of and f3_of convert to and from float3 at width 1; V2, a 2-D sample, is float2 there
+ *   V3, V2, V4     3-, 2- and 4-vectors of lanes, structs of LF (not float3: each component is a register of lanes);
+ *                  at width 1 float3, float2 and float4, so lane-generic and scalar code pass values freely
  *   masks          LI from comparisons: -1 or 0 a lane (1 or 0 at width 1); combine with & and |, negate with NOT,
  *                  test with ANY; choose with ?: on an LF or LU (or vpick, on a V3), never with a branch on a lane.
  *                  `if (ANY(m)) x = vpick(m, ..., x)` is a masked pass: at width 1, the branch the scalar code took
@@ -81,13 +81,14 @@ INLINE LI gather_i(__global const int *b, LI i) { return (LI)GATHER_LANES(b, i);
 INLINE LU gather_u(__global const uint *b, LU i) { return (LU)GATHER_LANES(b, i); }
 #endif
 
+#if LANES == 1 /* the vector types the scalar code has always used: one path's values pass between the two freely */
+typedef float3 V3;
+typedef float2 V2; /* a 2-D sample or texture coordinate */
+typedef float4 V4; /* a texel */
+#else
 typedef struct {
     LF x, y, z;
 } V3;
-#if LANES == 1
-typedef float2 V2; /* a 2-D sample or texture coordinate: the float2 the scalar code has always passed */
-typedef float4 V4; /* a texel */
-#else
 typedef struct {
     LF x, y;
 } V2;
@@ -98,17 +99,16 @@ typedef struct {
 
 #define ALL_LANES ((LI)(0) == (LI)(0)) /* the mask of every lane */
 
-INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
-INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
 #if LANES == 1
+INLINE V3 v3(LF x, LF y, LF z) { return (float3)(x, y, z); }
 INLINE V2 v2(LF x, LF y) { return (float2)(x, y); }
 INLINE V4 v4(LF x, LF y, LF z, LF w) { return (float4)(x, y, z, w); }
-INLINE V3 v3_of(float3 a) { return v3(a.x, a.y, a.z); }
-INLINE float3 f3_of(V3 a) { return (float3)(a.x, a.y, a.z); }
 #else
+INLINE V3 v3(LF x, LF y, LF z) { V3 v = {x, y, z}; return v; }
 INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
 INLINE V4 v4(LF x, LF y, LF z, LF w) { V4 v = {x, y, z, w}; return v; }
 #endif
+INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
 INLINE V3 vadd(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 INLINE V3 vsub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
 INLINE V3 vmul(V3 a, V3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }

@@ -27,10 +27,10 @@ INLINE Component exchange_component(Component c, const MaterialPoint *m) {
     bool smooth = !(m->roughness > 0.0f);
     c.bsdf.alpha = ggx_alpha_from_roughness(m->roughness);
     c.bsdf.eta = g->lobe_ior;
-    c.bsdf.eta3 = v3_of(vload3(0, g->eta));
-    c.bsdf.k3 = v3_of(vload3(0, g->k));
-    c.bsdf.tint = v3_of(vload3(0, g->tint));
-    c.bsdf.transmit_tint = v3_of(vload3(0, g->transmit_tint));
+    c.bsdf.eta3 = vload3(0, g->eta);
+    c.bsdf.k3 = vload3(0, g->k);
+    c.bsdf.tint = vload3(0, g->tint);
+    c.bsdf.transmit_tint = vload3(0, g->transmit_tint);
     c.bsdf.nonlinear = g->nonlinear;
     c.bsdf.coat_weight = g->coat_weight;
     c.bsdf.coat_internal = g->coat_internal;
@@ -50,11 +50,11 @@ INLINE Component gltf_component(Component c, const MaterialPoint *m, float u) {
     float transmit = m->transmission * (1.0f - m->metallic);
     if (u < transmit) {
         c.lobe = m->roughness > 0.0f ? BSDF_ROUGH_DIELECTRIC : BSDF_DIELECTRIC;
-        c.bsdf.transmit_tint = v3_of(m->base_color);
+        c.bsdf.transmit_tint = m->base_color;
         return c;
     }
     c.lobe = BSDF_GLTF;
-    c.bsdf.colour = v3_of(m->base_color);
+    c.bsdf.colour = m->base_color;
     return c;
 }
 
@@ -69,11 +69,11 @@ INLINE Component phong_component(Component c, const MaterialPoint *m, float u) {
     float over = max_f(1.0f, max3(sum));
     kd /= over; ks /= over;
     c.lobe = BSDF_LAMBERT;
-    c.bsdf.colour = v3_of(kd);
+    c.bsdf.colour = kd;
     float lk = luminance(ks), ld = luminance(kd);
     if (lk > 0.0f) {
         c.lobe = BSDF_PHONG;
-        c.bsdf.tint = v3_of(ks);
+        c.bsdf.tint = ks;
         c.bsdf.alpha = alpha_from_shininess(m->shininess);
         c.bsdf.specular_prob = lk / (lk + ld);
     }
@@ -86,7 +86,7 @@ INLINE Component pick_component(const MaterialPoint *m, float u) {
     c.bsdf.transmit_tint = v3_all(1.0f);
     c.bsdf.eta = m->ior; /* inside over outside (bsdf.h, the frame's +z outward): objects do not nest, outside is air */
     c.bsdf.metallic = m->metallic;
-    c.bsdf.colour = v3_of(m->kd);
+    c.bsdf.colour = m->kd;
     c.bsdf.smith = m->g->smith;
     if (m->model >= MATERIAL_MODEL_CONDUCTOR) return exchange_component(c, m);
     if (m->model == MATERIAL_MODEL_GLTF) return gltf_component(c, m, u);
@@ -95,7 +95,7 @@ INLINE Component pick_component(const MaterialPoint *m, float u) {
 
 /* The component's local frame at f: +z on the ray's side for reflection, outward for dielectrics (bsdf.h's eta). */
 INLINE Frame component_frame(Component c, const Surface *f) {
-    return make_frame(v3_of(component_is_dielectric(c) && !f->front ? -f->n_shade : f->n_shade));
+    return make_frame(component_is_dielectric(c) && !f->front ? -f->n_shade : f->n_shade);
 }
 
 #endif

@@ -301,8 +301,8 @@ INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u
     if (s->env.m.width > 0) return env_map_sample(s, chosen, u);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return no_light();
-    Frame nf = make_frame(v3_of(f->n_shade));
-    float3 wi = f3_of(to_world(nf, cosine_hemisphere(u)));
+    Frame nf = make_frame(f->n_shade);
+    float3 wi = to_world(nf, cosine_hemisphere(u));
     float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
     if (!(env_pdf > 0.0f)) return no_light();
     return weighted_light(wi, env, env_pdf, INF_T);
@@ -312,8 +312,8 @@ INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u
  * light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
 INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, V3 wo, LightSample ls) {
     if (!ls.found) return (float3)(0.0f);
-    V3 wl = to_local(fr, v3_of(ls.wi));
-    float3 fc = f3_of(component_eval(c, wo, wl));
+    V3 wl = to_local(fr, ls.wi);
+    float3 fc = component_eval(c, wo, wl);
     if (ls.check && !(max3(fc) > 0.0f)) return (float3)(0.0f);
     float mis = ls.mis ? power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)) : 1.0f;
     float w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
@@ -525,7 +525,7 @@ INLINE bool shade_surface(const PathScene *s, PathState *st, Hit h, Rng *rng, Pa
     rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
     v->c = pick_component(&v->m, rng_next(rng));
     v->fr = component_frame(v->c, &v->f);
-    v->wo = to_local(v->fr, v3_of(-r.d));
+    v->wo = to_local(v->fr, -r.d);
     if (!component_is_delta(v->c)) {
         float3 nee = direct_lighting(s, &v->f, v->c, v->fr, v->wo, rng, st);
         if (st->shadowed) {
@@ -543,8 +543,8 @@ INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng 
     float2 u2 = rng_next2(rng);
     BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
     if (!(bs.pdf > 0.0f)) return false;
-    float3 wi = f3_of(to_world(v->fr, bs.wi));
-    float3 beta = vload3(0, st->beta) * f3_of(bs.weight);
+    float3 wi = to_world(v->fr, bs.wi);
+    float3 beta = vload3(0, st->beta) * bs.weight;
     st->eta_scale *= bs.eta * bs.eta; /* beta * eta_scale: the throughput without refraction's 1 / eta^2 */
     if (st->depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
         float q = min_f(max3(beta) * st->eta_scale, RR_SURVIVE_MAX);

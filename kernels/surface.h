@@ -151,7 +151,7 @@ INLINE MaterialPoint material_at(TextureView tv, __global const Material *materi
     m.model = g->model;
     m.alpha = g->alpha;
     if (f->vertex_colours || g->textures[TEXTURE_BASE_COLOR] >= 0) {
-        float3 colour = f->vertex_colours ? f3_of(hit_colour(tv, f->prim, f->u, f->v)) : (float3)(1.0f);
+        float3 colour = f->vertex_colours ? hit_colour(tv, f->prim, f->u, f->v) : (float3)(1.0f);
         if (g->textures[TEXTURE_BASE_COLOR] >= 0) {
             float4 texel = slot_texel(tv, f->material, TEXTURE_BASE_COLOR, f->uv);
             colour *= texel.xyz;

@@ -125,7 +125,7 @@ INLINE V2 hit_uv(TextureView tv, LI prim, int set, LF u, LF v) {
 INLINE V3 hit_colour(TextureView tv, LI prim, LF u, LF v) {
 #if LANES == 1
     __global const float *c = &tv.attributes[prim].colour[0][0];
-    return v3_of((1.0f - u - v) * vload3(0, c) + u * vload3(1, c) + v * vload3(2, c));
+    return (1.0f - u - v) * vload3(0, c) + u * vload3(1, c) + v * vload3(2, c);
 #else
     __global const float *a = (__global const float *)tv.attributes;
     LI at = prim * (int)(sizeof(VertexAttributes) / 4) + (int)(__builtin_offsetof(VertexAttributes, colour) / 4);
