@@ -514,6 +514,19 @@ typedef struct {
 #define FOR_LOBE(code, x, keep, value) if (ANY(lobe == (code))) x = keep(lobe == (code), (value), x)
 INLINE LF pick_l(LI m, LF a, LF b) { return m ? a : b; }
 
+/* a in the lanes of m, b in the others (the table pointer is the same in every lane) */
+INLINE Component keep_component(LI m, Component a, Component b) {
+    Component c = a;
+    c.lobe = m ? a.lobe : b.lobe;
+#define KEEP3(f) c.bsdf.f = vpick(m, a.bsdf.f, b.bsdf.f)
+#define KEEP(f) c.bsdf.f = m ? a.bsdf.f : b.bsdf.f
+    KEEP3(colour); KEEP(alpha); KEEP(eta); KEEP(metallic); KEEP(smith); KEEP3(eta3); KEEP3(k3); KEEP3(tint);
+    KEEP3(transmit_tint); KEEP(nonlinear); KEEP(coat_weight); KEEP(coat_internal); KEEP(coat_table); KEEP(specular_prob);
+#undef KEEP
+#undef KEEP3
+    return c;
+}
+
 /* Delta lobes: eval and pdf are 0, their samples carry `delta`, and light sampling cannot reach them (no NEE). */
 INLINE LI component_is_delta(Component c) {
     return (c.lobe == BSDF_MIRROR) | (c.lobe == BSDF_DIELECTRIC) | (c.lobe == BSDF_METAL_SMOOTH) | (c.lobe == BSDF_THIN_DIELECTRIC);

@@ -33,6 +33,20 @@ typedef struct {
 #endif
 } Hit;
 
+/* A hit a lane: the walks' Hit at width 1 (kernels/lanes.h), what the surface pipeline (surface_at) reads */
+#if LANES == 1
+typedef Hit HitL;
+#else
+typedef struct {
+    LF t;
+    LI slot, id;
+    LF u, v;
+} HitL;
+#if INSTANCED
+#error "instanced scenes are not shaded in lanes yet"
+#endif
+#endif
+
 /* Whether a hit at t on primitive `id` replaces *best: nearer, or as near and a lower id (ties go to the
  * lowest primitive id, whatever the walk's order). */
 INLINE bool nearer_hit(float t, int id, const Hit *best) { return t < best->t || (t == best->t && id < best->id); }
@@ -238,20 +252,22 @@ INLINE float hit_sphere(Ray r, float4 cr, float t_min, float t_max) {
 
 /* The hit point on a triangle from its barycentrics (not o + t d, whose error
  * grows with t), and a bound on its float32 error per axis (pbrt-v4). */
-INLINE float3 hit_point_triangle(float4 v0, float4 v1, float4 v2, float u, float v, float3 *p_err) {
-    float b0 = 1.0f - u - v;
-    float3 a0 = b0 * v0.xyz, a1 = u * v1.xyz, a2 = v * v2.xyz;
-    *p_err = GAMMA(7) * (abs3(a0) + abs3(a1) + abs3(a2));
-    return a0 + a1 + a2;
+INLINE V3 hit_point_triangle(V3 v0, V3 v1, V3 v2, LF u, LF v, V3 *p_err) {
+    LF b0 = 1.0f - u - v;
+    V3 a0 = vscale(b0, v0), a1 = vscale(u, v1), a2 = vscale(v, v2);
+    *p_err = v3(GAMMA(7) * (abs_l(a0.x) + abs_l(a1.x) + abs_l(a2.x)), GAMMA(7) * (abs_l(a0.y) + abs_l(a1.y) + abs_l(a2.y)),
+                GAMMA(7) * (abs_l(a0.z) + abs_l(a1.z) + abs_l(a2.z)));
+    return vadd(vadd(a0, a1), a2);
 }
 
 /* The hit point on a sphere, moved onto the surface along the radius
  * (pbrt-v4's reprojection), and a bound on its float32 error per axis. */
-INLINE float3 hit_point_sphere(float4 centre_radius, float3 p_ray, float3 *p_err) {
-    float3 rel = p_ray - centre_radius.xyz;
-    rel *= centre_radius.w / norm(rel);
-    float3 p = centre_radius.xyz + rel;
-    *p_err = GAMMA(5) * abs3(rel) + GAMMA(2) * abs3(p);
+INLINE V3 hit_point_sphere(V3 centre, LF radius, V3 p_ray, V3 *p_err) {
+    V3 rel = vsub(p_ray, centre);
+    rel = vscale(radius / sqrt_l(vdot(rel, rel)), rel);
+    V3 p = vadd(centre, rel);
+    *p_err = v3(GAMMA(5) * abs_l(rel.x) + GAMMA(2) * abs_l(p.x), GAMMA(5) * abs_l(rel.y) + GAMMA(2) * abs_l(p.y),
+                GAMMA(5) * abs_l(rel.z) + GAMMA(2) * abs_l(p.z));
     return p;
 }
 
@@ -570,16 +586,20 @@ INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, P
 #pragma OPENCL FP_CONTRACT ON /* the default again, for the files that follow */
 
 /* The scene object a hit belongs to: its instance's, or its flat primitive's; -1 on a miss. */
-INLINE int hit_object(const Geometry *g, Hit h) {
+INLINE LI hit_object(const Geometry *g, HitL h) {
 #if INSTANCED
     if (h.instance >= 0) return g->instances[h.instance].object;
 #endif
+#if LANES == 1
     return h.id >= 0 ? g->prim_object[h.id] : -1;
+#else
+    return h.id >= 0 ? gather_i(g->prim_object, max(h.id, (LI)(0))) : (LI)(-1);
+#endif
 }
 
 /* Where hit h's per-primitive records are (vertex normals, VertexAttributes): its primitive id, or for an
  * instance its mesh's records, stored once for all its instances (Instance.data_base + the mesh's own id). */
-INLINE int hit_data(const Geometry *g, Hit h) {
+INLINE LI hit_data(const Geometry *g, HitL h) {
 #if INSTANCED
     if (h.instance >= 0) return g->instances[h.instance].data_base + (h.id - g->instances[h.instance].prim_base);
 #endif
@@ -616,7 +636,7 @@ INLINE float3 instance_surface(const Geometry *g, Hit h, float3 *p_err, float3 *
     __global const PrimSlot *t = g->slots + in->slot_base + h.slot;
     float3 v0 = load3(t->v0), v1 = load3(t->v1), v2 = load3(t->v2);
     float3 err;
-    float3 p = hit_point_triangle((float4)(v0, 0.0f), (float4)(v1, 0.0f), (float4)(v2, 0.0f), h.u, h.v, &err);
+    float3 p = hit_point_triangle(v0, v1, v2, h.u, h.v, &err);
     *n_geo = normal_to_world(in, cross3(v1 - v0, v2 - v0));
     __global const float *m = &in->object_to_world[0][0];
     float3 shift = (float3)(fabs(m[3]), fabs(m[7]), fabs(m[11]));
@@ -626,24 +646,31 @@ INLINE float3 instance_surface(const Geometry *g, Hit h, float3 *p_err, float3 *
 #endif
 
 /* (Contracted like the shading code that calls it: a * b + c may become one fma here.) */
-/* Where ray (o, d) met slot h.slot: the hit point and its float32 error, the primitive's unit normal (not
+/* Where ray (o, d) met slot h.slot (in lanes, each lane's, a sphere's or a triangle's): the hit point and its float32 error, the primitive's unit normal (not
  * yet turned to face the ray: outward, or the winding's), and whether it is a sphere.  The one place the
  * shading of either integrator reads a primitive slot. */
-INLINE float3 hit_surface(const Geometry *g, Hit h, float3 o, float3 d, float3 *p_err, float3 *n_geo, bool *sphere) {
+INLINE V3 hit_surface(const Geometry *g, HitL h, V3 o, V3 d, V3 *p_err, V3 *n_geo, LI *sphere) {
 #if INSTANCED
     if (h.instance >= 0) { *sphere = false; return instance_surface(g, h, p_err, n_geo); }
 #endif
-    __global const PrimSlot *t = prim_slot(g, h.slot);
-    *sphere = t->sphere != 0;
-    if (*sphere) {
-        float4 cr = centre_radius(sphere_slot(g, h.slot));
-        float3 p = hit_point_sphere(cr, o + h.t * d, p_err);
-        *n_geo = unit(p - cr.xyz);
-        return p;
+    *sphere = FIELD_I(g->slots, h.slot, sphere) != 0;
+    V3 p = *p_err = *n_geo = v3_all(0.0f);
+    if (ANY(*sphere)) {
+        __global const SphereSlot *spheres = (__global const SphereSlot *)g->slots;
+        V3 centre = FIELD3(spheres, h.slot, centre), ray_point = v3(o.x + h.t * d.x, o.y + h.t * d.y, o.z + h.t * d.z);
+        V3 err, q = hit_point_sphere(centre, FIELD_F(spheres, h.slot, radius), ray_point, &err);
+        p = vpick(*sphere, q, p);
+        *p_err = vpick(*sphere, err, *p_err);
+        *n_geo = vpick(*sphere, vunit(vsub(q, centre)), *n_geo);
     }
-    float3 v0 = load3(t->v0), v1 = load3(t->v1), v2 = load3(t->v2);
-    *n_geo = unit(cross3(v1 - v0, v2 - v0));
-    return hit_point_triangle((float4)(v0, 0.0f), (float4)(v1, 0.0f), (float4)(v2, 0.0f), h.u, h.v, p_err);
+    if (ANY(NOT(*sphere))) {
+        V3 v0 = FIELD3(g->slots, h.slot, v0), v1 = FIELD3(g->slots, h.slot, v1), v2 = FIELD3(g->slots, h.slot, v2), err;
+        V3 q = hit_point_triangle(v0, v1, v2, h.u, h.v, &err);
+        p = vpick(*sphere, p, q);
+        *p_err = vpick(*sphere, *p_err, err);
+        *n_geo = vpick(*sphere, *n_geo, vunit(vcross(vsub(v1, v0), vsub(v2, v0))));
+    }
+    return p;
 }
 
 #endif

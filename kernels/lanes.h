@@ -9,7 +9,8 @@
  *                  test with ANY; choose with ?: on an LF or LU (or vpick, on a V3), never with a branch on a lane.
  *                  `if (ANY(m)) x = vpick(m, ..., x)` is a masked pass: at width 1, the branch the scalar code took
  *   gather         one float per lane from lane-varying indices: LANES scalar loads (OpenCL C has no gather);
- *                  FIELD_F, FIELD_I: a float or int field of a __global record array at a lane-varying index
+ *                  FIELD_F, FIELD_I, FIELD3: a float, int or float[3] field of a __global record array at a
+ *                  lane-varying index
  * Include after mathf.h and before intersect.h, where common.h is: vdot and vcross then round as its dot3 and cross3
  * (FP_CONTRACT off in a DET_MATH program, on in the Whitted one).  Headers shared by both integrators (rng.h, sobol.h)
  * are written over these types, which at width 1 are the plain ones. */
@@ -43,6 +44,7 @@ INLINE LI gather_i(__global const int *b, LI i) { return b[i]; }
 INLINE LU gather_u(__global const uint *b, LU i) { return b[i]; }
 #define FIELD_F(p, i, f) ((p)[i].f)
 #define FIELD_I(p, i, f) ((p)[i].f)
+#define FIELD3(p, i, f) vload3(0, (p)[i].f)
 #else
 #define LANES_CAT_(a, b) a##b
 #define LANES_CAT(a, b) LANES_CAT_(a, b)
@@ -77,6 +79,7 @@ INLINE LF gather(__global const float *b, LI i) { return (LF)GATHER_LANES(b, i);
 #endif
 #define FIELD_F(p, i, f) ((LF)FIELD_LANES(p, i, f))
 #define FIELD_I(p, i, f) ((LI)FIELD_LANES(p, i, f))
+#define FIELD3(p, i, f) v3(FIELD_F(p, i, f[0]), FIELD_F(p, i, f[1]), FIELD_F(p, i, f[2]))
 INLINE LI gather_i(__global const int *b, LI i) { return (LI)GATHER_LANES(b, i); }
 INLINE LU gather_u(__global const uint *b, LU i) { return (LU)GATHER_LANES(b, i); }
 #endif
@@ -109,6 +112,11 @@ INLINE V2 v2(LF x, LF y) { V2 v = {x, y}; return v; }
 INLINE V4 v4(LF x, LF y, LF z, LF w) { V4 v = {x, y, z, w}; return v; }
 #endif
 INLINE V3 v3_all(float s) { return v3((LF)(s), (LF)(s), (LF)(s)); }
+#if LANES == 1
+INLINE V3 xyz_of(V4 a) { return a.xyz; }
+#else
+INLINE V3 xyz_of(V4 a) { return v3(a.x, a.y, a.z); }
+#endif
 INLINE V3 vadd(V3 a, V3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 INLINE V3 vsub(V3 a, V3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
 INLINE V3 vmul(V3 a, V3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
@@ -117,9 +125,16 @@ INLINE V3 vdiv(V3 a, LF s) { return v3(a.x / s, a.y / s, a.z / s); }
 INLINE V3 vneg(V3 a) { return v3(-a.x, -a.y, -a.z); }
 INLINE LF vdot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 INLINE V3 vcross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
-/* correctly rounded: the same bits at every width */
-#if LANES == 1
-INLINE LF sqrt_l(LF x) { return SQRT(x); }
+/* correctly rounded: the same bits at every width (at width 1 common.h's sqrt_f: inline where clang is the compiler) */
+#if LANES == 1 && defined(__has_builtin)
+#if __has_builtin(__builtin_sqrtf)
+#define LANES_SQRT_BUILTIN 1
+#endif
+#endif
+#if LANES_SQRT_BUILTIN
+INLINE LF sqrt_l(LF x) { return __builtin_sqrtf(x); }
+#elif LANES == 1
+INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #else
 INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #endif
