@@ -88,20 +88,6 @@ INLINE float sqrt_f(float x) { return sqrt(x); } /* a compiler without clang's b
 INLINE float norm(float3 a) { return sqrt_f(dot3(a, a)); }
 INLINE float3 unit(float3 a) { return a / sqrt_f(dot3(a, a)); }
 
-/* nextafter(x, INFINITY) and nextafter(x, -INFINITY) by the bits, inline (PoCL's is a call); the
- * same for every float: NaN and the infinity it heads for unchanged, +-0 to the smallest denormal
- * of that sign, others one ulp along. */
-INLINE float next_up(float x) {
-    if (!(x < INFINITY)) return x; /* NaN, +inf */
-    if (x == 0.0f) return as_float(1);
-    return as_float(as_int(x) + (x > 0.0f ? 1 : -1));
-}
-INLINE float next_down(float x) {
-    if (!(x > -INFINITY)) return x; /* NaN, -inf */
-    if (x == 0.0f) return as_float((int)0x80000001u);
-    return as_float(as_int(x) + (x > 0.0f ? -1 : 1));
-}
-
 /* The watertight triangle test's permutation and shear of a ray (see Ray). */
 INLINE void shear_ray(Ray *r) {
     float3 d = r->d;
@@ -130,23 +116,6 @@ INLINE Ray make_ray(float3 o, float3 d) {
     Ray r = make_box_ray(o, d);
     shear_ray(&r);
     return r;
-}
-
-/* Where a ray leaving a surface point starts: p moved along the (unit) normal
- * n, on the side the new ray goes, just past p's float32 error box p_err
- * (pbrt-v4's OffsetRayOrigin), then rounded one more ulp away.  p_err comes
- * from how the hit point was computed (hit_point_triangle / _sphere), so the
- * offset is a few ulps of the coordinates: it scales with the scene and with
- * its distance from the origin, and never reaches a surface farther away than
- * that (a card 0.05 above a floor at 1e-3 scale still shadows it). */
-INLINE float3 offset_origin(float3 p, float3 p_err, float3 n) {
-    float d = abs_f(n.x) * p_err.x + abs_f(n.y) * p_err.y + abs_f(n.z) * p_err.z;
-    float3 offset = d * n;
-    float3 po = p + offset;
-    po.x = offset.x > 0.0f ? next_up(po.x) : (offset.x < 0.0f ? next_down(po.x) : po.x);
-    po.y = offset.y > 0.0f ? next_up(po.y) : (offset.y < 0.0f ? next_down(po.y) : po.y);
-    po.z = offset.z > 0.0f ? next_up(po.z) : (offset.z < 0.0f ? next_down(po.z) : po.z);
-    return po;
 }
 
 /* A region of an arena: `arena` is one buffer, `at` a region's byte offset in it (the launch records' SceneTables,

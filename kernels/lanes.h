@@ -154,6 +154,49 @@ INLINE LF clamp_l(LF x, float lo, float hi) { /* mathf.h's clamp_det: a NaN x gi
 }
 /* elements i, i + 1, i + 2 of b: a packed float3 per lane */
 INLINE V3 gather3(__global const float *b, LI i) { return v3(gather(b, i), gather(b, i + 1), gather(b, i + 2)); }
+/* a uniform 3-vector in every lane */
+INLINE V3 splat3(float3 a) { return v3((LF)(a.x), (LF)(a.y), (LF)(a.z)); }
+
+/* nextafter(x, INFINITY) and nextafter(x, -INFINITY) by the bits, inline (PoCL's is a call); the
+ * same for every float: NaN and the infinity it heads for unchanged, +-0 to the smallest denormal
+ * of that sign, others one ulp along. */
+INLINE LF next_up(LF x) {
+    LF y = AS_LF(AS_LI(x) + (x > 0.0f ? (LI)(1) : (LI)(-1)));
+    y = x == 0.0f ? AS_LF((LI)(1)) : y;
+    return x < INFINITY ? y : x; /* NaN, +inf */
+}
+INLINE LF next_down(LF x) {
+    LF y = AS_LF(AS_LI(x) + (x > 0.0f ? (LI)(-1) : (LI)(1)));
+    y = x == 0.0f ? AS_LF((LI)(0x80000001U)) : y;
+    return x > -INFINITY ? y : x; /* NaN, -inf */
+}
+
+/* Where a ray leaving a surface point starts: p moved along the (unit) normal
+ * n, on the side the new ray goes, just past p's float32 error box p_err
+ * (pbrt-v4's OffsetRayOrigin), then rounded one more ulp away.  p_err comes
+ * from how the hit point was computed (hit_point_triangle / _sphere), so the
+ * offset is a few ulps of the coordinates: it scales with the scene and with
+ * its distance from the origin, and never reaches a surface farther away than
+ * that (a card 0.05 above a floor at 1e-3 scale still shadows it). */
+INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
+    LF d = abs_l(n.x) * p_err.x + abs_l(n.y) * p_err.y + abs_l(n.z) * p_err.z;
+    V3 offset = vscale(d, n);
+    V3 po = vadd(p, offset);
+    po.x = offset.x > 0.0f ? next_up(po.x) : (offset.x < 0.0f ? next_down(po.x) : po.x);
+    po.y = offset.y > 0.0f ? next_up(po.y) : (offset.y < 0.0f ? next_down(po.y) : po.y);
+    po.z = offset.z > 0.0f ? next_up(po.z) : (offset.z < 0.0f ? next_down(po.z) : po.z);
+    return po;
+}
+
+/* lane k of a lane variable, to read or write: a scalar's own value at width 1 */
+#if LANES == 1
+#define LANE(v, k) (v)
+#else
+#define LANE(v, k) (((float *)&(v))[k])
+#define LANE_I(v, k) (((int *)&(v))[k])
+#define LANE_U(v, k) (((uint *)&(v))[k])
+#endif
+
 /* lanes set in m, counted */
 INLINE int lanes_set(LI m) {
 #if LANES == 1
@@ -166,16 +209,21 @@ INLINE int lanes_set(LI m) {
 #endif
 }
 
-/* sin and cos of x in [0, 2 pi), as mathf.h's sincos_det gives them: at width 1 that function, in lanes its Cody and
- * Waite reduction and Cephes' polynomials without its branches (the same steps for x in that range) */
+/* sin and cos of x, |x| < 256, as mathf.h's sincos_det gives them: at width 1 SINCOS (that function in a DET_MATH
+ * program), in lanes its reduction (mf_reduce: |x| reduced, the sign put back) and Cephes' polynomials without its
+ * branches */
 INLINE void sincos_l(LF x, LF *s, LF *c) {
 #if LANES == 1
     SINCOS(x, *s, *c);
 #else
-    LF n = x <= 0.785398163f ? (LF)(0.0f) : floor(x * 0.636619772f + 0.5f);
-    LF r = MF_CODY_WAITE(x, n), z = r * r;
-    LI q = CONVERT_I(n);
-    LF ps = MF_SIN_POLY(r, z), pc = MF_COS_POLY(z);
+    LF a = abs_l(x);
+    LI small = a <= 0.785398163f;
+    LF n = small ? (LF)(0.0f) : floor(a * 0.636619772f + 0.5f);
+    LF r = small ? x : MF_CODY_WAITE(a, n);
+    LI q = CONVERT_I(n), negative = NOT(small) & (x < 0.0f);
+    r = negative ? -r : r;
+    q = (negative ? -q : q) & 3;
+    LF z = r * r, ps = MF_SIN_POLY(r, z), pc = MF_COS_POLY(z);
     LI odd = (q & 1) != 0, flip_s = (q & 2) != 0, flip_c = ((q + 1) & 2) != 0;
     LF sv = odd ? pc : ps, cv = odd ? ps : pc;
     *s = flip_s ? -sv : sv;

@@ -86,48 +86,86 @@ typedef struct {
     PathParams p;
 } PathScene;
 
+/* ---------------------------------------------------------------- the path's state, in lanes (kernels/lanes.h)
+ * One path's PathState record (clrender/layout.py) at width 1, as the megakernel and the wavefront keep it; in lanes a
+ * record of lane fields under the same names (render_path_lanes).  GET3 reads a 3-vector field; PUT and PUT3 write a
+ * field in the lanes of a mask (at width 1 the mask is the branch the step took: always set). */
+#if LANES == 1
+typedef PathState PathLanes;
+#define GET3(st, f) vload3(0, (st)->f)
+#define PUT3(st, f, v, on) vstore3((on) ? (v) : GET3(st, f), 0, (st)->f)
+#else
+typedef struct {
+    V3 o, d, beta;
+    LF eta_scale;
+    V3 radiance, prev_n;
+    LF prev_pdf;
+    LI prev_delta, depth, live, ended, pixel;
+    LU sample;
+    LF off[2], weight;
+    V3 fh_normal, fh_albedo;
+    LF fh_depth;
+    LI fh_object, shadowed;
+    V3 shadow_o, shadow_d;
+    LF shadow_t_max;
+    V3 shadow_l, shadow_beta, sum;
+    LF weight_sum;
+    V3 normal_sum, albedo_sum;
+    LI first_object;
+    LF first_depth;
+    LU visits, rays;
+} PathLanes;
+#define GET3(st, f) ((st)->f)
+#define PUT3(st, f, v, on) ((st)->f = vpick((on), (v), (st)->f))
+#endif
+#define PUT(st, f, v, on) ((st)->f = (on) ? (v) : (st)->f)
+
+/* acc + a b, each component one fused multiply-add (FP_CONTRACT is on here): what `acc += a * b` made of float3s */
+INLINE V3 add_product(V3 acc, V3 a, V3 b) { return v3(acc.x + a.x * b.x, acc.y + a.y * b.y, acc.z + a.z * b.z); }
+
 /* ---------------------------------------------------------------- lights */
-INLINE float power_heuristic(float a, float b) {
-    float a2 = a * a, b2 = b * b;
-    return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+INLINE LF power_heuristic(LF a, LF b) {
+    LF a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0.0f ? a2 / (a2 + b2) : (LF)(0.0f);
 }
 
-/* NEE's shadow ray towards p + wi * dist (dist INF_T: to infinity), left in st for the schedule to trace (shadow_step):
- * 1, the factor the contribution takes when nothing blocks the ray (shadow_step adds it only then). */
-INLINE float defer_shadow(PathState *st, const Surface *f, float3 wi, float dist) {
-    float3 origin = offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo);
-    vstore3(origin, 0, st->shadow_o);
-    vstore3(wi, 0, st->shadow_d);
-    st->shadow_t_max = dist == INF_T ? INF_T : norm(f->p + wi * dist - origin) * SHADOW_T_SHRINK;
-    st->shadowed = 1;
-    st->rays += 1;
+/* NEE's shadow ray towards p + wi * dist (dist INF_T: to infinity), left in st's lanes `on` for the schedule to trace
+ * (shadow_step): 1, the factor the contribution takes when nothing blocks the ray (shadow_step adds it only then). */
+INLINE LF defer_shadow(PathLanes *st, const Surface *f, V3 wi, LF dist, LI on) {
+    V3 origin = offset_origin(f->p, f->p_err, vpick(vdot(wi, f->n_geo) >= 0.0f, f->n_geo, vneg(f->n_geo)));
+    V3 to = v3(f->p.x + wi.x * dist - origin.x, f->p.y + wi.y * dist - origin.y, f->p.z + wi.z * dist - origin.z);
+    PUT3(st, shadow_o, origin, on);
+    PUT3(st, shadow_d, wi, on);
+    PUT(st, shadow_t_max, dist == INF_T ? (LF)(INF_T) : sqrt_l(vdot(to, to)) * SHADOW_T_SHRINK, on);
+    PUT(st, shadowed, ALL_LANES, on);
+    PUT(st, rays, st->rays + 1U, on);
     return 1.0f;
 }
 
-/* Whether st's shadow ray reaches its end: nothing opaque (with ALPHA_TEST: nothing kept, its draws from rng) in
- * between. */
-INLINE bool shadow_unblocked(const PathScene *s, PathState *st, Rng *rng) {
-    Ray sr = make_ray(vload3(0, st->shadow_o), vload3(0, st->shadow_d));
+/* Whether a shadow ray from o along d reaches t_max: nothing opaque (with ALPHA_TEST: nothing kept, its draws from rng) in
+ * between.  One ray: in lanes, each lane's in turn. */
+INLINE bool ray_unblocked(const PathScene *s, float3 o, float3 d, float t_max, Rng *rng, uint *visits) {
+    Ray sr = make_ray(o, d);
 #if ALPHA_TEST
     float opacity;
-    return seen_hit(&s->geo, s->tex, sr, 0.0f, st->shadow_t_max, false, rng, &opacity, &st->visits).id < 0;
+    return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0;
 #else
-    return transmittance(&s->geo, sr, 0.0f, st->shadow_t_max, opaque_pass(), &st->visits) > 0.0f;
+    return transmittance(&s->geo, sr, 0.0f, t_max, opaque_pass(), visits) > 0.0f;
 #endif
 }
 
-/* An area light's parallelogram along the ray: t in (0, t_max) or INF_T. */
-INLINE float hit_parallelogram(Ray r, float3 corner, float3 a, float3 b, float t_max) {
-    float3 n = cross3(a, b);
-    float denom = dot3(n, r.d);
-    if (denom == 0.0f) return INF_T;
-    float t = dot3(n, corner - r.o) / denom;
-    if (!(t > 0.0f && t < t_max)) return INF_T;
-    float3 q = r.o + t * r.d - corner;
-    float aa = dot3(a, a), bb = dot3(b, b), ab = dot3(a, b), qa = dot3(q, a), qb = dot3(q, b);
+/* An area light's parallelogram along the ray (o, d): t in (0, t_max) or INF_T. */
+INLINE LF hit_parallelogram(V3 o, V3 d, float3 corner, float3 a, float3 b, LF t_max) {
+    V3 n = splat3(cross3(a, b));
+    LF denom = vdot(n, d);
+    LF t = vdot(n, vsub(splat3(corner), o)) / denom;
+    V3 q = v3(o.x + t * d.x - corner.x, o.y + t * d.y - corner.y, o.z + t * d.z - corner.z);
+    float aa = dot3(a, a), bb = dot3(b, b), ab = dot3(a, b);
+    LF qa = vdot(q, splat3(a)), qb = vdot(q, splat3(b));
     float det = aa * bb - ab * ab;
-    float u = (qa * bb - qb * ab) / det, v = (qb * aa - qa * ab) / det;
-    return (u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f) ? t : INF_T;
+    LF u = (qa * bb - qb * ab) / det, v = (qb * aa - qa * ab) / det;
+    LI inside = (denom != 0.0f) & (t > 0.0f) & (t < t_max) & (u >= 0.0f) & (u <= 1.0f) & (v >= 0.0f) & (v <= 1.0f);
+    return inside ? t : (LF)(INF_T);
 }
 
 /* NEE's light choices: the scene's lights 0 .. n_lights - 1, the emissive triangles after them, the environment, and
@@ -136,154 +174,180 @@ INLINE int env_choice(const PathScene *s) { return s->p.frame.n_lights + s->p.n_
 INLINE int near_choice(const PathScene *s) { return env_choice(s) + 1; }
 
 /* The choice of u's place in the lights' running sum of power (light_choice.h). */
-INLINE int pick_light(const PathScene *s, float u) { return pick_light_of(s->choices, near_choice(s) + 1, u); }
+INLINE LI pick_light(const PathScene *s, LF u) { return pick_light_of(s->choices, near_choice(s) + 1, u); }
 
 /* Scene light li's unoccluded irradiance scale at x, the weight of the near choice: I / d^2 (a spot's times its profile
  * towards x), a directional light's I, pi I for falloff "none"; 0 for a physical area light (not in the near choice:
  * a BSDF ray that meets it is MIS-weighted by a probability that must not depend on where the ray left). */
-INLINE float light_nearness(const PathScene *s, int li, float3 x) {
-    __global const Light *L = &s->lights[li];
-    float3 c = vload3(0, L->colour);
-    float strength = L->intensity * (c.x + c.y + c.z) * (1.0f / 3.0f);
-    bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
-    if (L->type == LIGHT_AREA) return physical ? 0.0f : M_PI_F * strength;
-    if (L->type == LIGHT_DIRECTIONAL) return physical ? strength : M_PI_F * strength;
-    if (!physical && L->type == LIGHT_POINT) return M_PI_F * strength;
-    float3 d = vload3(0, L->position) - x;
-    float d2 = dot3(d, d);
-    if (!(d2 > 0.0f)) return 0.0f;
-    if (L->type == LIGHT_SPOT) strength *= spot_profile(L, -unit(d));
-    return strength / d2;
+INLINE LF light_nearness(const PathScene *s, LI li, V3 x) {
+    __global const Light *L = s->lights;
+    V3 c = FIELD3(L, li, colour);
+    LF strength = FIELD_F(L, li, intensity) * (c.x + c.y + c.z) * (1.0f / 3.0f);
+    LI physical = FIELD_I(L, li, falloff) == LIGHT_FALLOFF_INVERSE_SQUARE, type = FIELD_I(L, li, type);
+    V3 d = vsub(FIELD3(L, li, position), x);
+    LF d2 = vdot(d, d);
+#if LANES == 1
+    if (type == LIGHT_SPOT && d2 > 0.0f) strength *= spot_profile(L + li, -unit(d));
+#endif
+    LF near = d2 > 0.0f ? strength / d2 : (LF)(0.0f);
+    near = NOT(physical) & (type == LIGHT_POINT) ? M_PI_F * strength : near;
+    near = type == LIGHT_DIRECTIONAL ? (physical ? strength : M_PI_F * strength) : near;
+    return type == LIGHT_AREA ? (physical ? (LF)(0.0f) : M_PI_F * strength) : near;
 }
 
 /* The sum of light_nearness over the scene lights at x (0: the near choice finds none there). */
-INLINE float nearness_total(const PathScene *s, float3 x) {
-    float total = 0.0f;
+INLINE LF nearness_total(const PathScene *s, V3 x) {
+    LF total = 0.0f;
     for (int li = 0; li < s->p.frame.n_lights; ++li) total += light_nearness(s, li, x);
     return total;
 }
 
 /* The near choice: the scene light of u's place in the running sum of nearness at x (total: nearness_total > 0). */
-INLINE int pick_near(const PathScene *s, float3 x, float total, float u) {
-    float target = u * total, sum = 0.0f;
-    int last = 0;
+INLINE LI pick_near(const PathScene *s, V3 x, LF total, LF u) {
+    LF target = u * total, sum = 0.0f;
+    LI last = 0, found = 0, pick = 0;
     for (int li = 0; li < s->p.frame.n_lights; ++li) {
-        float w = light_nearness(s, li, x);
-        if (!(w > 0.0f)) continue;
-        sum += w;
-        last = li;
-        if (target < sum) return li;
+        LF w = light_nearness(s, li, x);
+        LI counted = NOT(found) & (w > 0.0f);
+        sum = counted ? sum + w : sum;
+        last = counted ? (LI)(li) : last;
+        LI here = counted & (target < sum);
+        pick = here ? (LI)(li) : pick;
+        found |= here;
+        if (ALL(found)) break;
     }
-    return last; /* u * total rounded up past the float32 sum */
+    return found ? pick : last; /* u * total rounded up past the float32 sum: the last */
 }
 
 /* Emitted radiance of primitive `prim` at barycentrics (u, v) towards a ray that met its front (emission is
  * one-sided): kernels/surface.h's emission_of its material there. */
-INLINE float3 emission_at(const PathScene *s, int prim, float u, float v) {
-    int mi = s->geo.objects[s->geo.prim_object[prim]].material;
-    float2 uv[2] = {(float2)(0.0f), (float2)(0.0f)};
-    if (material_textured(s->tex, mi)) surface_uvs(s->tex, prim, u, v, uv);
+INLINE V3 emission_at(const PathScene *s, LI prim, LF u, LF v) {
+    LI mi = FIELD_I(s->geo.objects, gather_i(s->geo.prim_object, prim), material);
+    V2 uv[2] = {v2(0.0f, 0.0f), v2(0.0f, 0.0f)};
+    LI textured = material_textured(s->tex, mi);
+    if (ANY(textured)) {
+        V2 at[2];
+        surface_uvs(s->tex, prim, u, v, at);
+        uv[0] = pick2(textured, at[0], uv[0]);
+        uv[1] = pick2(textured, at[1], uv[1]);
+    }
     return emission_of(s->tex, mi, uv);
 }
 
 /* The solid-angle density with which NEE picks emitter e's point seen at distance `dist`, cos_l
  * the cosine at the emitter: the emitter's choice probability times its area density. */
-INLINE float emitter_pdf(const PathScene *s, int e, float dist, float cos_l) {
-    __global const Emitter *em = &s->emitters[e];
-    float chosen = s->choices[s->p.frame.n_lights + e].prob;
-    return cos_l > 0.0f ? chosen * dist * dist / (em->area * cos_l) : 0.0f;
+INLINE LF emitter_pdf(const PathScene *s, LI e, LF dist, LF cos_l) {
+    LF chosen = FIELD_F(s->choices, s->p.frame.n_lights + e, prob);
+    return cos_l > 0.0f ? chosen * dist * dist / (FIELD_F(s->emitters, e, area) * cos_l) : (LF)(0.0f);
 }
 
 /* One light's sample for NEE, before the BSDF: each kind of light fills one (light_sample, emitter_sample,
  * environment_sample) and nee_estimate evaluates the BSDF for all of them at one place, so that code run in SIMD lanes
- * (kernels/wavefront.cl) holds one copy of the lobes' eval and pdf, not one per kind of light (docs/lanes.md). */
+ * holds one copy of the lobes' eval and pdf, not one per kind of light (docs/lanes.md). */
 typedef struct {
-    float3 wi, le;   /* towards the light; what arrives along wi (radiance, or a delta light's intensity) */
-    float dist;      /* to the light's point (INF_T: from infinity) */
-    float light_pdf; /* its solid-angle density, times the light's choice (mis or divide) */
-    float scale;     /* without `divide`: the estimate's factor in place of 1 / light_pdf */
-    bool found;      /* false: this sample adds nothing (and traces no shadow ray) */
-    bool mis;        /* weight against the lobe's own sampling of wi by the power heuristic */
-    bool divide;     /* the estimate is f le (mis / light_pdf), else f le (scale mis) */
-    bool check;      /* no shadow ray where the lobe's value is 0 */
+    V3 wi, le;       /* towards the light; what arrives along wi (radiance, or a delta light's intensity) */
+    LF dist;         /* to the light's point (INF_T: from infinity) */
+    LF light_pdf;    /* its solid-angle density, times the light's choice (mis or divide) */
+    LF scale;        /* without `divide`: the estimate's factor in place of 1 / light_pdf */
+    LI found;        /* false: this sample adds nothing (and traces no shadow ray) */
+    LI mis;          /* weight against the lobe's own sampling of wi by the power heuristic */
+    LI divide;       /* the estimate is f le (mis / light_pdf), else f le (scale mis) */
+    LI check;        /* no shadow ray where the lobe's value is 0 */
 } LightSample;
 
 INLINE LightSample no_light(void) {
     LightSample ls;
-    ls.wi = ls.le = (float3)(0.0f);
+    ls.wi = ls.le = v3_all(0.0f);
     ls.dist = INF_T;
     ls.light_pdf = ls.scale = 0.0f;
-    ls.found = ls.mis = ls.divide = false;
-    ls.check = true;
+    ls.found = ls.mis = ls.divide = 0;
+    ls.check = ALL_LANES;
+    return ls;
+}
+
+/* a in the lanes of m, b in the others */
+INLINE LightSample keep_light(LI m, LightSample a, LightSample b) {
+    LightSample ls;
+    ls.wi = vpick(m, a.wi, b.wi);
+    ls.le = vpick(m, a.le, b.le);
+    ls.dist = m ? a.dist : b.dist;
+    ls.light_pdf = m ? a.light_pdf : b.light_pdf;
+    ls.scale = m ? a.scale : b.scale;
+    ls.found = m ? a.found : b.found;
+    ls.mis = m ? a.mis : b.mis;
+    ls.divide = m ? a.divide : b.divide;
+    ls.check = m ? a.check : b.check;
     return ls;
 }
 
 /* A sample of le along wi drawn with density light_pdf, dist away, MIS-weighted against the lobe's sampling. */
-INLINE LightSample weighted_light(float3 wi, float3 le, float light_pdf, float dist) {
+INLINE LightSample weighted_light(V3 wi, V3 le, LF light_pdf, LF dist) {
     LightSample ls = no_light();
     ls.wi = wi; ls.le = le; ls.light_pdf = light_pdf; ls.dist = dist;
-    ls.found = ls.mis = ls.divide = true;
+    ls.found = ls.mis = ls.divide = ALL_LANES;
     return ls;
 }
 
 /* NEE to scene light li, chosen with probability `chosen` (f cos Li / pdf, MIS-weighted where a BSDF ray could also
  * find it), u the light's 2-D sample. */
-INLINE LightSample light_sample(const PathScene *s, int li, float chosen, float2 u, const Surface *f) {
-    __global const Light *L = &s->lights[li];
+INLINE LightSample light_sample(const PathScene *s, LI li, LF chosen, V2 u, const Surface *f) {
+    __global const Light *L = s->lights;
+    LI type = FIELD_I(L, li, type), physical = FIELD_I(L, li, falloff) == LIGHT_FALLOFF_INVERSE_SQUARE;
+    LI area = type == LIGHT_AREA, directional = type == LIGHT_DIRECTIONAL;
     LightSample ls = no_light();
-    ls.le = L->intensity * vload3(0, L->colour);
-    bool physical = L->falloff == LIGHT_FALLOFF_INVERSE_SQUARE;
-    float scale = physical ? 1.0f : M_PI_F;
-    if (L->type == LIGHT_DIRECTIONAL) {
-        ls.wi = -unit(vload3(0, L->direction));
-    } else {
-        float3 y = vload3(0, L->position);
-        float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
-        if (L->type == LIGHT_AREA) y += u.x * ea + u.y * eb;
-        float3 d = y - f->p;
-        float dist = norm(d);
-        if (!(dist > 0.0f)) return ls;
-        ls.wi = d / dist;
-        ls.dist = dist;
-        if (physical && L->type == LIGHT_POINT) scale = 1.0f / (dist * dist);
-        if (L->type == LIGHT_SPOT) scale = spot_profile(L, -ls.wi) / (dist * dist); /* always physical */
-        if (physical && L->type == LIGHT_AREA) { /* a two-sided emitter of radiance I c, sampled by area */
-            float3 nl = cross3(ea, eb);
-            float area = norm(nl);
-            float cos_l = abs_f(dot3(nl, ls.wi)) / area;
-            float light_pdf = chosen * dist * dist / (area * cos_l);
-            if (!(light_pdf < INFINITY) || !AREA_NEE) return ls;
-            ls.light_pdf = light_pdf;
-            ls.scale = 1.0f / light_pdf; /* light_pdf holds the choice */
-            ls.mis = AREA_BSDF;
-            ls.found = true;
-            return ls;
-        }
-    }
+    ls.le = vscale(FIELD_F(L, li, intensity), FIELD3(L, li, colour));
+    V3 y = FIELD3(L, li, position), ea = FIELD3(L, li, edge_a), eb = FIELD3(L, li, edge_b);
+    y = vpick(area, v3(y.x + (u.x * ea.x + u.y * eb.x), y.y + (u.x * ea.y + u.y * eb.y), y.z + (u.x * ea.z + u.y * eb.z)), y);
+    V3 d = vsub(y, f->p);
+    LF dist = sqrt_l(vdot(d, d));
+    LI reached = directional | (dist > 0.0f);
+    ls.wi = vpick(directional, vneg(vunit(FIELD3(L, li, direction))), vdiv(d, dist));
+    ls.dist = directional ? (LF)(INF_T) : dist;
+    LF scale = physical ? (LF)(1.0f) : (LF)(M_PI_F);
+    scale = physical & (type == LIGHT_POINT) ? 1.0f / (dist * dist) : scale;
+#if LANES == 1
+    if (type == LIGHT_SPOT) scale = spot_profile(L + li, -ls.wi) / (dist * dist); /* always physical */
+#endif
     ls.scale = scale / chosen;
-    ls.found = true;
+    ls.found = reached;
+    LI physical_area = physical & area;
+    if (ANY(physical_area)) { /* a two-sided emitter of radiance I c, sampled by area */
+        V3 nl = vcross(ea, eb);
+        LF size = sqrt_l(vdot(nl, nl));
+        LF cos_l = abs_l(vdot(nl, ls.wi)) / size;
+        LF light_pdf = chosen * dist * dist / (size * cos_l);
+        LI sampled = physical_area & (light_pdf < INFINITY) & (AREA_NEE ? ALL_LANES : 0);
+        ls.light_pdf = physical_area ? light_pdf : ls.light_pdf;
+        ls.scale = physical_area ? 1.0f / light_pdf : ls.scale; /* light_pdf holds the choice */
+        ls.mis = physical_area ? (AREA_BSDF ? ALL_LANES : 0) : ls.mis;
+        ls.found = physical_area ? reached & sampled : ls.found;
+    }
     return ls;
 }
 
 /* NEE to one point (u: uniform on the triangle) of emissive triangle e (emitter_pdf holds its choice probability). */
-INLINE LightSample emitter_sample(const PathScene *s, int e, float2 u, const Surface *f) {
-    __global const Emitter *em = &s->emitters[e];
-    float3 v0 = vload3(0, em->v0), v1 = vload3(0, em->v1), v2 = vload3(0, em->v2);
-    float su = sqrt(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
-    float3 y = (1.0f - su) * v0 + su * (1.0f - u.y) * v1 + su * u.y * v2;
-    float3 d = y - f->p;
-    float dist = norm(d);
-    if (!(dist > 0.0f)) return no_light();
-    float3 wi = d / dist;
-    float cos_l = -dot3(unit(cross3(v1 - v0, v2 - v0)), wi);
-    float light_pdf = emitter_pdf(s, e, dist, cos_l);
-    if (!(light_pdf > 0.0f && light_pdf < INFINITY)) return no_light();
-    float3 le = emission_at(s, em->prim, su * (1.0f - u.y), su * u.y);
-    return weighted_light(wi, le, light_pdf, dist);
+INLINE LightSample emitter_sample(const PathScene *s, LI e, V2 u, const Surface *f) {
+    __global const Emitter *em = s->emitters;
+    V3 v0 = FIELD3(em, e, v0), v1 = FIELD3(em, e, v1), v2 = FIELD3(em, e, v2);
+    LF su = sqrt_l(u.x); /* uniform on the triangle: (1 - su, su (1 - v), su v) */
+    LF a = su * (1.0f - u.y), b = su * u.y;
+    V3 y = v3((1.0f - su) * v0.x + su * (1.0f - u.y) * v1.x + su * u.y * v2.x, (1.0f - su) * v0.y + su * (1.0f - u.y) * v1.y + su * u.y * v2.y,
+              (1.0f - su) * v0.z + su * (1.0f - u.y) * v1.z + su * u.y * v2.z);
+    V3 d = vsub(y, f->p);
+    LF dist = sqrt_l(vdot(d, d));
+    V3 wi = vdiv(d, dist);
+    LF cos_l = -vdot(vunit(vcross(vsub(v1, v0), vsub(v2, v0))), wi);
+    LF light_pdf = emitter_pdf(s, e, dist, cos_l);
+    LI sampled = (dist > 0.0f) & (light_pdf > 0.0f) & (light_pdf < INFINITY);
+    if (!ANY(sampled)) return no_light();
+    V3 le = emission_at(s, FIELD_I(em, e, prim), a, b);
+    return keep_light(sampled, weighted_light(wi, le, light_pdf, dist), no_light());
 }
 
-/* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h). */
-INLINE LightSample env_map_sample(const PathScene *s, float chosen, float2 u) {
+/* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h;
+ * one path a work-item: in lanes the host keeps maps to the megakernel). */
+INLINE LightSample env_map_sample(const PathScene *s, LF chosen, V2 u) {
+#if LANES == 1
     if (!ENV_NEE || !s->env.m.sampled) return no_light();
     float3 le;
     float env_pdf;
@@ -293,122 +357,147 @@ INLINE LightSample env_map_sample(const PathScene *s, float chosen, float2 u) {
     LightSample ls = weighted_light(wi, le, env_pdf, INF_T);
     ls.mis = ls.check = ENV_BSDF; /* !ENV_BSDF: f le / env_pdf, a shadow ray whatever f is */
     return ls;
+#else
+    return no_light();
+#endif
 }
 
 /* NEE to the environment, chosen with probability `chosen`: the map's own sampling, or for the constant
  * environment a cosine-weighted direction about the shading normal. */
-INLINE LightSample environment_sample(const PathScene *s, float chosen, float2 u, const Surface *f) {
+INLINE LightSample environment_sample(const PathScene *s, LF chosen, V2 u, const Surface *f) {
     if (s->env.m.width > 0) return env_map_sample(s, chosen, u);
     float3 env = vload3(0, s->p.environment);
     if (!(max3(env) > 0.0f)) return no_light();
     Frame nf = make_frame(f->n_shade);
-    float3 wi = to_world(nf, cosine_hemisphere(u));
-    float env_pdf = chosen * dot3(wi, f->n_shade) * M_1_PI_F;
-    if (!(env_pdf > 0.0f)) return no_light();
-    return weighted_light(wi, env, env_pdf, INF_T);
+    V3 wi = to_world(nf, cosine_hemisphere(u));
+    LF env_pdf = chosen * vdot(wi, f->n_shade) * M_1_PI_F;
+    return keep_light(env_pdf > 0.0f, weighted_light(wi, splat3(env), env_pdf, INF_T), no_light());
 }
 
-/* The NEE estimate of light sample ls at surface f for component c (wo local): f cos Le times 1 / light_pdf or the
- * light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
-INLINE float3 nee_estimate(PathState *st, const Surface *f, Component c, Frame fr, V3 wo, LightSample ls) {
-    if (!ls.found) return (float3)(0.0f);
+/* The NEE estimate of light sample ls at surface f for component c (wo local), in the lanes `on`: f cos Le times
+ * 1 / light_pdf or the light's scale, MIS-weighted by the power heuristic where ls.mis, its shadow ray left in st. */
+INLINE V3 nee_estimate(PathLanes *st, const Surface *f, Component c, Frame fr, V3 wo, LightSample ls, LI on) {
+    on &= ls.found;
+    if (!ANY(on)) return v3_all(0.0f);
     V3 wl = to_local(fr, ls.wi);
-    float3 fc = component_eval(c, wo, wl);
-    if (ls.check && !(max3(fc) > 0.0f)) return (float3)(0.0f);
-    float mis = ls.mis ? power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)) : 1.0f;
-    float w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
-    return fc * ls.le * (w * defer_shadow(st, f, ls.wi, ls.dist));
+    V3 fc = component_eval(c, wo, wl);
+    on &= NOT(ls.check & NOT(max3_l(fc) > 0.0f));
+    if (!ANY(on)) return v3_all(0.0f);
+    LF mis = 1.0f;
+    WHERE(ls.mis, mis, power_heuristic(ls.light_pdf, component_pdf(c, wo, wl)));
+    LF w = ls.divide ? mis / ls.light_pdf : ls.scale * mis;
+    return vpick(on, vscale(w * defer_shadow(st, f, ls.wi, ls.dist, on), vmul(fc, ls.le)), v3_all(0.0f));
 }
 
-/* Next-event estimation at a vertex whose component is not a delta lobe: one light picked by power, one shadow ray.
- * Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D sample. */
-INLINE float3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, V3 wo, Rng *rng,
-                              PathState *st) {
+/* Next-event estimation, in the lanes `on` (vertices whose component is not a delta lobe): one light picked by power,
+ * one shadow ray.  Three random numbers at every such vertex, whichever light is picked: the pick, then the light's 2-D
+ * sample.  In lanes each kind of light is a masked pass (the lights a lane's pick does not reach read record 0). */
+INLINE V3 direct_lighting(const PathScene *s, const Surface *f, Component c, Frame fr, V3 wo, Rng *rng, PathLanes *st, LI on) {
     rng_slot(rng, SLOT_LIGHT); /* the pick, then the light's 2-D sample as one pair */
-    float pick = rng_next(rng);
-    float2 u = rng_next2(rng);
-    int k = pick_light(s, pick), n_lights = s->p.frame.n_lights;
-    float chosen = s->choices[k].prob, near = s->choices[near_choice(s)].prob;
-    if (!(chosen > 0.0f)) return (float3)(0.0f);
-    LightSample ls;
-    if (k < n_lights || k == near_choice(s)) { /* a scene light: by power, or by nearness; its probability is the sum */
-        float total = near > 0.0f ? nearness_total(s, f->p) : 0.0f;
-        if (k == near_choice(s)) {
-            if (!(total > 0.0f)) return (float3)(0.0f); /* no light near: this share of the picks adds nothing */
-            float below = s->choices[k].cdf - chosen;
-            k = pick_near(s, f->p, total, min_f((pick - below) / chosen, 1.0f));
+    LF pick = rng_next(rng);
+    V2 u = rng_next2(rng);
+    LI k = pick_light(s, pick);
+    int n_lights = s->p.frame.n_lights;
+    LF chosen = FIELD_F(s->choices, k, prob);
+    float near = s->choices[near_choice(s)].prob;
+    on &= chosen > 0.0f;
+    LI scene_light = on & ((k < n_lights) | (k == near_choice(s)));
+    LightSample ls = no_light();
+    if (ANY(scene_light)) { /* a scene light: by power, or by nearness; its probability is the sum */
+        LF total = near > 0.0f ? nearness_total(s, f->p) : (LF)(0.0f);
+        LI by_nearness = scene_light & (k == near_choice(s));
+        scene_light &= NOT(by_nearness & NOT(total > 0.0f)); /* no light near: this share of the picks adds nothing */
+        by_nearness &= scene_light;
+        if (ANY(by_nearness)) {
+            LF below = FIELD_F(s->choices, k, cdf) - chosen;
+            k = by_nearness ? pick_near(s, f->p, total, min_l((pick - below) / chosen, 1.0f)) : k;
         }
-        chosen = s->choices[k].prob + (total > 0.0f ? near * light_nearness(s, k, f->p) / total : 0.0f);
-        ls = light_sample(s, k, chosen, u, f);
-    } else {
-        ls = k < env_choice(s) ? emitter_sample(s, k - n_lights, u, f) : environment_sample(s, chosen, u, f);
+        LI li = scene_light ? k : (LI)(0);
+        LF light_chosen = FIELD_F(s->choices, li, prob) + (total > 0.0f ? near * light_nearness(s, li, f->p) / total : (LF)(0.0f));
+        ls = keep_light(scene_light, light_sample(s, li, light_chosen, u, f), ls);
     }
-    return nee_estimate(st, f, c, fr, wo, ls); /* one call site: one copy of the lobes' eval and pdf */
+    LI emitter = on & NOT(scene_light) & (k >= n_lights) & (k < env_choice(s));
+    if (ANY(emitter)) ls = keep_light(emitter, emitter_sample(s, emitter ? k - n_lights : (LI)(0), u, f), ls);
+    LI environment = on & (k == env_choice(s));
+    if (ANY(environment)) ls = keep_light(environment, environment_sample(s, chosen, u, f), ls);
+    return nee_estimate(st, f, c, fr, wo, ls, scene_light | emitter | environment); /* one call site: one copy of the lobes */
 }
 
-/* What a BSDF-sampled ray (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area
- * lights before distance t_max: their radiance, MIS-weighted against their NEE. */
-INLINE float3 area_lights_on_ray(const PathScene *s, Ray r, float t_max, bool prev_delta, float prev_pdf) {
-    float3 sum = (float3)(0.0f);
+/* What a BSDF-sampled ray (o, d) (or the camera ray: prev_pdf 0, prev_delta) finds of the physical area lights before
+ * distance t_max: their radiance, MIS-weighted against their NEE. */
+INLINE V3 area_lights_on_ray(const PathScene *s, V3 o, V3 d, LF t_max, LI prev_delta, LF prev_pdf) {
+    V3 sum = v3_all(0.0f);
     for (int li = 0; li < s->p.frame.n_lights; ++li) {
         __global const Light *L = &s->lights[li];
         if (L->type != LIGHT_AREA || L->falloff != LIGHT_FALLOFF_INVERSE_SQUARE) continue;
         float3 ea = vload3(0, L->edge_a), eb = vload3(0, L->edge_b);
-        float t = hit_parallelogram(r, vload3(0, L->position), ea, eb, t_max);
-        if (t == INF_T || (!AREA_BSDF && !prev_delta)) continue;
+        LF t = hit_parallelogram(o, d, vload3(0, L->position), ea, eb, t_max);
+        LI met = (t != INF_T) & (AREA_BSDF ? ALL_LANES : prev_delta);
+        if (!ANY(met)) continue;
         float3 nl = cross3(ea, eb); /* |nl| is the area; NEE's density: the choice times dist^2 / (A cos) */
-        float light_pdf = s->choices[li].prob * t * t / abs_f(dot3(nl, r.d));
-        float mis = prev_delta || !AREA_NEE ? 1.0f : power_heuristic(prev_pdf, light_pdf);
-        sum += mis * L->intensity * vload3(0, L->colour);
+        LF light_pdf = s->choices[li].prob * t * t / abs_l(vdot(splat3(nl), d));
+        LF mis = prev_delta | (AREA_NEE ? 0 : ALL_LANES) ? (LF)(1.0f) : power_heuristic(prev_pdf, light_pdf);
+        float3 c = vload3(0, L->colour);
+        float i = L->intensity;
+        sum = vpick(met, v3(sum.x + mis * i * c.x, sum.y + mis * i * c.y, sum.z + mis * i * c.z), sum);
     }
     return sum;
 }
 
-/* Emission met by a ray at surface f (hit h at distance h.t from the previous vertex): the material's
+/* Emission met by a ray along d at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
-INLINE float3 emission_met(const PathScene *s, const Surface *f, const MaterialPoint *m, Hit h, float3 d, bool prev_delta,
-                          float prev_pdf) {
-    float3 le = m->emission;
-    if (!f->front || !(max3(le) > 0.0f)) return (float3)(0.0f);
-    int e = s->emitter_of_prim[h.id];
-    if (prev_delta || e < 0) return le; /* spheres emit but are not sampled: only BSDF rays find them */
-    return le * power_heuristic(prev_pdf, emitter_pdf(s, e, h.t, dot3(f->n_geo, -d)));
+INLINE V3 emission_met(const PathScene *s, const Surface *f, const MaterialPoint *m, HitL h, V3 d, LI prev_delta, LF prev_pdf) {
+    V3 le = m->emission;
+    LI shows = f->front & (max3_l(le) > 0.0f);
+    if (!ANY(shows)) return v3_all(0.0f);
+    LI e = gather_i(s->emitter_of_prim, h.id);
+    LI weighed = shows & NOT(prev_delta | (e < 0)); /* spheres emit but are not sampled: only BSDF rays find them */
+    LF w = 1.0f;
+    WHERE(weighed, w, power_heuristic(prev_pdf, emitter_pdf(s, max(e, (LI)(0)), h.t, vdot(f->n_geo, vneg(d)))));
+    return vpick(shows, vpick(weighed, vscale(w, le), le), v3_all(0.0f));
 }
 
-/* What a ray that meets nothing brings back: the environment's radiance towards -d, and in *mis its weight
+/* What a ray along d that meets nothing brings back: the environment's radiance towards -d, and in *mis its weight
  * against the environment's NEE when the previous lobe was not a delta (prev_n: the previous vertex's shading normal;
  * NEE's density: the environment's choice probability times its own). */
-INLINE float3 environment_met(const PathScene *s, float3 d, float3 prev_n, bool prev_delta, float prev_pdf, float *mis) {
-    float env_pdf;
-    float3 le;
+INLINE V3 environment_met(const PathScene *s, V3 d, V3 prev_n, LI prev_delta, LF prev_pdf, LF *mis) {
+    LF env_pdf;
+    V3 le;
+#if LANES == 1
     if (s->env.m.width > 0) {
         le = env_eval(&s->env, d, &env_pdf);
         if (!ENV_NEE) env_pdf = 0.0f;
         if (!ENV_BSDF && !prev_delta) le = (float3)(0.0f);
-    } else {
-        env_pdf = max_f(dot3(prev_n, d), 0.0f) * M_1_PI_F;
-        le = vload3(0, s->p.environment);
+    } else
+#endif
+    {
+        env_pdf = max_l(vdot(prev_n, d), 0.0f) * M_1_PI_F;
+        le = splat3(vload3(0, s->p.environment));
     }
     env_pdf *= s->choices[env_choice(s)].prob;
-    *mis = prev_delta ? 1.0f : power_heuristic(prev_pdf, env_pdf);
+    *mis = prev_delta ? (LF)(1.0f) : power_heuristic(prev_pdf, env_pdf);
     return le;
 }
 
 /* What a path's first hit tells the AOVs: the unit shading normal, the distance, the albedo (the base colour or
  * kd, times glTF's occlusion) and the object; zeros and -1 on a miss. */
 typedef struct {
-    float3 normal, albedo;
-    float depth;
-    int object;
+    V3 normal, albedo;
+    LF depth;
+    LI object;
 } FirstHit;
 
-INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const MaterialPoint *m, Hit h) {
-    FirstHit fh = {(float3)(0.0f), (float3)(0.0f), 0.0f, -1};
-    if (h.id < 0) return fh;
+INLINE FirstHit no_first_hit(void) {
+    FirstHit fh = {v3_all(0.0f), v3_all(0.0f), 0.0f, -1};
+    return fh;
+}
+
+INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const MaterialPoint *m, HitL h) {
+    FirstHit fh;
     fh.object = hit_object(&s->geo, h);
     fh.normal = f->n_shade;
     fh.depth = h.t;
-    fh.albedo = (m->model == MATERIAL_MODEL_GLTF ? m->base_color : m->kd) * m->occlusion;
+    fh.albedo = vscale(m->occlusion, vpick(m->model == MATERIAL_MODEL_GLTF, m->base_color, m->kd));
     return fh;
 }
 
@@ -416,16 +505,14 @@ INLINE FirstHit first_hit_of(const PathScene *s, const Surface *f, const Materia
  * A path in flight is a PathState record (clrender/layout.py).  Its steps, which render_path calls in a loop and
  * kernels/wavefront.cl as one kernel each: start_sample (the camera ray), extend_step (the closest hit: traversal),
  * shade_step (emission, NEE's shadow ray left in the record, the BSDF's next ray; no traversal), shadow_step (what the
- * shadow ray found) and finish_sample (the pixel's sums).  The rng is the path's, kept beside the record. */
-
-/* The path's ray as the walks take it. */
-INLINE Ray state_ray(const PathState *st) { return make_ray(vload3(0, st->o), vload3(0, st->d)); }
+ * shadow ray found) and finish_sample (the pixel's sums).  The rng is the path's, kept beside the record.  In lanes
+ * (render_path_lanes), each step in the lanes of a mask `on`, the walks a lane at a time. */
 
 /* The pixel's sums, counters and first hit before its first sample. */
-INLINE void start_pixel(PathState *st) {
-    vstore3((float3)(0.0f), 0, st->sum);
-    vstore3((float3)(0.0f), 0, st->normal_sum);
-    vstore3((float3)(0.0f), 0, st->albedo_sum);
+INLINE void start_pixel(PathLanes *st) {
+    PUT3(st, sum, v3_all(0.0f), ALL_LANES);
+    PUT3(st, normal_sum, v3_all(0.0f), ALL_LANES);
+    PUT3(st, albedo_sum, v3_all(0.0f), ALL_LANES);
     st->weight_sum = 0.0f;
     st->first_object = -1;
     st->first_depth = 0.0f;
@@ -434,30 +521,40 @@ INLINE void start_pixel(PathState *st) {
     st->shadowed = 0;
 }
 
-/* Sample s_i of this pass in pixel `pixel`: its rng, its position in the pixel and filter weight, its camera ray. */
-INLINE void start_sample(const PathParams *p, PathState *st, int pixel, uint s_i, Rng *rng) {
+/* Sample s_i of this pass in pixel `pixel`, in the lanes `on`: its rng, its position in the pixel and filter weight,
+ * its camera ray. */
+INLINE void start_sample(const PathParams *p, PathLanes *st, LI pixel, LU s_i, Rng *rng, LI on) {
     const FrameParams *frame = &p->frame;
     uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)p->spp ? n * n : 1u;
-    *rng = make_rng(frame->seed, (uint)pixel, (uint)p->first_sample + s_i);
+    Rng fresh = make_rng(frame->seed, AS_LU(pixel), (uint)p->first_sample + s_i);
     bool grid = per_pass > 1u && !RNG_SOBOL; /* a stratified grid over one pass's samples, else uniform offsets */
-    PixelSample ps = pixel_sample(frame, pixel, grid ? frame->sampler : SAMPLER_RANDOM, grid ? s_i : 0u, grid ? n : 1u, rng);
-    Ray r = ps.ray;
-    st->off[0] = ps.off.x;
-    st->off[1] = ps.off.y;
-    st->weight = ps.weight;
-    st->pixel = pixel;
-    st->sample = s_i;
-    vstore3(r.o, 0, st->o);
-    vstore3(r.d, 0, st->d);
-    vstore3((float3)(1.0f), 0, st->beta);
-    st->eta_scale = 1.0f;
-    vstore3((float3)(0.0f), 0, st->radiance);
-    vstore3((float3)(0.0f), 0, st->prev_n);
-    st->prev_pdf = 0.0f;
-    st->prev_delta = 1; /* the camera ray: every light it meets counts whole */
-    st->depth = 0;
-    st->ended = 0;
+#if LANES == 1
+    PixelSample ps = pixel_sample(frame, pixel, grid ? frame->sampler : SAMPLER_RANDOM, grid ? s_i : 0u, grid ? n : 1u, &fresh);
+    *rng = fresh;
+#else /* the host keeps the grids to one path a work-item */
+    PixelSample ps = pixel_sample(frame, pixel, SAMPLER_RANDOM, 0u, 1u, &fresh);
+    *rng = keep_rng(on, fresh, *rng);
+#endif
+    PUT(st, off[0], ps.off.x, on);
+    PUT(st, off[1], ps.off.y, on);
+    PUT(st, weight, ps.weight, on);
+    PUT(st, pixel, pixel, on);
+    PUT(st, sample, s_i, on);
+    PUT3(st, o, ps.o, on);
+    PUT3(st, d, ps.d, on);
+    PUT3(st, beta, v3_all(1.0f), on);
+    PUT(st, eta_scale, 1.0f, on);
+    PUT3(st, radiance, v3_all(0.0f), on);
+    PUT3(st, prev_n, v3_all(0.0f), on);
+    PUT(st, prev_pdf, 0.0f, on);
+    PUT(st, prev_delta, ALL_LANES, on); /* the camera ray: every light it meets counts whole */
+    PUT(st, depth, 0, on);
+    PUT(st, ended, 0, on);
 }
+
+#if LANES == 1
+/* The path's ray as the walks take it. */
+INLINE Ray state_ray(const PathState *st) { return make_ray(vload3(0, st->o), vload3(0, st->d)); }
 
 /* The closest hit of the path's ray (the camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS emitting triangles). */
 INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
@@ -480,6 +577,19 @@ INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
     }
 }
 
+/* Whether st's shadow ray reaches its end. */
+INLINE bool shadow_unblocked(const PathScene *s, PathState *st, Rng *rng) {
+    return ray_unblocked(s, vload3(0, st->shadow_o), vload3(0, st->shadow_d), st->shadow_t_max, rng, &st->visits);
+}
+#endif
+
+INLINE void set_first_hit(PathLanes *st, FirstHit fh, LI on) {
+    PUT3(st, fh_normal, fh.normal, on);
+    PUT3(st, fh_albedo, fh.albedo, on);
+    PUT(st, fh_depth, fh.depth, on);
+    PUT(st, fh_object, fh.object, on);
+}
+
 /* What shade_step's two halves share of a vertex. */
 typedef struct {
     Surface f;
@@ -489,105 +599,109 @@ typedef struct {
     V3 wo;
 } PathVertex;
 
-INLINE void set_first_hit(PathState *st, FirstHit fh) {
-    vstore3(fh.normal, 0, st->fh_normal);
-    vstore3(fh.albedo, 0, st->fh_albedo);
-    st->fh_depth = fh.depth;
-    st->fh_object = fh.object;
-}
-
-/* shade_step's first half at hit h: the light the ray brings (area lights, the environment or the surface's emission),
- * the first hit, and NEE's shadow ray with the radiance it adds if unblocked (st->shadowed, shadow_l, shadow_beta).  False: the path
- * ends here (a miss, or the vertex past max_depth). */
-INLINE bool shade_surface(const PathScene *s, PathState *st, Hit h, Rng *rng, PathVertex *v) {
-    Ray r = state_ray(st);
-    float3 beta = vload3(0, st->beta), radiance = vload3(0, st->radiance);
-    bool prev_delta = st->prev_delta != 0;
-    float prev_pdf = st->prev_pdf;
-    int depth = st->depth;
-    st->shadowed = 0;
-    bool shown = !HIDE_EMITTERS || depth > 0; /* emission this vertex may add */
-    if (shown) radiance += beta * area_lights_on_ray(s, r, h.t, prev_delta, prev_pdf);
-    if (h.id < 0) {
-        float mis;
-        float3 le = environment_met(s, r.d, vload3(0, st->prev_n), prev_delta, prev_pdf, &mis);
-        if (shown) radiance += beta * le * mis;
-        if (depth == 0) set_first_hit(st, first_hit_of(s, 0, 0, h));
-        vstore3(radiance, 0, st->radiance);
-        return false;
+/* shade_step's first half at hit h, in the lanes `on`: the light the ray brings (area lights, the environment or the
+ * surface's emission), the first hit, and NEE's shadow ray with the radiance it adds if unblocked (st->shadowed,
+ * shadow_l, shadow_beta).  The lanes whose path goes on (false: a miss, or the vertex past max_depth). */
+INLINE LI shade_surface(const PathScene *s, PathLanes *st, HitL h, Rng *rng, PathVertex *v, LI on) {
+    V3 o = GET3(st, o), d = GET3(st, d), beta = GET3(st, beta), radiance = GET3(st, radiance);
+    LI prev_delta = st->prev_delta != 0, depth = st->depth;
+    LF prev_pdf = st->prev_pdf;
+    PUT(st, shadowed, 0, on);
+    LI shown = on & ((HIDE_EMITTERS ? 0 : ALL_LANES) | (depth > 0)); /* emission this vertex may add */
+    if (ANY(shown)) radiance = vpick(shown, add_product(radiance, beta, area_lights_on_ray(s, o, d, h.t, prev_delta, prev_pdf)), radiance);
+    LI miss = on & (h.id < 0), hit = on & NOT(miss);
+    if (ANY(miss)) {
+        LF mis;
+        V3 le = environment_met(s, d, GET3(st, prev_n), prev_delta, prev_pdf, &mis);
+        radiance = vpick(miss & shown, add_product(radiance, vmul(beta, le), v3(mis, mis, mis)), radiance);
+        set_first_hit(st, no_first_hit(), miss & (depth == 0));
     }
-    v->f = surface_at(&s->geo, s->normals, s->tex, h, r.o, r.d);
-    v->m = material_at(s->tex, s->tex.materials, &v->f);
-    if (depth == 0) set_first_hit(st, first_hit_of(s, &v->f, &v->m, h));
-    if (shown) radiance += beta * emission_met(s, &v->f, &v->m, h, r.d, prev_delta, prev_pdf);
-    vstore3(radiance, 0, st->radiance);
-    if (depth > s->p.frame.max_depth) return false; /* the last vertex: only its emission counts */
+    LI cont = hit & (depth <= s->p.frame.max_depth);
+    if (ANY(hit)) {
+#if LANES > 1 /* a miss lane reads primitive 0, and nothing keeps what it finds */
+        h.slot = miss ? 0 : h.slot;
+        h.id = miss ? 0 : h.id;
+#endif
+        v->f = surface_at(&s->geo, s->normals, s->tex, h, o, d);
+        v->m = material_at(s->tex, s->tex.materials, &v->f);
+        set_first_hit(st, first_hit_of(s, &v->f, &v->m, h), hit & (depth == 0));
+        radiance = vpick(hit & shown, add_product(radiance, beta, emission_met(s, &v->f, &v->m, h, d, prev_delta, prev_pdf)), radiance);
+    }
+    PUT3(st, radiance, radiance, on);
+    if (!ANY(cont)) return cont; /* the last vertex: only its emission counts */
     rng_vertex(rng, depth); /* this vertex's dimensions (sobol.h) */
     v->c = pick_component(&v->m, rng_next(rng));
     v->fr = component_frame(v->c, &v->f);
-    v->wo = to_local(v->fr, -r.d);
-    if (!component_is_delta(v->c)) {
-        float3 nee = direct_lighting(s, &v->f, v->c, v->fr, v->wo, rng, st);
-        if (st->shadowed) {
-            vstore3(nee, 0, st->shadow_l);
-            vstore3(beta, 0, st->shadow_beta);
-        }
+    v->wo = to_local(v->fr, vneg(d));
+    LI lit = cont & NOT(component_is_delta(v->c));
+    if (ANY(lit)) {
+        V3 nee = direct_lighting(s, &v->f, v->c, v->fr, v->wo, rng, st, lit);
+        LI shadowed = lit & (st->shadowed != 0);
+        PUT3(st, shadow_l, nee, shadowed);
+        PUT3(st, shadow_beta, beta, shadowed);
     }
-    return true;
+    return cont;
 }
 
-/* shade_step's second half: the BSDF's next direction, Russian roulette, and the next ray.  False: the path ends. */
-INLINE bool scatter(const PathScene *s, PathState *st, const PathVertex *v, Rng *rng) {
+/* shade_step's second half, in the lanes `on`: the BSDF's next direction, Russian roulette, and the next ray.  The
+ * lanes whose path goes on. */
+INLINE LI scatter(const PathScene *s, PathLanes *st, const PathVertex *v, Rng *rng, LI on) {
     rng_slot(rng, SLOT_BSDF);
-    float u1 = rng_next(rng);
-    float2 u2 = rng_next2(rng);
+    LF u1 = rng_next(rng);
+    V2 u2 = rng_next2(rng);
     BsdfSample bs = component_sample(v->c, v->wo, u1, u2);
-    if (!(bs.pdf > 0.0f)) return false;
-    float3 wi = to_world(v->fr, bs.wi);
-    float3 beta = vload3(0, st->beta) * bs.weight;
-    st->eta_scale *= bs.eta * bs.eta; /* beta * eta_scale: the throughput without refraction's 1 / eta^2 */
-    if (st->depth >= s->p.rr_depth) { /* Russian roulette: continue with probability q, weighted by 1 / q */
-        float q = min_f(max3(beta) * st->eta_scale, RR_SURVIVE_MAX);
+    LI go = on & (bs.pdf > 0.0f);
+    if (!ANY(go)) return go;
+    V3 wi = to_world(v->fr, bs.wi);
+    V3 beta = vmul(GET3(st, beta), bs.weight);
+    PUT(st, eta_scale, st->eta_scale * (bs.eta * bs.eta), go); /* beta * eta_scale: the throughput without refraction's 1 / eta^2 */
+    LI roulette = go & (st->depth >= s->p.rr_depth);
+    if (ANY(roulette)) { /* Russian roulette: continue with probability q, weighted by 1 / q */
+        LF q = min_l(max3_l(beta) * st->eta_scale, RR_SURVIVE_MAX);
         rng_slot(rng, SLOT_RR);
-        if (!(rng_next(rng) < q)) return false;
-        beta /= q;
+        go &= NOT(roulette) | (rng_next(rng) < q);
+        beta = vpick(roulette, vdiv(beta, q), beta);
     }
     /* ends a path of no throughput, or a NaN or runaway one: reflectances <= 1 keep beta near 1, and
      * BETA_LIMIT times the largest radiance a scene allows (1e12) stays inside float32 */
-    if (!(max3(beta) > 0.0f && max3(beta) < BETA_LIMIT)) return false;
+    go &= (max3_l(beta) > 0.0f) & (max3_l(beta) < BETA_LIMIT);
     const Surface *f = &v->f;
-    vstore3(beta, 0, st->beta);
-    st->prev_delta = bs.delta != 0;
-    st->prev_pdf = bs.pdf;
-    vstore3(f->n_shade, 0, st->prev_n);
-    vstore3(offset_origin(f->p, f->p_err, dot3(wi, f->n_geo) >= 0.0f ? f->n_geo : -f->n_geo), 0, st->o);
-    vstore3(wi, 0, st->d);
-    st->depth += 1;
-    return true;
+    PUT3(st, beta, beta, go);
+    PUT(st, prev_delta, bs.delta != 0, go);
+    PUT(st, prev_pdf, bs.pdf, go);
+    PUT3(st, prev_n, f->n_shade, go);
+    PUT3(st, o, offset_origin(f->p, f->p_err, vpick(vdot(wi, f->n_geo) >= 0.0f, f->n_geo, vneg(f->n_geo))), go);
+    PUT3(st, d, wi, go);
+    PUT(st, depth, st->depth + 1, go);
+    return go;
 }
 
 /* One vertex, NEE's shadow ray left untraced: false when the path ends (after that shadow ray). */
-INLINE bool shade_step(const PathScene *s, PathState *st, Hit h, Rng *rng) {
+INLINE LI shade_step(const PathScene *s, PathLanes *st, HitL h, Rng *rng, LI on) {
     PathVertex v;
-    return shade_surface(s, st, h, rng, &v) && scatter(s, st, &v, rng);
+    on = shade_surface(s, st, h, rng, &v, on);
+    return ANY(on) ? scatter(s, st, &v, rng, on) : on;
 }
 
-/* The shadow ray's answer: its radiance added when nothing blocked it (visible() multiplied it by exactly 1 or 0). */
-INLINE void shadow_step(PathState *st, bool unblocked) {
+/* The shadow ray's answer in the lanes that have one: its radiance added where nothing blocked it (visible() multiplied
+ * it by exactly 1 or 0). */
+INLINE void shadow_step(PathLanes *st, LI unblocked) {
+    LI add = (st->shadowed != 0) & unblocked;
     /* one expression, as `radiance += beta * nee` was: FP_CONTRACT is on here (intersect.h), a fused multiply-add */
-    if (st->shadowed && unblocked) vstore3(vload3(0, st->radiance) + vload3(0, st->shadow_beta) * vload3(0, st->shadow_l), 0, st->radiance);
+    PUT3(st, radiance, add_product(GET3(st, radiance), GET3(st, shadow_beta), GET3(st, shadow_l)), add);
     st->shadowed = 0;
 }
 
+#if LANES == 1
 /* The megakernel's path: the steps in turn, each shadow ray traced where NEE made it (before the BSDF's sample: with
  * ALPHA_TEST and the independent sampler, its draws come first in the stream). */
 INLINE void trace_path(const PathScene *s, PathState *st, Rng *rng) {
     for (;;) {
         Hit h = extend_step(s, st, rng);
         PathVertex v;
-        bool on = shade_surface(s, st, h, rng, &v);
+        bool on = shade_surface(s, st, h, rng, &v, true);
         if (st->shadowed) shadow_step(st, shadow_unblocked(s, st, rng));
-        if (!on || !scatter(s, st, &v, rng)) return;
+        if (!on || !scatter(s, st, &v, rng, true)) return;
     }
 }
 
@@ -603,6 +717,7 @@ INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global A
     }
 #endif
 }
+#endif
 
 #define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
 #define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE) /* 1 without SPLAT_RADIUS */
@@ -623,25 +738,26 @@ INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
 }
 #endif
 
-/* The sample's radiance and first hit into the pixel's sums (the first sample's hit is the pixel's id and depth); with
- * SPLAT_RADIUS, its radiance splatted into `splats`. */
-INLINE void finish_sample(PathState *st, float4 *splats) {
-    float3 radiance = vload3(0, st->radiance);
-    float weight = st->weight;
+/* The sample's radiance and first hit into the pixel's sums, in the lanes `on` (the first sample's hit is the pixel's id
+ * and depth); with SPLAT_RADIUS (one path a work-item), its radiance splatted into `splats`. */
+INLINE void finish_sample(PathLanes *st, float4 *splats, LI on) {
+    V3 radiance = GET3(st, radiance);
+    LF weight = st->weight;
+    V3 w = v3(weight, weight, weight);
 #if SPLAT_RADIUS
     splat_sample(splats, (float2)(st->off[0], st->off[1]), radiance);
 #else
-    vstore3(vload3(0, st->sum) + weight * radiance, 0, st->sum);
+    PUT3(st, sum, add_product(GET3(st, sum), w, radiance), on);
 #endif
-    st->weight_sum += weight;
-    vstore3(vload3(0, st->normal_sum) + weight * vload3(0, st->fh_normal), 0, st->normal_sum);
-    vstore3(vload3(0, st->albedo_sum) + weight * vload3(0, st->fh_albedo), 0, st->albedo_sum);
-    if (st->sample == 0) {
-        st->first_object = st->fh_object;
-        st->first_depth = st->fh_depth;
-    }
+    PUT(st, weight_sum, st->weight_sum + weight, on);
+    PUT3(st, normal_sum, add_product(GET3(st, normal_sum), w, GET3(st, fh_normal)), on);
+    PUT3(st, albedo_sum, add_product(GET3(st, albedo_sum), w, GET3(st, fh_albedo)), on);
+    LI first = on & (st->sample == 0U);
+    PUT(st, first_object, st->fh_object, first);
+    PUT(st, first_depth, st->fh_depth, first);
 }
 
+#if LANES == 1
 /* Slot gid's outputs once its pixel's samples are done: the filtered mean (without SPLAT_RADIUS; the splats are
  * written as they are), the AOVs and the counters. */
 INLINE void write_pixel(const PathParams *p, const PathState *st, int gid, __global char *out) {
@@ -658,6 +774,8 @@ INLINE void write_pixel(const PathParams *p, const PathState *st, int gid, __glo
     }
     REGION(out, uint2, frame->out.stats)[gid] = (uint2)(st->visits, st->rays);
 }
+
+#endif
 
 /* The scene as every path kernel sees it (render_path, kernels/wavefront.cl). */
 INLINE PathScene path_scene(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
@@ -678,7 +796,7 @@ INLINE PathScene path_scene(__global const TreeNode *nodes, __global const PrimS
     return s;
 }
 
-#ifndef PATH_STEPS_ONLY
+#if !defined(PATH_STEPS_ONLY) && LANES == 1
 /* Pixels `pixels[i]`: params.spp paths each, samples first_sample ... first_sample + spp - 1 of the pixel's
  * sequence (progressive passes continue it).  colour_out gets the filtered mean (and its weight), or with
  * SPLAT_RADIUS R > 0 the pixel's (2R + 1)^2 splat slots (splat_sample) at gid * SPLAT_SLOTS.  The megakernel schedule:
@@ -699,9 +817,9 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
     for (uint s_i = 0; s_i < (uint)params.spp; ++s_i) {
         Rng rng;
-        start_sample(&params, &st, pixel, s_i, &rng);
+        start_sample(&params, &st, pixel, s_i, &rng, true);
         trace_path(&s, &st, &rng);
-        finish_sample(&st, splats);
+        finish_sample(&st, splats, true);
     }
 #if SPLAT_RADIUS
     __global float4 *colour_out = REGION(out, float4, params.frame.out.colour);

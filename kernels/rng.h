@@ -75,6 +75,17 @@ INLINE Rng make_rng(LU seed, LU pixel, LU sample) {
     return r;
 }
 
+/* a in the lanes of m, b in the others */
+INLINE Rng keep_rng(LI m, Rng a, Rng b) {
+    Rng r;
+    r.seed = m ? a.seed : b.seed; r.pixel = m ? a.pixel : b.pixel; r.sample = m ? a.sample : b.sample; r.dim = m ? a.dim : b.dim;
+#if RNG_SOBOL
+    r.key = m ? a.key : b.key; r.sample_reversed = m ? a.sample_reversed : b.sample_reversed;
+    r.base = m ? a.base : b.base; r.extra = m ? a.extra : b.extra;
+#endif
+    return r;
+}
+
 #if RNG_SOBOL
 INLINE LF sobol_value(const Rng *r);  /* kernels/sobol.h */
 INLINE V2 sobol_value2(const Rng *r); /* kernels/sobol.h */

@@ -77,7 +77,9 @@ INLINE LU owen_scramble(LU x, LU seed) {
 #define SOBOL_KEY_SAMPLE 0x50B01U
 #define SOBOL_KEY_Y 0x68bc21ebU
 
-#if LANES == 1 /* the camera's samples: one path a work-item (no lane kernel has a camera yet) */
+#if LANES > 1 /* in lanes, the path tracer's one sampler: uniform offsets (the host keeps the grids to one path a work-item) */
+INLINE V2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) { return rng_next2(rng); }
+#else
 INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
@@ -104,13 +106,15 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
  * pixel centre.  Samples stay inside their own pixel. */
 #define TENT_FLOOR 1e-6f            /* added to every tent weight: a pixel whose samples all lie on its border keeps weight */
 #define GAUSSIAN_FILTER_SIGMA 0.25f /* px, as docs/shading.md states it */
-INLINE float pixel_filter_weight(int filter, float2 off) {
-    float dx = off.x - 0.5f, dy = off.y - 0.5f;
+#endif
+INLINE LF pixel_filter_weight(int filter, V2 off) {
+    LF dx = off.x - 0.5f, dy = off.y - 0.5f;
     if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + TENT_FLOOR;
+#if LANES == 1 /* in lanes, the host keeps the Gaussian to one path a work-item */
     if (filter == PIXEL_FILTER_GAUSSIAN)
         return EXP(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
+#endif
     return 1.0f;
 }
-#endif
 
 #endif

@@ -69,7 +69,7 @@ __kernel void render(__global const TreeNode *nodes, __global const PrimSlot *pr
 #if WRITE_AOV
         sc.aov = keep ? aov_out + gid : 0; /* AOVs come from the same ray as the ids */
 #endif
-        sum += ps.weight * trace_path(&sc, ps.ray, &rng, keep ? ids_out + gid : 0,
+        sum += ps.weight * trace_path(&sc, make_ray(ps.o, ps.d), &rng, keep ? ids_out + gid : 0,
                                       keep ? shadow_out + (size_t)gid * frame.n_lights : 0, &visits, &rays);
         weight_sum += ps.weight;
     }

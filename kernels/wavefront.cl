@@ -83,7 +83,7 @@ __kernel void wave_start(__global const int *pixels, PathParams params, __global
     PathState st = {0}; /* every field written: the later kernels copy whole parts of the record */
     start_pixel(&st);
     Rng rng;
-    start_sample(&params, &st, pixels[gid], 0u, &rng);
+    start_sample(&params, &st, pixels[gid], 0u, &rng, true);
     save_rng(&st, &rng);
     st.live = 1;
 #if SPLAT_RADIUS
@@ -124,7 +124,7 @@ __kernel void wave_shade(__global const TreeNode *nodes, __global const PrimSlot
     st.ended = 0;
     bool first = st.depth == 0; /* shade_step sets the sample's first hit */
     Rng rng = state_rng(&params, &st);
-    if (!shade_step(&s, &st, state_hit(&st), &rng)) st.ended = 1;
+    if (!shade_step(&s, &st, state_hit(&st), &rng, true)) st.ended = 1;
     save_rng(&st, &rng);
     PATH_FIELDS(OUT, OUT3) OUT(rays) OUT(ended) RNG_FIELDS(OUT)
     if (st.shadowed) { SHADOW_FIELDS(OUT, OUT3) } else { OUT(shadowed) } /* the ray's fields: only where there is one */
@@ -160,13 +160,13 @@ __kernel void wave_advance(PathParams params, __global char *out, __global PathS
         __global float4 *slots = REGION(out, float4, params.frame.out.colour) + gid * SPLAT_SLOTS;
         for (int k = 0; k < SPLAT_SLOTS; ++k) splats[k] = slots[k];
 #endif
-        finish_sample(&st, splats);
+        finish_sample(&st, splats, true);
 #if SPLAT_RADIUS
         for (int k = 0; k < SPLAT_SLOTS; ++k) slots[k] = splats[k];
 #endif
         if (st.sample + 1u < (uint)params.spp) {
             Rng rng;
-            start_sample(&params, &st, st.pixel, st.sample + 1u, &rng);
+            start_sample(&params, &st, st.pixel, st.sample + 1u, &rng, true);
             save_rng(&st, &rng);
         } else {
             st.live = 0;
