@@ -46,7 +46,7 @@ def kernel_signatures(source: str) -> dict[str, tuple[Param, ...]]:
     source = re.sub(r"/\*.*?\*/", " ", source, flags=re.S)
     source = re.sub(r"//[^\n]*", " ", source)
     found = {}
-    for match in re.finditer(r"__kernel\s+void\s+(\w+)\s*\(([^)]*)\)", source):
+    for match in re.finditer(r"__kernel\s+(?:__attribute__\s*\(\(.*?\)\)\s+)?void\s+(\w+)\s*\(([^)]*)\)", source):
         text = match.group(2)
         if "#" in text:
             raise ValueError(f"kernel {match.group(1)}: a preprocessor line inside its parameter list cannot be read")

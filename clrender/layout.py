@@ -39,7 +39,7 @@ COAT_TABLE_RES = 64  # the rough coat's external transmittance table (Mitsuba's 
 SAMPLERS = {"uniform": 0, "random": 1, "stratified": 2, "sobol": 3}  # pixel samplers, by kernel code
 PATH_SAMPLERS = {"independent": 0, "sobol": 1}  # the path tracer's random numbers (kernels/sobol.h), by kernel code
 # the path tracer's schedules (RenderSettings.path_schedule; trace/wavefront.py, docs/lanes.md): host-side names, no code
-PATH_SCHEDULES = ("megakernel", "wavefront")
+PATH_SCHEDULES = ("megakernel", "wavefront", "lanes")
 PIXEL_FILTERS = {"box": 0, "tent": 1, "gaussian": 2}  # reconstruction filters, by kernel code
 PROJECTIONS = {"perspective": 0, "orthographic": 1}  # Camera.projection (scene/camera.py, kernels/camera.h)
 

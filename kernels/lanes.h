@@ -59,8 +59,8 @@ typedef LANES_CAT(uint, LANES) LU;
 #define ALL(m) all(m)
 #define CONVERT_I(x) LANES_CAT(convert_int, LANES)(x)
 #define CONVERT_F(x) LANES_CAT(convert_float, LANES)(x)
-__constant uint LANE_IDS[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-#define LANE_IDS_L LANES_CAT(vload, LANES)(0, LANE_IDS)
+__constant uint LANE_INDICES[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+#define LANE_IDS_L LANES_CAT(vload, LANES)(0, LANE_INDICES)
 #if LANES == 16
 #define GATHER_LANES(b, i)                                                                                             \
     (b[i.s0], b[i.s1], b[i.s2], b[i.s3], b[i.s4], b[i.s5], b[i.s6], b[i.s7], b[i.s8], b[i.s9], b[i.sa], b[i.sb], b[i.sc], \

@@ -618,9 +618,9 @@ INLINE LI shade_surface(const PathScene *s, PathLanes *st, HitL h, Rng *rng, Pat
     }
     LI cont = hit & (depth <= s->p.frame.max_depth);
     if (ANY(hit)) {
-#if LANES > 1 /* a miss lane reads primitive 0, and nothing keeps what it finds */
-        h.slot = miss ? 0 : h.slot;
-        h.id = miss ? 0 : h.id;
+#if LANES > 1 /* the other lanes (a miss, or no path) read primitive 0, and nothing keeps what they find */
+        h.slot = hit ? h.slot : (LI)(0);
+        h.id = hit ? h.id : (LI)(0);
 #endif
         v->f = surface_at(&s->geo, s->normals, s->tex, h, o, d);
         v->m = material_at(s->tex, s->tex.materials, &v->f);
@@ -704,19 +704,6 @@ INLINE void trace_path(const PathScene *s, PathState *st, Rng *rng) {
         if (!on || !scatter(s, st, &v, rng, true)) return;
     }
 }
-
-/* A pixel's AOVs: the object id and depth of its first path, and the normal and albedo as the colour is, the
- * filtered mean over its paths (a denoiser wants them filtered like the beauty; Mitsuba's film does the same). */
-INLINE void record_aovs(FirstHit first, float3 normal, float3 albedo, __global AovRecord *aov, __global IdRecord *id) {
-    id->path[0] = first.object; /* the rest stays -1: one id per pixel */
-#if WRITE_AOV
-    if (first.object >= 0 || max3(abs3(normal)) > 0.0f) { /* a miss in every path keeps the cleared record */
-        vstore3(normal, 0, aov->normal);
-        aov->depth = first.depth;
-        vstore3(albedo, 0, aov->albedo);
-    }
-#endif
-}
 #endif
 
 #define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
@@ -757,25 +744,29 @@ INLINE void finish_sample(PathLanes *st, float4 *splats, LI on) {
     PUT(st, first_depth, st->fh_depth, first);
 }
 
-#if LANES == 1
 /* Slot gid's outputs once its pixel's samples are done: the filtered mean (without SPLAT_RADIUS; the splats are
- * written as they are), the AOVs and the counters. */
-INLINE void write_pixel(const PathParams *p, const PathState *st, int gid, __global char *out) {
+ * written as they are), the AOVs (record_aovs: the first path's object and depth, the filtered means of the normal and
+ * albedo) and the counters, from one pixel's sums. */
+INLINE void write_pixel(const PathParams *p, int gid, __global char *out, float3 sum, float weight_sum, float3 normal_sum,
+                        float3 albedo_sum, int first_object, float first_depth, uint visits, uint rays) {
     const FrameParams *frame = &p->frame;
-    float3 sum = vload3(0, st->sum);
-    float weight_sum = st->weight_sum;
 #if !SPLAT_RADIUS
     REGION(out, float4, frame->out.colour)[gid] = (float4)(sum / weight_sum, weight_sum);
 #endif
     if (frame->record) {
-        FirstHit first = {(float3)(0.0f), (float3)(0.0f), st->first_depth, st->first_object};
-        record_aovs(first, vload3(0, st->normal_sum) / weight_sum, vload3(0, st->albedo_sum) / weight_sum,
-                    REGION(out, AovRecord, frame->out.aov) + gid, REGION(out, IdRecord, frame->out.ids) + gid);
-    }
-    REGION(out, uint2, frame->out.stats)[gid] = (uint2)(st->visits, st->rays);
-}
-
+        float3 normal = normal_sum / weight_sum, albedo = albedo_sum / weight_sum;
+        REGION(out, IdRecord, frame->out.ids)[gid].path[0] = first_object; /* the rest stays -1: one id per pixel */
+#if WRITE_AOV
+        __global AovRecord *aov = REGION(out, AovRecord, frame->out.aov) + gid;
+        if (first_object >= 0 || max3(abs3(normal)) > 0.0f) { /* a miss in every path keeps the cleared record */
+            vstore3(normal, 0, aov->normal);
+            aov->depth = first_depth;
+            vstore3(albedo, 0, aov->albedo);
+        }
 #endif
+    }
+    REGION(out, uint2, frame->out.stats)[gid] = (uint2)(visits, rays);
+}
 
 /* The scene as every path kernel sees it (render_path, kernels/wavefront.cl). */
 INLINE PathScene path_scene(__global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object,
@@ -825,6 +816,80 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
     __global float4 *colour_out = REGION(out, float4, params.frame.out.colour);
     for (int k = 0; k < SPLAT_SLOTS; ++k) colour_out[gid * SPLAT_SLOTS + k] = splats[k];
 #endif
-    write_pixel(&params, &st, gid, out);
+    write_pixel(&params, gid, out, vload3(0, st.sum), st.weight_sum, vload3(0, st.normal_sum), vload3(0, st.albedo_sum), st.first_object,
+                st.first_depth, st.visits, st.rays);
+}
+#endif
+
+#if !defined(PATH_STEPS_ONLY) && LANES > 1
+#if !RNG_SOBOL || SPLAT_RADIUS || HIDE_EMITTERS || LOOK_PAST || INSTANCED
+#error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
+#endif
+/* lane k of a 3-vector */
+INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
+
+/* The closest hit of each live lane's ray: the lanes walked one at a time by render_path's walker (traversal stays per
+ * ray, docs/lanes.md), each lane's hit put in its lane. */
+INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
+    HitL h;
+    h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    for (int k = 0; k < LANES; ++k) {
+        if (!LANE_I(live, k)) continue;
+        uint visits = LANE_U(st->visits, k);
+        Hit one = closest_hit(&s->geo, make_ray(lane3(st->o, k), lane3(st->d, k)), 0.0f, INF_T, &visits);
+        LANE_U(st->visits, k) = visits;
+        LANE_U(st->rays, k) += 1U;
+        LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
+    }
+    return h;
+}
+
+/* Whether each shadowed lane's shadow ray reaches its end, walked one lane at a time. */
+INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, LI shadowed) {
+    LI unblocked = 0;
+    for (int k = 0; k < LANES; ++k) {
+        if (!LANE_I(shadowed, k)) continue;
+        uint visits = LANE_U(st->visits, k);
+        bool reached = ray_unblocked(s, lane3(st->shadow_o, k), lane3(st->shadow_d, k), LANE(st->shadow_t_max, k), 0, &visits);
+        LANE_U(st->visits, k) = visits;
+        LANE_I(unblocked, k) = reached ? -1 : 0;
+    }
+    return unblocked;
+}
+
+/* render_path's pixels LANES a work-item, one in each lane of a vector register: each lane takes its pixel's samples in
+ * order, and when a lane's path ends, its pixel's next sample starts in the lane at the next step, so the lanes stay
+ * busy until their pixel's last sample (docs/lanes.md).  The shading, sampling and film in lanes; the walks a lane at a
+ * time.  Each pixel's sums are made in render_path's order, and the images are its bits. */
+__kernel __attribute__((vec_type_hint(LF))) void render_path_lanes(
+    __global const TreeNode *nodes, __global const PrimSlot *prims, __global const int *prim_object, __global const VertexNormals *normals,
+    __global const VertexAttributes *attributes, __global const float4 *texels, __global const char *tables, __global const char *world,
+    __global const int *pixels, PathParams params, __global char *out) {
+    int base = get_global_id(0) * LANES, n_work = params.frame.n_work;
+    if (base >= n_work) return;
+    PathScene s = path_scene(nodes, prims, prim_object, normals, attributes, texels, tables, world, params);
+    LI slot = base + AS_LI(LANE_IDS_L);
+    LI pixel = gather_i(pixels, min(slot, (LI)(n_work - 1)));
+    PathLanes st;
+    start_pixel(&st);
+    Rng rng = make_rng((LU)(params.frame.seed), AS_LU(pixel), (LU)(0U));
+    LU sample = 0U;
+    LI live = slot < n_work, start = live;
+    while (ANY(live)) {
+        if (ANY(start)) start_sample(&params, &st, pixel, sample, &rng, start);
+        PathVertex v;
+        LI on = shade_surface(&s, &st, extend_lanes(&s, &st, live), &rng, &v, live);
+        LI shadowed = live & (st.shadowed != 0);
+        if (ANY(shadowed)) shadow_step(&st, shadows_unblocked(&s, &st, shadowed));
+        if (ANY(on)) on = scatter(&s, &st, &v, &rng, on);
+        LI ended = live & NOT(on);
+        if (ANY(ended)) finish_sample(&st, 0, ended);
+        sample = ended ? sample + 1U : sample;
+        start = ended & (sample < (uint)params.spp);
+        live = (live & NOT(ended)) | start;
+    }
+    for (int k = 0; k < LANES && base + k < n_work; ++k)
+        write_pixel(&params, base + k, out, lane3(st.sum, k), LANE(st.weight_sum, k), lane3(st.normal_sum, k), lane3(st.albedo_sum, k),
+                    LANE_I(st.first_object, k), LANE(st.first_depth, k), LANE_U(st.visits, k), LANE_U(st.rays, k));
 }
 #endif

@@ -101,12 +101,13 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     return (float2)(u01(x), u01(y));
 }
 
+#endif
+
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
  * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the
  * pixel centre.  Samples stay inside their own pixel. */
 #define TENT_FLOOR 1e-6f            /* added to every tent weight: a pixel whose samples all lie on its border keeps weight */
 #define GAUSSIAN_FILTER_SIGMA 0.25f /* px, as docs/shading.md states it */
-#endif
 INLINE LF pixel_filter_weight(int filter, V2 off) {
     LF dx = off.x - 0.5f, dy = off.y - 0.5f;
     if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + TENT_FLOOR;

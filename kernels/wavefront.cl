@@ -170,7 +170,8 @@ __kernel void wave_advance(PathParams params, __global char *out, __global PathS
             save_rng(&st, &rng);
         } else {
             st.live = 0;
-            write_pixel(&params, &st, gid, out);
+            write_pixel(&params, gid, out, vload3(0, st.sum), st.weight_sum, vload3(0, st.normal_sum), vload3(0, st.albedo_sum),
+                        st.first_object, st.first_depth, st.visits, st.rays);
         }
         states[gid] = st;
         if (!st.live) return;

@@ -185,13 +185,17 @@ class PathIntegrator(Integrator):
         return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
 
     def make_kernel(self, device, variant: Variant):
-        """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py) where the
-        build allows (wavefront.falls_back)."""
-        from .wavefront import Wavefront, falls_back
+        """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py), or under "lanes"
+        its pixels in SIMD lanes (trace/lane_schedule.py), where the build and the scene allow (each falls_back)."""
+        from . import lane_schedule, wavefront
 
-        defines = variant.defines()
-        if self.settings.path_schedule == "wavefront" and not falls_back(defines):
-            return Wavefront(device, defines)
+        defines, schedule = variant.defines(), self.settings.path_schedule
+        if schedule == "wavefront" and not wavefront.falls_back(defines):
+            return wavefront.Wavefront(device, defines)
+        if schedule == "lanes":
+            n_prims = self.renderer.tracer.n_prims
+            if not lane_schedule.falls_back(defines, self.renderer.scene, self.settings, n_prims, device.device):
+                return lane_schedule.LaneKernel(device, defines, lane_schedule.lane_width(device.device))
         return super().make_kernel(device, variant)
 
     def world(self) -> dict:

@@ -1,0 +1,63 @@
+"""The path tracer's lane schedule (kernels/path.cl render_path_lanes; docs/lanes.md): render_path's pixels LANES a
+work-item, each pixel's paths in one lane of a vector register, its shading written once over kernels/lanes.h's lane
+type (the megakernel runs the same source at width 1), the walks a lane at a time.  The images are the megakernel's
+bits.  `LaneKernel` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
+
+What the lanes do not take yet renders with the megakernel (`falls_back` says why): instanced scenes, alpha-tested and
+single-sided materials, hidden emitters, wide reconstruction filters, the independent sampler, environment maps, spot
+lights, the Gaussian pixel filter, a scene without primitives, and devices that are not CPUs."""
+
+from __future__ import annotations
+
+import pyopencl as cl
+
+from .work_layout import global_size
+
+KERNEL = ("path.cl", "render_path_lanes")
+UNSUPPORTED_DEFINES = {
+    "INSTANCED": "instanced scenes",
+    "ALPHA_TEST": "alpha-tested materials",
+    "CULL_BACKFACES": "single-sided materials",
+    "HIDE_EMITTERS": "hidden emitters",
+    "SPLAT_RADIUS": "a reconstruction filter wider than a pixel",
+}
+
+
+def lane_width(device: cl.Device) -> int:
+    """Paths a work-item: 16 on a CPU whose OpenCL driver prefers 16-float vectors (AVX-512), 8 on other CPUs, 0 (the
+    megakernel) on other devices, where a work-item is one path."""
+    if not device.type & cl.device_type.CPU:
+        return 0
+    return 16 if device.preferred_vector_width_float >= 16 else 8
+
+
+def falls_back(defines: dict, scene, settings, n_prims: int, device: cl.Device) -> str:
+    """Why a render under --path-schedule lanes takes the megakernel, or ""."""
+    for name, what in UNSUPPORTED_DEFINES.items():
+        if defines.get(name):
+            return what
+    if defines.get("PATH_SAMPLER", 0) != 1:
+        return "the independent sampler"
+    if scene.environment_map is not None:
+        return "an environment map"
+    if any(light.type == "spot" for light in scene.lights):
+        return "spot lights"
+    if settings.pixel_filter == "gaussian":
+        return "the Gaussian pixel filter"
+    if n_prims == 0:
+        return "a scene without primitives"
+    if not lane_width(device):
+        return "a device that is not a CPU (one path a work-item is its lanes)"
+    return ""
+
+
+class LaneKernel:
+    """render_path_lanes for one build (the megakernel's defines, LANES paths a work-item)."""
+
+    def __init__(self, device, defines: dict, lanes: int):
+        self.lanes = lanes
+        self.kernel = device.kernel(*KERNEL, {**defines, "LANES": lanes})
+
+    def __call__(self, queue, size, local, *, params, **args):
+        items = -(-int(params["frame"]["n_work"]) // self.lanes)
+        return self.kernel(queue, global_size(items, local[0]), local, params=params, **args)
