@@ -158,6 +158,9 @@ def clrender_setup(name: str, size: int, spp: int, depth: int):
     return scene, dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
 
 
+from clrender.layout import PATH_SCHEDULES  # noqa: E402  (the bench's own imports come first)
+
+
 def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedule: str = "megakernel"):
     """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path
     tracer under `schedule` (RenderSettings.path_schedule)."""
@@ -227,7 +230,7 @@ def parse_args(argv=None):
     ap.add_argument(
         "--schedule",
         nargs="+",
-        choices=("megakernel", "wavefront"),
+        choices=PATH_SCHEDULES,
         default=["megakernel"],
         help="clrender's path schedules to time, each a row (RenderSettings.path_schedule; docs/lanes.md)",
     )

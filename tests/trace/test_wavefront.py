@@ -63,15 +63,15 @@ def test_lane_occupancy_starts_full_never_rises_and_ends_at_zero():
 
 
 def test_an_unknown_schedule_is_a_usage_error():
-    with pytest.raises(UsageError, match="path schedule 'lanes'.*megakernel, wavefront"):
-        Renderer(path_scenes.cornell_box(8), integrator="path", path_schedule="lanes")
+    with pytest.raises(UsageError, match="path schedule 'sideways'.*megakernel, wavefront, lanes"):
+        Renderer(path_scenes.cornell_box(8), integrator="path", path_schedule="sideways")
 
 
 def test_the_scene_key_chooses_the_schedule_and_refuses_others():
     data = path_scenes.cornell_box(8)
     assert Scene.from_dict({**data, "path_schedule": "wavefront"}).path_schedule == "wavefront"
     with pytest.raises(UsageError, match="path_schedule"):
-        Scene.from_dict({**data, "path_schedule": "lanes"})
+        Scene.from_dict({**data, "path_schedule": "sideways"})
 
 
 def test_stochastic_alpha_under_the_independent_sampler_falls_back_to_the_megakernel(tmp_path):

@@ -1,0 +1,131 @@
+"""The path tracer's lane schedule (kernels/path.cl render_path_lanes, clrender/trace/lane_schedule.py; docs/lanes.md)
+against its megakernel (render_path): the same lane-generic steps run 16 (or 8) pixels' paths a work-item instead of
+one, so the same bits.  Each test renders a scene both ways, on different tilings, and compares the image, the object
+ids, the AOVs and the ray and BVH-visit counts byte for byte: the materials of every kind (Phong glass and mirrors,
+glTF, conductors, coated diffuse, thin sheets), textures, smooth and flat meshes and spheres, every light the lanes
+take, a thin lens, Russian roulette, progressive passes.  A lane that took another lane's value, a mask that let an
+idle lane write its state, a masked pass that kept the wrong lobe or a sampler draw out of place fails these.  What the
+lanes do not take yet renders with the megakernel, and says why (lane_schedule.falls_back)."""
+
+import numpy as np
+import pytest
+
+from clrender.scene.scene import Scene
+from clrender.trace.lane_schedule import LaneKernel
+from clrender.trace.renderer import Renderer
+from clrender.trace.tracer import as_scene
+
+from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
+from tests.reference import path_scenes
+from tests.scenetools import copies_scene
+from tests.trace.test_wavefront import AOVS, assert_same, blend_card, env_map_scene
+
+
+def both(scene, megakernel_tiles: int = 64, lanes_tiles: int = 7, **settings):
+    """(megakernel result, lane result, the lanes' Renderer) of `scene` with `settings`, each on its tiling."""
+    scene = Scene.from_dict(scene) if isinstance(scene, dict) else as_scene(scene)
+    a = Renderer(scene, integrator="path", path_schedule="megakernel", tile_size=megakernel_tiles, **settings)
+    b = Renderer(scene, integrator="path", path_schedule="lanes", tile_size=lanes_tiles, tracer=a.tracer, **settings)
+    assert isinstance(b.kernel, LaneKernel) and not isinstance(a.kernel, LaneKernel)
+    return a.run(), b.run(), b
+
+
+def exchange_materials_scene() -> dict:
+    """A rough and a smooth conductor, a rough and a smooth coated diffuse and a thin sheet, spheres and boxes on a
+    floor, under a physical point light, a directional light and a constant environment, through a thin lens."""
+    scene = path_scenes.mixed(12)
+    scene["materials"] = {
+        **scene["materials"],
+        "copper": {"type": "conductor", "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.5, 2.1], "roughness": 0.3},
+        "mirror": {"type": "conductor", "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.5, 2.1]},
+        "plastic": {"type": "coated_diffuse", "diffuse": [0.7, 0.35, 0.1], "roughness": 0.2, "smith": "separable"},
+        "gloss": {"type": "coated_diffuse", "diffuse": [0.1, 0.4, 0.7]},
+        "sheet": {"type": "thin_dielectric", "ior": 1.5, "transmittance": [0.8, 0.9, 1.0]},
+    }
+    spheres = [("copper", -1.2, 0.0), ("mirror", -0.4, 0.4), ("gloss", 0.4, 0.0), ("sheet", 1.2, 0.4)]
+    scene["objects"] = [o for o in scene["objects"] if o.get("material") in ("floor", "lamp")] + [
+        {"type": "sphere", "center": [x, 0.35, z], "radius": 0.35, "material": name} for name, x, z in spheres
+    ]
+    scene["objects"].append(path_scenes.mesh(*path_scenes.box_mesh([0.8, 0.25, -0.9], 0.5, 20.0), "plastic"))
+    scene["cameras"] = [{**scene["cameras"][0], "aperture": 0.06, "focus_distance": 3.5}]
+    scene["lights"] = [
+        {"type": "point", "position": [-2, 2, 2], "intensity": 6, "falloff": "inverse_square"},
+        {"type": "directional", "direction": [0.3, -1, -0.2], "intensity": 0.5},
+    ]
+    scene["environment"] = {"color": [0.2, 0.25, 0.3]}
+    return scene
+
+
+def textured_scene(tmp_path) -> Scene:
+    """bench/assets.py's first picture (a textured, normal-mapped torus, a gold sphere and a checker floor), its HDR
+    sky a constant environment (the lanes take no maps yet)."""
+    from bench.assets import picture_scenes
+
+    data = picture_scenes(tmp_path, 16, 12, 32)[0]
+    data["environment"] = {"color": [0.6, 0.7, 0.9]}
+    return Scene.from_dict(data, base_dir=tmp_path)
+
+
+CASES = {
+    # Lambert walls, rough metal and glass spheres, an emissive quad; AOVs
+    "cornell": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, aovs=AOVS)),
+    # a physical parallelogram light (NEE and BSDF rays meeting it, MIS)
+    "area-light": (lambda tmp: AREA_LIGHT_SCENE, dict(spp=4, max_depth=1)),
+    # constant-environment NEE, glTF lobes, Russian roulette from the first bounce
+    "environment-spheres-rr0": (lambda tmp: path_scenes.environment_spheres(12), dict(spp=3, rr_depth=0)),
+    # area and directional lights of the unnormalised falloff (and NEE's nearness choice), many objects (a bundled scene)
+    "wizard-cat": (lambda tmp: "wizard_cat", dict(spp=2, width=20, height=15, max_depth=3, aovs=AOVS)),
+    # emissive triangles (mesh lights): NEE to them and BSDF rays meeting them
+    "mesh-light": (lambda tmp: path_scenes.mesh_light(12), dict(spp=3)),
+    # the exchange lobes, point and directional lights, a thin lens, the tent pixel filter
+    "exchange-thin-lens": (lambda tmp: exchange_materials_scene(), dict(spp=3, pixel_filter="tent")),
+    # textures (base colour, metallic-roughness, normal map), glTF metal
+    "textured": (textured_scene, dict(spp=2, max_depth=4, aovs=AOVS)),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_lanes_render_the_megakernels_bits(tmp_path, case):
+    make, settings = CASES[case]
+    scene = make(tmp_path)
+    scene = Scene.from_dict(scene, base_dir=tmp_path) if isinstance(scene, dict) else scene
+    a, b, _ = both(scene, seed=9, **settings)
+    assert_same(a, b)
+    assert a.image.mean() > 1e-3  # something lit: the comparison is of something
+
+
+def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
+    """Progressive passes (--time-budget) launch with first_sample > 0, and a launch's pixels need not be in order or
+    fill the last work-item's lanes: the lanes number their samples from it as render_path does."""
+    scene = Scene.from_dict(path_scenes.cornell_box(8))
+    a = Renderer(scene, integrator="path", path_schedule="megakernel", spp=2)
+    b = Renderer(scene, integrator="path", path_schedule="lanes", spp=2, tracer=a.tracer)
+    pixels = np.arange(61, dtype=np.int32)[::-1].copy()  # backwards, and not a multiple of the lanes
+    for first_sample in (0, 6):
+        want, got = (r.launch(pixels, "uniform", 1, True, first_sample) for r in (a, b))
+        for x, y in zip(want, got):
+            assert x is None and y is None or x.tobytes() == y.tobytes()
+
+
+FALLBACKS = {
+    "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
+    "a reconstruction filter wider than a pixel": (lambda tmp: path_scenes.cornell_box(8), dict(rfilter="tent")),
+    "hidden emitters": (lambda tmp: path_scenes.mesh_light(8), dict(hide_emitters=True)),
+    "alpha-tested materials": (lambda tmp: blend_card(), {}),
+    "an environment map": (env_map_scene, {}),
+    "the Gaussian pixel filter": (lambda tmp: path_scenes.cornell_box(8), dict(pixel_filter="gaussian")),
+    "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
+}
+
+
+@pytest.mark.parametrize("reason", list(FALLBACKS))
+def test_what_the_lanes_do_not_take_renders_with_the_megakernel(tmp_path, reason):
+    from clrender.trace import lane_schedule
+
+    make, settings = FALLBACKS[reason]
+    scene = make(tmp_path)
+    scene = Scene.from_dict(scene, base_dir=tmp_path) if isinstance(scene, dict) else as_scene(scene)
+    r = Renderer(scene, integrator="path", path_schedule="lanes", spp=1, **settings)
+    assert not isinstance(r.kernel, LaneKernel)
+    why = lane_schedule.falls_back(r.variant.defines(), r.scene, r.settings, r.tracer.n_prims, r.tracer.device.device)
+    assert why == reason
