@@ -66,9 +66,12 @@ def child(args) -> None:
         settings = clrender_settings(args.spp)
     else:
         scene, settings = clrender_setup(args.scene, args.size, args.spp, 8)
+    if args.scene != "whitted":
+        settings["path_schedule"] = args.schedule
     first = Renderer(scene, seed=0, **settings)
     first.run()
-    obj = object_code(first.kernel.kernel.program.binaries[0])
+    kernel = first.kernel.kernel  # the megakernel's cl.Kernel, or the lane schedule's Kernel of it
+    obj = object_code(getattr(kernel, "kernel", kernel).program.binaries[0])
     code = elf_sections(obj or b"").get(".ltext")
     base = code and code_address(code)
     Path(args.out, "kernel.o").write_bytes(obj or b"")
@@ -135,6 +138,7 @@ def main(argv=None) -> int:
         default="cornell_box",
         help="whitted: bench whitted's opaque wizard_cat; assets: bench assets' picture (--size wide)",
     )
+    ap.add_argument("--schedule", choices=("megakernel", "lanes"), default="megakernel", help="the path tracer's schedule (docs/lanes.md)")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--renders", type=int, default=4, help="renders sampled after the first (default 4)")
@@ -151,7 +155,7 @@ def main(argv=None) -> int:
         return 2
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp, "perf.data")
-        forwarded = ["--scene", args.scene, "--size", str(args.size), "--spp", str(args.spp), "--renders", str(args.renders)]
+        forwarded = ["--scene", args.scene, "--schedule", args.schedule, "--size", str(args.size), "--spp", str(args.spp), "--renders", str(args.renders)]
         run = [sys.executable, "-m", "tools.kernel_profile", *forwarded, "--child", tmp]
         subprocess.run(
             ["perf", "record", "-q", "-F", "4000", "-o", str(data), "--", *run], check=True, cwd=REPO, env={**os.environ, "PYOPENCL_NO_CACHE": "1"}

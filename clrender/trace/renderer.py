@@ -76,9 +76,10 @@ class RenderSettings:
     hide_emitters: bool = False  # path: camera rays look past emitting surfaces and area lights and see no environment (Mitsuba's)
     rr_depth: int | None = None  # path: Russian roulette from this many bounces after the primary hit; None: path.RR_DEPTH (3)
     path_sampler: str = "sobol"  # path: its random numbers, "sobol" (Owen-scrambled Sobol, kernels/sobol.h) or "independent" (hashed)
-    # path: "megakernel" (render_path, a path per work-item) or "wavefront" (a kernel per step, shading in SIMD lanes:
-    # trace/wavefront.py, docs/lanes.md); the same bits
-    path_schedule: str = "megakernel"
+    # path: "lanes" (render_path_lanes, 16 or 8 paths a work-item in SIMD lanes on a CPU: trace/lane_schedule.py, the
+    # megakernel where it does not apply), "megakernel" (render_path, a path per work-item) or "wavefront" (a kernel per
+    # step: trace/wavefront.py); the same bits (docs/lanes.md)
+    path_schedule: str = "lanes"
 
     def validate(self, scene: Scene) -> RenderSettings:
         """A copy with the image size filled in and every number a Python int or float; UsageError for any
