@@ -154,6 +154,30 @@ INLINE LF clamp_l(LF x, float lo, float hi) { /* mathf.h's clamp_det: a NaN x gi
 }
 /* elements i, i + 1, i + 2 of b: a packed float3 per lane */
 INLINE V3 gather3(__global const float *b, LI i) { return v3(gather(b, i), gather(b, i + 1), gather(b, i + 2)); }
+/* atan2(y, x) as mathf.h's atan2_det gives it (C99's results for zeros, infinities and NaN): at width 1 ATAN2 (that
+ * function in a DET_MATH program), in lanes its reduction and Cephes' polynomial, the special cases by selects */
+INLINE LF atan2_l(LF y, LF x) {
+#if LANES == 1
+    return ATAN2(y, x);
+#else
+    LF ay = abs_l(y), ax = abs_l(x), t = ay / ax;
+    LU sy = AS_LU(y) & 0x80000000U;
+    LI x_neg = AS_LI(x) < 0; /* -0 counts as negative, as in C99 */
+    LI big = t > 2.414213562f, mid = NOT(big) & (t > 0.4142135623f);
+    LF base = big ? (LF)(MF_PIO2_HI) : mid ? (LF)(0.5f * MF_PIO2_HI) : (LF)(0.0f);
+    LF base_lo = big ? (LF)(MF_PIO2_LO) : mid ? (LF)(0.5f * MF_PIO2_LO) : (LF)(0.0f);
+    t = big ? -1.0f / t : mid ? (t - 1.0f) / (t + 1.0f) : t;
+    LF z = t * t, p = MF_ATAN_POLY(z, t);
+    LF a = base + ((p + base_lo) + t);
+    a = x_neg ? MF_PI_HI - (a - MF_PI_LO) : a;
+    LF at_infinity = ay == INFINITY ? (x_neg ? (LF)(2.35619450f) : (LF)(0.785398163f)) : (x_neg ? (LF)(MF_PI_HI) : (LF)(0.0f));
+    a = ax == INFINITY ? at_infinity : a;
+    a = (ax == 0.0f) | ((ay == INFINITY) & (ax < INFINITY)) ? (LF)(MF_PIO2_HI) : a;
+    a = ay == 0.0f ? (x_neg ? (LF)(MF_PI_HI) : (LF)(0.0f)) : a;
+    return (x != x) | (y != y) ? x + y : AS_LF(AS_LU(a) | sy);
+#endif
+}
+
 /* a uniform 3-vector in every lane */
 INLINE V3 splat3(float3 a) { return v3((LF)(a.x), (LF)(a.y), (LF)(a.z)); }
 
@@ -191,6 +215,8 @@ INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
 /* lane k of a lane variable, to read or write: a scalar's own value at width 1 */
 #if LANES == 1
 #define LANE(v, k) (v)
+#define LANE_I(v, k) (v)
+#define LANE_U(v, k) (v)
 #else
 #define LANE(v, k) (((float *)&(v))[k])
 #define LANE_I(v, k) (((int *)&(v))[k])

@@ -216,6 +216,8 @@ INLINE float log_det(float x) {
     return (m + y) + 0.693359375f * fe;
 }
 
+/* Cephes' atanf polynomial in t, z = t * t (lanes: kernels/lanes.h atan2_l) */
+#define MF_ATAN_POLY(z, t) ((((8.05374449538e-2f * (z) - 1.38776856032e-1f) * (z) + 1.99777106478e-1f) * (z) - 3.33329491539e-1f) * (z) * (t))
 /* atan of t >= 0 (inf included): Cephes' atanf, reduced about tan(pi/8) and tan(3 pi/8) */
 INLINE float mf_atan_pos(float t) {
     float base = 0.0f, base_lo = 0.0f;
@@ -229,7 +231,7 @@ INLINE float mf_atan_pos(float t) {
         t = (t - 1.0f) / (t + 1.0f);
     }
     float z = t * t;
-    float p = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z - 3.33329491539e-1f) * z * t;
+    float p = MF_ATAN_POLY(z, t);
     return base + ((p + base_lo) + t);
 }
 

@@ -344,22 +344,16 @@ INLINE LightSample emitter_sample(const PathScene *s, LI e, V2 u, const Surface 
     return keep_light(sampled, weighted_light(wi, le, light_pdf, dist), no_light());
 }
 
-/* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h;
- * one path a work-item: in lanes the host keeps maps to the megakernel). */
+/* NEE to an environment map chosen with probability `chosen`: a direction drawn by the map's luminance (envmap.h). */
 INLINE LightSample env_map_sample(const PathScene *s, LF chosen, V2 u) {
-#if LANES == 1
     if (!ENV_NEE || !s->env.m.sampled) return no_light();
-    float3 le;
-    float env_pdf;
-    float3 wi = env_sample(&s->env, u, &le, &env_pdf);
+    V3 le;
+    LF env_pdf;
+    V3 wi = env_sample(&s->env, u, &le, &env_pdf);
     env_pdf *= chosen;
-    if (!(env_pdf > 0.0f && env_pdf < INFINITY)) return no_light();
     LightSample ls = weighted_light(wi, le, env_pdf, INF_T);
-    ls.mis = ls.check = ENV_BSDF; /* !ENV_BSDF: f le / env_pdf, a shadow ray whatever f is */
-    return ls;
-#else
-    return no_light();
-#endif
+    ls.mis = ls.check = ENV_BSDF ? ALL_LANES : 0; /* !ENV_BSDF: f le / env_pdf, a shadow ray whatever f is */
+    return keep_light((env_pdf > 0.0f) & (env_pdf < INFINITY), ls, no_light());
 }
 
 /* NEE to the environment, chosen with probability `chosen`: the map's own sampling, or for the constant
@@ -463,14 +457,11 @@ INLINE V3 emission_met(const PathScene *s, const Surface *f, const MaterialPoint
 INLINE V3 environment_met(const PathScene *s, V3 d, V3 prev_n, LI prev_delta, LF prev_pdf, LF *mis) {
     LF env_pdf;
     V3 le;
-#if LANES == 1
     if (s->env.m.width > 0) {
         le = env_eval(&s->env, d, &env_pdf);
         if (!ENV_NEE) env_pdf = 0.0f;
-        if (!ENV_BSDF && !prev_delta) le = (float3)(0.0f);
-    } else
-#endif
-    {
+        if (!ENV_BSDF) le = vpick(prev_delta, le, v3_all(0.0f));
+    } else {
         env_pdf = max_l(vdot(prev_n, d), 0.0f) * M_1_PI_F;
         le = splat3(vload3(0, s->p.environment));
     }

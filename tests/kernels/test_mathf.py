@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clrender.mathf_probe import evaluate
+from clrender.mathf_probe import evaluate, lane_functions
 
 FLT_MAX = float(np.finfo(np.float32).max)
 SPECIALS = np.array(
@@ -138,3 +138,24 @@ def test_sin_cos_of_huge_arguments(device):
     for name, ref in (("sin", np.sin), ("cos", np.cos)):
         err = ulp_error(evaluate(name, x, device=device), ref(x.astype(np.float64)))
         assert err.max() <= BOUNDS_ULP[name], name
+
+
+@pytest.mark.parametrize("lanes", [8, 16])
+def test_the_lane_forms_are_the_scalar_functions_bit_for_bit(device, lanes):
+    """kernels/lanes.h's sincos_l and atan2_l, 8 or 16 arguments a work-item, give mathf.h's sin_det, cos_det and
+    atan2_det bit for bit: sin and cos over |x| < 256 (their stated range: every argument the path tracer makes) and
+    atan2 over random bit patterns, the special values and their pairs (zeros, infinities, NaN of either sign)."""
+    rng = np.random.default_rng(lanes)
+    x = np.concatenate([rng.uniform(-256, 256, 20000), np.float32([0.0, -0.0, 0.785398163, -0.785398163, 255.99998, 1e-30])]).astype(np.float32)
+    y, b = random_floats(rng, 20000), random_floats(rng, 20000)
+    y, b = y[: min(y.size, b.size)], b[: min(y.size, b.size)]
+    specials = np.array(np.meshgrid(SPECIALS, SPECIALS)).reshape(2, -1).astype(np.float32)
+    small = x[np.abs(x) < 256]
+    got = lane_functions(small, np.ones_like(small), lanes, device)
+    for column, name in ((0, "sin"), (1, "cos")):
+        assert np.array_equal(got[:, column].view(np.uint32), evaluate(name, small, device=device).view(np.uint32)), name
+    for a, c in ((y, b), (specials[0], specials[1])):
+        got = lane_functions(a, c, lanes, device)[:, 2]
+        want = evaluate("atan2", a, c, device=device)
+        same = (got.view(np.uint32) == want.view(np.uint32)) | (np.isnan(got) & np.isnan(want))
+        assert same.all(), (a[~same][:5], c[~same][:5])

@@ -56,14 +56,17 @@ def exchange_materials_scene() -> dict:
     return scene
 
 
-def textured_scene(tmp_path) -> Scene:
-    """bench/assets.py's first picture (a textured, normal-mapped torus, a gold sphere and a checker floor), its HDR
-    sky a constant environment (the lanes take no maps yet)."""
+def textured_sky_scene(tmp_path) -> dict:
+    """bench/assets.py's first picture: a textured, normal-mapped torus, a gold sphere and a checker floor under an HDR
+    sky."""
     from bench.assets import picture_scenes
 
-    data = picture_scenes(tmp_path, 16, 12, 32)[0]
-    data["environment"] = {"color": [0.6, 0.7, 0.9]}
-    return Scene.from_dict(data, base_dir=tmp_path)
+    return picture_scenes(tmp_path, 16, 12, 32)[0]
+
+
+def textured_scene(tmp_path) -> dict:
+    """The same picture under a constant environment (NEE's environment choice: cosine-weighted directions)."""
+    return {**textured_sky_scene(tmp_path), "environment": {"color": [0.6, 0.7, 0.9]}}
 
 
 CASES = {
@@ -81,6 +84,10 @@ CASES = {
     "exchange-thin-lens": (lambda tmp: exchange_materials_scene(), dict(spp=3, pixel_filter="tent")),
     # textures (base colour, metallic-roughness, normal map), glTF metal
     "textured": (textured_scene, dict(spp=2, max_depth=4, aovs=AOVS)),
+    # an environment map (NEE samples it, BSDF rays meet it), glass
+    "env-map-glass": (env_map_scene, dict(spp=3, aovs=AOVS)),
+    # bench/assets.py's first picture as it is: textures and glTF metal under an HDR sky
+    "textured-sky": (lambda tmp: textured_sky_scene(tmp), dict(spp=2, max_depth=4)),
 }
 
 
@@ -112,7 +119,6 @@ FALLBACKS = {
     "a reconstruction filter wider than a pixel": (lambda tmp: path_scenes.cornell_box(8), dict(rfilter="tent")),
     "hidden emitters": (lambda tmp: path_scenes.mesh_light(8), dict(hide_emitters=True)),
     "alpha-tested materials": (lambda tmp: blend_card(), {}),
-    "an environment map": (env_map_scene, {}),
     "the Gaussian pixel filter": (lambda tmp: path_scenes.cornell_box(8), dict(pixel_filter="gaussian")),
     "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
 }
