@@ -33,7 +33,7 @@
 INLINE bool back_culled(const Geometry *g, TextureView tv, Hit h, float3 o, float3 d) {
     if (tv.materials[g->objects[hit_object(g, h)].material].double_sided) return false;
     float3 p_err, n;
-    bool sphere;
+    int sphere;
     hit_surface(g, h, o, d, &p_err, &n, &sphere);
     return dot3(d, n) > 0.0f;
 }

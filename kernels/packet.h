@@ -162,10 +162,10 @@ typedef struct {
 
 /* A packet of the world rays for the top tree's box tests (packet_boxes reads origins, 1/d and the octant). */
 INLINE void top_packet(Packet *p, const InstanceRays *q, uint rays) {
-#define LANES(f) (float8)(q->r[0].f, q->r[1].f, q->r[2].f, q->r[3].f, q->r[4].f, q->r[5].f, q->r[6].f, q->r[7].f)
-    p->ox = LANES(o.x); p->oy = LANES(o.y); p->oz = LANES(o.z);
-    p->ix = LANES(inv_d.x); p->iy = LANES(inv_d.y); p->iz = LANES(inv_d.z);
-#undef LANES
+#define RAY_LANES(f) (float8)(q->r[0].f, q->r[1].f, q->r[2].f, q->r[3].f, q->r[4].f, q->r[5].f, q->r[6].f, q->r[7].f)
+    p->ox = RAY_LANES(o.x); p->oy = RAY_LANES(o.y); p->oz = RAY_LANES(o.z);
+    p->ix = RAY_LANES(inv_d.x); p->iy = RAY_LANES(inv_d.y); p->iz = RAY_LANES(inv_d.z);
+#undef RAY_LANES
     p->bx = q->r[0].inv_d.x < 0.0f; p->by = q->r[0].inv_d.y < 0.0f; p->bz = q->r[0].inv_d.z < 0.0f;
     p->live = rays;
     p->visits = (uint8)(0u);

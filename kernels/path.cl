@@ -884,3 +884,7 @@ __kernel __attribute__((vec_type_hint(LF))) void render_path_lanes(
                     LANE_I(st.first_object, k), LANE(st.first_depth, k), LANE_U(st.visits, k), LANE_U(st.rays, k));
 }
 #endif
+
+#ifndef LANES
+#error "a header undefined LANES (kernels/lanes.h): the lane-generic code after it took its lane branches"
+#endif

@@ -77,7 +77,7 @@ INLINE void tangent_frame(const Geometry *g, TextureView tv, HitL h, LI mapped, 
     }
 #endif
 #else
-#define TANGENT(k) FIELD_F(tv.attributes, f->prim, tangent[k / 4][k % 4])
+#define TANGENT(k) FIELD_F(tv.attributes, f->prim, tangent[(k) / 4][(k) % 4])
 #define BLEND(c) ((1.0f - f->u - f->v) * TANGENT(c) + f->u * TANGENT(4 + c) + f->v * TANGENT(8 + c))
     V4 t4 = v4(BLEND(0), BLEND(1), BLEND(2), BLEND(3));
 #undef BLEND

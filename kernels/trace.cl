@@ -221,3 +221,7 @@ __kernel void specular_power(int n, __global const float *x, __global const floa
     out[gid] = pow_unit(x[gid], s[gid]);
 }
 #endif
+
+#ifndef LANES
+#error "a header undefined LANES (kernels/lanes.h): the lane-generic code after it took its lane branches"
+#endif

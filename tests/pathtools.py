@@ -137,3 +137,61 @@ def mixed_scene(size=(20, 12)) -> dict:
             quad([-0.5, 2, -0.5], [1, 0, 0], [0, 0, 1], "lamp"),
         ],
     }
+
+
+AOVS = ("depth", "normal", "albedo", "id")  # every AOV a path render records: what the schedules must agree on
+
+
+def assert_same(a, b) -> None:
+    """Two renders of one scene under two path schedules: the same image, ids, AOVs and ray and visit counts, byte
+    for byte."""
+    assert a.image.tobytes() == b.image.tobytes(), f"{(a.image != b.image).any(axis=-1).mean():.3%} of pixels differ"
+    assert a.path_ids.tobytes() == b.path_ids.tobytes()
+    assert sorted(a.aovs) == sorted(b.aovs)
+    for name in a.aovs:
+        assert a.aovs[name].tobytes() == b.aovs[name].tobytes(), name
+    assert (a.rays, a.node_visits) == (b.rays, b.node_visits)
+
+
+def blend_card() -> dict:
+    """A half-transparent (glTF BLEND) card over a floor under a directional light and an area light."""
+    return {
+        "width": 16,
+        "height": 16,
+        "cameras": [{"position": [0, 3, 8], "look_at": [0, 0, 0], "fov": 40}],
+        "materials": {"card": {"diffuse": [1, 0.2, 0.1], "alpha": {"mode": "blend", "factor": 0.4}}, "floor": {"diffuse": [0.8, 0.8, 0.8]}},
+        "lights": [{"type": "directional", "direction": [0.3, -1, -0.2]}],
+        "objects": [
+            {"type": "quad", "corner": [-1, 0.2, -1], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0.5], "material": "card"},
+            {"type": "quad", "corner": [-4, 0, -4], "edge_a": [0, 0, 8], "edge_b": [8, 0, 0], "material": "floor"},
+        ],
+        "environment": {"color": [0.2, 0.25, 0.3]},
+    }
+
+
+def env_map_scene(tmp_path) -> dict:
+    """A rough glass sphere and a Lambert one on a floor under a random 8 x 16 HDR map (NEE samples it, BSDF rays
+    meet it)."""
+    import OpenImageIO as oiio
+
+    pixels = np.random.default_rng(3).uniform(0, 4, (8, 16, 3)).astype(np.float32)
+    out = oiio.ImageOutput.create(str(tmp_path / "sky.exr"))
+    assert out.open(str(tmp_path / "sky.exr"), oiio.ImageSpec(16, 8, 3, "float"))
+    assert out.write_image(pixels)
+    out.close()
+    return {
+        "width": 16,
+        "height": 12,
+        "cameras": [path_scenes.camera([0, 1, 4], [0, 0.4, 0], 45)],
+        "environment": {"file": "sky.exr"},
+        "materials": {
+            "floor": {"diffuse": [0.6, 0.6, 0.6]},
+            "glass": {"transparency": 1.0, "ior": 1.5},
+            "clay": {"diffuse": [0.7, 0.3, 0.2]},
+        },
+        "objects": [
+            path_scenes.quad([-3, 0, -3], [0, 0, 6], [6, 0, 0], "floor"),
+            {"type": "sphere", "center": [-0.5, 0.4, 0], "radius": 0.4, "material": "glass"},
+            {"type": "sphere", "center": [0.5, 0.4, 0], "radius": 0.4, "material": "clay"},
+        ],
+    }

@@ -38,7 +38,7 @@ def test_every_parameter_a_slot_scales_is_one_material_at_fills():
     """Each (parameter, channels) of the table is a MaterialPoint field (or the normal the map tilts), and its
     channels are texel channels."""
     surface = (KERNELS / "surface.h").read_text()
-    point = surface[surface.index("typedef struct {\n    float3 kd") : surface.index("} MaterialPoint;")]
+    point = surface[surface.index("typedef struct {\n    V3 kd") : surface.index("} MaterialPoint;")]
     for slot in TEXTURE_SLOT_TABLE:
         assert slot.parameters, slot.name
         for parameter, channels in slot.parameters:

@@ -16,9 +16,9 @@ from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import as_scene
 
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
+from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene
 from tests.reference import path_scenes
 from tests.scenetools import copies_scene
-from tests.trace.test_wavefront import AOVS, assert_same, blend_card, env_map_scene
 
 
 def both(scene, megakernel_tiles: int = 64, lanes_tiles: int = 7, **settings):

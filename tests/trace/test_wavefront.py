@@ -16,11 +16,9 @@ from clrender.trace.tracer import as_scene
 from clrender.trace.wavefront import Wavefront
 
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
+from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene
 from tests.reference import path_scenes
 from tests.scenetools import copies_scene
-
-AOVS = ("depth", "normal", "albedo", "id")
-
 
 def both(scene, megakernel_tiles: int = 64, wavefront_tiles: int = 7, **settings):
     """(megakernel result, wavefront result, the wavefront's Renderer) of `scene` with `settings`, each on its tiling."""
@@ -29,15 +27,6 @@ def both(scene, megakernel_tiles: int = 64, wavefront_tiles: int = 7, **settings
     b = Renderer(scene, integrator="path", path_schedule="wavefront", tile_size=wavefront_tiles, tracer=a.tracer, **settings)
     assert isinstance(b.kernel, Wavefront) and not isinstance(a.kernel, Wavefront)
     return a.run(), b.run(), b
-
-
-def assert_same(a, b) -> None:
-    assert a.image.tobytes() == b.image.tobytes(), f"{(a.image != b.image).any(axis=-1).mean():.3%} of pixels differ"
-    assert a.path_ids.tobytes() == b.path_ids.tobytes()
-    assert sorted(a.aovs) == sorted(b.aovs)
-    for name in a.aovs:
-        assert a.aovs[name].tobytes() == b.aovs[name].tobytes(), name
-    assert (a.rays, a.node_visits) == (b.rays, b.node_visits)
 
 
 def test_the_wavefront_renders_the_megakernels_bits_on_another_tiling():
@@ -81,50 +70,6 @@ def test_stochastic_alpha_under_the_independent_sampler_falls_back_to_the_megake
     assert not isinstance(r.kernel, Wavefront)
     r = Renderer(scene, integrator="path", path_schedule="wavefront", spp=1)  # Sobol: its alpha draws have their own counter
     assert isinstance(r.kernel, Wavefront)
-
-
-def blend_card() -> dict:
-    """A half-transparent (glTF BLEND) card over a floor under a directional light and an area light."""
-    return {
-        "width": 16,
-        "height": 16,
-        "cameras": [{"position": [0, 3, 8], "look_at": [0, 0, 0], "fov": 40}],
-        "materials": {"card": {"diffuse": [1, 0.2, 0.1], "alpha": {"mode": "blend", "factor": 0.4}}, "floor": {"diffuse": [0.8, 0.8, 0.8]}},
-        "lights": [{"type": "directional", "direction": [0.3, -1, -0.2]}],
-        "objects": [
-            {"type": "quad", "corner": [-1, 0.2, -1], "edge_a": [2, 0, 0], "edge_b": [0, 2, 0.5], "material": "card"},
-            {"type": "quad", "corner": [-4, 0, -4], "edge_a": [0, 0, 8], "edge_b": [8, 0, 0], "material": "floor"},
-        ],
-        "environment": {"color": [0.2, 0.25, 0.3]},
-    }
-
-
-def env_map_scene(tmp_path) -> dict:
-    """A rough glass sphere and a Lambert one on a floor under a random 8 x 16 HDR map (NEE samples it, BSDF rays
-    meet it)."""
-    import OpenImageIO as oiio
-
-    pixels = np.random.default_rng(3).uniform(0, 4, (8, 16, 3)).astype(np.float32)
-    out = oiio.ImageOutput.create(str(tmp_path / "sky.exr"))
-    assert out.open(str(tmp_path / "sky.exr"), oiio.ImageSpec(16, 8, 3, "float"))
-    assert out.write_image(pixels)
-    out.close()
-    return {
-        "width": 16,
-        "height": 12,
-        "cameras": [path_scenes.camera([0, 1, 4], [0, 0.4, 0], 45)],
-        "environment": {"file": "sky.exr"},
-        "materials": {
-            "floor": {"diffuse": [0.6, 0.6, 0.6]},
-            "glass": {"transparency": 1.0, "ior": 1.5},
-            "clay": {"diffuse": [0.7, 0.3, 0.2]},
-        },
-        "objects": [
-            path_scenes.quad([-3, 0, -3], [0, 0, 6], [6, 0, 0], "floor"),
-            {"type": "sphere", "center": [-0.5, 0.4, 0], "radius": 0.4, "material": "glass"},
-            {"type": "sphere", "center": [0.5, 0.4, 0], "radius": 0.4, "material": "clay"},
-        ],
-    }
 
 
 def spot_lens_scene() -> dict:
