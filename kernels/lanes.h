@@ -178,6 +178,18 @@ INLINE LF atan2_l(LF y, LF x) {
 #endif
 }
 
+/* acos(x) as mathf.h's acos_det gives it (NaN outside [-1, 1]): at width 1 ACOS, in lanes its two branches by a select */
+INLINE LF acos_l(LF x) {
+#if LANES == 1
+    return ACOS(x);
+#else
+    LF a = abs_l(x), z = x * x, r = sqrt_l(0.5f * (1.0f - a)), w = r * r;
+    LF near_zero = MF_PIO2_HI - (MF_ASIN_POLY(z, x) - MF_PIO2_LO), s = 2.0f * MF_ASIN_POLY(w, r);
+    LF v = a <= 0.5f ? near_zero : (x > 0.0f ? s : MF_PI_HI - (s - MF_PI_LO));
+    return a <= 1.0f ? v : (LF)(NAN);
+#endif
+}
+
 /* a uniform 3-vector in every lane */
 INLINE V3 splat3(float3 a) { return v3((LF)(a.x), (LF)(a.y), (LF)(a.z)); }
 

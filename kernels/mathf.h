@@ -253,11 +253,13 @@ INLINE float atan2_det(float y, float x) {
     return as_float(as_uint(a) | sy);
 }
 
-/* asin on [-1/2, 1/2]: Cephes' asinf polynomial */
+/* asin on [-1/2, 1/2]: Cephes' asinf polynomial (of t, z = t * t; lanes: kernels/lanes.h acos_l) */
+#define MF_ASIN_POLY(z, t)                                                                                             \
+    (((((4.2163199048e-2f * (z) + 2.4181311049e-2f) * (z) + 4.5470025998e-2f) * (z) + 7.4953002686e-2f) * (z) +       \
+      1.6666752422e-1f) * (z) * (t) + (t))
 INLINE float mf_asin_poly(float t) {
     float z = t * t;
-    return ((((4.2163199048e-2f * z + 2.4181311049e-2f) * z + 4.5470025998e-2f) * z + 7.4953002686e-2f) * z +
-            1.6666752422e-1f) * z * t + t;
+    return MF_ASIN_POLY(z, t);
 }
 
 INLINE float asin_det(float x) {

@@ -186,9 +186,8 @@ INLINE LF light_nearness(const PathScene *s, LI li, V3 x) {
     LI physical = FIELD_I(L, li, falloff) == LIGHT_FALLOFF_INVERSE_SQUARE, type = FIELD_I(L, li, type);
     V3 d = vsub(FIELD3(L, li, position), x);
     LF d2 = vdot(d, d);
-#if LANES == 1
-    if (type == LIGHT_SPOT && d2 > 0.0f) strength *= spot_profile(L + li, -unit(d));
-#endif
+    LI spot = (type == LIGHT_SPOT) & (d2 > 0.0f);
+    WHERE(spot, strength, strength * spot_profile(L, li, vneg(vunit(d))));
     LF near = d2 > 0.0f ? strength / d2 : (LF)(0.0f);
     near = NOT(physical) & (type == LIGHT_POINT) ? M_PI_F * strength : near;
     near = type == LIGHT_DIRECTIONAL ? (physical ? strength : M_PI_F * strength) : near;
@@ -305,9 +304,7 @@ INLINE LightSample light_sample(const PathScene *s, LI li, LF chosen, V2 u, cons
     ls.dist = directional ? (LF)(INF_T) : dist;
     LF scale = physical ? (LF)(1.0f) : (LF)(M_PI_F);
     scale = physical & (type == LIGHT_POINT) ? 1.0f / (dist * dist) : scale;
-#if LANES == 1
-    if (type == LIGHT_SPOT) scale = spot_profile(L + li, -ls.wi) / (dist * dist); /* always physical */
-#endif
+    WHERE(type == LIGHT_SPOT, scale, spot_profile(L, li, vneg(ls.wi)) / (dist * dist)); /* always physical */
     ls.scale = scale / chosen;
     ls.found = reached;
     LI physical_area = physical & area;

@@ -229,7 +229,7 @@ INLINE float point_light(const SceneView *sc, const ShadingPoint *pt, __global c
                is capped at 1/r^2 for r = 1e-5; only lights touching a surface reach the cap */
             falloff = min_f(falloff, MAX_FALLOFF);
         }
-        if (light->type == LIGHT_SPOT) falloff *= spot_profile(light, -l); /* a point light times its cone */
+        if (light->type == LIGHT_SPOT) falloff *= spot_profile(light, 0, -l); /* a point light times its cone */
     }
     float T = 1.0f;
     if (dot3(pt->n, l) > 0.0f) {

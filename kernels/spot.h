@@ -9,18 +9,22 @@
 #define CLRENDER_SPOT_H
 
 #include "mathf.h"
+#include "lanes.h"
 
-INLINE float spot_profile(__global const Light *L, float3 d) {
-    float cos_theta = dot3(d, unit(vload3(0, L->direction)));
-    if (L->spot_profile == SPOT_PROFILE_PBRT) {
-        float lo = L->spot_cos_cutoff, hi = L->spot_cos_beam;
-        if (!(hi > lo)) return cos_theta < lo ? 0.0f : 1.0f; /* no transition band: a hard edge */
-        float t = clamp((cos_theta - lo) / (hi - lo), 0.0f, 1.0f);
-        return t * t * (3.0f - 2.0f * t);
+INLINE LF spot_profile(__global const Light *lights, LI li, V3 d) {
+    LF cos_theta = vdot(d, vunit(FIELD3(lights, li, direction)));
+    LI pbrt = FIELD_I(lights, li, spot_profile) == SPOT_PROFILE_PBRT;
+    LF lo = FIELD_F(lights, li, spot_cos_cutoff), hi = FIELD_F(lights, li, spot_cos_beam), profile = 0.0f;
+    if (ANY(pbrt)) {
+        LF t = clamp((cos_theta - lo) / (hi - lo), 0.0f, 1.0f);
+        LF edge = cos_theta < lo ? (LF)(0.0f) : (LF)(1.0f); /* no transition band: a hard edge */
+        profile = pbrt ? (hi > lo ? t * t * (3.0f - 2.0f * t) : edge) : profile;
     }
-    if (!(cos_theta > L->spot_cos_cutoff)) return 0.0f;
-    if (cos_theta >= L->spot_cos_beam) return 1.0f;
-    return (L->spot_cutoff - ACOS(cos_theta)) / (L->spot_cutoff - L->spot_beam);
+    LI linear = NOT(pbrt) & (cos_theta > lo) & NOT(cos_theta >= hi);
+    profile = NOT(pbrt) & (cos_theta > lo) & (cos_theta >= hi) ? (LF)(1.0f) : profile;
+    LF cutoff = FIELD_F(lights, li, spot_cutoff), beam = FIELD_F(lights, li, spot_beam);
+    WHERE(linear, profile, (cutoff - acos_l(cos_theta)) / (cutoff - beam));
+    return profile;
 }
 
 #endif

@@ -177,8 +177,8 @@ def _add_sampling_arguments(p, d) -> None:
         "--path-schedule",
         choices=PATH_SCHEDULES,
         default=None,
-        help="path tracer: megakernel (a path per work-item) or wavefront (a kernel per step, shading in SIMD lanes; the same "
-        f"bits; docs/lanes.md) (default: the scene's path_schedule, else {d.path_schedule})",
+        help="path tracer: lanes (16 paths a work-item in SIMD lanes on a CPU), megakernel (a path per work-item) or wavefront (a "
+        f"kernel per step); the same bits; docs/lanes.md (default: the scene's path_schedule, else {d.path_schedule})",
     )
     p.add_argument("--samples", type=int, default=None, help="N: N x N samples per pixel (default: 1 with --aa none, else 4)")
     p.add_argument(

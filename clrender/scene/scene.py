@@ -192,7 +192,7 @@ class Scene:
     default_camera: int = 1  # the view the scene is made for, marked * by `render --list`: `render` uses it when --camera is not given
     aa: str | None = None  # the anti-aliasing `render` uses when --aa is not given (None: the command line's default, none)
     path_sampler: str | None = None  # the path tracer's sampler `render` uses when --path-sampler is not given (None: sobol)
-    path_schedule: str | None = None  # the path tracer's schedule `render` uses when --path-schedule is not given (None: megakernel)
+    path_schedule: str | None = None  # the path tracer's schedule `render` uses when --path-schedule is not given (None: lanes)
     default_lighting: bool = False  # lights, fill and environment are framing.py's (the file brought none): --env replaces them
     render_settings: dict = field(default_factory=dict)  # a foreign file's own (foreign.py): integrator, spp, max_depth, rfilter
     substitutions: list = field(default_factory=list)  # a foreign file read with approximate=True: the stand-ins used, one line each

@@ -142,9 +142,9 @@ def test_sin_cos_of_huge_arguments(device):
 
 @pytest.mark.parametrize("lanes", [8, 16])
 def test_the_lane_forms_are_the_scalar_functions_bit_for_bit(device, lanes):
-    """kernels/lanes.h's sincos_l and atan2_l, 8 or 16 arguments a work-item, give mathf.h's sin_det, cos_det and
-    atan2_det bit for bit: sin and cos over |x| < 256 (their stated range: every argument the path tracer makes) and
-    atan2 over random bit patterns, the special values and their pairs (zeros, infinities, NaN of either sign)."""
+    """kernels/lanes.h's sincos_l, atan2_l and acos_l, 8 or 16 arguments a work-item, give mathf.h's sin_det, cos_det,
+    atan2_det and acos_det bit for bit: sin and cos over |x| < 256 (their stated range: every argument the path tracer
+    makes), atan2 and acos over random bit patterns, the special values and their pairs (zeros, infinities, NaN)."""
     rng = np.random.default_rng(lanes)
     x = np.concatenate([rng.uniform(-256, 256, 20000), np.float32([0.0, -0.0, 0.785398163, -0.785398163, 255.99998, 1e-30])]).astype(np.float32)
     y, b = random_floats(rng, 20000), random_floats(rng, 20000)
@@ -155,7 +155,10 @@ def test_the_lane_forms_are_the_scalar_functions_bit_for_bit(device, lanes):
     for column, name in ((0, "sin"), (1, "cos")):
         assert np.array_equal(got[:, column].view(np.uint32), evaluate(name, small, device=device).view(np.uint32)), name
     for a, c in ((y, b), (specials[0], specials[1])):
-        got = lane_functions(a, c, lanes, device)[:, 2]
-        want = evaluate("atan2", a, c, device=device)
-        same = (got.view(np.uint32) == want.view(np.uint32)) | (np.isnan(got) & np.isnan(want))
-        assert same.all(), (a[~same][:5], c[~same][:5])
+        got = lane_functions(a, c, lanes, device)
+        for column, want in ((2, evaluate("atan2", a, c, device=device)), (3, evaluate("acos", c, device=device))):
+            same = (got[:, column].view(np.uint32) == want.view(np.uint32)) | (np.isnan(got[:, column]) & np.isnan(want))
+            assert same.all(), (column, a[~same][:5], c[~same][:5])
+    unit = rng.uniform(-1, 1, 20000).astype(np.float32)  # acos's whole domain, densely
+    got = lane_functions(unit, unit, lanes, device)[:, 3]
+    assert np.array_equal(got.view(np.uint32), evaluate("acos", unit, device=device).view(np.uint32))

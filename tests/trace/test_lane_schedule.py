@@ -32,7 +32,8 @@ def both(scene, megakernel_tiles: int = 64, lanes_tiles: int = 7, **settings):
 
 def exchange_materials_scene() -> dict:
     """A rough and a smooth conductor, a rough and a smooth coated diffuse and a thin sheet, spheres and boxes on a
-    floor, under a physical point light, a directional light and a constant environment, through a thin lens."""
+    floor, under a physical point light, a directional light, two spot lights (Mitsuba's and pbrt's profiles) and a
+    constant environment, through a thin lens."""
     scene = path_scenes.mixed(12)
     scene["materials"] = {
         **scene["materials"],
@@ -51,6 +52,8 @@ def exchange_materials_scene() -> dict:
     scene["lights"] = [
         {"type": "point", "position": [-2, 2, 2], "intensity": 6, "falloff": "inverse_square"},
         {"type": "directional", "direction": [0.3, -1, -0.2], "intensity": 0.5},
+        {"type": "spot", "position": [1, 3, 1], "direction": [-0.3, -1, -0.3], "intensity": 20},
+        {"type": "spot", "position": [-1, 3, 0], "direction": [0.2, -1, 0], "intensity": 10, "profile": "pbrt"},
     ]
     scene["environment"] = {"color": [0.2, 0.25, 0.3]}
     return scene
@@ -80,7 +83,7 @@ CASES = {
     "wizard-cat": (lambda tmp: "wizard_cat", dict(spp=2, width=20, height=15, max_depth=3, aovs=AOVS)),
     # emissive triangles (mesh lights): NEE to them and BSDF rays meeting them
     "mesh-light": (lambda tmp: path_scenes.mesh_light(12), dict(spp=3)),
-    # the exchange lobes, point and directional lights, a thin lens, the tent pixel filter
+    # the exchange lobes, point, directional and spot lights, a thin lens, the tent pixel filter
     "exchange-thin-lens": (lambda tmp: exchange_materials_scene(), dict(spp=3, pixel_filter="tent")),
     # textures (base colour, metallic-roughness, normal map), glTF metal
     "textured": (textured_scene, dict(spp=2, max_depth=4, aovs=AOVS)),
