@@ -36,8 +36,8 @@ def evaluate(name: str, a, b=None, device: Device | None = None) -> np.ndarray:
 
 
 def lane_functions(a, b, lanes: int = 1, device: Device | None = None) -> np.ndarray:
-    """(n, 4) float32: kernels/lanes.h's sincos_l (sin, cos) of `a` (|a| < 256), atan2_l(a, b) and acos_l(b), built for
-    `lanes` arguments a work-item (1, 8 or 16)."""
+    """(n, 5) float32: kernels/lanes.h's sincos_l (sin, cos) of `a` (|a| < 256), atan2_l(a, b), acos_l(b) and exp_l(a),
+    built for `lanes` arguments a work-item (1, 8 or 16)."""
     import pyopencl as cl
 
     from .trace.work_layout import launch_items
@@ -45,7 +45,7 @@ def lane_functions(a, b, lanes: int = 1, device: Device | None = None) -> np.nda
     dev = device or get_device()
     a = np.ascontiguousarray(a, np.float32).ravel()
     b = np.ascontiguousarray(np.broadcast_to(np.asarray(b, np.float32), a.shape), np.float32)
-    out = np.empty((a.size, 4), np.float32)
+    out = np.empty((a.size, 5), np.float32)
     out_buf = dev.empty(out.nbytes)
     knl = dev.kernel(PROBE, "lane_math_probe", {"LANES": lanes})
     launch_items(dev, knl, -(-a.size // lanes), n=np.int32(a.size), a=dev.to_device(a), b=dev.to_device(b), out=out_buf)

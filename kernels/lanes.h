@@ -190,6 +190,24 @@ INLINE LF acos_l(LF x) {
 #endif
 }
 
+/* e^x as mathf.h's exp_det gives it (0 below -103.97, inf above 88.72, NaN kept): at width 1 EXP, in lanes its steps
+ * with the two scalings it takes near the ends of the range as selects */
+INLINE LF exp_l(LF x) {
+#if LANES == 1
+    return EXP(x);
+#else
+    LF n = floor(x * 1.44269504f + 0.5f);
+    LF r = (x - n * 0.693359375f) + n * 2.12194440e-4f, z = r * r, p = MF_EXP_POLY(r, z);
+    LI k = CONVERT_I(clamp(n, -200.0f, 200.0f)), top = k > 127, bottom = k < -125;
+    p = top ? p * 2.0f : (bottom ? p * 5.42101086e-20f : p);
+    k = top ? k - 1 : (bottom ? k + 64 : k);
+    LF v = p * AS_LF((k + 127) << 23);
+    v = x < -103.972084f ? (LF)(0.0f) : v;
+    v = x > 88.7228391f ? (LF)(INFINITY) : v;
+    return x != x ? x : v;
+#endif
+}
+
 /* a uniform 3-vector in every lane */
 INLINE V3 splat3(float3 a) { return v3((LF)(a.x), (LF)(a.y), (LF)(a.z)); }
 

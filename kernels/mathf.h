@@ -166,6 +166,9 @@ INLINE float cos_det(float x) {
 INLINE float mf_pow2i(int n) { return as_float((uint)(n + 127) << 23); }
 
 /* e^x = 2^n e^r, n = round(x / ln 2), r = x - n ln 2 (ln 2 in two parts) in [-ln2/2, ln2/2]: Cephes' expf */
+#define MF_EXP_POLY(r, z)                                                                                              \
+    ((((((1.9875691500e-4f * (r) + 1.3981999507e-3f) * (r) + 8.3334519073e-3f) * (r) + 4.1665795894e-2f) * (r) +      \
+       1.6666665459e-1f) * (r) + 5.0000001201e-1f) * (z) + (r) + 1.0f)
 INLINE float exp_det(float x) {
     if (x != x) return x;
     if (x > 88.7228391f) return INFINITY;
@@ -173,8 +176,7 @@ INLINE float exp_det(float x) {
     float n = floor_det(x * 1.44269504f + 0.5f);
     float r = (x - n * 0.693359375f) + n * 2.12194440e-4f;
     float z = r * r;
-    float p = (((((1.9875691500e-4f * r + 1.3981999507e-3f) * r + 8.3334519073e-3f) * r + 4.1665795894e-2f) * r +
-                1.6666665459e-1f) * r + 5.0000001201e-1f) * z + r + 1.0f;
+    float p = MF_EXP_POLY(r, z);
     int k = (int)n;
     if (k > 127) { /* e^r < 1 near the top: 2^128 e^r in two exact steps */
         p *= 2.0f;

@@ -35,19 +35,20 @@ __kernel void mathf_probe(int n, int fn, __global const float *a, __global const
     out[i] = v;
 }
 
-/* kernels/lanes.h's sincos_l, atan2_l and acos_l, LANES arguments a work-item (1, 8 or 16): out[4 i] = sin a[i],
- * out[4 i + 1] = cos a[i] (|a[i]| < 256), out[4 i + 2] = atan2(a[i], b[i]), out[4 i + 3] = acos b[i] */
+/* kernels/lanes.h's sincos_l, atan2_l, acos_l and exp_l, LANES arguments a work-item (1, 8 or 16): out[5 i] = sin a[i],
+ * out[5 i + 1] = cos a[i] (|a[i]| < 256), out[5 i + 2] = atan2(a[i], b[i]), out[5 i + 3] = acos b[i], out[5 i + 4] = e^a[i] */
 #include "lanes.h"
 __kernel void lane_math_probe(int n, __global const float *a, __global const float *b, __global float *out) {
     int base = get_global_id(0) * LANES;
     if (base >= n) return;
     LI i = min(base + AS_LI(LANE_IDS_L), n - 1);
-    LF x = gather(a, i), y = gather(b, i), s, c, t = atan2_l(x, y), r = acos_l(y);
+    LF x = gather(a, i), y = gather(b, i), s, c, t = atan2_l(x, y), r = acos_l(y), e = exp_l(x);
     sincos_l(x, &s, &c);
     for (int k = 0; k < LANES && base + k < n; ++k) {
-        out[4 * (base + k)] = LANE(s, k);
-        out[4 * (base + k) + 1] = LANE(c, k);
-        out[4 * (base + k) + 2] = LANE(t, k);
-        out[4 * (base + k) + 3] = LANE(r, k);
+        out[5 * (base + k)] = LANE(s, k);
+        out[5 * (base + k) + 1] = LANE(c, k);
+        out[5 * (base + k) + 2] = LANE(t, k);
+        out[5 * (base + k) + 3] = LANE(r, k);
+        out[5 * (base + k) + 4] = LANE(e, k);
     }
 }

@@ -697,30 +697,36 @@ INLINE void trace_path(const PathScene *s, PathState *st, Rng *rng) {
 #define SPLAT_SIDE (2 * SPLAT_RADIUS + 1)
 #define SPLAT_SLOTS (SPLAT_SIDE * SPLAT_SIDE) /* 1 without SPLAT_RADIUS */
 #if SPLAT_RADIUS
-/* A sample at `off` in its pixel, of radiance L, added to slot (dy, dx) as (f L, f), f the filter's weight about the
- * centre of the pixel dy - R rows and dx - R columns away (clrender/trace/film.py gathers the slots). */
-INLINE void splat_sample(float4 *splats, float2 off, float3 L) {
-    float wx[SPLAT_SIDE], wy[SPLAT_SIDE];
+/* A sample at `off` in its pixel, of radiance L, added to slot (dy, dx) as (f L, f) in the lanes `on`, f the filter's
+ * weight about the centre of the pixel dy - R rows and dx - R columns away (clrender/trace/film.py gathers the slots). */
+INLINE void splat_sample(V4 *splats, V2 off, V3 L, LI on) {
+    LF wx[SPLAT_SIDE], wy[SPLAT_SIDE];
     for (int k = 0; k < SPLAT_SIDE; ++k) {
         wx[k] = film_weight(SPLAT_FILTER, off.x - 0.5f - (float)(k - SPLAT_RADIUS));
         wy[k] = film_weight(SPLAT_FILTER, off.y - 0.5f - (float)(k - SPLAT_RADIUS));
     }
     for (int dy = 0; dy < SPLAT_SIDE; ++dy)
         for (int dx = 0; dx < SPLAT_SIDE; ++dx) {
-            float f = wy[dy] * wx[dx];
-            splats[dy * SPLAT_SIDE + dx] += (float4)(f * L, f);
+            LF f = wy[dy] * wx[dx];
+            V4 *slot = &splats[dy * SPLAT_SIDE + dx];
+#if LANES == 1
+            *slot += (float4)(f * L, f);
+#else /* each product rounded before its sum, as the float4 above */
+            LF r = f * L.x, g = f * L.y, b = f * L.z;
+            *slot = v4(on ? slot->x + r : slot->x, on ? slot->y + g : slot->y, on ? slot->z + b : slot->z, on ? slot->w + f : slot->w);
+#endif
         }
 }
 #endif
 
 /* The sample's radiance and first hit into the pixel's sums, in the lanes `on` (the first sample's hit is the pixel's id
  * and depth); with SPLAT_RADIUS (one path a work-item), its radiance splatted into `splats`. */
-INLINE void finish_sample(PathLanes *st, float4 *splats, LI on) {
+INLINE void finish_sample(PathLanes *st, V4 *splats, LI on) {
     V3 radiance = GET3(st, radiance);
     LF weight = st->weight;
     V3 w = v3(weight, weight, weight);
 #if SPLAT_RADIUS
-    splat_sample(splats, (float2)(st->off[0], st->off[1]), radiance);
+    splat_sample(splats, v2(st->off[0], st->off[1]), radiance, on);
 #else
     PUT3(st, sum, add_product(GET3(st, sum), w, radiance), on);
 #endif
@@ -810,7 +816,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL || SPLAT_RADIUS || HIDE_EMITTERS || LOOK_PAST || INSTANCED
+#if !RNG_SOBOL || HIDE_EMITTERS || LOOK_PAST || INSTANCED
 #error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
 #endif
 /* lane k of a 3-vector */
@@ -860,6 +866,10 @@ __kernel __attribute__((vec_type_hint(LF))) void render_path_lanes(
     LI pixel = gather_i(pixels, min(slot, (LI)(n_work - 1)));
     PathLanes st;
     start_pixel(&st);
+    V4 splats[SPLAT_SLOTS];
+#if SPLAT_RADIUS
+    for (int j = 0; j < SPLAT_SLOTS; ++j) splats[j] = v4(0.0f, 0.0f, 0.0f, 0.0f);
+#endif
     Rng rng = make_rng((LU)(params.frame.seed), AS_LU(pixel), (LU)(0U));
     LU sample = 0U;
     LI live = slot < n_work, start = live;
@@ -871,14 +881,19 @@ __kernel __attribute__((vec_type_hint(LF))) void render_path_lanes(
         if (ANY(shadowed)) shadow_step(&st, shadows_unblocked(&s, &st, shadowed));
         if (ANY(on)) on = scatter(&s, &st, &v, &rng, on);
         LI ended = live & NOT(on);
-        if (ANY(ended)) finish_sample(&st, 0, ended);
+        if (ANY(ended)) finish_sample(&st, splats, ended);
         sample = ended ? sample + 1U : sample;
         start = ended & (sample < (uint)params.spp);
         live = (live & NOT(ended)) | start;
     }
-    for (int k = 0; k < LANES && base + k < n_work; ++k)
+    for (int k = 0; k < LANES && base + k < n_work; ++k) {
+#if SPLAT_RADIUS
+        __global float4 *colour_out = REGION(out, float4, params.frame.out.colour) + (base + k) * SPLAT_SLOTS;
+        for (int j = 0; j < SPLAT_SLOTS; ++j) colour_out[j] = (float4)(LANE(splats[j].x, k), LANE(splats[j].y, k), LANE(splats[j].z, k), LANE(splats[j].w, k));
+#endif
         write_pixel(&params, base + k, out, lane3(st.sum, k), LANE(st.weight_sum, k), lane3(st.normal_sum, k), lane3(st.albedo_sum, k),
                     LANE_I(st.first_object, k), LANE(st.first_depth, k), LANE_U(st.visits, k), LANE_U(st.rays, k));
+    }
 }
 #endif
 

@@ -111,10 +111,7 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
 INLINE LF pixel_filter_weight(int filter, V2 off) {
     LF dx = off.x - 0.5f, dy = off.y - 0.5f;
     if (filter == PIXEL_FILTER_TENT) return (1.0f - 2.0f * fabs(dx)) * (1.0f - 2.0f * fabs(dy)) + TENT_FLOOR;
-#if LANES == 1 /* in lanes, the host keeps the Gaussian to one path a work-item */
-    if (filter == PIXEL_FILTER_GAUSSIAN)
-        return EXP(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
-#endif
+    if (filter == PIXEL_FILTER_GAUSSIAN) return exp_l(-(dx * dx + dy * dy) / (2.0f * GAUSSIAN_FILTER_SIGMA * GAUSSIAN_FILTER_SIGMA));
     return 1.0f;
 }
 

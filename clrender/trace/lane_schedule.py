@@ -4,8 +4,8 @@ type (the megakernel runs the same source at width 1), the walks a lane at a tim
 bits.  `LaneKernel` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
 
 What the lanes do not take yet renders with the megakernel (`falls_back` says why): instanced scenes, alpha-tested and
-single-sided materials, hidden emitters, wide reconstruction filters, the independent sampler, the Gaussian pixel
-filter, a scene without primitives, and devices that are not CPUs."""
+single-sided materials, hidden emitters, the independent sampler, a scene without primitives, and devices that are not
+CPUs."""
 
 from __future__ import annotations
 
@@ -19,7 +19,6 @@ UNSUPPORTED_DEFINES = {
     "ALPHA_TEST": "alpha-tested materials",
     "CULL_BACKFACES": "single-sided materials",
     "HIDE_EMITTERS": "hidden emitters",
-    "SPLAT_RADIUS": "a reconstruction filter wider than a pixel",
 }
 
 
@@ -38,8 +37,6 @@ def falls_back(defines: dict, scene, settings, n_prims: int, device: cl.Device) 
             return what
     if defines.get("PATH_SAMPLER", 0) != 1:
         return "the independent sampler"
-    if settings.pixel_filter == "gaussian":
-        return "the Gaussian pixel filter"
     if n_prims == 0:
         return "a scene without primitives"
     if not lane_width(device):

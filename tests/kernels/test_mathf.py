@@ -142,8 +142,8 @@ def test_sin_cos_of_huge_arguments(device):
 
 @pytest.mark.parametrize("lanes", [8, 16])
 def test_the_lane_forms_are_the_scalar_functions_bit_for_bit(device, lanes):
-    """kernels/lanes.h's sincos_l, atan2_l and acos_l, 8 or 16 arguments a work-item, give mathf.h's sin_det, cos_det,
-    atan2_det and acos_det bit for bit: sin and cos over |x| < 256 (their stated range: every argument the path tracer
+    """kernels/lanes.h's sincos_l, atan2_l, acos_l and exp_l, 8 or 16 arguments a work-item, give mathf.h's sin_det,
+    cos_det, atan2_det, acos_det and exp_det bit for bit: sin and cos over |x| < 256 (their stated range: every argument the path tracer
     makes), atan2 and acos over random bit patterns, the special values and their pairs (zeros, infinities, NaN)."""
     rng = np.random.default_rng(lanes)
     x = np.concatenate([rng.uniform(-256, 256, 20000), np.float32([0.0, -0.0, 0.785398163, -0.785398163, 255.99998, 1e-30])]).astype(np.float32)
@@ -162,3 +162,7 @@ def test_the_lane_forms_are_the_scalar_functions_bit_for_bit(device, lanes):
     unit = rng.uniform(-1, 1, 20000).astype(np.float32)  # acos's whole domain, densely
     got = lane_functions(unit, unit, lanes, device)[:, 3]
     assert np.array_equal(got.view(np.uint32), evaluate("acos", unit, device=device).view(np.uint32))
+    for a in (rng.uniform(-110, 95, 20000).astype(np.float32), y, SPECIALS):  # exp: its range and past both ends
+        got, want = lane_functions(a, 0.0, lanes, device)[:, 4], evaluate("exp", a, device=device)
+        same = (got.view(np.uint32) == want.view(np.uint32)) | (np.isnan(got) & np.isnan(want))
+        assert same.all(), (a[~same][:5], got[~same][:5], want[~same][:5])

@@ -91,6 +91,11 @@ CASES = {
     "env-map-glass": (env_map_scene, dict(spp=3, aovs=AOVS)),
     # bench/assets.py's first picture as it is: textures and glTF metal under an HDR sky
     "textured-sky": (lambda tmp: textured_sky_scene(tmp), dict(spp=2, max_depth=4)),
+    # the splat films (reconstruction filters wider than a pixel: Mitsuba's tent, and its Gaussian, Mitsuba XML's default)
+    "mixed-tent-splats": (lambda tmp: path_scenes.mixed(12), dict(spp=3, rfilter="tent")),
+    "cornell-gaussian-splats": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, rfilter="gaussian", aovs=AOVS)),
+    # the Gaussian pixel filter (each pixel's own samples weighted)
+    "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
 }
 
 
@@ -119,10 +124,8 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 
 FALLBACKS = {
     "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
-    "a reconstruction filter wider than a pixel": (lambda tmp: path_scenes.cornell_box(8), dict(rfilter="tent")),
     "hidden emitters": (lambda tmp: path_scenes.mesh_light(8), dict(hide_emitters=True)),
     "alpha-tested materials": (lambda tmp: blend_card(), {}),
-    "the Gaussian pixel filter": (lambda tmp: path_scenes.cornell_box(8), dict(pixel_filter="gaussian")),
     "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
 }
 
