@@ -77,15 +77,16 @@ def test_builtin_sin_is_a_call_and_mathf_is_not(device):
     assert functions_or_skip(device, 1)["probe_sin"].call_count == 0
 
 
-# Calls render_path may keep: Intel's runtime divides 16 lanes' integers by a library routine (the pixel index
-# to x and y, once a work-item, before the sample loop).  No float math.
-ALLOWED_IN_PATH = {"__ocl_svml_z0_idiv16", "__ocl_svml_z0_irem16", "__ocl_svml_z0_udiv16", "__ocl_svml_z0_urem16"}
+# Calls the path tracer's kernels may keep: Intel's runtime divides 8 or 16 lanes' integers by a library routine (in
+# render_path the pixel index to x and y, once a work-item; in render_path_lanes also the texture and environment
+# lookups' wrapping remainders).  No float math.
+ALLOWED_IN_PATH = {f"__ocl_svml_z0_{op}{n}" for op in ("idiv", "irem", "udiv", "urem") for n in (8, 16)}
 
 
 @pytest.mark.slow
 def test_render_path_calls_no_math_builtin(device):
-    """Compiles the path tracer as a render does; fails when render_path gains an out-of-line call (a builtin
-    sin, exp, memcpy, ...) beyond the integer division above."""
+    """Compiles the path tracer as a render does (the lane schedule, the default on a CPU, or the megakernel); fails when
+    its kernel gains an out-of-line call (a builtin sin, exp, memcpy, ...) beyond the integer division above."""
     from clrender.scene.scene import Scene
     from clrender.trace.renderer import Renderer
     from clrender.trace.tracer import Tracer
@@ -100,5 +101,7 @@ def test_render_path_calls_no_math_builtin(device):
         functions = kernel_asm.program_functions(program)
         if functions is None:
             pytest.skip(f"{device.name}: its program binaries hold no machine code tools/kernel_asm.py can read")
-        calls = functions["render_path"].calls
-        assert set(calls) <= ALLOWED_IN_PATH, dict(calls)
+        kernels = [name for name in ("render_path", "render_path_lanes") if name in functions]
+        assert kernels
+        for name in kernels:
+            assert set(functions[name].calls) <= ALLOWED_IN_PATH, (name, dict(functions[name].calls))
