@@ -739,7 +739,7 @@ INLINE void finish_sample(PathLanes *st, V4 *splats, LI on) {
 }
 
 /* Slot gid's outputs once its pixel's samples are done: the filtered mean (without SPLAT_RADIUS; the splats are
- * written as they are), the AOVs (record_aovs: the first path's object and depth, the filtered means of the normal and
+ * written as they are), the AOVs (the first path's object and depth, the filtered means of the normal and
  * albedo) and the counters, from one pixel's sums. */
 INLINE void write_pixel(const PathParams *p, int gid, __global char *out, float3 sum, float weight_sum, float3 normal_sum,
                         float3 albedo_sum, int first_object, float first_depth, uint visits, uint rays) {
