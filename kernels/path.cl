@@ -816,23 +816,30 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL || HIDE_EMITTERS || LOOK_PAST || INSTANCED
+#if !RNG_SOBOL || LOOK_PAST || INSTANCED
 #error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
 #endif
 /* lane k of a 3-vector */
 INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
 
-/* The closest hit of each live lane's ray: the lanes walked one at a time by render_path's walker (traversal stays per
- * ray, docs/lanes.md), each lane's hit put in its lane. */
+/* The closest hit of each live lane's ray (extend_step's, one lane at a time: traversal stays per ray, docs/lanes.md),
+ * each lane's hit put in its lane. */
 INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
     for (int k = 0; k < LANES; ++k) {
         if (!LANE_I(live, k)) continue;
         uint visits = LANE_U(st->visits, k);
-        Hit one = closest_hit(&s->geo, make_ray(lane3(st->o, k), lane3(st->d, k)), 0.0f, INF_T, &visits);
+        Ray r = make_ray(lane3(st->o, k), lane3(st->d, k));
+        float t_min = 0.0f;
+        Hit one;
+        for (int hidden = 0;;) { /* extend_step's loop: with HIDE_EMITTERS, a camera ray past emitting triangles */
+            one = closest_hit(&s->geo, r, t_min, INF_T, &visits);
+            LANE_U(st->rays, k) += 1U;
+            if (!HIDE_EMITTERS || LANE_I(st->depth, k) != 0 || one.id < 0 || s->emitter_of_prim[one.id] < 0 || ++hidden >= HIDDEN_LAYERS) break;
+            t_min = one.t;
+        }
         LANE_U(st->visits, k) = visits;
-        LANE_U(st->rays, k) += 1U;
         LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
     }
     return h;

@@ -4,8 +4,7 @@ type (the megakernel runs the same source at width 1), the walks a lane at a tim
 bits.  `LaneKernel` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
 
 What the lanes do not take yet renders with the megakernel (`falls_back` says why): instanced scenes, alpha-tested and
-single-sided materials, hidden emitters, the independent sampler, a scene without primitives, and devices that are not
-CPUs."""
+single-sided materials, the independent sampler, a scene without primitives, and devices that are not CPUs."""
 
 from __future__ import annotations
 
@@ -18,7 +17,6 @@ UNSUPPORTED_DEFINES = {
     "INSTANCED": "instanced scenes",
     "ALPHA_TEST": "alpha-tested materials",
     "CULL_BACKFACES": "single-sided materials",
-    "HIDE_EMITTERS": "hidden emitters",
 }
 
 

@@ -81,8 +81,9 @@ CASES = {
     "environment-spheres-rr0": (lambda tmp: path_scenes.environment_spheres(12), dict(spp=3, rr_depth=0)),
     # area and directional lights of the unnormalised falloff (and NEE's nearness choice), many objects (a bundled scene)
     "wizard-cat": (lambda tmp: "wizard_cat", dict(spp=2, width=20, height=15, max_depth=3, aovs=AOVS)),
-    # emissive triangles (mesh lights): NEE to them and BSDF rays meeting them
+    # emissive triangles (mesh lights): NEE to them and BSDF rays meeting them; hidden from camera rays
     "mesh-light": (lambda tmp: path_scenes.mesh_light(12), dict(spp=3)),
+    "mesh-light-hide-emitters": (lambda tmp: path_scenes.mesh_light(12), dict(spp=3, hide_emitters=True)),
     # the exchange lobes, point, directional and spot lights, a thin lens, the tent pixel filter
     "exchange-thin-lens": (lambda tmp: exchange_materials_scene(), dict(spp=3, pixel_filter="tent")),
     # textures (base colour, metallic-roughness, normal map), glTF metal
@@ -124,7 +125,6 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 
 FALLBACKS = {
     "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
-    "hidden emitters": (lambda tmp: path_scenes.mesh_light(8), dict(hide_emitters=True)),
     "alpha-tested materials": (lambda tmp: blend_card(), {}),
     "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
 }
