@@ -167,8 +167,7 @@ def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedul
     from clrender.trace.renderer import Renderer
 
     scene, settings = clrender_setup(name, size, spp, depth)
-    if schedule != "megakernel":
-        settings["path_schedule"] = schedule
+    settings["path_schedule"] = schedule
     start = time.perf_counter()
     renderer = Renderer(scene, seed=0, **settings)
     result = renderer.run()
