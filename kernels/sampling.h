@@ -77,10 +77,10 @@ INLINE LU owen_scramble(LU x, LU seed) {
 #define SOBOL_KEY_SAMPLE 0x50B01U
 #define SOBOL_KEY_Y 0x68bc21ebU
 
+INLINE V2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
 #if LANES > 1 /* in lanes, the path tracer's one sampler: uniform offsets (the host keeps the grids to one path a work-item) */
-INLINE V2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) { return rng_next2(rng); }
+    return rng_next2(rng);
 #else
-INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
     if (sampler == SAMPLER_UNIFORM) {
         /* the centred grid: (p + 0.5) / n */
@@ -99,9 +99,8 @@ INLINE float2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
     uint y = owen_scramble(sobol_dim1(s), mix32(key ^ SOBOL_KEY_Y));
     rng->dim += 2; /* keep later dimensions aligned with the other samplers */
     return (float2)(u01(x), u01(y));
-}
-
 #endif
+}
 
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the
  * default), tent (1 - 2|dx|)(1 - 2|dy|) or Gaussian (sigma 0.25 px) about the
