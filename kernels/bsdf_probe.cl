@@ -62,16 +62,6 @@ INLINE void put_rows(__global float4 *out, int stride, int at, int base, int n, 
 #endif
 }
 
-INLINE void put_values(__global float *out, int base, int n, LF v) {
-#if LANES == 1
-    out[base] = v;
-#else
-    float a[LANES];
-    LANES_CAT(vstore, LANES)(v, 0, a);
-    for (int k = 0; k < LANES && base + k < n; ++k) out[base + k] = a[k];
-#endif
-}
-
 /* out[i] = (eval(wo, wi), 0) of record i's lobe: f * |cos theta_i| */
 __kernel void bsdf_eval_probe(int n, __global const BsdfProbeParams *params, int params_stride, __global const float4 *wo,
                               int wo_stride, __global const float4 *wi, __global float4 *out) {
@@ -89,7 +79,7 @@ __kernel void bsdf_pdf_probe(int n, __global const BsdfProbeParams *params, int 
     if (base >= n) return;
     LI i = probe_items(base, n);
     Component c = probe_component(params, i * params_stride);
-    put_values(out, base, n, component_pdf(c, row3(wo, i * wo_stride), row3(wi, i)));
+    STORE_LANES(float, out, base, n, component_pdf(c, row3(wo, i * wo_stride), row3(wi, i)));
 }
 
 /* wi_out[i] = (wi, delta), weight_out[i] = (weight, pdf) of one sample */

@@ -253,6 +253,18 @@ INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
 #define LANE_U(v, k) (((uint *)&(v))[k])
 #endif
 
+/* out[base + k] = lane k of v (of element type T), for the lanes below n: a probe's output */
+#if LANES == 1
+#define STORE_LANES(T, out, base, n, v) ((out)[base] = (v))
+#else
+#define STORE_LANES(T, out, base, n, v)                                                         \
+    do {                                                                                        \
+        T lanes_[LANES];                                                                        \
+        LANES_CAT(vstore, LANES)(v, 0, lanes_);                                                 \
+        for (int k_ = 0; k_ < LANES && (base) + k_ < (n); ++k_) (out)[(base) + k_] = lanes_[k_]; \
+    } while (0)
+#endif
+
 /* lanes set in m, counted */
 INLINE int lanes_set(LI m) {
 #if LANES == 1

@@ -12,12 +12,5 @@ __kernel void light_pick_probe(int n, uint seed, __global const LightChoice *cho
     if (base >= n) return;
     LU i = min((LU)(base) + LANE_IDS_L, (LU)(n - 1));
     Rng rng = make_rng((LU)(seed), i, (LU)(0U));
-    LI pick = pick_light_of(choices, n_choices, rng_next(&rng));
-#if LANES == 1
-    out[base] = pick;
-#else
-    int picks[LANES];
-    LANES_CAT(vstore, LANES)(pick, 0, picks);
-    for (int k = 0; k < LANES && base + k < n; ++k) out[base + k] = picks[k];
-#endif
+    STORE_LANES(int, out, base, n, pick_light_of(choices, n_choices, rng_next(&rng)));
 }

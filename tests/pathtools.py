@@ -195,3 +195,15 @@ def env_map_scene(tmp_path) -> dict:
             {"type": "sphere", "center": [0.5, 0.4, 0], "radius": 0.4, "material": "clay"},
         ],
     }
+
+
+def render_both(scene, schedule: str, kernel_type, megakernel_tiles: int = 64, tiles: int = 7, **settings):
+    """(megakernel result, result under `schedule`, that Renderer) of `scene` with `settings`, each on its tiling; the
+    second renders with a kernel of `kernel_type` (the schedule took the scene), the first not."""
+    from clrender.trace.tracer import as_scene
+
+    scene = Scene.from_dict(scene) if isinstance(scene, dict) else as_scene(scene)
+    a = Renderer(scene, integrator="path", path_schedule="megakernel", tile_size=megakernel_tiles, **settings)
+    b = Renderer(scene, integrator="path", path_schedule=schedule, tile_size=tiles, tracer=a.tracer, **settings)
+    assert isinstance(b.kernel, kernel_type) and not isinstance(a.kernel, kernel_type)
+    return a.run(), b.run(), b

@@ -155,7 +155,18 @@ def main(argv=None) -> int:
         return 2
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp, "perf.data")
-        forwarded = ["--scene", args.scene, "--schedule", args.schedule, "--size", str(args.size), "--spp", str(args.spp), "--renders", str(args.renders)]
+        forwarded = [
+            "--scene",
+            args.scene,
+            "--schedule",
+            args.schedule,
+            "--size",
+            str(args.size),
+            "--spp",
+            str(args.spp),
+            "--renders",
+            str(args.renders),
+        ]
         run = [sys.executable, "-m", "tools.kernel_profile", *forwarded, "--child", tmp]
         subprocess.run(
             ["perf", "record", "-q", "-F", "4000", "-o", str(data), "--", *run], check=True, cwd=REPO, env={**os.environ, "PYOPENCL_NO_CACHE": "1"}

@@ -37,7 +37,9 @@ def _points(pixels, samples: int, lanes: int, device: Device | None):
     return dev, {"LANES": lanes}, k, dict(pixels=dev.to_device(pixels), n_samples=samples, n_work=k)
 
 
-def sequence_points(pixels, samples: int, dims, seed: int = 0, first: int = 0, scrambled: bool = True, device: Device | None = None, lanes: int = 1) -> np.ndarray:
+def sequence_points(
+    pixels, samples: int, dims, seed: int = 0, first: int = 0, scrambled: bool = True, device: Device | None = None, lanes: int = 1
+) -> np.ndarray:
     """(len(pixels), samples, len(dims)) uint32: dimensions `dims` of samples first ... first + samples - 1 of each
     pixel in the path tracer's Sobol sequence (kernels/sobol.h), as 32-bit fractions (value / 2**32); unscrambled:
     the plain 2-D Sobol coordinate dim % 2 of the sample index, the same for every pixel.  `lanes`: points a

@@ -16,18 +16,9 @@ from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import as_scene
 
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
-from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene
+from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene, render_both
 from tests.reference import path_scenes
 from tests.scenetools import copies_scene
-
-
-def both(scene, megakernel_tiles: int = 64, lanes_tiles: int = 7, **settings):
-    """(megakernel result, lane result, the lanes' Renderer) of `scene` with `settings`, each on its tiling."""
-    scene = Scene.from_dict(scene) if isinstance(scene, dict) else as_scene(scene)
-    a = Renderer(scene, integrator="path", path_schedule="megakernel", tile_size=megakernel_tiles, **settings)
-    b = Renderer(scene, integrator="path", path_schedule="lanes", tile_size=lanes_tiles, tracer=a.tracer, **settings)
-    assert isinstance(b.kernel, LaneKernel) and not isinstance(a.kernel, LaneKernel)
-    return a.run(), b.run(), b
 
 
 def exchange_materials_scene() -> dict:
@@ -105,7 +96,7 @@ def test_the_lanes_render_the_megakernels_bits(tmp_path, case):
     make, settings = CASES[case]
     scene = make(tmp_path)
     scene = Scene.from_dict(scene, base_dir=tmp_path) if isinstance(scene, dict) else scene
-    a, b, _ = both(scene, seed=9, **settings)
+    a, b, _ = render_both(scene, "lanes", LaneKernel, seed=9, **settings)
     assert_same(a, b)
     assert a.image.mean() > 1e-3  # something lit: the comparison is of something
 

@@ -261,7 +261,12 @@ def test_the_path_tracers_draws_are_the_sequences_dimensions(device):
     draws = path_draws(pixels, samples, depth, seed=2, first=1, device=device)
     for v in range(depth):
         base = VERTEX_DIMS * (v + 1)
-        dims = [base + SLOTS["pick"], base + SLOTS["rr"], *(base + SLOTS["bsdf"] + k for k in range(3)), *(base + SLOTS["light"] + k for k in range(3))]
+        dims = [
+            base + SLOTS["pick"],
+            base + SLOTS["rr"],
+            *(base + SLOTS["bsdf"] + k for k in range(3)),
+            *(base + SLOTS["light"] + k for k in range(3)),
+        ]
         bits = sequence_points(pixels, samples, dims, seed=2, first=1, device=device)
         want = (bits >> 8).astype(np.float64) * 2.0**-24
         np.testing.assert_array_equal(draws[:, :, v, :8], want.astype(np.float32))

@@ -7,9 +7,9 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
+from clrender.layout import MATERIAL_DTYPE, TEXTURE_DTYPE, TEXTURE_SLOTS, VERTEX_ATTRIBUTES_DTYPE, WRAP_MODES
 from clrender.trace.tracer import trace_defines
 from clrender.trace.work_layout import launch_items
-from clrender.layout import MATERIAL_DTYPE, TEXTURE_DTYPE, TEXTURE_SLOTS, VERTEX_ATTRIBUTES_DTYPE, WRAP_MODES
 
 N = 2999  # lookups: no multiple of 16
 WRAPS = list(WRAP_MODES.values())

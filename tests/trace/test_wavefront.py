@@ -12,21 +12,17 @@ import pytest
 from clrender.errors import UsageError
 from clrender.scene.scene import Scene
 from clrender.trace.renderer import Renderer
-from clrender.trace.tracer import as_scene
 from clrender.trace.wavefront import Wavefront
 
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
-from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene
+from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene, render_both
 from tests.reference import path_scenes
 from tests.scenetools import copies_scene
 
+
 def both(scene, megakernel_tiles: int = 64, wavefront_tiles: int = 7, **settings):
     """(megakernel result, wavefront result, the wavefront's Renderer) of `scene` with `settings`, each on its tiling."""
-    scene = Scene.from_dict(scene) if isinstance(scene, dict) else as_scene(scene)
-    a = Renderer(scene, integrator="path", path_schedule="megakernel", tile_size=megakernel_tiles, **settings)
-    b = Renderer(scene, integrator="path", path_schedule="wavefront", tile_size=wavefront_tiles, tracer=a.tracer, **settings)
-    assert isinstance(b.kernel, Wavefront) and not isinstance(a.kernel, Wavefront)
-    return a.run(), b.run(), b
+    return render_both(scene, "wavefront", Wavefront, megakernel_tiles, wavefront_tiles, **settings)
 
 
 def test_the_wavefront_renders_the_megakernels_bits_on_another_tiling():
