@@ -133,8 +133,6 @@ INLINE V3 vcross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x 
 #endif
 #if LANES_SQRT_BUILTIN
 INLINE LF sqrt_l(LF x) { return __builtin_sqrtf(x); }
-#elif LANES == 1
-INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #else
 INLINE LF sqrt_l(LF x) { return sqrt(x); }
 #endif

@@ -1,4 +1,6 @@
-/* Unidirectional path tracing (issue 25): one work-item per pixel, `spp` paths each.
+/* Unidirectional path tracing (issue 25): one work-item per pixel, `spp` paths each (render_path), or with LANES 16 (8)
+ * that many pixels a work-item, each in a lane of a vector register (render_path_lanes: the same steps over
+ * kernels/lanes.h's lane type; docs/lanes.md).
  *
  * At every surface vertex the material picks ONE component at random with its own weight (the
  * stochastic mixture of pbrt-v4's MixMaterial: unbiased, and each component is then a plain BSDF of
