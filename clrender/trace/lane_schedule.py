@@ -22,9 +22,9 @@ UNSUPPORTED_DEFINES = {
 
 def lane_width(device: cl.Device) -> int:
     """Paths a work-item: 16 on a CPU whose OpenCL driver prefers 16-float vectors (AVX-512), 8 on other CPUs, 0 (the
-    megakernel) on other devices, where a work-item is one path."""
-    if not device.type & cl.device_type.CPU:
-        return 0
+    megakernel) on other devices, where a work-item is one path, and on the Oclgrind simulator."""
+    if not device.type & cl.device_type.CPU or "oclgrind" in device.platform.name.lower():
+        return 0  # a GPU's work-item is one path; Oclgrind checks the megakernel (its lanes: test_oclgrind's own case)
     return 16 if device.preferred_vector_width_float >= 16 else 8
 
 
@@ -38,7 +38,7 @@ def falls_back(defines: dict, scene, settings, n_prims: int, device: cl.Device) 
     if n_prims == 0:
         return "a scene without primitives"
     if not lane_width(device):
-        return "a device that is not a CPU (one path a work-item is its lanes)"
+        return "a device that is not a CPU, or the Oclgrind simulator (one path a work-item is its lanes)"
     return ""
 
 

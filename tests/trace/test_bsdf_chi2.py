@@ -91,51 +91,51 @@ PLANTED = [
     (
         # the pdf of sampling D(h) cos(theta_h) instead of the visible normals: the visible-normal Jacobian is lost
         "pdf_without_visible_normals",
-        "return ggx_d(h, alpha) / (2.0f * (abs_f(wo.z) + ggx_r(wo, alpha)));",
-        "return ggx_d(h, alpha) * h.z / (4.0f * dot3(wo, h));",
+        "return ggx_d(h, alpha) / (2.0f * (abs_l(wo.z) + ggx_r(wo, alpha)));",
+        "return ggx_d(h, alpha) * h.z / (4.0f * vdot(wo, h));",
         ("conductor", bsdf.params(alpha=0.3), 45.0),
     ),
     (
         # the sampler draws from the whole projected disk, not the visible half (Heitz 2018's warp of t2 dropped)
         "vndf_without_the_visible_warp",
-        "p2 = (1.0f - s) * SQRT(max_f(0.0f, 1.0f - p1 * p1)) + s * p2;",
+        "p2 = (1.0f - s) * sqrt_l(max_l(0.0f, 1.0f - p1 * p1)) + s * p2;",
         "p2 = p2;",
         ("conductor", bsdf.params(alpha=0.8), 60.0),
     ),
     (
         # Lambert's pdf off by the cosine (uniform hemisphere) while the sampler stays cosine-weighted
         "lambert_pdf_without_cosine",
-        "return (wo.z > 0.0f && wi.z > 0.0f) ? wi.z * M_1_PI_F : 0.0f;",
-        "return (wo.z > 0.0f && wi.z > 0.0f) ? 0.5f * M_1_PI_F : 0.0f;",
+        "return ((wo.z > 0.0f) & (wi.z > 0.0f)) ? wi.z * M_1_PI_F : (LF)(0.0f);",
+        "return ((wo.z > 0.0f) & (wi.z > 0.0f)) ? (LF)(0.5f * M_1_PI_F) : (LF)(0.0f);",
         ("lambert", bsdf.params(), 30.0),
     ),
     (
         # the transmission Jacobian dh/dwi without its eta_i^2
         "transmission_jacobian_without_eta_squared",
-        "float dh_dwi = eta_i * eta_i * abs_f(dot3(wi, h)) / len2;",
-        "float dh_dwi = abs_f(dot3(wi, h)) / len2;",
+        "LF dh_dwi = eta_i * eta_i * abs_l(vdot(wi, h)) / len2;",
+        "LF dh_dwi = abs_l(vdot(wi, h)) / len2;",
         ("rough_dielectric", bsdf.params(alpha=0.3, eta=1.5), 30.0),
     ),
     (
         # subtle: the rough dielectric chooses reflection with Schlick's F (R0 = 0.04, eta 1.5), its pdf with the exact F
         # (they differ by at most ~0.03 of probability, at grazing microfacets)
         "reflection_chosen_with_schlick",
-        "bool reflect = u1 < f;",
-        "bool reflect = u1 < 0.04f + 0.96f * pow5(1.0f - abs_f(cos_oh));",
+        "LI reflect = u1 < f;",
+        "LI reflect = u1 < 0.04f + 0.96f * pow5(1.0f - abs_l(cos_oh));",
         ("rough_dielectric", bsdf.params(alpha=0.3, eta=1.5), 60.0),
     ),
     (
         # the glTF sampler picks its lobes half and half while the pdf still weights them by p_spec
         "gltf_lobe_choice_not_the_pdfs",
-        "float3 wi = u1 < p_spec ?",
-        "float3 wi = u1 < 0.5f ?",
+        "V3 wi = glossy_or_diffuse(wo, u1 < p_spec,",
+        "V3 wi = glossy_or_diffuse(wo, u1 < 0.5f,",
         ("gltf", bsdf.gltf_params(BASE, 0.0, 0.4), 45.0),
     ),
     (
         # the Phong lobe samples its glossy part half the time while its pdf weights it by specular_prob
         "phong_lobe_choice_not_the_pdfs",
-        "BsdfSample s = u1 < p.specular_prob ?",
-        "BsdfSample s = u1 < 0.5f ?",
+        "LI glossy = u1 < p.specular_prob;",
+        "LI glossy = u1 < 0.5f;",
         ("phong", bsdf.phong_params(BASE, (0.1, 0.1, 0.1), 20.0), 45.0),
     ),
     (
