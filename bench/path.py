@@ -158,9 +158,6 @@ def clrender_setup(name: str, size: int, spp: int, depth: int):
     return scene, dict(integrator="path", spp=spp, max_depth=depth, width=size, height=size, camera=camera)
 
 
-from clrender.layout import PATH_SCHEDULES  # noqa: E402  (the bench's own imports come first)
-
-
 def time_clrender(name: str, size: int, spp: int, depth: int, runs: int, schedule: str = "megakernel"):
     """(first image s, its kernel compile s, median s, median CPU s, images: the first and each timed one) of clrender's path
     tracer under `schedule` (RenderSettings.path_schedule)."""
@@ -219,6 +216,8 @@ def time_mitsuba(scene: dict, variant: str, size: int, spp: int, depth: int, run
 
 
 def parse_args(argv=None):
+    from clrender.layout import PATH_SCHEDULES
+
     ap = argparse.ArgumentParser(prog="python -m bench path", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=512, help="image side in pixels")
     ap.add_argument("--spp", type=int, default=64, help="samples per pixel")

@@ -126,12 +126,7 @@ INLINE V3 vneg(V3 a) { return v3(-a.x, -a.y, -a.z); }
 INLINE LF vdot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 INLINE V3 vcross(V3 a, V3 b) { return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
 /* correctly rounded: the same bits at every width (at width 1 common.h's sqrt_f: inline where clang is the compiler) */
-#if LANES == 1 && defined(__has_builtin)
-#if __has_builtin(__builtin_sqrtf)
-#define LANES_SQRT_BUILTIN 1
-#endif
-#endif
-#if LANES_SQRT_BUILTIN
+#if LANES == 1 && defined(MF_SQRT_BUILTIN)
 INLINE LF sqrt_l(LF x) { return __builtin_sqrtf(x); }
 #else
 INLINE LF sqrt_l(LF x) { return sqrt(x); }
@@ -251,17 +246,26 @@ INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
 #define LANE_U(v, k) (((uint *)&(v))[k])
 #endif
 
-/* out[base + k] = lane k of v (of element type T), for the lanes below n: a probe's output */
+/* A probe's outputs, for the lanes whose item is below n: out[(base + k) stride] = lane k of v (element type T);
+ * STORE_ROWS: float4 row (base + k) stride of out = lane k of (x, y, z, w) */
 #if LANES == 1
-#define STORE_LANES(T, out, base, n, v) ((out)[base] = (v))
+#define STORE_LANES(T, out, stride, base, n, v) ((out)[(base) * (stride)] = (v))
 #else
-#define STORE_LANES(T, out, base, n, v)                                                         \
-    do {                                                                                        \
-        T lanes_[LANES];                                                                        \
-        LANES_CAT(vstore, LANES)(v, 0, lanes_);                                                 \
-        for (int k_ = 0; k_ < LANES && (base) + k_ < (n); ++k_) (out)[(base) + k_] = lanes_[k_]; \
+#define STORE_LANES(T, out, stride, base, n, v)                                                                 \
+    do {                                                                                                        \
+        T lanes_[LANES];                                                                                        \
+        LANES_CAT(vstore, LANES)(v, 0, lanes_);                                                                 \
+        for (int k_ = 0; k_ < LANES && (int)(base) + k_ < (int)(n); ++k_) (out)[((base) + k_) * (stride)] = lanes_[k_]; \
     } while (0)
 #endif
+#define STORE_ROWS(out, stride, base, n, x, y, z, w)                    \
+    do {                                                                \
+        __global float *rows_ = (__global float *)(out);                \
+        STORE_LANES(float, rows_, 4 * (stride), base, n, x);            \
+        STORE_LANES(float, rows_ + 1, 4 * (stride), base, n, y);        \
+        STORE_LANES(float, rows_ + 2, 4 * (stride), base, n, z);        \
+        STORE_LANES(float, rows_ + 3, 4 * (stride), base, n, w);        \
+    } while (0)
 
 /* lanes set in m, counted */
 INLINE int lanes_set(LI m) {

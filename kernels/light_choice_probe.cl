@@ -12,5 +12,5 @@ __kernel void light_pick_probe(int n, uint seed, __global const LightChoice *cho
     if (base >= n) return;
     LU i = min((LU)(base) + LANE_IDS_L, (LU)(n - 1));
     Rng rng = make_rng((LU)(seed), i, (LU)(0U));
-    STORE_LANES(int, out, base, n, pick_light_of(choices, n_choices, rng_next(&rng)));
+    STORE_LANES(int, out, 1, base, n, pick_light_of(choices, n_choices, rng_next(&rng)));
 }

@@ -32,6 +32,13 @@
 
 #include "layout.h"
 
+/* clang's __builtin_sqrtf, the IEEE square root inline (sqrt_det; lanes.h's sqrt_l at width 1) */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_sqrtf)
+#define MF_SQRT_BUILTIN 1
+#endif
+#endif
+
 #if DET_MATH
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -56,11 +63,6 @@ INLINE float clamp_det(float x, float lo, float hi) {
 }
 
 /* the IEEE square root (correctly rounded), inline where the compiler is clang (as common.h's sqrt_f) */
-#if defined(__has_builtin)
-#if __has_builtin(__builtin_sqrtf)
-#define MF_SQRT_BUILTIN 1
-#endif
-#endif
 #ifdef MF_SQRT_BUILTIN
 INLINE float sqrt_det(float x) { return __builtin_sqrtf(x); }
 #else

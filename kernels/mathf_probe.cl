@@ -44,11 +44,9 @@ __kernel void lane_math_probe(int n, __global const float *a, __global const flo
     LI i = min(base + AS_LI(LANE_IDS_L), n - 1);
     LF x = gather(a, i), y = gather(b, i), s, c, t = atan2_l(x, y), r = acos_l(y), e = exp_l(x);
     sincos_l(x, &s, &c);
-    for (int k = 0; k < LANES && base + k < n; ++k) {
-        out[5 * (base + k)] = LANE(s, k);
-        out[5 * (base + k) + 1] = LANE(c, k);
-        out[5 * (base + k) + 2] = LANE(t, k);
-        out[5 * (base + k) + 3] = LANE(r, k);
-        out[5 * (base + k) + 4] = LANE(e, k);
-    }
+    STORE_LANES(float, out, 5, base, n, s);
+    STORE_LANES(float, out + 1, 5, base, n, c);
+    STORE_LANES(float, out + 2, 5, base, n, t);
+    STORE_LANES(float, out + 3, 5, base, n, r);
+    STORE_LANES(float, out + 4, 5, base, n, e);
 }

@@ -156,6 +156,28 @@ INLINE bool ray_unblocked(const PathScene *s, float3 o, float3 d, float t_max, R
 #endif
 }
 
+/* The closest hit a path's ray from o along d stops at (a camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS
+ * emitting triangles), each walk counted in *rays.  One ray: in lanes, each lane's in turn. */
+INLINE Hit ray_hit(const PathScene *s, float3 o, float3 d, bool camera, Rng *rng, uint *visits, uint *rays) {
+    Ray r = make_ray(o, d);
+    float t_min = 0.0f;
+#if HIDE_EMITTERS
+    int hidden = 0;
+#endif
+    for (;;) {
+        float opacity;
+        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, camera, rng, &opacity, visits);
+        *rays += 1;
+#if HIDE_EMITTERS
+        if (camera && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
+            t_min = h.t; /* the camera ray again, past this emitting triangle */
+            continue;
+        }
+#endif
+        return h;
+    }
+}
+
 /* An area light's parallelogram along the ray (o, d): t in (0, t_max) or INF_T. */
 INLINE LF hit_parallelogram(V3 o, V3 d, float3 corner, float3 a, float3 b, LF t_max) {
     V3 n = splat3(cross3(a, b));
@@ -543,28 +565,9 @@ INLINE void start_sample(const PathParams *p, PathLanes *st, LI pixel, LU s_i, R
 }
 
 #if LANES == 1
-/* The path's ray as the walks take it. */
-INLINE Ray state_ray(const PathState *st) { return make_ray(vload3(0, st->o), vload3(0, st->d)); }
-
-/* The closest hit of the path's ray (the camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS emitting triangles). */
+/* The closest hit of the path's ray (ray_hit). */
 INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
-    Ray r = state_ray(st);
-    float t_min = 0.0f;
-#if HIDE_EMITTERS
-    int hidden = 0;
-#endif
-    for (;;) {
-        float opacity;
-        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, st->depth == 0, rng, &opacity, &st->visits);
-        st->rays += 1;
-#if HIDE_EMITTERS
-        if (st->depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
-            t_min = h.t; /* the camera ray again, past this emitting triangle */
-            continue;
-        }
-#endif
-        return h;
-    }
+    return ray_hit(s, vload3(0, st->o), vload3(0, st->d), st->depth == 0, rng, &st->visits, &st->rays);
 }
 
 /* Whether st's shadow ray reaches its end. */
@@ -824,24 +827,17 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 /* lane k of a 3-vector */
 INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
 
-/* The closest hit of each live lane's ray (extend_step's, one lane at a time: traversal stays per ray, docs/lanes.md),
- * each lane's hit put in its lane. */
+/* The closest hit of each live lane's ray (ray_hit, one lane at a time: traversal stays per ray, docs/lanes.md), each
+ * lane's hit put in its lane. */
 INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
     for (int k = 0; k < LANES; ++k) {
         if (!LANE_I(live, k)) continue;
-        uint visits = LANE_U(st->visits, k);
-        Ray r = make_ray(lane3(st->o, k), lane3(st->d, k));
-        float t_min = 0.0f;
-        Hit one;
-        for (int hidden = 0;;) { /* extend_step's loop: with HIDE_EMITTERS, a camera ray past emitting triangles */
-            one = closest_hit(&s->geo, r, t_min, INF_T, &visits);
-            LANE_U(st->rays, k) += 1U;
-            if (!HIDE_EMITTERS || LANE_I(st->depth, k) != 0 || one.id < 0 || s->emitter_of_prim[one.id] < 0 || ++hidden >= HIDDEN_LAYERS) break;
-            t_min = one.t;
-        }
+        uint visits = LANE_U(st->visits, k), rays = LANE_U(st->rays, k);
+        Hit one = ray_hit(s, lane3(st->o, k), lane3(st->d, k), LANE_I(st->depth, k) == 0, 0, &visits, &rays);
         LANE_U(st->visits, k) = visits;
+        LANE_U(st->rays, k) = rays;
         LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
     }
     return h;

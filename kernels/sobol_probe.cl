@@ -12,18 +12,7 @@
 INLINE LU probe_points(uint n_work) { return min((LU)(get_global_id(0) * LANES) + LANE_IDS_L, (LU)(n_work - 1U)); }
 
 /* out[g * n + k] = v for the work-item's points g below n_work */
-#define PUT_LANES(out, T, n_work, n, k, v)                                                             \
-    do {                                                                                              \
-        T put_[LANES];                                                                                \
-        LANES_STORE(v, put_);                                                                         \
-        uint g_ = (uint)get_global_id(0) * LANES;                                                     \
-        for (uint l_ = 0; l_ < LANES && g_ + l_ < (n_work); ++l_) (out)[(size_t)(g_ + l_) * (n) + (k)] = put_[l_]; \
-    } while (0)
-#if LANES == 1
-#define LANES_STORE(v, a) ((a)[0] = (v))
-#else
-#define LANES_STORE(v, a) LANES_CAT(vstore, LANES)(v, 0, a)
-#endif
+#define PUT_LANES(out, T, n_work, n, k, v) STORE_LANES(T, (out) + (k), n, get_global_id(0) * LANES, n_work, v)
 
 /* out[(g * n_dims + k)]: dimension dims[k] of sample first + g % n_samples of pixel pixels[g / n_samples], as the
  * 32-bit fraction (scrambled 1: sobol_bits with `seed`; 0: the unscrambled Sobol coordinate dims[k] % 2 of the index) */

@@ -9,18 +9,12 @@
 #include "lanes.h"
 #include "texture.h"
 
-INLINE void put4(__global float4 *out, int base, int n, V4 v) {
-#if LANES == 1
-    out[base] = v;
-#else
-    float x[LANES], y[LANES], z[LANES], w[LANES];
-    LANES_CAT(vstore, LANES)(v.x, 0, x);
-    LANES_CAT(vstore, LANES)(v.y, 0, y);
-    LANES_CAT(vstore, LANES)(v.z, 0, z);
-    LANES_CAT(vstore, LANES)(v.w, 0, w);
-    for (int k = 0; k < LANES && base + k < n; ++k) out[base + k] = (float4)(x[k], y[k], z[k], w[k]);
-#endif
-}
+/* float4 row item of out = v for the work-item's items below n */
+#define PUT4(out, v)                                            \
+    do {                                                        \
+        V4 v_ = (v);                                            \
+        STORE_ROWS(out, 1, base, n, v_.x, v_.y, v_.z, v_.w);    \
+    } while (0)
 
 __kernel void texture_probe(int n, __global const int4 *query, __global const float2 *bary, __global const VertexAttributes *attributes,
                             __global const Texture *textures, __global const Material *materials, __global const float4 *texels,
@@ -47,8 +41,8 @@ __kernel void texture_probe(int n, __global const int4 *query, __global const fl
         texel = v4(here ? t.x : texel.x, here ? t.y : texel.y, here ? t.z : texel.z, here ? t.w : texel.w);
 #endif
     }
-    put4(out, base, n, texel);
-    put4(uv_out, base, n, v4(uv[0].x, uv[0].y, uv[1].x, uv[1].y));
+    PUT4(out, texel);
+    PUT4(uv_out, v4(uv[0].x, uv[0].y, uv[1].x, uv[1].y));
     V3 c = hit_colour(tv, prim, u, v);
-    put4(colour_out, base, n, v4(c.x, c.y, c.z, material_textured(tv, mi) ? (LF)(1.0f) : (LF)(0.0f)));
+    PUT4(colour_out, v4(c.x, c.y, c.z, material_textured(tv, mi) ? (LF)(1.0f) : (LF)(0.0f)));
 }
