@@ -48,11 +48,11 @@ INLINE Component probe_component(__global const BsdfProbeParams *records, LI rec
 /* float4 row i's xyz */
 INLINE V3 row3(__global const float4 *rows, LI i) { return gather3((__global const float *)rows, 4 * i); }
 
-/* float4 rows item * stride + at = (v, w) for the work-item's items below n */
-#define PUT_ROWS(out, stride, at, v, w)                                         \
+/* out[item * stride + at] = (v, w) for the work-item's items below n */
+#define PUT_XYZW(out, stride, at, v, w)                                         \
     do {                                                                        \
         V3 v_ = (v);                                                            \
-        STORE_ROWS((out) + (at), stride, base, n, v_.x, v_.y, v_.z, (LF)(w));   \
+        STORE_FLOAT4((out) + (at), stride, base, n, v_.x, v_.y, v_.z, (LF)(w));   \
     } while (0)
 
 /* out[i] = (eval(wo, wi), 0) of record i's lobe: f * |cos theta_i| */
@@ -62,7 +62,7 @@ __kernel void bsdf_eval_probe(int n, __global const BsdfProbeParams *params, int
     if (base >= n) return;
     LI i = probe_items(base, n);
     Component c = probe_component(params, i * params_stride);
-    PUT_ROWS(out, 1, 0, component_eval(c, row3(wo, i * wo_stride), row3(wi, i)), 0.0f);
+    PUT_XYZW(out, 1, 0, component_eval(c, row3(wo, i * wo_stride), row3(wi, i)), 0.0f);
 }
 
 /* out[i] = pdf(wo, wi), solid angle */
@@ -84,8 +84,8 @@ __kernel void bsdf_sample_probe(int n, __global const BsdfProbeParams *params, i
     Component c = probe_component(params, i * params_stride);
     V3 ui = row3(u, i);
     BsdfSample s = component_sample(c, row3(wo, i * wo_stride), ui.x, v2(ui.y, ui.z));
-    PUT_ROWS(wi_out, 1, 0, s.wi, s.delta ? (LF)(1.0f) : (LF)(0.0f));
-    PUT_ROWS(weight_out, 1, 0, s.weight, s.pdf);
+    PUT_XYZW(wi_out, 1, 0, s.wi, s.delta ? (LF)(1.0f) : (LF)(0.0f));
+    PUT_XYZW(weight_out, 1, 0, s.weight, s.pdf);
 }
 
 /* The shading frame of normals[i]: out rows 3i..3i+2 = t, b, n; in_frame[i] = to_local(frame, v[i]),
@@ -96,10 +96,10 @@ __kernel void frame_probe(int n, __global const float4 *normals, __global const 
     if (base >= n) return;
     LI i = probe_items(base, n);
     Frame f = make_frame(row3(normals, i));
-    PUT_ROWS(out, 3, 0, f.t, 0.0f);
-    PUT_ROWS(out, 3, 1, f.b, 0.0f);
-    PUT_ROWS(out, 3, 2, f.n, 0.0f);
+    PUT_XYZW(out, 3, 0, f.t, 0.0f);
+    PUT_XYZW(out, 3, 1, f.b, 0.0f);
+    PUT_XYZW(out, 3, 2, f.n, 0.0f);
     V3 l = to_local(f, row3(v, i));
-    PUT_ROWS(in_frame, 1, 0, l, 0.0f);
-    PUT_ROWS(back, 1, 0, to_world(f, l), 0.0f);
+    PUT_XYZW(in_frame, 1, 0, l, 0.0f);
+    PUT_XYZW(back, 1, 0, to_world(f, l), 0.0f);
 }

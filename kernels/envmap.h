@@ -55,8 +55,9 @@ INLINE V2 env_uv(EnvMap m, V3 d, LF *sin_theta) {
 }
 
 /* The cell between texel centres that (u, v) falls in (Mitsuba's envmap: column j's centre at u = (j + 1/2) / W,
- * wrapping; row i at v = i / (H - 1)): the index of its top-left texel, and *w (u, v)'s place in it, in [0, 1]^2. */
-INLINE LI env_cell(EnvMap m, V2 uv, V2 *w) {
+ * wrapping; row i at v = i / (H - 1)): the index of its top-left texel, *col that texel's column, and *w (u, v)'s place
+ * in it, in [0, 1]^2. */
+INLINE LI env_cell(EnvMap m, V2 uv, LI *col_out, V2 *w) {
     LF x = uv.x * (float)m.width - 0.5f, y = uv.y * (float)(m.height - 1);
     LF fx = floor(x);
     LI col = CONVERT_I(fx), row = min(CONVERT_I(y), m.height - 2);
@@ -66,6 +67,7 @@ INLINE LI env_cell(EnvMap m, V2 uv, V2 *w) {
     row = clamp(row, (LI)(0), (LI)(m.height - 2));
 #endif
     *w = v2(clamp(x - fx, 0.0f, 1.0f), clamp(y - CONVERT_F(row), 0.0f, 1.0f));
+    *col_out = col;
     return row * m.width + col;
 }
 
@@ -73,10 +75,10 @@ INLINE LI env_cell(EnvMap m, V2 uv, V2 *w) {
 INLINE V3 env_texel(const EnvView *e, LI i) { return gather3((__global const float *)e->texels, 4 * i); }
 INLINE LF env_density(const EnvView *e, LI i) { return gather((__global const float *)e->texels, 4 * i + 3); }
 
-/* The radiance bilinearly interpolated in a cell between its four texels (the right column wraps). */
-INLINE V3 env_bilinear(const EnvView *e, LI cell, V2 w) {
+/* The radiance bilinearly interpolated in a cell (top-left texel `cell`, in column `col`) between its four texels (the
+ * right column wraps). */
+INLINE V3 env_bilinear(const EnvView *e, LI cell, LI col, V2 w) {
     int width = e->m.width;
-    LI col = cell % width;
     LI right = cell + (col + 1 < width ? (LI)(1) : (LI)(1 - width));
     V3 a = env_texel(e, cell), b = env_texel(e, right), c = env_texel(e, cell + width), d = env_texel(e, right + width);
     V3 top = v3((1.0f - w.x) * a.x + w.x * b.x, (1.0f - w.x) * a.y + w.x * b.y, (1.0f - w.x) * a.z + w.x * b.z);
@@ -88,11 +90,11 @@ INLINE V3 env_bilinear(const EnvView *e, LI cell, V2 w) {
 INLINE V3 env_eval(const EnvView *e, V3 d, LF *pdf) {
     LF sin_theta;
     V2 w;
-    LI cell = env_cell(e->m, env_uv(e->m, d, &sin_theta), &w);
+    LI col, cell = env_cell(e->m, env_uv(e->m, d, &sin_theta), &col, &w);
     LI counted = sin_theta > 0.0f;
     if (!e->m.sampled) counted = 0;
     *pdf = counted ? env_density(e, cell) * ENV_INV_2PI2 / sin_theta : (LF)(0.0f);
-    return env_bilinear(e, cell, w);
+    return env_bilinear(e, cell, col, w);
 }
 
 INLINE V3 env_radiance(const EnvView *e, V3 d) {
@@ -112,7 +114,7 @@ INLINE LI cdf_search(__global const float *cdf, LI at, __global const int *guide
     k = k > 0 ? k : (LI)(0); /* never read before the guide, whatever u is */
     LI lo = gather_i(guide, guide_at + k);
     for (LI len = gather_i(guide, guide_at + k + 1) - lo + 1; ANY(len > 1);) {
-        LI step = len / 2;
+        LI step = len >> 1; /* len > 0: a shift, where Intel's runtime calls a routine for a lane division */
         LI further = (len > 1) & (gather(cdf, at + lo + step) <= u);
         lo = further ? lo + step : lo;
         len = len > 1 ? len - step : len;
@@ -137,7 +139,7 @@ INLINE V3 env_sample(const EnvView *e, V2 u, V3 *radiance, LF *pdf) {
     sincos_l(theta, &sin_theta, &cos_theta);
     sincos_l(phi, &sin_phi, &cos_phi);
     LI cell = row * e->m.width + col;
-    *radiance = env_bilinear(e, cell, v2(du, dv));
+    *radiance = env_bilinear(e, cell, col, v2(du, dv));
     *pdf = sin_theta > 0.0f ? env_density(e, cell) * ENV_INV_2PI2 / sin_theta : (LF)(0.0f);
     return env_to_world(e->m, v3(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }

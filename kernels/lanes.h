@@ -138,6 +138,14 @@ INLINE V3 vpick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? 
 #define WHERE(m, x, e) if (ANY(m)) x = (m) ? (e) : (x)
 #define WHERE3(m, x, e) if (ANY(m)) x = vpick((m), (e), (x))
 INLINE LF abs_l(LF x) { return AS_LF(AS_LU(x) & 0x7fffffffU); }
+/* i mod n in [0, n) (floored: -1 mod n is n - 1), for n > 0 and |i| < 2^24: the float quotient's floor is off by at
+ * most one there, and one step corrects it.  No integer division: a CPU has none in vector lanes, and Intel's
+ * runtime calls a routine per lane for `%`. */
+INLINE LI mod_l(LI i, LI n) {
+    LI m = i - CONVERT_I(floor(CONVERT_F(i) / CONVERT_F(n))) * n;
+    m = m < 0 ? m + n : m;
+    return m >= n ? m - n : m;
+}
 INLINE LF max_l(LF a, LF b) { return a > b ? a : b; }
 INLINE LF min_l(LF a, LF b) { return a < b ? a : b; }
 INLINE LF max3_l(V3 a) { return max_l(a.x, max_l(a.y, a.z)); }
@@ -247,9 +255,10 @@ INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
 #endif
 
 /* A probe's outputs, for the lanes whose item is below n: out[(base + k) stride] = lane k of v (element type T);
- * STORE_ROWS: float4 row (base + k) stride of out = lane k of (x, y, z, w) */
+ * STORE_FLOAT4: the float4 out[(base + k) stride] = lane k of (x, y, z, w) */
 #if LANES == 1
 #define STORE_LANES(T, out, stride, base, n, v) ((out)[(base) * (stride)] = (v))
+#define STORE_FLOAT4(out, stride, base, n, x, y, z, w) ((out)[(base) * (stride)] = (float4)(x, y, z, w))
 #else
 #define STORE_LANES(T, out, stride, base, n, v)                                                                 \
     do {                                                                                                        \
@@ -257,15 +266,17 @@ INLINE V3 offset_origin(V3 p, V3 p_err, V3 n) {
         LANES_CAT(vstore, LANES)(v, 0, lanes_);                                                                 \
         for (int k_ = 0; k_ < LANES && (int)(base) + k_ < (int)(n); ++k_) (out)[((base) + k_) * (stride)] = lanes_[k_]; \
     } while (0)
-#endif
-#define STORE_ROWS(out, stride, base, n, x, y, z, w)                    \
-    do {                                                                \
-        __global float *rows_ = (__global float *)(out);                \
-        STORE_LANES(float, rows_, 4 * (stride), base, n, x);            \
-        STORE_LANES(float, rows_ + 1, 4 * (stride), base, n, y);        \
-        STORE_LANES(float, rows_ + 2, 4 * (stride), base, n, z);        \
-        STORE_LANES(float, rows_ + 3, 4 * (stride), base, n, w);        \
+#define STORE_FLOAT4(out, stride, base, n, x, y, z, w)                                          \
+    do {                                                                                        \
+        float x_[LANES], y_[LANES], z_[LANES], w_[LANES];                                       \
+        LANES_CAT(vstore, LANES)(x, 0, x_);                                                     \
+        LANES_CAT(vstore, LANES)(y, 0, y_);                                                     \
+        LANES_CAT(vstore, LANES)(z, 0, z_);                                                     \
+        LANES_CAT(vstore, LANES)(w, 0, w_);                                                     \
+        for (int k_ = 0; k_ < LANES && (int)(base) + k_ < (int)(n); ++k_)                       \
+            (out)[((base) + k_) * (stride)] = (float4)(x_[k_], y_[k_], z_[k_], w_[k_]);         \
     } while (0)
+#endif
 
 /* lanes set in m, counted */
 INLINE int lanes_set(LI m) {

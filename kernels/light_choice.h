@@ -12,7 +12,7 @@
 INLINE LI pick_light_of(__global const LightChoice *choices, int n, LF u) {
     LI lo = 0, hi = n - 1;
     while (ANY(lo < hi)) {
-        LI searching = lo < hi, mid = (lo + hi) / 2;
+        LI searching = lo < hi, mid = (lo + hi) >> 1; /* lo, hi >= 0: a shift (Intel's runtime calls a routine for a lane division) */
         LI below = u < FIELD_F(choices, mid, cdf);
         hi = searching & below ? mid : hi;
         lo = searching & NOT(below) ? mid + 1 : lo;

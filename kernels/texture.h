@@ -39,19 +39,15 @@ INLINE LI material_textured(TextureView tv, LI mi) {
     return textured;
 }
 
-/* Texel index i (any integer) along a side of n texels under a glTF wrap mode. */
+/* Texel index i (|i| < 2^24: wrap_coord's coordinates times the size) along a side of n texels under a glTF wrap mode. */
 INLINE LI wrap_index(LI i, LI n, LI mode) {
     LI clamped = mode == WRAP_CLAMP_TO_EDGE, mirrored = mode == WRAP_MIRRORED_REPEAT, w = 0;
     WHERE(clamped, w, clamp(i, (LI)(0), n - 1));
     if (ANY(mirrored)) {
-        LI m = i % (2 * n);
-        m = m < 0 ? m + 2 * n : m;
+        LI m = mod_l(i, 2 * n);
         w = mirrored ? (m < n ? m : 2 * n - 1 - m) : w;
     }
-    if (ANY(NOT(clamped | mirrored))) {
-        LI m = i % n;
-        w = clamped | mirrored ? w : (m < 0 ? m + n : m);
-    }
+    WHERE(NOT(clamped | mirrored), w, mod_l(i, n));
     return w;
 }
 

@@ -9,11 +9,11 @@
 #include "lanes.h"
 #include "texture.h"
 
-/* float4 row item of out = v for the work-item's items below n */
+/* out[item] = v for the work-item's items below n */
 #define PUT4(out, v)                                            \
     do {                                                        \
         V4 v_ = (v);                                            \
-        STORE_ROWS(out, 1, base, n, v_.x, v_.y, v_.z, v_.w);    \
+        STORE_FLOAT4(out, 1, base, n, v_.x, v_.y, v_.z, v_.w);    \
     } while (0)
 
 __kernel void texture_probe(int n, __global const int4 *query, __global const float2 *bary, __global const VertexAttributes *attributes,
