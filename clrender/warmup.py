@@ -7,8 +7,10 @@ pyopencl keeps the binaries on disk, so only the first render of each variant wa
 The variants are the combinations a render can reach, each a trace/variant.py Variant as the Tracer and the
 renderer make it, with the device's work layout:
 - the Tracer: with or without a BVH; flat, instanced, or instanced with a wide top tree (BVH only);
-- each integrator's render kernel (trace.cl `render`, path.cl `render_path`) for each of those, with or
-  without AOV writes, alpha testing and back-face culling (the path tracer's box film);
+- each integrator's render kernel for each of those, with or without AOV writes, alpha testing and back-face
+  culling, as a render under the default settings builds it (Integrator.warm_variant): trace.cl `render`, and
+  path.cl's `render_path_lanes` where the device takes lanes and the build does not fall back, else `render_path`
+  (the box film, the Sobol sampler);
 - the ray queries' build of trace.cl (the Tracer's defines alone) for each Tracer variant;
 - the BVH builder (bvh_build.cl).
 """
@@ -39,10 +41,9 @@ def variants(device: Device) -> list[Variant]:
         shape = f"{'bvh' if use_bvh else 'no bvh'}, {'flat' if not instanced else 'instanced, wide top' if top_wide else 'instanced'}"
         out.append(replace(tracer, label=f"ray queries, {shape}"))
         for integrator, kind in INTEGRATORS.items():
-            filename = kind.kernel[0]
             for aov, alpha, cull in itertools.product((False, True), repeat=3):
                 flags = ", ".join(word for word, on in (("aovs", aov), ("alpha test", alpha), ("back-face culling", cull)) if on) or "plain"
-                render = replace(tracer, filename=filename, render=True, write_aov=aov, alpha_test=alpha, cull_backfaces=cull)
+                render = kind.warm_variant(replace(tracer, render=True, write_aov=aov, alpha_test=alpha, cull_backfaces=cull), device)
                 out.append(replace(render, label=f"{integrator}, {shape}, {flags}"))
     return out
 

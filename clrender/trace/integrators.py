@@ -52,6 +52,11 @@ class Integrator:
         """This integrator's kernel build: the render kernels' variant (Variant.rendering) in its file."""
         return replace(rendering, filename=self.kernel[0])
 
+    @classmethod
+    def warm_variant(cls, rendering: Variant, device) -> Variant:
+        """The build a render under the default settings makes of `rendering` on `device` (clrender/warmup.py)."""
+        return replace(rendering, filename=cls.kernel[0])
+
     def make_kernel(self, device, variant: Variant):
         """What Renderer.launch calls with the render kernels' named buffers: this integrator's kernel."""
         return device.kernel(variant.filename, self.kernel[1], variant.defines())
@@ -175,14 +180,29 @@ class PathIntegrator(Integrator):
             said.append(f"scene {scene.name!r} has no lights, emission or environment: the path tracer will render black")
         return said
 
-    def variant(self, rendering: Variant) -> Variant:
-        s = self.settings
+    @staticmethod
+    def _with_settings(rendering: Variant, s) -> Variant:
         path_defines = {
             **film.defines(s.rfilter),  # a reconstruction filter wider than a pixel splats
             **({"HIDE_EMITTERS": 1} if s.hide_emitters else {}),  # camera rays look past emitters (Mitsuba's hide_emitters)
             **({"PATH_SAMPLER": PATH_SAMPLERS[s.path_sampler]} if s.path_sampler != "independent" else {}),  # kernels/sobol.h
         }
-        return replace(super().variant(rendering), extra=rendering.extra + tuple(sorted(path_defines.items())))
+        return replace(rendering, filename=PathIntegrator.kernel[0], extra=rendering.extra + tuple(sorted(path_defines.items())))
+
+    def variant(self, rendering: Variant) -> Variant:
+        return self._with_settings(rendering, self.settings)
+
+    @classmethod
+    def warm_variant(cls, rendering: Variant, device) -> Variant:
+        """The default settings' build, with LANES where the default schedule takes the lanes on `device` (the
+        program LaneKernel builds)."""
+        from .lane_schedule import lanes_of
+        from .renderer import RenderSettings
+
+        settings = RenderSettings()
+        variant = cls._with_settings(rendering, settings)
+        lanes = lanes_of(variant.defines(), 1, device.device) if settings.path_schedule == "lanes" else 0
+        return replace(variant, extra=variant.extra + (("LANES", lanes),)) if lanes else variant
 
     def make_kernel(self, device, variant: Variant):
         """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py), or under "lanes"
@@ -192,11 +212,8 @@ class PathIntegrator(Integrator):
         defines, schedule = variant.defines(), self.settings.path_schedule
         if schedule == "wavefront" and not wavefront.falls_back(defines):
             return wavefront.Wavefront(device, defines)
-        if schedule == "lanes":
-            n_prims = self.renderer.tracer.n_prims
-            if not lane_schedule.falls_back(defines, self.renderer.scene, self.settings, n_prims, device.device):
-                return lane_schedule.LaneKernel(device, defines, lane_schedule.lane_width(device.device))
-        return super().make_kernel(device, variant)
+        lanes = lane_schedule.lanes_of(defines, self.renderer.tracer.n_prims, device.device) if schedule == "lanes" else 0
+        return lane_schedule.LaneKernel(device, defines, lanes) if lanes else super().make_kernel(device, variant)
 
     def world(self) -> dict:
         from .light_choice import DEFENSIVE_SHARE, choices, groups, near_share, powers

@@ -28,7 +28,7 @@ def lane_width(device: cl.Device) -> int:
     return 16 if device.preferred_vector_width_float >= 16 else 8
 
 
-def falls_back(defines: dict, scene, settings, n_prims: int, device: cl.Device) -> str:
+def falls_back(defines: dict, n_prims: int, device: cl.Device) -> str:
     """Why a render under --path-schedule lanes takes the megakernel, or ""."""
     for name, what in UNSUPPORTED_DEFINES.items():
         if defines.get(name):
@@ -40,6 +40,11 @@ def falls_back(defines: dict, scene, settings, n_prims: int, device: cl.Device) 
     if not lane_width(device):
         return "a device that is not a CPU, or the Oclgrind simulator (one path a work-item is its lanes)"
     return ""
+
+
+def lanes_of(defines: dict, n_prims: int, device: cl.Device) -> int:
+    """The lanes a render of this build takes under --path-schedule lanes: lane_width, or 0 where it falls back."""
+    return 0 if falls_back(defines, n_prims, device) else lane_width(device)
 
 
 class LaneKernel:

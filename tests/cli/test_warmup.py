@@ -9,7 +9,7 @@ import pytest
 import clrender.device as device_module
 from clrender import progress
 from clrender.scene.scene import Scene
-from clrender.trace.renderer import Renderer
+from clrender.trace.renderer import Renderer, RenderSettings
 
 from tests.clitools import run_cli
 
@@ -50,6 +50,19 @@ def test_warmup_builds_the_program_a_render_then_uses(device, capsys, monkeypatc
     Renderer(Scene.from_dict(SPHERE), device=None).run()
     rendered = {key for key in fresh._programs if key[0] == "trace.cl" and ("WRITE_AOV", 0) in key[1]}
     assert rendered == warmed
+
+
+def test_warmup_builds_the_path_program_a_default_render_then_uses(device, capsys, monkeypatch):
+    """The path tracer's variants are built as a render under the default settings builds them: its sampler and film
+    defines, and on a CPU the lane kernel's LANES (render_path_lanes)."""
+    monkeypatch.setattr(device_module, "_DEVICES", {})
+    code, out, err = run_cli(capsys, "-q", "warmup", "--only", "path, bvh, flat, plain")
+    assert code == 0, err
+    fresh = device_module.get_device()
+    warmed = {key for key in fresh._programs if key[0] == "path.cl"}
+    assert len(warmed) == 1
+    Renderer(Scene.from_dict(SPHERE), device=None, settings=RenderSettings(integrator="path", spp=1)).run()
+    assert {key for key in fresh._programs if key[0] == "path.cl"} == warmed
 
 
 @pytest.fixture

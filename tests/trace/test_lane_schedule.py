@@ -130,5 +130,5 @@ def test_what_the_lanes_do_not_take_renders_with_the_megakernel(tmp_path, reason
     scene = Scene.from_dict(scene, base_dir=tmp_path) if isinstance(scene, dict) else as_scene(scene)
     r = Renderer(scene, integrator="path", path_schedule="lanes", spp=1, **settings)
     assert not isinstance(r.kernel, LaneKernel)
-    why = lane_schedule.falls_back(r.variant.defines(), r.scene, r.settings, r.tracer.n_prims, r.tracer.device.device)
+    why = lane_schedule.falls_back(r.variant.defines(), r.tracer.n_prims, r.tracer.device.device)
     assert why == reason
