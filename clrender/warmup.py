@@ -32,9 +32,10 @@ TRACER_STATES = ((True, False, False), (True, True, False), (True, True, True), 
 def variants(device: Device) -> list[Variant]:
     """Every variant a render on `device` can build, in the order warmup compiles them."""
     from .trace.integrators import INTEGRATORS
+    from .trace.renderer import RenderSettings
     from .trace.work_layout import work_layout
 
-    rays_per_item = work_layout(device.device).rays_per_item
+    rays_per_item, defaults = work_layout(device.device).rays_per_item, RenderSettings()
     out = [Variant("bvh_build.cl", tracing=False, extra=tuple(sorted(bvh_build_defines().items())), label="bvh builder")]
     for use_bvh, instanced, top_wide in TRACER_STATES:
         tracer = Variant(use_bvh=use_bvh, instanced=instanced, top_wide=top_wide, rays_per_item=rays_per_item)
@@ -43,7 +44,7 @@ def variants(device: Device) -> list[Variant]:
         for integrator, kind in INTEGRATORS.items():
             for aov, alpha, cull in itertools.product((False, True), repeat=3):
                 flags = ", ".join(word for word, on in (("aovs", aov), ("alpha test", alpha), ("back-face culling", cull)) if on) or "plain"
-                render = kind.warm_variant(replace(tracer, render=True, write_aov=aov, alpha_test=alpha, cull_backfaces=cull), device)
+                render = kind.warm_variant(replace(tracer, render=True, write_aov=aov, alpha_test=alpha, cull_backfaces=cull), device, defaults)
                 out.append(replace(render, label=f"{integrator}, {shape}, {flags}"))
     return out
 

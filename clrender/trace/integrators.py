@@ -53,8 +53,8 @@ class Integrator:
         return replace(rendering, filename=self.kernel[0])
 
     @classmethod
-    def warm_variant(cls, rendering: Variant, device) -> Variant:
-        """The build a render under the default settings makes of `rendering` on `device` (clrender/warmup.py)."""
+    def warm_variant(cls, rendering: Variant, device, settings) -> Variant:
+        """The build a render under `settings` makes of `rendering` on `device` (clrender/warmup.py: the defaults)."""
         return replace(rendering, filename=cls.kernel[0])
 
     def make_kernel(self, device, variant: Variant):
@@ -193,13 +193,10 @@ class PathIntegrator(Integrator):
         return self._with_settings(rendering, self.settings)
 
     @classmethod
-    def warm_variant(cls, rendering: Variant, device) -> Variant:
-        """The default settings' build, with LANES where the default schedule takes the lanes on `device` (the
-        program LaneKernel builds)."""
+    def warm_variant(cls, rendering: Variant, device, settings) -> Variant:
+        """With LANES where the schedule takes the lanes on `device` (the program LaneKernel builds)."""
         from .lane_schedule import lanes_of
-        from .renderer import RenderSettings
 
-        settings = RenderSettings()
         variant = cls._with_settings(rendering, settings)
         lanes = lanes_of(variant.defines(), 1, device.device) if settings.path_schedule == "lanes" else 0
         return replace(variant, extra=variant.extra + (("LANES", lanes),)) if lanes else variant
