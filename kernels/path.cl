@@ -144,10 +144,9 @@ INLINE LF defer_shadow(PathLanes *st, const Surface *f, V3 wi, LF dist, LI on) {
     return 1.0f;
 }
 
-/* Whether a shadow ray from o along d reaches t_max: nothing opaque (with ALPHA_TEST: nothing kept, its draws from rng) in
+/* Whether shadow ray sr (make_ray's) reaches t_max: nothing opaque (with ALPHA_TEST: nothing kept, its draws from rng) in
  * between.  One ray: in lanes, each lane's in turn. */
-INLINE bool ray_unblocked(const PathScene *s, float3 o, float3 d, float t_max, Rng *rng, uint *visits) {
-    Ray sr = make_ray(o, d);
+INLINE bool ray_unblocked(const PathScene *s, Ray sr, float t_max, Rng *rng, uint *visits) {
 #if ALPHA_TEST
     float opacity;
     return seen_hit(&s->geo, s->tex, sr, 0.0f, t_max, false, rng, &opacity, visits).id < 0;
@@ -156,10 +155,9 @@ INLINE bool ray_unblocked(const PathScene *s, float3 o, float3 d, float t_max, R
 #endif
 }
 
-/* The closest hit a path's ray from o along d stops at (a camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS
+/* The closest hit a path's ray r (make_ray's) stops at (a camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS
  * emitting triangles), each walk counted in *rays.  One ray: in lanes, each lane's in turn. */
-INLINE Hit ray_hit(const PathScene *s, float3 o, float3 d, bool camera, Rng *rng, uint *visits, uint *rays) {
-    Ray r = make_ray(o, d);
+INLINE Hit ray_hit(const PathScene *s, Ray r, bool camera, Rng *rng, uint *visits, uint *rays) {
     float t_min = 0.0f;
 #if HIDE_EMITTERS
     int hidden = 0;
@@ -567,12 +565,12 @@ INLINE void start_sample(const PathParams *p, PathLanes *st, LI pixel, LU s_i, R
 #if LANES == 1
 /* The closest hit of the path's ray (ray_hit). */
 INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
-    return ray_hit(s, vload3(0, st->o), vload3(0, st->d), st->depth == 0, rng, &st->visits, &st->rays);
+    return ray_hit(s, make_ray(vload3(0, st->o), vload3(0, st->d)), st->depth == 0, rng, &st->visits, &st->rays);
 }
 
 /* Whether st's shadow ray reaches its end. */
 INLINE bool shadow_unblocked(const PathScene *s, PathState *st, Rng *rng) {
-    return ray_unblocked(s, vload3(0, st->shadow_o), vload3(0, st->shadow_d), st->shadow_t_max, rng, &st->visits);
+    return ray_unblocked(s, make_ray(vload3(0, st->shadow_o), vload3(0, st->shadow_d)), st->shadow_t_max, rng, &st->visits);
 }
 #endif
 
@@ -827,17 +825,54 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 /* lane k of a 3-vector */
 INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
 
+/* The lanes' rays, each as make_ray makes it from (o, d), its 1/d and shear computed in lanes (the same operations:
+ * the same bits), for the walks, which go one lane at a time: made one at a time, their six divisions were a twentieth
+ * of the lane kernel's time. */
+typedef struct {
+    float ox[LANES], oy[LANES], oz[LANES], dx[LANES], dy[LANES], dz[LANES], ix[LANES], iy[LANES], iz[LANES];
+    float sx[LANES], sy[LANES], sz[LANES];
+    int kx[LANES], ky[LANES], kz[LANES];
+} LaneRays;
+
+INLINE void make_lane_rays(V3 o, V3 d, LaneRays *r) {
+    LF ax = abs_l(d.x), ay = abs_l(d.y), az = abs_l(d.z);
+    LI kz = ax > ay ? (ax > az ? (LI)(0) : (LI)(2)) : (ay > az ? (LI)(1) : (LI)(2));
+    LI kx = kz == 2 ? (LI)(0) : kz + 1;
+    LI ky = kx == 2 ? (LI)(0) : kx + 1;
+    LF along_z = kz == 0 ? d.x : (kz == 1 ? d.y : d.z), along_x = kx == 0 ? d.x : (kx == 1 ? d.y : d.z);
+    LF along_y = ky == 0 ? d.x : (ky == 1 ? d.y : d.z);
+#define STORE(v, a) LANES_CAT(vstore, LANES)(v, 0, r->a)
+    STORE(o.x, ox); STORE(o.y, oy); STORE(o.z, oz); STORE(d.x, dx); STORE(d.y, dy); STORE(d.z, dz);
+    STORE(1.0f / d.x, ix); STORE(1.0f / d.y, iy); STORE(1.0f / d.z, iz);
+    STORE(-along_x / along_z, sx); STORE(-along_y / along_z, sy); STORE(1.0f / along_z, sz);
+    STORE(kx, kx); STORE(ky, ky); STORE(kz, kz);
+#undef STORE
+}
+
+/* lane k's ray */
+INLINE Ray lane_ray(const LaneRays *r, int k) {
+    Ray ray;
+    ray.o = (float3)(r->ox[k], r->oy[k], r->oz[k]);
+    ray.d = (float3)(r->dx[k], r->dy[k], r->dz[k]);
+    ray.inv_d = (float3)(r->ix[k], r->iy[k], r->iz[k]);
+    ray.kx = r->kx[k]; ray.ky = r->ky[k]; ray.kz = r->kz[k];
+    ray.sx = r->sx[k]; ray.sy = r->sy[k]; ray.sz = r->sz[k];
+    return ray;
+}
+
 /* The closest hit of each live lane's ray (ray_hit, one lane at a time: traversal stays per ray, docs/lanes.md), each
  * lane's hit put in its lane. */
 INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    LaneRays rays;
+    make_lane_rays(st->o, st->d, &rays);
     for (int k = 0; k < LANES; ++k) {
         if (!LANE_I(live, k)) continue;
-        uint visits = LANE_U(st->visits, k), rays = LANE_U(st->rays, k);
-        Hit one = ray_hit(s, lane3(st->o, k), lane3(st->d, k), LANE_I(st->depth, k) == 0, 0, &visits, &rays);
+        uint visits = LANE_U(st->visits, k), walks = LANE_U(st->rays, k);
+        Hit one = ray_hit(s, lane_ray(&rays, k), LANE_I(st->depth, k) == 0, 0, &visits, &walks);
         LANE_U(st->visits, k) = visits;
-        LANE_U(st->rays, k) = rays;
+        LANE_U(st->rays, k) = walks;
         LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
     }
     return h;
@@ -846,10 +881,12 @@ INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
 /* Whether each shadowed lane's shadow ray reaches its end, walked one lane at a time. */
 INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, LI shadowed) {
     LI unblocked = 0;
+    LaneRays rays;
+    make_lane_rays(st->shadow_o, st->shadow_d, &rays);
     for (int k = 0; k < LANES; ++k) {
         if (!LANE_I(shadowed, k)) continue;
         uint visits = LANE_U(st->visits, k);
-        bool reached = ray_unblocked(s, lane3(st->shadow_o, k), lane3(st->shadow_d, k), LANE(st->shadow_t_max, k), 0, &visits);
+        bool reached = ray_unblocked(s, lane_ray(&rays, k), LANE(st->shadow_t_max, k), 0, &visits);
         LANE_U(st->visits, k) = visits;
         LANE_I(unblocked, k) = reached ? -1 : 0;
     }
