@@ -27,15 +27,17 @@
 #define ALPHA_LAYERS 16 /* alpha-rejected surfaces one ray looks past; a ray that meets more stops at the next */
 
 #if CULL_BACKFACES
-/* Whether camera ray (o, d) does not see hit h: the back face (the side away from the winding's or a sphere's
- * outward normal) of a single-sided material.  glTF: "When this value is false, back-face culling is enabled";
- * only camera rays cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
-INLINE bool back_culled(const Geometry *g, TextureView tv, Hit h, float3 o, float3 d) {
-    if (tv.materials[g->objects[hit_object(g, h)].material].double_sided) return false;
-    float3 p_err, n;
-    int sphere;
+/* Whether camera ray (o, d) does not see hit h (a hit: h.id >= 0 in every lane): the back face (the side away from the
+ * winding's or a sphere's outward normal) of a single-sided material, a mask (kernels/lanes.h; render_path_lanes
+ * tests its lanes' hits at once).  glTF: "When this value is false, back-face culling is enabled"; only camera rays
+ * cull (docs/materials.md#double-sided): bounce and shadow rays see both faces. */
+INLINE LI back_culled(const Geometry *g, TextureView tv, HitL h, V3 o, V3 d) {
+    LI two_sided = FIELD_I(tv.materials, FIELD_I(g->objects, hit_object(g, h), material), double_sided) != 0;
+    if (ALL(two_sided)) return 0;
+    V3 p_err, n;
+    LI sphere;
     hit_surface(g, h, o, d, &p_err, &n, &sphere);
-    return dot3(d, n) > 0.0f;
+    return NOT(two_sided) & (vdot(d, n) > 0.0f);
 }
 #endif
 
@@ -96,7 +98,7 @@ INLINE Hit seen_hit(const Geometry *g, TextureView tv, Ray r, float t_min, float
         if (h.id < 0) return h;
         if (k == ALPHA_LAYERS) { *opacity = 1.0f; return h; }
         t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
-#if CULL_BACKFACES
+#if CULL_BACKFACES && LANES == 1 /* render_path_lanes culls in lanes (path.cl extend_lanes) */
         if (camera && back_culled(g, tv, h, r.o, r.d)) continue;
 #endif
 #if ALPHA_TEST

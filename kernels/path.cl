@@ -819,7 +819,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL || LOOK_PAST || INSTANCED
+#if !RNG_SOBOL || ALPHA_TEST || INSTANCED
 #error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
 #endif
 /* lane k of a 3-vector */
@@ -860,20 +860,49 @@ INLINE Ray lane_ray(const LaneRays *r, int k) {
     return ray;
 }
 
-/* The closest hit of each live lane's ray (ray_hit, one lane at a time: traversal stays per ray, docs/lanes.md), each
- * lane's hit put in its lane. */
+/* The closest hit of each live lane's ray, ray_hit's and seen_hit's answer: each lane's ray walked alone (traversal
+ * stays per ray, docs/lanes.md) from its t_min; then, in lanes, with CULL_BACKFACES a camera ray that met a culled back
+ * face walked again past it (up to ALPHA_LAYERS times, seen_hit's loop; no ray counted), and with HIDE_EMITTERS a
+ * camera ray that met an emitting triangle walked again past it (up to HIDDEN_LAYERS, ray_hit's loop: a ray counted
+ * each).  The back-face test runs in lanes (a lane's surface is lane-generic code), so these loops are the lanes' own. */
 INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
     LaneRays rays;
     make_lane_rays(st->o, st->d, &rays);
-    for (int k = 0; k < LANES; ++k) {
-        if (!LANE_I(live, k)) continue;
-        uint visits = LANE_U(st->visits, k), walks = LANE_U(st->rays, k);
-        Hit one = ray_hit(s, lane_ray(&rays, k), LANE_I(st->depth, k) == 0, 0, &visits, &walks);
-        LANE_U(st->visits, k) = visits;
-        LANE_U(st->rays, k) = walks;
-        LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
+    LF t_min = 0.0f;
+    LI camera = st->depth == 0, layer = 0, hidden = 0, todo = live;
+    while (ANY(todo)) {
+        for (int k = 0; k < LANES; ++k) {
+            if (!LANE_I(todo, k)) continue;
+            uint visits = LANE_U(st->visits, k);
+            Hit one = closest_hit(&s->geo, lane_ray(&rays, k), LANE(t_min, k), INF_T, &visits);
+            LANE_U(st->visits, k) = visits;
+            LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
+        }
+        LI met = todo & camera & (h.id >= 0), again = 0;
+#if CULL_BACKFACES
+        LI culled = met & (layer < ALPHA_LAYERS);
+        if (ANY(culled)) {
+            HitL seen = h; /* the other lanes read primitive 0, and nothing keeps what they find */
+            seen.slot = culled ? h.slot : (LI)(0);
+            seen.id = culled ? h.id : (LI)(0);
+            culled &= back_culled(&s->geo, s->tex, seen, st->o, st->d);
+        }
+        layer = culled ? layer + 1 : layer;
+        again = culled;
+        met &= NOT(culled);
+#endif
+        PUT(st, rays, st->rays + 1U, todo & NOT(again)); /* seen_hit returned: ray_hit counts a ray */
+#if HIDE_EMITTERS
+        LI hide = met & (gather_i(s->emitter_of_prim, max(h.id, (LI)(0))) >= 0);
+        hidden = hide ? hidden + 1 : hidden;
+        hide &= hidden < HIDDEN_LAYERS;
+        layer = hide ? (LI)(0) : layer; /* a new seen_hit */
+        again |= hide;
+#endif
+        t_min = again ? h.t : t_min; /* the camera ray again, past what it met */
+        todo = again;
     }
     return h;
 }

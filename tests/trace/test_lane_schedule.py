@@ -3,7 +3,7 @@ against its megakernel (render_path): the same lane-generic steps run 16 (or 8) 
 one, so the same bits.  Each test renders a scene both ways, on different tilings, and compares the image, the object
 ids, the AOVs and the ray and BVH-visit counts byte for byte: the materials of every kind (Phong glass and mirrors,
 glTF, conductors, coated diffuse, thin sheets), textures, smooth and flat meshes and spheres, every light the lanes
-take, a thin lens, Russian roulette, progressive passes.  A lane that took another lane's value, a mask that let an
+take, a thin lens, Russian roulette, progressive passes, single-sided materials and hidden emitters.  A lane that took another lane's value, a mask that let an
 idle lane write its state, a masked pass that kept the wrong lobe or a sampler draw out of place fails these.  What the
 lanes do not take yet renders with the megakernel, and says why (lane_schedule.falls_back)."""
 
@@ -63,6 +63,41 @@ def textured_scene(tmp_path) -> dict:
     return {**textured_sky_scene(tmp_path), "environment": {"color": [0.6, 0.7, 0.9]}}
 
 
+def single_sided_scene() -> dict:
+    """Single-sided cards (glTF doubleSided false) seen from behind, which camera rays look past, layered over one seen
+    from the front, a double-sided one and a lit floor; an emitting card facing the camera (hidden under hide_emitters,
+    then the culled backs behind it); a single-sided sphere."""
+    away, towards = ([0, 2, 0], [2, 0, 0]), ([2, 0, 0], [0, 2, 0])  # edge_a x edge_b: -z (away from the camera), +z
+
+    def card(x, y, z, facing, material):
+        return {"type": "quad", "corner": [x, y, z], "edge_a": facing[0], "edge_b": facing[1], "material": material}
+
+    return {
+        "width": 16,
+        "height": 16,
+        "cameras": [{"position": [0.3, 0.2, 10], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40}],
+        "materials": {
+            "back": {"diffuse": [1, 0.2, 0.1], "double_sided": False},
+            "front": {"diffuse": [0.1, 0.8, 0.2], "double_sided": False},
+            "both": {"diffuse": [0.2, 0.3, 0.9]},
+            "lamp": {"diffuse": [0, 0, 0], "emission": [3, 2.5, 2], "double_sided": False},
+            "floor": {"diffuse": [0.8, 0.8, 0.8]},
+        },
+        "lights": [{"type": "directional", "direction": [0.3, 0.4, -1]}],
+        "objects": [
+            card(-2, -2, 3, away, "back"),
+            card(-1.5, -1, 2.5, away, "back"),
+            card(-1, -1.5, 2, away, "back"),
+            card(0, 0, 1.5, towards, "front"),
+            card(-2.5, 0.5, 1, away, "both"),
+            card(0.5, -2.5, 3.5, towards, "lamp"),
+            {"type": "sphere", "center": [1.6, 1.4, 1], "radius": 0.6, "material": "back"},
+            card(-6, -6, 0, towards, "floor"),
+        ],
+        "environment": {"color": [0.2, 0.25, 0.3]},
+    }
+
+
 CASES = {
     # Lambert walls, rough metal and glass spheres, an emissive quad; AOVs
     "cornell": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, aovs=AOVS)),
@@ -86,6 +121,9 @@ CASES = {
     # the splat films (reconstruction filters wider than a pixel: Mitsuba's tent, and its Gaussian, Mitsuba XML's default)
     "mixed-tent-splats": (lambda tmp: path_scenes.mixed(12), dict(spp=3, rfilter="tent")),
     "cornell-gaussian-splats": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, rfilter="gaussian", aovs=AOVS)),
+    # single-sided materials: camera rays walked again past back faces (glTF's default), with hidden emitters too
+    "single-sided": (lambda tmp: single_sided_scene(), dict(spp=3, aovs=AOVS)),
+    "single-sided-hide-emitters": (lambda tmp: single_sided_scene(), dict(spp=3, hide_emitters=True)),
     # the Gaussian pixel filter (each pixel's own samples weighted)
     "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
 }
