@@ -42,32 +42,32 @@ INLINE LI back_culled(const Geometry *g, TextureView tv, HitL h, V3 o, V3 d) {
 #endif
 
 #if ALPHA_TEST
-/* Hit h's material, and its coverage there in *alpha (1 for opaque materials: no lookup; kernels/surface.h's
- * coverage_at). */
-INLINE __global const Material *hit_coverage(const Geometry *g, TextureView tv, Hit h, float *alpha) {
-    int mi = g->objects[hit_object(g, h)].material;
-    __global const Material *gm = &tv.materials[mi];
+/* Hit h's material (each lane's), and its coverage there in *alpha (1 for opaque materials: no lookup;
+ * kernels/surface.h's coverage_at).  A miss's lanes must read a hit (render_path_lanes gives them primitive 0). */
+INLINE LI hit_coverage(const Geometry *g, TextureView tv, HitL h, LF *alpha) {
+    LI mi = FIELD_I(g->objects, hit_object(g, h), material);
     *alpha = 1.0f;
-    if (gm->alpha_mode == ALPHA_OPAQUE) return gm;
-    /* read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed
-     * PoCL's stack at 64-item groups (issue 38, defect 0; docs/materials.md#alpha-modes) */
-    *alpha = coverage_at(tv, mi, hit_data(g, h), h.u, h.v);
-    return gm;
+    WHERE(FIELD_I(tv.materials, mi, alpha_mode) != ALPHA_OPAQUE, *alpha, coverage_at(tv, mi, hit_data(g, h), h.u, h.v));
+    return mi;
 }
 
-/* Whether hit h's point stops a ray, and in *opacity the share of the ray's light it stops.  MASK: there (1) where
- * alpha >= cutoff, else not (0).  BLEND: for the path tracer (rng not null) there with probability alpha, the
- * uniform number drawn only for BLEND, so MASK scenes use no random dimensions; for the Whitted integrator (rng
- * null) there with opacity alpha when alpha > 0.  OPAQUE: there, 1. */
-INLINE bool point_kept(const Geometry *g, TextureView tv, Hit h, Rng *rng, float *opacity) {
-    float a;
-    __global const Material *gm = hit_coverage(g, tv, h, &a);
-    if (gm->alpha_mode == ALPHA_MASK) a = a >= gm->alpha_cutoff ? 1.0f : 0.0f;
-    else if (gm->alpha_mode == ALPHA_BLEND && rng) return rng_extra(rng) < a;
-    *opacity = a;
-    return a > 0.0f;
+/* Whether hit h's point stops a ray, and in *opacity the share of the ray's light it stops, in the lanes `on` (a
+ * mask: at width 1 set).  MASK: there (1) where alpha >= cutoff, else not (0).  BLEND: for the path tracer (rng not
+ * null) there with probability alpha, the uniform number drawn only for BLEND (and only in the lanes `on`), so MASK
+ * scenes use no random dimensions, *opacity left as it was; for the Whitted integrator (rng null) there with opacity
+ * alpha when alpha > 0.  OPAQUE: there, 1. */
+INLINE LI point_kept(const Geometry *g, TextureView tv, HitL h, Rng *rng, LI on, LF *opacity) {
+    LF a;
+    LI mi = hit_coverage(g, tv, h, &a);
+    LI mode = FIELD_I(tv.materials, mi, alpha_mode);
+    a = mode == ALPHA_MASK ? (a >= FIELD_F(tv.materials, mi, alpha_cutoff) ? (LF)(1.0f) : (LF)(0.0f)) : a;
+    LI blend = on & (mode == ALPHA_BLEND) & (rng ? ALL_LANES : (LI)(0)), kept = a > 0.0f;
+    if (ANY(blend)) kept = blend ? rng_extra(rng, blend) < a : kept;
+    *opacity = blend ? *opacity : a;
+    return kept;
 }
 
+#if LANES == 1
 /* Fraction of light reaching t_max along the shadow ray r (Whitted): each point met in turn passes
  * (1 - opacity) + opacity x its material's transparency, through ALPHA_LAYERS points; the rest is
  * transmittance's (alpha ignored).  A walk of closest hits of one ray (no shafts, no packets). */
@@ -77,32 +77,34 @@ INLINE float alpha_transmittance(const Geometry *g, TextureView tv, Ray r, float
         Hit h = closest_hit(g, r, t_min, t_max, visits);
         if (h.id < 0) return T;
         float opacity;
-        point_kept(g, tv, h, 0, &opacity);
+        point_kept(g, tv, h, 0, ALL_LANES, &opacity);
         T *= (1.0f - opacity) + opacity * tv.materials[g->objects[hit_object(g, h)].material].transparency;
         t_min = h.t; /* hits are in (t_min, t_max): this one is left out next */
     }
     return T > 0.0f ? T * transmittance(g, r, t_min, t_max, material_pass(tv.materials), visits) : 0.0f;
 }
 #endif
+#endif
 
 /* The first point along r in (t_min, t_max) that a ray stops at, for both integrators: closest_hit, looking past
  * alpha-rejected points (point_kept; rng and *opacity as there) and, for a camera ray, culled back faces, through
  * ALPHA_LAYERS of them; the next hit is kept whatever it is (opacity 1).  One closest_hit call site: each inlined
- * copy holds its own traversal stacks. */
+ * copy holds its own traversal stacks.  render_path_lanes looks past in lanes (path.cl seen_lanes): in its build this
+ * is closest_hit. */
 INLINE Hit seen_hit(const Geometry *g, TextureView tv, Ray r, float t_min, float t_max, bool camera, Rng *rng, float *opacity,
                     uint *visits) {
     *opacity = 1.0f;
-#if LOOK_PAST
+#if LOOK_PAST && LANES == 1
     for (int k = 0;; ++k) {
         Hit h = closest_hit(g, r, t_min, t_max, visits);
         if (h.id < 0) return h;
         if (k == ALPHA_LAYERS) { *opacity = 1.0f; return h; }
         t_min = h.t; /* hits are in (t_min, t_max): a rejected one is left out next */
-#if CULL_BACKFACES && LANES == 1 /* render_path_lanes culls in lanes (path.cl extend_lanes) */
+#if CULL_BACKFACES
         if (camera && back_culled(g, tv, h, r.o, r.d)) continue;
 #endif
 #if ALPHA_TEST
-        if (point_kept(g, tv, h, rng, opacity)) return h;
+        if (point_kept(g, tv, h, rng, ALL_LANES, opacity)) return h;
 #else
         return h;
 #endif

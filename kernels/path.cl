@@ -819,7 +819,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL || ALPHA_TEST || INSTANCED
+#if !RNG_SOBOL || INSTANCED
 #error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
 #endif
 /* lane k of a 3-vector */
@@ -860,58 +860,88 @@ INLINE Ray lane_ray(const LaneRays *r, int k) {
     return ray;
 }
 
-/* The closest hit of each live lane's ray, ray_hit's and seen_hit's answer: each lane's ray walked alone (traversal
- * stays per ray, docs/lanes.md) from its t_min; then, in lanes, with CULL_BACKFACES a camera ray that met a culled back
- * face walked again past it (up to ALPHA_LAYERS times, seen_hit's loop; no ray counted), and with HIDE_EMITTERS a
- * camera ray that met an emitting triangle walked again past it (up to HIDDEN_LAYERS, ray_hit's loop: a ray counted
- * each).  The back-face test runs in lanes (a lane's surface is lane-generic code), so these loops are the lanes' own. */
-INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, LI live) {
+/* seen_hit for the lanes in `todo`, each lane's answer into *h: each lane's ray (`rays`, o and d its origin and direction)
+ * walked alone from t_min to t_max (traversal stays per ray, docs/lanes.md), its visits added to *visits; then in
+ * lanes, through ALPHA_LAYERS of them, the lanes that met a point the ray looks past walked again past it: a culled
+ * back face for `camera` lanes (CULL_BACKFACES), a point the alpha test leaves out (ALPHA_TEST, its draws from rng in
+ * the lanes that draw).  The tests run in lanes (their surfaces and textures are lane-generic code), so this loop is
+ * the lanes' own. */
+INLINE void seen_lanes(const PathScene *s, const LaneRays *rays, V3 o, V3 d, LF t_min, LF t_max, LI todo, LI camera, Rng *rng,
+                       LU *visits, HitL *h) {
+    LI layer = 0;
+    while (ANY(todo)) {
+        for (int k = 0; k < LANES; ++k) {
+            if (!LANE_I(todo, k)) continue;
+            uint v = LANE_U(*visits, k);
+            Hit one = closest_hit(&s->geo, lane_ray(rays, k), LANE(t_min, k), LANE(t_max, k), &v);
+            LANE_U(*visits, k) = v;
+            LANE(h->t, k) = one.t; LANE_I(h->slot, k) = one.slot; LANE_I(h->id, k) = one.id; LANE(h->u, k) = one.u; LANE(h->v, k) = one.v;
+        }
+        LI again = 0;
+#if LOOK_PAST
+        LI met = todo & (h->id >= 0) & (layer < ALPHA_LAYERS);
+        if (ANY(met)) {
+            HitL seen = *h; /* the other lanes read primitive 0, and nothing keeps what they find */
+            seen.slot = met ? h->slot : (LI)(0);
+            seen.id = met ? h->id : (LI)(0);
+#if CULL_BACKFACES
+            LI culled = met & camera;
+            if (ANY(culled)) culled &= back_culled(&s->geo, s->tex, seen, o, d);
+            again = culled;
+            met &= NOT(culled);
+#endif
+#if ALPHA_TEST
+            LF opacity = 1.0f;
+            if (ANY(met)) again |= met & NOT(point_kept(&s->geo, s->tex, seen, rng, met, &opacity));
+#endif
+        }
+        layer = again ? layer + 1 : layer;
+        t_min = again ? h->t : t_min; /* hits are in (t_min, t_max): a rejected one is left out next */
+#endif
+        todo = again;
+    }
+}
+
+/* The closest hit of each live lane's ray, ray_hit's answer: seen_lanes, and with HIDE_EMITTERS a camera ray that met
+ * an emitting triangle walked again past it (up to HIDDEN_LAYERS); a ray counted for each seen_lanes. */
+INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, Rng *rng, LI live) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
     LaneRays rays;
     make_lane_rays(st->o, st->d, &rays);
     LF t_min = 0.0f;
-    LI camera = st->depth == 0, layer = 0, hidden = 0, todo = live;
-    while (ANY(todo)) {
-        for (int k = 0; k < LANES; ++k) {
-            if (!LANE_I(todo, k)) continue;
-            uint visits = LANE_U(st->visits, k);
-            Hit one = closest_hit(&s->geo, lane_ray(&rays, k), LANE(t_min, k), INF_T, &visits);
-            LANE_U(st->visits, k) = visits;
-            LANE(h.t, k) = one.t; LANE_I(h.slot, k) = one.slot; LANE_I(h.id, k) = one.id; LANE(h.u, k) = one.u; LANE(h.v, k) = one.v;
-        }
-        LI met = todo & camera & (h.id >= 0), again = 0;
-#if CULL_BACKFACES
-        LI culled = met & (layer < ALPHA_LAYERS);
-        if (ANY(culled)) {
-            HitL seen = h; /* the other lanes read primitive 0, and nothing keeps what they find */
-            seen.slot = culled ? h.slot : (LI)(0);
-            seen.id = culled ? h.id : (LI)(0);
-            culled &= back_culled(&s->geo, s->tex, seen, st->o, st->d);
-        }
-        layer = culled ? layer + 1 : layer;
-        again = culled;
-        met &= NOT(culled);
-#endif
-        PUT(st, rays, st->rays + 1U, todo & NOT(again)); /* seen_hit returned: ray_hit counts a ray */
+    LI camera = st->depth == 0, todo = live;
 #if HIDE_EMITTERS
-        LI hide = met & (gather_i(s->emitter_of_prim, max(h.id, (LI)(0))) >= 0);
-        hidden = hide ? hidden + 1 : hidden;
-        hide &= hidden < HIDDEN_LAYERS;
-        layer = hide ? (LI)(0) : layer; /* a new seen_hit */
-        again |= hide;
+    LI hidden = 0;
 #endif
-        t_min = again ? h.t : t_min; /* the camera ray again, past what it met */
-        todo = again;
+    while (ANY(todo)) {
+        seen_lanes(s, &rays, st->o, st->d, t_min, (LF)(INF_T), todo, camera, rng, &st->visits, &h);
+        PUT(st, rays, st->rays + 1U, todo);
+#if HIDE_EMITTERS
+        LI hide = todo & camera & (h.id >= 0);
+        hide &= gather_i(s->emitter_of_prim, max(h.id, (LI)(0))) >= 0;
+        hidden = hide ? hidden + 1 : hidden;
+        todo = hide & (hidden < HIDDEN_LAYERS);
+        t_min = todo ? h.t : t_min; /* the camera ray again, past this emitting triangle */
+#else
+        todo = 0;
+#endif
     }
     return h;
 }
 
-/* Whether each shadowed lane's shadow ray reaches its end, walked one lane at a time. */
-INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, LI shadowed) {
-    LI unblocked = 0;
+/* Whether each shadowed lane's shadow ray reaches its end: ray_unblocked's answer (with ALPHA_TEST seen_lanes: no point
+ * kept before t_max; else each lane's transmittance walk). */
+INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, Rng *rng, LI shadowed) {
     LaneRays rays;
     make_lane_rays(st->shadow_o, st->shadow_d, &rays);
+#if ALPHA_TEST
+    HitL h;
+    h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    seen_lanes(s, &rays, st->shadow_o, st->shadow_d, (LF)(0.0f), st->shadow_t_max, shadowed, (LI)(0), rng, &st->visits, &h);
+    return shadowed & (h.id < 0);
+#else
+    LI unblocked = 0;
     for (int k = 0; k < LANES; ++k) {
         if (!LANE_I(shadowed, k)) continue;
         uint visits = LANE_U(st->visits, k);
@@ -920,6 +950,7 @@ INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, LI shadowed) {
         LANE_I(unblocked, k) = reached ? -1 : 0;
     }
     return unblocked;
+#endif
 }
 
 /* render_path's pixels LANES a work-item, one in each lane of a vector register: each lane takes its pixel's samples in
@@ -947,9 +978,9 @@ __kernel __attribute__((vec_type_hint(LF))) void render_path_lanes(
     while (ANY(live)) {
         if (ANY(start)) start_sample(&params, &st, pixel, sample, &rng, start);
         PathVertex v;
-        LI on = shade_surface(&s, &st, extend_lanes(&s, &st, live), &rng, &v, live);
+        LI on = shade_surface(&s, &st, extend_lanes(&s, &st, &rng, live), &rng, &v, live);
         LI shadowed = live & (st.shadowed != 0);
-        if (ANY(shadowed)) shadow_step(&st, shadows_unblocked(&s, &st, shadowed));
+        if (ANY(shadowed)) shadow_step(&st, shadows_unblocked(&s, &st, &rng, shadowed));
         if (ANY(on)) on = scatter(&s, &st, &v, &rng, on);
         LI ended = live & NOT(on);
         if (ANY(ended)) finish_sample(&st, splats, ended);

@@ -118,13 +118,16 @@ INLINE V2 rng_next2(Rng *r) {
     return v2(x, y);
 }
 
-/* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets): rng_next
- * for the independent sampler; with RNG_SOBOL a hashed uniform number of its own counter, from dimension
+/* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets), drawn in the
+ * lanes `on` (their counters move; at width 1 on is set): rng_next for the independent sampler (one path a work-item:
+ * its stream moves in every lane); with RNG_SOBOL a hashed uniform number of its own counter, from dimension
  * RNG_EXTRA_DIMS on, so that however many are drawn, no Sobol dimension moves. */
 #define RNG_EXTRA_DIMS 0x80000000U
-INLINE LF rng_extra(Rng *r) {
+INLINE LF rng_extra(Rng *r, LI on) {
 #if RNG_SOBOL
-    return u01(hash4(r->seed, r->pixel, r->sample, RNG_EXTRA_DIMS | r->extra++));
+    LF x = u01(hash4(r->seed, r->pixel, r->sample, RNG_EXTRA_DIMS | r->extra));
+    r->extra = on ? r->extra + 1U : r->extra;
+    return x;
 #else
     return rng_next(r);
 #endif

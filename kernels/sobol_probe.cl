@@ -54,7 +54,7 @@ __kernel void path_draws_probe(__global const uint *pixels, uint n_samples, uint
         V2 ul = rng_next2(&r);
         draws[6] = ul.x;
         draws[7] = ul.y;
-        draws[8] = rng_extra(&r);
+        draws[8] = rng_extra(&r, ALL_LANES);
         for (uint k = 0; k < PATH_DRAWS; ++k) PUT_LANES(out, float, n_work, depth * PATH_DRAWS, v * PATH_DRAWS + k, draws[k]);
     }
 }

@@ -3,8 +3,8 @@ work-item, each pixel's paths in one lane of a vector register, its shading writ
 type (the megakernel runs the same source at width 1), the walks a lane at a time.  The images are the megakernel's
 bits.  `LaneKernel` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
 
-What the lanes do not take yet renders with the megakernel (`falls_back` says why): instanced scenes, alpha-tested
-materials, the independent sampler, a scene without primitives, and devices that are not CPUs."""
+What the lanes do not take yet renders with the megakernel (`falls_back` says why): instanced scenes, the independent
+sampler, a scene without primitives, and devices that are not CPUs."""
 
 from __future__ import annotations
 
@@ -13,10 +13,7 @@ import pyopencl as cl
 from .work_layout import global_size
 
 KERNEL = ("path.cl", "render_path_lanes")
-UNSUPPORTED_DEFINES = {
-    "INSTANCED": "instanced scenes",
-    "ALPHA_TEST": "alpha-tested materials",
-}
+UNSUPPORTED_DEFINES = {"INSTANCED": "instanced scenes"}
 
 
 def lane_width(device: cl.Device) -> int:

@@ -3,9 +3,10 @@ against its megakernel (render_path): the same lane-generic steps run 16 (or 8) 
 one, so the same bits.  Each test renders a scene both ways, on different tilings, and compares the image, the object
 ids, the AOVs and the ray and BVH-visit counts byte for byte: the materials of every kind (Phong glass and mirrors,
 glTF, conductors, coated diffuse, thin sheets), textures, smooth and flat meshes and spheres, every light the lanes
-take, a thin lens, Russian roulette, progressive passes, single-sided materials and hidden emitters.  A lane that took another lane's value, a mask that let an
-idle lane write its state, a masked pass that kept the wrong lobe or a sampler draw out of place fails these.  What the
-lanes do not take yet renders with the megakernel, and says why (lane_schedule.falls_back)."""
+take, a thin lens, Russian roulette, progressive passes, single-sided and alpha-tested materials, hidden emitters.
+A lane that took another lane's value, a mask that let an idle lane write its state, a masked pass that kept the wrong
+lobe or a sampler draw out of place fails these.  What the lanes do not take yet renders with the megakernel, and says
+why (lane_schedule.falls_back)."""
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import as_scene
 
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
-from tests.pathtools import AOVS, assert_same, blend_card, env_map_scene, render_both
+from tests.pathtools import AOVS, assert_same, env_map_scene, render_both
 from tests.reference import path_scenes
 from tests.scenetools import copies_scene
 
@@ -98,6 +99,30 @@ def single_sided_scene() -> dict:
     }
 
 
+def alpha_cards_scene(tmp_path) -> dict:
+    """single_sided_scene with alpha: a card masked by a checker texture's alpha (glTF MASK), a half-transparent one
+    (BLEND: the path tracer keeps its point with probability alpha, a random number a layer), one single-sided, all
+    over a floor that shadow rays reach through them."""
+    import OpenImageIO as oiio
+
+    texels = np.zeros((4, 4, 4), np.uint8)
+    texels[..., :3] = 200
+    texels[..., 3] = np.where((np.arange(4)[:, None] + np.arange(4)) % 2 == 0, 255, 0)
+    out = oiio.ImageOutput.create(str(tmp_path / "holes.png"))
+    assert out.open(str(tmp_path / "holes.png"), oiio.ImageSpec(4, 4, 4, "uint8"))
+    assert out.write_image(texels)
+    out.close()
+    scene = single_sided_scene()
+    scene["textures"] = {"holes": {"file": "holes.png", "filter": "nearest"}}
+    scene["materials"]["holes"] = {"diffuse": [0.9, 0.9, 0.2], "diffuse_texture": "holes", "alpha": {"mode": "mask", "cutoff": 0.5}}
+    scene["materials"]["veil"] = {"diffuse": [0.2, 0.9, 0.9], "alpha": {"mode": "blend", "factor": 0.4}, "double_sided": False}
+    scene["objects"] += [
+        {"type": "quad", "corner": [-1.8, -0.5, 4], "edge_a": [2.5, 0, 0], "edge_b": [0, 2.5, 0], "material": "holes"},
+        {"type": "quad", "corner": [-0.5, -1.8, 4.5], "edge_a": [2.5, 0, 0], "edge_b": [0, 2.5, 0], "material": "veil"},
+    ]
+    return scene
+
+
 CASES = {
     # Lambert walls, rough metal and glass spheres, an emissive quad; AOVs
     "cornell": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, aovs=AOVS)),
@@ -124,6 +149,9 @@ CASES = {
     # single-sided materials: camera rays walked again past back faces (glTF's default), with hidden emitters too
     "single-sided": (lambda tmp: single_sided_scene(), dict(spp=3, aovs=AOVS)),
     "single-sided-hide-emitters": (lambda tmp: single_sided_scene(), dict(spp=3, hide_emitters=True)),
+    # alpha-tested materials (textured MASK, BLEND): camera, bounce and shadow rays walked again past the points left out
+    "alpha-cards": (alpha_cards_scene, dict(spp=3, aovs=AOVS)),
+    "alpha-cards-hide-emitters": (alpha_cards_scene, dict(spp=2, hide_emitters=True)),
     # the Gaussian pixel filter (each pixel's own samples weighted)
     "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
 }
@@ -154,7 +182,6 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 
 FALLBACKS = {
     "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
-    "alpha-tested materials": (lambda tmp: blend_card(), {}),
     "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
 }
 
