@@ -43,7 +43,9 @@ INLINE LI back_culled(const Geometry *g, TextureView tv, HitL h, V3 o, V3 d) {
 
 #if ALPHA_TEST
 /* Hit h's material (each lane's), and its coverage there in *alpha (1 for opaque materials: no lookup;
- * kernels/surface.h's coverage_at).  A miss's lanes must read a hit (render_path_lanes gives them primitive 0). */
+ * kernels/surface.h's coverage_at).  A miss's lanes must read a hit (render_path_lanes gives them primitive 0).  The
+ * fields are read in place: a private copy of the 256-byte record, in every inlined look-past loop, overflowed PoCL's
+ * stack at 64-item groups (issue 38, defect 0; docs/materials.md#alpha-modes). */
 INLINE LI hit_coverage(const Geometry *g, TextureView tv, HitL h, LF *alpha) {
     LI mi = FIELD_I(g->objects, hit_object(g, h), material);
     *alpha = 1.0f;

@@ -156,7 +156,7 @@ INLINE bool ray_unblocked(const PathScene *s, Ray sr, float t_max, Rng *rng, uin
 }
 
 /* The closest hit a path's ray r (make_ray's) stops at (a camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS
- * emitting triangles), each walk counted in *rays.  One ray: in lanes, each lane's in turn. */
+ * emitting triangles), each walk counted in *rays.  One ray (the lanes' loop is extend_lanes'). */
 INLINE Hit ray_hit(const PathScene *s, Ray r, bool camera, Rng *rng, uint *visits, uint *rays) {
     float t_min = 0.0f;
 #if HIDE_EMITTERS
