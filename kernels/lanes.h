@@ -138,11 +138,16 @@ INLINE V3 vpick(LI m, V3 a, V3 b) { return v3(m ? a.x : b.x, m ? a.y : b.y, m ? 
 #define WHERE(m, x, e) if (ANY(m)) x = (m) ? (e) : (x)
 #define WHERE3(m, x, e) if (ANY(m)) x = vpick((m), (e), (x))
 INLINE LF abs_l(LF x) { return AS_LF(AS_LU(x) & 0x7fffffffU); }
-/* i mod n in [0, n) (floored: -1 mod n is n - 1), for n > 0 and |i| < 2^24: the float quotient's floor is off by at
- * most one there, and one step corrects it.  No integer division: a CPU has none in vector lanes, and Intel's
- * runtime calls a routine per lane for `%`. */
+/* i mod n in [0, n) (floored: -1 mod n is n - 1), for n > 0 and |i| < 2^24.  In lanes no integer division (a CPU has
+ * none in vector lanes, and Intel's runtime calls a routine per lane for `%`): the float quotient's floor is off by at
+ * most one there, and one step corrects it.  At width 1 `%` (the float form stops Intel's runtime vectorising the
+ * wavefront's wave_shade across work-items: test_wavefront). */
 INLINE LI mod_l(LI i, LI n) {
+#if LANES == 1
+    LI m = i % n;
+#else
     LI m = i - CONVERT_I(floor(CONVERT_F(i) / CONVERT_F(n))) * n;
+#endif
     m = m < 0 ? m + n : m;
     return m >= n ? m - n : m;
 }
