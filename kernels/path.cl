@@ -155,27 +155,6 @@ INLINE bool ray_unblocked(const PathScene *s, Ray sr, float t_max, Rng *rng, uin
 #endif
 }
 
-/* The closest hit a path's ray r (make_ray's) stops at (a camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS
- * emitting triangles), each walk counted in *rays.  One ray (the lanes' loop is extend_lanes'). */
-INLINE Hit ray_hit(const PathScene *s, Ray r, bool camera, Rng *rng, uint *visits, uint *rays) {
-    float t_min = 0.0f;
-#if HIDE_EMITTERS
-    int hidden = 0;
-#endif
-    for (;;) {
-        float opacity;
-        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, camera, rng, &opacity, visits);
-        *rays += 1;
-#if HIDE_EMITTERS
-        if (camera && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
-            t_min = h.t; /* the camera ray again, past this emitting triangle */
-            continue;
-        }
-#endif
-        return h;
-    }
-}
-
 /* An area light's parallelogram along the ray (o, d): t in (0, t_max) or INF_T. */
 INLINE LF hit_parallelogram(V3 o, V3 d, float3 corner, float3 a, float3 b, LF t_max) {
     V3 n = splat3(cross3(a, b));
@@ -563,9 +542,26 @@ INLINE void start_sample(const PathParams *p, PathLanes *st, LI pixel, LU s_i, R
 }
 
 #if LANES == 1
-/* The closest hit of the path's ray (ray_hit). */
+/* The closest hit of the path's ray (the camera ray with HIDE_EMITTERS: past up to HIDDEN_LAYERS emitting triangles),
+ * each walk counted in st->rays (the lanes' loop is extend_lanes'). */
 INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
-    return ray_hit(s, make_ray(vload3(0, st->o), vload3(0, st->d)), st->depth == 0, rng, &st->visits, &st->rays);
+    Ray r = make_ray(vload3(0, st->o), vload3(0, st->d));
+    float t_min = 0.0f;
+#if HIDE_EMITTERS
+    int hidden = 0;
+#endif
+    for (;;) {
+        float opacity;
+        Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, st->depth == 0, rng, &opacity, &st->visits);
+        st->rays += 1;
+#if HIDE_EMITTERS
+        if (st->depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
+            t_min = h.t; /* the camera ray again, past this emitting triangle */
+            continue;
+        }
+#endif
+        return h;
+    }
 }
 
 /* Whether st's shadow ray reaches its end. */
@@ -825,6 +821,13 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 /* lane k of a 3-vector */
 INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
 
+/* no_hit in every lane */
+INLINE HitL no_hits(void) {
+    HitL h;
+    h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    return h;
+}
+
 /* The lanes' rays, each as make_ray makes it from (o, d), its 1/d and shear computed in lanes (the same operations:
  * the same bits), for the walks, which go one lane at a time: made one at a time, their six divisions were a twentieth
  * of the lane kernel's time. */
@@ -902,11 +905,10 @@ INLINE void seen_lanes(const PathScene *s, const LaneRays *rays, V3 o, V3 d, LF 
     }
 }
 
-/* The closest hit of each live lane's ray, ray_hit's answer: seen_lanes, and with HIDE_EMITTERS a camera ray that met
+/* The closest hit of each live lane's ray, extend_step's answer: seen_lanes, and with HIDE_EMITTERS a camera ray that met
  * an emitting triangle walked again past it (up to HIDDEN_LAYERS); a ray counted for each seen_lanes. */
 INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, Rng *rng, LI live) {
-    HitL h;
-    h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    HitL h = no_hits();
     LaneRays rays;
     make_lane_rays(st->o, st->d, &rays);
     LF t_min = 0.0f;
@@ -936,8 +938,7 @@ INLINE LI shadows_unblocked(const PathScene *s, PathLanes *st, Rng *rng, LI shad
     LaneRays rays;
     make_lane_rays(st->shadow_o, st->shadow_d, &rays);
 #if ALPHA_TEST
-    HitL h;
-    h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+    HitL h = no_hits();
     seen_lanes(s, &rays, st->shadow_o, st->shadow_d, (LF)(0.0f), st->shadow_t_max, shadowed, (LI)(0), rng, &st->visits, &h);
     return shadowed & (h.id < 0);
 #else
