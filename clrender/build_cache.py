@@ -4,8 +4,12 @@ pyopencl keeps a driver's built binaries on disk (for drivers without a cache of
 Oclgrind) and takes the folder's lock file, created with O_EXCL, for each lookup. A process killed while it holds the
 lock (SIGKILL during a render's first second, or a timeout's kill) leaves the file behind, and from then on every
 build in every process waits a minute for it and fails. `clear_stale_lock` removes such a lock before a build: one
-that no live process has open and that is older than a lookup's blink. clrender keeps its programs in its own cache
-folder, so it knows where the lock is."""
+that no live process has open, seen twice a blink apart (a holder closes the file a moment before it removes it).
+clrender keeps its programs in its own cache folder, so it knows where the lock is.
+
+Any other failure of the cache (a file a killed process left half-written) makes pyopencl build from source with a
+warning, not fail: pyopencl 2025's fallback reads $PYOPENCL_CACHE_FAILURE_FATAL with os.environ[...], a KeyError
+where it is unset, so `ready` sets it to "" (false) unless the user set it."""
 
 from __future__ import annotations
 
@@ -13,7 +17,7 @@ import os
 import time
 from pathlib import Path
 
-STALE_AFTER_S = 2.0  # a lock this old with no holder is left by a dead process, not being released
+BLINK_S = 0.05  # a live holder removes the lock within microseconds of closing it
 
 
 def folder() -> Path:
@@ -40,6 +44,7 @@ def held_open(path: Path) -> bool:
 
 def ready() -> str:
     """The folder for a build's cache_dir, a stale lock in it removed first."""
+    os.environ.setdefault("PYOPENCL_CACHE_FAILURE_FATAL", "")
     cache = folder()
     clear_stale_lock(cache)
     return str(cache)
@@ -48,14 +53,23 @@ def ready() -> str:
 def clear_stale_lock(cache: Path) -> bool:
     """Remove `cache`'s lock if a dead process left it; whether one was removed."""
     lock = cache / "lock"
-    try:
-        age = time.time() - lock.stat().st_mtime
-    except OSError:
+    seen = _identity(lock)
+    if seen is None or held_open(lock):
         return False
-    if age < STALE_AFTER_S or held_open(lock):
+    time.sleep(BLINK_S)
+    if _identity(lock) != seen or held_open(lock):  # released and taken again, or taken since
         return False
     try:
         lock.unlink()
     except OSError:
         return False
     return True
+
+
+def _identity(path: Path) -> tuple[int, int, int] | None:
+    """What tells one lock file from the next at the same path, or None if there is none."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_ctime_ns
