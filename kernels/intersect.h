@@ -41,10 +41,32 @@ typedef struct {
     LF t;
     LI slot, id;
     LF u, v;
-} HitL;
 #if INSTANCED
-#error "instanced scenes are not shaded in lanes yet"
+    LI instance;
 #endif
+} HitL;
+#endif
+
+/* The lanes whose hit is on an instance (none in a flat scene). */
+INLINE LI placed(HitL h) {
+#if INSTANCED
+    return h.instance >= 0;
+#else
+    return 0;
+#endif
+}
+
+#if LANES > 1
+/* h in the lanes of `keep`, the flat part's primitive 0 in the others: a hit every lane's reads may take (in lanes the
+ * shading reads every lane's records; nothing keeps what the others find). */
+INLINE HitL kept_hits(HitL h, LI keep) {
+    h.slot = keep ? h.slot : (LI)(0);
+    h.id = keep ? h.id : (LI)(0);
+#if INSTANCED
+    h.instance = keep ? h.instance : (LI)(-1);
+#endif
+    return h;
+}
 #endif
 
 /* Whether a hit at t on primitive `id` replaces *best: nearer, or as near and a lower id (ties go to the
@@ -587,61 +609,88 @@ INLINE float transmittance(const Geometry *g, Ray r, float t_min, float t_max, P
 
 /* The scene object a hit belongs to: its instance's, or its flat primitive's; -1 on a miss. */
 INLINE LI hit_object(const Geometry *g, HitL h) {
+#if LANES == 1
 #if INSTANCED
     if (h.instance >= 0) return g->instances[h.instance].object;
 #endif
-#if LANES == 1
     return h.id >= 0 ? g->prim_object[h.id] : -1;
 #else
-    return h.id >= 0 ? gather_i(g->prim_object, max(h.id, (LI)(0))) : (LI)(-1);
+    LI on_instance = placed(h), flat = (h.id >= 0) & NOT(on_instance);
+    LI object = flat ? gather_i(g->prim_object, flat ? h.id : (LI)(0)) : (LI)(-1);
+#if INSTANCED
+    WHERE(on_instance, object, FIELD_I(g->instances, on_instance ? h.instance : (LI)(0), object));
+#endif
+    return object;
 #endif
 }
 
 /* Where hit h's per-primitive records are (vertex normals, VertexAttributes): its primitive id, or for an
  * instance its mesh's records, stored once for all its instances (Instance.data_base + the mesh's own id). */
 INLINE LI hit_data(const Geometry *g, HitL h) {
+    LI data = h.id;
 #if INSTANCED
-    if (h.instance >= 0) return g->instances[h.instance].data_base + (h.id - g->instances[h.instance].prim_base);
+    LI on_instance = placed(h), i = on_instance ? h.instance : (LI)(0);
+    WHERE(on_instance, data, FIELD_I(g->instances, i, data_base) + (h.id - FIELD_I(g->instances, i, prim_base)));
 #endif
-    return h.id;
+    return data;
 }
 
 #if INSTANCED
-/* An object-space normal n of instance `in` in world space: by the inverse transpose, world_to_object
- * transposed, renormalised (outward stays outward under mirrors too: no winding is involved). */
-INLINE float3 normal_to_world(__global const Instance *in, float3 n) {
-    __global const float *m = &in->world_to_object[0][0];
-    return unit((float3)(m[0] * n.x + m[4] * n.y + m[8] * n.z, m[1] * n.x + m[5] * n.y + m[9] * n.z,
-                         m[2] * n.x + m[6] * n.y + m[10] * n.z));
+/* Each lane's instance's 3x4 map, row-major: world_to_object (`to_object`) or object_to_world. */
+typedef struct {
+    LF m[12];
+} InstanceMap;
+
+INLINE InstanceMap instance_map(const Geometry *g, LI i, bool to_object) {
+    InstanceMap a;
+    for (int k = 0; k < 12; ++k)
+        a.m[k] = to_object ? FIELD_F(g->instances, i, world_to_object[k / 4][k % 4]) : FIELD_F(g->instances, i, object_to_world[k / 4][k % 4]);
+    return a;
 }
 
-/* An instance's three vertex normals in world space, each by normal_to_world, before they are interpolated:
- * as the flat scene's, whose vertex normals scene.py placed one by one (the same shading under non-uniform scale). */
-INLINE void vertex_normals_to_world(__global const Instance *in, float3 *n0, float3 *n1, float3 *n2) {
-    *n0 = normal_to_world(in, *n0); *n1 = normal_to_world(in, *n1); *n2 = normal_to_world(in, *n2);
+/* An object-space normal n in world space: by the inverse transpose (`w`: world_to_object, transposed here),
+ * renormalised (outward stays outward under mirrors too: no winding is involved). */
+INLINE V3 normal_to_world(const InstanceMap *w, V3 n) {
+    const LF *m = w->m;
+    return vunit(v3(m[0] * n.x + m[4] * n.y + m[8] * n.z, m[1] * n.x + m[5] * n.y + m[9] * n.z, m[2] * n.x + m[6] * n.y + m[10] * n.z));
 }
 
-/* |M| x for the linear part of a 3x4 map (error bounds). */
-INLINE float3 abs_linear(__global const float *m, float3 x) {
-    return (float3)(fabs(m[0]) * x.x + fabs(m[1]) * x.y + fabs(m[2]) * x.z, fabs(m[4]) * x.x + fabs(m[5]) * x.y + fabs(m[6]) * x.z,
-                    fabs(m[8]) * x.x + fabs(m[9]) * x.y + fabs(m[10]) * x.z);
+/* The linear part of a map applied to vector v (a tangent). */
+INLINE V3 map_vector(const InstanceMap *a, V3 v) {
+    const LF *m = a->m;
+    return v3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[4] * v.x + m[5] * v.y + m[6] * v.z, m[8] * v.x + m[9] * v.y + m[10] * v.z);
 }
 
-/* hit_surface on an instance: the mesh's triangle in object space, its point placed by object_to_world
- * with the error bound carried along (pbrt-v4's transform of a point with error: (1 + gamma3) |M| err +
- * gamma3 (|M| |p| + |t|)), doubled for the ray's own rounding into object space; the normal by
- * normal_to_world. */
-INLINE float3 instance_surface(const Geometry *g, Hit h, float3 *p_err, float3 *n_geo) {
-    __global const Instance *in = g->instances + h.instance;
-    __global const PrimSlot *t = g->slots + in->slot_base + h.slot;
-    float3 v0 = load3(t->v0), v1 = load3(t->v1), v2 = load3(t->v2);
-    float3 err;
-    float3 p = hit_point_triangle(v0, v1, v2, h.u, h.v, &err);
-    *n_geo = normal_to_world(in, cross3(v1 - v0, v2 - v0));
-    __global const float *m = &in->object_to_world[0][0];
-    float3 shift = (float3)(fabs(m[3]), fabs(m[7]), fabs(m[11]));
-    *p_err = 2.0f * ((1.0f + GAMMA(3)) * abs_linear(m, err) + GAMMA(3) * (abs_linear(m, fabs(p)) + shift));
-    return affine_point(m, p);
+/* |M| x for the linear part of a map (error bounds). */
+INLINE V3 abs_linear(const InstanceMap *a, V3 x) {
+    const LF *m = a->m;
+    return v3(abs_l(m[0]) * x.x + abs_l(m[1]) * x.y + abs_l(m[2]) * x.z, abs_l(m[4]) * x.x + abs_l(m[5]) * x.y + abs_l(m[6]) * x.z,
+              abs_l(m[8]) * x.x + abs_l(m[9]) * x.y + abs_l(m[10]) * x.z);
+}
+
+#pragma OPENCL FP_CONTRACT OFF /* as affine_point, which places the rays' points */
+INLINE V3 map_point(const InstanceMap *a, V3 p) {
+    const LF *m = a->m;
+    return v3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7], m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+#pragma OPENCL FP_CONTRACT ON
+
+/* hit_surface on an instance, in the lanes whose hit is on one (the others read instance 0's slot h.slot: a slot of
+ * it or of another mesh, and nothing keeps what they find): the mesh's triangle in object space, its point placed by
+ * object_to_world with the error bound carried along (pbrt-v4's transform of a point with error: (1 + gamma3) |M| err
+ * + gamma3 (|M| |p| + |t|)), doubled for the ray's own rounding into object space; the normal by normal_to_world. */
+INLINE V3 instance_surface(const Geometry *g, HitL h, V3 *p_err, V3 *n_geo) {
+    LI on_instance = placed(h), i = on_instance ? h.instance : (LI)(0);
+    LI slot = FIELD_I(g->instances, i, slot_base) + (on_instance ? h.slot : (LI)(0));
+    V3 v0 = FIELD3(g->slots, slot, v0), v1 = FIELD3(g->slots, slot, v1), v2 = FIELD3(g->slots, slot, v2), err;
+    V3 p = hit_point_triangle(v0, v1, v2, h.u, h.v, &err);
+    InstanceMap to_object = instance_map(g, i, true), to_world = instance_map(g, i, false);
+    *n_geo = normal_to_world(&to_object, vcross(vsub(v1, v0), vsub(v2, v0)));
+    const LF *m = to_world.m;
+    V3 a = abs_linear(&to_world, err), b = abs_linear(&to_world, v3(abs_l(p.x), abs_l(p.y), abs_l(p.z)));
+    *p_err = v3(2.0f * ((1.0f + GAMMA(3)) * a.x + GAMMA(3) * (b.x + abs_l(m[3]))), 2.0f * ((1.0f + GAMMA(3)) * a.y + GAMMA(3) * (b.y + abs_l(m[7]))),
+                2.0f * ((1.0f + GAMMA(3)) * a.z + GAMMA(3) * (b.z + abs_l(m[11]))));
+    return map_point(&to_world, p);
 }
 #endif
 
@@ -650,10 +699,10 @@ INLINE float3 instance_surface(const Geometry *g, Hit h, float3 *p_err, float3 *
  * yet turned to face the ray: outward, or the winding's), and whether it is a sphere.  The one place the
  * shading of either integrator reads a primitive slot. */
 INLINE V3 hit_surface(const Geometry *g, HitL h, V3 o, V3 d, V3 *p_err, V3 *n_geo, LI *sphere) {
-#if INSTANCED
+#if INSTANCED && LANES == 1
     if (h.instance >= 0) { *sphere = false; return instance_surface(g, h, p_err, n_geo); }
 #endif
-    *sphere = FIELD_I(g->slots, h.slot, sphere) != 0;
+    *sphere = (FIELD_I(g->slots, h.slot, sphere) != 0) & NOT(placed(h));
     V3 p = *p_err = *n_geo = v3_all(0.0f);
     if (ANY(*sphere)) {
         __global const SphereSlot *spheres = (__global const SphereSlot *)g->slots;
@@ -670,6 +719,15 @@ INLINE V3 hit_surface(const Geometry *g, HitL h, V3 o, V3 d, V3 *p_err, V3 *n_ge
         *p_err = vpick(*sphere, *p_err, err);
         *n_geo = vpick(*sphere, *n_geo, vunit(vcross(vsub(v1, v0), vsub(v2, v0))));
     }
+#if INSTANCED && LANES > 1
+    LI on_instance = placed(h);
+    if (ANY(on_instance)) {
+        V3 err, n, q = instance_surface(g, h, &err, &n);
+        p = vpick(on_instance, q, p);
+        *p_err = vpick(on_instance, err, *p_err);
+        *n_geo = vpick(on_instance, n, *n_geo);
+    }
+#endif
     return p;
 }
 

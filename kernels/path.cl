@@ -436,13 +436,24 @@ INLINE V3 area_lights_on_ray(const PathScene *s, V3 o, V3 d, LF t_max, LI prev_d
     return sum;
 }
 
+/* The emitter record of each lane's hit in the lanes `on` (an emitting flat triangle's), else -1: instances never emit
+ * (trace/instancing.py keeps emissive objects flat), and their primitive ids are past emitter_of_prim's. */
+INLINE LI emitter_of(const PathScene *s, HitL h, LI on) {
+    LI flat = on & (h.id >= 0) & NOT(placed(h));
+#if LANES == 1
+    return flat ? s->emitter_of_prim[h.id] : -1;
+#else
+    return flat ? gather_i(s->emitter_of_prim, flat ? h.id : (LI)(0)) : (LI)(-1);
+#endif
+}
+
 /* Emission met by a ray along d at surface f (hit h at distance h.t from the previous vertex): the material's
  * radiance on front faces, MIS-weighted against NEE when the previous lobe was not a delta. */
 INLINE V3 emission_met(const PathScene *s, const Surface *f, const MaterialPoint *m, HitL h, V3 d, LI prev_delta, LF prev_pdf) {
     V3 le = m->emission;
     LI shows = f->front & (max3_l(le) > 0.0f);
     if (!ANY(shows)) return v3_all(0.0f);
-    LI e = gather_i(s->emitter_of_prim, h.id);
+    LI e = emitter_of(s, h, shows);
     LI weighed = shows & NOT(prev_delta | (e < 0)); /* spheres emit but are not sampled: only BSDF rays find them */
     LF w = 1.0f;
     WHERE(weighed, w, power_heuristic(prev_pdf, emitter_pdf(s, max(e, (LI)(0)), h.t, vdot(f->n_geo, vneg(d)))));
@@ -555,7 +566,7 @@ INLINE Hit extend_step(const PathScene *s, PathState *st, Rng *rng) {
         Hit h = seen_hit(&s->geo, s->tex, r, t_min, INF_T, st->depth == 0, rng, &opacity, &st->visits);
         st->rays += 1;
 #if HIDE_EMITTERS
-        if (st->depth == 0 && h.id >= 0 && s->emitter_of_prim[h.id] >= 0 && ++hidden < HIDDEN_LAYERS) {
+        if (st->depth == 0 && emitter_of(s, h, true) >= 0 && ++hidden < HIDDEN_LAYERS) {
             t_min = h.t; /* the camera ray again, past this emitting triangle */
             continue;
         }
@@ -815,7 +826,7 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL || INSTANCED
+#if !RNG_SOBOL
 #error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
 #endif
 /* lane k of a 3-vector */
@@ -825,6 +836,9 @@ INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), L
 INLINE HitL no_hits(void) {
     HitL h;
     h.t = INF_T; h.slot = h.id = -1; h.u = h.v = 0.0f;
+#if INSTANCED
+    h.instance = -1;
+#endif
     return h;
 }
 
@@ -879,14 +893,15 @@ INLINE void seen_lanes(const PathScene *s, const LaneRays *rays, V3 o, V3 d, LF 
             Hit one = closest_hit(&s->geo, lane_ray(rays, k), LANE(t_min, k), LANE(t_max, k), &v);
             LANE_U(*visits, k) = v;
             LANE(h->t, k) = one.t; LANE_I(h->slot, k) = one.slot; LANE_I(h->id, k) = one.id; LANE(h->u, k) = one.u; LANE(h->v, k) = one.v;
+#if INSTANCED
+            LANE_I(h->instance, k) = one.instance;
+#endif
         }
         LI again = 0;
 #if LOOK_PAST
         LI met = todo & (h->id >= 0) & (layer < ALPHA_LAYERS);
         if (ANY(met)) {
-            HitL seen = *h; /* the other lanes read primitive 0, and nothing keeps what they find */
-            seen.slot = met ? h->slot : (LI)(0);
-            seen.id = met ? h->id : (LI)(0);
+            HitL seen = kept_hits(*h, met);
 #if CULL_BACKFACES
             LI culled = met & camera;
             if (ANY(culled)) culled &= back_culled(&s->geo, s->tex, seen, o, d);
@@ -920,8 +935,8 @@ INLINE HitL extend_lanes(const PathScene *s, PathLanes *st, Rng *rng, LI live) {
         seen_lanes(s, &rays, st->o, st->d, t_min, (LF)(INF_T), todo, camera, rng, &st->visits, &h);
         PUT(st, rays, st->rays + 1U, todo);
 #if HIDE_EMITTERS
-        LI hide = todo & camera & (h.id >= 0);
-        hide &= gather_i(s->emitter_of_prim, max(h.id, (LI)(0))) >= 0;
+        LI hide = todo & camera;
+        hide &= emitter_of(s, h, hide) >= 0;
         hidden = hide ? hidden + 1 : hidden;
         todo = hide & (hidden < HIDDEN_LAYERS);
         t_min = todo ? h.t : t_min; /* the camera ray again, past this emitting triangle */

@@ -52,11 +52,18 @@ INLINE V3 smooth_normal(const Geometry *g, __global const VertexNormals *normals
 #if LANES == 1
     __global const float *vn = &normals[prim].normal[0][0];
     float3 n0 = vload3(0, vn), n1 = vload3(1, vn), n2 = vload3(2, vn);
-#if INSTANCED
-    if (h.instance >= 0) vertex_normals_to_world(g->instances + h.instance, &n0, &n1, &n2);
-#endif
 #else
     V3 n0 = FIELD3(normals, prim, normal[0]), n1 = FIELD3(normals, prim, normal[1]), n2 = FIELD3(normals, prim, normal[2]);
+#endif
+#if INSTANCED /* an instance's vertex normals each to world space before they are interpolated: as the flat scene's,
+               * whose vertex normals scene.py placed one by one (the same shading under non-uniform scale) */
+    LI on_instance = placed(h);
+    if (ANY(on_instance)) {
+        InstanceMap to_object = instance_map(g, on_instance ? h.instance : (LI)(0), true);
+        n0 = vpick(on_instance, normal_to_world(&to_object, n0), n0);
+        n1 = vpick(on_instance, normal_to_world(&to_object, n1), n1);
+        n2 = vpick(on_instance, normal_to_world(&to_object, n2), n2);
+    }
 #endif
     LF w = 1.0f - h.u - h.v;
     return vunit(v3(w * n0.x + h.u * n1.x + h.v * n2.x, w * n0.y + h.u * n1.y + h.v * n2.y, w * n0.z + h.u * n1.z + h.v * n2.z));
@@ -69,13 +76,6 @@ INLINE void tangent_frame(const Geometry *g, TextureView tv, HitL h, LI mapped, 
 #if LANES == 1
     __global const float *tg = &tv.attributes[f->prim].tangent[0][0];
     float4 t4 = (1.0f - f->u - f->v) * vload4(0, tg) + f->u * vload4(1, tg) + f->v * vload4(2, tg);
-#if INSTANCED
-    if (h.instance >= 0) {
-        __global const float *w = &g->instances[h.instance].object_to_world[0][0];
-        t4.xyz = (float3)(w[0] * t4.x + w[1] * t4.y + w[2] * t4.z, w[4] * t4.x + w[5] * t4.y + w[6] * t4.z,
-                          w[8] * t4.x + w[9] * t4.y + w[10] * t4.z);
-    }
-#endif
 #else
 #define TANGENT(k) FIELD_F(tv.attributes, f->prim, tangent[(k) / 4][(k) % 4])
 #define BLEND(c) ((1.0f - f->u - f->v) * TANGENT(c) + f->u * TANGENT(4 + c) + f->v * TANGENT(8 + c))
@@ -84,6 +84,13 @@ INLINE void tangent_frame(const Geometry *g, TextureView tv, HitL h, LI mapped, 
 #undef TANGENT
 #endif
     V3 n = vpick(f->front, f->n_shade, vneg(f->n_shade)), t3 = xyz_of(t4);
+#if INSTANCED
+    LI on_instance = placed(h);
+    if (ANY(on_instance)) {
+        InstanceMap to_world = instance_map(g, on_instance ? h.instance : (LI)(0), false);
+        t3 = vpick(on_instance, map_vector(&to_world, t3), t3);
+    }
+#endif
     LF k = vdot(n, t3);
     V3 t = v3(t3.x - n.x * k, t3.y - n.y * k, t3.z - n.z * k);
     f->has_frame = mapped & (vdot(t, t) > 1e-12f);

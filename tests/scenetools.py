@@ -46,6 +46,64 @@ def copies_scene(tmp_path, copies: int, material: dict | None = None) -> Scene:
     return Scene.from_dict(data, base_dir=tmp_path)
 
 
+CARD_OBJ = """v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+f 1/1 2/2 3/3
+f 1/1 3/3 4/4
+"""
+
+
+def instanced_scene(tmp_path) -> dict:
+    """What an instance's hit reads, placed three ways each: copies of a smooth ball (turned, stretched, one mirrored), of
+    a uv-mapped card with a tilted normal map (tangents turned to world space), of one whose checker alpha lets rays
+    through (glTF MASK, single-sided: camera rays look past its back), over a flat floor and a flat sphere, under a
+    point light and a constant environment."""
+    import math
+
+    from PIL import Image
+
+    write_checker(tmp_path)
+    trimesh.creation.icosphere(subdivisions=2).export(tmp_path / "ball.obj")
+    (tmp_path / "card.obj").write_text(CARD_OBJ)
+    n = np.array([math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))])
+    Image.fromarray(np.broadcast_to(np.round((n + 1) / 2 * 255).astype(np.uint8), (2, 2, 3)).copy()).save(tmp_path / "tilt.png")
+    placements = [
+        ([-1.5, 0.3, 0], [0, 20, 0], [0.5, 0.5, 0.5]),
+        ([0, 0.3, -0.5], [10, 60, 0], [0.4, 0.7, 0.5]),
+        ([1.5, 0.3, 0], [0, -30, 0], [-0.5, 0.5, 0.5]),  # mirrored
+    ]
+    objects = []
+    for mesh, material, lift in (("ball.obj", "ball", 0.0), ("card.obj", "tilted", 1.3), ("card.obj", "holes", -1.3)):
+        for translate, rotate, scale in placements:
+            place = {"translate": [translate[0], translate[1] + lift, translate[2]], "rotate": rotate, "scale": scale}
+            objects.append({"type": "mesh", "file": mesh, "smooth": mesh == "ball.obj", "material": material, **place})
+    objects += [
+        {"type": "sphere", "center": [0.8, -0.2, 1.2], "radius": 0.3, "material": "ball"},
+        {"type": "quad", "corner": [-5, -2, -3], "edge_a": [10, 0, 0], "edge_b": [0, 0, 6], "material": "floor"},
+    ]
+    return {
+        "width": 16,
+        "height": 16,
+        "cameras": [{"position": [0, 0.5, 7], "look_at": [0, 0, 0], "fov": 45}],
+        "textures": {"checker": {"file": "checker.png", "filter": "nearest"}, "tilt": {"file": "tilt.png"}},
+        "materials": {
+            "ball": {"base_color": [0.8, 0.5, 0.3], "metallic": 0.5, "roughness": 0.3},
+            "tilted": {"base_color": [0.5, 0.6, 0.7], "normal_texture": "tilt"},
+            "holes": {"diffuse": [0.9, 0.2, 0.2], "diffuse_texture": "checker", "alpha": {"mode": "mask"}, "double_sided": False},
+            "floor": {"diffuse": [0.7, 0.7, 0.7]},
+        },
+        "lights": [{"type": "point", "position": [1, 4, 5], "intensity": 30, "falloff": "inverse_square"}],
+        "environment": {"color": [0.2, 0.25, 0.3]},
+        "objects": objects,
+    }
+
+
 # The widest pixel offset at which one sample reaches two pixels, ceil(2 r) - 1 for Mitsuba's filter radii r
 # (box 0.5, tent 1, gaussian 4 x 0.5): the z-test's `lag`, without which a filtered image fails it by chance
 FILTER_LAG = {"box": 0, "tent": 1, "gaussian": 3}

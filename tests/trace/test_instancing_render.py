@@ -13,7 +13,7 @@ from clrender.trace.instancing import AUTO_MIN_TRIANGLES, find_instances
 from clrender.trace.renderer import Renderer
 from clrender.trace.tracer import Tracer
 
-from tests.scenetools import copies_scene, write_checker
+from tests.scenetools import CARD_OBJ, copies_scene, write_checker
 
 # Per-pixel agreement of an instanced render with the flat one.  The two differ only by float32 rounding: the
 # flat scene's vertices are rounded once in world space, the instance's ray goes through a 3x4 transform.  A
@@ -198,19 +198,6 @@ def test_emissive_copies_stay_flat_where_the_path_tracer_samples_them(device, tm
     a, b = (Renderer(scene, tracer=Tracer(scene, device=device, instancing=i), **kw).run() for i in (False, True))
     assert a.image.max() > 0
     np.testing.assert_array_equal(a.image, b.image)
-
-
-CARD_OBJ = """v -1 -1 0
-v 1 -1 0
-v 1 1 0
-v -1 1 0
-vt 0 0
-vt 1 0
-vt 1 1
-vt 0 1
-f 1/1 2/2 3/3
-f 1/1 3/3 4/4
-"""
 
 
 @pytest.mark.parametrize(

@@ -19,7 +19,7 @@ from clrender.trace.tracer import as_scene
 from tests.arealighttools import SCENE as AREA_LIGHT_SCENE
 from tests.pathtools import AOVS, assert_same, env_map_scene, render_both
 from tests.reference import path_scenes
-from tests.scenetools import copies_scene
+from tests.scenetools import copies_scene, instanced_scene
 
 
 def exchange_materials_scene() -> dict:
@@ -152,6 +152,10 @@ CASES = {
     # alpha-tested materials (textured MASK, BLEND): camera, bounce and shadow rays walked again past the points left out
     "alpha-cards": (alpha_cards_scene, dict(spp=3, aovs=AOVS)),
     "alpha-cards-hide-emitters": (alpha_cards_scene, dict(spp=2, hide_emitters=True)),
+    # instances (smooth, mirrored, normal-mapped, alpha-tested and single-sided copies) among flat primitives
+    "instanced": (lambda tmp: instanced_scene(tmp), dict(spp=3, instancing=True, aovs=AOVS)),
+    "instanced-hide-emitters": (lambda tmp: instanced_scene(tmp), dict(spp=2, instancing=True, hide_emitters=True)),
+    "instances-only": (lambda tmp: copies_scene(tmp, 3), dict(spp=2, instancing=True, width=16, height=12)),  # no flat primitive
     # the Gaussian pixel filter (each pixel's own samples weighted)
     "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
 }
@@ -182,7 +186,6 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 
 FALLBACKS = {
     "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
-    "instanced scenes": (lambda tmp: copies_scene(tmp, 3), dict(instancing=True)),
 }
 
 
