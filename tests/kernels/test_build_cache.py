@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 
 from clrender import build_cache
 
@@ -70,11 +71,18 @@ def test_a_broken_cache_entry_builds_from_source(device, tmp_path, monkeypatch):
 
     import pyopencl.cache
 
-    def truncated(*_args):
+    lookups = []
+
+    def truncated(*args):
+        lookups.append(args)
         raise pickle.UnpicklingError("pickle data was truncated")
 
     monkeypatch.setattr(build_cache, "folder", lambda: tmp_path)
     monkeypatch.delenv("PYOPENCL_CACHE_FAILURE_FATAL", raising=False)
     monkeypatch.setattr(pyopencl.cache, "retrieve_from_cache", truncated)
-    program = device.build("__kernel void k(__global int *a) { a[0] = 7; }", "k.cl")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        program = device.build("__kernel void k(__global int *a) { a[0] = 7; }", "k.cl")
     assert program.k is not None
+    if lookups:  # the driver's builds go through pyopencl's cache (Intel's runtime; PoCL keeps its own): it said why it built
+        assert any("caching failed" in str(w.message) for w in caught)
