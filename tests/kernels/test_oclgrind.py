@@ -412,6 +412,24 @@ assert np.isfinite(r.image).all() and (r.image >= 0).all() and r.image.mean() > 
 assert (r.image.sum(axis=-1) > 0).mean() > 0.5  # most pixels see the lit room
 """,
     ),
+    "render_path_instanced": (
+        ("render_path",),
+        """
+from clrender.scene.scene import Scene
+from clrender.trace.renderer import Renderer
+hat = {"type": "mesh", "generator": "wizard_hat", "params": {"segments": 5}, "smooth": True, "scale": 2.5, "material": "m"}
+scene = Scene.from_dict({
+    "cameras": [{"position": [0, 0.3, 3], "look_at": [0, 0.2, 0], "fov": 50}],
+    "materials": {"m": {"diffuse": [0.8, 0.6, 0.4]}, "lamp": {"diffuse": [0, 0, 0], "emission": [4, 4, 4]}},
+    "lights": [{"type": "point", "position": [1, 2, 2]}], "environment": {"color": [0.3, 0.3, 0.3]},
+    "objects": [{**hat, "translate": [-0.6, -0.3, 0]}, {**hat, "translate": [0.6, -0.3, 0], "rotate": [0, 40, 0]},
+                {"type": "quad", "corner": [-0.4, -0.5, -1], "edge_a": [0.8, 0, 0], "edge_b": [0, 1.2, 0], "material": "lamp"}]})
+# instances among flat primitives, camera rays past hidden emitters: an emitter's lookup for each hit (path.cl emitter_of)
+r = Renderer(scene, integrator="path", instancing=True, hide_emitters=True, path_schedule="megakernel", spp=2, max_depth=3,
+             seed=3, width=6, height=6, device="oclgrind").run()
+assert np.isfinite(r.image).all() and r.image.max() > 0 and set(np.unique(r.ids)) >= {0, 1}  # both copies in view
+""",
+    ),
     "path_wavefront": (
         ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_advance"),
         PATH_RENDERS
