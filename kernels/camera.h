@@ -60,7 +60,7 @@ typedef struct {
 } PixelSample;
 
 /* Sample s of pixel `pixel` (its index in the frame, row-major) by pixel_sample_offset(sampler, s, n, rng). */
-INLINE PixelSample pixel_sample(const FrameParams *frame, LI pixel, int sampler, uint s, uint n, Rng *rng) {
+INLINE PixelSample pixel_sample(const FrameParams *frame, LI pixel, int sampler, LU s, uint n, Rng *rng) {
     PixelSample ps;
     ps.off = pixel_sample_offset(sampler, s, n, rng);
     LF px = CONVERT_F(pixel % frame->width), py = CONVERT_F(pixel / frame->width);

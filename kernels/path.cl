@@ -528,11 +528,10 @@ INLINE void start_sample(const PathParams *p, PathLanes *st, LI pixel, LU s_i, R
     uint n = (uint)frame->samples_per_side, per_pass = n * n == (uint)p->spp ? n * n : 1u;
     Rng fresh = make_rng(frame->seed, AS_LU(pixel), (uint)p->first_sample + s_i);
     bool grid = per_pass > 1u && !RNG_SOBOL; /* a stratified grid over one pass's samples, else uniform offsets */
+    PixelSample ps = pixel_sample(frame, pixel, grid ? frame->sampler : SAMPLER_RANDOM, grid ? s_i : (LU)(0u), grid ? n : 1u, &fresh);
 #if LANES == 1
-    PixelSample ps = pixel_sample(frame, pixel, grid ? frame->sampler : SAMPLER_RANDOM, grid ? s_i : 0u, grid ? n : 1u, &fresh);
     *rng = fresh;
-#else /* the host keeps the grids to one path a work-item */
-    PixelSample ps = pixel_sample(frame, pixel, SAMPLER_RANDOM, 0u, 1u, &fresh);
+#else
     *rng = keep_rng(on, fresh, *rng);
 #endif
     PUT(st, off[0], ps.off.x, on);
@@ -691,8 +690,7 @@ INLINE void shadow_step(PathLanes *st, LI unblocked) {
 }
 
 #if LANES == 1
-/* The megakernel's path: the steps in turn, each shadow ray traced where NEE made it (before the BSDF's sample: with
- * ALPHA_TEST and the independent sampler, its draws come first in the stream). */
+/* The megakernel's path: the steps in turn, each shadow ray traced where NEE made it (before the BSDF's sample). */
 INLINE void trace_path(const PathScene *s, PathState *st, Rng *rng) {
     for (;;) {
         Hit h = extend_step(s, st, rng);
@@ -826,9 +824,6 @@ __kernel void render_path(__global const TreeNode *nodes, __global const PrimSlo
 #endif
 
 #if !defined(PATH_STEPS_ONLY) && LANES > 1
-#if !RNG_SOBOL
-#error "render_path_lanes: the host renders these with render_path (trace/lane_schedule.py falls_back)"
-#endif
 /* lane k of a 3-vector */
 INLINE float3 lane3(V3 v, int k) { return (float3)(LANE(v.x, k), LANE(v.y, k), LANE(v.z, k)); }
 

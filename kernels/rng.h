@@ -58,19 +58,19 @@ INLINE LU reverse_bits32(LU x);               /* kernels/sampling.h */
 
 typedef struct {
     LU seed, pixel, sample, dim;
+    LU base;  /* the current vertex's first dimension (rng_vertex, rng_slot) */
+    LU extra; /* draws of rng_extra so far (their own dimensions, hashed) */
 #if RNG_SOBOL
     LU key;   /* sobol.h's sobol_pixel_key(seed, pixel) */
     LU sample_reversed; /* the sample index bit-reversed, which every pair scrambles */
-    LU base;  /* the current vertex's first dimension (sobol.h rng_vertex, rng_slot) */
-    LU extra; /* draws of rng_extra so far (their own dimensions, hashed) */
 #endif
 } Rng;
 
 INLINE Rng make_rng(LU seed, LU pixel, LU sample) {
     Rng r;
-    r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0;
+    r.seed = seed; r.pixel = pixel; r.sample = sample; r.dim = 0; r.base = 0; r.extra = 0;
 #if RNG_SOBOL
-    r.key = sobol_pixel_key(seed, pixel); r.sample_reversed = reverse_bits32(sample); r.base = 0; r.extra = 0;
+    r.key = sobol_pixel_key(seed, pixel); r.sample_reversed = reverse_bits32(sample);
 #endif
     return r;
 }
@@ -79,9 +79,9 @@ INLINE Rng make_rng(LU seed, LU pixel, LU sample) {
 INLINE Rng keep_rng(LI m, Rng a, Rng b) {
     Rng r;
     r.seed = m ? a.seed : b.seed; r.pixel = m ? a.pixel : b.pixel; r.sample = m ? a.sample : b.sample; r.dim = m ? a.dim : b.dim;
+    r.base = m ? a.base : b.base; r.extra = m ? a.extra : b.extra;
 #if RNG_SOBOL
     r.key = m ? a.key : b.key; r.sample_reversed = m ? a.sample_reversed : b.sample_reversed;
-    r.base = m ? a.base : b.base; r.extra = m ? a.extra : b.extra;
 #endif
     return r;
 }
@@ -119,19 +119,37 @@ INLINE V2 rng_next2(Rng *r) {
 }
 
 /* A number whose place in the stream is not fixed (a stochastic alpha test draws one per layer it meets), drawn in the
- * lanes `on` (their counters move; at width 1 on is set): rng_next for the independent sampler (one path a work-item:
- * its stream moves in every lane); with RNG_SOBOL a hashed uniform number of its own counter, from dimension
- * RNG_EXTRA_DIMS on, so that however many are drawn, no Sobol dimension moves. */
+ * lanes `on` (their counters move; at width 1 on is set): a hashed uniform number of its own counter, from dimension
+ * RNG_EXTRA_DIMS on, so that however many are drawn, no dimension of the path's layout (rng_vertex) moves. */
 #define RNG_EXTRA_DIMS 0x80000000U
 INLINE LF rng_extra(Rng *r, LI on) {
-#if RNG_SOBOL
     LF x = u01(hash4(r->seed, r->pixel, r->sample, RNG_EXTRA_DIMS | r->extra));
     r->extra = on ? r->extra + 1U : r->extra;
     return x;
-#else
-    return rng_next(r);
-#endif
 }
+
+/* The path tracer's dimensions (kernels/path.cl), the same for both samplers: the camera owns dimensions 0-1 (the pixel
+ * offset) and 2-3 (the lens); bounce vertex `depth` owns VERTEX_DIMS dimensions from rng_vertex's base
+ * VERTEX_DIMS (depth + 1) on, at fixed slots:
+ *   SLOT_PICK 0      the material component      SLOT_RR 1          Russian roulette
+ *   SLOT_BSDF 3      the lobe choice u1, then the BSDF's 2-D sample at 4-5
+ *   SLOT_LIGHT 7     NEE's choice of one light (light_choice.h), then its 2-D sample at 8-9 (a point of an area
+ *                    light or emissive triangle, a direction of the environment)
+ * A 2-D sample starts at an even dimension, so that with the Sobol sampler its two numbers are one pair.  Fixed places
+ * keep each draw's dimension whatever was drawn before it: a lane of render_path_lanes whose path skips a draw (a lobe
+ * or a light it does not use) moves no later number, and the schedules may trace a vertex's rays in any order. */
+#define VERTEX_DIMS (1U << 20)
+#define SLOT_PICK 0U
+#define SLOT_RR 1U
+#define SLOT_BSDF 3U
+#define SLOT_LIGHT 7U
+
+INLINE void rng_vertex(Rng *r, LI depth) {
+    r->base = VERTEX_DIMS * AS_LU(depth + 1);
+    r->dim = r->base + SLOT_PICK;
+}
+
+INLINE void rng_slot(Rng *r, uint slot) { r->dim = r->base + slot; }
 
 #if LANES == 1 /* the Whitted integrator's area lights: eight dimensions of one path's stream */
 INLINE uint8 hash4_lanes(uint a, uint b, uint c, uint8 d) { return mix32_lanes((uint8)(hash3(a, b, c)) ^ (d + HASH_KEY_D)); }

@@ -54,6 +54,23 @@ INLINE uint sobol_dim1(uint i) {
     return r;
 }
 
+/* Sobol's second dimension without a table: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by one),
+ * and bit 31 - j of (1 + S)^k 2^31 is the binomial C(k, j) mod 2, which by Lucas's theorem is 1 exactly when j's bits are
+ * a subset of k's.  So bit 31 - j of the point is the xor of index bits k over the supersets k of j: the subset-sum
+ * (Moebius) transform over GF(2), five shift-and-mask steps for 32 bits, then a bit reversal.  sobol_second is
+ * reverse_bits32(superset_xor(i)), bit for bit sobol_dim1 above (one step per index bit). */
+#define SUPERSET_XOR_STEPS(x) /* x: a uint variable or a vector of them */ \
+    x ^= (x >> 1) & 0x55555555U;                                           \
+    x ^= (x >> 2) & 0x33333333U;                                           \
+    x ^= (x >> 4) & 0x0f0f0f0fU;                                           \
+    x ^= (x >> 8) & 0x00ff00ffU;                                           \
+    x ^= (x >> 16) & 0x0000ffffU
+INLINE LU superset_xor(LU x) {
+    SUPERSET_XOR_STEPS(x);
+    return x;
+}
+INLINE LU sobol_second(LU i) { return reverse_bits32(superset_xor(i)); }
+
 /* Laine and Karras's permutation with Burley's constants, on x, a uint variable or a vector of them (lanes: the
  * probe kernels/lanes_probe.cl): bit k of the result depends on bits 0..k of x only. */
 #define LAINE_KARRAS_STEPS(x, seed) \
@@ -77,29 +94,34 @@ INLINE LU owen_scramble(LU x, LU seed) {
 #define SOBOL_KEY_SAMPLE 0x50B01U
 #define SOBOL_KEY_Y 0x68bc21ebU
 
-INLINE V2 pixel_sample_offset(int sampler, uint s, uint n, Rng *rng) {
-#if LANES > 1 /* in lanes, the path tracer's one sampler: uniform offsets (the host keeps the grids to one path a work-item) */
-    return rng_next2(rng);
-#else
+INLINE V2 pixel_sample_offset(int sampler, LU s, uint n, Rng *rng) {
+#if LANES == 1
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
+#else /* each lane's sample s (s < 2^24): its column by mod_l, its row by an exact division */
+    LI column = mod_l(AS_LI(s), (LI)((int)n));
+    LF fn = (float)n, q = CONVERT_F(column), p = CONVERT_F(AS_LI(s) - column) / fn;
+#endif
     if (sampler == SAMPLER_UNIFORM) {
         /* the centred grid: (p + 0.5) / n */
-        return (float2)((q + 0.5f) / fn, (p + 0.5f) / fn);
+        return v2((q + 0.5f) / fn, (p + 0.5f) / fn);
     }
     if (sampler == SAMPLER_RANDOM) return rng_next2(rng);
     if (sampler == SAMPLER_STRATIFIED) {
         /* one jittered sample in each of the n x n sub-squares */
-        float x = rng_next(rng);
-        float y = rng_next(rng);
-        return (float2)((q + x) / fn, (p + y) / fn);
+        LF x = rng_next(rng);
+        LF y = rng_next(rng);
+        return v2((q + x) / fn, (p + y) / fn);
     }
     /* scrambled Sobol: the first n*n points of a (0,2)-sequence, per-pixel Owen scramble */
-    uint key = hash4(rng->seed, rng->pixel, SOBOL_KEY_SAMPLE, 0U);
-    uint x = owen_scramble(reverse_bits32(s), key);
+    LU key = hash4(rng->seed, rng->pixel, SOBOL_KEY_SAMPLE, 0U);
+    LU x = owen_scramble(reverse_bits32(s), key);
+#if LANES == 1
     uint y = owen_scramble(sobol_dim1(s), mix32(key ^ SOBOL_KEY_Y));
-    rng->dim += 2; /* keep later dimensions aligned with the other samplers */
-    return (float2)(u01(x), u01(y));
+#else
+    LU y = owen_scramble(sobol_second(s), mix32(key ^ SOBOL_KEY_Y));
 #endif
+    rng->dim += 2; /* keep later dimensions aligned with the other samplers */
+    return v2(u01(x), u01(y));
 }
 
 /* Weight of a sample at `off` in [0,1)^2 within its pixel: box (all equal, the

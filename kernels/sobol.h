@@ -13,44 +13,16 @@
  *     matrices are used; every pair beyond them is this padding, so no dimension falls off a table.
  *   - Integer arithmetic throughout, 32-bit indices: the same bits on every driver, tiling and split.
  *
- * What the path tracer's draws mean (path.cl): the camera owns dimensions 0-1 (the pixel offset) and 2-3 (the lens);
- * bounce vertex `depth` owns dimensions from rng_vertex's base VERTEX_DIMS (depth + 1) on, at fixed slots:
- *   SLOT_PICK 0      the material component      SLOT_RR 1          Russian roulette
- *   SLOT_BSDF 3      the lobe choice u1, then the BSDF's 2-D sample at 4-5
- *   SLOT_LIGHT 7     NEE's choice of one light (light_choice.h), then its 2-D sample at 8-9 (a point of an area
- *                    light or emissive triangle, a direction of the environment)
- * A 2-D sample starts at an even dimension, so its two numbers are one pair.  Stochastic alpha draws a variable
- * number per ray: those come from rng_extra (rng.h), hashed, outside these dimensions. */
+ * Which dimension each of the path tracer's draws takes: rng.h (rng_vertex, rng_slot; a 2-D sample starts at an even
+ * dimension, so its two numbers are one pair). */
 #ifndef CLRENDER_SOBOL_H
 #define CLRENDER_SOBOL_H
 
-/* reverse_bits32, sobol_dim1, owen_scramble, SOBOL_KEY_Y */
+/* reverse_bits32, sobol_second, owen_scramble, SOBOL_KEY_Y */
 #include "sampling.h"
 
 #define SOBOL_KEY_PAIR 0x5eb01U /* hash4's third argument for a pair's key (the first two: seed, pixel; the last: the pair) */
 #define SOBOL_KEY_X 0x3c6ef372U /* mixed into a pair's key for coordinate 0's scramble (SOBOL_KEY_Y for coordinate 1) */
-#define VERTEX_DIMS (1U << 20)          /* dimensions a bounce vertex owns */
-#define SLOT_PICK 0U
-#define SLOT_RR 1U
-#define SLOT_BSDF 3U
-#define SLOT_LIGHT 7U
-
-/* Sobol's second dimension without a table: its direction numbers are v_k = (1 + S)^k 2^31 (S: shift right by one),
- * and bit 31 - j of (1 + S)^k 2^31 is the binomial C(k, j) mod 2, which by Lucas's theorem is 1 exactly when j's bits are
- * a subset of k's.  So bit 31 - j of the point is the xor of index bits k over the supersets k of j: the subset-sum
- * (Moebius) transform over GF(2), five shift-and-mask steps for 32 bits, then a bit reversal.  sobol_second is
- * reverse_bits32(superset_xor(i)), bit for bit sampling.h's sobol_dim1 (one step per index bit). */
-#define SUPERSET_XOR_STEPS(x) /* x: a uint variable or a vector of them */ \
-    x ^= (x >> 1) & 0x55555555U;                                           \
-    x ^= (x >> 2) & 0x33333333U;                                           \
-    x ^= (x >> 4) & 0x0f0f0f0fU;                                           \
-    x ^= (x >> 8) & 0x00ff00ffU;                                           \
-    x ^= (x >> 16) & 0x0000ffffU
-INLINE LU superset_xor(LU x) {
-    SUPERSET_XOR_STEPS(x);
-    return x;
-}
-INLINE LU sobol_second(LU i) { return reverse_bits32(superset_xor(i)); }
 
 /* Coordinate c (0 or 1) of point i of the unscrambled 2-D Sobol sequence, as a 32-bit fraction. */
 INLINE LU sobol_coordinate(LU i, LU c) { return c == 0U ? reverse_bits32(i) : sobol_second(i); }
@@ -96,20 +68,5 @@ INLINE V2 sobol_value2(const Rng *r) {
     return v2(u01(sobol_pair_coordinate(q, 0U)), u01(sobol_pair_coordinate(q, 1U)));
 }
 #endif
-
-/* The path tracer's dimension places (the table above).  For the independent sampler (RNG_SOBOL 0) they do nothing:
- * its numbers follow one another as they always did. */
-INLINE void rng_vertex(Rng *r, LI depth) {
-#if RNG_SOBOL
-    r->base = VERTEX_DIMS * AS_LU(depth + 1);
-    r->dim = r->base + SLOT_PICK;
-#endif
-}
-
-INLINE void rng_slot(Rng *r, uint slot) {
-#if RNG_SOBOL
-    r->dim = r->base + slot;
-#endif
-}
 
 #endif

@@ -10,9 +10,8 @@
  *   wave_occlude  each shadow ray's any-hit, and its radiance where nothing blocks it;
  *   wave_advance  finished paths into their pixel's sums, the pixel's next sample or its outputs; live[0] counts the
  *                 slots still live (the host's occupancy and its stop).
- * The extend and occlude kernels take the rng for a stochastic alpha test's draws: in the stream they come where the
- * megakernel draws them, except with ALPHA_TEST and the independent sampler, whose shadow rays draw before the BSDF's
- * sample (trace/wavefront.py renders those with the megakernel). */
+ * The extend and occlude kernels take the rng for a stochastic alpha test's draws (rng.h's rng_extra: their own counter,
+ * so their order against the vertex's other draws changes no number). */
 #define PATH_STEPS_ONLY 1 /* path.cl's steps without its render_path */
 #include "path.cl"
 
@@ -20,19 +19,15 @@
 INLINE Rng state_rng(const PathParams *p, const PathState *st) {
     Rng r = make_rng(p->frame.seed, (uint)st->pixel, (uint)p->first_sample + st->sample);
     r.dim = st->rng_dim;
-#if RNG_SOBOL
     r.base = st->rng_base;
     r.extra = st->rng_extra;
-#endif
     return r;
 }
 
 INLINE void save_rng(PathState *st, const Rng *r) {
     st->rng_dim = r->dim;
-#if RNG_SOBOL
     st->rng_base = r->base;
     st->rng_extra = r->extra;
-#endif
 }
 
 INLINE void save_hit(PathState *st, Hit h) {

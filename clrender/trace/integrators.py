@@ -203,11 +203,11 @@ class PathIntegrator(Integrator):
 
     def make_kernel(self, device, variant: Variant):
         """render_path, or under settings.path_schedule "wavefront" its kernels' loop (trace/wavefront.py), or under "lanes"
-        its pixels in SIMD lanes (trace/lane_schedule.py), where the build and the scene allow (each falls_back)."""
+        its pixels in SIMD lanes (trace/lane_schedule.py) where the scene and the device allow (lane_schedule.falls_back)."""
         from . import lane_schedule, wavefront
 
         defines, schedule = variant.defines(), self.settings.path_schedule
-        if schedule == "wavefront" and not wavefront.falls_back(defines):
+        if schedule == "wavefront":
             return wavefront.Wavefront(device, defines)
         lanes = lane_schedule.lanes_of(defines, self.renderer.tracer.n_prims, device.device) if schedule == "lanes" else 0
         return lane_schedule.LaneKernel(device, defines, lanes) if lanes else super().make_kernel(device, variant)

@@ -3,8 +3,8 @@ work-item, each pixel's paths in one lane of a vector register, its shading writ
 type (the megakernel runs the same source at width 1), the walks a lane at a time.  The images are the megakernel's
 bits.  `LaneKernel` is called as the megakernel render_path is (Renderer.launch), with the same named buffers.
 
-What the lanes do not take yet renders with the megakernel (`falls_back` says why): the independent sampler, a scene
-without primitives, and devices that are not CPUs."""
+What the lanes do not take renders with the megakernel (`falls_back` says why): a scene without primitives, and devices
+that are not CPUs."""
 
 from __future__ import annotations
 
@@ -25,8 +25,6 @@ def lane_width(device: cl.Device) -> int:
 
 def falls_back(defines: dict, n_prims: int, device: cl.Device) -> str:
     """Why a render under --path-schedule lanes takes the megakernel, or ""."""
-    if defines.get("PATH_SAMPLER", 0) != 1:
-        return "the independent sampler"
     if n_prims == 0 and not defines.get("INSTANCED"):  # n_prims counts the flat part's
         return "a scene without primitives"
     if not lane_width(device):

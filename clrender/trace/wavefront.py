@@ -24,13 +24,6 @@ KERNELS = ("wave_start", "wave_extend", "wave_shade", "wave_occlude", "wave_adva
 SCENE_BUFFERS = ("nodes", "prims", "prim_object", "normals", "attributes", "texels", "tables", "world")
 
 
-def falls_back(defines: dict) -> str:
-    """Why a render kernel build (its -D defines) takes the megakernel under --path-schedule wavefront, or ""."""
-    if defines.get("ALPHA_TEST") and defines.get("PATH_SAMPLER", 0) == 0:
-        return "stochastic alpha under the independent sampler: its shadow rays draw before the BSDF's sample"
-    return ""
-
-
 @dataclass
 class Occupancy:
     """Live paths per bounce of one launch: lanes busy is live / slots."""

@@ -89,7 +89,7 @@ def test_cornell_box_xml_matches_mitsuba(tmp_path, device):
 
     scene = Scene.from_file(path, defines={"spp": str(SPP)})
     own = scene.render_settings
-    assert own == {"integrator": "path", "max_depth": 6, "spp": SPP, "rfilter": "box"}
+    assert own == {"integrator": "path", "max_depth": 6, "spp": SPP, "rfilter": "box", "path_sampler": "independent"}
     tracer = Tracer(scene, device=device)
     ours = np.stack([Renderer(scene, tracer=tracer, integrator="path", spp=SPP, max_depth=own["max_depth"], seed=s).run().image for s in range(K)])
     result = two_sample_z(ours, theirs)

@@ -3,7 +3,8 @@ against its megakernel (render_path): the same lane-generic steps run 16 (or 8) 
 one, so the same bits.  Each test renders a scene both ways, on different tilings, and compares the image, the object
 ids, the AOVs and the ray and BVH-visit counts byte for byte: the materials of every kind (Phong glass and mirrors,
 glTF, conductors, coated diffuse, thin sheets), textures, smooth and flat meshes and spheres, every light the lanes
-take, a thin lens, Russian roulette, progressive passes, single-sided and alpha-tested materials, hidden emitters.
+take, a thin lens, Russian roulette, progressive passes, single-sided and alpha-tested materials, hidden emitters,
+instances, both samplers and their pixel grids.
 A lane that took another lane's value, a mask that let an idle lane write its state, a masked pass that kept the wrong
 lobe or a sampler draw out of place fails these.  What the lanes do not take yet renders with the megakernel, and says
 why (lane_schedule.falls_back)."""
@@ -156,6 +157,15 @@ CASES = {
     "instanced": (lambda tmp: instanced_scene(tmp), dict(spp=3, instancing=True, aovs=AOVS)),
     "instanced-hide-emitters": (lambda tmp: instanced_scene(tmp), dict(spp=2, instancing=True, hide_emitters=True)),
     "instances-only": (lambda tmp: copies_scene(tmp, 3), dict(spp=2, instancing=True, width=16, height=12)),  # no flat primitive
+    # the independent sampler (the same dimension layout as Sobol's: rng.h rng_vertex), with each pixel grid of a pass
+    "cornell-independent": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, path_sampler="independent", aovs=AOVS)),
+    "cornell-independent-stratified": (
+        lambda tmp: path_scenes.cornell_box(12),
+        dict(spp=4, samples=2, sampler="stratified", path_sampler="independent"),
+    ),
+    "mixed-independent-uniform-grid": (lambda tmp: path_scenes.mixed(12), dict(spp=4, samples=2, sampler="uniform", path_sampler="independent")),
+    "mixed-independent-sobol-grid": (lambda tmp: path_scenes.mixed(12), dict(spp=9, samples=3, sampler="sobol", path_sampler="independent")),
+    "alpha-cards-independent": (alpha_cards_scene, dict(spp=2, path_sampler="independent")),
     # the Gaussian pixel filter (each pixel's own samples weighted)
     "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
 }
@@ -185,7 +195,7 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 
 
 FALLBACKS = {
-    "the independent sampler": (lambda tmp: path_scenes.cornell_box(8), dict(path_sampler="independent")),
+    "a scene without primitives": (lambda tmp: {"environment": {"color": [0.5, 0.6, 0.7]}, "objects": []}, {}),
 }
 
 

@@ -59,15 +59,6 @@ def test_the_scene_key_chooses_the_schedule_and_refuses_others():
         Scene.from_dict({**data, "path_schedule": "sideways"})
 
 
-def test_stochastic_alpha_under_the_independent_sampler_falls_back_to_the_megakernel(tmp_path):
-    """Its shadow rays draw random numbers before the BSDF's sample, which a deferred shadow ray cannot keep."""
-    scene = Scene.from_dict(blend_card(), base_dir=tmp_path)
-    r = Renderer(scene, integrator="path", path_schedule="wavefront", path_sampler="independent", spp=1)
-    assert not isinstance(r.kernel, Wavefront)
-    r = Renderer(scene, integrator="path", path_schedule="wavefront", spp=1)  # Sobol: its alpha draws have their own counter
-    assert isinstance(r.kernel, Wavefront)
-
-
 def spot_lens_scene() -> dict:
     """The mixed scene's spheres under a spot light and a physical point light, seen through a thin lens."""
     scene = path_scenes.mixed(12)
@@ -104,6 +95,8 @@ CASES = {
     "textured-assets": (textured_scene, dict(spp=2, max_depth=4)),
     # stochastic alpha (BLEND) under Sobol: alpha draws in the extend and occlude steps, a directional light
     "alpha-blend-sobol": (lambda tmp: blend_card(), dict(spp=4)),
+    # the same under the independent sampler: its alpha draws have their own counter too (rng.h rng_extra)
+    "alpha-blend-independent": (lambda tmp: blend_card(), dict(spp=4, path_sampler="independent")),
     # constant-environment NEE, glTF lobes, Russian roulette from the first bounce
     "environment-spheres-rr0": (lambda tmp: path_scenes.environment_spheres(12), dict(spp=3, rr_depth=0)),
     # area and directional lights of the unnormalised falloff (and NEE's nearness choice), many objects (a bundled scene)
