@@ -95,6 +95,7 @@ INLINE LU owen_scramble(LU x, LU seed) {
 #define SOBOL_KEY_Y 0x68bc21ebU
 
 INLINE V2 pixel_sample_offset(int sampler, LU s, uint n, Rng *rng) {
+    if (sampler == SAMPLER_RANDOM) return rng_next2(rng);
 #if LANES == 1
     float p = (float)(s / n), q = (float)(s % n), fn = (float)n;
 #else /* each lane's sample s (s < 2^24): its column by mod_l, its row by an exact division */
@@ -105,7 +106,6 @@ INLINE V2 pixel_sample_offset(int sampler, LU s, uint n, Rng *rng) {
         /* the centred grid: (p + 0.5) / n */
         return v2((q + 0.5f) / fn, (p + 0.5f) / fn);
     }
-    if (sampler == SAMPLER_RANDOM) return rng_next2(rng);
     if (sampler == SAMPLER_STRATIFIED) {
         /* one jittered sample in each of the n x n sub-squares */
         LF x = rng_next(rng);
