@@ -154,17 +154,16 @@ CASES = {
     "alpha-cards": (alpha_cards_scene, dict(spp=3, aovs=AOVS)),
     "alpha-cards-hide-emitters": (alpha_cards_scene, dict(spp=2, hide_emitters=True)),
     # instances (smooth, mirrored, normal-mapped, alpha-tested and single-sided copies) among flat primitives
-    "instanced": (lambda tmp: instanced_scene(tmp), dict(spp=3, instancing=True, aovs=AOVS)),
-    "instanced-hide-emitters": (lambda tmp: instanced_scene(tmp), dict(spp=2, instancing=True, hide_emitters=True)),
-    "instances-only": (lambda tmp: copies_scene(tmp, 3), dict(spp=2, instancing=True, width=16, height=12)),  # no flat primitive
+    "instanced": (lambda tmp: instanced_scene(tmp), dict(spp=3, instancing=True, hide_emitters=True, aovs=AOVS)),
     # the independent sampler (the same dimension layout as Sobol's: rng.h rng_vertex), with each pixel grid of a pass
     "cornell-independent": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, path_sampler="independent", aovs=AOVS)),
-    "cornell-independent-stratified": (
-        lambda tmp: path_scenes.cornell_box(12),
-        dict(spp=4, samples=2, sampler="stratified", path_sampler="independent"),
-    ),
-    "mixed-independent-uniform-grid": (lambda tmp: path_scenes.mixed(12), dict(spp=4, samples=2, sampler="uniform", path_sampler="independent")),
-    "mixed-independent-sobol-grid": (lambda tmp: path_scenes.mixed(12), dict(spp=9, samples=3, sampler="sobol", path_sampler="independent")),
+    **{
+        f"cornell-independent-{sampler}-grid": (
+            lambda tmp: path_scenes.cornell_box(12),
+            dict(spp=n * n, samples=n, sampler=sampler, path_sampler="independent", aovs=AOVS),
+        )
+        for sampler, n in (("stratified", 2), ("uniform", 2), ("sobol", 3))
+    },
     "alpha-cards-independent": (alpha_cards_scene, dict(spp=2, path_sampler="independent")),
     # the Gaussian pixel filter (each pixel's own samples weighted)
     "cornell-gaussian-pixels": (lambda tmp: path_scenes.cornell_box(12), dict(spp=3, pixel_filter="gaussian")),
@@ -197,6 +196,16 @@ def test_a_later_pass_continues_each_pixels_sequence_the_same_way():
 FALLBACKS = {
     "a scene without primitives": (lambda tmp: {"environment": {"color": [0.5, 0.6, 0.7]}, "objects": []}, {}),
 }
+
+
+def test_a_scene_of_instances_only_takes_the_lanes(tmp_path):
+    """n_prims counts the flat part's primitives: a scene whose every mesh is an instance has none, and its lanes' reads
+    of the flat primitive 0 (a lane without a hit) read the one zeroed record every empty buffer gets (Device.to_device)."""
+    from clrender.trace import lane_schedule
+
+    r = Renderer(copies_scene(tmp_path, 3), integrator="path", path_schedule="lanes", spp=1, instancing=True)
+    assert r.tracer.n_prims == 0 and r.variant.defines().get("INSTANCED")
+    assert lane_schedule.falls_back(r.variant.defines(), r.tracer.n_prims, r.tracer.device.device) == ""
 
 
 @pytest.mark.parametrize("reason", list(FALLBACKS))
