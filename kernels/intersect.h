@@ -56,6 +56,12 @@ INLINE LI placed(HitL h) {
 #endif
 }
 
+#if INSTANCED
+/* Each lane's instance, instance 0 in the lanes whose hit is on none: an index every lane's gather may read (nothing
+ * keeps what those lanes find). */
+INLINE LI instance_index(HitL h) { return placed(h) ? h.instance : (LI)(0); }
+#endif
+
 #if LANES > 1
 /* h in the lanes of `keep`, the flat part's primitive 0 in the others: a hit every lane's reads may take (in lanes the
  * shading reads every lane's records; nothing keeps what the others find). */
@@ -618,7 +624,7 @@ INLINE LI hit_object(const Geometry *g, HitL h) {
     LI on_instance = placed(h), flat = (h.id >= 0) & NOT(on_instance);
     LI object = flat ? gather_i(g->prim_object, flat ? h.id : (LI)(0)) : (LI)(-1);
 #if INSTANCED
-    WHERE(on_instance, object, FIELD_I(g->instances, on_instance ? h.instance : (LI)(0), object));
+    WHERE(on_instance, object, FIELD_I(g->instances, instance_index(h), object));
 #endif
     return object;
 #endif
@@ -629,8 +635,8 @@ INLINE LI hit_object(const Geometry *g, HitL h) {
 INLINE LI hit_data(const Geometry *g, HitL h) {
     LI data = h.id;
 #if INSTANCED
-    LI on_instance = placed(h), i = on_instance ? h.instance : (LI)(0);
-    WHERE(on_instance, data, FIELD_I(g->instances, i, data_base) + (h.id - FIELD_I(g->instances, i, prim_base)));
+    LI i = instance_index(h);
+    WHERE(placed(h), data, FIELD_I(g->instances, i, data_base) + (h.id - FIELD_I(g->instances, i, prim_base)));
 #endif
     return data;
 }
@@ -680,8 +686,8 @@ INLINE V3 map_point(const InstanceMap *a, V3 p) {
  * object_to_world with the error bound carried along (pbrt-v4's transform of a point with error: (1 + gamma3) |M| err
  * + gamma3 (|M| |p| + |t|)), doubled for the ray's own rounding into object space; the normal by normal_to_world. */
 INLINE V3 instance_surface(const Geometry *g, HitL h, V3 *p_err, V3 *n_geo) {
-    LI on_instance = placed(h), i = on_instance ? h.instance : (LI)(0);
-    LI slot = FIELD_I(g->instances, i, slot_base) + (on_instance ? h.slot : (LI)(0));
+    LI i = instance_index(h);
+    LI slot = FIELD_I(g->instances, i, slot_base) + (placed(h) ? h.slot : (LI)(0));
     V3 v0 = FIELD3(g->slots, slot, v0), v1 = FIELD3(g->slots, slot, v1), v2 = FIELD3(g->slots, slot, v2), err;
     V3 p = hit_point_triangle(v0, v1, v2, h.u, h.v, &err);
     InstanceMap to_object = instance_map(g, i, true), to_world = instance_map(g, i, false);

@@ -59,7 +59,7 @@ INLINE V3 smooth_normal(const Geometry *g, __global const VertexNormals *normals
                * whose vertex normals scene.py placed one by one (the same shading under non-uniform scale) */
     LI on_instance = placed(h);
     if (ANY(on_instance)) {
-        InstanceMap to_object = instance_map(g, on_instance ? h.instance : (LI)(0), true);
+        InstanceMap to_object = instance_map(g, instance_index(h), true);
         n0 = vpick(on_instance, normal_to_world(&to_object, n0), n0);
         n1 = vpick(on_instance, normal_to_world(&to_object, n1), n1);
         n2 = vpick(on_instance, normal_to_world(&to_object, n2), n2);
@@ -87,7 +87,7 @@ INLINE void tangent_frame(const Geometry *g, TextureView tv, HitL h, LI mapped, 
 #if INSTANCED
     LI on_instance = placed(h);
     if (ANY(on_instance)) {
-        InstanceMap to_world = instance_map(g, on_instance ? h.instance : (LI)(0), false);
+        InstanceMap to_world = instance_map(g, instance_index(h), false);
         t3 = vpick(on_instance, map_vector(&to_world, t3), t3);
     }
 #endif
